@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs Volcast's build and run dependencies from Debian 12 packages, only those missing.
+set -euo pipefail
+packages=(
+  build-essential cmake ninja-build pkg-config
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libeigen3-dev libspdlog-dev libcli11-dev nlohmann-json3-dev libasio-dev
+  libavformat-dev libavcodec-dev libavutil-dev libturbojpeg0-dev libpng-dev zlib1g-dev
+  libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "install-deps: installing ${missing[*]}"
+  sudo_cmd=()
+  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+  "${sudo_cmd[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "install-deps: all packages present"
+fi

@@ -1,0 +1,39 @@
+#pragma once
+// A site: several sources (one camera each) read in lockstep at a fixed rate and published as
+// frame sets to a Server.
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "volcast/capture/source.hpp"
+#include "volcast/net/server.hpp"
+
+namespace volcast {
+
+class SitePlayer {
+ public:
+  /// Takes ownership of the sources; `fps` is the site's frame-set rate.
+  SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps);
+  ~SitePlayer();
+
+  /// The cameras as the server announces them in Welcome.
+  std::vector<protocol::CameraInfo> cameras() const;
+  /// Starts publishing to `server` on a background thread: one frame set per 1/fps, each stamped
+  /// with the wall clock when its frames were read. Ticks that reading overran are skipped, never
+  /// queued. A frame that fails to read is logged and its frame set skipped.
+  void start(Server& server);
+  void stop();
+  uint64_t frame_sets_published() const { return published_; }
+
+ private:
+  void run(Server& server);
+  std::vector<std::unique_ptr<FrameSource>> sources_;
+  double fps_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::atomic<uint64_t> published_{0};
+};
+
+}  // namespace volcast

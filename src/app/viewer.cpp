@@ -1,0 +1,250 @@
+#include "viewer.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+
+namespace volcast {
+namespace {
+
+struct Accumulator {
+  uint64_t frames = 0, dropped = 0, depth_bytes = 0, color_bytes = 0;
+  std::vector<double> latencies_ms;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+  return v[i];
+}
+
+// Hands the newest point clouds from the receiving thread to the rendering thread.
+struct CloudMailbox {
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<PointCloud> clouds;
+  uint64_t version = 0;
+  bool done = false;
+};
+
+void render_loop(const ViewerOptions& opt, CloudMailbox& box, ViewerResult& result,
+                 std::exception_ptr& error) {
+  try {
+    SplatRenderer renderer(opt.width, opt.height);
+    result.renderer = renderer.gl_description();
+    std::vector<PointCloud> clouds;
+    std::vector<const PointCloud*> views;
+    ColorImage image;
+    uint64_t seen = 0;
+    std::optional<ViewCamera> view = opt.view;
+    while (true) {
+      {
+        std::unique_lock lock(box.mutex);
+        box.changed.wait(lock, [&] { return box.done || box.version != seen; });
+        if (box.version == seen) break;  // finished, and nothing new to draw
+        seen = box.version;
+        // Take the newest clouds; the receiver gets these buffers back to refill.
+        std::swap(clouds, box.clouds);
+      }
+      views.clear();
+      for (const auto& c : clouds) views.push_back(&c);
+      if (!view) view = frame_points(views);
+      renderer.render(views, *view, image);
+      ++result.frames_rendered;
+    }
+    if (!opt.screenshot.empty() && result.frames_rendered > 0) {
+      write_color_png(opt.screenshot, image);
+      spdlog::info("wrote {}", opt.screenshot.string());
+    }
+    result.last_clouds = std::move(clouds);
+  } catch (...) {
+    error = std::current_exception();
+    std::lock_guard lock(box.mutex);
+    box.done = true;
+  }
+}
+
+}  // namespace
+
+ViewerResult run_viewer(const ViewerOptions& opt) {
+  Client client(opt.client);
+  const auto& cams = client.welcome().cameras;
+  ViewerResult result;
+  result.depth_codec = opt.client.depth_codec;
+  result.color_codec = opt.client.color_codec;
+  std::vector<CloudBuilder> builders;
+  for (const auto& c : cams) builders.emplace_back(c.calibration);
+  if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
+
+  CloudMailbox box;
+  std::exception_ptr render_error;
+  std::thread render_thread;
+  if (opt.render) render_thread = std::thread([&] { render_loop(opt, box, result, render_error); });
+
+  std::vector<Accumulator> acc(cams.size());
+  std::vector<PointCloud> clouds(cams.size());
+  ReceivedFrameSet rx;
+  const auto start = std::chrono::steady_clock::now();
+  int64_t first_rx_us = 0, last_rx_us = 0;
+  uint64_t last_sequence = 0, received = 0;
+  std::exception_ptr receive_error;
+  // A watchdog closes the connection at the time limit so a blocked receive() returns.
+  std::mutex watchdog_mutex;
+  std::condition_variable watchdog_cv;
+  bool finished = false;
+  std::thread watchdog([&] {
+    std::unique_lock lock(watchdog_mutex);
+    while (!finished) {
+      watchdog_cv.wait_for(lock, std::chrono::milliseconds(50));
+      const bool timeout = opt.seconds > 0 && std::chrono::steady_clock::now() - start >
+                                                  std::chrono::duration<double>(opt.seconds);
+      if (timeout || (opt.stop && *opt.stop)) {
+        client.close();
+        return;
+      }
+    }
+  });
+  try {
+    while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) && client.receive(rx)) {
+      clouds.resize(cams.size());  // after a hand-over these may be the renderer's old buffers
+      for (size_t i = 0; i < cams.size(); ++i)
+        builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, clouds[i]);
+      const int64_t now = wall_clock_us();
+      const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
+      const uint64_t gap = received > 0 && rx.frames.sequence > last_sequence + 1
+                               ? rx.frames.sequence - last_sequence - 1 : 0;
+      for (size_t i = 0; i < cams.size(); ++i) {
+        Accumulator& a = acc[i];
+        ++a.frames;
+        a.dropped += gap;
+        a.depth_bytes += rx.depth_bytes[i];
+        a.color_bytes += rx.color_bytes[i];
+        a.latencies_ms.push_back(latency_ms);
+      }
+      if (received == 0) first_rx_us = now;
+      last_rx_us = now;
+      last_sequence = rx.frames.sequence;
+      ++received;
+      if (opt.render) {
+        std::lock_guard lock(box.mutex);
+        std::swap(box.clouds, clouds);
+        ++box.version;
+        box.changed.notify_one();
+        if (box.done) break;  // renderer failed
+      }
+      if (!opt.save_frames_dir.empty()) {
+        for (size_t i = 0; i < cams.size(); ++i) {
+          const CameraFrame& f = rx.frames.cameras[i];
+          const std::string stem = fmt::format("cam{}_{:08d}", i, rx.frames.sequence);
+          write_depth_png(opt.save_frames_dir / (stem + "_depth.png"), f.depth);
+          if (!f.color.empty()) write_color_png(opt.save_frames_dir / (stem + "_color.png"), f.color);
+        }
+      }
+    }
+  } catch (...) {
+    receive_error = std::current_exception();
+  }
+  {
+    std::lock_guard lock(watchdog_mutex);
+    finished = true;
+  }
+  watchdog_cv.notify_all();
+  watchdog.join();
+  client.close();
+  if (opt.render) {
+    {
+      std::lock_guard lock(box.mutex);
+      box.done = true;
+    }
+    box.changed.notify_one();
+    render_thread.join();  // renders whatever is still pending, then keeps it in last_clouds
+  } else {
+    result.last_clouds = std::move(clouds);
+  }
+  if (receive_error) std::rethrow_exception(receive_error);
+  if (render_error) std::rethrow_exception(render_error);
+
+  const double seconds = static_cast<double>(last_rx_us - first_rx_us) / 1e6;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    const Accumulator& a = acc[i];
+    CameraStats s;
+    s.description = cams[i].description;
+    s.width = cams[i].calibration.depth.width;
+    s.height = cams[i].calibration.depth.height;
+    s.frames_received = a.frames;
+    s.frames_dropped = a.dropped;
+    if (a.frames > 0) {
+      s.mean_depth_bytes = static_cast<double>(a.depth_bytes) / static_cast<double>(a.frames);
+      s.mean_color_bytes = static_cast<double>(a.color_bytes) / static_cast<double>(a.frames);
+      s.depth_compression_ratio = static_cast<double>(s.width) * s.height * 2 / s.mean_depth_bytes;
+    }
+    if (seconds > 0 && a.frames > 1) {
+      s.received_fps = static_cast<double>(a.frames - 1) / seconds;
+      s.mbit_per_s = (s.mean_depth_bytes + s.mean_color_bytes) * 8 * s.received_fps / 1e6;
+    }
+    s.latency_ms_p50 = percentile(a.latencies_ms, 0.50);
+    s.latency_ms_p99 = percentile(a.latencies_ms, 0.99);
+    result.cameras.push_back(s);
+  }
+  if (!opt.stats_json.empty()) write_stats_json(opt.stats_json, result);
+  return result;
+}
+
+void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) {
+  nlohmann::json j;
+  j["depth_codec"] = r.depth_codec;
+  j["color_codec"] = r.color_codec;
+  j["frames_rendered"] = r.frames_rendered;
+  j["renderer"] = r.renderer;
+  j["cameras"] = nlohmann::json::array();
+  for (size_t i = 0; i < r.cameras.size(); ++i) {
+    const CameraStats& s = r.cameras[i];
+    j["cameras"].push_back({{"camera", i},
+                            {"description", s.description},
+                            {"width", s.width},
+                            {"height", s.height},
+                            {"frames_received", s.frames_received},
+                            {"frames_dropped", s.frames_dropped},
+                            {"mean_depth_bytes", s.mean_depth_bytes},
+                            {"mean_color_bytes", s.mean_color_bytes},
+                            {"depth_compression_ratio", s.depth_compression_ratio},
+                            {"received_fps", s.received_fps},
+                            {"mbit_per_s", s.mbit_per_s},
+                            {"latency_ms_p50", s.latency_ms_p50},
+                            {"latency_ms_p99", s.latency_ms_p99}});
+  }
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  std::ofstream out(path);
+  out << j.dump(2) << "\n";
+  if (!out) throw Error("cannot write '" + path.string() + "'");
+}
+
+std::string format_stats_table(const ViewerResult& r) {
+  std::string s = fmt::format("depth codec {}, color codec {}, {} frames rendered{}\n", r.depth_codec,
+                              r.color_codec, r.frames_rendered,
+                              r.renderer.empty() ? "" : " (" + r.renderer + ")");
+  s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam", "size", "frames",
+                   "dropped", "depth B/fr", "color B/fr", "ratio", "fps", "Mbit/s", "lat p50", "lat p99 / source");
+  for (size_t i = 0; i < r.cameras.size(); ++i) {
+    const CameraStats& c = r.cameras[i];
+    s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12.0f} {:>12.0f} {:>6.2f}x {:>7.1f} {:>8.2f} {:>6.1f}ms  {:.1f}ms  {}\n",
+                     i, fmt::format("{}x{}", c.width, c.height), c.frames_received, c.frames_dropped,
+                     c.mean_depth_bytes, c.mean_color_bytes, c.depth_compression_ratio, c.received_fps,
+                     c.mbit_per_s, c.latency_ms_p50, c.latency_ms_p99, c.description);
+  }
+  return s;
+}
+
+}  // namespace volcast

@@ -1,0 +1,308 @@
+#include "volcast/capture/k4a_recording.hpp"
+
+extern "C" {
+#include <libavformat/avformat.h>
+#include <libavutil/avutil.h>
+#include <libavutil/error.h>
+}
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+#include "volcast/capture/registration.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/jpeg.hpp"
+
+namespace volcast {
+namespace {
+
+std::string av_error(int code) {
+  char buf[AV_ERROR_MAX_STRING_SIZE] = {};
+  av_strerror(code, buf, sizeof buf);
+  return buf;
+}
+
+std::string tag(AVDictionary* dict, const char* key) {
+  const AVDictionaryEntry* e = av_dict_get(dict, key, nullptr, 0);
+  return e ? e->value : "";
+}
+
+struct FormatCloser {
+  void operator()(AVFormatContext* f) const { avformat_close_input(&f); }
+};
+struct PacketFreer {
+  void operator()(AVPacket* p) const { av_packet_free(&p); }
+};
+
+// An opened recording with its tracks identified.
+struct Demuxer {
+  std::unique_ptr<AVFormatContext, FormatCloser> fmt;
+  int depth = -1, color = -1;
+  std::string calibration_json;
+  std::string path;
+
+  explicit Demuxer(const std::filesystem::path& p) : path(p.string()) {
+    if (!std::filesystem::exists(p)) throw Error("recording '" + path + "' does not exist");
+    av_log_set_level(AV_LOG_FATAL);
+    AVFormatContext* raw = nullptr;
+    if (int rc = avformat_open_input(&raw, path.c_str(), nullptr, nullptr); rc < 0)
+      throw Error("cannot open recording '" + path + "': " + av_error(rc) +
+                  " (not a readable Matroska file?)");
+    fmt.reset(raw);
+    if (std::string(fmt->iformat->name).find("matroska") == std::string::npos)
+      throw Error("'" + path + "' is not a Matroska (.mkv) recording");
+    for (unsigned i = 0; i < fmt->nb_streams; ++i) {
+      AVStream* st = fmt->streams[i];
+      const std::string title = tag(st->metadata, "title");
+      if (st->codecpar->codec_type == AVMEDIA_TYPE_ATTACHMENT) {
+        if (tag(st->metadata, "filename") == "calibration.json" && st->codecpar->extradata)
+          calibration_json.assign(reinterpret_cast<const char*>(st->codecpar->extradata),
+                                  static_cast<size_t>(st->codecpar->extradata_size));
+      } else if (title == "DEPTH") {
+        depth = static_cast<int>(i);
+      } else if (title == "COLOR") {
+        color = static_cast<int>(i);
+      }
+    }
+    if (depth < 0) throw Error("recording '" + path + "' has no DEPTH track");
+    const AVCodecParameters* d = fmt->streams[depth]->codecpar;
+    if (d->codec_tag != MKTAG('b', '1', '6', 'g'))
+      throw Error("recording '" + path + "': DEPTH track is not fourcc b16g");
+    if (d->width <= 0 || d->height <= 0 || d->width > 4096 || d->height > 4096)
+      throw Error("recording '" + path + "': DEPTH track has an implausible size");
+    if (calibration_json.empty())
+      throw Error("recording '" + path + "' has no calibration.json attachment");
+    for (unsigned i = 0; i < fmt->nb_streams; ++i)
+      if (static_cast<int>(i) != depth && static_cast<int>(i) != color)
+        fmt->streams[i]->discard = AVDISCARD_ALL;
+  }
+
+  AVStream* stream(int i) const { return fmt->streams[i]; }
+  int64_t to_us(const AVPacket& p) const {
+    const int64_t ts = p.pts != AV_NOPTS_VALUE ? p.pts : p.dts;
+    return av_rescale_q(ts, stream(p.stream_index)->time_base, AVRational{1, 1000000});
+  }
+};
+
+std::string depth_mode_name(const Demuxer& dm) {
+  std::string mode = tag(dm.stream(dm.depth)->metadata, "K4A_DEPTH_MODE");
+  if (!mode.empty()) return mode;
+  const AVCodecParameters* d = dm.stream(dm.depth)->codecpar;
+  if (d->width == 640 && d->height == 576) return "NFOV_UNBINNED";
+  if (d->width == 320 && d->height == 288) return "NFOV_2X2BINNED";
+  if (d->width == 512 && d->height == 512) return "WFOV_2X2BINNED";
+  if (d->width == 1024 && d->height == 1024) return "WFOV_UNBINNED";
+  throw Error("recording '" + dm.path + "': cannot tell the depth mode");
+}
+
+// A raw capture: one depth packet and the color packet taken at the same moment, if any.
+struct RawCapture {
+  std::vector<uint8_t> depth;
+  std::vector<uint8_t> color;
+  int64_t timestamp_us = 0;
+};
+
+// Pairs depth and color packets by timestamp. k4arecorder writes the packets of a capture next
+// to each other; a color packet within half a frame period of a depth packet belongs to it.
+class CaptureReader {
+ public:
+  explicit CaptureReader(const std::filesystem::path& path) : dm_(path), packet_(av_packet_alloc()) {}
+  Demuxer& demuxer() { return dm_; }
+
+  // Next capture, or nullopt at the end of the file.
+  std::optional<RawCapture> next() {
+    constexpr int64_t kTolerance = 16'000;  // half a frame at 30 fps, microseconds
+    while (true) {
+      const int rc = av_read_frame(dm_.fmt.get(), packet_.get());
+      if (rc == AVERROR_EOF) return take_pending();
+      if (rc < 0) throw Error("recording '" + dm_.path + "' is corrupt or truncated: " + av_error(rc));
+      AVPacket& p = *packet_;
+      const int64_t ts = dm_.to_us(p);
+      std::vector<uint8_t> bytes(p.data, p.data + p.size);
+      const int index = p.stream_index;
+      av_packet_unref(&p);
+      if (index == dm_.depth) {
+        std::optional<RawCapture> done = take_pending();
+        pending_ = RawCapture{std::move(bytes), {}, ts};
+        if (last_color_ && std::llabs(last_color_ts_ - ts) <= kTolerance) {
+          pending_->color = std::move(*last_color_);
+          last_color_.reset();
+        }
+        if (done) return done;
+      } else if (index == dm_.color) {
+        if (pending_ && pending_->color.empty() && std::llabs(ts - pending_->timestamp_us) <= kTolerance) {
+          pending_->color = std::move(bytes);
+          return take_pending();
+        }
+        last_color_ = std::move(bytes);
+        last_color_ts_ = ts;
+        if (pending_ && ts > pending_->timestamp_us + kTolerance) return take_pending();
+      }
+    }
+  }
+
+ private:
+  std::optional<RawCapture> take_pending() {
+    std::optional<RawCapture> out = std::move(pending_);
+    pending_.reset();
+    return out;
+  }
+  Demuxer dm_;
+  std::unique_ptr<AVPacket, PacketFreer> packet_;
+  std::optional<RawCapture> pending_;
+  std::optional<std::vector<uint8_t>> last_color_;
+  int64_t last_color_ts_ = 0;
+};
+
+class K4aRecordingSource final : public FrameSource {
+ public:
+  K4aRecordingSource(const std::filesystem::path& path, const SourceOptions& options)
+      : path_(path), reader_(std::make_unique<CaptureReader>(path)) {
+    Demuxer& dm = reader_->demuxer();
+    const K4aCalibration cal = parse_k4a_calibration(dm.calibration_json);
+    calibration_.depth = k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(depth_mode_name(dm)));
+    calibration_.world_from_camera = options.world_from_camera.value_or(RigidTransform::identity());
+    const AVCodecParameters* d = dm.stream(dm.depth)->codecpar;
+    if (d->width != calibration_.depth.width || d->height != calibration_.depth.height)
+      throw Error("recording '" + dm.path + "': DEPTH track size does not match its depth mode");
+    if (dm.color >= 0) {
+      const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
+      color_is_jpeg_ = c->codec_id == AV_CODEC_ID_MJPEG;
+      color_is_bgra_ = c->codec_id == AV_CODEC_ID_RAWVIDEO && c->format == AV_PIX_FMT_BGRA;
+      if (!color_is_jpeg_ && !color_is_bgra_) {
+        spdlog::warn("{}: color format {} not supported (MJPG and BGRA are); streaming depth only",
+                     dm.path, avcodec_get_name(c->codec_id));
+      } else {
+        color_intrinsics_ = k4a_color_mode_intrinsics(cal.color, c->width, c->height);
+        registration_.emplace(calibration_.depth, color_intrinsics_, cal.color.camera_from_depth);
+      }
+    }
+    fps_ = options.fps.value_or(30.0);
+    // Count the frames of one pass and check that the first capture decodes.
+    CaptureReader counter(path);
+    while (auto cap = counter.next()) {
+      if (frame_count_ == 0) decode(*cap, first_);
+      ++frame_count_;
+    }
+    if (frame_count_ == 0) throw Error("recording '" + dm.path + "' holds no depth frames");
+  }
+
+  const CameraCalibration& calibration() const override { return calibration_; }
+  double fps() const override { return fps_; }
+  int frame_count() const override { return frame_count_; }
+  std::string description() const override { return "Azure Kinect recording " + path_.string(); }
+
+  CameraFrame next() override {
+    if (frame_count_ == 1) {  // a single capture: decode once, replay it
+      CameraFrame f = first_;
+      f.device_timestamp_us += loops_++ * static_cast<int64_t>(1e6 / fps_);
+      return f;
+    }
+    std::optional<RawCapture> cap = reader_->next();
+    if (!cap) {
+      reader_ = std::make_unique<CaptureReader>(path_);
+      ++loops_;
+      loop_offset_us_ = last_timestamp_us_ + static_cast<int64_t>(1e6 / fps_);
+      cap = reader_->next();
+      if (!cap) throw Error("recording '" + path_.string() + "' holds no depth frames");
+    }
+    CameraFrame f;
+    decode(*cap, f);
+    f.device_timestamp_us += loop_offset_us_;
+    last_timestamp_us_ = f.device_timestamp_us;
+    return f;
+  }
+
+ private:
+  void decode(const RawCapture& cap, CameraFrame& out) {
+    const Intrinsics& k = calibration_.depth;
+    const size_t n = static_cast<size_t>(k.width) * k.height;
+    if (cap.depth.size() != n * 2)
+      throw Error("recording '" + path_.string() + "': depth frame at " +
+                  std::to_string(cap.timestamp_us) + " us has " + std::to_string(cap.depth.size()) +
+                  " bytes, expected " + std::to_string(n * 2) + " (truncated?)");
+    out.depth = DepthImage(k.width, k.height);
+    for (size_t i = 0; i < n; ++i)  // b16g: big-endian
+      out.depth.pixels[i] = static_cast<uint16_t>((cap.depth[2 * i] << 8) | cap.depth[2 * i + 1]);
+    out.device_timestamp_us = cap.timestamp_us;
+    out.color = ColorImage(k.width, k.height);  // alpha 0 = no color, until registered
+    if (!registration_ || cap.color.empty()) return;
+    if (color_is_jpeg_) {
+      decode_jpeg(cap.color, color_scratch_);
+    } else {
+      const size_t bytes = static_cast<size_t>(color_intrinsics_.width) * color_intrinsics_.height * 4;
+      if (cap.color.size() != bytes) throw Error("recording '" + path_.string() + "': truncated BGRA frame");
+      color_scratch_ = ColorImage(color_intrinsics_.width, color_intrinsics_.height);
+      std::copy(cap.color.begin(), cap.color.end(), color_scratch_.bgra.begin());
+    }
+    if (color_scratch_.width != color_intrinsics_.width || color_scratch_.height != color_intrinsics_.height)
+      throw Error("recording '" + path_.string() + "': color frame size differs from its track");
+    registration_->apply(out.depth, color_scratch_, out.color);
+  }
+
+  std::filesystem::path path_;
+  std::unique_ptr<CaptureReader> reader_;
+  CameraCalibration calibration_;
+  Intrinsics color_intrinsics_;
+  std::optional<ColorToDepthRegistration> registration_;
+  bool color_is_jpeg_ = false, color_is_bgra_ = false;
+  double fps_ = 30;
+  int frame_count_ = 0;
+  int64_t loops_ = 0, loop_offset_us_ = 0, last_timestamp_us_ = 0;
+  CameraFrame first_;
+  ColorImage color_scratch_;
+};
+
+}  // namespace
+
+K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
+  CaptureReader reader(path);
+  Demuxer& dm = reader.demuxer();
+  K4aRecordingInfo info;
+  for (unsigned i = 0; i < dm.fmt->nb_streams; ++i) {
+    const AVStream* st = dm.fmt->streams[i];
+    K4aRecordingInfo::Stream s;
+    s.index = static_cast<int>(i);
+    s.title = tag(st->metadata, st->codecpar->codec_type == AVMEDIA_TYPE_ATTACHMENT ? "filename" : "title");
+    const uint32_t fourcc = st->codecpar->codec_tag;
+    if (st->codecpar->codec_id == AV_CODEC_ID_RAWVIDEO && fourcc != 0) {
+      for (int b = 0; b < 4; ++b) s.codec += static_cast<char>((fourcc >> (8 * b)) & 0xff);
+    } else if (st->codecpar->codec_type == AVMEDIA_TYPE_ATTACHMENT) {
+      s.codec = "attachment";
+    } else {
+      s.codec = avcodec_get_name(st->codecpar->codec_id);
+    }
+    s.width = st->codecpar->width;
+    s.height = st->codecpar->height;
+    info.streams.push_back(s);
+  }
+  if (dm.fmt->duration != AV_NOPTS_VALUE) info.duration_s = static_cast<double>(dm.fmt->duration) / AV_TIME_BASE;
+  info.depth_mode = depth_mode_name(dm);
+  const K4aCalibration cal = parse_k4a_calibration(dm.calibration_json);
+  info.depth_intrinsics = k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(info.depth_mode));
+  info.color_from_depth = cal.color.camera_from_depth;
+  if (dm.color >= 0) {
+    const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
+    info.color_mode = tag(dm.stream(dm.color)->metadata, "K4A_COLOR_MODE");
+    info.color_intrinsics = k4a_color_mode_intrinsics(cal.color, c->width, c->height);
+  }
+  while (auto cap = reader.next()) {
+    ++info.depth_frames;
+    if (!cap->color.empty()) ++info.color_frames;
+    if (cap->depth.size() != static_cast<size_t>(info.depth_intrinsics.width) * info.depth_intrinsics.height * 2)
+      throw Error("recording '" + path.string() + "': depth frame " + std::to_string(info.depth_frames) +
+                  " is truncated");
+  }
+  if (info.depth_frames == 0) throw Error("recording '" + path.string() + "' holds no depth frames");
+  return info;
+}
+
+std::unique_ptr<FrameSource> open_k4a_recording(const std::filesystem::path& path,
+                                                const SourceOptions& options) {
+  return std::make_unique<K4aRecordingSource>(path, options);
+}
+
+}  // namespace volcast

@@ -1,0 +1,80 @@
+#include <cstring>
+
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/jpeg.hpp"
+
+namespace volcast {
+namespace {
+
+constexpr size_t kHeader = 12;
+
+class JpegEncoder final : public ColorEncoder {
+ public:
+  void encode(const ColorImage& image, std::vector<uint8_t>& out) override {
+    encode_jpeg(image, 90, out);
+  }
+  std::string_view name() const override { return "jpeg"; }
+};
+
+class JpegDecoder final : public ColorDecoder {
+ public:
+  void decode(std::span<const uint8_t> data, ColorImage& out) override { decode_jpeg(data, out); }
+};
+
+class RawEncoder final : public ColorEncoder {
+ public:
+  void encode(const ColorImage& image, std::vector<uint8_t>& out) override {
+    out.resize(kHeader + image.bgra.size());
+    const uint8_t header[kHeader] = {'V', 'C', 1, 0, 0, 0, 0, 0, uint8_t(image.width),
+                                     uint8_t(image.width >> 8), uint8_t(image.height),
+                                     uint8_t(image.height >> 8)};
+    std::memcpy(out.data(), header, kHeader);
+    if (!image.bgra.empty()) std::memcpy(out.data() + kHeader, image.bgra.data(), image.bgra.size());
+  }
+  std::string_view name() const override { return "raw"; }
+};
+
+class RawDecoder final : public ColorDecoder {
+ public:
+  void decode(std::span<const uint8_t> d, ColorImage& out) override {
+    if (d.size() < kHeader || d[0] != 'V' || d[1] != 'C' || d[2] != 1)
+      throw Error("raw color: not a Volcast raw color frame");
+    const int w = d[8] | d[9] << 8, h = d[10] | d[11] << 8;
+    if (d.size() != kHeader + static_cast<size_t>(w) * h * 4)
+      throw Error("raw color: body size does not match the header");
+    if (out.width != w || out.height != h) out = ColorImage(w, h);
+    if (!out.bgra.empty()) std::memcpy(out.bgra.data(), d.data() + kHeader, out.bgra.size());
+  }
+};
+
+class NoneEncoder final : public ColorEncoder {
+ public:
+  void encode(const ColorImage&, std::vector<uint8_t>& out) override { out.clear(); }
+  std::string_view name() const override { return "none"; }
+};
+
+class NoneDecoder final : public ColorDecoder {
+ public:
+  void decode(std::span<const uint8_t>, ColorImage& out) override { out = ColorImage(); }
+};
+
+}  // namespace
+
+std::vector<std::string> color_codec_names() { return {"jpeg", "raw", "none"}; }
+
+std::unique_ptr<ColorEncoder> make_color_encoder(std::string_view name) {
+  if (name == "jpeg") return std::make_unique<JpegEncoder>();
+  if (name == "raw") return std::make_unique<RawEncoder>();
+  if (name == "none") return std::make_unique<NoneEncoder>();
+  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, raw, none)");
+}
+
+std::unique_ptr<ColorDecoder> make_color_decoder(std::string_view name) {
+  if (name == "jpeg") return std::make_unique<JpegDecoder>();
+  if (name == "raw") return std::make_unique<RawDecoder>();
+  if (name == "none") return std::make_unique<NoneDecoder>();
+  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, raw, none)");
+}
+
+}  // namespace volcast

@@ -1,0 +1,65 @@
+#pragma once
+// Depth codecs, picked by name. Every stream starts with a 12-byte header (little-endian):
+//   'V' 'D' | version (1) | codec id | flags (bit 0: key frame) | 3 reserved zero bytes |
+//   width u16 | height u16
+// followed by the codec's body. Codecs:
+//   raw  - uint16 little-endian samples (baseline for compression ratios)
+//   rvl  - Run-length Variable Length coding (A. D. Wilson, "Fast Lossless Depth Image
+//          Compression", ISS 2017), with 32-bit-safe deltas so every uint16 value round-trips
+//   trvl - temporal RVL (H. Jun, J. Bailenson, "Temporal RVL", ISMAR 2020): key frames are RVL,
+//          delta frames code the per-pixel change against the previous frame this encoder emitted.
+//          Lossless by default (change threshold 0 mm, invalidation threshold 0 frames).
+// All lossless codecs are bit-exact on every 16-bit value. Encoders are stateful (temporal codecs
+// keep the last frame they emitted); one encoder per receiver, so a receiver that misses frames the
+// encoder never produced still decodes the next delta frame.
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "volcast/core/image.hpp"
+
+namespace volcast {
+
+inline constexpr size_t kDepthHeaderBytes = 12;
+
+class DepthEncoder {
+ public:
+  virtual ~DepthEncoder() = default;
+  /// Encodes `depth` into `out` (resized; capacity reused across calls). `key_frame` forces a
+  /// frame that decodes on its own; stateful codecs also emit one on their first frame or when the
+  /// size changes. Returns true if the emitted frame is a key frame.
+  virtual bool encode(const DepthImage& depth, bool key_frame, std::vector<uint8_t>& out) = 0;
+  virtual std::string_view name() const = 0;
+};
+
+class DepthDecoder {
+ public:
+  virtual ~DepthDecoder() = default;
+  /// Decodes one frame into `out` (resized, reused). Throws Error naming the problem for a
+  /// truncated or corrupt stream, a stream of another codec, or a delta frame without its key
+  /// frame; never reads or writes out of bounds.
+  virtual void decode(std::span<const uint8_t> data, DepthImage& out) = 0;
+};
+
+/// Parameters of temporal RVL; the defaults are lossless. The paper's lossy setting is
+/// change_threshold_mm = 10, invalidation_frames = 2.
+struct TrvlParams {
+  int change_threshold_mm = 0;  ///< changes of at most this many mm keep the previous value
+  int invalidation_frames = 0;  ///< a pixel turning invalid keeps its value for this many frames
+};
+
+/// Names of the depth codecs, e.g. {"raw", "rvl", "trvl"}.
+std::vector<std::string> depth_codec_names();
+/// Throws Error("unknown depth codec 'x' (available: ...)").
+std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);
+std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name);
+
+std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params);
+
+/// Reads the header: true if `data` is a key frame. Throws Error if the header is malformed.
+bool depth_frame_is_key(std::span<const uint8_t> data);
+
+}  // namespace volcast

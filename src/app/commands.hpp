@@ -19,13 +19,13 @@ struct ServeArgs {
   double fps = 30;
   std::string intrinsics;  ///< "fx,fy,cx,cy" for image sequences without intrinsics.json
   int key_frame_interval = 60;
-  double seconds = 0;      ///< 0 = until interrupted
+  double seconds = 0;  ///< 0 = until interrupted
 };
 int run_serve(const ServeArgs& args);
 
 struct ViewArgs {
   std::string connect;
-  std::string depth_codec = "trvl", color_codec = "jpeg";
+  std::string depth_codec = "rvl", color_codec = "jpeg";
   bool headless = false, no_render = false;
   int frames = 0;
   double seconds = 0;
@@ -38,8 +38,9 @@ int run_view(const ViewArgs& args);
 struct DemoArgs {
   double seconds = 5;
   std::string out = "out/demo";
-  std::string data;  ///< folder holding the shared recordings; default: found near the binary or cwd
-  std::string depth_codec = "trvl", color_codec = "jpeg";
+  std::string
+      data;  ///< folder holding the shared recordings; default: found near the binary or cwd
+  std::string depth_codec = "rvl", color_codec = "jpeg";
 };
 int run_demo(const DemoArgs& args);
 

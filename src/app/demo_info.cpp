@@ -20,7 +20,11 @@ constexpr const char* kKinect = "k4a-recording/recording.mkv";
 
 std::optional<fs::path> find_data(const std::string& flag) {
   std::vector<fs::path> candidates;
-  if (!flag.empty()) candidates.push_back(flag);
+  if (!flag.empty()) {  // an explicit folder is the only place to look
+    if (fs::exists(fs::path(flag) / kHands) && fs::exists(fs::path(flag) / kKinect))
+      return fs::weakly_canonical(flag);
+    return std::nullopt;
+  }
   if (const char* env = std::getenv("VOLCAST_DATA")) candidates.push_back(env);
   std::error_code ec;
   const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
@@ -34,15 +38,31 @@ std::optional<fs::path> find_data(const std::string& flag) {
 
 // The four corners of the intrinsics line `volcast info` prints.
 std::string intrinsics_line(const Intrinsics& k) {
-  return fmt::format("{}x{}  fx {:.4f} fy {:.4f} cx {:.4f} cy {:.4f}  k1..k6 {:.6g} {:.6g} {:.6g} {:.6g} {:.6g} {:.6g}"
-                     "  p1 {:.6g} p2 {:.6g}",
-                     k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.k3, k.k4, k.k5, k.k6, k.p1, k.p2);
+  return fmt::format(
+      "{}x{}  fx {:.4f} fy {:.4f} cx {:.4f} cy {:.4f}  k1..k6 {:.6g} {:.6g} {:.6g} {:.6g} {:.6g} "
+      "{:.6g}"
+      "  p1 {:.6g} p2 {:.6g}",
+      k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.k3, k.k4, k.k5, k.k6, k.p1, k.p2);
 }
 
 nlohmann::json intrinsics_json(const Intrinsics& k) {
-  return {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy},
-          {"k1", k.k1}, {"k2", k.k2}, {"k3", k.k3}, {"k4", k.k4}, {"k5", k.k5}, {"k6", k.k6},
-          {"p1", k.p1}, {"p2", k.p2}, {"codx", k.codx}, {"cody", k.cody}, {"metric_radius", k.metric_radius}};
+  return {{"width", k.width},
+          {"height", k.height},
+          {"fx", k.fx},
+          {"fy", k.fy},
+          {"cx", k.cx},
+          {"cy", k.cy},
+          {"k1", k.k1},
+          {"k2", k.k2},
+          {"k3", k.k3},
+          {"k4", k.k4},
+          {"k5", k.k5},
+          {"k6", k.k6},
+          {"p1", k.p1},
+          {"p2", k.p2},
+          {"codx", k.codx},
+          {"cody", k.cody},
+          {"metric_radius", k.metric_radius}};
 }
 
 }  // namespace
@@ -50,13 +70,14 @@ nlohmann::json intrinsics_json(const Intrinsics& k) {
 int run_demo(const DemoArgs& a) {
   const auto data = find_data(a.data);
   if (!data) {
-    std::fprintf(stderr,
-                 "volcast demo: no real recordings found.\n"
-                 "It looks for a folder holding %s/ and %s in --data DIR, $VOLCAST_DATA,\n"
-                 "../shared/data next to the repository, or ./shared/data.\n"
-                 "Put an Azure Kinect recording (.mkv) and an image sequence (depth/*.png, color/*.jpg)\n"
-                 "there, or stream your own with: volcast serve --source PATH [--source PATH ...]\n",
-                 kHands, kKinect);
+    std::fprintf(
+        stderr,
+        "volcast demo: no real recordings found.\n"
+        "It looks for a folder holding %s/ and %s in --data DIR, $VOLCAST_DATA,\n"
+        "../shared/data next to the repository, or ./shared/data.\n"
+        "Put an Azure Kinect recording (.mkv) and an image sequence (depth/*.png, color/*.jpg)\n"
+        "there, or stream your own with: volcast serve --source PATH [--source PATH ...]\n",
+        kHands, kKinect);
     return 2;
   }
   spdlog::info("demo: real recordings from {}", data->string());
@@ -71,8 +92,10 @@ int run_demo(const DemoArgs& a) {
   nominal.cx = 320;
   nominal.cy = 180;
   hands_options.intrinsics = nominal;
-  spdlog::warn("demo: camera 0 ({}) has no published intrinsics; using a NOMINAL pinhole fx=fy=460, cx=320, cy=180",
-               kHands);
+  spdlog::warn(
+      "demo: camera 0 ({}) has no published intrinsics; using a NOMINAL pinhole fx=fy=460, cx=320, "
+      "cy=180",
+      kHands);
   // Camera 1: the genuine Azure Kinect recording, factory calibration; the two scenes are
   // unrelated, so the site places it 1.6 m to the right of camera 0.
   SourceOptions kinect_options;
@@ -88,8 +111,8 @@ int run_demo(const DemoArgs& a) {
   config.port = 0;  // any free loopback port
   Server server(site.cameras(), config);
   site.start(server);
-  spdlog::info("demo: server on 127.0.0.1:{}, viewer for {} s (depth {}, color {})", server.port(), a.seconds,
-               a.depth_codec, a.color_codec);
+  spdlog::info("demo: server on 127.0.0.1:{}, viewer for {} s (depth {}, color {})", server.port(),
+               a.seconds, a.depth_codec, a.color_codec);
 
   ViewerOptions opt;
   opt.client.port = server.port();
@@ -121,8 +144,9 @@ int run_demo(const DemoArgs& a) {
     write_color_png(file, image);
   }
   std::printf("\n%s", format_stats_table(result).c_str());
-  std::printf("\nwrote %s, %s, %s and %s\n", (out / "stats.json").c_str(), (out / "render_overview.png").c_str(),
-              (out / "render_camera0.png").c_str(), (out / "render_camera1.png").c_str());
+  std::printf("\nwrote %s, %s, %s and %s\n", (out / "stats.json").c_str(),
+              (out / "render_overview.png").c_str(), (out / "render_camera0.png").c_str(),
+              (out / "render_camera1.png").c_str());
   return 0;
 }
 
@@ -132,25 +156,37 @@ int run_info(const InfoArgs& a) {
   if (fs::is_directory(path)) {
     auto src = open_source(path, {});
     const auto& k = src->calibration().depth;
-    j = {{"kind", "image sequence"}, {"path", path.string()}, {"frames", src->frame_count()},
-         {"fps", src->fps()}, {"depth_intrinsics", intrinsics_json(k)}};
+    j = {{"kind", "image sequence"},
+         {"path", path.string()},
+         {"frames", src->frame_count()},
+         {"fps", src->fps()},
+         {"depth_intrinsics", intrinsics_json(k)}};
     if (a.json) {
       std::printf("%s\n", j.dump(2).c_str());
     } else {
-      std::printf("%s\n  frames: %d at %.1f fps\n  depth intrinsics: %s\n", src->description().c_str(),
-                  src->frame_count(), src->fps(), intrinsics_line(k).c_str());
+      std::printf("%s\n  frames: %d at %.1f fps\n  depth intrinsics: %s\n",
+                  src->description().c_str(), src->frame_count(), src->fps(),
+                  intrinsics_line(k).c_str());
     }
     return 0;
   }
   const K4aRecordingInfo info = probe_k4a_recording(path);
   if (a.json) {
-    j = {{"kind", "Azure Kinect recording"}, {"path", path.string()}, {"depth_mode", info.depth_mode},
-         {"color_mode", info.color_mode}, {"depth_frames", info.depth_frames}, {"color_frames", info.color_frames},
-         {"duration_s", info.duration_s}, {"depth_intrinsics", intrinsics_json(info.depth_intrinsics)}};
+    j = {{"kind", "Azure Kinect recording"},
+         {"path", path.string()},
+         {"depth_mode", info.depth_mode},
+         {"color_mode", info.color_mode},
+         {"depth_frames", info.depth_frames},
+         {"color_frames", info.color_frames},
+         {"duration_s", info.duration_s},
+         {"depth_intrinsics", intrinsics_json(info.depth_intrinsics)}};
     if (info.color_intrinsics.width) j["color_intrinsics"] = intrinsics_json(info.color_intrinsics);
     j["streams"] = nlohmann::json::array();
     for (const auto& s : info.streams)
-      j["streams"].push_back({{"index", s.index}, {"title", s.title}, {"codec", s.codec}, {"width", s.width},
+      j["streams"].push_back({{"index", s.index},
+                              {"title", s.title},
+                              {"codec", s.codec},
+                              {"width", s.width},
                               {"height", s.height}});
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
@@ -162,8 +198,8 @@ int run_info(const InfoArgs& a) {
                 s.width ? fmt::format("{}x{}", s.width, s.height).c_str() : "");
   std::printf("  depth mode %s, color mode %s\n", info.depth_mode.c_str(),
               info.color_mode.empty() ? "(none)" : info.color_mode.c_str());
-  std::printf("  frames: %d depth, %d color, duration %.3f s\n", info.depth_frames, info.color_frames,
-              info.duration_s);
+  std::printf("  frames: %d depth, %d color, duration %.3f s\n", info.depth_frames,
+              info.color_frames, info.duration_s);
   std::printf("  depth intrinsics: %s\n", intrinsics_line(info.depth_intrinsics).c_str());
   if (info.color_intrinsics.width)
     std::printf("  color intrinsics: %s\n", intrinsics_line(info.color_intrinsics).c_str());

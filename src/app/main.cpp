@@ -32,39 +32,50 @@ int main(int argc, char** argv) {
 
   ServeArgs serve;
   auto* s = app.add_subcommand("serve", "Stream one site (several cameras) to viewers over TCP");
-  s->add_option("--source", serve.sources, "Camera source: Azure Kinect .mkv or image-sequence folder (repeat per camera)")
+  s->add_option("--source", serve.sources,
+                "Camera source: Azure Kinect .mkv or image-sequence folder (repeat per camera)")
       ->required();
   s->add_option("--port", serve.port, "TCP port")->capture_default_str();
-  s->add_option("--bind", serve.bind, "Address to listen on (0.0.0.0 for remote viewers)")->capture_default_str();
+  s->add_option("--bind", serve.bind, "Address to listen on (0.0.0.0 for remote viewers)")
+      ->capture_default_str();
   s->add_option("--fps", serve.fps, "Frame sets per second")->capture_default_str();
-  s->add_option("--intrinsics", serve.intrinsics, "fx,fy,cx,cy for image sequences without intrinsics.json");
-  s->add_option("--key-frame-interval", serve.key_frame_interval, "Frames between temporal-codec key frames")
+  s->add_option("--intrinsics", serve.intrinsics,
+                "fx,fy,cx,cy for image sequences without intrinsics.json");
+  s->add_option("--key-frame-interval", serve.key_frame_interval,
+                "Frames between temporal-codec key frames")
       ->capture_default_str();
   s->add_option("--seconds", serve.seconds, "Stop after this many seconds (default: until Ctrl-C)");
 
   ViewArgs view;
-  auto* v = app.add_subcommand("view", "Receive a site's stream, build point clouds and render them");
+  auto* v =
+      app.add_subcommand("view", "Receive a site's stream, build point clouds and render them");
   v->add_option("--connect", view.connect, "Server as HOST:PORT")->required();
-  v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + join(depth_codec_names()))->capture_default_str();
-  v->add_option("--color-codec", view.color_codec, "Color codec: " + join(color_codec_names()))->capture_default_str();
+  v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + join(depth_codec_names()))
+      ->capture_default_str();
+  v->add_option("--color-codec", view.color_codec, "Color codec: " + join(color_codec_names()))
+      ->capture_default_str();
   v->add_flag("--headless", view.headless, "Render offscreen (EGL), no window");
   v->add_flag("--no-render", view.no_render, "Receive and decode only");
   v->add_option("--frames", view.frames, "Stop after N frame sets");
   v->add_option("--seconds", view.seconds, "Stop after this many seconds");
   v->add_option("--screenshot", view.screenshot, "Write the last render as PNG");
-  v->add_option("--save-frames", view.save_frames, "Write decoded depth (16-bit PNG) and color PNGs here");
+  v->add_option("--save-frames", view.save_frames,
+                "Write decoded depth (16-bit PNG) and color PNGs here");
   v->add_option("--stats-json", view.stats_json, "Write per-camera statistics as JSON");
   v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");
 
   DemoArgs demo;
-  auto* d = app.add_subcommand("demo", "Stream the shared real recordings on loopback, render and report");
+  auto* d = app.add_subcommand("demo",
+                               "Stream the shared real recordings on loopback, render and report");
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
-  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + join(depth_codec_names()))->capture_default_str();
-  d->add_option("--color-codec", demo.color_codec, "Color codec: " + join(color_codec_names()))->capture_default_str();
+  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + join(depth_codec_names()))
+      ->capture_default_str();
+  d->add_option("--color-codec", demo.color_codec, "Color codec: " + join(color_codec_names()))
+      ->capture_default_str();
 
   InfoArgs info;
   auto* i = app.add_subcommand("info", "Describe a recording: streams, frames, derived intrinsics");

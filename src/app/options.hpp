@@ -7,7 +7,8 @@
 
 namespace volcast {
 
-/// "a,b,c" -> {a, b, c}; throws Error naming `flag` if a value is not a number or the count differs.
+/// "a,b,c" -> {a, b, c}; throws Error naming `flag` if a value is not a number or the count
+/// differs.
 std::vector<double> parse_numbers(const std::string& text, size_t count, const std::string& flag);
 /// "fx,fy,cx,cy" in pixels -> pinhole intrinsics (width/height left 0 for the source to fill).
 Intrinsics parse_pinhole(const std::string& text);

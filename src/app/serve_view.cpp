@@ -31,8 +31,8 @@ int run_serve(const ServeArgs& a) {
   config.key_frame_interval = a.key_frame_interval;
   Server server(site.cameras(), config);
   site.start(server);
-  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", a.sources.size(), a.fps, a.bind,
-               server.port());
+  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", a.sources.size(), a.fps,
+               a.bind, server.port());
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;
   while (!g_interrupted) {
@@ -43,14 +43,16 @@ int run_serve(const ServeArgs& a) {
       last_report = now;
       int connected = 0;
       for (const auto& v : server.viewers()) connected += v.connected;
-      spdlog::info("{} frame sets published, {} viewer(s) connected", site.frame_sets_published(), connected);
+      spdlog::info("{} frame sets published, {} viewer(s) connected", site.frame_sets_published(),
+                   connected);
     }
   }
   site.stop();
   server.stop();
   for (const auto& v : server.viewers())
-    spdlog::info("viewer {} ({}/{}): {} frame sets sent, {} dropped, {:.1f} MB", v.peer, v.depth_codec,
-                 v.color_codec, v.frames_sent, v.frames_dropped, static_cast<double>(v.bytes_sent) / 1e6);
+    spdlog::info("viewer {} ({}/{}): {} frame sets sent, {} dropped, {:.1f} MB", v.peer,
+                 v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped,
+                 static_cast<double>(v.bytes_sent) / 1e6);
   return 0;
 }
 
@@ -63,7 +65,8 @@ int run_view(const ViewArgs& a) {
   opt.seconds = a.seconds;
   opt.render = !a.no_render;
   if (!a.headless && opt.render)
-    spdlog::info("no windowed viewer in this build yet: rendering headless (use --screenshot to see it)");
+    spdlog::info(
+        "no windowed viewer in this build yet: rendering headless (use --screenshot to see it)");
   const size_t x = a.size.find('x');
   if (x == std::string::npos) throw Error("--size expects WIDTHxHEIGHT, e.g. 1280x720");
   const auto wh = parse_numbers(a.size.substr(0, x) + "," + a.size.substr(x + 1), 2, "--size");

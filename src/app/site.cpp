@@ -15,7 +15,9 @@ SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double
   if (!(fps_ > 0 && fps_ <= 1000)) throw Error("--fps must be in (0, 1000]");
 }
 
-SitePlayer::~SitePlayer() { stop(); }
+SitePlayer::~SitePlayer() {
+  stop();
+}
 
 std::vector<protocol::CameraInfo> SitePlayer::cameras() const {
   std::vector<protocol::CameraInfo> out;
@@ -35,7 +37,8 @@ void SitePlayer::stop() {
 
 void SitePlayer::run(Server& server) {
   using clock = std::chrono::steady_clock;
-  const auto period = std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps_));
+  const auto period =
+      std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps_));
   auto next = clock::now();
   uint64_t sequence = 0;
   int failures = 0;

@@ -26,7 +26,8 @@ struct Accumulator {
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
+  const size_t i =
+      std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
   return v[i];
 }
 
@@ -60,7 +61,7 @@ void render_loop(const ViewerOptions& opt, CloudMailbox& box, ViewerResult& resu
       }
       views.clear();
       for (const auto& c : clouds) views.push_back(&c);
-      if (!view) view = frame_points(views);
+      if (!view) view = orbit_view(opt.first_camera, views);
       renderer.render(views, *view, image);
       ++result.frames_rendered;
     }
@@ -90,8 +91,11 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
 
   CloudMailbox box;
   std::exception_ptr render_error;
+  ViewerOptions render_opt = opt;
+  render_opt.first_camera = cams.front().calibration.world_from_camera;
   std::thread render_thread;
-  if (opt.render) render_thread = std::thread([&] { render_loop(opt, box, result, render_error); });
+  if (opt.render)
+    render_thread = std::thread([&] { render_loop(render_opt, box, result, render_error); });
 
   std::vector<Accumulator> acc(cams.size());
   std::vector<PointCloud> clouds(cams.size());
@@ -117,14 +121,16 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     }
   });
   try {
-    while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) && client.receive(rx)) {
+    while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
+           client.receive(rx)) {
       clouds.resize(cams.size());  // after a hand-over these may be the renderer's old buffers
       for (size_t i = 0; i < cams.size(); ++i)
         builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, clouds[i]);
       const int64_t now = wall_clock_us();
       const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
       const uint64_t gap = received > 0 && rx.frames.sequence > last_sequence + 1
-                               ? rx.frames.sequence - last_sequence - 1 : 0;
+                               ? rx.frames.sequence - last_sequence - 1
+                               : 0;
       for (size_t i = 0; i < cams.size(); ++i) {
         Accumulator& a = acc[i];
         ++a.frames;
@@ -149,7 +155,8 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
           const CameraFrame& f = rx.frames.cameras[i];
           const std::string stem = fmt::format("cam{}_{:08d}", i, rx.frames.sequence);
           write_depth_png(opt.save_frames_dir / (stem + "_depth.png"), f.depth);
-          if (!f.color.empty()) write_color_png(opt.save_frames_dir / (stem + "_color.png"), f.color);
+          if (!f.color.empty())
+            write_color_png(opt.save_frames_dir / (stem + "_color.png"), f.color);
         }
       }
     }
@@ -232,17 +239,20 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
 }
 
 std::string format_stats_table(const ViewerResult& r) {
-  std::string s = fmt::format("depth codec {}, color codec {}, {} frames rendered{}\n", r.depth_codec,
-                              r.color_codec, r.frames_rendered,
+  std::string s = fmt::format("depth codec {}, color codec {}, {} frames rendered{}\n",
+                              r.depth_codec, r.color_codec, r.frames_rendered,
                               r.renderer.empty() ? "" : " (" + r.renderer + ")");
-  s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam", "size", "frames",
-                   "dropped", "depth B/fr", "color B/fr", "ratio", "fps", "Mbit/s", "lat p50", "lat p99 / source");
+  s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam",
+                   "size", "frames", "dropped", "depth B/fr", "color B/fr", "ratio", "fps",
+                   "Mbit/s", "lat p50", "lat p99 / source");
   for (size_t i = 0; i < r.cameras.size(); ++i) {
     const CameraStats& c = r.cameras[i];
-    s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12.0f} {:>12.0f} {:>6.2f}x {:>7.1f} {:>8.2f} {:>6.1f}ms  {:.1f}ms  {}\n",
-                     i, fmt::format("{}x{}", c.width, c.height), c.frames_received, c.frames_dropped,
-                     c.mean_depth_bytes, c.mean_color_bytes, c.depth_compression_ratio, c.received_fps,
-                     c.mbit_per_s, c.latency_ms_p50, c.latency_ms_p99, c.description);
+    s += fmt::format(
+        "{:<4} {:>9} {:>8} {:>7} {:>12.0f} {:>12.0f} {:>6.2f}x {:>7.1f} {:>8.2f} {:>6.1f}ms  "
+        "{:.1f}ms  {}\n",
+        i, fmt::format("{}x{}", c.width, c.height), c.frames_received, c.frames_dropped,
+        c.mean_depth_bytes, c.mean_color_bytes, c.depth_compression_ratio, c.received_fps,
+        c.mbit_per_s, c.latency_ms_p50, c.latency_ms_p99, c.description);
   }
   return s;
 }

@@ -17,7 +17,8 @@ struct ViewerOptions {
   double seconds = 0;                       ///< stop after this long (0 = no limit)
   bool render = true;                       ///< render headless with EGL
   int width = 1280, height = 720;           ///< render size, pixels
-  std::optional<ViewCamera> view;           ///< default: frame all points (frame_points)
+  std::optional<ViewCamera> view;           ///< default: orbit_view from the first camera
+  RigidTransform first_camera;              ///< set by run_viewer from the Welcome
   std::filesystem::path screenshot;         ///< PNG of the last render, if set
   std::filesystem::path save_frames_dir;    ///< decoded depth/color PNGs per frame, if set
   std::filesystem::path stats_json;         ///< statistics as JSON, if set
@@ -33,7 +34,7 @@ struct CameraStats {
   double mean_depth_bytes = 0, mean_color_bytes = 0;
   double depth_compression_ratio = 0;  ///< raw depth (width*height*2) / mean encoded depth
   double received_fps = 0;
-  double mbit_per_s = 0;  ///< depth + color at the received rate
+  double mbit_per_s = 0;                          ///< depth + color at the received rate
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> point cloud ready
 };
 
@@ -41,7 +42,7 @@ struct ViewerResult {
   std::string depth_codec, color_codec;
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
-  std::string renderer;  ///< GL renderer string, empty when not rendering
+  std::string renderer;                 ///< GL renderer string, empty when not rendering
   std::vector<PointCloud> last_clouds;  ///< the last frame set's point clouds
 };
 
@@ -49,7 +50,8 @@ struct ViewerResult {
 /// Throws Error if the connection or handshake fails, or the renderer cannot start.
 ViewerResult run_viewer(const ViewerOptions& options);
 
-/// Writes the figures as JSON ({"depth_codec", "color_codec", "frames_rendered", "cameras": [...]}).
+/// Writes the figures as JSON ({"depth_codec", "color_codec", "frames_rendered", "cameras":
+/// [...]}).
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& result);
 /// A short human-readable table of the figures.
 std::string format_stats_table(const ViewerResult& result);

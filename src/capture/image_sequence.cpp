@@ -37,7 +37,8 @@ ColorImage read_color(const fs::path& path) {
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
   if (ext == ".png") return read_color_png(path);
   std::ifstream in(path, std::ios::binary);
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
   if (!in.good() && !in.eof()) throw Error("cannot read '" + path.string() + "'");
   ColorImage out;
   try {
@@ -59,7 +60,8 @@ SequenceConfig read_config(const fs::path& file) {
   if (!fs::exists(file)) return cfg;
   std::ifstream in(file);
   nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) throw Error("'" + file.string() + "' is not a JSON object");
+  if (j.is_discarded() || !j.is_object())
+    throw Error("'" + file.string() + "' is not a JSON object");
   try {
     Intrinsics k;
     k.fx = j.at("fx").get<double>();
@@ -78,7 +80,8 @@ SequenceConfig read_config(const fs::path& file) {
       const auto r = w.at("rotation").get<std::vector<double>>();
       const auto tr = w.at("translation").get<std::vector<double>>();
       if (r.size() != 9 || tr.size() != 3)
-        throw Error("'" + file.string() + "': world_from_camera needs 9 rotation and 3 translation values");
+        throw Error("'" + file.string() +
+                    "': world_from_camera needs 9 rotation and 3 translation values");
       for (int i = 0; i < 9; ++i) t.rotation(i / 3, i % 3) = r[static_cast<size_t>(i)];
       for (int i = 0; i < 3; ++i) t.translation[i] = tr[static_cast<size_t>(i)];
       cfg.world_from_camera = t;
@@ -92,12 +95,14 @@ SequenceConfig read_config(const fs::path& file) {
 class ImageSequenceSource final : public FrameSource {
  public:
   ImageSequenceSource(const fs::path& dir, const SourceOptions& options) : dir_(dir) {
-    if (!fs::is_directory(dir)) throw Error("image sequence '" + dir.string() + "' is not a folder");
+    if (!fs::is_directory(dir))
+      throw Error("image sequence '" + dir.string() + "' is not a folder");
     depth_files_ = list_files(dir / "depth", {".png"});
     if (depth_files_.empty())
       throw Error("image sequence '" + dir.string() + "' has no 16-bit PNGs in depth/");
     std::map<std::string, fs::path> colors;
-    for (const auto& c : list_files(dir / "color", {".jpg", ".jpeg", ".png"})) colors[c.stem().string()] = c;
+    for (const auto& c : list_files(dir / "color", {".jpg", ".jpeg", ".png"}))
+      colors[c.stem().string()] = c;
     for (const auto& d : depth_files_) {
       auto it = colors.find(d.stem().string());
       color_files_.push_back(it == colors.end() ? fs::path() : it->second);
@@ -114,16 +119,17 @@ class ImageSequenceSource final : public FrameSource {
       k.fx = k.fy = f;
       k.cx = (first.width - 1) / 2.0;
       k.cy = (first.height - 1) / 2.0;
-      spdlog::warn("!!! {} has no intrinsics.json and no --intrinsics was given: using a NOMINAL "
-                   "pinhole (fx = fy = {:.1f}, cx = {:.1f}, cy = {:.1f}, 70 deg horizontal FOV). "
-                   "Point clouds will be scaled wrong if the real camera differs. !!!",
-                   dir.string(), f, k.cx, k.cy);
+      spdlog::warn(
+          "!!! {} has no intrinsics.json and no --intrinsics was given: using a NOMINAL "
+          "pinhole (fx = fy = {:.1f}, cx = {:.1f}, cy = {:.1f}, 70 deg horizontal FOV). "
+          "Point clouds will be scaled wrong if the real camera differs. !!!",
+          dir.string(), f, k.cx, k.cy);
     }
     k.width = first.width;
     k.height = first.height;
     calibration_.depth = k;
-    calibration_.world_from_camera =
-        options.world_from_camera.value_or(cfg.world_from_camera.value_or(RigidTransform::identity()));
+    calibration_.world_from_camera = options.world_from_camera.value_or(
+        cfg.world_from_camera.value_or(RigidTransform::identity()));
     fps_ = options.fps.value_or(cfg.fps.value_or(30.0));
   }
 
@@ -159,7 +165,8 @@ class ImageSequenceSource final : public FrameSource {
 
 }  // namespace
 
-std::unique_ptr<FrameSource> open_image_sequence(const fs::path& dir, const SourceOptions& options) {
+std::unique_ptr<FrameSource> open_image_sequence(const fs::path& dir,
+                                                 const SourceOptions& options) {
   return std::make_unique<ImageSequenceSource>(dir, options);
 }
 

@@ -109,7 +109,8 @@ struct RawCapture {
 // to each other; a color packet within half a frame period of a depth packet belongs to it.
 class CaptureReader {
  public:
-  explicit CaptureReader(const std::filesystem::path& path) : dm_(path), packet_(av_packet_alloc()) {}
+  explicit CaptureReader(const std::filesystem::path& path)
+      : dm_(path), packet_(av_packet_alloc()) {}
   Demuxer& demuxer() { return dm_; }
 
   // Next capture, or nullopt at the end of the file.
@@ -118,7 +119,8 @@ class CaptureReader {
     while (true) {
       const int rc = av_read_frame(dm_.fmt.get(), packet_.get());
       if (rc == AVERROR_EOF) return take_pending();
-      if (rc < 0) throw Error("recording '" + dm_.path + "' is corrupt or truncated: " + av_error(rc));
+      if (rc < 0)
+        throw Error("recording '" + dm_.path + "' is corrupt or truncated: " + av_error(rc));
       AVPacket& p = *packet_;
       const int64_t ts = dm_.to_us(p);
       std::vector<uint8_t> bytes(p.data, p.data + p.size);
@@ -133,7 +135,8 @@ class CaptureReader {
         }
         if (done) return done;
       } else if (index == dm_.color) {
-        if (pending_ && pending_->color.empty() && std::llabs(ts - pending_->timestamp_us) <= kTolerance) {
+        if (pending_ && pending_->color.empty() &&
+            std::llabs(ts - pending_->timestamp_us) <= kTolerance) {
           pending_->color = std::move(bytes);
           return take_pending();
         }
@@ -163,7 +166,8 @@ class K4aRecordingSource final : public FrameSource {
       : path_(path), reader_(std::make_unique<CaptureReader>(path)) {
     Demuxer& dm = reader_->demuxer();
     const K4aCalibration cal = parse_k4a_calibration(dm.calibration_json);
-    calibration_.depth = k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(depth_mode_name(dm)));
+    calibration_.depth =
+        k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(depth_mode_name(dm)));
     calibration_.world_from_camera = options.world_from_camera.value_or(RigidTransform::identity());
     const AVCodecParameters* d = dm.stream(dm.depth)->codecpar;
     if (d->width != calibration_.depth.width || d->height != calibration_.depth.height)
@@ -233,12 +237,15 @@ class K4aRecordingSource final : public FrameSource {
     if (color_is_jpeg_) {
       decode_jpeg(cap.color, color_scratch_);
     } else {
-      const size_t bytes = static_cast<size_t>(color_intrinsics_.width) * color_intrinsics_.height * 4;
-      if (cap.color.size() != bytes) throw Error("recording '" + path_.string() + "': truncated BGRA frame");
+      const size_t bytes =
+          static_cast<size_t>(color_intrinsics_.width) * color_intrinsics_.height * 4;
+      if (cap.color.size() != bytes)
+        throw Error("recording '" + path_.string() + "': truncated BGRA frame");
       color_scratch_ = ColorImage(color_intrinsics_.width, color_intrinsics_.height);
       std::copy(cap.color.begin(), cap.color.end(), color_scratch_.bgra.begin());
     }
-    if (color_scratch_.width != color_intrinsics_.width || color_scratch_.height != color_intrinsics_.height)
+    if (color_scratch_.width != color_intrinsics_.width ||
+        color_scratch_.height != color_intrinsics_.height)
       throw Error("recording '" + path_.string() + "': color frame size differs from its track");
     registration_->apply(out.depth, color_scratch_, out.color);
   }
@@ -266,7 +273,8 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
     const AVStream* st = dm.fmt->streams[i];
     K4aRecordingInfo::Stream s;
     s.index = static_cast<int>(i);
-    s.title = tag(st->metadata, st->codecpar->codec_type == AVMEDIA_TYPE_ATTACHMENT ? "filename" : "title");
+    s.title = tag(st->metadata,
+                  st->codecpar->codec_type == AVMEDIA_TYPE_ATTACHMENT ? "filename" : "title");
     const uint32_t fourcc = st->codecpar->codec_tag;
     if (st->codecpar->codec_id == AV_CODEC_ID_RAWVIDEO && fourcc != 0) {
       for (int b = 0; b < 4; ++b) s.codec += static_cast<char>((fourcc >> (8 * b)) & 0xff);
@@ -279,10 +287,12 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
     s.height = st->codecpar->height;
     info.streams.push_back(s);
   }
-  if (dm.fmt->duration != AV_NOPTS_VALUE) info.duration_s = static_cast<double>(dm.fmt->duration) / AV_TIME_BASE;
+  if (dm.fmt->duration != AV_NOPTS_VALUE)
+    info.duration_s = static_cast<double>(dm.fmt->duration) / AV_TIME_BASE;
   info.depth_mode = depth_mode_name(dm);
   const K4aCalibration cal = parse_k4a_calibration(dm.calibration_json);
-  info.depth_intrinsics = k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(info.depth_mode));
+  info.depth_intrinsics =
+      k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(info.depth_mode));
   info.color_from_depth = cal.color.camera_from_depth;
   if (dm.color >= 0) {
     const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
@@ -292,11 +302,13 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
   while (auto cap = reader.next()) {
     ++info.depth_frames;
     if (!cap->color.empty()) ++info.color_frames;
-    if (cap->depth.size() != static_cast<size_t>(info.depth_intrinsics.width) * info.depth_intrinsics.height * 2)
-      throw Error("recording '" + path.string() + "': depth frame " + std::to_string(info.depth_frames) +
-                  " is truncated");
+    if (cap->depth.size() !=
+        static_cast<size_t>(info.depth_intrinsics.width) * info.depth_intrinsics.height * 2)
+      throw Error("recording '" + path.string() + "': depth frame " +
+                  std::to_string(info.depth_frames) + " is truncated");
   }
-  if (info.depth_frames == 0) throw Error("recording '" + path.string() + "' holds no depth frames");
+  if (info.depth_frames == 0)
+    throw Error("recording '" + path.string() + "' holds no depth frames");
   return info;
 }
 

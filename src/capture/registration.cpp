@@ -8,7 +8,9 @@ namespace volcast {
 
 ColorToDepthRegistration::ColorToDepthRegistration(const Intrinsics& depth, const Intrinsics& color,
                                                    const RigidTransform& color_from_depth)
-    : depth_(depth), color_(color), color_from_depth_(color_from_depth),
+    : depth_(depth),
+      color_(color),
+      color_from_depth_(color_from_depth),
       rays_(make_ray_table(depth)) {}
 
 void ColorToDepthRegistration::apply(const DepthImage& depth, const ColorImage& color,
@@ -34,7 +36,8 @@ void ColorToDepthRegistration::apply(const DepthImage& depth, const ColorImage& 
     if (!uv) continue;
     const double u = uv->x(), v = uv->y();
     if (!(u >= 0 && v >= 0 && u <= cw - 1 && v <= ch - 1)) continue;
-    const int u0 = std::min(static_cast<int>(u), cw - 2), v0 = std::min(static_cast<int>(v), ch - 2);
+    const int u0 = std::min(static_cast<int>(u), cw - 2),
+              v0 = std::min(static_cast<int>(v), ch - 2);
     const double fu = u - u0, fv = v - v0;
     const uint8_t* c00 = color.pixel(u0, v0);
     const uint8_t* c10 = c00 + 4;

@@ -26,11 +26,21 @@ class RawEncoder final : public ColorEncoder {
  public:
   void encode(const ColorImage& image, std::vector<uint8_t>& out) override {
     out.resize(kHeader + image.bgra.size());
-    const uint8_t header[kHeader] = {'V', 'C', 1, 0, 0, 0, 0, 0, uint8_t(image.width),
-                                     uint8_t(image.width >> 8), uint8_t(image.height),
+    const uint8_t header[kHeader] = {'V',
+                                     'C',
+                                     1,
+                                     0,
+                                     0,
+                                     0,
+                                     0,
+                                     0,
+                                     uint8_t(image.width),
+                                     uint8_t(image.width >> 8),
+                                     uint8_t(image.height),
                                      uint8_t(image.height >> 8)};
     std::memcpy(out.data(), header, kHeader);
-    if (!image.bgra.empty()) std::memcpy(out.data() + kHeader, image.bgra.data(), image.bgra.size());
+    if (!image.bgra.empty())
+      std::memcpy(out.data() + kHeader, image.bgra.data(), image.bgra.size());
   }
   std::string_view name() const override { return "raw"; }
 };
@@ -61,7 +71,9 @@ class NoneDecoder final : public ColorDecoder {
 
 }  // namespace
 
-std::vector<std::string> color_codec_names() { return {"jpeg", "raw", "none"}; }
+std::vector<std::string> color_codec_names() {
+  return {"jpeg", "raw", "none"};
+}
 
 std::unique_ptr<ColorEncoder> make_color_encoder(std::string_view name) {
   if (name == "jpeg") return std::make_unique<JpegEncoder>();

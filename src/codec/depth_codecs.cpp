@@ -19,16 +19,29 @@ constexpr int kMaxSide = 8192;
 
 const char* codec_label(uint8_t id) {
   switch (id) {
-    case kRaw: return "raw";
-    case kRvl: return "rvl";
-    case kTrvl: return "trvl";
-    default: return "unknown";
+    case kRaw:
+      return "raw";
+    case kRvl:
+      return "rvl";
+    case kTrvl:
+      return "trvl";
+    default:
+      return "unknown";
   }
 }
 
 void write_header(uint8_t* out, CodecId id, bool key, int w, int h) {
-  const uint8_t header[kDepthHeaderBytes] = {'V', 'D', kVersion, id, uint8_t(key ? kKeyFlag : 0),
-                                             0, 0, 0, uint8_t(w), uint8_t(w >> 8), uint8_t(h),
+  const uint8_t header[kDepthHeaderBytes] = {'V',
+                                             'D',
+                                             kVersion,
+                                             id,
+                                             uint8_t(key ? kKeyFlag : 0),
+                                             0,
+                                             0,
+                                             0,
+                                             uint8_t(w),
+                                             uint8_t(w >> 8),
+                                             uint8_t(h),
                                              uint8_t(h >> 8)};
   std::memcpy(out, header, kDepthHeaderBytes);
 }
@@ -46,7 +59,8 @@ Header read_header(std::span<const uint8_t> d, const char* expect) {
     throw Error(std::string(expect) + ": unsupported depth format version " + std::to_string(d[2]));
   Header h{d[3], (d[4] & kKeyFlag) != 0, d[8] | d[9] << 8, d[10] | d[11] << 8};
   if (std::strcmp(codec_label(h.codec), expect) != 0)
-    throw Error(std::string(expect) + ": frame was encoded with codec '" + codec_label(h.codec) + "'");
+    throw Error(std::string(expect) + ": frame was encoded with codec '" + codec_label(h.codec) +
+                "'");
   if (h.width <= 0 || h.height <= 0 || h.width > kMaxSide || h.height > kMaxSide)
     throw Error(std::string(expect) + ": implausible size " + std::to_string(h.width) + "x" +
                 std::to_string(h.height));
@@ -59,7 +73,8 @@ void check_size(const DepthImage& depth) {
     throw Error("depth encoder: invalid image size");
 }
 
-// RVL body of a frame: alternating (zero count, nonzero count, zigzag deltas of the nonzero values).
+// RVL body of a frame: alternating (zero count, nonzero count, zigzag deltas of the nonzero
+// values).
 size_t rvl_encode_body(const uint16_t* px, size_t n, uint8_t* out) {
   NibbleWriter w(out);
   int32_t previous = 0;
@@ -86,14 +101,16 @@ void rvl_decode_body(std::span<const uint8_t> body, uint16_t* px, size_t n, cons
   size_t i = 0;
   while (i < n) {
     const uint32_t zeros = r.get_vle();
-    if (zeros > n - i) throw Error(std::string(codec) + ": corrupt stream (zero run past the image)");
+    if (zeros > n - i)
+      throw Error(std::string(codec) + ": corrupt stream (zero run past the image)");
     std::fill(px + i, px + i + zeros, uint16_t{0});
     i += zeros;
     const uint32_t nonzeros = r.get_vle();
     if (nonzeros > n - i) throw Error(std::string(codec) + ": corrupt stream (run past the image)");
     for (uint32_t j = 0; j < nonzeros; ++j) {
       const int64_t v = int64_t{previous} + detail::unzigzag(r.get_vle());
-      if (v <= 0 || v > 65535) throw Error(std::string(codec) + ": corrupt stream (value out of range)");
+      if (v <= 0 || v > 65535)
+        throw Error(std::string(codec) + ": corrupt stream (value out of range)");
       px[i++] = static_cast<uint16_t>(v);
       previous = static_cast<int32_t>(v);
     }
@@ -120,10 +137,12 @@ class RawDecoder final : public DepthDecoder {
   void decode(std::span<const uint8_t> data, DepthImage& out) override {
     const Header h = read_header(data, "raw");
     const size_t n = static_cast<size_t>(h.width) * h.height;
-    if (data.size() != kDepthHeaderBytes + n * 2) throw Error("raw: body size does not match the header");
+    if (data.size() != kDepthHeaderBytes + n * 2)
+      throw Error("raw: body size does not match the header");
     if (out.width != h.width || out.height != h.height) out = DepthImage(h.width, h.height);
     const uint8_t* p = data.data() + kDepthHeaderBytes;
-    for (size_t i = 0; i < n; ++i) out.pixels[i] = static_cast<uint16_t>(p[2 * i] | p[2 * i + 1] << 8);
+    for (size_t i = 0; i < n; ++i)
+      out.pixels[i] = static_cast<uint16_t>(p[2 * i] | p[2 * i + 1] << 8);
   }
 };
 
@@ -133,8 +152,8 @@ class RvlEncoder final : public DepthEncoder {
     check_size(depth);
     out.resize(kDepthHeaderBytes + detail::max_body_bytes(depth.size()));
     write_header(out.data(), kRvl, true, depth.width, depth.height);
-    out.resize(kDepthHeaderBytes + rvl_encode_body(depth.pixels.data(), depth.size(),
-                                                   out.data() + kDepthHeaderBytes));
+    out.resize(kDepthHeaderBytes +
+               rvl_encode_body(depth.pixels.data(), depth.size(), out.data() + kDepthHeaderBytes));
     return true;
   }
   std::string_view name() const override { return "rvl"; }
@@ -256,7 +275,9 @@ class TrvlDecoder final : public DepthDecoder {
 
 }  // namespace
 
-std::vector<std::string> depth_codec_names() { return {"raw", "rvl", "trvl"}; }
+std::vector<std::string> depth_codec_names() {
+  return {"raw", "rvl", "trvl"};
+}
 
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
   return std::make_unique<TrvlEncoder>(params);

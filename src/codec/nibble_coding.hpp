@@ -80,11 +80,17 @@ class NibbleReader {
   const char* codec_;
 };
 
-inline uint32_t zigzag(int32_t v) { return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31); }
-inline int32_t unzigzag(uint32_t u) { return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1); }
+inline uint32_t zigzag(int32_t v) {
+  return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
+}
+inline int32_t unzigzag(uint32_t u) {
+  return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1);
+}
 
 /// Worst-case body size for n pixels: every pixel its own run pair (two 8-nibble counts at most)
 /// plus a 6-nibble value, rounded up to words.
-inline size_t max_body_bytes(size_t n) { return (n * 22 + 7) / 8 * 4 + 8; }
+inline size_t max_body_bytes(size_t n) {
+  return (n * 22 + 7) / 8 * 4 + 8;
+}
 
 }  // namespace volcast::detail

@@ -44,8 +44,8 @@ RawPng read_png(const std::filesystem::path& path, bool want16) {
   if (std::fread(sig, 1, 8, f.get()) != 8 || png_sig_cmp(sig, 0, 8) != 0)
     throw Error("'" + path.string() + "' is not a PNG file");
   std::string err;
-  png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn,
-                                           png_warning_fn);
+  png_structp png =
+      png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn, png_warning_fn);
   png_infop info = png_create_info_struct(png);
   RawPng out;
   std::vector<png_bytep> rows;
@@ -86,8 +86,8 @@ void write_png(const std::filesystem::path& path, int width, int height, int col
                int bit_depth, const uint8_t* data, size_t row_bytes, bool swap16) {
   File f = open_file(path, "wb");
   std::string err;
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn,
-                                            png_warning_fn);
+  png_structp png =
+      png_create_write_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn, png_warning_fn);
   png_infop info = png_create_info_struct(png);
   std::vector<png_bytep> rows(static_cast<size_t>(height));
   if (setjmp(png_jmpbuf(png))) {

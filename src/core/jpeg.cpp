@@ -38,8 +38,8 @@ void decode_jpeg(std::span<const uint8_t> jpeg, ColorImage& out) {
   if (w <= 0 || h <= 0 || w > 16384 || h > 16384)
     throw Error("corrupt JPEG: implausible size " + std::to_string(w) + "x" + std::to_string(h));
   if (out.width != w || out.height != h) out = ColorImage(w, h);
-  if (tjDecompress2(tj, jpeg.data(), static_cast<unsigned long>(jpeg.size()), out.bgra.data(), w,
-                    0, h, TJPF_BGRA, TJFLAG_FASTDCT) != 0 &&
+  if (tjDecompress2(tj, jpeg.data(), static_cast<unsigned long>(jpeg.size()), out.bgra.data(), w, 0,
+                    h, TJPF_BGRA, TJFLAG_FASTDCT) != 0 &&
       tjGetErrorCode(tj) == TJERR_FATAL)
     throw Error(std::string("corrupt JPEG: ") + tjGetErrorStr2(tj));
 }

@@ -27,7 +27,8 @@ struct Client::Impl {
     uint8_t bytes[protocol::kHeaderBytes];
     asio::error_code ec;
     asio::read(socket, asio::buffer(bytes), ec);
-    if (ec == asio::error::eof || ec == asio::error::operation_aborted || ec == asio::error::bad_descriptor)
+    if (ec == asio::error::eof || ec == asio::error::operation_aborted ||
+        ec == asio::error::bad_descriptor)
       return false;
     if (ec) {
       std::lock_guard lock(close_mutex);
@@ -55,18 +56,22 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
     asio::connect(impl_->socket, resolver.resolve(config.host, std::to_string(config.port)));
     impl_->socket.set_option(tcp::no_delay(true));
   } catch (const std::system_error& e) {
-    throw Error("cannot connect to " + config.host + ":" + std::to_string(config.port) + ": " + e.what());
+    throw Error("cannot connect to " + config.host + ":" + std::to_string(config.port) + ": " +
+                e.what());
   }
-  const auto hello = protocol::message(protocol::MessageType::kHello,
-                                       protocol::serialize(protocol::Hello{config.depth_codec, config.color_codec}));
+  const auto hello = protocol::message(
+      protocol::MessageType::kHello,
+      protocol::serialize(protocol::Hello{config.depth_codec, config.color_codec}));
   asio::error_code ec;
   asio::write(impl_->socket, asio::buffer(hello), ec);
   if (ec) throw Error("cannot send Hello: " + ec.message());
   protocol::Header header;
-  if (!impl_->read_message(header, 1u << 20)) throw Error("server closed the connection during the handshake");
+  if (!impl_->read_message(header, 1u << 20))
+    throw Error("server closed the connection during the handshake");
   if (header.type == protocol::MessageType::kReject)
     throw Error("server rejected the connection: " + protocol::parse_reject(impl_->payload));
-  if (header.type != protocol::MessageType::kWelcome) throw Error("expected Welcome from the server");
+  if (header.type != protocol::MessageType::kWelcome)
+    throw Error("expected Welcome from the server");
   impl_->welcome = protocol::parse_welcome(impl_->payload);
   for (size_t i = 0; i < impl_->welcome.cameras.size(); ++i) {
     impl_->depth.push_back(make_depth_decoder(config.depth_codec));
@@ -74,9 +79,13 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   }
 }
 
-Client::~Client() { close(); }
+Client::~Client() {
+  close();
+}
 
-const protocol::Welcome& Client::welcome() const { return impl_->welcome; }
+const protocol::Welcome& Client::welcome() const {
+  return impl_->welcome;
+}
 
 bool Client::receive(ReceivedFrameSet& out) {
   protocol::Header header;
@@ -85,8 +94,8 @@ bool Client::receive(ReceivedFrameSet& out) {
   protocol::parse_frame_set(impl_->payload, impl_->encoded);
   const auto& cams = impl_->welcome.cameras;
   if (impl_->encoded.cameras.size() != cams.size())
-    throw Error("frame set has " + std::to_string(impl_->encoded.cameras.size()) + " cameras, the site has " +
-                std::to_string(cams.size()));
+    throw Error("frame set has " + std::to_string(impl_->encoded.cameras.size()) +
+                " cameras, the site has " + std::to_string(cams.size()));
   out.frames.sequence = impl_->encoded.sequence;
   out.frames.capture_time_us = impl_->encoded.capture_time_us;
   out.frames.cameras.resize(cams.size());
@@ -101,14 +110,16 @@ bool Client::receive(ReceivedFrameSet& out) {
     impl_->color[i]->decode(e.color, f.color);
     const Intrinsics& k = cams[i].calibration.depth;
     if (f.depth.width != k.width || f.depth.height != k.height)
-      throw Error("camera " + std::to_string(i) + ": depth frame size differs from its calibration");
+      throw Error("camera " + std::to_string(i) +
+                  ": depth frame size differs from its calibration");
     if (!f.color.empty() && (f.color.width != k.width || f.color.height != k.height))
       throw Error("camera " + std::to_string(i) + ": color frame is not registered to depth");
     out.depth_bytes[i] = e.depth.size();
     out.color_bytes[i] = e.color.size();
   }
   // Decoded: tell the server, which sends the next (newest) frame set only then.
-  const auto ack = protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(out.frames.sequence));
+  const auto ack =
+      protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(out.frames.sequence));
   asio::error_code ec;
   asio::write(impl_->socket, asio::buffer(ack), ec);
   if (ec) {

@@ -97,7 +97,8 @@ Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload) {
   if (h.version != kVersion)
     throw Error("protocol version mismatch: peer speaks " + std::to_string(h.version) +
                 ", this build speaks " + std::to_string(kVersion));
-  if (type < 1 || type > 5) throw Error("malformed header: unknown message type " + std::to_string(type));
+  if (type < 1 || type > 5)
+    throw Error("malformed header: unknown message type " + std::to_string(type));
   h.type = static_cast<MessageType>(type);
   if (h.payload_bytes > max_payload)
     throw Error("malformed header: payload of " + std::to_string(h.payload_bytes) +
@@ -202,7 +203,8 @@ void serialize(const EncodedFrameSet& m, std::vector<uint8_t>& out) {
     w.put_bytes(c.depth);
     w.put_bytes(c.color);
   }
-  write_header(MessageType::kFrameSet, static_cast<uint32_t>(out.size() - kHeaderBytes), out.data());
+  write_header(MessageType::kFrameSet, static_cast<uint32_t>(out.size() - kHeaderBytes),
+               out.data());
 }
 
 void parse_frame_set(std::span<const uint8_t> payload, EncodedFrameSet& out) {

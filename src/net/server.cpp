@@ -79,13 +79,30 @@ struct Server::Impl {
     try {
       s.non_blocking(true);
       s.set_option(tcp::no_delay(true));
-      uint8_t header_bytes[protocol::kHeaderBytes];
-      detail::read_exact(s, header_bytes, sizeof header_bytes, config.handshake_timeout_ms, stopping);
-      const protocol::Header header = protocol::parse_header(header_bytes, protocol::kMaxHelloBytes);
-      if (header.type != protocol::MessageType::kHello) throw Error("expected Hello as first message");
-      std::vector<uint8_t> payload(header.payload_bytes);
-      detail::read_exact(s, payload.data(), payload.size(), config.handshake_timeout_ms, stopping);
-      const protocol::Hello hello = protocol::parse_hello(payload);
+      protocol::Hello hello;
+      try {
+        uint8_t header_bytes[protocol::kHeaderBytes];
+        detail::read_exact(s, header_bytes, sizeof header_bytes, config.handshake_timeout_ms,
+                           stopping);
+        const protocol::Header header =
+            protocol::parse_header(header_bytes, protocol::kMaxHelloBytes);
+        if (header.type != protocol::MessageType::kHello)
+          throw Error("expected Hello as first message");
+        std::vector<uint8_t> payload(header.payload_bytes);
+        detail::read_exact(s, payload.data(), payload.size(), config.handshake_timeout_ms,
+                           stopping);
+        hello = protocol::parse_hello(payload);
+      } catch (const Error& e) {
+        // Tell a confused peer why (wrong version, garbage, timeout) before closing; best effort.
+        const auto msg = protocol::message(
+            protocol::MessageType::kReject,
+            protocol::serialize_reject(std::string("handshake failed: ") + e.what()));
+        try {
+          detail::write_all(s, msg.data(), msg.size(), 200, stopping);
+        } catch (const Error&) {
+        }
+        throw;
+      }
       update(v, [&](ViewerReport& r) {
         r.depth_codec = hello.depth_codec;
         r.color_codec = hello.color_codec;
@@ -99,7 +116,8 @@ struct Server::Impl {
           color.push_back(make_color_encoder(hello.color_codec));
         }
       } catch (const Error& e) {
-        const auto msg = protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(e.what()));
+        const auto msg =
+            protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(e.what()));
         detail::write_all(s, msg.data(), msg.size(), config.stall_timeout_ms, stopping);
         throw;
       }
@@ -134,21 +152,26 @@ struct Server::Impl {
     std::vector<uint8_t> ack_payload;
     // Reads one Ack (or any other message, which is a protocol error at this point).
     auto read_ack = [&] {
-      detail::read_exact(*v.socket, ack_header, sizeof ack_header, config.handshake_timeout_ms, stopping);
+      detail::read_exact(*v.socket, ack_header, sizeof ack_header, config.handshake_timeout_ms,
+                         stopping);
       const protocol::Header h = protocol::parse_header(ack_header, 64);
       if (h.type != protocol::MessageType::kAck) throw Error("viewer sent an unexpected message");
       ack_payload.resize(h.payload_bytes);
-      detail::read_exact(*v.socket, ack_payload.data(), ack_payload.size(), config.handshake_timeout_ms, stopping);
+      detail::read_exact(*v.socket, ack_payload.data(), ack_payload.size(),
+                         config.handshake_timeout_ms, stopping);
       const uint64_t acked = protocol::parse_ack(ack_payload);
-      if (acked > last_sequence || in_flight == 0) throw Error("viewer acknowledged a frame set it was not sent");
+      if (acked > last_sequence || in_flight == 0)
+        throw Error("viewer acknowledged a frame set it was not sent");
       --in_flight;
       last_ack = std::chrono::steady_clock::now();
     };
     while (!stopping) {
       while (detail::wait_ready(*v.socket, POLLIN, 0)) read_ack();
       if (in_flight >= static_cast<uint64_t>(config.window)) {
-        if (std::chrono::steady_clock::now() - last_ack > std::chrono::milliseconds(config.stall_timeout_ms))
-          throw Error("viewer stalled: acknowledged nothing for " + std::to_string(config.stall_timeout_ms) + " ms");
+        if (std::chrono::steady_clock::now() - last_ack >
+            std::chrono::milliseconds(config.stall_timeout_ms))
+          throw Error("viewer stalled: acknowledged nothing for " +
+                      std::to_string(config.stall_timeout_ms) + " ms");
         if (detail::wait_ready(*v.socket, POLLIN, 50)) read_ack();
         continue;
       }
@@ -206,9 +229,13 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   impl_->accept_thread = std::thread([this] { impl_->accept_loop(); });
 }
 
-Server::~Server() { stop(); }
+Server::~Server() {
+  stop();
+}
 
-uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+uint16_t Server::port() const {
+  return impl_->acceptor.local_endpoint().port();
+}
 
 void Server::publish(std::shared_ptr<const FrameSet> frames) {
   if (!frames || frames->cameras.size() != impl_->cameras.size())

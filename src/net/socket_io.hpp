@@ -29,7 +29,8 @@ inline void read_exact(asio::ip::tcp::socket& s, uint8_t* data, size_t size, int
     asio::error_code ec;
     done += s.read_some(asio::buffer(data + done, size - done), ec);
     if (ec == asio::error::would_block || ec == asio::error::try_again) {
-      if (std::chrono::steady_clock::now() > deadline) throw Error("timed out waiting for the peer");
+      if (std::chrono::steady_clock::now() > deadline)
+        throw Error("timed out waiting for the peer");
       wait_ready(s, POLLIN, 50);
     } else if (ec == asio::error::eof) {
       throw Error("peer closed the connection");

@@ -11,7 +11,8 @@ CloudBuilder::CloudBuilder(const CameraCalibration& calibration)
       rays_(make_ray_table(calibration.depth)),
       rotation_(calibration.world_from_camera.rotation.cast<float>()),
       translation_(calibration.world_from_camera.translation.cast<float>()),
-      radius_per_metre_(static_cast<float>(0.75 * 2.0 / (calibration.depth.fx + calibration.depth.fy))) {}
+      radius_per_metre_(
+          static_cast<float>(0.75 * 2.0 / (calibration.depth.fx + calibration.depth.fy))) {}
 
 void CloudBuilder::build(const DepthImage& depth, const ColorImage& color, PointCloud& out) const {
   const Intrinsics& k = calibration_.depth;
@@ -32,7 +33,8 @@ void CloudBuilder::build(const DepthImage& depth, const ColorImage& color, Point
     uint32_t rgba = kNoColor;
     if (has_color) {
       const uint8_t* c = &color.bgra[i * 4];
-      if (c[3] != 0) rgba = uint32_t{c[2]} | uint32_t{c[1]} << 8 | uint32_t{c[0]} << 16 | 0xff000000u;
+      if (c[3] != 0)
+        rgba = uint32_t{c[2]} | uint32_t{c[1]} << 8 | uint32_t{c[0]} << 16 | 0xff000000u;
     }
     out.points.push_back({{p.x(), p.y(), p.z()}, z * radius_per_metre_, rgba});
   }

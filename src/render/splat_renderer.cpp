@@ -51,7 +51,8 @@ GLuint compile(GLenum type, const char* source) {
   return s;
 }
 
-Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target, const Eigen::Vector3f& up) {
+Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target,
+                        const Eigen::Vector3f& up) {
   const Eigen::Vector3f f = (target - eye).normalized();
   const Eigen::Vector3f s = f.cross(up).normalized();
   const Eigen::Vector3f u = s.cross(f);
@@ -92,9 +93,9 @@ SplatRenderer::SplatRenderer(int width, int height) : impl_(std::make_unique<Imp
   Impl& r = *impl_;
   r.width = width;
   r.height = height;
-  if (epoxy_gl_version() < 45) throw Error("renderer: OpenGL 4.5 is required, got " +
-                                           std::to_string(epoxy_gl_version() / 10) + "." +
-                                           std::to_string(epoxy_gl_version() % 10));
+  if (epoxy_gl_version() < 45)
+    throw Error("renderer: OpenGL 4.5 is required, got " + std::to_string(epoxy_gl_version() / 10) +
+                "." + std::to_string(epoxy_gl_version() % 10));
   glCreateRenderbuffers(1, &r.color_rb);
   glNamedRenderbufferStorage(r.color_rb, GL_RGBA8, width, height);
   glCreateRenderbuffers(1, &r.depth_rb);
@@ -154,12 +155,14 @@ void SplatRenderer::render(std::span<const PointCloud* const> clouds, const View
   size_t offset = 0;
   for (const PointCloud* c : clouds) {
     const size_t n = c->points.size() * sizeof(SplatPoint);
-    if (n) glNamedBufferSubData(r.vbo, static_cast<GLintptr>(offset), static_cast<GLsizeiptr>(n), c->points.data());
+    if (n)
+      glNamedBufferSubData(r.vbo, static_cast<GLintptr>(offset), static_cast<GLsizeiptr>(n),
+                           c->points.data());
     offset += n;
   }
 
-  const Eigen::Matrix4f proj = perspective(view.vertical_fov_deg, float(r.width) / float(r.height),
-                                           view.near_m, view.far_m);
+  const Eigen::Matrix4f proj =
+      perspective(view.vertical_fov_deg, float(r.width) / float(r.height), view.near_m, view.far_m);
   const Eigen::Matrix4f clip_from_world = proj * look_at(view.eye, view.target, view.up);
   glBindFramebuffer(GL_FRAMEBUFFER, r.fbo);
   glViewport(0, 0, r.width, r.height);
@@ -168,8 +171,10 @@ void SplatRenderer::render(std::span<const PointCloud* const> clouds, const View
   glEnable(GL_DEPTH_TEST);
   glEnable(GL_PROGRAM_POINT_SIZE);
   glUseProgram(r.program);
-  glUniformMatrix4fv(glGetUniformLocation(r.program, "clip_from_world"), 1, GL_FALSE, clip_from_world.data());
-  glUniform1f(glGetUniformLocation(r.program, "pixels_per_unit"), 0.5f * float(r.height) * proj(1, 1));
+  glUniformMatrix4fv(glGetUniformLocation(r.program, "clip_from_world"), 1, GL_FALSE,
+                     clip_from_world.data());
+  glUniform1f(glGetUniformLocation(r.program, "pixels_per_unit"),
+              0.5f * float(r.height) * proj(1, 1));
   glBindVertexArray(r.vao);
   glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(total));
 
@@ -189,23 +194,34 @@ std::string SplatRenderer::gl_description() const {
          reinterpret_cast<const char*>(glGetString(GL_VERSION));
 }
 
-ViewCamera frame_points(std::span<const PointCloud* const> clouds, float yaw_deg, float pitch_deg) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  size_t n = 0;
+ViewCamera orbit_view(const RigidTransform& world_from_camera,
+                      std::span<const PointCloud* const> clouds, float yaw_deg, float pitch_deg) {
+  const Eigen::Vector3d eye = world_from_camera.translation;
+  const Eigen::Vector3d forward = world_from_camera.rotation * Eigen::Vector3d(0, 0, 1);
+  const Eigen::Vector3d up = world_from_camera.rotation * Eigen::Vector3d(0, -1, 0);
+  const Eigen::Vector3d right = world_from_camera.rotation * Eigen::Vector3d(1, 0, 0);
+  // Pivot at the median distance along the camera's axis (robust to a far floor or wall).
+  std::vector<float> along;
   for (const PointCloud* c : clouds)
-    for (const SplatPoint& p : c->points) {
-      sum += Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
-      ++n;
+    for (size_t i = 0; i < c->points.size(); i += 16) {
+      const float* p = c->points[i].position;
+      along.push_back(static_cast<float>((Eigen::Vector3d(p[0], p[1], p[2]) - eye).dot(forward)));
     }
+  double distance = 1.0;
+  if (!along.empty()) {
+    std::nth_element(along.begin(), along.begin() + static_cast<std::ptrdiff_t>(along.size() / 2),
+                     along.end());
+    distance = std::max(0.3, static_cast<double>(along[along.size() / 2]));
+  }
+  const Eigen::Vector3d pivot = eye + forward * distance;
+  const double to_rad = std::numbers::pi / 180;
+  const Eigen::Matrix3d turn =
+      (Eigen::AngleAxisd(yaw_deg * to_rad, up) * Eigen::AngleAxisd(-pitch_deg * to_rad, right))
+          .toRotationMatrix();
   ViewCamera v;
-  if (n == 0) return v;
-  const Eigen::Vector3f centroid = (sum / static_cast<double>(n)).cast<float>();
-  // Look from the world origin's side, at the same distance, turned about the up axis (-y).
-  const float distance = std::max(0.5f, centroid.norm());
-  const float yaw = yaw_deg * std::numbers::pi_v<float> / 180, pitch = pitch_deg * std::numbers::pi_v<float> / 180;
-  const Eigen::Vector3f back(-std::sin(yaw) * std::cos(pitch), -std::sin(pitch), -std::cos(yaw) * std::cos(pitch));
-  v.target = centroid;
-  v.eye = centroid + back * distance;
+  v.target = pivot.cast<float>();
+  v.eye = (pivot + turn * (eye - pivot)).cast<float>();
+  v.up = up.cast<float>();
   return v;
 }
 

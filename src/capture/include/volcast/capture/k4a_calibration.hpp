@@ -28,7 +28,13 @@ struct K4aCalibration {
 K4aCalibration parse_k4a_calibration(std::string_view json_text);
 
 /// Depth modes of the Azure Kinect, named as in k4arecorder's K4A_DEPTH_MODE tag.
-enum class K4aDepthMode { kNfov2x2Binned, kNfovUnbinned, kWfov2x2Binned, kWfovUnbinned, kPassiveIr };
+enum class K4aDepthMode {
+  kNfov2x2Binned,
+  kNfovUnbinned,
+  kWfov2x2Binned,
+  kWfovUnbinned,
+  kPassiveIr
+};
 
 /// Parses "NFOV_UNBINNED", "NFOV_2X2BINNED", "WFOV_2X2BINNED", "WFOV_UNBINNED", "PASSIVE_IR".
 K4aDepthMode parse_k4a_depth_mode(std::string_view name);

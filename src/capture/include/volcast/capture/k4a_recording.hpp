@@ -21,9 +21,9 @@ struct K4aRecordingInfo {
     int width = 0, height = 0;
   };
   std::vector<Stream> streams;
-  std::string depth_mode;       ///< e.g. NFOV_UNBINNED
-  std::string color_mode;       ///< e.g. MJPG_720P, or empty without color
-  int depth_frames = 0;         ///< depth frames in the file (counted by reading every packet)
+  std::string depth_mode;  ///< e.g. NFOV_UNBINNED
+  std::string color_mode;  ///< e.g. MJPG_720P, or empty without color
+  int depth_frames = 0;    ///< depth frames in the file (counted by reading every packet)
   int color_frames = 0;
   double duration_s = 0;
   Intrinsics depth_intrinsics;  ///< derived for the depth mode, pixels

@@ -11,7 +11,8 @@
 namespace volcast {
 
 /// Intrinsics of one camera image. fx, fy, cx, cy in pixels. Distortion maps an ideal normalised
-/// point (x, y) = (X/Z, Y/Z) to a distorted one (Azure Kinect SDK, transformation_project_internal):
+/// point (x, y) = (X/Z, Y/Z) to a distorted one (Azure Kinect SDK,
+/// transformation_project_internal):
 ///   xp = x - codx, r2 = xp^2 + yp^2,
 ///   d  = (1 + k1 r2 + k2 r2^2 + k3 r2^3) / (1 + k4 r2 + k5 r2^2 + k6 r2^3),
 ///   xd = xp d + (r2 + 2 xp^2) p2 + 2 xp yp p1 + codx   (yd likewise with p1/p2 swapped),
@@ -71,8 +72,8 @@ struct RigidTransform {
 /// Everything a viewer needs to turn one camera's depth into world-space points.
 /// Color is registered to depth (same pixel grid), so one set of intrinsics serves both.
 struct CameraCalibration {
-  Intrinsics depth;                    ///< intrinsics of the depth image (and registered color)
-  RigidTransform world_from_camera;    ///< places the depth camera in the site's world frame
+  Intrinsics depth;                  ///< intrinsics of the depth image (and registered color)
+  RigidTransform world_from_camera;  ///< places the depth camera in the site's world frame
 };
 
 }  // namespace volcast

@@ -37,7 +37,13 @@ inline constexpr uint32_t kMaxHelloBytes = 4096;
 inline constexpr uint32_t kMaxPayloadBytes = 256u << 20;  ///< 256 MiB: any larger is hostile
 inline constexpr int kMaxCameras = 64;
 
-enum class MessageType : uint16_t { kHello = 1, kWelcome = 2, kReject = 3, kFrameSet = 4, kAck = 5 };
+enum class MessageType : uint16_t {
+  kHello = 1,
+  kWelcome = 2,
+  kReject = 3,
+  kFrameSet = 4,
+  kAck = 5
+};
 
 struct Header {
   uint16_t version = kVersion;

@@ -5,8 +5,9 @@
 // Pacing: the server keeps only the newest frame set. Each viewer has its own thread and encoders;
 // it sends a frame set only while fewer than `window` are unacknowledged, and then always the
 // newest one, so a viewer that cannot keep up skips whole frame sets (counted as dropped) instead
-// of queueing them in socket buffers, and never slows another viewer or the publisher. Temporal codecs stay decodable across skips because each viewer's
-// encoder codes deltas against the last frame that viewer was sent.
+// of queueing them in socket buffers, and never slows another viewer or the publisher. Temporal
+// codecs stay decodable across skips because each viewer's encoder codes deltas against the last
+// frame that viewer was sent.
 #include <cstdint>
 #include <memory>
 #include <string>

@@ -12,8 +12,8 @@ namespace volcast {
 /// One point, laid out for upload to the GPU as is (20 bytes).
 struct SplatPoint {
   float position[3];  ///< world frame, metres
-  float radius;       ///< splat radius in metres: 0.75 x the pixel's footprint (depth / focal length)
-  uint32_t rgba;      ///< color, R in the lowest byte; gray (160) where the pixel had no color
+  float radius;   ///< splat radius in metres: 0.75 x the pixel's footprint (depth / focal length)
+  uint32_t rgba;  ///< color, R in the lowest byte; gray (160) where the pixel had no color
 };
 
 struct PointCloud {

@@ -24,10 +24,14 @@ struct ViewCamera {
   float near_m = 0.05f, far_m = 100;
 };
 
-/// A viewpoint that frames all points: looks at their centroid from the side of the world origin
-/// (where the cameras usually are), turned `yaw_deg` about the up axis and raised by `pitch_deg`.
-ViewCamera frame_points(std::span<const PointCloud* const> clouds, float yaw_deg = 25,
-                        float pitch_deg = 15);
+/// A viewpoint that orbits a pivot starting from a camera: the pivot lies on the camera's optical
+/// axis at the median depth of the points; the eye starts at `world_from_camera`'s origin and is
+/// turned `yaw_deg` about the camera's up axis and `pitch_deg` about its right axis, around the
+/// pivot, looking at it. Shows the scene roughly as that camera saw it, but from the side, so
+/// depth is visible.
+ViewCamera orbit_view(const RigidTransform& world_from_camera,
+                      std::span<const PointCloud* const> clouds, float yaw_deg = 20,
+                      float pitch_deg = 10);
 
 class SplatRenderer {
  public:

@@ -1,0 +1,176 @@
+// Sources: the genuine Azure Kinect recording and image-sequence folders, including bad input.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "test_data.hpp"
+#include "volcast/capture/k4a_recording.hpp"
+#include "volcast/capture/image_sequence.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(K4aRecording, DecodesBigEndianDepthInAPlausibleMillimetreRange) {
+  auto src = open_source(test::kinect_mkv());
+  EXPECT_EQ(src->frame_count(), 1);
+  const CameraFrame f = src->next();
+  ASSERT_EQ(f.depth.width, 640);
+  ASSERT_EQ(f.depth.height, 576);
+  size_t valid = 0;
+  double sum = 0;
+  uint16_t lo = 65535, hi = 0;
+  for (uint16_t d : f.depth.pixels) {
+    if (!d) continue;
+    ++valid, sum += d, lo = std::min(lo, d), hi = std::max(hi, d);
+  }
+  // NFOV unbinned measures 0.5-3.86 m (Azure Kinect spec); byte-swapped samples would spread over
+  // the whole 16-bit range.
+  EXPECT_GT(valid, f.depth.size() / 2);
+  EXPECT_GE(lo, 100);
+  EXPECT_LE(hi, 6000);
+  EXPECT_GT(sum / static_cast<double>(valid), 300.0);
+  EXPECT_LT(sum / static_cast<double>(valid), 4000.0);
+}
+
+TEST(K4aRecording, RegistersColorOntoMostValidDepthPixels) {
+  auto src = open_source(test::kinect_mkv());
+  const CameraFrame f = src->next();
+  ASSERT_EQ(f.color.width, 640);
+  ASSERT_EQ(f.color.height, 576);
+  size_t valid = 0, colored = 0, colored_without_depth = 0;
+  for (size_t i = 0; i < f.depth.size(); ++i) {
+    const bool has_color = f.color.bgra[i * 4 + 3] == 255;
+    if (f.depth.pixels[i]) {
+      ++valid;
+      colored += has_color;
+    } else {
+      colored_without_depth += has_color;
+    }
+  }
+  EXPECT_GT(static_cast<double>(colored) / static_cast<double>(valid), 0.6);
+  EXPECT_EQ(colored_without_depth, 0u);
+  // Real image content, not a constant: the registered colors vary.
+  double mean = 0, var = 0;
+  for (size_t i = 0; i < f.depth.size(); ++i) mean += f.color.bgra[i * 4 + 1];
+  mean /= static_cast<double>(f.depth.size());
+  for (size_t i = 0; i < f.depth.size(); ++i) var += std::pow(f.color.bgra[i * 4 + 1] - mean, 2);
+  EXPECT_GT(std::sqrt(var / static_cast<double>(f.depth.size())), 10.0);
+}
+
+TEST(K4aRecording, LoopsAndKeepsTimestampsIncreasing) {
+  auto src = open_source(test::kinect_mkv());
+  const CameraFrame a = src->next();
+  const CameraFrame b = src->next();
+  EXPECT_EQ(a.depth, b.depth);
+  EXPECT_GT(b.device_timestamp_us, a.device_timestamp_us);
+}
+
+TEST(K4aRecording, ProbeReportsStreamsAndIntrinsics) {
+  const K4aRecordingInfo info = probe_k4a_recording(test::kinect_mkv());
+  EXPECT_EQ(info.depth_mode, "NFOV_UNBINNED");
+  EXPECT_EQ(info.color_mode, "MJPG_720P");
+  EXPECT_EQ(info.depth_frames, 1);
+  EXPECT_EQ(info.color_frames, 1);
+  ASSERT_GE(info.streams.size(), 4u);
+  EXPECT_EQ(info.streams[1].title, "DEPTH");
+  EXPECT_EQ(info.streams[1].codec, "b16g");
+  EXPECT_EQ(info.color_intrinsics.width, 1280);
+}
+
+TEST(K4aRecording, RejectsMissingCorruptAndTruncatedFiles) {
+  const fs::path dir = test::temp_dir("bad_mkv");
+  EXPECT_NE(error_of([&] { open_source(dir / "missing.mkv"); }).find("does not exist"), std::string::npos);
+
+  std::ofstream(dir / "garbage.mkv") << "this is not a matroska file at all";
+  EXPECT_NE(error_of([&] { open_source(dir / "garbage.mkv"); }).find("garbage.mkv"), std::string::npos);
+
+  // The real recording cut at several points: every cut is an error naming the file, never a crash.
+  std::ifstream in(test::kinect_mkv(), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // A cut past the capture's packets (into the IR/IMU data) keeps the whole capture: nothing
+  // recorded is lost.
+  const DepthImage complete = open_source(test::kinect_mkv())->next().depth;
+  int errors = 0;
+  for (double fraction : {0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99}) {
+    const fs::path cut = dir / "truncated.mkv";
+    std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(static_cast<double>(bytes.size()) * fraction));
+    DepthImage got;
+    const std::string err = error_of([&] { got = open_source(cut)->next().depth; });
+    if (err.empty()) {
+      EXPECT_EQ(got, complete) << "cut at " << fraction << " decoded without error but differs";
+    } else {
+      ++errors;
+      EXPECT_NE(err.find("truncated.mkv"), std::string::npos) << "cut at " << fraction << ": '" << err << "'";
+    }
+  }
+  EXPECT_GE(errors, 2);
+  EXPECT_NE(error_of([&] { open_source(dir); }).find("depth/"), std::string::npos);
+  EXPECT_NE(error_of([&] { open_source(test::data_dir() / "README.md"); }).find("neither"), std::string::npos);
+}
+
+TEST(ImageSequence, ReadsTheRealHandsSequenceAndLoops) {
+  SourceOptions opt;
+  opt.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+  auto src = open_source(test::hands_dir(), opt);
+  EXPECT_EQ(src->frame_count(), 207);
+  EXPECT_DOUBLE_EQ(src->calibration().depth.fx, 460);
+  EXPECT_EQ(src->calibration().depth.width, 640);
+  const CameraFrame first = src->next();
+  EXPECT_EQ(first.depth, read_depth_png(test::hands_dir() / "depth" / "00000.png"));
+  EXPECT_EQ(first.color.width, 640);
+  for (int i = 1; i < 207; ++i) src->next();
+  EXPECT_EQ(src->next().depth, first.depth);  // frame 207 is frame 0 again
+}
+
+TEST(ImageSequence, ReadsIntrinsicsJsonAndRejectsMalformedOnes) {
+  // Synthetic folder layout (labelled): two real hands frames plus a hand-written intrinsics.json.
+  const fs::path dir = test::temp_dir("seq");
+  fs::create_directories(dir / "depth");
+  fs::copy_file(test::hands_dir() / "depth" / "00000.png", dir / "depth" / "a.png");
+  fs::copy_file(test::hands_dir() / "depth" / "00001.png", dir / "depth" / "b.png");
+  std::ofstream(dir / "intrinsics.json")
+      << R"({"fx": 500, "fy": 501, "cx": 319.5, "cy": 179.5, "fps": 15,
+             "world_from_camera": {"rotation": [1,0,0, 0,1,0, 0,0,1], "translation": [0.5, 0, 0]}})";
+  auto src = open_source(dir);
+  EXPECT_DOUBLE_EQ(src->calibration().depth.fy, 501);
+  EXPECT_DOUBLE_EQ(src->fps(), 15);
+  EXPECT_DOUBLE_EQ(src->calibration().world_from_camera.translation.x(), 0.5);
+  EXPECT_TRUE(src->next().color.empty());  // no color folder: depth only
+
+  std::ofstream(dir / "intrinsics.json") << R"({"fx": 500})";
+  EXPECT_NE(error_of([&] { open_source(dir); }).find("intrinsics.json"), std::string::npos);
+  std::ofstream(dir / "intrinsics.json") << "{";
+  EXPECT_NE(error_of([&] { open_source(dir); }).find("intrinsics.json"), std::string::npos);
+}
+
+TEST(ImageSequence, WithoutIntrinsicsUsesANominalPinhole) {
+  auto src = open_source(test::hands_dir());
+  EXPECT_NEAR(src->calibration().depth.fx, 457.0, 0.5);  // 70 degrees horizontal field of view
+}
+
+TEST(ImageSequence, RejectsACorruptDepthPng) {
+  const fs::path dir = test::temp_dir("seq_bad");
+  fs::create_directories(dir / "depth");
+  fs::copy_file(test::hands_dir() / "depth" / "00000.png", dir / "depth" / "a.png");
+  std::ifstream in(test::hands_dir() / "depth" / "00001.png", std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ofstream(dir / "depth" / "b.png", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  auto src = open_source(dir);
+  src->next();
+  EXPECT_NE(error_of([&] { src->next(); }).find("b.png"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -1,0 +1,214 @@
+// Depth codecs (RVL, temporal RVL, raw) and color codecs: exactness on real and synthetic frames,
+// key frames and drops, and rejection of corrupt streams.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "test_data.hpp"
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/jpeg.hpp"
+
+namespace volcast {
+namespace {
+
+void expect_round_trip(const std::string& codec, const std::vector<DepthImage>& frames, const std::string& set) {
+  auto enc = make_depth_encoder(codec);
+  auto dec = make_depth_decoder(codec);
+  std::vector<uint8_t> bytes;
+  DepthImage out;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    enc->encode(frames[i], i == 0, bytes);
+    dec->decode(bytes, out);
+    ASSERT_EQ(out, frames[i]) << codec << " on " << set << " frame " << i;
+  }
+}
+
+class RealSets : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RealSets, RvlAndTemporalRvlRoundTripBitExactlyOnEveryFrame) {
+  const auto frames = test::real_depth_frames(GetParam());
+  ASSERT_FALSE(frames.empty());
+  expect_round_trip("rvl", frames, GetParam());
+  expect_round_trip("trvl", frames, GetParam());
+  expect_round_trip("raw", frames, GetParam());
+}
+
+INSTANTIATE_TEST_SUITE_P(SharedData, RealSets, ::testing::Values("hands", "kinect", "4cam", "binned"));
+
+TEST(Rvl, CompressesRealDepth) {
+  const auto frames = test::real_depth_frames("kinect");
+  std::vector<uint8_t> bytes;
+  make_depth_encoder("rvl")->encode(frames[0], true, bytes);
+  const double ratio = static_cast<double>(frames[0].size() * 2) / static_cast<double>(bytes.size());
+  EXPECT_GT(ratio, 3.0);  // Wilson 2017 reports ~3-4x on Kinect depth
+}
+
+// Synthetic frames (labelled): values across the whole 16-bit range, including above 32767 where
+// a signed-16-bit RVL would fail, and the largest possible jumps between neighbours.
+DepthImage synthetic_full_range(uint32_t seed) {
+  DepthImage d(97, 61);
+  std::mt19937 rng(seed);
+  for (size_t i = 0; i < d.size(); ++i) {
+    switch (i % 5) {
+      case 0: d.pixels[i] = 65535; break;
+      case 1: d.pixels[i] = 1; break;
+      case 2: d.pixels[i] = 0; break;
+      default: d.pixels[i] = static_cast<uint16_t>(rng());
+    }
+  }
+  return d;
+}
+
+TEST(Rvl, RoundTripsValuesAbove32767) {
+  expect_round_trip("rvl", {synthetic_full_range(1), synthetic_full_range(2)}, "synthetic");
+}
+
+TEST(TemporalRvl, RoundTripsValuesAbove32767AndMaximalChanges) {
+  DepthImage a = synthetic_full_range(3), b = a;
+  for (auto& v : b.pixels) v = static_cast<uint16_t>(65535 - v);  // every pixel jumps, up to 65535
+  expect_round_trip("trvl", {a, b, a, synthetic_full_range(4)}, "synthetic");
+}
+
+TEST(TemporalRvl, StaysExactAcrossDroppedFrames) {
+  // The encoder only sees the frames the viewer receives; deltas refer to the last one it sent.
+  const auto frames = test::real_depth_frames("hands");
+  auto enc = make_depth_encoder("trvl");
+  auto dec = make_depth_decoder("trvl");
+  std::vector<uint8_t> bytes;
+  DepthImage out;
+  size_t sent = 0, keys = 0;
+  for (size_t i = 0; i < frames.size(); i += 1 + (i % 4)) {  // drops 0, 1, 2 or 3 frames at a time
+    keys += enc->encode(frames[i], sent == 0, bytes);
+    EXPECT_EQ(depth_frame_is_key(bytes), sent == 0);
+    dec->decode(bytes, out);
+    ASSERT_EQ(out, frames[i]) << "frame " << i;
+    ++sent;
+  }
+  EXPECT_EQ(keys, 1u);
+  EXPECT_GT(sent, 50u);
+}
+
+TEST(TemporalRvl, KeyFrameResynchronisesANewDecoder) {
+  const auto frames = test::real_depth_frames("hands");
+  auto enc = make_depth_encoder("trvl");
+  std::vector<uint8_t> bytes;
+  enc->encode(frames[0], true, bytes);
+  enc->encode(frames[1], false, bytes);
+  auto late = make_depth_decoder("trvl");
+  DepthImage out;
+  EXPECT_THROW(late->decode(bytes, out), Error);  // a delta without its key frame
+  enc->encode(frames[2], true, bytes);
+  late->decode(bytes, out);
+  EXPECT_EQ(out, frames[2]);
+  enc->encode(frames[3], false, bytes);
+  late->decode(bytes, out);
+  EXPECT_EQ(out, frames[3]);
+}
+
+TEST(TemporalRvl, UnchangedPixelsCostAlmostNothing) {
+  // A static scene (the real Azure Kinect frame, replayed as its recording loops).
+  const auto frames = test::real_depth_frames("kinect");
+  auto enc = make_depth_encoder("trvl");
+  std::vector<uint8_t> key, delta;
+  enc->encode(frames[0], true, key);
+  enc->encode(frames[0], false, delta);
+  EXPECT_LT(delta.size(), 32u);
+  EXPECT_GT(key.size(), 10'000u);
+}
+
+TEST(TemporalRvl, LossyThresholdsBoundTheErrorOnChangedPixels) {
+  // The paper's lossy setting: changes of at most 10 mm are not sent.
+  const auto frames = test::real_depth_frames("hands");
+  auto enc = make_trvl_encoder({10, 0});
+  auto dec = make_depth_decoder("trvl");
+  std::vector<uint8_t> bytes;
+  DepthImage out;
+  for (size_t i = 0; i < 30; ++i) {
+    enc->encode(frames[i], i == 0, bytes);
+    dec->decode(bytes, out);
+    for (size_t p = 0; p < out.size(); ++p) {
+      ASSERT_EQ(out.pixels[p] == 0, frames[i].pixels[p] == 0);
+      ASSERT_LE(std::abs(int{out.pixels[p]} - int{frames[i].pixels[p]}), 10);
+    }
+  }
+}
+
+TEST(DepthCodecs, UnknownNamesAreRejectedWithTheList) {
+  try {
+    make_depth_encoder("zdepth9");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rvl"), std::string::npos);
+  }
+  EXPECT_THROW(make_depth_decoder(""), Error);
+  EXPECT_THROW(make_color_encoder("webp"), Error);
+}
+
+TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
+  const auto frames = test::real_depth_frames("hands");
+  for (const std::string codec : {"rvl", "trvl", "raw"}) {
+    auto enc = make_depth_encoder(codec);
+    std::vector<uint8_t> key, delta;
+    enc->encode(frames[20], true, key);
+    enc->encode(frames[21], false, delta);
+    DepthImage out;
+    for (size_t cut : {size_t{0}, size_t{5}, size_t{12}, key.size() / 2, key.size() - 4}) {
+      auto dec = make_depth_decoder(codec);
+      EXPECT_THROW(dec->decode(std::span(key).first(cut), out), Error) << codec << " cut at " << cut;
+    }
+    // Bit flips: either an error or some frame of the right size; never out-of-bounds (ASan).
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 200; ++trial) {
+      auto dec = make_depth_decoder(codec);
+      std::vector<uint8_t> bad = trial % 2 ? key : delta;
+      if (trial % 2 == 0) dec->decode(key, out);
+      for (int f = 0; f < 1 + trial % 8; ++f) bad[rng() % bad.size()] ^= static_cast<uint8_t>(1u << (rng() % 8));
+      try {
+        dec->decode(bad, out);
+        EXPECT_EQ(out.size(), static_cast<size_t>(out.width) * out.height);
+      } catch (const Error&) {
+      }
+    }
+    auto other = make_depth_decoder(codec == "rvl" ? "raw" : "rvl");
+    EXPECT_THROW(other->decode(key, out), Error);  // a stream of another codec
+  }
+}
+
+TEST(ColorCodecs, JpegRoundTripsRealColorClosely) {
+  ColorImage image;
+  std::ifstream in(test::hands_dir() / "color" / "00050.jpg", std::ios::binary);
+  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  decode_jpeg(file, image);
+  std::vector<uint8_t> bytes;
+  make_color_encoder("jpeg")->encode(image, bytes);
+  ColorImage out;
+  make_color_decoder("jpeg")->decode(bytes, out);
+  ASSERT_EQ(out.width, image.width);
+  double se = 0;
+  for (size_t i = 0; i < out.bgra.size(); i += 4)
+    for (int c = 0; c < 3; ++c) se += std::pow(double(out.bgra[i + c]) - image.bgra[i + c], 2);
+  const double psnr = 10 * std::log10(255.0 * 255.0 / (se / static_cast<double>(out.bgra.size() / 4 * 3)));
+  EXPECT_GT(psnr, 32.0);
+  EXPECT_LT(bytes.size(), image.bgra.size() / 8);
+  // Corrupt JPEG data is an error, not a crash.
+  EXPECT_THROW(make_color_decoder("jpeg")->decode(std::span(bytes).first(10), out), Error);
+}
+
+TEST(ColorCodecs, RawIsExactAndChecksItsSize) {
+  ColorImage image(5, 3);
+  for (size_t i = 0; i < image.bgra.size(); ++i) image.bgra[i] = static_cast<uint8_t>(i * 7);
+  std::vector<uint8_t> bytes;
+  make_color_encoder("raw")->encode(image, bytes);
+  ColorImage out;
+  make_color_decoder("raw")->decode(bytes, out);
+  EXPECT_EQ(out, image);
+  bytes.pop_back();
+  EXPECT_THROW(make_color_decoder("raw")->decode(bytes, out), Error);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -1,0 +1,241 @@
+// Server and viewer on loopback with real recordings: exactness, statistics, several viewers,
+// slow and hostile peers.
+#include <gtest/gtest.h>
+
+#include <asio.hpp>
+#include <fmt/format.h>
+#include <fstream>
+#include <future>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include "site.hpp"
+#include "test_data.hpp"
+#include "viewer.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+// One site streaming the real hands sequence (camera 0) on a free loopback port.
+struct HandsSite {
+  SitePlayer player;
+  Server server;
+  explicit HandsSite(double fps, ServerConfig config = {})
+      : player(sources(), fps), server(player.cameras(), with_free_port(config)) {
+    player.start(server);
+  }
+  ~HandsSite() {
+    player.stop();
+    server.stop();
+  }
+  static std::vector<std::unique_ptr<FrameSource>> sources() {
+    SourceOptions opt;
+    opt.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};  // nominal: the set has no intrinsics
+    std::vector<std::unique_ptr<FrameSource>> v;
+    v.push_back(open_source(test::hands_dir(), opt));
+    return v;
+  }
+  static ServerConfig with_free_port(ServerConfig c) {
+    c.port = 0;
+    return c;
+  }
+};
+
+// Frame set n carries hands frame (n - 1) % 207: compares every saved depth PNG with its source.
+size_t expect_saved_depth_equals_source(const fs::path& dir) {
+  size_t checked = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.find("depth") == std::string::npos) continue;
+    const uint64_t sequence = std::stoull(name.substr(5, 8));  // cam0_SSSSSSSS_depth.png
+    const fs::path source = test::hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207);
+    EXPECT_EQ(read_depth_png(e.path()), read_depth_png(source)) << name << " vs " << source;
+    ++checked;
+  }
+  return checked;
+}
+
+ViewerOptions viewer_options(uint16_t port, const std::string& depth, const std::string& color) {
+  ViewerOptions opt;
+  opt.client.port = port;
+  opt.client.depth_codec = depth;
+  opt.client.color_codec = color;
+  opt.render = false;
+  return opt;
+}
+
+TEST(EndToEnd, EverySavedDepthFrameEqualsItsSourceAndStatsAreSane) {
+  HandsSite site(15);
+  const fs::path dir = test::temp_dir("e2e_exact");
+  ViewerOptions opt = viewer_options(site.server.port(), "trvl", "jpeg");
+  opt.frames = 40;
+  opt.save_frames_dir = dir / "frames";
+  opt.stats_json = dir / "stats.json";
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(expect_saved_depth_equals_source(opt.save_frames_dir), 40u);
+
+  std::ifstream in(opt.stats_json);
+  const auto j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["cameras"].size(), 1u);
+  const auto& c = j["cameras"][0];
+  EXPECT_EQ(c["frames_received"], 40);
+  EXPECT_GT(c["depth_compression_ratio"].get<double>(), 1.5);   // trvl on real depth
+  EXPECT_LT(c["depth_compression_ratio"].get<double>(), 50.0);
+  EXPECT_GT(c["mean_depth_bytes"].get<double>(), 1000.0);
+  EXPECT_GT(c["mean_color_bytes"].get<double>(), 1000.0);
+  EXPECT_GT(c["mbit_per_s"].get<double>(), 0.1);
+  EXPECT_GT(c["received_fps"].get<double>(), 0.5);
+  EXPECT_GT(c["latency_ms_p50"].get<double>(), 0.0);
+  EXPECT_GE(c["latency_ms_p99"].get<double>(), c["latency_ms_p50"].get<double>());
+  EXPECT_LT(c["latency_ms_p50"].get<double>(), 10000.0);
+  EXPECT_EQ(r.cameras[0].width, 640);
+}
+
+TEST(EndToEnd, TwoViewersWithDifferentCodecsAtOnce) {
+  HandsSite site(15);
+  const fs::path dir = test::temp_dir("e2e_two");
+  ViewerOptions a = viewer_options(site.server.port(), "rvl", "jpeg");
+  ViewerOptions b = viewer_options(site.server.port(), "trvl", "raw");
+  a.frames = b.frames = 25;
+  a.save_frames_dir = dir / "a";
+  b.save_frames_dir = dir / "b";
+  auto fa = std::async(std::launch::async, [&] { return run_viewer(a); });
+  auto fb = std::async(std::launch::async, [&] { return run_viewer(b); });
+  const ViewerResult ra = fa.get(), rb = fb.get();
+  EXPECT_EQ(expect_saved_depth_equals_source(a.save_frames_dir), 25u);
+  EXPECT_EQ(expect_saved_depth_equals_source(b.save_frames_dir), 25u);
+  // Raw color is 640x360x4 plus a header; JPEG is far smaller.
+  EXPECT_EQ(rb.cameras[0].mean_color_bytes, 640.0 * 360 * 4 + 12);
+  EXPECT_LT(ra.cameras[0].mean_color_bytes, rb.cameras[0].mean_color_bytes / 5);
+  std::set<std::string> codecs;
+  for (const auto& v : site.server.viewers()) codecs.insert(v.depth_codec + "/" + v.color_codec);
+  EXPECT_TRUE(codecs.count("rvl/jpeg") && codecs.count("trvl/raw"));
+}
+
+// Connects a raw TCP socket to the server.
+asio::ip::tcp::socket raw_connect(asio::io_context& io, uint16_t port) {
+  asio::ip::tcp::socket s(io);
+  s.connect({asio::ip::make_address("127.0.0.1"), port});
+  return s;
+}
+
+void send_hello(asio::ip::tcp::socket& s, const std::string& depth, const std::string& color) {
+  const auto msg = protocol::message(protocol::MessageType::kHello, protocol::serialize(protocol::Hello{depth, color}));
+  asio::write(s, asio::buffer(msg));
+}
+
+TEST(EndToEnd, ViewerThatStopsReadingDoesNotDelayTheOther) {
+  ServerConfig config;
+  config.stall_timeout_ms = 1500;
+  HandsSite site(10, config);
+  asio::io_context io;
+  auto stalled = raw_connect(io, site.server.port());
+  send_hello(stalled, "trvl", "raw");  // then never reads nor acknowledges
+
+  ViewerOptions opt = viewer_options(site.server.port(), "trvl", "jpeg");
+  opt.frames = 30;
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.cameras[0].frames_received, 30u);
+  EXPECT_LE(r.cameras[0].frames_dropped, 15u);  // it kept up with the 10 fps site
+
+  // The stalled viewer was never sent more than the window, and is dropped after the stall timeout.
+  bool disconnected = false;
+  for (int i = 0; i < 100 && !disconnected; ++i) {
+    for (const auto& v : site.server.viewers())
+      if (v.depth_codec == "trvl" && v.color_codec == "raw") {
+        EXPECT_LE(v.frames_sent, static_cast<uint64_t>(config.window));
+        disconnected = !v.connected && v.error.find("stalled") != std::string::npos;
+      }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(disconnected);
+}
+
+TEST(EndToEnd, HostilePeersGetClearErrorsAndTheServerKeepsServing) {
+  ServerConfig config;
+  config.handshake_timeout_ms = 300;
+  HandsSite site(15, config);
+  const uint16_t port = site.server.port();
+  asio::io_context io;
+
+  // Garbage instead of a handshake.
+  auto garbage = raw_connect(io, port);
+  asio::write(garbage, asio::buffer(std::string("GET / HTTP/1.1\r\nHost: x\r\n\r\n")));
+  // A header announcing a gigabyte-long Hello.
+  auto huge = raw_connect(io, port);
+  uint8_t header[protocol::kHeaderBytes];
+  protocol::write_header(protocol::MessageType::kHello, 1u << 30, header);
+  asio::write(huge, asio::buffer(header));
+  // A peer that connects and says nothing.
+  auto silent = raw_connect(io, port);
+  // A peer speaking another protocol version: it is told why.
+  auto old = raw_connect(io, port);
+  protocol::write_header(protocol::MessageType::kHello, 0, header);
+  header[4] = 9;
+  asio::write(old, asio::buffer(header));
+  uint8_t reply[protocol::kHeaderBytes];
+  asio::read(old, asio::buffer(reply));
+  const protocol::Header rh = protocol::parse_header(reply);
+  EXPECT_EQ(rh.type, protocol::MessageType::kReject);
+  std::vector<uint8_t> reason(rh.payload_bytes);
+  asio::read(old, asio::buffer(reason));
+  EXPECT_NE(protocol::parse_reject(reason).find("version"), std::string::npos);
+
+  // Unknown codec: the viewer is told which codecs exist.
+  auto raw = raw_connect(io, port);
+  send_hello(raw, "zdepth", "jpeg");
+  asio::read(raw, asio::buffer(reply));
+  const protocol::Header h2 = protocol::parse_header(reply);
+  ASSERT_EQ(h2.type, protocol::MessageType::kReject);
+  std::vector<uint8_t> why(h2.payload_bytes);
+  asio::read(raw, asio::buffer(why));
+  EXPECT_NE(protocol::parse_reject(why).find("unknown depth codec 'zdepth'"), std::string::npos);
+
+  // Meanwhile a proper viewer is served normally.
+  ViewerOptions opt = viewer_options(port, "trvl", "jpeg");
+  opt.frames = 10;
+  EXPECT_EQ(run_viewer(opt).cameras[0].frames_received, 10u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  size_t ended_with_error = 0;
+  for (const auto& v : site.server.viewers()) ended_with_error += !v.error.empty();
+  EXPECT_GE(ended_with_error, 5u);  // garbage, huge, silent (timeout), old version, unknown codec
+}
+
+TEST(EndToEnd, ClientRejectsUnknownCodecsAndUnreachableServers) {
+  ClientConfig c;
+  c.port = 1;
+  c.depth_codec = "bogus";
+  EXPECT_THROW(Client{c}, Error);
+  c.depth_codec = "rvl";
+  try {
+    Client client(c);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot connect"), std::string::npos);
+  }
+}
+
+TEST(EndToEnd, ViewerRendersWhatItReceives) {
+  HandsSite site(15);
+  const fs::path dir = test::temp_dir("e2e_render");
+  ViewerOptions opt = viewer_options(site.server.port(), "trvl", "jpeg");
+  opt.render = true;
+  opt.width = 320;
+  opt.height = 180;
+  opt.frames = 10;
+  opt.screenshot = dir / "shot.png";
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_GE(r.frames_rendered, 1u);
+  EXPECT_FALSE(r.renderer.empty());
+  const ColorImage shot = read_color_png(opt.screenshot);
+  size_t covered = 0;
+  for (size_t i = 0; i < shot.bgra.size(); i += 4) covered += shot.bgra[i] + shot.bgra[i + 1] + shot.bgra[i + 2] > 90;
+  EXPECT_GT(covered, shot.bgra.size() / 4 / 10);  // the table and hands fill a good part of the view
+}
+
+}  // namespace
+}  // namespace volcast

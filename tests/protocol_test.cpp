@@ -1,0 +1,108 @@
+// Stream protocol messages: round trips and rejection of malformed or hostile bytes.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "volcast/core/error.hpp"
+#include "volcast/net/protocol.hpp"
+
+namespace volcast::protocol {
+namespace {
+
+TEST(Protocol, HeaderRoundTripsAndRejectsBadFields) {
+  uint8_t h[kHeaderBytes];
+  write_header(MessageType::kFrameSet, 1234, h);
+  const Header parsed = parse_header(h);
+  EXPECT_EQ(parsed.type, MessageType::kFrameSet);
+  EXPECT_EQ(parsed.payload_bytes, 1234u);
+
+  uint8_t bad[kHeaderBytes];
+  std::copy(h, h + kHeaderBytes, bad);
+  bad[0] = 'X';
+  EXPECT_THROW(parse_header(bad), Error);
+  std::copy(h, h + kHeaderBytes, bad);
+  bad[4] = 99;  // version 99
+  try {
+    parse_header(bad);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("version"), std::string::npos);
+  }
+  std::copy(h, h + kHeaderBytes, bad);
+  bad[6] = 77;  // unknown type
+  EXPECT_THROW(parse_header(bad), Error);
+  write_header(MessageType::kHello, 0xffffffffu, bad);  // hostile length
+  EXPECT_THROW(parse_header(bad), Error);
+  write_header(MessageType::kHello, kMaxHelloBytes + 1, bad);
+  EXPECT_THROW(parse_header(bad, kMaxHelloBytes), Error);
+  EXPECT_THROW(parse_header(std::span(h, 5)), Error);
+}
+
+TEST(Protocol, WelcomeCarriesCalibrationExactly) {
+  Welcome w;
+  CameraInfo cam;
+  cam.calibration.depth = {640, 576, 504.6, 504.7, 332.8, 348.8, 0.55, -0.02, -0.003, 0.89, 0.086, -0.014, 2e-5, -7e-5, 0, 0, 1.74};
+  cam.calibration.world_from_camera.rotation = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  cam.calibration.world_from_camera.translation = {1.6, -0.2, 0.3};
+  cam.description = "Azure Kinect recording";
+  w.cameras = {cam, cam};
+  const Welcome back = parse_welcome(serialize(w));
+  ASSERT_EQ(back.cameras.size(), 2u);
+  EXPECT_EQ(back.cameras[1].calibration.depth, cam.calibration.depth);
+  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.rotation, cam.calibration.world_from_camera.rotation);
+  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.translation, cam.calibration.world_from_camera.translation);
+  EXPECT_EQ(back.cameras[0].description, cam.description);
+}
+
+TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
+  Welcome w;
+  w.cameras.resize(1);
+  w.cameras[0].calibration.depth = {4, 4, 1, 1, 2, 2};
+  EncodedFrameSet fs;
+  fs.sequence = 42;
+  fs.capture_time_us = 123456789;
+  fs.cameras.resize(2);
+  fs.cameras[0].depth = {1, 2, 3};
+  fs.cameras[1].color = {4, 5};
+  std::vector<uint8_t> frame_msg;
+  serialize(fs, frame_msg);
+  const std::vector<uint8_t> frame_payload(frame_msg.begin() + kHeaderBytes, frame_msg.end());
+  EncodedFrameSet back;
+  parse_frame_set(frame_payload, back);
+  EXPECT_EQ(back.sequence, 42u);
+  EXPECT_EQ(back.cameras[1].color, fs.cameras[1].color);
+
+  const auto hello = serialize(Hello{"trvl", "jpeg"});
+  const auto welcome = serialize(w);
+  for (size_t n = 0; n < hello.size(); ++n) EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
+  for (size_t n = 0; n < welcome.size(); ++n) EXPECT_THROW(parse_welcome(std::span(welcome).first(n)), Error);
+  for (size_t n = 0; n < frame_payload.size(); ++n)
+    EXPECT_THROW(parse_frame_set(std::span(frame_payload).first(n), back), Error);
+  auto longer = hello;
+  longer.push_back(0);
+  EXPECT_THROW(parse_hello(longer), Error);  // trailing bytes
+}
+
+TEST(Protocol, RandomBytesNeverCrashTheParsers) {
+  std::mt19937 rng(11);
+  EncodedFrameSet out;
+  for (int i = 0; i < 2000; ++i) {
+    std::vector<uint8_t> bytes(rng() % 200);
+    for (auto& b : bytes) b = static_cast<uint8_t>(rng());
+    try { parse_frame_set(bytes, out); } catch (const Error&) {}
+    try { parse_welcome(bytes); } catch (const Error&) {}
+    try { parse_hello(bytes); } catch (const Error&) {}
+    try { parse_header(bytes); } catch (const Error&) {}
+  }
+}
+
+TEST(Protocol, WelcomeRejectsImplausibleCameras) {
+  Welcome w;
+  w.cameras.resize(1);
+  w.cameras[0].calibration.depth = {4, 4, 0, 1, 2, 2};  // fx = 0
+  EXPECT_THROW(parse_welcome(serialize(w)), Error);
+  EXPECT_THROW(parse_welcome(serialize(Welcome{})), Error);  // no cameras
+}
+
+}  // namespace
+}  // namespace volcast::protocol

@@ -1,0 +1,23 @@
+#pragma once
+// Access to the shared real RGB-D recordings (../shared/data) for tests.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "volcast/core/image.hpp"
+
+namespace volcast::test {
+
+/// The shared data folder; fails the calling test (FAIL()) if it is missing.
+std::filesystem::path data_dir();
+std::filesystem::path hands_dir();       ///< rgbd-hands-640x360 (207 frames)
+std::filesystem::path kinect_mkv();      ///< k4a-recording/recording.mkv
+/// Every real depth frame of one set, by name: "hands" (207), "kinect" (1), "4cam" (4),
+/// "binned" (6).
+std::vector<DepthImage> real_depth_frames(const std::string& set);
+/// A fresh empty temporary folder for one test.
+std::filesystem::path temp_dir(const std::string& name);
+/// Runs a shell command, returns its exit code; its stdout+stderr are stored in `output`.
+int run_command(const std::string& command, std::string& output);
+
+}  // namespace volcast::test

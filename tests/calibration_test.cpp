@@ -25,7 +25,8 @@ TEST(K4aCalibration, NfovUnbinnedIntrinsicsFollowTheSdkModeCropAndScale) {
   const auto j = nlohmann::json::parse(text);
   const auto& p = j["CalibrationInformation"]["Cameras"][0]["Intrinsics"]["ModelParameters"];
   ASSERT_EQ(j["CalibrationInformation"]["Cameras"][0]["Purpose"], "CALIBRATION_CameraPurposeDepth");
-  // NFOV unbinned (SDK transformation.c): scale to 1024, crop offset (192, 180), pixel centres -0.5.
+  // NFOV unbinned (SDK transformation.c): scale to 1024, crop offset (192, 180), pixel centres
+  // -0.5.
   const double cx = p[0].get<double>() * 1024 - 192 - 0.5;
   const double cy = p[1].get<double>() * 1024 - 180 - 0.5;
   const double fx = p[2].get<double>() * 1024;
@@ -52,8 +53,10 @@ TEST(K4aCalibration, MatchesIntrinsicsPrintedByTheAzureKinectSdk) {
   // depth and 1080p color intrinsics for one device, as published in a public repository
   // (panispani/3DReconstruct, pointCloudGen/calib.md).
   K4aSensorCalibration depth, color;
-  depth.normalized = {1024, 1024, 0.4921168386936188, 0.4921667277812958, 0.5122697949409485, 0.49451231956481934};
-  color.normalized = {4096, 3072, 0.470907062292099, 0.6274453997612, 0.4967627227306366, 0.5108628273010254};
+  depth.normalized = {
+      1024, 1024, 0.4921168386936188, 0.4921667277812958, 0.5122697949409485, 0.49451231956481934};
+  color.normalized = {
+      4096, 3072, 0.470907062292099, 0.6274453997612, 0.4967627227306366, 0.5108628273010254};
   const Intrinsics d = k4a_depth_mode_intrinsics(depth, K4aDepthMode::kNfovUnbinned);
   EXPECT_NEAR(d.cx, 332.064270, 1e-4);
   EXPECT_NEAR(d.cy, 325.880615, 1e-4);
@@ -91,7 +94,8 @@ TEST(K4aCalibration, RejectsMalformedJsonNamingTheProblem) {
 }
 
 TEST(LensModel, UnprojectInvertsProjectOnEveryPixelOfTheRealDepthCamera) {
-  const K4aCalibration cal = parse_k4a_calibration(read_text(test::data_dir() / "k4a-recording" / "calibration.json"));
+  const K4aCalibration cal =
+      parse_k4a_calibration(read_text(test::data_dir() / "k4a-recording" / "calibration.json"));
   const Intrinsics k = k4a_depth_mode_intrinsics(cal.depth, K4aDepthMode::kNfovUnbinned);
   const RayTable rays = make_ray_table(k);
   size_t valid = 0;

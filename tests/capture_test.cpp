@@ -4,8 +4,8 @@
 #include <fstream>
 
 #include "test_data.hpp"
-#include "volcast/capture/k4a_recording.hpp"
 #include "volcast/capture/image_sequence.hpp"
+#include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 
@@ -91,10 +91,12 @@ TEST(K4aRecording, ProbeReportsStreamsAndIntrinsics) {
 
 TEST(K4aRecording, RejectsMissingCorruptAndTruncatedFiles) {
   const fs::path dir = test::temp_dir("bad_mkv");
-  EXPECT_NE(error_of([&] { open_source(dir / "missing.mkv"); }).find("does not exist"), std::string::npos);
+  EXPECT_NE(error_of([&] { open_source(dir / "missing.mkv"); }).find("does not exist"),
+            std::string::npos);
 
   std::ofstream(dir / "garbage.mkv") << "this is not a matroska file at all";
-  EXPECT_NE(error_of([&] { open_source(dir / "garbage.mkv"); }).find("garbage.mkv"), std::string::npos);
+  EXPECT_NE(error_of([&] { open_source(dir / "garbage.mkv"); }).find("garbage.mkv"),
+            std::string::npos);
 
   // The real recording cut at several points: every cut is an error naming the file, never a crash.
   std::ifstream in(test::kinect_mkv(), std::ios::binary);
@@ -105,19 +107,23 @@ TEST(K4aRecording, RejectsMissingCorruptAndTruncatedFiles) {
   int errors = 0;
   for (double fraction : {0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.99}) {
     const fs::path cut = dir / "truncated.mkv";
-    std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(static_cast<double>(bytes.size()) * fraction));
+    std::ofstream(cut, std::ios::binary)
+        .write(bytes.data(),
+               static_cast<std::streamsize>(static_cast<double>(bytes.size()) * fraction));
     DepthImage got;
     const std::string err = error_of([&] { got = open_source(cut)->next().depth; });
     if (err.empty()) {
       EXPECT_EQ(got, complete) << "cut at " << fraction << " decoded without error but differs";
     } else {
       ++errors;
-      EXPECT_NE(err.find("truncated.mkv"), std::string::npos) << "cut at " << fraction << ": '" << err << "'";
+      EXPECT_NE(err.find("truncated.mkv"), std::string::npos)
+          << "cut at " << fraction << ": '" << err << "'";
     }
   }
   EXPECT_GE(errors, 2);
   EXPECT_NE(error_of([&] { open_source(dir); }).find("depth/"), std::string::npos);
-  EXPECT_NE(error_of([&] { open_source(test::data_dir() / "README.md"); }).find("neither"), std::string::npos);
+  EXPECT_NE(error_of([&] { open_source(test::data_dir() / "README.md"); }).find("neither"),
+            std::string::npos);
 }
 
 TEST(ImageSequence, ReadsTheRealHandsSequenceAndLoops) {
@@ -166,7 +172,8 @@ TEST(ImageSequence, RejectsACorruptDepthPng) {
   fs::copy_file(test::hands_dir() / "depth" / "00000.png", dir / "depth" / "a.png");
   std::ifstream in(test::hands_dir() / "depth" / "00001.png", std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  std::ofstream(dir / "depth" / "b.png", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  std::ofstream(dir / "depth" / "b.png", std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
   auto src = open_source(dir);
   src->next();
   EXPECT_NE(error_of([&] { src->next(); }).find("b.png"), std::string::npos);

@@ -2,8 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
-#include <thread>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "test_data.hpp"
 
@@ -15,7 +15,8 @@ const std::string kVolcast = VOLCAST_BINARY;
 TEST(Cli, HelpListsTheSubcommands) {
   std::string out;
   EXPECT_EQ(test::run_command(kVolcast + " --help", out), 0);
-  for (const char* cmd : {"serve", "view", "demo", "info"}) EXPECT_NE(out.find(cmd), std::string::npos) << out;
+  for (const char* cmd : {"serve", "view", "demo", "info"})
+    EXPECT_NE(out.find(cmd), std::string::npos) << out;
   EXPECT_EQ(test::run_command(kVolcast + " view --help", out), 0);
   EXPECT_NE(out.find("--depth-codec"), std::string::npos);
 }
@@ -26,7 +27,9 @@ TEST(Cli, InfoPrintsStreamsFramesAndDerivedIntrinsics) {
   EXPECT_NE(out.find("DEPTH"), std::string::npos);
   EXPECT_NE(out.find("NFOV_UNBINNED"), std::string::npos);
   EXPECT_NE(out.find("fx 504.6076"), std::string::npos) << out;
-  ASSERT_EQ(test::run_command(kVolcast + " info --json " + test::kinect_mkv().string() + " 2>/dev/null", out), 0);
+  ASSERT_EQ(test::run_command(
+                kVolcast + " info --json " + test::kinect_mkv().string() + " 2>/dev/null", out),
+            0);
   const auto j = nlohmann::json::parse(out);
   EXPECT_EQ(j["depth_frames"], 1);
   EXPECT_NEAR(j["depth_intrinsics"]["cx"].get<double>(), 332.7811, 1e-3);
@@ -38,11 +41,15 @@ TEST(Cli, BadInputGivesAClearErrorAndNonZeroExit) {
   EXPECT_NE(out.find("does not exist"), std::string::npos) << out;
   EXPECT_EQ(test::run_command(kVolcast + " serve --source /nonexistent/folder", out), 1);
   EXPECT_NE(out.find("/nonexistent/folder"), std::string::npos) << out;
-  EXPECT_EQ(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --depth-codec bogus", out), 1);
+  EXPECT_EQ(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --depth-codec bogus", out),
+            1);
   EXPECT_NE(out.find("unknown depth codec 'bogus'"), std::string::npos) << out;
   EXPECT_EQ(test::run_command(kVolcast + " view --connect nohost", out), 1);
   EXPECT_NE(out.find("HOST:PORT"), std::string::npos) << out;
-  EXPECT_EQ(test::run_command(kVolcast + " serve --source " + test::hands_dir().string() + " --intrinsics 1,2", out), 1);
+  EXPECT_EQ(
+      test::run_command(
+          kVolcast + " serve --source " + test::hands_dir().string() + " --intrinsics 1,2", out),
+      1);
   EXPECT_NE(out.find("--intrinsics"), std::string::npos) << out;
 }
 
@@ -56,8 +63,11 @@ TEST(Cli, DemoWithoutDataSaysWhereToPutIt) {
 TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   const auto dir = test::temp_dir("cli_demo");
   std::string out;
-  ASSERT_EQ(test::run_command(kVolcast + " demo --seconds 3 --data " + test::data_dir().string() + " --out " +
-                                  dir.string(), out), 0) << out;
+  ASSERT_EQ(test::run_command(kVolcast + " demo --seconds 3 --data " + test::data_dir().string() +
+                                  " --out " + dir.string(),
+                              out),
+            0)
+      << out;
   EXPECT_NE(out.find("lat p50"), std::string::npos) << out;
   std::ifstream in(dir / "stats.json");
   const auto j = nlohmann::json::parse(in);
@@ -72,14 +82,17 @@ TEST(Cli, ServeAndViewTalkOverLoopback) {
   const int port = 20000 + ::getpid() % 20000;
   std::string out;
   const std::string serve = kVolcast + " serve --source " + test::hands_dir().string() +
-                            " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port " + std::to_string(port) +
-                            " > " + (dir / "serve.log").string() + " 2>&1 & echo $!";
+                            " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port " +
+                            std::to_string(port) + " > " + (dir / "serve.log").string() +
+                            " 2>&1 & echo $!";
   ASSERT_EQ(test::run_command(serve, out), 0);
   const std::string pid = out.substr(0, out.find('\n'));
   int rc = 1;
   for (int attempt = 0; attempt < 50 && rc != 0; ++attempt) {  // wait for the server to listen
-    rc = test::run_command(kVolcast + " view --no-render --connect 127.0.0.1:" + std::to_string(port) +
-                               " --frames 5 --depth-codec rvl --stats-json " + (dir / "s.json").string(), out);
+    rc = test::run_command(
+        kVolcast + " view --no-render --connect 127.0.0.1:" + std::to_string(port) +
+            " --frames 5 --depth-codec rvl --stats-json " + (dir / "s.json").string(),
+        out);
     if (rc != 0) std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   test::run_command("kill " + pid, out);

@@ -15,7 +15,8 @@
 namespace volcast {
 namespace {
 
-void expect_round_trip(const std::string& codec, const std::vector<DepthImage>& frames, const std::string& set) {
+void expect_round_trip(const std::string& codec, const std::vector<DepthImage>& frames,
+                       const std::string& set) {
   auto enc = make_depth_encoder(codec);
   auto dec = make_depth_decoder(codec);
   std::vector<uint8_t> bytes;
@@ -37,13 +38,15 @@ TEST_P(RealSets, RvlAndTemporalRvlRoundTripBitExactlyOnEveryFrame) {
   expect_round_trip("raw", frames, GetParam());
 }
 
-INSTANTIATE_TEST_SUITE_P(SharedData, RealSets, ::testing::Values("hands", "kinect", "4cam", "binned"));
+INSTANTIATE_TEST_SUITE_P(SharedData, RealSets,
+                         ::testing::Values("hands", "kinect", "4cam", "binned"));
 
 TEST(Rvl, CompressesRealDepth) {
   const auto frames = test::real_depth_frames("kinect");
   std::vector<uint8_t> bytes;
   make_depth_encoder("rvl")->encode(frames[0], true, bytes);
-  const double ratio = static_cast<double>(frames[0].size() * 2) / static_cast<double>(bytes.size());
+  const double ratio =
+      static_cast<double>(frames[0].size() * 2) / static_cast<double>(bytes.size());
   EXPECT_GT(ratio, 3.0);  // Wilson 2017 reports ~3-4x on Kinect depth
 }
 
@@ -54,10 +57,17 @@ DepthImage synthetic_full_range(uint32_t seed) {
   std::mt19937 rng(seed);
   for (size_t i = 0; i < d.size(); ++i) {
     switch (i % 5) {
-      case 0: d.pixels[i] = 65535; break;
-      case 1: d.pixels[i] = 1; break;
-      case 2: d.pixels[i] = 0; break;
-      default: d.pixels[i] = static_cast<uint16_t>(rng());
+      case 0:
+        d.pixels[i] = 65535;
+        break;
+      case 1:
+        d.pixels[i] = 1;
+        break;
+      case 2:
+        d.pixels[i] = 0;
+        break;
+      default:
+        d.pixels[i] = static_cast<uint16_t>(rng());
     }
   }
   return d;
@@ -158,7 +168,8 @@ TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
     DepthImage out;
     for (size_t cut : {size_t{0}, size_t{5}, size_t{12}, key.size() / 2, key.size() - 4}) {
       auto dec = make_depth_decoder(codec);
-      EXPECT_THROW(dec->decode(std::span(key).first(cut), out), Error) << codec << " cut at " << cut;
+      EXPECT_THROW(dec->decode(std::span(key).first(cut), out), Error)
+          << codec << " cut at " << cut;
     }
     // Bit flips: either an error or some frame of the right size; never out-of-bounds (ASan).
     std::mt19937 rng(7);
@@ -166,7 +177,8 @@ TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
       auto dec = make_depth_decoder(codec);
       std::vector<uint8_t> bad = trial % 2 ? key : delta;
       if (trial % 2 == 0) dec->decode(key, out);
-      for (int f = 0; f < 1 + trial % 8; ++f) bad[rng() % bad.size()] ^= static_cast<uint8_t>(1u << (rng() % 8));
+      for (int f = 0; f < 1 + trial % 8; ++f)
+        bad[rng() % bad.size()] ^= static_cast<uint8_t>(1u << (rng() % 8));
       try {
         dec->decode(bad, out);
         EXPECT_EQ(out.size(), static_cast<size_t>(out.width) * out.height);
@@ -181,7 +193,8 @@ TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
 TEST(ColorCodecs, JpegRoundTripsRealColorClosely) {
   ColorImage image;
   std::ifstream in(test::hands_dir() / "color" / "00050.jpg", std::ios::binary);
-  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
   decode_jpeg(file, image);
   std::vector<uint8_t> bytes;
   make_color_encoder("jpeg")->encode(image, bytes);
@@ -191,7 +204,8 @@ TEST(ColorCodecs, JpegRoundTripsRealColorClosely) {
   double se = 0;
   for (size_t i = 0; i < out.bgra.size(); i += 4)
     for (int c = 0; c < 3; ++c) se += std::pow(double(out.bgra[i + c]) - image.bgra[i + c], 2);
-  const double psnr = 10 * std::log10(255.0 * 255.0 / (se / static_cast<double>(out.bgra.size() / 4 * 3)));
+  const double psnr =
+      10 * std::log10(255.0 * 255.0 / (se / static_cast<double>(out.bgra.size() / 4 * 3)));
   EXPECT_GT(psnr, 32.0);
   EXPECT_LT(bytes.size(), image.bgra.size() / 8);
   // Corrupt JPEG data is an error, not a crash.

@@ -2,8 +2,8 @@
 // slow and hostile peers.
 #include <gtest/gtest.h>
 
-#include <asio.hpp>
 #include <fmt/format.h>
+#include <asio.hpp>
 #include <fstream>
 #include <future>
 #include <nlohmann/json.hpp>
@@ -52,7 +52,8 @@ size_t expect_saved_depth_equals_source(const fs::path& dir) {
     const std::string name = e.path().filename().string();
     if (name.find("depth") == std::string::npos) continue;
     const uint64_t sequence = std::stoull(name.substr(5, 8));  // cam0_SSSSSSSS_depth.png
-    const fs::path source = test::hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207);
+    const fs::path source =
+        test::hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207);
     EXPECT_EQ(read_depth_png(e.path()), read_depth_png(source)) << name << " vs " << source;
     ++checked;
   }
@@ -83,7 +84,7 @@ TEST(EndToEnd, EverySavedDepthFrameEqualsItsSourceAndStatsAreSane) {
   ASSERT_EQ(j["cameras"].size(), 1u);
   const auto& c = j["cameras"][0];
   EXPECT_EQ(c["frames_received"], 40);
-  EXPECT_GT(c["depth_compression_ratio"].get<double>(), 1.5);   // trvl on real depth
+  EXPECT_GT(c["depth_compression_ratio"].get<double>(), 1.5);  // trvl on real depth
   EXPECT_LT(c["depth_compression_ratio"].get<double>(), 50.0);
   EXPECT_GT(c["mean_depth_bytes"].get<double>(), 1000.0);
   EXPECT_GT(c["mean_color_bytes"].get<double>(), 1000.0);
@@ -124,7 +125,8 @@ asio::ip::tcp::socket raw_connect(asio::io_context& io, uint16_t port) {
 }
 
 void send_hello(asio::ip::tcp::socket& s, const std::string& depth, const std::string& color) {
-  const auto msg = protocol::message(protocol::MessageType::kHello, protocol::serialize(protocol::Hello{depth, color}));
+  const auto msg = protocol::message(protocol::MessageType::kHello,
+                                     protocol::serialize(protocol::Hello{depth, color}));
   asio::write(s, asio::buffer(msg));
 }
 
@@ -233,8 +235,10 @@ TEST(EndToEnd, ViewerRendersWhatItReceives) {
   EXPECT_FALSE(r.renderer.empty());
   const ColorImage shot = read_color_png(opt.screenshot);
   size_t covered = 0;
-  for (size_t i = 0; i < shot.bgra.size(); i += 4) covered += shot.bgra[i] + shot.bgra[i + 1] + shot.bgra[i + 2] > 90;
-  EXPECT_GT(covered, shot.bgra.size() / 4 / 10);  // the table and hands fill a good part of the view
+  for (size_t i = 0; i < shot.bgra.size(); i += 4)
+    covered += shot.bgra[i] + shot.bgra[i + 1] + shot.bgra[i + 2] > 90;
+  EXPECT_GT(covered,
+            shot.bgra.size() / 4 / 10);  // the table and hands fill a good part of the view
 }
 
 }  // namespace

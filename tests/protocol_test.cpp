@@ -41,16 +41,20 @@ TEST(Protocol, HeaderRoundTripsAndRejectsBadFields) {
 TEST(Protocol, WelcomeCarriesCalibrationExactly) {
   Welcome w;
   CameraInfo cam;
-  cam.calibration.depth = {640, 576, 504.6, 504.7, 332.8, 348.8, 0.55, -0.02, -0.003, 0.89, 0.086, -0.014, 2e-5, -7e-5, 0, 0, 1.74};
-  cam.calibration.world_from_camera.rotation = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  cam.calibration.depth = {640,  576,   504.6,  504.7, 332.8, 348.8, 0.55, -0.02, -0.003,
+                           0.89, 0.086, -0.014, 2e-5,  -7e-5, 0,     0,    1.74};
+  cam.calibration.world_from_camera.rotation =
+      Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   cam.calibration.world_from_camera.translation = {1.6, -0.2, 0.3};
   cam.description = "Azure Kinect recording";
   w.cameras = {cam, cam};
   const Welcome back = parse_welcome(serialize(w));
   ASSERT_EQ(back.cameras.size(), 2u);
   EXPECT_EQ(back.cameras[1].calibration.depth, cam.calibration.depth);
-  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.rotation, cam.calibration.world_from_camera.rotation);
-  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.translation, cam.calibration.world_from_camera.translation);
+  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.rotation,
+            cam.calibration.world_from_camera.rotation);
+  EXPECT_EQ(back.cameras[1].calibration.world_from_camera.translation,
+            cam.calibration.world_from_camera.translation);
   EXPECT_EQ(back.cameras[0].description, cam.description);
 }
 
@@ -74,8 +78,10 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
 
   const auto hello = serialize(Hello{"trvl", "jpeg"});
   const auto welcome = serialize(w);
-  for (size_t n = 0; n < hello.size(); ++n) EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
-  for (size_t n = 0; n < welcome.size(); ++n) EXPECT_THROW(parse_welcome(std::span(welcome).first(n)), Error);
+  for (size_t n = 0; n < hello.size(); ++n)
+    EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
+  for (size_t n = 0; n < welcome.size(); ++n)
+    EXPECT_THROW(parse_welcome(std::span(welcome).first(n)), Error);
   for (size_t n = 0; n < frame_payload.size(); ++n)
     EXPECT_THROW(parse_frame_set(std::span(frame_payload).first(n), back), Error);
   auto longer = hello;
@@ -89,10 +95,22 @@ TEST(Protocol, RandomBytesNeverCrashTheParsers) {
   for (int i = 0; i < 2000; ++i) {
     std::vector<uint8_t> bytes(rng() % 200);
     for (auto& b : bytes) b = static_cast<uint8_t>(rng());
-    try { parse_frame_set(bytes, out); } catch (const Error&) {}
-    try { parse_welcome(bytes); } catch (const Error&) {}
-    try { parse_hello(bytes); } catch (const Error&) {}
-    try { parse_header(bytes); } catch (const Error&) {}
+    try {
+      parse_frame_set(bytes, out);
+    } catch (const Error&) {
+    }
+    try {
+      parse_welcome(bytes);
+    } catch (const Error&) {
+    }
+    try {
+      parse_hello(bytes);
+    } catch (const Error&) {
+    }
+    try {
+      parse_header(bytes);
+    } catch (const Error&) {
+    }
   }
 }
 

@@ -26,7 +26,7 @@ TEST(CloudBuilder, PinholePointsLieOnTheirPixelRaysAtTheirDepth) {
   EXPECT_FLOAT_EQ(p.position[0], 1.0f + (1 - 1) / 100.0f * 2.0f);
   EXPECT_FLOAT_EQ(p.position[1], (0 - 0.5f) / 100.0f * 2.0f);
   EXPECT_FLOAT_EQ(p.position[2], 2.0f);
-  EXPECT_EQ(p.rgba, 0xff0000c8u);  // R in the lowest byte
+  EXPECT_EQ(p.rgba, 0xff0000c8u);                // R in the lowest byte
   EXPECT_EQ(cloud.points[0].rgba, 0xffa0a0a0u);  // no color: gray
   EXPECT_NEAR(p.radius, 0.75f * 2.0f / 100.0f, 1e-6f);
 }

@@ -15,11 +15,16 @@ namespace fs = std::filesystem;
 fs::path data_dir() {
   const fs::path d = VOLCAST_TEST_DATA;
   if (!fs::exists(d / "README.md"))
-    ADD_FAILURE() << "real test data not found at " << d << " (clone with ../shared beside the repo)";
+    ADD_FAILURE() << "real test data not found at " << d
+                  << " (clone with ../shared beside the repo)";
   return d;
 }
-fs::path hands_dir() { return data_dir() / "rgbd-hands-640x360"; }
-fs::path kinect_mkv() { return data_dir() / "k4a-recording" / "recording.mkv"; }
+fs::path hands_dir() {
+  return data_dir() / "rgbd-hands-640x360";
+}
+fs::path kinect_mkv() {
+  return data_dir() / "k4a-recording" / "recording.mkv";
+}
 
 std::vector<DepthImage> real_depth_frames(const std::string& set) {
   std::vector<fs::path> files;
@@ -33,7 +38,8 @@ std::vector<DepthImage> real_depth_frames(const std::string& set) {
   }
   for (const auto& e : fs::directory_iterator(dir)) {
     const std::string name = e.path().filename().string();
-    if (e.path().extension() == ".png" && (set != "4cam" || name.rfind("depth", 0) == 0)) files.push_back(e.path());
+    if (e.path().extension() == ".png" && (set != "4cam" || name.rfind("depth", 0) == 0))
+      files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
   std::vector<DepthImage> out;
@@ -42,7 +48,8 @@ std::vector<DepthImage> real_depth_frames(const std::string& set) {
 }
 
 fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("volcast_test_" + name + "_" + std::to_string(::getpid()));
+  const fs::path d =
+      fs::temp_directory_path() / ("volcast_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
   return d;

@@ -10,8 +10,8 @@ namespace volcast::test {
 
 /// The shared data folder; fails the calling test (FAIL()) if it is missing.
 std::filesystem::path data_dir();
-std::filesystem::path hands_dir();       ///< rgbd-hands-640x360 (207 frames)
-std::filesystem::path kinect_mkv();      ///< k4a-recording/recording.mkv
+std::filesystem::path hands_dir();   ///< rgbd-hands-640x360 (207 frames)
+std::filesystem::path kinect_mkv();  ///< k4a-recording/recording.mkv
 /// Every real depth frame of one set, by name: "hands" (207), "kinect" (1), "4cam" (4),
 /// "binned" (6).
 std::vector<DepthImage> real_depth_frames(const std::string& set);

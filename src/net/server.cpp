@@ -4,6 +4,7 @@
 
 #include <asio.hpp>
 #include <condition_variable>
+#include <deque>
 #include <functional>
 #include <list>
 #include <mutex>
@@ -37,7 +38,9 @@ struct Server::Impl {
     ViewerReport report;
     std::atomic<bool> done{false};
   };
-  std::list<Viewer> viewers;  // guarded by mutex
+  std::list<Viewer> viewers;       // guarded by mutex
+  std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
+  static constexpr size_t kEndedReportsKept = 256;
 
   void accept_loop() {
     while (!stopping) {
@@ -63,10 +66,19 @@ struct Server::Impl {
     }
   }
 
-  // Joins the threads of viewers that have ended; keeps their reports. Caller holds mutex.
+  // Joins the threads of viewers that have ended and keeps only their reports. Caller holds mutex
+  // (a finished thread no longer takes it).
   void reap_finished() {
-    for (Viewer& v : viewers)
-      if (v.done && v.thread.joinable()) v.thread.join();
+    for (auto it = viewers.begin(); it != viewers.end();) {
+      if (!it->done) {
+        ++it;
+        continue;
+      }
+      if (it->thread.joinable()) it->thread.join();
+      ended.push_back(it->report);
+      if (ended.size() > kEndedReportsKept) ended.pop_front();
+      it = viewers.erase(it);
+    }
   }
 
   void update(Viewer& v, const std::function<void(ViewerReport&)>& f) {
@@ -249,7 +261,7 @@ void Server::publish(std::shared_ptr<const FrameSet> frames) {
 
 std::vector<ViewerReport> Server::viewers() const {
   std::lock_guard lock(impl_->mutex);
-  std::vector<ViewerReport> out;
+  std::vector<ViewerReport> out(impl_->ended.begin(), impl_->ended.end());
   for (const auto& v : impl_->viewers) out.push_back(v.report);
   return out;
 }

@@ -130,6 +130,17 @@ void send_hello(asio::ip::tcp::socket& s, const std::string& depth, const std::s
   asio::write(s, asio::buffer(msg));
 }
 
+// Reads the server's answer, which must be a Reject, and returns its reason.
+std::string read_reject(asio::ip::tcp::socket& s) {
+  uint8_t bytes[protocol::kHeaderBytes];
+  asio::read(s, asio::buffer(bytes));
+  const protocol::Header h = protocol::parse_header(bytes);
+  EXPECT_EQ(h.type, protocol::MessageType::kReject);
+  std::vector<uint8_t> reason(h.payload_bytes);
+  asio::read(s, asio::buffer(reason));
+  return protocol::parse_reject(reason);
+}
+
 TEST(EndToEnd, ViewerThatStopsReadingDoesNotDelayTheOther) {
   ServerConfig config;
   config.stall_timeout_ms = 1500;
@@ -179,23 +190,12 @@ TEST(EndToEnd, HostilePeersGetClearErrorsAndTheServerKeepsServing) {
   protocol::write_header(protocol::MessageType::kHello, 0, header);
   header[4] = 9;
   asio::write(old, asio::buffer(header));
-  uint8_t reply[protocol::kHeaderBytes];
-  asio::read(old, asio::buffer(reply));
-  const protocol::Header rh = protocol::parse_header(reply);
-  EXPECT_EQ(rh.type, protocol::MessageType::kReject);
-  std::vector<uint8_t> reason(rh.payload_bytes);
-  asio::read(old, asio::buffer(reason));
-  EXPECT_NE(protocol::parse_reject(reason).find("version"), std::string::npos);
+  EXPECT_NE(read_reject(old).find("version"), std::string::npos);
 
   // Unknown codec: the viewer is told which codecs exist.
   auto raw = raw_connect(io, port);
   send_hello(raw, "zdepth", "jpeg");
-  asio::read(raw, asio::buffer(reply));
-  const protocol::Header h2 = protocol::parse_header(reply);
-  ASSERT_EQ(h2.type, protocol::MessageType::kReject);
-  std::vector<uint8_t> why(h2.payload_bytes);
-  asio::read(raw, asio::buffer(why));
-  EXPECT_NE(protocol::parse_reject(why).find("unknown depth codec 'zdepth'"), std::string::npos);
+  EXPECT_NE(read_reject(raw).find("unknown depth codec 'zdepth'"), std::string::npos);
 
   // Meanwhile a proper viewer is served normally.
   ViewerOptions opt = viewer_options(port, "trvl", "jpeg");

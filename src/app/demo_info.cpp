@@ -119,6 +119,11 @@ int run_demo(const DemoArgs& a) {
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.seconds = a.seconds;
+  // Overview: behind, above and between the two cameras, looking into both scenes.
+  ViewCamera overview;
+  overview.eye = {0.8f, -0.7f, -1.4f};
+  overview.target = {0.8f, 0.1f, 1.4f};
+  opt.view = overview;
   opt.screenshot = out / "render_overview.png";
   opt.stats_json = out / "stats.json";
   opt.stop = &g_interrupted;

@@ -27,7 +27,8 @@ void BM_DepthEncode(benchmark::State& state, const char* codec) {
     enc->encode(f.depth, true, out);
     benchmark::DoNotOptimize(out.data());
   }
-  state.counters["ratio"] = static_cast<double>(f.depth.size() * 2) / static_cast<double>(out.size());
+  state.counters["ratio"] =
+      static_cast<double>(f.depth.size() * 2) / static_cast<double>(out.size());
 }
 
 void BM_DepthDecode(benchmark::State& state, const char* codec) {
@@ -71,7 +72,8 @@ void BM_PointCloud640x576(benchmark::State& state) {
 void BM_ReadKinectRecordingFrame(benchmark::State& state) {
   // Demux + MJPG decode + color-to-depth registration (the source caches single-capture files,
   // so this opens the recording anew each time: an upper bound).
-  for (auto _ : state) benchmark::DoNotOptimize(open_source(kData / "k4a-recording" / "recording.mkv"));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(open_source(kData / "k4a-recording" / "recording.mkv"));
 }
 
 BENCHMARK_CAPTURE(BM_DepthEncode, rvl, "rvl")->Unit(benchmark::kMillisecond);

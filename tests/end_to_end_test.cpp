@@ -221,6 +221,48 @@ TEST(EndToEnd, ClientRejectsUnknownCodecsAndUnreachableServers) {
   }
 }
 
+TEST(EndToEnd, ServerAppliesEachCamerasFilterChain) {
+  // Camera 0: hands, unfiltered. Camera 1: the Azure Kinect recording with lens correction, the
+  // NFOV crop, thresholds and hole filling.
+  std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
+  sources.push_back(open_source(test::kinect_mkv()));
+  FilterConfig kinect;
+  kinect.undistort = true;
+  kinect.crop = kNfovCrop;
+  kinect.near_mm = 300;
+  kinect.far_mm = 2500;
+  kinect.hole_filling = HoleFiller{};
+  const Intrinsics raw_intrinsics = sources[1]->calibration().depth;
+  SitePlayer player(std::move(sources), 15, {FilterConfig{}, kinect});
+  ServerConfig config;
+  config.port = 0;
+  Server server(player.cameras(), config);
+  player.start(server);
+
+  const fs::path dir = test::temp_dir("e2e_filtered");
+  ViewerOptions opt = viewer_options(server.port(), "rvl", "jpeg");
+  opt.frames = 5;
+  opt.save_frames_dir = dir;
+  const ViewerResult r = run_viewer(opt);
+  player.stop();
+  server.stop();
+  EXPECT_EQ(r.cameras[0].width, 640);
+  EXPECT_EQ(r.cameras[1].width, 540);
+  EXPECT_EQ(r.cameras[1].height, 476);
+  // What the viewer decoded is exactly the chain's output on the recording's frame.
+  FilterChain chain(raw_intrinsics, kinect);
+  CameraFrame expected;
+  chain.apply(open_source(test::kinect_mkv())->next(), expected);
+  size_t compared = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().filename().string().rfind("cam1_", 0) == 0 &&
+        e.path().string().find("depth") != std::string::npos) {
+      EXPECT_EQ(read_depth_png(e.path()), expected.depth);
+      ++compared;
+    }
+  EXPECT_EQ(compared, 5u);
+}
+
 TEST(EndToEnd, ViewerRendersWhatItReceives) {
   HandsSite site(15);
   const fs::path dir = test::temp_dir("e2e_render");

@@ -7,13 +7,32 @@
 #include <string>
 #include <vector>
 
+#include "volcast/filter/chain.hpp"
+
 namespace volcast {
 
 /// Set by SIGINT/SIGTERM; long-running commands stop cleanly when it becomes true.
 extern std::atomic<bool> g_interrupted;
 
+/// Filter flags shared by serve, filter, background and bench; they apply to every camera (a site
+/// config file can override them per camera).
+struct FilterFlags {
+  bool undistort = false;
+  std::string crop;  ///< "", "nfov" or "x,y,w,h"
+  int near_mm = 0, far_mm = 0;
+  std::vector<std::string> backgrounds;  ///< learned background per camera, in camera order
+  int background_margin_mm = 30;
+  bool flying_pixels = false;
+  int hole_fill = 0;  ///< iterations, 0 = off
+  bool kalman = false;
+  /// The configuration for camera `index` (which background file it gets).
+  FilterConfig to_config(size_t index) const;
+};
+
 struct ServeArgs {
   std::vector<std::string> sources;
+  std::string config;  ///< site config JSON: {"cameras": [{"source", "intrinsics", "filters"}]}
+  FilterFlags filters;
   std::string bind = "127.0.0.1";
   uint16_t port = 7300;
   double fps = 30;
@@ -43,6 +62,35 @@ struct DemoArgs {
   std::string depth_codec = "rvl", color_codec = "jpeg";
 };
 int run_demo(const DemoArgs& args);
+
+struct FilterArgs {
+  std::string source;
+  std::string out = "out/filter";
+  std::string intrinsics;
+  int frames = 0;  ///< 0 = one pass of the recording (at most 300)
+  FilterFlags filters;
+};
+/// Runs the filter chain over a recording, writes before/after false-colour PNGs and quality.json.
+int run_filter(const FilterArgs& args);
+
+struct BackgroundArgs {
+  std::string source;
+  std::string out;
+  std::string intrinsics;
+  int frames = 30;
+  FilterFlags filters;  ///< lens correction and crop must match what serve will use
+};
+/// Learns a background model (per-pixel minimum) from frames of the empty room.
+int run_background(const BackgroundArgs& args);
+
+struct BenchArgs {
+  std::vector<std::string> datasets;  ///< extra recordings or folders
+  std::string json;
+  std::string data;
+  int repeats = 50;
+};
+/// Times each filter on real frames (one thread), prints a table and optionally JSON.
+int run_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;

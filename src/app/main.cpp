@@ -17,6 +17,25 @@ std::string join(const std::vector<std::string>& v) {
   return s;
 }
 
+void add_filter_flags(CLI::App* app, volcast::FilterFlags& f, bool with_background) {
+  app->add_flag("--undistort", f.undistort,
+                "Lens correction to an ideal pinhole (nearest neighbour)");
+  app->add_option("--crop", f.crop, "Crop: nfov (540x476 of Azure Kinect NFOV) or x,y,w,h");
+  if (!with_background) return;
+  app->add_option("--near", f.near_mm, "Drop depth nearer than this (mm)");
+  app->add_option("--far", f.far_mm, "Drop depth farther than this (mm)");
+  app->add_option("--background", f.backgrounds,
+                  "Learned background PNG per camera (repeat, camera order)");
+  app->add_option("--background-margin", f.background_margin_mm,
+                  "Keep only pixels this much nearer than the background (mm)")
+      ->capture_default_str();
+  app->add_flag("--flying-pixels", f.flying_pixels,
+                "Remove flying pixels at depth discontinuities");
+  app->add_option("--hole-fill", f.hole_fill,
+                  "Hole filling: iterated median, N iterations (paper: 3)");
+  app->add_flag("--kalman", f.kalman, "Per-pixel Kalman denoising with an innovation gate");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -45,6 +64,10 @@ int main(int argc, char** argv) {
                 "Frames between temporal-codec key frames")
       ->capture_default_str();
   s->add_option("--seconds", serve.seconds, "Stop after this many seconds (default: until Ctrl-C)");
+  s->add_option("--config", serve.config,
+                "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
+  add_filter_flags(s, serve.filters, true);
+  s->get_option("--source")->required(false);
 
   ViewArgs view;
   auto* v =
@@ -77,6 +100,36 @@ int main(int argc, char** argv) {
   d->add_option("--color-codec", demo.color_codec, "Color codec: " + join(color_codec_names()))
       ->capture_default_str();
 
+  FilterArgs filter;
+  auto* f = app.add_subcommand(
+      "filter",
+      "Run the depth filter chain on a recording; write before/after PNGs and quality figures");
+  f->add_option("--source", filter.source, "Azure Kinect .mkv or image-sequence folder")
+      ->required();
+  f->add_option("--out", filter.out, "Folder for PNGs and quality.json")->capture_default_str();
+  f->add_option("--intrinsics", filter.intrinsics,
+                "fx,fy,cx,cy for image sequences without intrinsics.json");
+  f->add_option("--frames", filter.frames, "Frames to process (default: one pass, at most 300)");
+  add_filter_flags(f, filter.filters, true);
+
+  BackgroundArgs background;
+  auto* b = app.add_subcommand(
+      "background", "Learn a camera's background (per-pixel minimum depth) from the empty room");
+  b->add_option("--source", background.source, "Recording of the empty room")->required();
+  b->add_option("--out", background.out, "Model file to write (16-bit PNG)")->required();
+  b->add_option("--intrinsics", background.intrinsics,
+                "fx,fy,cx,cy for image sequences without intrinsics.json");
+  b->add_option("--frames", background.frames, "Frames to learn from")->capture_default_str();
+  add_filter_flags(b, background.filters, false);
+
+  BenchArgs bench;
+  auto* bn = app.add_subcommand("bench", "Time the filter chain on real recordings (one thread)");
+  bn->add_option("--dataset", bench.datasets, "Extra recording or folder (repeat)");
+  bn->add_option("--data", bench.data,
+                 "Folder with the shared recordings (default ../shared/data)");
+  bn->add_option("--json", bench.json, "Write the figures as JSON");
+  bn->add_option("--repeats", bench.repeats, "Passes over each set")->capture_default_str();
+
   InfoArgs info;
   auto* i = app.add_subcommand("info", "Describe a recording: streams, frames, derived intrinsics");
   i->add_option("file", info.file, "Azure Kinect .mkv or image-sequence folder")->required();
@@ -89,6 +142,9 @@ int main(int argc, char** argv) {
     if (*v) return run_view(view);
     if (*d) return run_demo(demo);
     if (*i) return run_info(info);
+    if (*f) return run_filter(filter);
+    if (*b) return run_background(background);
+    if (*bn) return run_bench(bench);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -1,6 +1,9 @@
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "commands.hpp"
@@ -13,25 +16,87 @@ namespace volcast {
 
 std::atomic<bool> g_interrupted{false};
 
-int run_serve(const ServeArgs& a) {
-  SourceOptions source_options;
-  if (!a.intrinsics.empty()) source_options.intrinsics = parse_pinhole(a.intrinsics);
-  std::vector<std::unique_ptr<FrameSource>> sources;
-  for (const auto& path : a.sources) {
-    sources.push_back(open_source(path, source_options));
-    const auto& k = sources.back()->calibration().depth;
-    spdlog::info("camera {}: {} ({}x{}, {} frames, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f})",
-                 sources.size() - 1, sources.back()->description(), k.width, k.height,
-                 sources.back()->frame_count(), k.fx, k.fy, k.cx, k.cy);
+FilterConfig FilterFlags::to_config(size_t index) const {
+  FilterConfig c;
+  c.undistort = undistort;
+  if (!crop.empty()) c.crop = parse_crop(crop);
+  if (near_mm < 0 || near_mm > 65535 || far_mm < 0 || far_mm > 65535)
+    throw Error("--near/--far must be 0..65535 mm");
+  c.near_mm = static_cast<uint16_t>(near_mm);
+  c.far_mm = static_cast<uint16_t>(far_mm);
+  if (index < backgrounds.size()) c.background_file = backgrounds[index];
+  c.background_margin_mm = static_cast<uint16_t>(std::clamp(background_margin_mm, 0, 65535));
+  if (flying_pixels) c.flying_pixels = FlyingPixelFilter{};
+  if (hole_fill > 0) {
+    c.hole_filling = HoleFiller{};
+    c.hole_filling->iterations = hole_fill;
   }
-  SitePlayer site(std::move(sources), a.fps);
+  if (kalman) c.kalman = KalmanFilter{};
+  return c;
+}
+
+namespace {
+
+// Cameras from the site config file (if any), then from --source, each with its filters.
+void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& sources,
+               std::vector<FilterConfig>& filters) {
+  SourceOptions defaults;
+  if (!a.intrinsics.empty()) defaults.intrinsics = parse_pinhole(a.intrinsics);
+  if (!a.config.empty()) {
+    std::ifstream in(a.config);
+    if (!in) throw Error("cannot read site config '" + a.config + "'");
+    const auto j = nlohmann::json::parse(in, nullptr, false);
+    if (j.is_discarded() || !j.contains("cameras") || !j["cameras"].is_array())
+      throw Error("site config '" + a.config + "' must be a JSON object with a \"cameras\" list");
+    for (const auto& cam : j["cameras"]) {
+      const std::string where =
+          "site config '" + a.config + "' camera " + std::to_string(sources.size());
+      if (!cam.is_object() || !cam.contains("source") || !cam["source"].is_string())
+        throw Error(where + ": needs \"source\"");
+      SourceOptions opt = defaults;
+      if (cam.contains("intrinsics"))
+        opt.intrinsics = parse_pinhole(cam["intrinsics"].get<std::string>());
+      FilterConfig f = a.filters.to_config(sources.size());
+      if (cam.contains("filters")) {
+        try {
+          apply_filter_json(cam["filters"].dump(), f);
+        } catch (const Error& e) {
+          throw Error(where + ": " + e.what());
+        }
+      }
+      sources.push_back(open_source(cam["source"].get<std::string>(), opt));
+      filters.push_back(f);
+    }
+  }
+  for (const auto& path : a.sources) {
+    filters.push_back(a.filters.to_config(sources.size()));
+    sources.push_back(open_source(path, defaults));
+  }
+}
+
+}  // namespace
+
+int run_serve(const ServeArgs& a) {
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  std::vector<FilterConfig> filters;
+  load_site(a, sources, filters);
+  if (sources.empty()) throw Error("serve: give at least one --source or a --config with cameras");
+  SitePlayer site(std::move(sources), a.fps, filters);
+  const auto cameras = site.cameras();
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    const auto& k = cameras[i].calibration.depth;
+    spdlog::info("camera {}: {} (sent as {}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}{}{})", i,
+                 cameras[i].description, k.width, k.height, k.fx, k.fy, k.cx, k.cy,
+                 k.is_pinhole() ? ", pinhole" : ", Brown-Conrady",
+                 filters[i].any() ? ", filtered" : "");
+  }
   ServerConfig config;
   config.bind_address = a.bind;
   config.port = a.port;
   config.key_frame_interval = a.key_frame_interval;
-  Server server(site.cameras(), config);
+  Server server(cameras, config);
   site.start(server);
-  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", a.sources.size(), a.fps,
+  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", cameras.size(), a.fps,
                a.bind, server.port());
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

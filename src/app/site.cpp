@@ -9,10 +9,16 @@
 
 namespace volcast {
 
-SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps)
+SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps,
+                       const std::vector<FilterConfig>& filters)
     : sources_(std::move(sources)), fps_(fps) {
   if (sources_.empty()) throw Error("a site needs at least one --source");
   if (!(fps_ > 0 && fps_ <= 1000)) throw Error("--fps must be in (0, 1000]");
+  if (!filters.empty() && filters.size() != sources_.size())
+    throw Error("one filter configuration per camera is needed");
+  chains_.resize(sources_.size());
+  for (size_t i = 0; i < filters.size(); ++i)
+    if (filters[i].any()) chains_[i].emplace(sources_[i]->calibration().depth, filters[i]);
 }
 
 SitePlayer::~SitePlayer() {
@@ -21,7 +27,11 @@ SitePlayer::~SitePlayer() {
 
 std::vector<protocol::CameraInfo> SitePlayer::cameras() const {
   std::vector<protocol::CameraInfo> out;
-  for (const auto& s : sources_) out.push_back({s->calibration(), s->description()});
+  for (size_t i = 0; i < sources_.size(); ++i) {
+    CameraCalibration cal = sources_[i]->calibration();
+    if (chains_[i]) cal.depth = chains_[i]->output_intrinsics();
+    out.push_back({cal, sources_[i]->description()});
+  }
   return out;
 }
 
@@ -48,7 +58,14 @@ void SitePlayer::run(Server& server) {
     if (clock::now() > next) next = clock::now() + period;  // overran: skip ticks, never queue
     auto frames = std::make_shared<FrameSet>();
     try {
-      for (auto& s : sources_) frames->cameras.push_back(s->next());
+      frames->cameras.resize(sources_.size());
+      for (size_t i = 0; i < sources_.size(); ++i) {
+        if (chains_[i]) {
+          chains_[i]->apply(sources_[i]->next(), frames->cameras[i]);
+        } else {
+          frames->cameras[i] = sources_[i]->next();
+        }
+      }
       failures = 0;
     } catch (const std::exception& e) {
       spdlog::error("site: skipping a frame set: {}", e.what());

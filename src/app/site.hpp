@@ -1,6 +1,6 @@
 #pragma once
-// A site: several sources (one camera each) read in lockstep at a fixed rate and published as
-// frame sets to a Server.
+// A site: several sources (one camera each) read in lockstep at a fixed rate, filtered per camera,
+// and published as frame sets to a Server.
 #include <atomic>
 #include <memory>
 #include <string>
@@ -8,14 +8,18 @@
 #include <vector>
 
 #include "volcast/capture/source.hpp"
+#include "volcast/filter/chain.hpp"
 #include "volcast/net/server.hpp"
 
 namespace volcast {
 
 class SitePlayer {
  public:
-  /// Takes ownership of the sources; `fps` is the site's frame-set rate.
-  SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps);
+  /// Takes ownership of the sources; `fps` is the site's frame-set rate. `filters` holds one
+  /// configuration per source (or none: no filtering); a camera whose configuration enables
+  /// nothing is passed through. Throws Error if a filter chain cannot be built.
+  SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps,
+             const std::vector<FilterConfig>& filters = {});
   ~SitePlayer();
 
   /// The cameras as the server announces them in Welcome.
@@ -30,6 +34,7 @@ class SitePlayer {
  private:
   void run(Server& server);
   std::vector<std::unique_ptr<FrameSource>> sources_;
+  std::vector<std::optional<FilterChain>> chains_;
   double fps_;
   std::thread thread_;
   std::atomic<bool> stop_{false};

@@ -56,7 +56,8 @@ TEST(HoleFilling, NeedsEnoughValidNeighbours) {
 }
 
 TEST(HoleFilling, IterationsGrowIntoLargerHoles) {
-  // Synthetic 7x7 plane at 1200 mm with a 3x3 hole: one iteration fills its ring, a second the centre.
+  // Synthetic 7x7 plane at 1200 mm with a 3x3 hole: one iteration fills its ring, a second the
+  // centre.
   DepthImage d(7, 7);
   std::fill(d.pixels.begin(), d.pixels.end(), uint16_t{1200});
   for (int y = 2; y <= 4; ++y)
@@ -90,10 +91,12 @@ TEST(HoleFilling, OnRealFramesStaysWithinNeighboursAndOffStepEdges) {
           uint16_t lo = 65535, hi = 0;
           for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx)
-              if (const uint16_t v = raw.at(x + dx, y + dy)) lo = std::min(lo, v), hi = std::max(hi, v);
+              if (const uint16_t v = raw.at(x + dx, y + dy))
+                lo = std::min(lo, v), hi = std::max(hi, v);
           ASSERT_GE(d.at(x, y), lo);
           ASSERT_LE(d.at(x, y), hi);
-          ASSERT_LE(hi - lo, f.max_spread_mm) << set << ": filled across a step edge at " << x << "," << y;
+          ASSERT_LE(hi - lo, f.max_spread_mm)
+              << set << ": filled across a step edge at " << x << "," << y;
         }
       EXPECT_GT(filled, 0u) << set;
     }
@@ -155,7 +158,8 @@ TEST(Kalman, ReducesTemporalNoiseOnRealStaticPixels) {
     ++statics;
   }
   ASSERT_GT(statics, n / 10);
-  EXPECT_LT(out_noise, raw_noise * 0.8) << "raw " << raw_noise / double(statics) << " mm, filtered " << out_noise / double(statics);
+  EXPECT_LT(out_noise, raw_noise * 0.8)
+      << "raw " << raw_noise / double(statics) << " mm, filtered " << out_noise / double(statics);
 }
 
 TEST(LensCorrection, UndistortedPixelsReprojectWithinHalfAPixel) {
@@ -220,9 +224,10 @@ TEST(Background, KeepsWhatIsNearerThanTheBackgroundByTheMargin) {
 TEST(FlyingPixels, RemovesAnIsolatedMidDepthPixelAndKeepsSurfaces) {
   // Synthetic 5x3: foreground 1000 mm on the left, background 2000 mm on the right, and a mixed
   // return of 1500 mm between them.
-  DepthImage d = synthetic(5, 3, {1000, 1000, 1500, 2000, 2000,  //
-                                  1000, 1000, 1500, 2000, 2000,  //
-                                  1000, 1000, 1500, 2000, 2000});
+  DepthImage d = synthetic(5, 3,
+                           {1000, 1000, 1500, 2000, 2000,  //
+                            1000, 1000, 1500, 2000, 2000,  //
+                            1000, 1000, 1500, 2000, 2000});
   FlyingPixelFilter{}.apply(d);
   EXPECT_EQ(d.at(2, 1), 0);
   EXPECT_EQ(d.at(1, 1), 1000);
@@ -233,7 +238,8 @@ TEST(FilterConfig, ParsesJsonAndRejectsUnknownFields) {
   FilterConfig c;
   apply_filter_json(R"({"undistort": true, "crop": "nfov", "near_mm": 300, "far_mm": 2500,
                         "hole_fill": {"iterations": 5, "max_spread_mm": 30}, "kalman": true,
-                        "flying_pixels": false})", c);
+                        "flying_pixels": false})",
+                    c);
   EXPECT_TRUE(c.undistort);
   EXPECT_EQ(*c.crop, kNfovCrop);
   EXPECT_EQ(c.far_mm, 2500);

@@ -36,8 +36,11 @@ void false_colour(const DepthImage& d, uint16_t lo, uint16_t hi, ColorImage& out
         p[0] = p[1] = p[2] = 0;
         continue;
       }
-      const float t = std::clamp((static_cast<float>(v) - lo) / std::max(1.0f, static_cast<float>(hi - lo)), 0.0f, 1.0f);
-      auto ramp = [](float c) { return static_cast<uint8_t>(255 * std::clamp(1.5f - std::abs(4 * c), 0.0f, 1.0f)); };
+      const float t = std::clamp(
+          (static_cast<float>(v) - lo) / std::max(1.0f, static_cast<float>(hi - lo)), 0.0f, 1.0f);
+      auto ramp = [](float c) {
+        return static_cast<uint8_t>(255 * std::clamp(1.5f - std::abs(4 * c), 0.0f, 1.0f));
+      };
       p[2] = ramp(t - 0.25f);  // red for near
       p[1] = ramp(t - 0.5f);
       p[0] = ramp(t - 0.75f);  // blue for far
@@ -64,7 +67,8 @@ double invalid_share(const DepthImage& d) {
 int run_filter(const FilterArgs& a) {
   auto source = open_source(a.source, source_options(a.intrinsics));
   const FilterConfig config = a.filters.to_config(0);
-  if (!config.any()) spdlog::warn("no filter enabled: pass e.g. --undistort --crop nfov --hole-fill 3 --kalman");
+  if (!config.any())
+    spdlog::warn("no filter enabled: pass e.g. --undistort --crop nfov --hole-fill 3 --kalman");
   FilterChain chain(source->calibration().depth, config);
   const int frames = a.frames > 0 ? a.frames : std::min(source->frame_count(), 300);
   const fs::path out = a.out;
@@ -105,8 +109,10 @@ int run_filter(const FilterArgs& a) {
     std::swap(previous_pre, pre_kalman);
     if (std::find(snapshots.begin(), snapshots.end(), f) != snapshots.end()) {
       const auto [dlo, dhi] = depth_range(raw.depth);
-      ColorImage image(raw.depth.width + filtered.depth.width, std::max(raw.depth.height, filtered.depth.height));
-      for (size_t i = 3; i < image.bgra.size(); i += 4) image.bgra[i] = 255;  // opaque black margins
+      ColorImage image(raw.depth.width + filtered.depth.width,
+                       std::max(raw.depth.height, filtered.depth.height));
+      for (size_t i = 3; i < image.bgra.size(); i += 4)
+        image.bgra[i] = 255;  // opaque black margins
       false_colour(raw.depth, dlo, dhi, image, 0);
       false_colour(filtered.depth, dlo, dhi, image, raw.depth.width);
       write_color_png(out / fmt::format("frame{:04d}_before_after.png", f), image);
@@ -131,32 +137,38 @@ int run_filter(const FilterArgs& a) {
   double mean_moving = 0;
   for (double e : moving_errors) mean_moving += e;
   if (!moving_errors.empty()) mean_moving /= static_cast<double>(moving_errors.size());
-  const double p99_moving = moving_errors.empty() ? 0 : moving_errors[moving_errors.size() * 99 / 100];
+  const double p99_moving =
+      moving_errors.empty() ? 0 : moving_errors[moving_errors.size() * 99 / 100];
 
-  nlohmann::json j = {{"source", a.source},
-                      {"frames", frames},
-                      {"output", {{"width", k.width}, {"height", k.height}}},
-                      {"hole_filling", config.hole_filling.has_value()},
-                      {"invalid_share_before_hole_filling", invalid_before_fill / frames},
-                      {"invalid_share_after_hole_filling", invalid_after_fill / frames},
-                      {"kalman", config.kalman.has_value()},
-                      {"static_pixels", static_pixels},
-                      {"temporal_noise_mm_before_kalman", noise_pre},
-                      {"temporal_noise_mm_after_kalman", noise_post},
-                      {"moving_pixel_samples", moving_errors.size()},
-                      {"moving_pixel_error_mm_mean", mean_moving},
-                      {"moving_pixel_error_mm_p99", p99_moving},
-                      {"moving_pixel_error_mm_max", moving_errors.empty() ? 0.0 : moving_errors.back()}};
+  nlohmann::json j = {
+      {"source", a.source},
+      {"frames", frames},
+      {"output", {{"width", k.width}, {"height", k.height}}},
+      {"hole_filling", config.hole_filling.has_value()},
+      {"invalid_share_before_hole_filling", invalid_before_fill / frames},
+      {"invalid_share_after_hole_filling", invalid_after_fill / frames},
+      {"kalman", config.kalman.has_value()},
+      {"static_pixels", static_pixels},
+      {"temporal_noise_mm_before_kalman", noise_pre},
+      {"temporal_noise_mm_after_kalman", noise_post},
+      {"moving_pixel_samples", moving_errors.size()},
+      {"moving_pixel_error_mm_mean", mean_moving},
+      {"moving_pixel_error_mm_p99", p99_moving},
+      {"moving_pixel_error_mm_max", moving_errors.empty() ? 0.0 : moving_errors.back()}};
   std::ofstream(out / "quality.json") << j.dump(2) << "\n";
-  std::printf("%s: %d frames, %dx%d after lens correction/crop\n", a.source.c_str(), frames, k.width, k.height);
+  std::printf("%s: %d frames, %dx%d after lens correction/crop\n", a.source.c_str(), frames,
+              k.width, k.height);
   if (config.hole_filling)
     std::printf("  invalid pixels         %6.2f %% before hole filling, %6.2f %% after\n",
                 100 * invalid_before_fill / frames, 100 * invalid_after_fill / frames);
   if (config.kalman)
-    std::printf("  temporal noise         %6.2f mm before Kalman, %6.2f mm after (std over time, %zu static px)\n"
-                "  moving pixels (>20 mm) %6.2f mm mean |output - input|, p99 %.1f mm (%zu samples)\n",
-                noise_pre, noise_post, static_pixels, mean_moving, p99_moving, moving_errors.size());
-  std::printf("  wrote %s and before/after PNGs (false colour, near = red)\n", (out / "quality.json").c_str());
+    std::printf(
+        "  temporal noise         %6.2f mm before Kalman, %6.2f mm after (std over time, %zu "
+        "static px)\n"
+        "  moving pixels (>20 mm) %6.2f mm mean |output - input|, p99 %.1f mm (%zu samples)\n",
+        noise_pre, noise_post, static_pixels, mean_moving, p99_moving, moving_errors.size());
+  std::printf("  wrote %s and before/after PNGs (false colour, near = red)\n",
+              (out / "quality.json").c_str());
   return 0;
 }
 
@@ -176,8 +188,8 @@ int run_background(const BackgroundArgs& a) {
     model.learn(frame.depth);
   }
   model.save(a.out);
-  std::printf("learned the background of %s from %d frames (%dx%d), wrote %s\n", a.source.c_str(), a.frames,
-              model.min_depth.width, model.min_depth.height, a.out.c_str());
+  std::printf("learned the background of %s from %d frames (%dx%d), wrote %s\n", a.source.c_str(),
+              a.frames, model.min_depth.width, model.min_depth.height, a.out.c_str());
   return 0;
 }
 
@@ -195,7 +207,8 @@ struct BenchSet {
 int run_bench(const BenchArgs& a) {
   const fs::path data = a.data.empty() ? fs::path("../shared/data") : fs::path(a.data);
   std::vector<BenchSet> sets;
-  // The paper's full chain: lens correction + crop + threshold + 3 hole-filling iterations + Kalman.
+  // The paper's full chain: lens correction + crop + threshold + 3 hole-filling iterations +
+  // Kalman.
   FilterConfig full;
   full.undistort = true;
   full.near_mm = 200;
@@ -204,11 +217,13 @@ int run_bench(const BenchArgs& a) {
   full.kalman = KalmanFilter{};
   auto add_source = [&](const fs::path& path, const std::string& name, int max_frames) {
     SourceOptions o;
-    o.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};  // used only where a folder has no intrinsics
+    o.intrinsics =
+        Intrinsics{0, 0, 460, 460, 320, 180};  // used only where a folder has no intrinsics
     auto src = open_source(path, o);
     BenchSet s{name, src->calibration().depth, {}, full};
     if (s.intrinsics.width == 640 && s.intrinsics.height == 576) s.config.crop = kNfovCrop;
-    for (int i = 0; i < std::min(max_frames, src->frame_count()); ++i) s.frames.push_back(src->next().depth);
+    for (int i = 0; i < std::min(max_frames, src->frame_count()); ++i)
+      s.frames.push_back(src->next().depth);
     sets.push_back(std::move(s));
   };
   if (fs::exists(data / "k4a-recording" / "recording.mkv")) {
@@ -217,16 +232,21 @@ int run_bench(const BenchArgs& a) {
     // recording's lens model (the same camera type).
     BenchSet s{"k4a-4cam-nfov", sets.back().intrinsics, {}, sets.back().config};
     for (const auto& e : fs::directory_iterator(data / "k4a-4cam-nfov"))
-      if (e.path().filename().string().rfind("depth", 0) == 0) s.frames.push_back(read_depth_png(e.path()));
+      if (e.path().filename().string().rfind("depth", 0) == 0)
+        s.frames.push_back(read_depth_png(e.path()));
     if (!s.frames.empty()) sets.push_back(std::move(s));
   }
-  if (fs::exists(data / "rgbd-hands-640x360")) add_source(data / "rgbd-hands-640x360", "rgbd-hands-640x360", 60);
+  if (fs::exists(data / "rgbd-hands-640x360"))
+    add_source(data / "rgbd-hands-640x360", "rgbd-hands-640x360", 60);
   for (const auto& d : a.datasets) add_source(d, fs::path(d).filename().string(), 60);
-  if (sets.empty()) throw Error("bench: no data found in " + data.string() + " (use --data DIR or --dataset PATH)");
+  if (sets.empty())
+    throw Error("bench: no data found in " + data.string() + " (use --data DIR or --dataset PATH)");
 
   nlohmann::json j;
   j["filters"] = nlohmann::json::array();
-  std::printf("Filter chain, one thread, median over %d passes of each set (microseconds per frame)\n", a.repeats);
+  std::printf(
+      "Filter chain, one thread, median over %d passes of each set (microseconds per frame)\n",
+      a.repeats);
   std::printf("%-20s %-17s", "dataset", "frame");
   for (const char* name : FilterTimings::kNames) std::printf(" %12.12s", name);
   std::printf(" %10s\n", "total");
@@ -239,15 +259,17 @@ int run_bench(const BenchArgs& a) {
       for (const DepthImage& d : s.frames) {
         in.depth = d;
         chain.apply(in, out);
-        for (int st = 0; st < FilterTimings::kStages; ++st) samples[st].push_back(chain.last_timings().us[st]);
+        for (int st = 0; st < FilterTimings::kStages; ++st)
+          samples[st].push_back(chain.last_timings().us[st]);
         totals.push_back(chain.last_timings().total_us());
       }
     auto median = [](std::vector<double> v) {
       std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
       return v[v.size() / 2];
     };
-    const std::string frame = fmt::format("{}x{}->{}x{}", s.intrinsics.width, s.intrinsics.height,
-                                          chain.output_intrinsics().width, chain.output_intrinsics().height);
+    const std::string frame =
+        fmt::format("{}x{}->{}x{}", s.intrinsics.width, s.intrinsics.height,
+                    chain.output_intrinsics().width, chain.output_intrinsics().height);
     std::printf("%-20s %-17s", s.name.c_str(), frame.c_str());
     nlohmann::json stages;
     for (int st = 0; st < FilterTimings::kStages; ++st) {
@@ -257,8 +279,11 @@ int run_bench(const BenchArgs& a) {
     }
     const double total = median(totals);
     std::printf(" %10.1f\n", total);
-    j["filters"].push_back({{"dataset", s.name}, {"frame", frame}, {"frames", s.frames.size()},
-                            {"stages_ms", stages}, {"total_ms", total / 1000.0}});
+    j["filters"].push_back({{"dataset", s.name},
+                            {"frame", frame},
+                            {"frames", s.frames.size()},
+                            {"stages_ms", stages},
+                            {"total_ms", total / 1000.0}});
   }
   std::printf("(paper, CUDA on an RTX 2070: 1340 us for the chain, 590 us of it hole filling)\n");
   if (!a.json.empty()) {

@@ -33,9 +33,11 @@ void apply_filter_json(const std::string& json_text, FilterConfig& c) {
   if (j.is_discarded() || !j.is_object()) throw Error("filters: not a JSON object");
   try {
     for (const auto& [key, value] : j.items()) {
-      static const char* known[] = {"undistort", "crop", "near_mm", "far_mm", "background", "background_margin_mm",
-                                    "flying_pixels", "hole_fill", "kalman"};
-      if (std::find_if(std::begin(known), std::end(known), [&](const char* k) { return key == k; }) == std::end(known))
+      static const char* known[] = {"undistort",     "crop",       "near_mm",
+                                    "far_mm",        "background", "background_margin_mm",
+                                    "flying_pixels", "hole_fill",  "kalman"};
+      if (std::find_if(std::begin(known), std::end(known),
+                       [&](const char* k) { return key == k; }) == std::end(known))
         throw Error("filters: unknown field '" + key + "'");
     }
     set_if(j, "undistort", c.undistort);
@@ -105,15 +107,18 @@ void apply_filter_json(const std::string& json_text, FilterConfig& c) {
   }
 }
 
-FilterChain::FilterChain(const Intrinsics& source, FilterConfig config) : config_(std::move(config)) {
+FilterChain::FilterChain(const Intrinsics& source, FilterConfig config)
+    : config_(std::move(config)) {
   map_ = make_pixel_map(source, config_.undistort, config_.crop);
   if (!config_.background_file.empty()) {
     background_ = BackgroundModel::load(config_.background_file);
     const DepthImage& m = background_->min_depth;
     if (m.width != map_.output.width || m.height != map_.output.height)
-      throw Error("background model '" + config_.background_file.string() + "' is " + std::to_string(m.width) + "x" +
-                  std::to_string(m.height) + ", the filtered image is " + std::to_string(map_.output.width) + "x" +
-                  std::to_string(map_.output.height) + " (learn it with the same lens/crop settings)");
+      throw Error("background model '" + config_.background_file.string() + "' is " +
+                  std::to_string(m.width) + "x" + std::to_string(m.height) +
+                  ", the filtered image is " + std::to_string(map_.output.width) + "x" +
+                  std::to_string(map_.output.height) +
+                  " (learn it with the same lens/crop settings)");
   }
 }
 
@@ -122,7 +127,8 @@ void FilterChain::apply(const CameraFrame& in, CameraFrame& out, const StageObse
   auto t = clock::now();
   auto lap = [&](int stage) {
     const auto now = clock::now();
-    timings_.us[static_cast<size_t>(stage)] = std::chrono::duration<double, std::micro>(now - t).count();
+    timings_.us[static_cast<size_t>(stage)] =
+        std::chrono::duration<double, std::micro>(now - t).count();
     if (observer) observer(stage, out.depth);
     t = clock::now();
   };

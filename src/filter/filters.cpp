@@ -12,14 +12,15 @@ PixelMap make_pixel_map(const Intrinsics& source, bool undistort, std::optional<
   const CropRect r = crop.value_or(CropRect{0, 0, source.width, source.height});
   if (r.width <= 0 || r.height <= 0 || r.x < 0 || r.y < 0 || r.x + r.width > source.width ||
       r.y + r.height > source.height)
-    throw Error("crop " + std::to_string(r.x) + "," + std::to_string(r.y) + "," + std::to_string(r.width) + "," +
-                std::to_string(r.height) + " does not fit the " + std::to_string(source.width) + "x" +
-                std::to_string(source.height) + " image");
+    throw Error("crop " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
+                std::to_string(r.width) + "," + std::to_string(r.height) + " does not fit the " +
+                std::to_string(source.width) + "x" + std::to_string(source.height) + " image");
   PixelMap m;
   m.output = source;
   if (undistort) {
     m.output = Intrinsics{};
-    m.output.fx = source.fx, m.output.fy = source.fy, m.output.cx = source.cx, m.output.cy = source.cy;
+    m.output.fx = source.fx, m.output.fy = source.fy, m.output.cx = source.cx,
+    m.output.cy = source.cy;
   }
   m.output.width = r.width;
   m.output.height = r.height;
@@ -45,7 +46,8 @@ PixelMap make_pixel_map(const Intrinsics& source, bool undistort, std::optional<
 }
 
 void apply_pixel_map(const PixelMap& m, const DepthImage& in, DepthImage& out) {
-  if (out.width != m.output.width || out.height != m.output.height) out = DepthImage(m.output.width, m.output.height);
+  if (out.width != m.output.width || out.height != m.output.height)
+    out = DepthImage(m.output.width, m.output.height);
   const uint16_t* src = in.pixels.data();
   uint16_t* dst = out.pixels.data();
   for (size_t i = 0; i < m.map.size(); ++i) {
@@ -59,7 +61,8 @@ void apply_pixel_map(const PixelMap& m, const ColorImage& in, ColorImage& out) {
     out = ColorImage();
     return;
   }
-  if (out.width != m.output.width || out.height != m.output.height) out = ColorImage(m.output.width, m.output.height);
+  if (out.width != m.output.width || out.height != m.output.height)
+    out = ColorImage(m.output.width, m.output.height);
   const uint32_t* src = reinterpret_cast<const uint32_t*>(in.bgra.data());
   uint32_t* dst = reinterpret_cast<uint32_t*>(out.bgra.data());
   for (size_t i = 0; i < m.map.size(); ++i) {
@@ -88,8 +91,9 @@ void BackgroundModel::learn(const DepthImage& frame) {
 
 void BackgroundModel::subtract(DepthImage& depth, uint16_t margin_mm) const {
   if (depth.width != min_depth.width || depth.height != min_depth.height)
-    throw Error("background model is " + std::to_string(min_depth.width) + "x" + std::to_string(min_depth.height) +
-                " but the frame is " + std::to_string(depth.width) + "x" + std::to_string(depth.height));
+    throw Error("background model is " + std::to_string(min_depth.width) + "x" +
+                std::to_string(min_depth.height) + " but the frame is " +
+                std::to_string(depth.width) + "x" + std::to_string(depth.height));
   for (size_t i = 0; i < depth.size(); ++i) {
     const int bg = min_depth.pixels[i];
     const int d = depth.pixels[i];
@@ -170,6 +174,11 @@ void HoleFiller::apply(DepthImage& depth) {
     fill_index_.push_back(i);
     fill_values_.push_back(v[(n - 1) / 2]);
   };
+  if (fill_index_.capacity() < depth.size()) {  // worst case once, so no frame ever allocates
+    fill_index_.reserve(depth.size());
+    fill_values_.reserve(depth.size());
+    candidates_.reserve(depth.size());
+  }
   fill_index_.clear();
   fill_values_.clear();
   for (int y = 1; y + 1 < h; ++y) {
@@ -184,7 +193,8 @@ void HoleFiller::apply(DepthImage& depth) {
     // Only still-invalid neighbours of newly filled pixels can become fillable.
     candidates_.clear();
     for (const uint32_t i : fill_index_) {
-      const int x = static_cast<int>(i % static_cast<uint32_t>(w)), y = static_cast<int>(i / static_cast<uint32_t>(w));
+      const int x = static_cast<int>(i % static_cast<uint32_t>(w)),
+                y = static_cast<int>(i / static_cast<uint32_t>(w));
       for (int k = 0; k < 8; ++k) {
         const int jx = x + kDx[k], jy = y + kDy[k];
         if (jx < 1 || jx + 1 >= w || jy < 1 || jy + 1 >= h) continue;

@@ -15,8 +15,8 @@ namespace volcast {
 
 struct FilterConfig {
   bool undistort = false;
-  std::optional<CropRect> crop;  ///< nullopt: no crop
-  uint16_t near_mm = 0, far_mm = 0;  ///< 0 = no bound
+  std::optional<CropRect> crop;           ///< nullopt: no crop
+  uint16_t near_mm = 0, far_mm = 0;       ///< 0 = no bound
   std::filesystem::path background_file;  ///< learned background (16-bit PNG), empty = none
   uint16_t background_margin_mm = 30;
   std::optional<FlyingPixelFilter> flying_pixels;
@@ -34,7 +34,8 @@ struct FilterConfig {
 ///   "background": "file.png", "background_margin_mm",
 ///   "flying_pixels": bool | {"abs_mm", "rel", "min_support"},
 ///   "hole_fill": iterations | false | {"iterations", "min_neighbours", "max_spread_mm"},
-///   "kalman": bool | {"noise_mm_at_1m", "process_mm", "gate_sigmas", "gate_min_mm", "gate_max_mm"}.
+///   "kalman": bool | {"noise_mm_at_1m", "process_mm", "gate_sigmas", "gate_min_mm",
+///   "gate_max_mm"}.
 /// `json_text` is the object's text. Throws Error naming the bad field.
 void apply_filter_json(const std::string& json_text, FilterConfig& config);
 

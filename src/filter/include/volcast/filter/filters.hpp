@@ -28,8 +28,8 @@ inline constexpr CropRect kNfovCrop{50, 50, 540, 476};
 /// source pixel map[i] (nearest neighbour, so depth is never interpolated across an edge), or 0
 /// where its ray falls outside the source image.
 struct PixelMap {
-  Intrinsics output;          ///< intrinsics of the output image (pinhole if undistorted)
-  std::vector<int32_t> map;   ///< output.width*output.height source indices, -1 = none
+  Intrinsics output;         ///< intrinsics of the output image (pinhole if undistorted)
+  std::vector<int32_t> map;  ///< output.width*output.height source indices, -1 = none
 };
 
 /// Builds the map. `undistort`: the output is an ideal pinhole with the source's fx, fy, cx, cy

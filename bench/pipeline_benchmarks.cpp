@@ -84,14 +84,7 @@ void BM_FilterChain640x576(benchmark::State& state) {
   const CameraFrame frame = src->next();
   CameraFrame in;
   in.depth = frame.depth;  // depth chain only: color is gathered separately
-  FilterConfig c;
-  c.undistort = true;
-  c.crop = kNfovCrop;
-  c.near_mm = 200;
-  c.far_mm = 5000;
-  c.hole_filling = HoleFiller{};
-  c.kalman = KalmanFilter{};
-  FilterChain chain(src->calibration().depth, c);
+  FilterChain chain(src->calibration().depth, paper_chain_config(640, 576));
   CameraFrame out;
   for (auto _ : state) chain.apply(in, out);
 }

@@ -19,23 +19,23 @@ void* operator new(size_t n) {
   if (void* p = std::malloc(n ? n : 1)) return p;
   throw std::bad_alloc();
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, size_t) noexcept {
+  std::free(p);
+}
 namespace volcast {
 namespace {
 
 TEST(FilterChain, AllocatesNothingPerFrameOnceWarm) {
-  auto src = open_source(test::hands_dir(), SourceOptions{Intrinsics{0, 0, 460, 460, 320, 180}, {}, {}});
+  auto src =
+      open_source(test::hands_dir(), SourceOptions{Intrinsics{0, 0, 460, 460, 320, 180}, {}, {}});
   std::vector<CameraFrame> frames;
   for (int i = 0; i < 20; ++i) frames.push_back(src->next());
-  FilterConfig c;
-  c.undistort = true;
+  FilterConfig c = paper_chain_config(640, 360);
   c.crop = CropRect{10, 10, 600, 340};
-  c.near_mm = 200;
-  c.far_mm = 5000;
   c.flying_pixels = FlyingPixelFilter{};
-  c.hole_filling = HoleFiller{};
-  c.kalman = KalmanFilter{};
   FilterChain chain(src->calibration().depth, c);
   CameraFrame out;
   chain.apply(frames[0], out);  // first frame sizes every buffer

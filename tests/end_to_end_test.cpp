@@ -226,12 +226,8 @@ TEST(EndToEnd, ServerAppliesEachCamerasFilterChain) {
   // NFOV crop, thresholds and hole filling.
   std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
   sources.push_back(open_source(test::kinect_mkv()));
-  FilterConfig kinect;
-  kinect.undistort = true;
-  kinect.crop = kNfovCrop;
-  kinect.near_mm = 300;
-  kinect.far_mm = 2500;
-  kinect.hole_filling = HoleFiller{};
+  FilterConfig kinect = paper_chain_config(640, 576);
+  kinect.kalman.reset();  // stateless, so the viewer's frames can be compared with one local pass
   const Intrinsics raw_intrinsics = sources[1]->calibration().depth;
   SitePlayer player(std::move(sources), 15, {FilterConfig{}, kinect});
   ServerConfig config;

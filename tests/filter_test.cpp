@@ -256,13 +256,9 @@ TEST(FilterConfig, ParsesJsonAndRejectsUnknownFields) {
 
 TEST(FilterChain, RunsTheFullChainOnARealFrameAndAnnouncesItsIntrinsics) {
   auto src = open_source(test::kinect_mkv());
-  FilterConfig c;
-  c.undistort = true;
-  c.crop = kNfovCrop;
+  FilterConfig c = paper_chain_config(640, 576);
   c.near_mm = 300;
   c.far_mm = 3000;
-  c.hole_filling = HoleFiller{};
-  c.kalman = KalmanFilter{};
   FilterChain chain(src->calibration().depth, c);
   EXPECT_EQ(chain.output_intrinsics().width, 540);
   EXPECT_TRUE(chain.output_intrinsics().is_pinhole());

@@ -220,8 +220,8 @@ int run_bench(const BenchArgs& a) {
     o.intrinsics =
         Intrinsics{0, 0, 460, 460, 320, 180};  // used only where a folder has no intrinsics
     auto src = open_source(path, o);
-    BenchSet s{name, src->calibration().depth, {}, full};
-    if (s.intrinsics.width == 640 && s.intrinsics.height == 576) s.config.crop = kNfovCrop;
+    const Intrinsics& k = src->calibration().depth;
+    BenchSet s{name, k, {}, paper_chain_config(k.width, k.height)};
     for (int i = 0; i < std::min(max_frames, src->frame_count()); ++i)
       s.frames.push_back(src->next().depth);
     sets.push_back(std::move(s));

@@ -19,6 +19,17 @@ void set_if(const json& j, const char* key, T& value) {
 
 }  // namespace
 
+FilterConfig paper_chain_config(int width, int height) {
+  FilterConfig c;
+  c.undistort = true;
+  if (width == 640 && height == 576) c.crop = kNfovCrop;
+  c.near_mm = 200;
+  c.far_mm = 5000;
+  c.hole_filling = HoleFiller{};
+  c.kalman = KalmanFilter{};
+  return c;
+}
+
 CropRect parse_crop(const std::string& text) {
   if (text == "nfov") return kNfovCrop;
   CropRect r;

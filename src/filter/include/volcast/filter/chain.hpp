@@ -39,6 +39,11 @@ struct FilterConfig {
 /// `json_text` is the object's text. Throws Error naming the bad field.
 void apply_filter_json(const std::string& json_text, FilterConfig& config);
 
+/// The chain the paper times (and Volcast's performance goal names): lens correction, crop (the
+/// NFOV box on 640x576 images, none otherwise), near/far threshold 200..5000 mm, 3 hole-filling
+/// iterations and Kalman denoising, all with default parameters.
+FilterConfig paper_chain_config(int width, int height);
+
 /// Parses a crop flag: "nfov" (the paper's 540x476 box for 640x576 Azure Kinect NFOV) or
 /// "x,y,w,h". Throws Error otherwise.
 CropRect parse_crop(const std::string& text);

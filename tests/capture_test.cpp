@@ -82,6 +82,7 @@ TEST(K4aRecording, ProbeReportsStreamsAndIntrinsics) {
   EXPECT_EQ(info.depth_mode, "NFOV_UNBINNED");
   EXPECT_EQ(info.color_mode, "MJPG_720P");
   EXPECT_EQ(info.depth_frames, 1);
+  EXPECT_DOUBLE_EQ(info.fps, 5.0);  // recorded at 5 fps
   EXPECT_EQ(info.color_frames, 1);
   ASSERT_GE(info.streams.size(), 4u);
   EXPECT_EQ(info.streams[1].title, "DEPTH");

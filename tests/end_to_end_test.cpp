@@ -259,6 +259,39 @@ TEST(EndToEnd, ServerAppliesEachCamerasFilterChain) {
   EXPECT_EQ(compared, 5u);
 }
 
+TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
+  // The hands sequence plays at 30 fps, the Azure Kinect recording was made at 5 fps: the site
+  // runs at 30 fps and repeats the Kinect frame until its next one is due.
+  std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
+  sources.push_back(open_source(test::kinect_mkv()));
+  EXPECT_DOUBLE_EQ(sources[1]->fps(), 5.0);
+  SitePlayer player(std::move(sources), 0);
+  EXPECT_DOUBLE_EQ(player.fps(), 30.0);
+  ServerConfig config;
+  config.port = 0;
+  Server server(player.cameras(), config);
+  player.start(server);
+  ClientConfig c;
+  c.port = server.port();
+  c.depth_codec = "rvl";
+  Client client(c);
+  ReceivedFrameSet rx;
+  std::set<int64_t> hands_stamps, kinect_stamps;
+  uint64_t first = 0, last = 0;
+  for (int i = 0; i < 40 && client.receive(rx); ++i) {
+    if (i == 0) first = rx.frames.sequence;
+    last = rx.frames.sequence;
+    hands_stamps.insert(rx.frames.cameras[0].device_timestamp_us);
+    kinect_stamps.insert(rx.frames.cameras[1].device_timestamp_us);
+  }
+  player.stop();
+  server.stop();
+  const double sets = static_cast<double>(last - first + 1);
+  EXPECT_EQ(hands_stamps.size(), 40u);  // a new hands frame in every frame set
+  EXPECT_LE(static_cast<double>(kinect_stamps.size()), sets / 6 + 2);
+  EXPECT_GE(static_cast<double>(kinect_stamps.size()), sets / 6 - 2);
+}
+
 TEST(EndToEnd, ViewerRendersWhatItReceives) {
   HandsSite site(15);
   const fs::path dir = test::temp_dir("e2e_render");

@@ -35,7 +35,7 @@ struct ServeArgs {
   FilterFlags filters;
   std::string bind = "127.0.0.1";
   uint16_t port = 7300;
-  double fps = 30;
+  double fps = 0;          ///< 0 = the recordings' own rate (the fastest source's)
   std::string intrinsics;  ///< "fx,fy,cx,cy" for image sequences without intrinsics.json
   int key_frame_interval = 60;
   double seconds = 0;  ///< 0 = until interrupted

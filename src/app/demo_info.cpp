@@ -106,7 +106,7 @@ int run_demo(const DemoArgs& a) {
   sources.push_back(open_source(*data / kHands, hands_options));
   sources.push_back(open_source(*data / kKinect, kinect_options));
 
-  SitePlayer site(std::move(sources), 30);
+  SitePlayer site(std::move(sources), 0);  // the hands' 30 fps; the Kinect recording's own 5 fps
   ServerConfig config;
   config.port = 0;  // any free loopback port
   Server server(site.cameras(), config);
@@ -184,6 +184,7 @@ int run_info(const InfoArgs& a) {
          {"depth_frames", info.depth_frames},
          {"color_frames", info.color_frames},
          {"duration_s", info.duration_s},
+         {"fps", info.fps},
          {"depth_intrinsics", intrinsics_json(info.depth_intrinsics)}};
     if (info.color_intrinsics.width) j["color_intrinsics"] = intrinsics_json(info.color_intrinsics);
     j["streams"] = nlohmann::json::array();
@@ -203,8 +204,8 @@ int run_info(const InfoArgs& a) {
                 s.width ? fmt::format("{}x{}", s.width, s.height).c_str() : "");
   std::printf("  depth mode %s, color mode %s\n", info.depth_mode.c_str(),
               info.color_mode.empty() ? "(none)" : info.color_mode.c_str());
-  std::printf("  frames: %d depth, %d color, duration %.3f s\n", info.depth_frames,
-              info.color_frames, info.duration_s);
+  std::printf("  frames: %d depth, %d color, %.0f fps, duration %.3f s\n", info.depth_frames,
+              info.color_frames, info.fps, info.duration_s);
   std::printf("  depth intrinsics: %s\n", intrinsics_line(info.depth_intrinsics).c_str());
   if (info.color_intrinsics.width)
     std::printf("  color intrinsics: %s\n", intrinsics_line(info.color_intrinsics).c_str());

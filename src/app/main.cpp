@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
   s->add_option("--port", serve.port, "TCP port")->capture_default_str();
   s->add_option("--bind", serve.bind, "Address to listen on (0.0.0.0 for remote viewers)")
       ->capture_default_str();
-  s->add_option("--fps", serve.fps, "Frame sets per second")->capture_default_str();
+  s->add_option("--fps", serve.fps, "Frame sets per second (default: the recordings' own rate)");
   s->add_option("--intrinsics", serve.intrinsics,
                 "fx,fy,cx,cy for image sequences without intrinsics.json");
   s->add_option("--key-frame-interval", serve.key_frame_interval,

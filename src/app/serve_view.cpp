@@ -96,7 +96,7 @@ int run_serve(const ServeArgs& a) {
   config.key_frame_interval = a.key_frame_interval;
   Server server(cameras, config);
   site.start(server);
-  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", cameras.size(), a.fps,
+  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", cameras.size(), site.fps(),
                a.bind, server.port());
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

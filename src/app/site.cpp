@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "volcast/core/clock.hpp"
@@ -13,6 +14,8 @@ SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double
                        const std::vector<FilterConfig>& filters)
     : sources_(std::move(sources)), fps_(fps) {
   if (sources_.empty()) throw Error("a site needs at least one --source");
+  if (fps_ == 0)
+    for (const auto& s : sources_) fps_ = std::max(fps_, s->fps());
   if (!(fps_ > 0 && fps_ <= 1000)) throw Error("--fps must be in (0, 1000]");
   if (!filters.empty() && filters.size() != sources_.size())
     throw Error("one filter configuration per camera is needed");
@@ -50,6 +53,9 @@ void SitePlayer::run(Server& server) {
   const auto period =
       std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps_));
   auto next = clock::now();
+  const auto start = next;
+  std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
+  last_frames_.resize(sources_.size());
   uint64_t sequence = 0;
   int failures = 0;
   while (!stop_) {
@@ -58,14 +64,19 @@ void SitePlayer::run(Server& server) {
     if (clock::now() > next) next = clock::now() + period;  // overran: skip ticks, never queue
     auto frames = std::make_shared<FrameSet>();
     try {
-      frames->cameras.resize(sources_.size());
+      const auto now = clock::now();
       for (size_t i = 0; i < sources_.size(); ++i) {
+        if (now < due[i] && !last_frames_[i].depth.pixels.empty()) continue;  // not its time yet
+        due[i] += std::chrono::duration_cast<clock::duration>(
+            std::chrono::duration<double>(1.0 / sources_[i]->fps()));
+        if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
         if (chains_[i]) {
-          chains_[i]->apply(sources_[i]->next(), frames->cameras[i]);
+          chains_[i]->apply(sources_[i]->next(), last_frames_[i]);
         } else {
-          frames->cameras[i] = sources_[i]->next();
+          last_frames_[i] = sources_[i]->next();
         }
       }
+      frames->cameras = last_frames_;
       failures = 0;
     } catch (const std::exception& e) {
       spdlog::error("site: skipping a frame set: {}", e.what());

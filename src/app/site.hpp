@@ -15,7 +15,9 @@ namespace volcast {
 
 class SitePlayer {
  public:
-  /// Takes ownership of the sources; `fps` is the site's frame-set rate. `filters` holds one
+  /// Takes ownership of the sources. `fps` is the site's frame-set rate; 0 = the fastest source's
+  /// rate. Each source is paced at its own rate: between its frames, frame sets repeat its last
+  /// frame (a 5 fps recording in a 30 fps site appears in 6 frame sets). `filters` holds one
   /// configuration per source (or none: no filtering); a camera whose configuration enables
   /// nothing is passed through. Throws Error if a filter chain cannot be built.
   SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps,
@@ -24,6 +26,7 @@ class SitePlayer {
 
   /// The cameras as the server announces them in Welcome.
   std::vector<protocol::CameraInfo> cameras() const;
+  double fps() const { return fps_; }
   /// Starts publishing to `server` on a background thread: one frame set per 1/fps, each stamped
   /// with the wall clock when its frames were read. Ticks that reading overran are skipped, never
   /// queued. A frame that fails to read is logged and its frame set skipped.
@@ -35,6 +38,7 @@ class SitePlayer {
   void run(Server& server);
   std::vector<std::unique_ptr<FrameSource>> sources_;
   std::vector<std::optional<FilterChain>> chains_;
+  std::vector<CameraFrame> last_frames_;  // each camera's latest frame, repeated until its next
   double fps_;
   std::thread thread_;
   std::atomic<bool> stop_{false};

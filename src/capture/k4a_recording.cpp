@@ -98,6 +98,15 @@ std::string depth_mode_name(const Demuxer& dm) {
   throw Error("recording '" + dm.path + "': cannot tell the depth mode");
 }
 
+// The recording's rate: k4arecorder writes each track's frame duration (5, 15 or 30 fps); 30 if
+// the file does not say.
+double recorded_fps(const Demuxer& dm) {
+  const AVStream* st = dm.stream(dm.depth);
+  const AVRational rate = st->avg_frame_rate.num > 0 ? st->avg_frame_rate : st->r_frame_rate;
+  const double fps = rate.num > 0 && rate.den > 0 ? av_q2d(rate) : 0.0;
+  return fps >= 1 && fps <= 120 ? fps : 30.0;
+}
+
 // A raw capture: one depth packet and the color packet taken at the same moment, if any.
 struct RawCapture {
   std::vector<uint8_t> depth;
@@ -184,7 +193,7 @@ class K4aRecordingSource final : public FrameSource {
         registration_.emplace(calibration_.depth, color_intrinsics_, cal.color.camera_from_depth);
       }
     }
-    fps_ = options.fps.value_or(30.0);
+    fps_ = options.fps.value_or(recorded_fps(dm));
     // Count the frames of one pass and check that the first capture decodes.
     CaptureReader counter(path);
     while (auto cap = counter.next()) {
@@ -290,6 +299,7 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
   if (dm.fmt->duration != AV_NOPTS_VALUE)
     info.duration_s = static_cast<double>(dm.fmt->duration) / AV_TIME_BASE;
   info.depth_mode = depth_mode_name(dm);
+  info.fps = recorded_fps(dm);
   const K4aCalibration cal = parse_k4a_calibration(dm.calibration_json);
   info.depth_intrinsics =
       k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(info.depth_mode));

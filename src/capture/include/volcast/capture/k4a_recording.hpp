@@ -26,6 +26,7 @@ struct K4aRecordingInfo {
   int depth_frames = 0;    ///< depth frames in the file (counted by reading every packet)
   int color_frames = 0;
   double duration_s = 0;
+  double fps = 0;               ///< the recording's frame rate
   Intrinsics depth_intrinsics;  ///< derived for the depth mode, pixels
   Intrinsics color_intrinsics;  ///< derived for the color resolution, pixels (width 0 if none)
   RigidTransform color_from_depth;

@@ -18,7 +18,7 @@ class FrameSource {
   virtual ~FrameSource() = default;
   /// Depth intrinsics (color is registered to depth) and world_from_camera.
   virtual const CameraCalibration& calibration() const = 0;
-  /// Nominal frame rate of the recording, frames per second.
+  /// Frame rate of the recording, frames per second (as recorded; 30 where a format has none).
   virtual double fps() const = 0;
   /// Number of frames in one pass of the recording.
   virtual int frame_count() const = 0;

@@ -6,6 +6,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libeigen3-dev libspdlog-dev libcli11-dev nlohmann-json3-dev libasio-dev
   libavformat-dev libavcodec-dev libavutil-dev libturbojpeg0-dev libpng-dev zlib1g-dev
+  libzstd-dev liblz4-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
 )
 missing=()

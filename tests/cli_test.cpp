@@ -3,6 +3,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "test_data.hpp"
@@ -140,7 +141,7 @@ TEST(Cli, BackgroundLearnsAModelInTheFilteredGeometry) {
   EXPECT_NE(out.find("learn it with the same lens/crop settings"), std::string::npos) << out;
 }
 
-TEST(Cli, BenchReportsEachFilterAsJson) {
+TEST(Cli, BenchReportsEachFilterAndCodecAsJson) {
   const auto dir = test::temp_dir("cli_bench");
   std::string out;
   ASSERT_EQ(test::run_command(kVolcast + " bench --repeats 2 --data " + test::data_dir().string() +
@@ -156,6 +157,25 @@ TEST(Cli, BenchReportsEachFilterAsJson) {
     EXPECT_GT(f["stages_ms"]["hole_filling"].get<double>(), 0.0);
     EXPECT_GT(f["stages_ms"]["kalman"].get<double>(), 0.0);
   }
+  // Table 1 layout: every codec on every real set; lossless codecs verified exact.
+  std::set<std::string> datasets;
+  for (const auto& c : j["depth_codecs"]) {
+    datasets.insert(c["dataset"].get<std::string>());
+    const std::string codec = c["codec"];
+    for (const char* field :
+         {"bytes_per_frame", "ratio", "encode_ms", "decode_ms", "max_abs_error_mm"})
+      EXPECT_TRUE(c.contains(field)) << field;
+    if (codec != "trvl-paper") {
+      EXPECT_TRUE(c["lossless"].get<bool>()) << codec << " on " << c["dataset"];
+      EXPECT_EQ(c["max_abs_error_mm"].get<double>(), 0.0);
+    }
+    if (codec == "rvl") {
+      EXPECT_DOUBLE_EQ(c["ratio_vs_rvl"].get<double>(), 1.0);
+    }
+  }
+  EXPECT_EQ(datasets.size(), 4u);
+  ASSERT_EQ(j["color_codecs"].size(), 2u);  // the sets with registered color
+  EXPECT_GT(j["color_codecs"][0]["psnr_db"].get<double>(), 30.0);
 }
 
 TEST(Cli, ServeRejectsABadSiteConfigNamingTheField) {

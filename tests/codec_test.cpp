@@ -36,6 +36,8 @@ TEST_P(RealSets, RvlAndTemporalRvlRoundTripBitExactlyOnEveryFrame) {
   expect_round_trip("rvl", frames, GetParam());
   expect_round_trip("trvl", frames, GetParam());
   expect_round_trip("raw", frames, GetParam());
+  expect_round_trip("zstd", frames, GetParam());
+  expect_round_trip("lz4", frames, GetParam());
 }
 
 INSTANTIATE_TEST_SUITE_P(SharedData, RealSets,
@@ -75,6 +77,17 @@ DepthImage synthetic_full_range(uint32_t seed) {
 
 TEST(Rvl, RoundTripsValuesAbove32767) {
   expect_round_trip("rvl", {synthetic_full_range(1), synthetic_full_range(2)}, "synthetic");
+}
+
+TEST(BytePlaneCodecs, RoundTripValuesAbove32767AndCompressRealDepth) {
+  for (const std::string codec : {"zstd", "lz4"}) {
+    expect_round_trip(codec, {synthetic_full_range(5), synthetic_full_range(6)}, "synthetic");
+    const auto frames = test::real_depth_frames("kinect");
+    std::vector<uint8_t> bytes;
+    make_depth_encoder(codec)->encode(frames[0], true, bytes);
+    EXPECT_GT(static_cast<double>(frames[0].size() * 2) / static_cast<double>(bytes.size()), 2.0)
+        << codec;
+  }
 }
 
 TEST(TemporalRvl, RoundTripsValuesAbove32767AndMaximalChanges) {
@@ -160,7 +173,7 @@ TEST(DepthCodecs, UnknownNamesAreRejectedWithTheList) {
 
 TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
   const auto frames = test::real_depth_frames("hands");
-  for (const std::string codec : {"rvl", "trvl", "raw"}) {
+  for (const std::string codec : {"rvl", "trvl", "raw", "zstd", "lz4"}) {
     auto enc = make_depth_encoder(codec);
     std::vector<uint8_t> key, delta;
     enc->encode(frames[20], true, key);

@@ -96,25 +96,30 @@ TEST(EndToEnd, EverySavedDepthFrameEqualsItsSourceAndStatsAreSane) {
   EXPECT_EQ(r.cameras[0].width, 640);
 }
 
-TEST(EndToEnd, TwoViewersWithDifferentCodecsAtOnce) {
+TEST(EndToEnd, SeveralViewersWithDifferentCodecsAtOnce) {
   HandsSite site(15);
   const fs::path dir = test::temp_dir("e2e_two");
   ViewerOptions a = viewer_options(site.server.port(), "rvl", "jpeg");
   ViewerOptions b = viewer_options(site.server.port(), "trvl", "raw");
-  a.frames = b.frames = 25;
+  ViewerOptions c = viewer_options(site.server.port(), "zstd", "none");
+  a.frames = b.frames = c.frames = 25;
   a.save_frames_dir = dir / "a";
   b.save_frames_dir = dir / "b";
+  c.save_frames_dir = dir / "c";
   auto fa = std::async(std::launch::async, [&] { return run_viewer(a); });
   auto fb = std::async(std::launch::async, [&] { return run_viewer(b); });
-  const ViewerResult ra = fa.get(), rb = fb.get();
+  auto fc = std::async(std::launch::async, [&] { return run_viewer(c); });
+  const ViewerResult ra = fa.get(), rb = fb.get(), rc = fc.get();
   EXPECT_EQ(expect_saved_depth_equals_source(a.save_frames_dir), 25u);
   EXPECT_EQ(expect_saved_depth_equals_source(b.save_frames_dir), 25u);
+  EXPECT_EQ(expect_saved_depth_equals_source(c.save_frames_dir), 25u);
+  EXPECT_EQ(rc.cameras[0].mean_color_bytes, 0.0);
   // Raw color is 640x360x4 plus a header; JPEG is far smaller.
   EXPECT_EQ(rb.cameras[0].mean_color_bytes, 640.0 * 360 * 4 + 12);
   EXPECT_LT(ra.cameras[0].mean_color_bytes, rb.cameras[0].mean_color_bytes / 5);
   std::set<std::string> codecs;
   for (const auto& v : site.server.viewers()) codecs.insert(v.depth_codec + "/" + v.color_codec);
-  EXPECT_TRUE(codecs.count("rvl/jpeg") && codecs.count("trvl/raw"));
+  EXPECT_TRUE(codecs.count("rvl/jpeg") && codecs.count("trvl/raw") && codecs.count("zstd/none"));
 }
 
 // Connects a raw TCP socket to the server.

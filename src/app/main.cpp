@@ -123,12 +123,14 @@ int main(int argc, char** argv) {
   add_filter_flags(b, background.filters, false);
 
   BenchArgs bench;
-  auto* bn = app.add_subcommand("bench", "Time the filter chain on real recordings (one thread)");
+  auto* bn = app.add_subcommand(
+      "bench", "Time the filter chain and the codecs on real recordings (one thread)");
   bn->add_option("--dataset", bench.datasets, "Extra recording or folder (repeat)");
   bn->add_option("--data", bench.data,
                  "Folder with the shared recordings (default ../shared/data)");
   bn->add_option("--json", bench.json, "Write the figures as JSON");
-  bn->add_option("--repeats", bench.repeats, "Passes over each set")->capture_default_str();
+  bn->add_option("--repeats", bench.repeats, "Passes over each set (codecs: a tenth of it)")
+      ->capture_default_str();
 
   InfoArgs info;
   auto* i = app.add_subcommand("info", "Describe a recording: streams, frames, derived intrinsics");

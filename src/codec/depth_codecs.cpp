@@ -2,6 +2,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "frame_header.hpp"
 #include "nibble_coding.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/error.hpp"
@@ -9,69 +10,15 @@
 namespace volcast {
 namespace {
 
+using detail::check_size;
+using detail::Header;
+using detail::kRaw;
+using detail::kRvl;
+using detail::kTrvl;
 using detail::NibbleReader;
 using detail::NibbleWriter;
-
-enum CodecId : uint8_t { kRaw = 0, kRvl = 1, kTrvl = 2 };
-constexpr uint8_t kVersion = 1;
-constexpr uint8_t kKeyFlag = 1;
-constexpr int kMaxSide = 8192;
-
-const char* codec_label(uint8_t id) {
-  switch (id) {
-    case kRaw:
-      return "raw";
-    case kRvl:
-      return "rvl";
-    case kTrvl:
-      return "trvl";
-    default:
-      return "unknown";
-  }
-}
-
-void write_header(uint8_t* out, CodecId id, bool key, int w, int h) {
-  const uint8_t header[kDepthHeaderBytes] = {'V',
-                                             'D',
-                                             kVersion,
-                                             id,
-                                             uint8_t(key ? kKeyFlag : 0),
-                                             0,
-                                             0,
-                                             0,
-                                             uint8_t(w),
-                                             uint8_t(w >> 8),
-                                             uint8_t(h),
-                                             uint8_t(h >> 8)};
-  std::memcpy(out, header, kDepthHeaderBytes);
-}
-
-struct Header {
-  uint8_t codec;
-  bool key;
-  int width, height;
-};
-
-Header read_header(std::span<const uint8_t> d, const char* expect) {
-  if (d.size() < kDepthHeaderBytes) throw Error(std::string(expect) + ": truncated header");
-  if (d[0] != 'V' || d[1] != 'D') throw Error(std::string(expect) + ": not a Volcast depth frame");
-  if (d[2] != kVersion)
-    throw Error(std::string(expect) + ": unsupported depth format version " + std::to_string(d[2]));
-  Header h{d[3], (d[4] & kKeyFlag) != 0, d[8] | d[9] << 8, d[10] | d[11] << 8};
-  if (std::strcmp(codec_label(h.codec), expect) != 0)
-    throw Error(std::string(expect) + ": frame was encoded with codec '" + codec_label(h.codec) +
-                "'");
-  if (h.width <= 0 || h.height <= 0 || h.width > kMaxSide || h.height > kMaxSide)
-    throw Error(std::string(expect) + ": implausible size " + std::to_string(h.width) + "x" +
-                std::to_string(h.height));
-  return h;
-}
-
-void check_size(const DepthImage& depth) {
-  if (depth.width <= 0 || depth.height <= 0 || depth.width > kMaxSide || depth.height > kMaxSide ||
-      depth.pixels.size() != static_cast<size_t>(depth.width) * depth.height)
-    throw Error("depth encoder: invalid image size");
-}
+using detail::read_header;
+using detail::write_header;
 
 // RVL body of a frame: alternating (zero count, nonzero count, zigzag deltas of the nonzero
 // values).
@@ -276,7 +223,7 @@ class TrvlDecoder final : public DepthDecoder {
 }  // namespace
 
 std::vector<std::string> depth_codec_names() {
-  return {"raw", "rvl", "trvl"};
+  return {"raw", "rvl", "trvl", "zstd", "lz4"};
 }
 
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
@@ -287,20 +234,26 @@ std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {
   if (name == "raw") return std::make_unique<RawEncoder>();
   if (name == "rvl") return std::make_unique<RvlEncoder>();
   if (name == "trvl") return make_trvl_encoder({});
-  throw Error("unknown depth codec '" + std::string(name) + "' (available: raw, rvl, trvl)");
+  if (name == "zstd") return detail::make_byte_plane_encoder(detail::kZstd);
+  if (name == "lz4") return detail::make_byte_plane_encoder(detail::kLz4);
+  throw Error("unknown depth codec '" + std::string(name) +
+              "' (available: raw, rvl, trvl, zstd, lz4)");
 }
 
 std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
   if (name == "raw") return std::make_unique<RawDecoder>();
   if (name == "rvl") return std::make_unique<RvlDecoder>();
   if (name == "trvl") return std::make_unique<TrvlDecoder>();
-  throw Error("unknown depth codec '" + std::string(name) + "' (available: raw, rvl, trvl)");
+  if (name == "zstd") return detail::make_byte_plane_decoder(detail::kZstd);
+  if (name == "lz4") return detail::make_byte_plane_decoder(detail::kLz4);
+  throw Error("unknown depth codec '" + std::string(name) +
+              "' (available: raw, rvl, trvl, zstd, lz4)");
 }
 
 bool depth_frame_is_key(std::span<const uint8_t> data) {
   if (data.size() < kDepthHeaderBytes || data[0] != 'V' || data[1] != 'D')
     throw Error("not a Volcast depth frame");
-  return (data[4] & kKeyFlag) != 0;
+  return (data[4] & detail::kKeyFlag) != 0;
 }
 
 }  // namespace volcast

@@ -9,6 +9,8 @@
 //   trvl - temporal RVL (H. Jun, J. Bailenson, "Temporal RVL", ISMAR 2020): key frames are RVL,
 //          delta frames code the per-pixel change against the previous frame this encoder emitted.
 //          Lossless by default (change threshold 0 mm, invalidation threshold 0 frames).
+//   zstd - Zstandard (level 1) after a left-delta (mod 2^16) and low/high byte-plane split
+//   lz4  - LZ4 after the same transform
 // All lossless codecs are bit-exact on every 16-bit value. Encoders are stateful (temporal codecs
 // keep the last frame they emitted); one encoder per receiver, so a receiver that misses frames the
 // encoder never produced still decodes the next delta frame.
@@ -51,7 +53,7 @@ struct TrvlParams {
   int invalidation_frames = 0;  ///< a pixel turning invalid keeps its value for this many frames
 };
 
-/// Names of the depth codecs, e.g. {"raw", "rvl", "trvl"}.
+/// Names of the depth codecs: {"raw", "rvl", "trvl", "zstd", "lz4"}.
 std::vector<std::string> depth_codec_names();
 /// Throws Error("unknown depth codec 'x' (available: ...)").
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);

@@ -40,28 +40,31 @@ double ms_since(std::chrono::steady_clock::time_point t) {
 }
 
 DepthRow run_depth(const CodecSet& s, const std::string& label,
-                   const std::function<std::unique_ptr<DepthEncoder>()>& make_encoder, const std::string& decoder,
-                   int repeats) {
+                   const std::function<std::unique_ptr<DepthEncoder>()>& make_encoder,
+                   const std::string& decoder, int repeats) {
   DepthRow row;
   row.codec = label;
   std::vector<double> enc_ms, dec_ms;
   std::vector<std::vector<uint8_t>> streams(s.depth.size());
+  // One encoder and decoder for all passes (buffers warm, as in a running server); each pass
+  // starts with a key frame.
+  auto enc = make_encoder();
   for (int r = 0; r < repeats; ++r) {
-    auto enc = make_encoder();
     const auto t = std::chrono::steady_clock::now();
     for (size_t i = 0; i < s.depth.size(); ++i)
-      enc->encode(s.depth[i], i == 0 || (s.key_interval && i % static_cast<size_t>(s.key_interval) == 0), streams[i]);
+      enc->encode(s.depth[i],
+                  i == 0 || (s.key_interval && i % static_cast<size_t>(s.key_interval) == 0),
+                  streams[i]);
     enc_ms.push_back(ms_since(t) / static_cast<double>(s.depth.size()));
   }
   DepthImage out;
+  auto dec = make_depth_decoder(decoder);
   for (int r = 0; r < repeats; ++r) {
-    auto dec = make_depth_decoder(decoder);
     const auto t = std::chrono::steady_clock::now();
     for (const auto& b : streams) dec->decode(b, out);
     dec_ms.push_back(ms_since(t) / static_cast<double>(s.depth.size()));
   }
   // Exactness on every frame and pixel.
-  auto dec = make_depth_decoder(decoder);
   double error_sum = 0;
   size_t pixels = 0;
   for (size_t i = 0; i < s.depth.size(); ++i) {
@@ -98,7 +101,8 @@ std::vector<CodecSet> load_sets(const fs::path& data, const std::vector<std::str
   };
   if (fs::exists(data / "k4a-recording" / "recording.mkv"))
     from_source(data / "k4a-recording" / "recording.mkv", "k4a-recording 640x576", 1);
-  auto from_pngs = [&](const fs::path& dir, const std::string& prefix, const std::string& name, int key_interval) {
+  auto from_pngs = [&](const fs::path& dir, const std::string& prefix, const std::string& name,
+                       int key_interval) {
     if (!fs::exists(dir)) return;
     std::vector<fs::path> files;
     for (const auto& e : fs::directory_iterator(dir))
@@ -109,23 +113,28 @@ std::vector<CodecSet> load_sets(const fs::path& data, const std::vector<std::str
     for (const auto& f : files) s.depth.push_back(read_depth_png(f));
     if (!s.depth.empty()) sets.push_back(std::move(s));
   };
-  from_pngs(data / "k4a-4cam-nfov", "depth", "k4a-4cam-nfov 640x576", 1);  // four cameras: all key frames
-  from_pngs(data / "k4a-binned-pairs", "TestVector", "k4a-binned-pairs 320x288", 2);  // key, delta pairs
-  if (fs::exists(data / "rgbd-hands-640x360")) from_source(data / "rgbd-hands-640x360", "rgbd-hands 640x360", 207);
+  from_pngs(data / "k4a-4cam-nfov", "depth", "k4a-4cam-nfov 640x576",
+            1);  // four cameras: all key frames
+  from_pngs(data / "k4a-binned-pairs", "TestVector", "k4a-binned-pairs 320x288",
+            2);  // key, delta pairs
+  if (fs::exists(data / "rgbd-hands-640x360"))
+    from_source(data / "rgbd-hands-640x360", "rgbd-hands 640x360", 207);
   for (const auto& e : extra) from_source(e, fs::path(e).filename().string(), 300);
   return sets;
 }
 
 }  // namespace
 
-void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, int repeats, nlohmann::json& json) {
+void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, int repeats,
+                  nlohmann::json& json) {
   const std::vector<CodecSet> sets = load_sets(data, extra);
   if (sets.empty()) throw Error("bench: no data found in " + data.string());
   json["depth_codecs"] = nlohmann::json::array();
   json["color_codecs"] = nlohmann::json::array();
-  std::printf("\nDepth codecs (paper's Table 1 layout), one thread, median of %d passes\n", repeats);
-  std::printf("%-26s %-11s %10s %7s %8s %8s %-14s %9s %8s %8s %8s\n", "dataset", "codec", "B/frame", "ratio", "enc ms",
-              "dec ms", "exact", "Mbit/s*", "ratio/R", "enc/R", "dec/R");
+  std::printf("\nDepth codecs (paper's Table 1 layout), one thread, median of %d passes\n",
+              repeats);
+  std::printf("%-26s %-11s %10s %7s %8s %8s %-14s %9s %8s %8s %8s\n", "dataset", "codec", "B/frame",
+              "ratio", "enc ms", "dec ms", "exact", "Mbit/s*", "ratio/R", "enc/R", "dec/R");
   for (const CodecSet& s : sets) {
     // Color that travels with this camera: JPEG of the registered color, where the set has it.
     double color_bytes = 0;
@@ -149,42 +158,67 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
         color_bytes += static_cast<double>(bytes.size());
         dec->decode(bytes, out);
         for (size_t i = 0; i < out.bgra.size(); i += 4)
-          for (int k = 0; k < 3; ++k, ++samples) se += std::pow(double(out.bgra[i + k]) - c.bgra[i + k], 2);
+          for (int k = 0; k < 3; ++k, ++samples)
+            se += std::pow(double(out.bgra[i + k]) - c.bgra[i + k], 2);
       }
       color_bytes /= static_cast<double>(s.color.size());
       const double psnr = 10 * std::log10(255.0 * 255.0 / (se / samples));
       const double raw = static_cast<double>(s.color[0].width) * s.color[0].height * 3;
-      json["color_codecs"].push_back({{"dataset", s.name}, {"codec", "jpeg"}, {"bytes_per_frame", color_bytes},
-                                      {"ratio", raw / color_bytes}, {"encode_ms", median(enc_ms)},
-                                      {"decode_ms", median(dec_ms)}, {"psnr_db", psnr}});
+      json["color_codecs"].push_back({{"dataset", s.name},
+                                      {"codec", "jpeg"},
+                                      {"bytes_per_frame", color_bytes},
+                                      {"ratio", raw / color_bytes},
+                                      {"encode_ms", median(enc_ms)},
+                                      {"decode_ms", median(dec_ms)},
+                                      {"psnr_db", psnr}});
     }
     std::vector<DepthRow> rows;
     for (const std::string& codec : depth_codec_names())
-      rows.push_back(run_depth(s, codec, [&] { return make_depth_encoder(codec); }, codec, repeats));
+      rows.push_back(run_depth(
+          s, codec, [&] { return make_depth_encoder(codec); }, codec, repeats));
     // The paper's temporal RVL setting (changes <= 10 mm dropped, invalid held 2 frames): lossy.
-    rows.push_back(run_depth(s, "trvl-paper", [] { return make_trvl_encoder({10, 2}); }, "trvl", repeats));
-    const DepthRow& rvl = *std::find_if(rows.begin(), rows.end(), [](const DepthRow& r) { return r.codec == "rvl"; });
+    rows.push_back(run_depth(
+        s, "trvl-paper",
+        [] {
+          return make_trvl_encoder({10, 2});
+        },
+        "trvl", repeats));
+    const DepthRow& rvl =
+        *std::find_if(rows.begin(), rows.end(), [](const DepthRow& r) { return r.codec == "rvl"; });
     const double raw = static_cast<double>(s.depth[0].size()) * 2;
     for (const DepthRow& r : rows) {
       const double mbit = (r.bytes + color_bytes) * 8 * 30 / 1e6;
-      const std::string exact = r.lossless ? "lossless" : fmt::format("max {:.0f} mean {:.2f}", r.max_error, r.mean_error);
-      std::printf("%-26s %-11s %10.0f %6.2fx %8.3f %8.3f %-14s %9.2f %8.2f %8.2f %8.2f\n", s.name.c_str(),
-                  r.codec.c_str(), r.bytes, raw / r.bytes, r.encode_ms, r.decode_ms, exact.c_str(), mbit,
-                  rvl.bytes / r.bytes, r.encode_ms / rvl.encode_ms, r.decode_ms / rvl.decode_ms);
-      json["depth_codecs"].push_back({{"dataset", s.name}, {"codec", r.codec}, {"bytes_per_frame", r.bytes},
-                                      {"ratio", raw / r.bytes}, {"encode_ms", r.encode_ms}, {"decode_ms", r.decode_ms},
-                                      {"lossless", r.lossless}, {"max_abs_error_mm", r.max_error},
-                                      {"mean_abs_error_mm", r.mean_error}, {"mbit_per_s_with_color", mbit},
-                                      {"ratio_vs_rvl", rvl.bytes / r.bytes}, {"encode_vs_rvl", r.encode_ms / rvl.encode_ms},
+      const std::string exact =
+          r.lossless ? "lossless"
+                     : fmt::format("max {:.0f} mean {:.2f}", r.max_error, r.mean_error);
+      std::printf("%-26s %-11s %10.0f %6.2fx %8.3f %8.3f %-14s %9.2f %8.2f %8.2f %8.2f\n",
+                  s.name.c_str(), r.codec.c_str(), r.bytes, raw / r.bytes, r.encode_ms, r.decode_ms,
+                  exact.c_str(), mbit, rvl.bytes / r.bytes, r.encode_ms / rvl.encode_ms,
+                  r.decode_ms / rvl.decode_ms);
+      json["depth_codecs"].push_back({{"dataset", s.name},
+                                      {"codec", r.codec},
+                                      {"bytes_per_frame", r.bytes},
+                                      {"ratio", raw / r.bytes},
+                                      {"encode_ms", r.encode_ms},
+                                      {"decode_ms", r.decode_ms},
+                                      {"lossless", r.lossless},
+                                      {"max_abs_error_mm", r.max_error},
+                                      {"mean_abs_error_mm", r.mean_error},
+                                      {"mbit_per_s_with_color", mbit},
+                                      {"ratio_vs_rvl", rvl.bytes / r.bytes},
+                                      {"encode_vs_rvl", r.encode_ms / rvl.encode_ms},
                                       {"decode_vs_rvl", r.decode_ms / rvl.decode_ms}});
     }
   }
-  std::printf("* depth + JPEG color per camera at 30 fps (depth only where a set has no registered color);\n"
-              "  ratio/R, enc/R, dec/R: against RVL in the same run (ratio/R > 1 = smaller than RVL).\n");
+  std::printf(
+      "* depth + JPEG color per camera at 30 fps (depth only where a set has no registered "
+      "color);\n"
+      "  ratio/R, enc/R, dec/R: against RVL in the same run (ratio/R > 1 = smaller than RVL).\n");
   for (const auto& c : json["color_codecs"])
     std::printf("color %-26s jpeg %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
-                c["dataset"].get<std::string>().c_str(), c["bytes_per_frame"].get<double>(), c["ratio"].get<double>(),
-                c["encode_ms"].get<double>(), c["decode_ms"].get<double>(), c["psnr_db"].get<double>());
+                c["dataset"].get<std::string>().c_str(), c["bytes_per_frame"].get<double>(),
+                c["ratio"].get<double>(), c["encode_ms"].get<double>(),
+                c["decode_ms"].get<double>(), c["psnr_db"].get<double>());
 }
 
 }  // namespace volcast

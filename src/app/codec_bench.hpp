@@ -11,7 +11,7 @@ namespace volcast {
 /// `extra` recordings, one thread, median of `repeats` passes; prints a table and fills
 /// json["depth_codecs"] and json["color_codecs"]. Lossless codecs are verified bit-exact on every
 /// frame (else the maximum and mean absolute error are reported).
-void bench_codecs(const std::filesystem::path& data, const std::vector<std::string>& extra, int repeats,
-                  nlohmann::json& json);
+void bench_codecs(const std::filesystem::path& data, const std::vector<std::string>& extra,
+                  int repeats, nlohmann::json& json);
 
 }  // namespace volcast

@@ -16,10 +16,12 @@ void to_planes(const DepthImage& d, uint8_t* planes) {
   const int w = d.width;
   const uint16_t* px = d.pixels.data();
   for (size_t i = 0; i < n; ++i) {
-    const uint16_t reference = i == 0 ? 0 : (i % static_cast<size_t>(w) == 0 ? px[i - w] : px[i - 1]);
+    const uint16_t reference =
+        i == 0 ? 0 : (i % static_cast<size_t>(w) == 0 ? px[i - w] : px[i - 1]);
     // Zigzag of the 16-bit difference: small differences of either sign have a zero high byte.
     const auto delta = static_cast<int16_t>(static_cast<uint16_t>(px[i] - reference));
-    const auto zz = static_cast<uint16_t>((static_cast<uint16_t>(delta) << 1) ^ static_cast<uint16_t>(delta >> 15));
+    const auto zz = static_cast<uint16_t>((static_cast<uint16_t>(delta) << 1) ^
+                                          static_cast<uint16_t>(delta >> 15));
     planes[i] = static_cast<uint8_t>(zz);
     planes[n + i] = static_cast<uint8_t>(zz >> 8);
   }
@@ -30,7 +32,8 @@ void from_planes(const uint8_t* planes, DepthImage& d) {
   const int w = d.width;
   uint16_t* px = d.pixels.data();
   for (size_t i = 0; i < n; ++i) {
-    const uint16_t reference = i == 0 ? 0 : (i % static_cast<size_t>(w) == 0 ? px[i - w] : px[i - 1]);
+    const uint16_t reference =
+        i == 0 ? 0 : (i % static_cast<size_t>(w) == 0 ? px[i - w] : px[i - 1]);
     const auto zz = static_cast<uint16_t>(planes[i] | planes[n + i] << 8);
     const auto delta = static_cast<uint16_t>((zz >> 1) ^ static_cast<uint16_t>(-(zz & 1)));
     px[i] = static_cast<uint16_t>(reference + delta);
@@ -49,12 +52,15 @@ class BytePlaneEncoder final : public DepthEncoder {
     const size_t raw = depth.size() * 2;
     planes_.resize(raw);
     to_planes(depth, planes_.data());
-    const size_t bound = id_ == kZstd ? ZSTD_compressBound(raw) : static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw)));
+    const size_t bound = id_ == kZstd
+                             ? ZSTD_compressBound(raw)
+                             : static_cast<size_t>(LZ4_compressBound(static_cast<int>(raw)));
     out.resize(kDepthHeaderBytes + bound);
     write_header(out.data(), id_, true, depth.width, depth.height);
     size_t written;
     if (id_ == kZstd) {
-      written = ZSTD_compressCCtx(cctx_, out.data() + kDepthHeaderBytes, bound, planes_.data(), raw, 1);
+      written =
+          ZSTD_compressCCtx(cctx_, out.data() + kDepthHeaderBytes, bound, planes_.data(), raw, 1);
       if (ZSTD_isError(written)) throw Error(std::string("zstd: ") + ZSTD_getErrorName(written));
     } else {
       const int n = LZ4_compress_default(reinterpret_cast<const char*>(planes_.data()),
@@ -90,14 +96,17 @@ class BytePlaneDecoder final : public DepthDecoder {
     size_t got;
     if (id_ == kZstd) {
       got = ZSTD_decompressDCtx(dctx_, planes_.data(), raw, body.data(), body.size());
-      if (ZSTD_isError(got)) throw Error(std::string("zstd: corrupt stream (") + ZSTD_getErrorName(got) + ")");
+      if (ZSTD_isError(got))
+        throw Error(std::string("zstd: corrupt stream (") + ZSTD_getErrorName(got) + ")");
     } else {
-      const int n = LZ4_decompress_safe(reinterpret_cast<const char*>(body.data()), reinterpret_cast<char*>(planes_.data()),
+      const int n = LZ4_decompress_safe(reinterpret_cast<const char*>(body.data()),
+                                        reinterpret_cast<char*>(planes_.data()),
                                         static_cast<int>(body.size()), static_cast<int>(raw));
       if (n < 0) throw Error("lz4: corrupt stream");
       got = static_cast<size_t>(n);
     }
-    if (got != raw) throw Error(std::string(label) + ": corrupt stream (decoded size differs from the header)");
+    if (got != raw)
+      throw Error(std::string(label) + ": corrupt stream (decoded size differs from the header)");
     if (out.width != h.width || out.height != h.height) out = DepthImage(h.width, h.height);
     from_planes(planes_.data(), out);
   }
@@ -110,7 +119,11 @@ class BytePlaneDecoder final : public DepthDecoder {
 
 }  // namespace
 
-std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id) { return std::make_unique<BytePlaneEncoder>(id); }
-std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id) { return std::make_unique<BytePlaneDecoder>(id); }
+std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id) {
+  return std::make_unique<BytePlaneEncoder>(id);
+}
+std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id) {
+  return std::make_unique<BytePlaneDecoder>(id);
+}
 
 }  // namespace volcast::detail

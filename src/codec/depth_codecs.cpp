@@ -223,7 +223,7 @@ class TrvlDecoder final : public DepthDecoder {
 }  // namespace
 
 std::vector<std::string> depth_codec_names() {
-  return {"raw", "rvl", "trvl", "zstd", "lz4"};
+  return {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"};
 }
 
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
@@ -236,8 +236,9 @@ std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {
   if (name == "trvl") return make_trvl_encoder({});
   if (name == "zstd") return detail::make_byte_plane_encoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_encoder(detail::kLz4);
+  if (name == "volcast") return detail::make_volcast_encoder();
   throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4)");
+              "' (available: raw, rvl, trvl, zstd, lz4, volcast)");
 }
 
 std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
@@ -246,8 +247,9 @@ std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
   if (name == "trvl") return std::make_unique<TrvlDecoder>();
   if (name == "zstd") return detail::make_byte_plane_decoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_decoder(detail::kLz4);
+  if (name == "volcast") return detail::make_volcast_decoder();
   throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4)");
+              "' (available: raw, rvl, trvl, zstd, lz4, volcast)");
 }
 
 bool depth_frame_is_key(std::span<const uint8_t> data) {

@@ -12,20 +12,29 @@
 
 namespace volcast::detail {
 
-enum CodecId : uint8_t { kRaw = 0, kRvl = 1, kTrvl = 2, kZstd = 3, kLz4 = 4 };
+enum CodecId : uint8_t { kRaw = 0, kRvl = 1, kTrvl = 2, kZstd = 3, kLz4 = 4, kVolcast = 5 };
 inline constexpr uint8_t kVersion = 1;
 inline constexpr uint8_t kKeyFlag = 1;
 inline constexpr int kMaxSide = 8192;
 
 inline const char* codec_label(uint8_t id) {
-  static constexpr const char* kLabels[] = {"raw", "rvl", "trvl", "zstd", "lz4"};
+  static constexpr const char* kLabels[] = {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"};
   return id < std::size(kLabels) ? kLabels[id] : "unknown";
 }
 
 inline void write_header(uint8_t* out, CodecId id, bool key, int w, int h) {
-  const uint8_t header[kDepthHeaderBytes] = {
-      'V', 'D', kVersion, id, uint8_t(key ? kKeyFlag : 0), 0, 0, 0, uint8_t(w), uint8_t(w >> 8), uint8_t(h),
-      uint8_t(h >> 8)};
+  const uint8_t header[kDepthHeaderBytes] = {'V',
+                                             'D',
+                                             kVersion,
+                                             id,
+                                             uint8_t(key ? kKeyFlag : 0),
+                                             0,
+                                             0,
+                                             0,
+                                             uint8_t(w),
+                                             uint8_t(w >> 8),
+                                             uint8_t(h),
+                                             uint8_t(h >> 8)};
   std::memcpy(out, header, kDepthHeaderBytes);
 }
 
@@ -44,7 +53,8 @@ inline Header read_header(std::span<const uint8_t> d, const char* expect) {
     throw Error(std::string(expect) + ": unsupported depth format version " + std::to_string(d[2]));
   Header h{d[3], (d[4] & kKeyFlag) != 0, d[8] | d[9] << 8, d[10] | d[11] << 8};
   if (std::strcmp(codec_label(h.codec), expect) != 0)
-    throw Error(std::string(expect) + ": frame was encoded with codec '" + codec_label(h.codec) + "'");
+    throw Error(std::string(expect) + ": frame was encoded with codec '" + codec_label(h.codec) +
+                "'");
   if (h.width <= 0 || h.height <= 0 || h.width > kMaxSide || h.height > kMaxSide)
     throw Error(std::string(expect) + ": implausible size " + std::to_string(h.width) + "x" +
                 std::to_string(h.height));
@@ -60,5 +70,8 @@ inline void check_size(const DepthImage& depth) {
 /// Zstd or LZ4 after a left-delta and byte-plane transform (byte_plane_codecs.cpp).
 std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id);
 std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id);
+/// Volcast's own lossless codec (volcast_codec.cpp).
+std::unique_ptr<DepthEncoder> make_volcast_encoder();
+std::unique_ptr<DepthDecoder> make_volcast_decoder();
 
 }  // namespace volcast::detail

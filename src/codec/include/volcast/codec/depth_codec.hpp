@@ -11,6 +11,8 @@
 //          Lossless by default (change threshold 0 mm, invalidation threshold 0 frames).
 //   zstd - Zstandard (level 1) after a left-delta (mod 2^16) and low/high byte-plane split
 //   lz4  - LZ4 after the same transform
+//   volcast - Volcast's own: RVL-style runs of invalid/valid pixels, LOCO-I median prediction,
+//          8 local-activity contexts and static rANS (see src/codec/volcast_codec.cpp)
 // All lossless codecs are bit-exact on every 16-bit value. Encoders are stateful (temporal codecs
 // keep the last frame they emitted); one encoder per receiver, so a receiver that misses frames the
 // encoder never produced still decodes the next delta frame.
@@ -53,7 +55,7 @@ struct TrvlParams {
   int invalidation_frames = 0;  ///< a pixel turning invalid keeps its value for this many frames
 };
 
-/// Names of the depth codecs: {"raw", "rvl", "trvl", "zstd", "lz4"}.
+/// Names of the depth codecs: {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"}.
 std::vector<std::string> depth_codec_names();
 /// Throws Error("unknown depth codec 'x' (available: ...)").
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);

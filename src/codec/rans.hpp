@@ -1,8 +1,9 @@
 #pragma once
 // Internal: a byte-wise range asymmetric numeral system coder (rANS, J. Duda, "Asymmetric numeral
 // systems", 2013), 32-bit state, 12-bit probabilities, with multiply-by-reciprocal encoding so no
-// division runs per symbol. The encoder writes backwards from the end of a buffer; symbols must be
-// encoded in reverse order of decoding.
+// division runs per symbol. Two interleaved states ("lanes": symbol k uses lane k % 2) share one
+// byte stream, so consecutive symbols decode without waiting on each other. The encoder writes
+// backwards from the end of a buffer; symbols must be encoded in reverse order of decoding.
 #include <cstdint>
 
 #include "volcast/core/error.hpp"
@@ -41,47 +42,51 @@ class RansEncoder {
  public:
   /// `end` is one past the last byte of the output buffer; bytes are written downwards.
   explicit RansEncoder(uint8_t* end) : ptr_(end) {}
-  void put(const RansEncSymbol& s) {
-    uint32_t x = state_;
+  void put(int lane, const RansEncSymbol& s) {
+    uint32_t x = state_[lane];
     while (x >= s.x_max) {
       *--ptr_ = static_cast<uint8_t>(x);
       x >>= 8;
     }
     const uint32_t q = static_cast<uint32_t>((uint64_t{x} * s.rcp_freq) >> s.rcp_shift);
-    state_ = x + s.bias + q * s.cmpl_freq;
+    state_[lane] = x + s.bias + q * s.cmpl_freq;
   }
-  /// Writes the final state (little-endian); returns the first byte of the stream.
+  /// Writes the final states (lane 1, then lane 0, each little-endian); returns the first byte.
   uint8_t* finish() {
-    for (int i = 0; i < 4; ++i) *--ptr_ = static_cast<uint8_t>(state_ >> (24 - 8 * i));
+    for (int lane = 1; lane >= 0; --lane)
+      for (int i = 0; i < 4; ++i) *--ptr_ = static_cast<uint8_t>(state_[lane] >> (24 - 8 * i));
     return ptr_;
   }
 
  private:
-  uint32_t state_ = kRansLow;
+  uint32_t state_[2] = {kRansLow, kRansLow};
   uint8_t* ptr_;
 };
 
 class RansDecoder {
  public:
   RansDecoder(const uint8_t* begin, const uint8_t* end) : ptr_(begin), end_(end) {
-    if (end_ - ptr_ < 4) throw Error("rans: truncated stream");
-    state_ = uint32_t{ptr_[0]} | uint32_t{ptr_[1]} << 8 | uint32_t{ptr_[2]} << 16 | uint32_t{ptr_[3]} << 24;
-    ptr_ += 4;
-    if (state_ < kRansLow) throw Error("rans: corrupt stream (state)");
+    if (end_ - ptr_ < 8) throw Error("rans: truncated stream");
+    for (uint32_t& st : state_) {
+      st = uint32_t{ptr_[0]} | uint32_t{ptr_[1]} << 8 | uint32_t{ptr_[2]} << 16 |
+           uint32_t{ptr_[3]} << 24;
+      ptr_ += 4;
+      if (st < kRansLow) throw Error("rans: corrupt stream (state)");
+    }
   }
-  uint32_t slot() const { return state_ & (kProbScale - 1); }
-  /// Consumes the symbol occupying [start, start + freq) that slot() fell into.
-  void advance(uint32_t start, uint32_t freq) {
-    uint32_t x = freq * (state_ >> kProbBits) + slot() - start;
+  uint32_t slot(int lane) const { return state_[lane] & (kProbScale - 1); }
+  /// Consumes, on `lane`, the symbol occupying [start, start + freq) that slot(lane) fell into.
+  void advance(int lane, uint32_t start, uint32_t freq) {
+    uint32_t x = freq * (state_[lane] >> kProbBits) + slot(lane) - start;
     while (x < kRansLow) {
       if (ptr_ == end_) throw Error("rans: truncated stream");
       x = (x << 8) | *ptr_++;
     }
-    state_ = x;
+    state_[lane] = x;
   }
 
  private:
-  uint32_t state_ = 0;
+  uint32_t state_[2] = {0, 0};
   const uint8_t* ptr_;
   const uint8_t* end_;
 };

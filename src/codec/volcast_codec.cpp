@@ -6,11 +6,12 @@
 //  - Each valid pixel is predicted from its causal valid neighbours: the LOCO-I / JPEG-LS median
 //    edge detector (MED) on W, N, NW where all three are valid, else the mean or whichever exists,
 //    else the previous valid value. The residual is zigzag mapped.
-//  - Context = the local activity |W-NW| + |N-NW| + |NE-N| quantised to 8 levels (JPEG-LS's idea),
-//    plus one context for pixels on the border of the valid region.
+//  - Context = the local activity of the row above, |N-NW| + |NE-N|, quantised to 8 levels
+//    (JPEG-LS's idea), plus one context for pixels on the border of the valid region. Contexts
+//    never depend on the current row's values, so residuals decode ahead of reconstruction.
 //  - Values are coded as a symbol (the value itself below 16; above, its bit length and the next
-//    bit) with a per-context static rANS model (12-bit probabilities, tables sent with the frame),
-//    and the remaining low bits raw in a separate bit stream.
+//    bit) with a per-context static rANS model (12-bit probabilities, tables sent with the frame,
+//    two interleaved states), and the remaining low bits raw in a separate bit stream.
 // Body: table bytes u32 | tables | rANS bytes u32 | rANS stream | raw bit stream.
 #include <algorithm>
 #include <array>
@@ -30,8 +31,12 @@ constexpr int kValidRunContext = 10;
 constexpr int kContexts = 11;
 constexpr uint8_t kNoSymbol = 0xff;
 
-inline uint32_t zigzag(int32_t v) { return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31); }
-inline int32_t unzigzag(uint32_t u) { return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1); }
+inline uint32_t zigzag(int32_t v) {
+  return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
+}
+inline int32_t unzigzag(uint32_t u) {
+  return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1);
+}
 
 // Value -> (symbol, raw bits). Values below 16 are their own symbol; above, the symbol names the
 // bit length k and the bit below the leading one, and k-1 low bits go raw.
@@ -46,33 +51,36 @@ inline uint32_t symbol_of(uint32_t u, uint32_t& nbits, uint32_t& bits) {
   return 16 + (k - 4) * 2 + ((u >> (k - 1)) & 1);
 }
 
-struct Neighbourhood {
-  int32_t prediction;
-  int context;
-};
+// Context of the pixel at x: the local activity of the row above, |N-NW| + |NE-N|, in 8 levels
+// (0 | 1-2 | 3-4 | 5-8 | 9-16 | 17-32 | 33-64 | 65+), or the border context where W, N, NW or NE
+// is missing. It never depends on decoded values of the current row (only on which pixels are
+// valid, known from the runs), so a decoder can decode a run's residuals ahead of reconstructing
+// it.
+inline int context_of(const uint16_t* up, int x, int w, bool w_valid) {
+  if (!up || !w_valid || x + 1 >= w) return kBorderContext;
+  const int32_t N = up[x], NW = up[x - 1], NE = up[x + 1];
+  if (!N || !NW || !NE) return kBorderContext;
+  const uint32_t activity = static_cast<uint32_t>(std::abs(N - NW) + std::abs(NE - N));
+  const int level = activity == 0 ? 0 : std::max(1, static_cast<int>(std::bit_width(activity - 1)));
+  return std::min(level, kActivityContexts - 1);
+}
 
-// Prediction and context of the pixel at (x, y); `row`/`up` point at its row and the one above
-// (up = nullptr on the first row); `last` is the previous valid value in scan order.
-inline Neighbourhood predict(const uint16_t* row, const uint16_t* up, int x, int w, int32_t last) {
+// Prediction of the pixel at x from its causal valid neighbours: LOCO-I's median edge detector on
+// W, N, NW; else their mean or whichever exists; else `last`, the previous valid value.
+inline int32_t predict(const uint16_t* row, const uint16_t* up, int x, int w, int32_t last) {
   const int32_t W = x > 0 ? row[x - 1] : 0;
   const int32_t N = up ? up[x] : 0;
   const int32_t NW = up && x > 0 ? up[x - 1] : 0;
-  const int32_t NE = up && x + 1 < w ? up[x + 1] : 0;
   if (W && N && NW) {
     const int32_t lo = std::min(W, N), hi = std::max(W, N);
-    const int32_t p = NW >= hi ? lo : (NW <= lo ? hi : W + N - NW);
-    if (!NE) return {p, kBorderContext};
-    const uint32_t activity = static_cast<uint32_t>(std::abs(W - NW) + std::abs(N - NW) + std::abs(NE - N));
-    // 0 | 1-2 | 3-4 | 5-8 | 9-16 | 17-32 | 33-64 | 65+
-    const int level = activity == 0 ? 0 : std::max(1, static_cast<int>(std::bit_width(activity - 1)));
-    return {p, std::min(level, kActivityContexts - 1)};
+    return NW >= hi ? lo : (NW <= lo ? hi : W + N - NW);
   }
-  if (W && N) return {(W + N + 1) >> 1, kBorderContext};
-  if (W) return {W, kBorderContext};
-  if (N) return {N, kBorderContext};
-  if (NW) return {NW, kBorderContext};
-  if (NE) return {NE, kBorderContext};
-  return {last, kBorderContext};
+  if (W && N) return (W + N + 1) >> 1;
+  if (W) return W;
+  if (N) return N;
+  if (NW) return NW;
+  const int32_t NE = up && x + 1 < w ? up[x + 1] : 0;
+  return NE ? NE : last;
 }
 
 class BitWriter {
@@ -136,7 +144,8 @@ void normalize(const uint32_t* counts, uint32_t* freqs) {
   int largest = 0;
   for (int s = 0; s < kAlphabet; ++s) {
     if (!counts[s]) continue;
-    freqs[s] = std::max<uint32_t>(1, static_cast<uint32_t>(uint64_t{counts[s]} * kProbScale / total));
+    freqs[s] =
+        std::max<uint32_t>(1, static_cast<uint32_t>(uint64_t{counts[s]} * kProbScale / total));
     sum += freqs[s];
     if (freqs[s] > freqs[largest]) largest = s;
   }
@@ -183,11 +192,13 @@ class VolcastEncoder final : public DepthEncoder {
       start = i;
       while (i < n && px[i] != 0) ++i;
       emit(kValidRunContext, static_cast<uint32_t>(i - start));
-      int y = static_cast<int>(start / static_cast<size_t>(w)), x = static_cast<int>(start % static_cast<size_t>(w));
+      int y = static_cast<int>(start / static_cast<size_t>(w)),
+          x = static_cast<int>(start % static_cast<size_t>(w));
       const uint16_t* row = px + static_cast<size_t>(y) * w;
       for (size_t j = start; j < i; ++j) {
-        const Neighbourhood nb = predict(row, y > 0 ? row - w : nullptr, x, w, last);
-        emit(nb.context, zigzag(int32_t{px[j]} - nb.prediction));
+        const uint16_t* up = y > 0 ? row - w : nullptr;
+        const int32_t prediction = predict(row, up, x, w, last);
+        emit(context_of(up, x, w, j > start && x > 0), zigzag(int32_t{px[j]} - prediction));
         last = px[j];
         if (++x == w) x = 0, ++y, row += w;
       }
@@ -208,7 +219,7 @@ class VolcastEncoder final : public DepthEncoder {
       uint32_t start = 0;
       for (int s = 0; s < kAlphabet; ++s) {
         if (!freqs[s]) continue;
-        for (uint32_t f = freqs[s]; ; f >>= 7) {
+        for (uint32_t f = freqs[s];; f >>= 7) {
           tables_.push_back(static_cast<uint8_t>((f & 0x7f) | (f >= 0x80 ? 0x80 : 0)));
           if (f < 0x80) break;
         }
@@ -221,7 +232,7 @@ class VolcastEncoder final : public DepthEncoder {
     RansEncoder rans(rans_.data() + rans_.size());
     for (size_t k = symbols_.size(); k-- > 0;) {
       const uint16_t v = symbols_[k];
-      rans.put(enc[v / kAlphabet][v % kAlphabet]);
+      rans.put(static_cast<int>(k & 1), enc[v / kAlphabet][v % kAlphabet]);
     }
     const uint8_t* rans_begin = rans.finish();
     const size_t rans_bytes = static_cast<size_t>(rans_.data() + rans_.size() - rans_begin);
@@ -268,11 +279,13 @@ class VolcastDecoder final : public DepthDecoder {
     RansDecoder rans(p, p + rans_bytes);
     BitReader bits(p + rans_bytes, end);
 
+    size_t symbol_index = 0;  // symbol k decodes on lane k % 2
     auto value = [&](int context) -> uint32_t {
-      const uint32_t slot = rans.slot();
+      const int lane = static_cast<int>(symbol_index++ & 1);
+      const uint32_t slot = rans.slot(lane);
       const uint8_t sym = lut_[context][slot];
       if (sym == kNoSymbol) throw Error("volcast: corrupt stream (symbol without a model)");
-      rans.advance(start_[context][sym], freq_[context][sym]);
+      rans.advance(lane, start_[context][sym], freq_[context][sym]);
       if (sym < 16) return sym;
       const uint32_t k = (sym - 16u) / 2 + 4, top = (sym - 16u) & 1;
       if (k > 31) throw Error("volcast: corrupt stream (value too long)");
@@ -292,14 +305,28 @@ class VolcastDecoder final : public DepthDecoder {
       const uint32_t valid = value(kValidRunContext);
       if (valid > n - i) throw Error("volcast: corrupt stream (run past the image)");
       if (zeros == 0 && valid == 0 && i < n) throw Error("volcast: corrupt stream (empty run)");
-      int y = static_cast<int>(i / static_cast<size_t>(w)), x = static_cast<int>(i % static_cast<size_t>(w));
-      const uint16_t* row = px + static_cast<size_t>(y) * w;
-      for (size_t j = i; j < i + valid; ++j, ++x == w ? (x = 0, ++y, row += w) : row) {
-        const Neighbourhood nb = predict(row, y > 0 ? row - w : nullptr, x, w, last);
-        const int64_t v = int64_t{nb.prediction} + unzigzag(value(nb.context));
-        if (v <= 0 || v > 65535) throw Error("volcast: corrupt stream (value out of range)");
-        px[j] = static_cast<uint16_t>(v);
-        last = static_cast<int32_t>(v);
+      // Row by row (contexts read the row above, which must be complete): first the segment's
+      // residuals, then its reconstruction, prediction by prediction.
+      int y = static_cast<int>(i / static_cast<size_t>(w)),
+          x = static_cast<int>(i % static_cast<size_t>(w));
+      for (uint32_t left = valid; left > 0;) {
+        const int segment =
+            static_cast<int>(std::min<uint32_t>(left, static_cast<uint32_t>(w - x)));
+        uint16_t* row = px + static_cast<size_t>(y) * w;
+        const uint16_t* up = y > 0 ? row - w : nullptr;
+        residuals_.resize(static_cast<size_t>(segment));
+        for (int r = 0; r < segment; ++r)
+          residuals_[r] =
+              unzigzag(value(context_of(up, x + r, w, (left != valid || r > 0) && x + r > 0)));
+        for (int r = 0; r < segment; ++r) {
+          const int32_t v = predict(row, up, x + r, w, last) + residuals_[r];
+          if (v <= 0 || v > 65535) throw Error("volcast: corrupt stream (value out of range)");
+          row[x + r] = static_cast<uint16_t>(v);
+          last = v;
+        }
+        left -= static_cast<uint32_t>(segment);
+        x += segment;
+        if (x == w) x = 0, ++y;
       }
       i += valid;
     }
@@ -329,16 +356,22 @@ class VolcastDecoder final : public DepthDecoder {
         std::fill(lut_[c].begin() + start, lut_[c].begin() + start + f, static_cast<uint8_t>(s));
         start += f;
       }
-      if (mask && start != kProbScale) throw Error("volcast: corrupt tables (frequencies do not sum up)");
+      if (mask && start != kProbScale)
+        throw Error("volcast: corrupt tables (frequencies do not sum up)");
     }
   }
   std::array<std::array<uint8_t, kProbScale>, kContexts> lut_{};
+  std::vector<int32_t> residuals_;
   std::array<std::array<uint32_t, kAlphabet>, kContexts> start_{}, freq_{};
 };
 
 }  // namespace
 
-std::unique_ptr<DepthEncoder> make_volcast_encoder() { return std::make_unique<VolcastEncoder>(); }
-std::unique_ptr<DepthDecoder> make_volcast_decoder() { return std::make_unique<VolcastDecoder>(); }
+std::unique_ptr<DepthEncoder> make_volcast_encoder() {
+  return std::make_unique<VolcastEncoder>();
+}
+std::unique_ptr<DepthDecoder> make_volcast_decoder() {
+  return std::make_unique<VolcastDecoder>();
+}
 
 }  // namespace volcast::detail

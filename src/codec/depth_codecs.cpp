@@ -223,7 +223,7 @@ class TrvlDecoder final : public DepthDecoder {
 }  // namespace
 
 std::vector<std::string> depth_codec_names() {
-  return {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"};
+  return {"raw", "rvl", "trvl", "zstd", "lz4", "volcast", "volcast-n1", "volcast-n2", "volcast-n4"};
 }
 
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
@@ -236,9 +236,13 @@ std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {
   if (name == "trvl") return make_trvl_encoder({});
   if (name == "zstd") return detail::make_byte_plane_encoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_encoder(detail::kLz4);
-  if (name == "volcast") return detail::make_volcast_encoder();
-  throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4, volcast)");
+  if (name == "volcast") return detail::make_volcast_encoder(0);
+  if (name == "volcast-n1") return detail::make_volcast_encoder(1);
+  if (name == "volcast-n2") return detail::make_volcast_encoder(2);
+  if (name == "volcast-n4") return detail::make_volcast_encoder(4);
+  throw Error(
+      "unknown depth codec '" + std::string(name) +
+      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2, volcast-n4)");
 }
 
 std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
@@ -247,9 +251,11 @@ std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
   if (name == "trvl") return std::make_unique<TrvlDecoder>();
   if (name == "zstd") return detail::make_byte_plane_decoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_decoder(detail::kLz4);
-  if (name == "volcast") return detail::make_volcast_decoder();
-  throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4, volcast)");
+  if (name == "volcast" || name == "volcast-n1" || name == "volcast-n2" || name == "volcast-n4")
+    return detail::make_volcast_decoder();
+  throw Error(
+      "unknown depth codec '" + std::string(name) +
+      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2, volcast-n4)");
 }
 
 bool depth_frame_is_key(std::span<const uint8_t> data) {

@@ -70,8 +70,8 @@ inline void check_size(const DepthImage& depth) {
 /// Zstd or LZ4 after a left-delta and byte-plane transform (byte_plane_codecs.cpp).
 std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id);
 std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id);
-/// Volcast's own lossless codec (volcast_codec.cpp).
-std::unique_ptr<DepthEncoder> make_volcast_encoder();
+/// Volcast's own codec (volcast_codec.cpp): lossless, or near-lossless within `near_mm` mm.
+std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm);
 std::unique_ptr<DepthDecoder> make_volcast_decoder();
 
 }  // namespace volcast::detail

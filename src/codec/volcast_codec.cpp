@@ -12,6 +12,9 @@
 //  - Values are coded as a symbol (the value itself below 16; above, its bit length and the next
 //    bit) with a per-context static rANS model (12-bit probabilities, tables sent with the frame,
 //    two interleaved states), and the remaining low bits raw in a separate bit stream.
+//  - Near-lossless (JPEG-LS's scheme): with a bound N > 0, residuals are quantised in steps of
+//    2N+1 and the encoder predicts from its own reconstruction, so every valid pixel decodes within
+//    N mm; which pixels are valid is always exact. N is stored in the header's byte 5.
 // Body: table bytes u32 | tables | rANS bytes u32 | rANS stream | raw bit stream.
 #include <algorithm>
 #include <array>
@@ -30,6 +33,7 @@ constexpr int kZeroRunContext = 9;
 constexpr int kValidRunContext = 10;
 constexpr int kContexts = 11;
 constexpr uint8_t kNoSymbol = 0xff;
+constexpr int kMaxNear = 16;  // near-lossless error bounds up to 16 mm
 
 inline uint32_t zigzag(int32_t v) {
   return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
@@ -166,6 +170,10 @@ void normalize(const uint32_t* counts, uint32_t* freqs) {
 
 class VolcastEncoder final : public DepthEncoder {
  public:
+  explicit VolcastEncoder(int near_mm) : near_(near_mm) {
+    if (near_ < 0 || near_ > kMaxNear)
+      throw Error("volcast: near-lossless bound must be 0.." + std::to_string(kMaxNear) + " mm");
+  }
   bool encode(const DepthImage& depth, bool, std::vector<uint8_t>& out) override {
     check_size(depth);
     const int w = depth.width, h = depth.height;
@@ -181,8 +189,17 @@ class VolcastEncoder final : public DepthEncoder {
       symbols_.push_back(static_cast<uint16_t>(context * kAlphabet + static_cast<int>(sym)));
       bits_.put(bits, nbits);
     };
-    // Pass 1: runs, predictions, symbols and their statistics.
-    const uint16_t* px = depth.pixels.data();
+    // Pass 1: runs, predictions, symbols and their statistics. Near-lossless predicts from the
+    // values the decoder will reconstruct (closed loop), kept in recon_.
+    const uint16_t* src = depth.pixels.data();
+    if (near_ > 0) {
+      recon_.width = depth.width;
+      recon_.height = depth.height;
+      recon_.pixels.assign(depth.pixels.begin(), depth.pixels.end());
+    }
+    uint16_t* rec = near_ > 0 ? recon_.pixels.data() : nullptr;
+    const uint16_t* px = near_ > 0 ? rec : src;
+    const int32_t step = 2 * near_ + 1;
     int32_t last = 0;
     size_t i = 0;
     while (i < n) {
@@ -198,7 +215,13 @@ class VolcastEncoder final : public DepthEncoder {
       for (size_t j = start; j < i; ++j) {
         const uint16_t* up = y > 0 ? row - w : nullptr;
         const int32_t prediction = predict(row, up, x, w, last);
-        emit(context_of(up, x, w, j > start && x > 0), zigzag(int32_t{px[j]} - prediction));
+        int32_t residual = int32_t{src[j]} - prediction;
+        if (near_ > 0) {
+          // JPEG-LS near-lossless quantisation: |src - reconstruction| <= near_.
+          residual = residual >= 0 ? (residual + near_) / step : -((near_ - residual) / step);
+          rec[j] = static_cast<uint16_t>(std::clamp(prediction + residual * step, 1, 65535));
+        }
+        emit(context_of(up, x, w, j > start && x > 0), zigzag(residual));
         last = px[j];
         if (++x == w) x = 0, ++y, row += w;
       }
@@ -239,6 +262,7 @@ class VolcastEncoder final : public DepthEncoder {
 
     out.resize(kDepthHeaderBytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
     write_header(out.data(), kVolcast, true, w, depth.height);
+    out[5] = static_cast<uint8_t>(near_);  // the error bound, in the header's first reserved byte
     uint8_t* p = out.data() + kDepthHeaderBytes;
     auto put32 = [&](size_t v) {
       for (int b = 0; b < 4; ++b) *p++ = static_cast<uint8_t>(v >> (8 * b));
@@ -253,6 +277,8 @@ class VolcastEncoder final : public DepthEncoder {
   std::string_view name() const override { return "volcast"; }
 
  private:
+  int near_;
+  DepthImage recon_;
   std::vector<uint16_t> symbols_;
   std::vector<uint8_t> raw_bits_, tables_, rans_;
   BitWriter bits_;
@@ -262,6 +288,10 @@ class VolcastDecoder final : public DepthDecoder {
  public:
   void decode(std::span<const uint8_t> data, DepthImage& out) override {
     const Header hdr = read_header(data, "volcast");
+    const int near = data[5];
+    if (near > kMaxNear)
+      throw Error("volcast: corrupt header (error bound " + std::to_string(near) + " mm)");
+    const int32_t step = 2 * near + 1;
     const uint8_t* p = data.data() + kDepthHeaderBytes;
     const uint8_t* end = data.data() + data.size();
     auto get32 = [&]() -> size_t {
@@ -319,7 +349,13 @@ class VolcastDecoder final : public DepthDecoder {
           residuals_[r] =
               unzigzag(value(context_of(up, x + r, w, (left != valid || r > 0) && x + r > 0)));
         for (int r = 0; r < segment; ++r) {
-          const int32_t v = predict(row, up, x + r, w, last) + residuals_[r];
+          const int32_t prediction = predict(row, up, x + r, w, last);
+          int32_t v = prediction + residuals_[r];
+          if (near > 0) {
+            if (std::abs(residuals_[r]) > 65535)
+              throw Error("volcast: corrupt stream (residual out of range)");
+            v = std::clamp(prediction + residuals_[r] * step, 1, 65535);
+          }
           if (v <= 0 || v > 65535) throw Error("volcast: corrupt stream (value out of range)");
           row[x + r] = static_cast<uint16_t>(v);
           last = v;
@@ -367,8 +403,8 @@ class VolcastDecoder final : public DepthDecoder {
 
 }  // namespace
 
-std::unique_ptr<DepthEncoder> make_volcast_encoder() {
-  return std::make_unique<VolcastEncoder>();
+std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm) {
+  return std::make_unique<VolcastEncoder>(near_mm);
 }
 std::unique_ptr<DepthDecoder> make_volcast_decoder() {
   return std::make_unique<VolcastDecoder>();

@@ -13,9 +13,11 @@
 //   lz4  - LZ4 after the same transform
 //   volcast - Volcast's own: RVL-style runs of invalid/valid pixels, LOCO-I median prediction,
 //          8 local-activity contexts and static rANS (see src/codec/volcast_codec.cpp)
-// All lossless codecs are bit-exact on every 16-bit value. Encoders are stateful (temporal codecs
-// keep the last frame they emitted); one encoder per receiver, so a receiver that misses frames the
-// encoder never produced still decodes the next delta frame.
+//   volcast-n1, volcast-n2, volcast-n4 - near-lossless: every valid pixel within 1, 2 or 4 mm;
+//          invalid pixels stay exactly invalid
+// All codecs but volcast-n* are bit-exact on every 16-bit value. Encoders are stateful (temporal
+// codecs keep the last frame they emitted); one encoder per receiver, so a receiver that misses
+// frames the encoder never produced still decodes the next delta frame.
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -55,7 +57,8 @@ struct TrvlParams {
   int invalidation_frames = 0;  ///< a pixel turning invalid keeps its value for this many frames
 };
 
-/// Names of the depth codecs: {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"}.
+/// Names of the depth codecs: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2,
+/// volcast-n4.
 std::vector<std::string> depth_codec_names();
 /// Throws Error("unknown depth codec 'x' (available: ...)").
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);

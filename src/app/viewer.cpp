@@ -40,8 +40,8 @@ struct CloudMailbox {
   bool done = false;
 };
 
-void render_loop(const ViewerOptions& opt, CloudMailbox& box, ViewerResult& result,
-                 std::exception_ptr& error) {
+void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, CloudMailbox& box,
+                 ViewerResult& result, std::exception_ptr& error) {
   try {
     SplatRenderer renderer(opt.width, opt.height);
     result.renderer = renderer.gl_description();
@@ -61,7 +61,7 @@ void render_loop(const ViewerOptions& opt, CloudMailbox& box, ViewerResult& resu
       }
       views.clear();
       for (const auto& c : clouds) views.push_back(&c);
-      if (!view) view = orbit_view(opt.first_camera, views);
+      if (!view) view = orbit_view(first_camera, views);
       renderer.render(views, *view, image);
       ++result.frames_rendered;
     }
@@ -91,11 +91,10 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
 
   CloudMailbox box;
   std::exception_ptr render_error;
-  ViewerOptions render_opt = opt;
-  render_opt.first_camera = cams.front().calibration.world_from_camera;
+  const RigidTransform first_camera = cams.front().calibration.world_from_camera;
   std::thread render_thread;
   if (opt.render)
-    render_thread = std::thread([&] { render_loop(render_opt, box, result, render_error); });
+    render_thread = std::thread([&] { render_loop(opt, first_camera, box, result, render_error); });
 
   std::vector<Accumulator> acc(cams.size());
   std::vector<PointCloud> clouds(cams.size());

@@ -17,8 +17,7 @@ struct ViewerOptions {
   double seconds = 0;                       ///< stop after this long (0 = no limit)
   bool render = true;                       ///< render headless with EGL
   int width = 1280, height = 720;           ///< render size, pixels
-  std::optional<ViewCamera> view;           ///< default: orbit_view from the first camera
-  RigidTransform first_camera;              ///< set by run_viewer from the Welcome
+  std::optional<ViewCamera> view;           ///< default: orbit_view from the site's first camera
   std::filesystem::path screenshot;         ///< PNG of the last render, if set
   std::filesystem::path save_frames_dir;    ///< decoded depth/color PNGs per frame, if set
   std::filesystem::path stats_json;         ///< statistics as JSON, if set

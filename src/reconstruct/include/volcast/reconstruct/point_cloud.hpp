@@ -28,7 +28,6 @@ class CloudBuilder {
   /// depth: mm, the calibration's size. color: BGRA of the same size, or empty. Pixels with depth 0
   /// or no ray are skipped. Throws Error if the sizes do not match the calibration.
   void build(const DepthImage& depth, const ColorImage& color, PointCloud& out) const;
-  const CameraCalibration& calibration() const { return calibration_; }
 
  private:
   CameraCalibration calibration_;

@@ -8,14 +8,15 @@
 //    else the previous valid value. The residual is zigzag mapped.
 //  - Context = the local activity of the row above, |N-NW| + |NE-N|, quantised to 8 levels
 //    (JPEG-LS's idea), plus one context for pixels on the border of the valid region. Contexts
-//    never depend on the current row's values, so residuals decode ahead of reconstruction.
+//    never depend on the current row's values, so they are computed a row at a time
+//    (vectorised) and the entropy decoder never waits on reconstruction.
 //  - Values are coded as a symbol (the value itself below 16; above, its bit length and the next
 //    bit) with a per-context static rANS model (12-bit probabilities, tables sent with the frame,
-//    two interleaved states), and the remaining low bits raw in a separate bit stream.
+//    four interleaved states), and the remaining low bits raw in a separate bit stream.
 //  - Near-lossless (JPEG-LS's scheme): with a bound N > 0, residuals are quantised in steps of
 //    2N+1 and the encoder predicts from its own reconstruction, so every valid pixel decodes within
 //    N mm; which pixels are valid is always exact. N is stored in the header's byte 5.
-// Body: table bytes u32 | tables | rANS bytes u32 | rANS stream | raw bit stream.
+// Body: table bytes u32 | tables | rANS bytes u32 | rANS words | raw bit stream.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -27,13 +28,23 @@ namespace volcast::detail {
 namespace {
 
 constexpr int kAlphabet = 64;
-constexpr int kActivityContexts = 8;
-constexpr int kBorderContext = 8;
+constexpr uint8_t kBorderContext = 8;
 constexpr int kZeroRunContext = 9;
 constexpr int kValidRunContext = 10;
 constexpr int kContexts = 11;
-constexpr uint8_t kNoSymbol = 0xff;
-constexpr int kMaxNear = 16;  // near-lossless error bounds up to 16 mm
+constexpr int kMaxNear = 16;              // near-lossless error bounds up to 16 mm
+constexpr uint32_t kLongFlag = 1u << 18;  // decoding table: a symbol with raw bits
+
+// The 7 payload bits of a decoding table entry (entry bits 12-18): for run contexts the symbol;
+// for pixel contexts, symbols below 16 carry the residual they stand for (zigzag decoded, 4-bit
+// two's complement in entry bits 14-17) so the hot path needs no unzigzag, and longer symbols
+// carry the symbol and the long flag.
+inline uint32_t slot_payload(int context, uint32_t sym) {
+  if (context >= kZeroRunContext) return sym;
+  if (sym >= 16) return sym | kLongFlag >> 12;
+  const int32_t residual = static_cast<int32_t>(sym >> 1) ^ -static_cast<int32_t>(sym & 1);
+  return (static_cast<uint32_t>(residual) & 0xf) << 2;
+}
 
 inline uint32_t zigzag(int32_t v) {
   return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
@@ -42,49 +53,68 @@ inline int32_t unzigzag(uint32_t u) {
   return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1);
 }
 
-// Value -> (symbol, raw bits). Values below 16 are their own symbol; above, the symbol names the
-// bit length k and the bit below the leading one, and k-1 low bits go raw.
-inline uint32_t symbol_of(uint32_t u, uint32_t& nbits, uint32_t& bits) {
-  if (u < 16) {
-    nbits = 0;
-    return u;
-  }
+// Value -> symbol for values of 16 and above: the bit length k and the bit below the leading one;
+// k-1 low bits go raw. Values below 16 are their own symbol.
+inline uint32_t long_symbol(uint32_t u, uint32_t& nbits, uint32_t& bits) {
   const uint32_t k = 31u - static_cast<uint32_t>(std::countl_zero(u));
   nbits = k - 1;
   bits = u & ((1u << nbits) - 1);
   return 16 + (k - 4) * 2 + ((u >> (k - 1)) & 1);
 }
 
-// Context of the pixel at x: the local activity of the row above, |N-NW| + |NE-N|, in 8 levels
-// (0 | 1-2 | 3-4 | 5-8 | 9-16 | 17-32 | 33-64 | 65+), or the border context where W, N, NW or NE
-// is missing. It never depends on decoded values of the current row (only on which pixels are
-// valid, known from the runs), so a decoder can decode a run's residuals ahead of reconstructing
-// it.
-inline int context_of(const uint16_t* up, int x, int w, bool w_valid) {
-  if (!up || !w_valid || x + 1 >= w) return kBorderContext;
-  const int32_t N = up[x], NW = up[x - 1], NE = up[x + 1];
-  if (!N || !NW || !NE) return kBorderContext;
-  const uint32_t activity = static_cast<uint32_t>(std::abs(N - NW) + std::abs(NE - N));
-  const int level = activity == 0 ? 0 : std::max(1, static_cast<int>(std::bit_width(activity - 1)));
-  return std::min(level, kActivityContexts - 1);
-}
+// Per-row model, computed from the row above only (`up`, all zeros for the first row), so the
+// decoder's entropy decoding never waits on reconstruction and the pass vectorises:
+//  - context: the local activity |N-NW| + |NE-N| in 8 levels (0 | 1-2 | 3-4 | 5-8 | 9-16 | 17-32 |
+//    33-64 | 65+), or the border context where N, NW or NE is invalid or missing. The first pixel
+//    of a run segment (W invalid or missing) also takes the border context; callers apply that.
+//  - prediction of a pixel whose W is valid, as clamp(N, W + lo, W + hi): with N and NW valid,
+//    lo = min(N-NW, 0) and hi = max(N-NW, 0), which is exactly LOCO-I's median edge detector
+//    median(W, N, W+N-NW) with one add, one max and one min after W is known; with only N valid,
+//    N (lo, hi = -/+65536); with N invalid, W (lo = hi = 0).
+// Arrays of one fixed capacity, so that a loop reaches all of them from one base register.
+struct RowModel {
+  uint16_t n[kMaxSide];             // N, the row above
+  uint16_t table_offset[kMaxSide];  // context * kProbScale, the decoder's table offset
+  int32_t lo[kMaxSide], hi[kMaxSide];
+  uint8_t context[kMaxSide];
 
-// Prediction of the pixel at x from its causal valid neighbours: LOCO-I's median edge detector on
-// W, N, NW; else their mean or whichever exists; else `last`, the previous valid value.
-inline int32_t predict(const uint16_t* row, const uint16_t* up, int x, int w, int32_t last) {
-  const int32_t W = x > 0 ? row[x - 1] : 0;
-  const int32_t N = up ? up[x] : 0;
-  const int32_t NW = up && x > 0 ? up[x - 1] : 0;
-  if (W && N && NW) {
-    const int32_t lo = std::min(W, N), hi = std::max(W, N);
-    return NW >= hi ? lo : (NW <= lo ? hi : W + N - NW);
+  void compute(const uint16_t* up, int w) {
+    std::copy(up, up + w, n);
+    for (int x = 1; x < w; ++x) {
+      const int32_t N = up[x], NW = up[x - 1];
+      // Branch-free (masks) so that the loop vectorises.
+      const int32_t g = N - NW;
+      const int32_t n_valid = -static_cast<int32_t>(N != 0);
+      const int32_t nw_valid = -static_cast<int32_t>(NW != 0);
+      lo[x] = n_valid & ((nw_valid & std::min(g, 0)) | (~nw_valid & -65536));
+      hi[x] = n_valid & ((nw_valid & std::max(g, 0)) | (~nw_valid & 65536));
+    }
+    for (int x = 1; x + 1 < w; ++x) {
+      // In 16 bits: |N-NW| and |NE-N| capped at 65 sum to the same level as uncapped.
+      const uint16_t N = up[x], NW = up[x - 1], NE = up[x + 1];
+      const uint16_t d1 = std::min<uint16_t>(N > NW ? N - NW : NW - N, 65);
+      const uint16_t d2 = std::min<uint16_t>(NE > N ? NE - N : N - NE, 65);
+      const uint16_t a = static_cast<uint16_t>(d1 + d2);
+      const uint16_t level = static_cast<uint16_t>((a >= 1) + (a >= 3) + (a >= 5) + (a >= 9) +
+                                                   (a >= 17) + (a >= 33) + (a >= 65));
+      const bool border = N == 0 || NW == 0 || NE == 0;
+      context[x] = static_cast<uint8_t>(border ? kBorderContext : level);
+    }
+    context[0] = context[w - 1] = kBorderContext;
+    for (int x = 0; x < w; ++x) table_offset[x] = static_cast<uint16_t>(context[x] * kProbScale);
   }
-  if (W && N) return (W + N + 1) >> 1;
-  if (W) return W;
-  if (N) return N;
-  if (NW) return NW;
-  const int32_t NE = up && x + 1 < w ? up[x + 1] : 0;
-  return NE ? NE : last;
+  int32_t predict(int x, int32_t W) const {
+    return std::min(std::max(int32_t{n[x]}, W + lo[x]), W + hi[x]);
+  }
+};
+
+// Prediction of the first pixel of a run segment, whose W is invalid or missing: N, NW, NE or
+// `last`, the previous valid value.
+inline int32_t predict_first(const uint16_t* up, int x, int w, int32_t last) {
+  if (up[x]) return up[x];
+  if (x > 0 && up[x - 1]) return up[x - 1];
+  if (x + 1 < w && up[x + 1]) return up[x + 1];
+  return last;
 }
 
 class BitWriter {
@@ -96,7 +126,6 @@ class BitWriter {
     count_ = 0;
   }
   void put(uint32_t bits, uint32_t n) {
-    if (n == 0) return;
     acc_ |= uint64_t{bits} << count_;
     count_ += n;
     while (count_ >= 8) {
@@ -119,7 +148,6 @@ class BitReader {
  public:
   BitReader(const uint8_t* p, const uint8_t* end) : p_(p), end_(end) {}
   uint32_t get(uint32_t n) {
-    if (n == 0) return 0;
     while (count_ < n) {
       if (p_ == end_) throw Error("volcast: truncated stream (raw bits)");
       acc_ |= uint64_t{*p_++} << count_;
@@ -176,30 +204,82 @@ class VolcastEncoder final : public DepthEncoder {
   }
   bool encode(const DepthImage& depth, bool, std::vector<uint8_t>& out) override {
     check_size(depth);
-    const int w = depth.width, h = depth.height;
     const size_t n = depth.size();
-    symbols_.clear();
-    symbols_.reserve(n + 2);
+    symbols_.resize(2 * n + 2);  // at most two run symbols and one value per pixel
+    count_ = 0;
+    counts_.fill(0);
     bits_.reset(raw_bits_);
-    std::array<std::array<uint32_t, kAlphabet>, kContexts> counts{};
-    auto emit = [&](int context, uint32_t value) {
-      uint32_t nbits, bits = 0;
-      const uint32_t sym = symbol_of(value, nbits, bits);
-      ++counts[context][sym];
-      symbols_.push_back(static_cast<uint16_t>(context * kAlphabet + static_cast<int>(sym)));
-      bits_.put(bits, nbits);
-    };
-    // Pass 1: runs, predictions, symbols and their statistics. Near-lossless predicts from the
-    // values the decoder will reconstruct (closed loop), kept in recon_.
-    const uint16_t* src = depth.pixels.data();
     if (near_ > 0) {
       recon_.width = depth.width;
       recon_.height = depth.height;
       recon_.pixels.assign(depth.pixels.begin(), depth.pixels.end());
+      model<true>(depth);
+    } else {
+      model<false>(depth);
     }
-    uint16_t* rec = near_ > 0 ? recon_.pixels.data() : nullptr;
-    const uint16_t* px = near_ > 0 ? rec : src;
+    bits_.finish();
+    write_tables();
+    const size_t rans_bytes = entropy_code();
+
+    out.resize(kDepthHeaderBytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
+    write_header(out.data(), kVolcast, true, depth.width, depth.height);
+    out[5] = static_cast<uint8_t>(near_);  // the error bound, in the header's first reserved byte
+    uint8_t* p = out.data() + kDepthHeaderBytes;
+    auto put32 = [&](size_t v) {
+      for (int b = 0; b < 4; ++b) *p++ = static_cast<uint8_t>(v >> (8 * b));
+    };
+    put32(tables_.size());
+    p = std::copy(tables_.begin(), tables_.end(), p);
+    put32(rans_bytes);
+    for (const uint16_t* wd = rans_begin_; wd != rans_.data() + rans_.size(); ++wd)
+      *p++ = static_cast<uint8_t>(*wd), *p++ = static_cast<uint8_t>(*wd >> 8);
+    std::copy(raw_bits_.begin(), raw_bits_.end(), p);
+    return true;
+  }
+  std::string_view name() const override { return "volcast"; }
+
+ private:
+  void emit(int context, uint32_t value) {
+    uint32_t sym = value;
+    if (value >= 16) [[unlikely]] {
+      uint32_t nbits, bits;
+      sym = long_symbol(value, nbits, bits);
+      bits_.put(bits, nbits);
+    }
+    const uint16_t v = static_cast<uint16_t>(context * kAlphabet + static_cast<int>(sym));
+    ++counts_[v];
+    symbols_[count_++] = v;
+  }
+
+  // Pass 1: runs, contexts, predictions, symbols and their statistics. Lossless residuals are
+  // computed a row at a time (no dependency between pixels, so the loop vectorises);
+  // near-lossless predicts from the values the decoder will reconstruct (closed loop), kept in
+  // recon_, pixel by pixel.
+  template <bool kNear>
+  void model(const DepthImage& depth) {
+    const int w = depth.width;
+    const size_t n = depth.size();
+    const uint16_t* src = depth.pixels.data();
+    uint16_t* rec = recon_.pixels.data();
+    const uint16_t* px = kNear ? rec : src;
+    zero_row_.assign(static_cast<size_t>(w), 0);
+    coded_.resize(static_cast<size_t>(w));
+    int model_row = -1;
     const int32_t step = 2 * near_ + 1;
+    // Exact division by `step` for numerators below 2^17 (the error of the rounded-up reciprocal
+    // stays below 1/step).
+    const uint64_t reciprocal =
+        ((uint64_t{1} << 32) + static_cast<uint64_t>(step) - 1) / static_cast<uint64_t>(step);
+    auto quantise = [&](size_t j, int32_t prediction) -> int32_t {
+      // JPEG-LS near-lossless quantisation: |src - reconstruction| <= near_.
+      const int32_t residual = int32_t{src[j]} - prediction;
+      const int32_t q =
+          residual >= 0
+              ? static_cast<int32_t>((static_cast<uint64_t>(residual + near_) * reciprocal) >> 32)
+              : -static_cast<int32_t>((static_cast<uint64_t>(near_ - residual) * reciprocal) >> 32);
+      rec[j] = static_cast<uint16_t>(std::clamp(prediction + q * step, 1, 65535));
+      return q;
+    };
     int32_t last = 0;
     size_t i = 0;
     while (i < n) {
@@ -209,32 +289,62 @@ class VolcastEncoder final : public DepthEncoder {
       start = i;
       while (i < n && px[i] != 0) ++i;
       emit(kValidRunContext, static_cast<uint32_t>(i - start));
-      int y = static_cast<int>(start / static_cast<size_t>(w)),
-          x = static_cast<int>(start % static_cast<size_t>(w));
-      const uint16_t* row = px + static_cast<size_t>(y) * w;
-      for (size_t j = start; j < i; ++j) {
-        const uint16_t* up = y > 0 ? row - w : nullptr;
-        const int32_t prediction = predict(row, up, x, w, last);
-        int32_t residual = int32_t{src[j]} - prediction;
-        if (near_ > 0) {
-          // JPEG-LS near-lossless quantisation: |src - reconstruction| <= near_.
-          residual = residual >= 0 ? (residual + near_) / step : -((near_ - residual) / step);
-          rec[j] = static_cast<uint16_t>(std::clamp(prediction + residual * step, 1, 65535));
+      // Row segments of the valid run: the first pixel of each (W invalid or missing) on the
+      // general path, the others on the fast one.
+      for (size_t j = start; j < i;) {
+        const int y = static_cast<int>(j / static_cast<size_t>(w));
+        const int x0 = static_cast<int>(j % static_cast<size_t>(w));
+        const int x1 = static_cast<int>(std::min<size_t>(i - j + static_cast<size_t>(x0), w));
+        const uint16_t* row = px + static_cast<size_t>(y) * w;
+        const uint16_t* up = y > 0 ? row - w : zero_row_.data();
+        if (y != model_row) {
+          rows_.compute(up, w);
+          model_row = y;
+          if constexpr (!kNear) {
+            for (int x = 1; x < w; ++x)
+              coded_[x] = zigzag(int32_t{row[x]} - rows_.predict(x, row[x - 1]));
+          }
         }
-        emit(context_of(up, x, w, j > start && x > 0), zigzag(residual));
-        last = px[j];
-        if (++x == w) x = 0, ++y, row += w;
+        const int32_t first = predict_first(up, x0, w, last);
+        if constexpr (kNear) {
+          emit(kBorderContext, zigzag(quantise(j, first)));
+          for (int x = x0 + 1; x < x1; ++x) {
+            const int32_t prediction = rows_.predict(x, row[x - 1]);
+            emit(rows_.context[x], zigzag(quantise(j + static_cast<size_t>(x - x0), prediction)));
+          }
+        } else {
+          emit(kBorderContext, zigzag(int32_t{row[x0]} - first));
+          // The common case inline, with the counters in locals (no member stores per pixel).
+          const uint8_t* ctx = rows_.context;
+          const uint32_t* coded = coded_.data();
+          uint16_t* symbols = symbols_.data();
+          uint32_t* counts = counts_.data();
+          size_t count = count_;
+          for (int x = x0 + 1; x < x1; ++x) {
+            if (coded[x] >= 16) [[unlikely]] {
+              count_ = count;
+              emit(ctx[x], coded[x]);
+              count = count_;
+              continue;
+            }
+            const uint16_t v = static_cast<uint16_t>(ctx[x] * kAlphabet + coded[x]);
+            ++counts[v];
+            symbols[count++] = v;
+          }
+          count_ = count;
+        }
+        last = row[x1 - 1];
+        j += static_cast<size_t>(x1 - x0);
       }
     }
-    bits_.finish();
-    (void)h;
+  }
 
-    // Tables: per context a 64-bit presence mask, then each used symbol's frequency as a varint.
+  // Tables: per context a 64-bit presence mask, then each used symbol's frequency as a varint.
+  void write_tables() {
     tables_.clear();
-    std::array<std::array<RansEncSymbol, kAlphabet>, kContexts> enc;
     for (int c = 0; c < kContexts; ++c) {
       uint32_t freqs[kAlphabet];
-      normalize(counts[c].data(), freqs);
+      normalize(counts_.data() + c * kAlphabet, freqs);
       uint64_t mask = 0;
       for (int s = 0; s < kAlphabet; ++s)
         if (freqs[s]) mask |= uint64_t{1} << s;
@@ -246,41 +356,44 @@ class VolcastEncoder final : public DepthEncoder {
           tables_.push_back(static_cast<uint8_t>((f & 0x7f) | (f >= 0x80 ? 0x80 : 0)));
           if (f < 0x80) break;
         }
-        enc[c][s].init(start, freqs[s]);
+        enc_[c * kAlphabet + s].init(start, freqs[s]);
         start += freqs[s];
       }
     }
-    // Pass 2: rANS, symbols in reverse.
-    rans_.resize(symbols_.size() * 2 + 16);
-    RansEncoder rans(rans_.data() + rans_.size());
-    for (size_t k = symbols_.size(); k-- > 0;) {
-      const uint16_t v = symbols_[k];
-      rans.put(static_cast<int>(k & 1), enc[v / kAlphabet][v % kAlphabet]);
-    }
-    const uint8_t* rans_begin = rans.finish();
-    const size_t rans_bytes = static_cast<size_t>(rans_.data() + rans_.size() - rans_begin);
-
-    out.resize(kDepthHeaderBytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
-    write_header(out.data(), kVolcast, true, w, depth.height);
-    out[5] = static_cast<uint8_t>(near_);  // the error bound, in the header's first reserved byte
-    uint8_t* p = out.data() + kDepthHeaderBytes;
-    auto put32 = [&](size_t v) {
-      for (int b = 0; b < 4; ++b) *p++ = static_cast<uint8_t>(v >> (8 * b));
-    };
-    put32(tables_.size());
-    p = std::copy(tables_.begin(), tables_.end(), p);
-    put32(rans_bytes);
-    p = std::copy(rans_begin, static_cast<const uint8_t*>(rans_.data() + rans_.size()), p);
-    std::copy(raw_bits_.begin(), raw_bits_.end(), p);
-    return true;
   }
-  std::string_view name() const override { return "volcast"; }
 
- private:
+  // Pass 2: rANS over the symbols in reverse, symbol k on lane k % 4. Returns the byte count.
+  size_t entropy_code() {
+    rans_.resize(count_ + kRansLanes * 2);
+    uint16_t* ptr = rans_.data() + rans_.size();
+    uint32_t s[kRansLanes] = {kRansLow, kRansLow, kRansLow, kRansLow};
+    size_t k = count_;
+    for (; k % kRansLanes; --k) rans_put(s[(k - 1) % kRansLanes], ptr, enc_[symbols_[k - 1]]);
+    uint32_t s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3];
+    for (; k > 0; k -= kRansLanes) {
+      rans_put(s3, ptr, enc_[symbols_[k - 1]]);
+      rans_put(s2, ptr, enc_[symbols_[k - 2]]);
+      rans_put(s1, ptr, enc_[symbols_[k - 3]]);
+      rans_put(s0, ptr, enc_[symbols_[k - 4]]);
+    }
+    for (const uint32_t state : {s3, s2, s1, s0}) {
+      *--ptr = static_cast<uint16_t>(state >> 16);
+      *--ptr = static_cast<uint16_t>(state);
+    }
+    rans_begin_ = ptr;
+    return static_cast<size_t>(rans_.data() + rans_.size() - ptr) * 2;
+  }
+
   int near_;
   DepthImage recon_;
-  std::vector<uint16_t> symbols_;
-  std::vector<uint8_t> raw_bits_, tables_, rans_;
+  std::vector<uint16_t> symbols_, zero_row_, rans_;
+  size_t count_ = 0;
+  const uint16_t* rans_begin_ = nullptr;
+  std::vector<uint8_t> raw_bits_, tables_;
+  std::vector<uint32_t> coded_;
+  RowModel rows_;
+  std::array<uint32_t, kContexts * kAlphabet> counts_{};
+  std::array<RansEncSymbol, kContexts * kAlphabet> enc_{};
   BitWriter bits_;
 };
 
@@ -291,7 +404,6 @@ class VolcastDecoder final : public DepthDecoder {
     const int near = data[5];
     if (near > kMaxNear)
       throw Error("volcast: corrupt header (error bound " + std::to_string(near) + " mm)");
-    const int32_t step = 2 * near + 1;
     const uint8_t* p = data.data() + kDepthHeaderBytes;
     const uint8_t* end = data.data() + data.size();
     auto get32 = [&]() -> size_t {
@@ -306,28 +418,91 @@ class VolcastDecoder final : public DepthDecoder {
     p += table_bytes;
     const size_t rans_bytes = get32();
     if (rans_bytes > static_cast<size_t>(end - p)) throw Error("volcast: truncated stream");
-    RansDecoder rans(p, p + rans_bytes);
+    if (rans_bytes < kRansStateBytes || rans_bytes % 2)
+      throw Error("volcast: corrupt stream (rANS length)");
+    // The word stream, copied with zero padding so that the branch-free renormalisation may read
+    // ahead: between two checks of the read position at most max(2, width) symbols are decoded,
+    // each consuming at most 2 bytes.
+    stream_.resize(rans_bytes + 2 * static_cast<size_t>(hdr.width) + 8);
+    std::copy(p, p + rans_bytes, stream_.begin());
+    std::fill(stream_.begin() + static_cast<ptrdiff_t>(rans_bytes), stream_.end(), uint8_t{0});
     BitReader bits(p + rans_bytes, end);
+    if (out.width != hdr.width || out.height != hdr.height) out = DepthImage(hdr.width, hdr.height);
+    if (near > 0) {
+      reconstruct<true>(out, near, rans_bytes, bits);
+    } else {
+      reconstruct<false>(out, near, rans_bytes, bits);
+    }
+  }
 
-    size_t symbol_index = 0;  // symbol k decodes on lane k % 2
-    auto value = [&](int context) -> uint32_t {
-      const int lane = static_cast<int>(symbol_index++ & 1);
-      const uint32_t slot = rans.slot(lane);
-      const uint8_t sym = lut_[context][slot];
-      if (sym == kNoSymbol) throw Error("volcast: corrupt stream (symbol without a model)");
-      rans.advance(lane, start_[context][sym], freq_[context][sym]);
-      if (sym < 16) return sym;
+ private:
+  template <bool kNear>
+  void reconstruct(DepthImage& out, int near, size_t rans_bytes, BitReader& bits) {
+    const uint8_t* rp = stream_.data();
+    const uint8_t* const rp_end = stream_.data() + rans_bytes;
+    uint32_t s[kRansLanes];
+    for (uint32_t& st : s) {
+      st = uint32_t{rp[0]} | uint32_t{rp[1]} << 8 | uint32_t{rp[2]} << 16 | uint32_t{rp[3]} << 24;
+      rp += 4;
+      if (st < kRansLow || st >= (1u << 31)) throw Error("volcast: corrupt stream (rANS state)");
+    }
+    uint32_t s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3];
+    auto long_value = [&](uint32_t sym) -> uint32_t {
       const uint32_t k = (sym - 16u) / 2 + 4, top = (sym - 16u) & 1;
-      if (k > 31) throw Error("volcast: corrupt stream (value too long)");
       return (1u << k) | (top << (k - 1)) | bits.get(k - 1);
     };
-    if (out.width != hdr.width || out.height != hdr.height) out = DepthImage(hdr.width, hdr.height);
-    const int w = hdr.width;
+    // One symbol from `state` in `context`. Contexts without a model decode as symbol 0 (see
+    // read_tables); value() below rejects them where the stream structure depends on it.
+    // One symbol from `state`: its residual (unzigzagged) for the pixel paths, its value for runs.
+    auto decode_residual = [&](uint32_t& state, uint32_t table_offset) -> int32_t {
+      const uint32_t entry = table_[table_offset + (state & (kProbScale - 1))];
+      rans_advance(state, rp, entry);
+      if (entry & kLongFlag) [[unlikely]]
+        return unzigzag(long_value(entry >> 12 & 63));
+      return static_cast<int32_t>(entry << 14) >> 28;
+    };
+    auto decode = [&](uint32_t& state, uint32_t table_offset) -> uint32_t {
+      const uint32_t entry = table_[table_offset + (state & (kProbScale - 1))];
+      rans_advance(state, rp, entry);
+      const uint32_t sym = entry >> 12 & 63;
+      return sym < 16 ? sym : long_value(sym);
+    };
+    // Each symbol decodes on lane 0, then the lanes rotate, so symbol k decodes on lane k % 4.
+    auto rotate = [&] {
+      const uint32_t t = s0;
+      s0 = s1, s1 = s2, s2 = s3, s3 = t;
+    };
+    auto value = [&](int context) -> uint32_t {
+      if (!has_model_[static_cast<size_t>(context)])
+        throw Error("volcast: corrupt stream (symbol without a model)");
+      const uint32_t v = decode(s0, static_cast<uint32_t>(context) * kProbScale);
+      rotate();
+      return v;
+    };
+    auto check_position = [&] {
+      if (rp > rp_end) throw Error("volcast: truncated stream");
+    };
+    const int32_t step = 2 * near + 1;
+    auto reconstructed = [&](int32_t prediction, int32_t residual) -> int32_t {
+      int32_t v = prediction + residual;
+      if constexpr (kNear) {
+        if (std::abs(residual) > 65535)
+          throw Error("volcast: corrupt stream (residual out of range)");
+        v = std::clamp(prediction + residual * step, 1, 65535);
+      }
+      if (static_cast<uint32_t>(v - 1) >= 65535u) [[unlikely]]
+        throw Error("volcast: corrupt stream (value out of range)");
+      return v;
+    };
+    const int w = out.width;
+    zero_row_.assign(static_cast<size_t>(w), 0);
+    int model_row = -1;
     uint16_t* px = out.pixels.data();
     const size_t n = out.size();
     int32_t last = 0;
     size_t i = 0;
     while (i < n) {
+      check_position();
       const uint32_t zeros = value(kZeroRunContext);
       if (zeros > n - i) throw Error("volcast: corrupt stream (run past the image)");
       std::fill(px + i, px + i + zeros, uint16_t{0});
@@ -335,49 +510,60 @@ class VolcastDecoder final : public DepthDecoder {
       const uint32_t valid = value(kValidRunContext);
       if (valid > n - i) throw Error("volcast: corrupt stream (run past the image)");
       if (zeros == 0 && valid == 0 && i < n) throw Error("volcast: corrupt stream (empty run)");
-      // Row by row (contexts read the row above, which must be complete): first the segment's
-      // residuals, then its reconstruction, prediction by prediction.
-      int y = static_cast<int>(i / static_cast<size_t>(w)),
-          x = static_cast<int>(i % static_cast<size_t>(w));
-      for (uint32_t left = valid; left > 0;) {
-        const int segment =
-            static_cast<int>(std::min<uint32_t>(left, static_cast<uint32_t>(w - x)));
+      // Row segments of the run; the row above is complete when a segment starts.
+      for (const size_t run_end = i + valid; i < run_end;) {
+        check_position();
+        const int y = static_cast<int>(i / static_cast<size_t>(w));
+        const int x0 = static_cast<int>(i % static_cast<size_t>(w));
+        const int x1 = static_cast<int>(std::min<size_t>(run_end - i + static_cast<size_t>(x0), w));
         uint16_t* row = px + static_cast<size_t>(y) * w;
-        const uint16_t* up = y > 0 ? row - w : nullptr;
-        residuals_.resize(static_cast<size_t>(segment));
-        for (int r = 0; r < segment; ++r)
-          residuals_[r] =
-              unzigzag(value(context_of(up, x + r, w, (left != valid || r > 0) && x + r > 0)));
-        for (int r = 0; r < segment; ++r) {
-          const int32_t prediction = predict(row, up, x + r, w, last);
-          int32_t v = prediction + residuals_[r];
-          if (near > 0) {
-            if (std::abs(residuals_[r]) > 65535)
-              throw Error("volcast: corrupt stream (residual out of range)");
-            v = std::clamp(prediction + residuals_[r] * step, 1, 65535);
-          }
-          if (v <= 0 || v > 65535) throw Error("volcast: corrupt stream (value out of range)");
-          row[x + r] = static_cast<uint16_t>(v);
-          last = v;
+        const uint16_t* up = y > 0 ? row - w : zero_row_.data();
+        if (y != model_row) rows_.compute(up, w), model_row = y;
+        if (!has_model_[kBorderContext])
+          throw Error("volcast: corrupt stream (symbol without a model)");
+        int32_t W = reconstructed(predict_first(up, x0, w, last),
+                                  decode_residual(s0, kBorderContext * kProbScale));
+        rotate();
+        row[x0] = static_cast<uint16_t>(W);
+        // The rest of the segment; W stays in a register (the dependency chain from one pixel to
+        // the next is add, max, min, add) while four independent rANS chains decode ahead of it.
+        // Unrolled by the lanes so no state moves.
+        const RowModel& m = rows_;
+        auto pixel = [&](uint32_t& state, int x) {
+          const int32_t r = decode_residual(state, m.table_offset[x]);
+          W = reconstructed(m.predict(x, W), r);
+          row[x] = static_cast<uint16_t>(W);
+        };
+        int x = x0 + 1;
+        for (; x + 4 <= x1; x += 4) {
+          pixel(s0, x);
+          pixel(s1, x + 1);
+          pixel(s2, x + 2);
+          pixel(s3, x + 3);
         }
-        left -= static_cast<uint32_t>(segment);
-        x += segment;
-        if (x == w) x = 0, ++y;
+        for (; x < x1; ++x) pixel(s0, x), rotate();
+        last = W;
+        i += static_cast<size_t>(x1 - x0);
       }
-      i += valid;
     }
+    check_position();
   }
 
- private:
   void read_tables(const uint8_t* p, const uint8_t* end) {
     for (int c = 0; c < kContexts; ++c) {
       if (end - p < 8) throw Error("volcast: truncated tables");
       uint64_t mask = 0;
       for (int b = 0; b < 8; ++b) mask |= uint64_t{*p++} << (8 * b);
-      std::fill(lut_[c].begin(), lut_[c].end(), kNoSymbol);
+      uint32_t* table = table_.data() + static_cast<size_t>(c) * kProbScale;
+      has_model_[static_cast<size_t>(c)] = mask != 0;
+      if (!mask) {
+        // Never used by a valid stream; decodes as symbol 0 consuming nothing, so a corrupt
+        // stream cannot index outside the tables.
+        std::fill(table, table + kProbScale, rans_slot_entry(kProbScale, 0, 0));
+        continue;
+      }
       uint32_t start = 0;
       for (int s = 0; s < kAlphabet; ++s) {
-        start_[c][s] = freq_[c][s] = 0;
         if (!(mask >> s & 1)) continue;
         uint32_t f = 0;
         for (int shift = 0;; shift += 7) {
@@ -387,18 +573,20 @@ class VolcastDecoder final : public DepthDecoder {
           if (!(byte & 0x80)) break;
         }
         if (f == 0 || start + f > kProbScale) throw Error("volcast: corrupt tables (frequencies)");
-        start_[c][s] = start;
-        freq_[c][s] = f;
-        std::fill(lut_[c].begin() + start, lut_[c].begin() + start + f, static_cast<uint8_t>(s));
+        const uint32_t payload = slot_payload(c, static_cast<uint32_t>(s));
+        for (uint32_t o = 0; o < f; ++o) table[start + o] = rans_slot_entry(f, o, payload);
         start += f;
       }
-      if (mask && start != kProbScale)
-        throw Error("volcast: corrupt tables (frequencies do not sum up)");
+      if (start != kProbScale) throw Error("volcast: corrupt tables (frequencies do not sum up)");
     }
   }
-  std::array<std::array<uint8_t, kProbScale>, kContexts> lut_{};
-  std::vector<int32_t> residuals_;
-  std::array<std::array<uint32_t, kAlphabet>, kContexts> start_{}, freq_{};
+
+  // Per context and slot: rans_slot_entry(freq, offset, symbol).
+  std::array<uint32_t, kContexts * kProbScale> table_{};
+  std::array<bool, kContexts> has_model_{};
+  std::vector<uint8_t> stream_;
+  std::vector<uint16_t> zero_row_;
+  RowModel rows_;  // beside table_, both reached from `this` (few registers in the hot loop)
 };
 
 }  // namespace

@@ -48,14 +48,14 @@ void BM_JpegEncode640x576(benchmark::State& state) {
   const CameraFrame& f = kinect_frame();
   auto enc = make_color_encoder("jpeg");
   std::vector<uint8_t> out;
-  for (auto _ : state) enc->encode(f.color, out);
+  for (auto _ : state) enc->encode(f.color, true, out);
   state.counters["bytes"] = static_cast<double>(out.size());
 }
 
 void BM_JpegDecode640x576(benchmark::State& state) {
   const CameraFrame& f = kinect_frame();
   std::vector<uint8_t> bytes;
-  make_color_encoder("jpeg")->encode(f.color, bytes);
+  make_color_encoder("jpeg")->encode(f.color, true, bytes);
   auto dec = make_color_decoder("jpeg");
   ColorImage out;
   for (auto _ : state) dec->decode(bytes, out);

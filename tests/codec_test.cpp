@@ -121,6 +121,7 @@ TEST(DepthCodecs, RoundTripDegenerateImages) {
   std::fill(flat.pixels.begin(), flat.pixels.end(), uint16_t{900});
   std::fill(top.pixels.begin(), top.pixels.end(), uint16_t{65535});
   for (const std::string& codec : depth_codec_names()) {
+    if (codec == "h264" || codec == "hevc") continue;  // lossy video: video_codec_test.cpp
     if (near_bound(codec)) {
       expect_within(codec, near_bound(codec), {one, column, empty, flat, top}, "degenerate");
     } else {
@@ -287,7 +288,7 @@ TEST(ColorCodecs, JpegRoundTripsRealColorClosely) {
                                   std::istreambuf_iterator<char>());
   decode_jpeg(file, image);
   std::vector<uint8_t> bytes;
-  make_color_encoder("jpeg")->encode(image, bytes);
+  make_color_encoder("jpeg")->encode(image, true, bytes);
   ColorImage out;
   make_color_decoder("jpeg")->decode(bytes, out);
   ASSERT_EQ(out.width, image.width);
@@ -306,7 +307,7 @@ TEST(ColorCodecs, RawIsExactAndChecksItsSize) {
   ColorImage image(5, 3);
   for (size_t i = 0; i < image.bgra.size(); ++i) image.bgra[i] = static_cast<uint8_t>(i * 7);
   std::vector<uint8_t> bytes;
-  make_color_encoder("raw")->encode(image, bytes);
+  make_color_encoder("raw")->encode(image, true, bytes);
   ColorImage out;
   make_color_decoder("raw")->decode(bytes, out);
   EXPECT_EQ(out, image);

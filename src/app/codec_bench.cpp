@@ -147,14 +147,14 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
       ColorImage out;
       for (int r = 0; r < repeats; ++r) {
         auto t = std::chrono::steady_clock::now();
-        for (const auto& c : s.color) enc->encode(c, bytes);
+        for (const auto& c : s.color) enc->encode(c, true, bytes);
         enc_ms.push_back(ms_since(t) / static_cast<double>(s.color.size()));
         t = std::chrono::steady_clock::now();
         for (size_t i = 0; i < s.color.size(); ++i) dec->decode(bytes, out);  // last frame's stream
         dec_ms.push_back(ms_since(t) / static_cast<double>(s.color.size()));
       }
       for (const auto& c : s.color) {
-        enc->encode(c, bytes);
+        enc->encode(c, true, bytes);
         color_bytes += static_cast<double>(bytes.size());
         dec->decode(bytes, out);
         for (size_t i = 0; i < out.bgra.size(); i += 4)

@@ -5,14 +5,20 @@
 #include "volcast/core/jpeg.hpp"
 
 namespace volcast {
+namespace detail {
+/// H.264 color (video_codecs.cpp).
+std::unique_ptr<ColorEncoder> make_h264_color_encoder();
+std::unique_ptr<ColorDecoder> make_h264_color_decoder();
+}  // namespace detail
 namespace {
 
 constexpr size_t kHeader = 12;
 
 class JpegEncoder final : public ColorEncoder {
  public:
-  void encode(const ColorImage& image, std::vector<uint8_t>& out) override {
+  bool encode(const ColorImage& image, bool, std::vector<uint8_t>& out) override {
     encode_jpeg(image, 90, out);
+    return true;
   }
   std::string_view name() const override { return "jpeg"; }
 };
@@ -24,7 +30,7 @@ class JpegDecoder final : public ColorDecoder {
 
 class RawEncoder final : public ColorEncoder {
  public:
-  void encode(const ColorImage& image, std::vector<uint8_t>& out) override {
+  bool encode(const ColorImage& image, bool, std::vector<uint8_t>& out) override {
     out.resize(kHeader + image.bgra.size());
     const uint8_t header[kHeader] = {'V',
                                      'C',
@@ -41,6 +47,7 @@ class RawEncoder final : public ColorEncoder {
     std::memcpy(out.data(), header, kHeader);
     if (!image.bgra.empty())
       std::memcpy(out.data() + kHeader, image.bgra.data(), image.bgra.size());
+    return true;
   }
   std::string_view name() const override { return "raw"; }
 };
@@ -60,7 +67,10 @@ class RawDecoder final : public ColorDecoder {
 
 class NoneEncoder final : public ColorEncoder {
  public:
-  void encode(const ColorImage&, std::vector<uint8_t>& out) override { out.clear(); }
+  bool encode(const ColorImage&, bool, std::vector<uint8_t>& out) override {
+    out.clear();
+    return true;
+  }
   std::string_view name() const override { return "none"; }
 };
 
@@ -72,21 +82,23 @@ class NoneDecoder final : public ColorDecoder {
 }  // namespace
 
 std::vector<std::string> color_codec_names() {
-  return {"jpeg", "raw", "none"};
+  return {"jpeg", "h264", "raw", "none"};
 }
 
 std::unique_ptr<ColorEncoder> make_color_encoder(std::string_view name) {
   if (name == "jpeg") return std::make_unique<JpegEncoder>();
+  if (name == "h264") return detail::make_h264_color_encoder();
   if (name == "raw") return std::make_unique<RawEncoder>();
   if (name == "none") return std::make_unique<NoneEncoder>();
-  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, raw, none)");
+  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, h264, raw, none)");
 }
 
 std::unique_ptr<ColorDecoder> make_color_decoder(std::string_view name) {
   if (name == "jpeg") return std::make_unique<JpegDecoder>();
+  if (name == "h264") return detail::make_h264_color_decoder();
   if (name == "raw") return std::make_unique<RawDecoder>();
   if (name == "none") return std::make_unique<NoneDecoder>();
-  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, raw, none)");
+  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, h264, raw, none)");
 }
 
 }  // namespace volcast

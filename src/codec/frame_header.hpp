@@ -12,13 +12,23 @@
 
 namespace volcast::detail {
 
-enum CodecId : uint8_t { kRaw = 0, kRvl = 1, kTrvl = 2, kZstd = 3, kLz4 = 4, kVolcast = 5 };
+enum CodecId : uint8_t {
+  kRaw = 0,
+  kRvl = 1,
+  kTrvl = 2,
+  kZstd = 3,
+  kLz4 = 4,
+  kVolcast = 5,
+  kH264 = 6,
+  kHevc = 7
+};
 inline constexpr uint8_t kVersion = 1;
 inline constexpr uint8_t kKeyFlag = 1;
 inline constexpr int kMaxSide = 8192;
 
 inline const char* codec_label(uint8_t id) {
-  static constexpr const char* kLabels[] = {"raw", "rvl", "trvl", "zstd", "lz4", "volcast"};
+  static constexpr const char* kLabels[] = {"raw", "rvl",     "trvl", "zstd",
+                                            "lz4", "volcast", "h264", "hevc"};
   return id < std::size(kLabels) ? kLabels[id] : "unknown";
 }
 
@@ -73,5 +83,8 @@ std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id);
 /// Volcast's own codec (volcast_codec.cpp): lossless, or near-lossless within `near_mm` mm.
 std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm);
 std::unique_ptr<DepthDecoder> make_volcast_decoder();
+/// Lossy depth as H.264 or HEVC video (video_codecs.cpp); id is kH264 or kHevc.
+std::unique_ptr<DepthEncoder> make_video_depth_encoder(CodecId id);
+std::unique_ptr<DepthDecoder> make_video_depth_decoder(CodecId id);
 
 }  // namespace volcast::detail

@@ -206,7 +206,7 @@ struct Server::Impl {
         const CameraFrame& f = frames->cameras[i];
         encoded.cameras[i].device_timestamp_us = f.device_timestamp_us;
         depth[i]->encode(f.depth, key, encoded.cameras[i].depth);
-        color[i]->encode(f.color, encoded.cameras[i].color);
+        color[i]->encode(f.color, key, encoded.cameras[i].color);
       }
       protocol::serialize(encoded, wire);
       detail::write_all(*v.socket, wire.data(), wire.size(), config.stall_timeout_ms, stopping);

@@ -2,6 +2,8 @@
 // Color codecs for BGRA images, picked by name:
 //   jpeg - libjpeg-turbo, 4:2:0, quality 90 by default; alpha is not kept (decodes as 255)
 //   raw  - BGRA as is, behind a 12-byte header ('V' 'C' | version | 0 | 4 reserved | w u16 | h u16)
+//   h264 - H.264 video (x264 through libavcodec: ultrafast, zerolatency, no B-frames, CRF 23),
+//          4:2:0, even sides only; temporal: a viewer's decoder needs the stream from a key frame
 //   none - no color is sent; decodes to an empty image
 #include <cstdint>
 #include <memory>
@@ -17,8 +19,9 @@ namespace volcast {
 class ColorEncoder {
  public:
   virtual ~ColorEncoder() = default;
-  /// Encodes `image` into `out` (resized, reused).
-  virtual void encode(const ColorImage& image, std::vector<uint8_t>& out) = 0;
+  /// Encodes `image` into `out` (resized, reused). `key_frame` asks for a frame that decodes on
+  /// its own (temporal codecs; the others always emit one). Returns true for a key frame.
+  virtual bool encode(const ColorImage& image, bool key_frame, std::vector<uint8_t>& out) = 0;
   virtual std::string_view name() const = 0;
 };
 

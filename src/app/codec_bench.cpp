@@ -12,6 +12,7 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/filter/filters.hpp"
 
 namespace volcast {
 namespace fs = std::filesystem;
@@ -27,6 +28,7 @@ struct CodecSet {
 struct DepthRow {
   std::string codec;
   double bytes = 0, encode_ms = 0, decode_ms = 0, max_error = 0, mean_error = 0;
+  size_t mask_errors = 0;  // pixels invalid in the input but not in the output
   bool lossless = true;
 };
 
@@ -73,12 +75,14 @@ DepthRow run_depth(const CodecSet& s, const std::string& label,
     for (size_t p = 0; p < out.size(); ++p) {
       const double e = std::abs(double(out.pixels[p]) - double(s.depth[i].pixels[p]));
       row.max_error = std::max(row.max_error, e);
+      if (s.depth[i].pixels[p] == 0 && e != 0) ++row.mask_errors;
+      if (s.depth[i].pixels[p] == 0) continue;  // the mean is over valid pixels
       error_sum += e;
+      ++pixels;
     }
-    pixels += out.size();
   }
   row.bytes /= static_cast<double>(s.depth.size());
-  row.mean_error = error_sum / static_cast<double>(pixels);
+  row.mean_error = pixels ? error_sum / static_cast<double>(pixels) : 0;
   row.lossless = row.max_error == 0;
   row.encode_ms = median(enc_ms);
   row.decode_ms = median(dec_ms);
@@ -123,6 +127,53 @@ std::vector<CodecSet> load_sets(const fs::path& data, const std::vector<std::str
   return sets;
 }
 
+// A rectangle of `image` (rect inside it).
+ColorImage crop(const ColorImage& image, const CropRect& rect) {
+  ColorImage out(rect.width, rect.height);
+  for (int y = 0; y < rect.height; ++y)
+    std::copy_n(
+        image.bgra.begin() + (static_cast<ptrdiff_t>(rect.y + y) * image.width + rect.x) * 4,
+        rect.width * 4, out.bgra.begin() + static_cast<ptrdiff_t>(y) * rect.width * 4);
+  return out;
+}
+
+// Streams `images` through `codec` (key frame first, as a viewer receives them), `repeats`
+// passes; adds a "color_codecs" entry and returns the mean bytes per frame.
+double bench_color(const std::string& set, const std::string& codec,
+                   const std::vector<ColorImage>& images, int repeats, nlohmann::json& json) {
+  std::vector<std::vector<uint8_t>> streams(images.size());
+  std::vector<double> enc_ms, dec_ms;
+  auto enc = make_color_encoder(codec);
+  auto dec = make_color_decoder(codec);
+  ColorImage out;
+  for (int r = 0; r < repeats; ++r) {
+    auto t = std::chrono::steady_clock::now();
+    for (size_t i = 0; i < images.size(); ++i) enc->encode(images[i], i == 0, streams[i]);
+    enc_ms.push_back(ms_since(t) / static_cast<double>(images.size()));
+    t = std::chrono::steady_clock::now();
+    for (const auto& b : streams) dec->decode(b, out);
+    dec_ms.push_back(ms_since(t) / static_cast<double>(images.size()));
+  }
+  double bytes = 0, se = 0, samples = 0;
+  for (size_t i = 0; i < images.size(); ++i) {
+    bytes += static_cast<double>(streams[i].size());
+    dec->decode(streams[i], out);
+    for (size_t p = 0; p < out.bgra.size(); p += 4)
+      for (int k = 0; k < 3; ++k, ++samples)
+        se += std::pow(double(out.bgra[p + k]) - images[i].bgra[p + k], 2);
+  }
+  bytes /= static_cast<double>(images.size());
+  const double raw = static_cast<double>(images[0].width) * images[0].height * 3;
+  json["color_codecs"].push_back({{"dataset", set},
+                                  {"codec", codec},
+                                  {"bytes_per_frame", bytes},
+                                  {"ratio", raw / bytes},
+                                  {"encode_ms", median(enc_ms)},
+                                  {"decode_ms", median(dec_ms)},
+                                  {"psnr_db", 10 * std::log10(255.0 * 255.0 / (se / samples))}});
+  return bytes;
+}
+
 }  // namespace
 
 void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, int repeats,
@@ -136,41 +187,17 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
   std::printf("%-26s %-11s %10s %7s %8s %8s %-14s %9s %8s %8s %8s\n", "dataset", "codec", "B/frame",
               "ratio", "enc ms", "dec ms", "exact", "Mbit/s*", "ratio/R", "enc/R", "dec/R");
   for (const CodecSet& s : sets) {
-    // Color that travels with this camera: JPEG of the registered color, where the set has it.
+    // Color that travels with this camera (JPEG of the registered color, where the set has it),
+    // and the alternatives: H.264 and JPEG of the NFOV crop (what a cropped camera sends).
     double color_bytes = 0;
     if (!s.color.empty()) {
-      auto enc = make_color_encoder("jpeg");
-      auto dec = make_color_decoder("jpeg");
-      std::vector<uint8_t> bytes;
-      std::vector<double> enc_ms, dec_ms;
-      double se = 0, samples = 0;
-      ColorImage out;
-      for (int r = 0; r < repeats; ++r) {
-        auto t = std::chrono::steady_clock::now();
-        for (const auto& c : s.color) enc->encode(c, true, bytes);
-        enc_ms.push_back(ms_since(t) / static_cast<double>(s.color.size()));
-        t = std::chrono::steady_clock::now();
-        for (size_t i = 0; i < s.color.size(); ++i) dec->decode(bytes, out);  // last frame's stream
-        dec_ms.push_back(ms_since(t) / static_cast<double>(s.color.size()));
+      color_bytes = bench_color(s.name, "jpeg", s.color, repeats, json);
+      bench_color(s.name, "h264", s.color, repeats, json);
+      if (s.color[0].width == 640 && s.color[0].height == 576) {
+        std::vector<ColorImage> cropped;
+        for (const auto& c : s.color) cropped.push_back(crop(c, kNfovCrop));
+        bench_color(s.name + " crop 540x476", "jpeg", cropped, repeats, json);
       }
-      for (const auto& c : s.color) {
-        enc->encode(c, true, bytes);
-        color_bytes += static_cast<double>(bytes.size());
-        dec->decode(bytes, out);
-        for (size_t i = 0; i < out.bgra.size(); i += 4)
-          for (int k = 0; k < 3; ++k, ++samples)
-            se += std::pow(double(out.bgra[i + k]) - c.bgra[i + k], 2);
-      }
-      color_bytes /= static_cast<double>(s.color.size());
-      const double psnr = 10 * std::log10(255.0 * 255.0 / (se / samples));
-      const double raw = static_cast<double>(s.color[0].width) * s.color[0].height * 3;
-      json["color_codecs"].push_back({{"dataset", s.name},
-                                      {"codec", "jpeg"},
-                                      {"bytes_per_frame", color_bytes},
-                                      {"ratio", raw / color_bytes},
-                                      {"encode_ms", median(enc_ms)},
-                                      {"decode_ms", median(dec_ms)},
-                                      {"psnr_db", psnr}});
     }
     std::vector<DepthRow> rows;
     for (const std::string& codec : depth_codec_names())
@@ -204,6 +231,7 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
                                       {"lossless", r.lossless},
                                       {"max_abs_error_mm", r.max_error},
                                       {"mean_abs_error_mm", r.mean_error},
+                                      {"invalid_made_valid", r.mask_errors},
                                       {"mbit_per_s_with_color", mbit},
                                       {"ratio_vs_rvl", rvl.bytes / r.bytes},
                                       {"encode_vs_rvl", r.encode_ms / rvl.encode_ms},
@@ -211,14 +239,16 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
     }
   }
   std::printf(
-      "* depth + JPEG color per camera at 30 fps (depth only where a set has no registered "
+      "* depth + JPEG color per camera (first color row of the set) at 30 fps (depth only where a "
+      "set has no registered "
       "color);\n"
       "  ratio/R, enc/R, dec/R: against RVL in the same run (ratio/R > 1 = smaller than RVL).\n");
   for (const auto& c : json["color_codecs"])
-    std::printf("color %-26s jpeg %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
-                c["dataset"].get<std::string>().c_str(), c["bytes_per_frame"].get<double>(),
-                c["ratio"].get<double>(), c["encode_ms"].get<double>(),
-                c["decode_ms"].get<double>(), c["psnr_db"].get<double>());
+    std::printf("color %-38s %-5s %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
+                c["dataset"].get<std::string>().c_str(), c["codec"].get<std::string>().c_str(),
+                c["bytes_per_frame"].get<double>(), c["ratio"].get<double>(),
+                c["encode_ms"].get<double>(), c["decode_ms"].get<double>(),
+                c["psnr_db"].get<double>());
 }
 
 }  // namespace volcast

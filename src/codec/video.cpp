@@ -72,9 +72,9 @@ AVFrame* VideoEncoder::frame(int w, int h) {
       av_opt_set(ctx_->priv_data, "x265-params", "log-level=error:bframes=0:pools=none", 0);
     if (const int rc = avcodec_open2(ctx_, codec, nullptr); rc < 0) {
       close();
-      throw Error(std::string(label_) + ": cannot open " + encoder_ + " for " +
-                  std::to_string(w) + "x" + std::to_string(h) + " " +
-                  av_get_pix_fmt_name(format_) + ": " + av_message(rc));
+      throw Error(std::string(label_) + ": cannot open " + encoder_ + " for " + std::to_string(w) +
+                  "x" + std::to_string(h) + " " + av_get_pix_fmt_name(format_) + ": " +
+                  av_message(rc));
     }
     frame_ = av_frame_alloc();
     if (!frame_) throw Error(std::string(label_) + ": out of memory");

@@ -73,7 +73,8 @@ class VideoDepthEncoder final : public DepthEncoder {
       put_varint(runs_, static_cast<uint32_t>(i - start));
     }
     mask_.resize(ZSTD_compressBound(runs_.size()));
-    const size_t mask_bytes = ZSTD_compress(mask_.data(), mask_.size(), runs_.data(), runs_.size(), 1);
+    const size_t mask_bytes =
+        ZSTD_compress(mask_.data(), mask_.size(), runs_.data(), runs_.size(), 1);
     if (ZSTD_isError(mask_bytes)) throw Error(std::string(label_of(id_)) + ": Zstd failed");
 
     // Even frame size for 4:2:0, at least x265's 16x16; the padding repeats the last column
@@ -84,7 +85,8 @@ class VideoDepthEncoder final : public DepthEncoder {
     const double scale = static_cast<double>(max_code) / (far_ - near_);
     for (int y = 0; y < fh; ++y) {
       const uint16_t* row = px + static_cast<size_t>(std::min(y, h - 1)) * w;
-      auto* dst = reinterpret_cast<uint16_t*>(f->data[0] + static_cast<ptrdiff_t>(y) * f->linesize[0]);
+      auto* dst =
+          reinterpret_cast<uint16_t*>(f->data[0] + static_cast<ptrdiff_t>(y) * f->linesize[0]);
       uint16_t code = 0;
       for (int x = 0; x < fw; ++x) {
         const int32_t d = row[std::min(x, w - 1)];
@@ -98,8 +100,8 @@ class VideoDepthEncoder final : public DepthEncoder {
     const uint16_t mid = static_cast<uint16_t>(1 << (bits_ - 1));
     for (int plane = 1; plane < 3; ++plane)
       for (int y = 0; y < fh / 2; ++y) {
-        auto* dst =
-            reinterpret_cast<uint16_t*>(f->data[plane] + static_cast<ptrdiff_t>(y) * f->linesize[plane]);
+        auto* dst = reinterpret_cast<uint16_t*>(f->data[plane] +
+                                                static_cast<ptrdiff_t>(y) * f->linesize[plane]);
         std::fill(dst, dst + fw / 2, mid);
       }
     packet_.clear();
@@ -147,12 +149,14 @@ class VideoDepthDecoder final : public DepthDecoder {
     const char* label = label_of(id_);
     const Header hdr = read_header(data, label);
     const int bits = data[5];
-    if (bits != (id_ == kH264 ? 10 : 12)) throw Error(std::string(label) + ": corrupt header (bit depth)");
+    if (bits != (id_ == kH264 ? 10 : 12))
+      throw Error(std::string(label) + ": corrupt header (bit depth)");
     const uint8_t* p = data.data() + kDepthHeaderBytes;
     const uint8_t* end = data.data() + data.size();
     if (end - p < 12) throw Error(std::string(label) + ": truncated stream");
     const int32_t near = p[0] | p[1] << 8, far = p[2] | p[3] << 8;
-    const size_t mask_bytes = size_t{p[4]} | size_t{p[5]} << 8 | size_t{p[6]} << 16 | size_t{p[7]} << 24;
+    const size_t mask_bytes =
+        size_t{p[4]} | size_t{p[5]} << 8 | size_t{p[6]} << 16 | size_t{p[7]} << 24;
     const size_t packet_bytes =
         size_t{p[8]} | size_t{p[9]} << 8 | size_t{p[10]} << 16 | size_t{p[11]} << 24;
     p += 12;
@@ -160,7 +164,8 @@ class VideoDepthDecoder final : public DepthDecoder {
         packet_bytes != static_cast<size_t>(end - p) - mask_bytes)
       throw Error(std::string(label) + ": truncated stream (lengths do not match)");
     if (near < 1 || far <= near) throw Error(std::string(label) + ": corrupt header (range)");
-    if (mask_bytes > static_cast<size_t>(end - p)) throw Error(std::string(label) + ": truncated valid mask");
+    if (mask_bytes > static_cast<size_t>(end - p))
+      throw Error(std::string(label) + ": truncated valid mask");
     const size_t n = hdr.pixels();
     runs_.resize(2 * n + 16);
     const size_t run_bytes = ZSTD_decompress(runs_.data(), runs_.size(), p, mask_bytes);
@@ -187,8 +192,10 @@ class VideoDepthDecoder final : public DepthDecoder {
                 out.pixels.begin() + static_cast<ptrdiff_t>(i + zeros), uint16_t{0});
       i += zeros;
       for (const size_t stop = i + valid; i < stop; ++i) {
-        const int y = static_cast<int>(i / static_cast<size_t>(w)), x = static_cast<int>(i % static_cast<size_t>(w));
-        const auto* row = reinterpret_cast<const uint16_t*>(f->data[0] + static_cast<ptrdiff_t>(y) * f->linesize[0]);
+        const int y = static_cast<int>(i / static_cast<size_t>(w)),
+                  x = static_cast<int>(i % static_cast<size_t>(w));
+        const auto* row = reinterpret_cast<const uint16_t*>(f->data[0] + static_cast<ptrdiff_t>(y) *
+                                                                             f->linesize[0]);
         const int32_t code = std::min<int32_t>(row[x], max_code);
         const int32_t d = near + static_cast<int32_t>(std::lround(code * step));
         out.pixels[i] = static_cast<uint16_t>(std::clamp(d, 1, 65535));
@@ -225,9 +232,18 @@ class H264ColorEncoder final : public ColorEncoder {
     sws_scale(sws_, src, stride, 0, image.height, f->data, f->linesize);
     out.resize(kColorHeader);
     const bool key = video_.encode(key_frame, out);
-    const uint8_t header[kColorHeader] = {'V', 'C', 1, kColorH264, uint8_t(key ? 1 : 0), 0, 0, 0,
-                                          uint8_t(image.width), uint8_t(image.width >> 8),
-                                          uint8_t(image.height), uint8_t(image.height >> 8)};
+    const uint8_t header[kColorHeader] = {'V',
+                                          'C',
+                                          1,
+                                          kColorH264,
+                                          uint8_t(key ? 1 : 0),
+                                          0,
+                                          0,
+                                          0,
+                                          uint8_t(image.width),
+                                          uint8_t(image.width >> 8),
+                                          uint8_t(image.height),
+                                          uint8_t(image.height >> 8)};
     std::copy(header, header + kColorHeader, out.begin());
     return key;
   }
@@ -254,8 +270,8 @@ class H264ColorDecoder final : public ColorDecoder {
     if (f->format != AV_PIX_FMT_YUV420P || f->width != w || f->height != h)
       throw Error("h264 color: the video does not match the header");
     if (out.width != w || out.height != h) out = ColorImage(w, h);
-    sws_ = sws_getCachedContext(sws_, w, h, AV_PIX_FMT_YUV420P, w, h, AV_PIX_FMT_BGRA,
-                                SWS_BILINEAR, nullptr, nullptr, nullptr);
+    sws_ = sws_getCachedContext(sws_, w, h, AV_PIX_FMT_YUV420P, w, h, AV_PIX_FMT_BGRA, SWS_BILINEAR,
+                                nullptr, nullptr, nullptr);
     if (!sws_) throw Error("h264 color: no YUV 4:2:0 to BGRA conversion");
     uint8_t* dst[1] = {out.bgra.data()};
     const int stride[1] = {w * 4};

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Second README command: install what is missing, build the sanitizer preset and run every test.
+# Second README command: install what is missing, build the sanitizer preset, run every test,
+# then fuzz every decoder for a bounded time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
 cmake --preset dev
 cmake --build --preset dev
 ctest --preset dev -j2
+# libFuzzer on every decoder and the protocol parsers, FUZZ_SECONDS (default 30) each.
+bash scripts/fuzz.sh

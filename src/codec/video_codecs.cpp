@@ -210,6 +210,11 @@ class VideoDepthDecoder final : public DepthDecoder {
 };
 
 constexpr size_t kColorHeader = 12;
+
+// A BGRA row stride with room for swscale's vector loads and stores past the row's end.
+int padded_stride(int width) {
+  return (width * 4 + 64 + 63) & ~63;
+}
 constexpr uint8_t kColorH264 = 2;
 
 class H264ColorEncoder final : public ColorEncoder {
@@ -227,9 +232,14 @@ class H264ColorEncoder final : public ColorEncoder {
                                 image.height, AV_PIX_FMT_YUV420P, SWS_BILINEAR, nullptr, nullptr,
                                 nullptr);
     if (!sws_) throw Error("h264 color: no BGRA to YUV 4:2:0 conversion");
-    const uint8_t* src[1] = {image.bgra.data()};
-    const int stride[1] = {image.width * 4};
-    sws_scale(sws_, src, stride, 0, image.height, f->data, f->linesize);
+    // swscale's SIMD reads (and writes) past the end of rows: give it padded rows.
+    const int stride = padded_stride(image.width);
+    scratch_.resize(static_cast<size_t>(stride) * (image.height + 1) + 64);
+    for (int y = 0; y < image.height; ++y)
+      std::copy_n(image.bgra.data() + static_cast<size_t>(y) * image.width * 4, image.width * 4,
+                  scratch_.data() + static_cast<size_t>(y) * stride);
+    const uint8_t* src[1] = {scratch_.data()};
+    sws_scale(sws_, src, &stride, 0, image.height, f->data, f->linesize);
     out.resize(kColorHeader);
     const bool key = video_.encode(key_frame, out);
     const uint8_t header[kColorHeader] = {'V',
@@ -252,6 +262,7 @@ class H264ColorEncoder final : public ColorEncoder {
  private:
   VideoEncoder video_;
   SwsContext* sws_ = nullptr;
+  std::vector<uint8_t> scratch_;
 };
 
 class H264ColorDecoder final : public ColorDecoder {
@@ -273,14 +284,20 @@ class H264ColorDecoder final : public ColorDecoder {
     sws_ = sws_getCachedContext(sws_, w, h, AV_PIX_FMT_YUV420P, w, h, AV_PIX_FMT_BGRA, SWS_BILINEAR,
                                 nullptr, nullptr, nullptr);
     if (!sws_) throw Error("h264 color: no YUV 4:2:0 to BGRA conversion");
-    uint8_t* dst[1] = {out.bgra.data()};
-    const int stride[1] = {w * 4};
-    sws_scale(sws_, f->data, f->linesize, 0, h, dst, stride);
+    // swscale's SIMD writes past the end of rows: convert into padded rows, then copy.
+    const int stride = padded_stride(w);
+    scratch_.resize(static_cast<size_t>(stride) * (h + 1) + 64);
+    uint8_t* dst[1] = {scratch_.data()};
+    sws_scale(sws_, f->data, f->linesize, 0, h, dst, &stride);
+    for (int y = 0; y < h; ++y)
+      std::copy_n(scratch_.data() + static_cast<size_t>(y) * stride, w * 4,
+                  out.bgra.data() + static_cast<size_t>(y) * w * 4);
   }
 
  private:
   VideoDecoder video_;
   SwsContext* sws_ = nullptr;
+  std::vector<uint8_t> scratch_;
 };
 
 }  // namespace

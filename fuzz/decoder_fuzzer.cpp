@@ -1,0 +1,107 @@
+// libFuzzer target for one decoder, chosen at build time (VOLCAST_FUZZ_KIND: depth, color or
+// protocol; VOLCAST_FUZZ_CODEC: the codec name). Two inputs per run:
+//  1. the fuzz bytes as a stream, decoded as they are;
+//  2. a small image made from the fuzz bytes, encoded by the matching encoder, then corrupted at
+//     positions and with masks taken from the bytes, and decoded - so mutations reach deep into a
+//     well-formed stream without a seed corpus.
+// A decoder may throw volcast::Error; anything else (a crash, a sanitizer report, another
+// exception) is a finding. Run by scripts/fuzz.sh.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/protocol.hpp"
+
+namespace {
+
+using namespace volcast;
+
+void corrupt(std::vector<uint8_t>& bytes, const uint8_t* data, size_t size) {
+  if (bytes.empty()) return;
+  for (size_t k = 2; k + 2 < size && k < 2 + 3 * 8; k += 3) {
+    const size_t at = (size_t{data[k]} << 8 | data[k + 1]) % bytes.size();
+    bytes[at] ^= data[k + 2];
+  }
+  if (size > 1 && data[1] % 7 == 0) bytes.resize(bytes.size() - data[1] % bytes.size());
+}
+
+void fuzz_depth(const uint8_t* data, size_t size) {
+  DepthImage out;
+  try {
+    make_depth_decoder(VOLCAST_FUZZ_CODEC)->decode({data, size}, out);
+  } catch (const Error&) {
+  }
+  if (size < 4) return;
+  const int w = 1 + data[0] % 40, h = 1 + data[1] % 30;
+  DepthImage image(w, h);
+  for (size_t i = 0; i < image.size(); ++i) {
+    const uint8_t b = data[(i + 2) % size];
+    image.pixels[i] = b % 5 == 0 ? 0 : static_cast<uint16_t>(500 + b * (1 + data[3] % 64));
+  }
+  auto enc = make_depth_encoder(VOLCAST_FUZZ_CODEC);
+  auto dec = make_depth_decoder(VOLCAST_FUZZ_CODEC);
+  std::vector<uint8_t> key, delta;
+  enc->encode(image, true, key);
+  image.pixels[data[2] % image.size()] ^= 0x55;
+  enc->encode(image, false, delta);
+  corrupt(size % 2 ? key : delta, data, size);
+  try {
+    dec->decode(key, out);
+    dec->decode(delta, out);
+  } catch (const Error&) {
+  }
+}
+
+void fuzz_color(const uint8_t* data, size_t size) {
+  ColorImage out;
+  try {
+    make_color_decoder(VOLCAST_FUZZ_CODEC)->decode({data, size}, out);
+  } catch (const Error&) {
+  }
+  if (size < 4) return;
+  const int w = 2 * (1 + data[0] % 20), h = 2 * (1 + data[1] % 16);
+  ColorImage image(w, h);
+  for (size_t i = 0; i < image.bgra.size(); ++i) image.bgra[i] = data[(i + 2) % size];
+  auto enc = make_color_encoder(VOLCAST_FUZZ_CODEC);
+  auto dec = make_color_decoder(VOLCAST_FUZZ_CODEC);
+  std::vector<uint8_t> bytes;
+  enc->encode(image, true, bytes);
+  corrupt(bytes, data, size);
+  try {
+    dec->decode(bytes, out);
+  } catch (const Error&) {
+  }
+}
+
+void fuzz_protocol(const uint8_t* data, size_t size) {
+  const std::span<const uint8_t> bytes(data, size);
+  auto attempt = [](auto&& parse) {
+    try {
+      parse();
+    } catch (const Error&) {
+    }
+  };
+  attempt([&] { protocol::parse_header(bytes); });
+  attempt([&] { protocol::parse_hello(bytes); });
+  attempt([&] { protocol::parse_welcome(bytes); });
+  attempt([&] { protocol::parse_reject(bytes); });
+  attempt([&] { protocol::parse_ack(bytes); });
+  attempt([&] {
+    protocol::EncodedFrameSet set;
+    protocol::parse_frame_set(bytes, set);
+  });
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string_view kind = VOLCAST_FUZZ_KIND;
+  if (kind == "depth") fuzz_depth(data, size);
+  if (kind == "color") fuzz_color(data, size);
+  if (kind == "protocol") fuzz_protocol(data, size);
+  return 0;
+}

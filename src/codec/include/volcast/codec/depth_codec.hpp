@@ -15,9 +15,13 @@
 //          8 local-activity contexts and static rANS (see src/codec/volcast_codec.cpp)
 //   volcast-n1, volcast-n2, volcast-n4 - near-lossless: every valid pixel within 1, 2 or 4 mm;
 //          invalid pixels stay exactly invalid
-// All codecs but volcast-n* are bit-exact on every 16-bit value. Encoders are stateful (temporal
-// codecs keep the last frame they emitted); one encoder per receiver, so a receiver that misses
-// frames the encoder never produced still decodes the next delta frame.
+//   h264, hevc - lossy video through libavcodec (x264 10-bit, x265 12-bit; ultrafast,
+//          zerolatency, no B-frames, key frames on request): valid depth mapped linearly over the
+//          last key frame's [min - 100, max + 100] mm range, values outside it clamped; the valid
+//          mask exact (sent beside the video). See src/codec/video_codecs.cpp.
+// All codecs but volcast-n*, h264 and hevc are bit-exact on every 16-bit value. Encoders are
+// stateful (temporal codecs keep the last frame they emitted); one encoder per receiver, so a
+// receiver that misses frames the encoder never produced still decodes the next delta frame.
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -58,7 +62,7 @@ struct TrvlParams {
 };
 
 /// Names of the depth codecs: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2,
-/// volcast-n4.
+/// volcast-n4, h264, hevc.
 std::vector<std::string> depth_codec_names();
 /// Throws Error("unknown depth codec 'x' (available: ...)").
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);

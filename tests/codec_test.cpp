@@ -2,6 +2,7 @@
 // key frames and drops, and rejection of corrupt streams.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <random>
@@ -155,6 +156,17 @@ TEST(VolcastCodec, NearLosslessWithin2mmReaches12xOnTheKinectFrame) {
   make_depth_encoder("volcast-n2")->encode(frame, true, bytes);
   EXPECT_GE(static_cast<double>(frame.size() * 2) / static_cast<double>(bytes.size()), 12.0);
   expect_within("volcast-n2", 2, {synthetic_full_range(9)}, "synthetic full range");
+}
+
+TEST(VolcastCodec, NearLosslessBoundHoldsForEveryDepthValue) {
+  // Synthetic (labelled): a 256x256 image holding every uint16 value once, in order and shuffled
+  // (smooth ramps and maximal jumps), so the quantiser is checked exhaustively.
+  DepthImage ramp(256, 256);
+  for (size_t i = 0; i < ramp.size(); ++i) ramp.pixels[i] = static_cast<uint16_t>(i);
+  DepthImage shuffled = ramp;
+  std::shuffle(shuffled.pixels.begin(), shuffled.pixels.end(), std::mt19937(11));
+  for (const std::string codec : {"volcast-n1", "volcast-n2", "volcast-n4"})
+    expect_within(codec, near_bound(codec), {ramp, shuffled}, "every uint16 value");
 }
 
 TEST(BytePlaneCodecs, RoundTripValuesAbove32767AndCompressRealDepth) {

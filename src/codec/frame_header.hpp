@@ -22,7 +22,8 @@ enum CodecId : uint8_t {
   kH264 = 6,
   kHevc = 7
 };
-inline constexpr uint8_t kVersion = 1;
+// 2: volcast uses 11-bit probabilities and quantises values (not residuals) when near-lossless.
+inline constexpr uint8_t kVersion = 2;
 inline constexpr uint8_t kKeyFlag = 1;
 inline constexpr int kMaxSide = 8192;
 

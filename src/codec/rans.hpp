@@ -1,9 +1,9 @@
 #pragma once
 // Internal: a range asymmetric numeral system coder (rANS, J. Duda, "Asymmetric numeral systems",
 // 2013) in the word-renormalised form of F. Giesen's rans_word: 32-bit states kept in
-// [2^15, 2^31), 12-bit probabilities, 16-bit little-endian words, at most one word moved per
-// symbol (so the decoder renormalises without a branch). The encoder divides with a precomputed
-// reciprocal (Alverson 1991, as in Giesen's ryg_rans), valid for states below 2^31.
+// [2^15, 2^31), 11-bit probabilities (small decoding tables stay in L1), 16-bit words, at most one
+// word moved per symbol (so the decoder renormalises without a branch). The encoder divides with a
+// precomputed reciprocal (Alverson 1991, as in Giesen's ryg_rans), valid for states below 2^31.
 // Four interleaved states ("lanes": symbol k uses lane k % 4) share one word stream, so four
 // consecutive symbols decode without waiting on each other. The encoder writes backwards from the
 // end of a buffer; symbols are encoded in reverse order of decoding.
@@ -14,7 +14,7 @@
 namespace volcast::detail {
 
 inline constexpr uint32_t kRansLow = 1u << 15;  // lower bound of a normalised state
-inline constexpr int kProbBits = 12;
+inline constexpr int kProbBits = 11;
 inline constexpr uint32_t kProbScale = 1u << kProbBits;
 inline constexpr int kRansLanes = 4;
 inline constexpr int kRansStateBytes = 4 * kRansLanes;  // the final states, lane 0 first
@@ -69,17 +69,12 @@ inline void rans_put(uint32_t& x, uint16_t*& ptr, const RansEncSymbol& s) {
   x += s.bias + q * s.cmpl_freq;
 }
 
-/// Decoder table entry of one slot: the frequency of the symbol whose range holds the slot
-/// (bits 19-31), the slot's offset in that range (bits 0-11) and 7 bits (12-18) for the caller.
-inline constexpr uint32_t rans_slot_entry(uint32_t freq, uint32_t offset, uint32_t payload) {
-  return freq << 19 | payload << 12 | offset;
-}
-
-/// Decodes one symbol from state `x` given the table entry of its slot (`x % kProbScale`).
-/// Reads the word at `ptr` and advances past it only if the state needs it, without a branch;
-/// the caller guarantees 2 readable bytes at `ptr` (padding).
-inline void rans_advance(uint32_t& x, const uint8_t*& ptr, uint32_t entry) {
-  x = (entry >> 19) * (x >> kProbBits) + (entry & 0xfff);
+/// Decodes one symbol from state `x` given its slot's frequency and the slot's offset in the
+/// symbol's range (slot = `x % kProbScale`). Reads the word at `ptr` and advances past it only if
+/// the state needs it, without a branch; the caller guarantees 2 readable bytes at `ptr`
+/// (padding).
+inline void rans_advance(uint32_t& x, const uint8_t*& ptr, uint32_t freq, uint32_t offset) {
+  x = freq * (x >> kProbBits) + offset;
   uint16_t word;
   std::memcpy(&word, ptr, 2);  // little-endian hosts; see the static_assert below
   // Conditional moves, not a branch: refills are unpredictable (about one symbol in eight), and

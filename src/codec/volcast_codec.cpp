@@ -11,11 +11,11 @@
 //    never depend on the current row's values, so they are computed a row at a time
 //    (vectorised) and the entropy decoder never waits on reconstruction.
 //  - Values are coded as a symbol (the value itself below 16; above, its bit length and the next
-//    bit) with a per-context static rANS model (12-bit probabilities, tables sent with the frame,
+//    bit) with a per-context static rANS model (11-bit probabilities, tables sent with the frame,
 //    four interleaved states), and the remaining low bits raw in a separate bit stream.
-//  - Near-lossless (JPEG-LS's scheme): with a bound N > 0, residuals are quantised in steps of
-//    2N+1 and the encoder predicts from its own reconstruction, so every valid pixel decodes within
-//    N mm; which pixels are valid is always exact. N is stored in the header's byte 5.
+//  - Near-lossless: with a bound N > 0 the valid values are first quantised in steps of 2N+1
+//    (see quantise()), the result coded losslessly, so every valid pixel decodes within N mm;
+//    which pixels are valid is always exact. N is stored in the header's byte 5.
 // Body: table bytes u32 | tables | rANS bytes u32 | rANS words | raw bit stream.
 #include <algorithm>
 #include <array>
@@ -23,6 +23,14 @@
 
 #include "frame_header.hpp"
 #include "rans.hpp"
+
+// Vectorised passes are also built for AVX2 and picked at run time (function multi-versioning,
+// GCC on x86-64); the default build targets baseline x86-64.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VOLCAST_AVX2_CLONE [[gnu::target_clones("avx2", "default")]]
+#else
+#define VOLCAST_AVX2_CLONE
+#endif
 
 namespace volcast::detail {
 namespace {
@@ -32,19 +40,12 @@ constexpr uint8_t kBorderContext = 8;
 constexpr int kZeroRunContext = 9;
 constexpr int kValidRunContext = 10;
 constexpr int kContexts = 11;
-constexpr int kMaxNear = 16;              // near-lossless error bounds up to 16 mm
-constexpr uint32_t kLongFlag = 1u << 18;  // decoding table: a symbol with raw bits
-
-// The 7 payload bits of a decoding table entry (entry bits 12-18): for run contexts the symbol;
-// for pixel contexts, symbols below 16 carry the residual they stand for (zigzag decoded, 4-bit
-// two's complement in entry bits 14-17) so the hot path needs no unzigzag, and longer symbols
-// carry the symbol and the long flag.
-inline uint32_t slot_payload(int context, uint32_t sym) {
-  if (context >= kZeroRunContext) return sym;
-  if (sym >= 16) return sym | kLongFlag >> 12;
-  const int32_t residual = static_cast<int32_t>(sym >> 1) ^ -static_cast<int32_t>(sym & 1);
-  return (static_cast<uint32_t>(residual) & 0xf) << 2;
-}
+constexpr int kSymbolShift = kProbBits - 6;  // context * kProbScale >> it = context * kAlphabet
+static_assert(kAlphabet == 64 && kProbBits >= 6);
+constexpr int kMaxNear = 16;  // near-lossless error bounds up to 16 mm
+// The largest symbol of a zigzagged residual: |residual| <= 65535 needs at most 17 bits (k = 16).
+constexpr int8_t kLongResidual = -128;  // decoding: the slot's symbol has raw bits
+constexpr int kMaxResidualSymbol = 16 + (16 - 4) * 2 + 1;
 
 inline uint32_t zigzag(int32_t v) {
   return (static_cast<uint32_t>(v) << 1) ^ static_cast<uint32_t>(v >> 31);
@@ -67,46 +68,74 @@ inline uint32_t long_symbol(uint32_t u, uint32_t& nbits, uint32_t& bits) {
 //  - context: the local activity |N-NW| + |NE-N| in 8 levels (0 | 1-2 | 3-4 | 5-8 | 9-16 | 17-32 |
 //    33-64 | 65+), or the border context where N, NW or NE is invalid or missing. The first pixel
 //    of a run segment (W invalid or missing) also takes the border context; callers apply that.
-//  - prediction of a pixel whose W is valid, as clamp(N, W + lo, W + hi): with N and NW valid,
-//    lo = min(N-NW, 0) and hi = max(N-NW, 0), which is exactly LOCO-I's median edge detector
-//    median(W, N, W+N-NW) with one add, one max and one min after W is known; with only N valid,
-//    N (lo, hi = -/+65536); with N invalid, W (lo = hi = 0).
-// Arrays of one fixed capacity, so that a loop reaches all of them from one base register.
+//  - prediction of a pixel whose W is valid, as clamp(N, W - down, W + up): with N and NW valid,
+//    down = max(NW-N, 0) and up = max(N-NW, 0), which is exactly LOCO-I's median edge detector
+//    median(W, N, W+N-NW) with a subtract, an add, one max and one min after W is known; with
+//    only N valid, N (down = up = 65535, wider than any |N - W|); with N invalid, W (0, 0).
+// All in 16 bits, so the pass runs 16 pixels to an AVX2 vector. Arrays of one fixed capacity, so
+// that a loop reaches all of them from one base register.
 struct RowModel {
   uint16_t n[kMaxSide];             // N, the row above
   uint16_t table_offset[kMaxSide];  // context * kProbScale, the decoder's table offset
-  int32_t lo[kMaxSide], hi[kMaxSide];
-  uint8_t context[kMaxSide];
+  uint16_t down[kMaxSide], up[kMaxSide];
 
-  void compute(const uint16_t* up, int w) {
-    std::copy(up, up + w, n);
-    for (int x = 1; x < w; ++x) {
-      const int32_t N = up[x], NW = up[x - 1];
-      // Branch-free (masks) so that the loop vectorises.
-      const int32_t g = N - NW;
-      const int32_t n_valid = -static_cast<int32_t>(N != 0);
-      const int32_t nw_valid = -static_cast<int32_t>(NW != 0);
-      lo[x] = n_valid & ((nw_valid & std::min(g, 0)) | (~nw_valid & -65536));
-      hi[x] = n_valid & ((nw_valid & std::max(g, 0)) | (~nw_valid & 65536));
-    }
-    for (int x = 1; x + 1 < w; ++x) {
-      // In 16 bits: |N-NW| and |NE-N| capped at 65 sum to the same level as uncapped.
-      const uint16_t N = up[x], NW = up[x - 1], NE = up[x + 1];
-      const uint16_t d1 = std::min<uint16_t>(N > NW ? N - NW : NW - N, 65);
-      const uint16_t d2 = std::min<uint16_t>(NE > N ? NE - N : N - NE, 65);
-      const uint16_t a = static_cast<uint16_t>(d1 + d2);
-      const uint16_t level = static_cast<uint16_t>((a >= 1) + (a >= 3) + (a >= 5) + (a >= 9) +
-                                                   (a >= 17) + (a >= 33) + (a >= 65));
-      const bool border = N == 0 || NW == 0 || NE == 0;
-      context[x] = static_cast<uint8_t>(border ? kBorderContext : level);
-    }
-    context[0] = context[w - 1] = kBorderContext;
-    for (int x = 0; x < w; ++x) table_offset[x] = static_cast<uint16_t>(context[x] * kProbScale);
-  }
+  void compute(const uint16_t* above, int w);
   int32_t predict(int x, int32_t W) const {
-    return std::min(std::max(int32_t{n[x]}, W + lo[x]), W + hi[x]);
+    return std::min(std::max(int32_t{n[x]}, W - int32_t{down[x]}), W + int32_t{up[x]});
   }
+  int context(int x) const { return table_offset[x] >> kProbBits; }
 };
+
+// |a - b| parts in 16 bits: max(a - b, 0).
+inline uint16_t positive_difference(uint16_t a, uint16_t b) {
+  return static_cast<uint16_t>(a > b ? a - b : 0);
+}
+
+// One pass over the row above, vectorised (branch-free: masks and selects).
+VOLCAST_AVX2_CLONE
+void compute_row_model(RowModel& m, const uint16_t* above, int w) {
+  std::copy(above, above + w, m.n);
+  auto prediction = [&](int x, uint16_t N, uint16_t NW, uint16_t rise, uint16_t fall) {
+    const uint16_t n_valid = static_cast<uint16_t>(-(N != 0));
+    const uint16_t nw_valid = static_cast<uint16_t>(-(NW != 0));
+    const uint16_t nw_invalid = static_cast<uint16_t>(~nw_valid);
+    m.down[x] = static_cast<uint16_t>(n_valid & ((nw_valid & fall) | nw_invalid));
+    m.up[x] = static_cast<uint16_t>(n_valid & ((nw_valid & rise) | nw_invalid));
+  };
+  for (int x = 1; x + 1 < w; ++x) {
+    const uint16_t N = above[x], NW = above[x - 1], NE = above[x + 1];
+    const uint16_t rise = positive_difference(N, NW), fall = positive_difference(NW, N);
+    prediction(x, N, NW, rise, fall);
+    // |N-NW| and |NE-N| capped at 65 sum to the same level as uncapped.
+    const uint16_t d1 = std::min<uint16_t>(static_cast<uint16_t>(rise | fall), 65);
+    const uint16_t d2 = std::min<uint16_t>(
+        static_cast<uint16_t>(positive_difference(NE, N) | positive_difference(N, NE)), 65);
+    const uint16_t a = static_cast<uint16_t>(d1 + d2);
+    const uint16_t level = static_cast<uint16_t>((a >= 1) + (a >= 3) + (a >= 5) + (a >= 9) +
+                                                 (a >= 17) + (a >= 33) + (a >= 65));
+    const uint16_t border = static_cast<uint16_t>(-((N == 0) | (NW == 0) | (NE == 0)));
+    const uint16_t context = static_cast<uint16_t>((border & kBorderContext) | (~border & level));
+    m.table_offset[x] = static_cast<uint16_t>(context << kProbBits);
+  }
+  if (w > 1) {
+    const uint16_t N = above[w - 1], NW = above[w - 2];
+    prediction(w - 1, N, NW, positive_difference(N, NW), positive_difference(NW, N));
+  }
+  // The first pixel's prediction is never used (a row segment's first pixel is predicted by
+  // predict_first); both ends take the border context.
+  m.table_offset[0] = m.table_offset[w - 1] = kBorderContext << kProbBits;
+}
+
+inline void RowModel::compute(const uint16_t* above, int w) {
+  compute_row_model(*this, above, w);
+}
+
+// Encoding: the zigzagged residual of every pixel of `row` whose W is valid, from the row
+// model; one pass, vectorised.
+VOLCAST_AVX2_CLONE
+void row_residuals(const RowModel& m, const uint16_t* row, int w, uint32_t* coded) {
+  for (int x = 1; x < w; ++x) coded[x] = zigzag(int32_t{row[x]} - m.predict(x, row[x - 1]));
+}
 
 // Prediction of the first pixel of a run segment, whose W is invalid or missing: N, NW, NE or
 // `last`, the previous valid value.
@@ -115,6 +144,37 @@ inline int32_t predict_first(const uint16_t* up, int x, int w, int32_t last) {
   if (x > 0 && up[x - 1]) return up[x - 1];
   if (x + 1 < w && up[x + 1]) return up[x + 1];
   return last;
+}
+
+// Near-lossless by quantising the values themselves (step 2N+1): q = ceil(d / step), so 0 stays 0
+// (invalid) and every valid depth maps to q >= 1; the decoder reconstructs q*step - N, capped at
+// 65535, which is within N of every d in ((q-1)*step, q*step]. The quantised image is then coded
+// losslessly, so near-lossless costs one vectorised pass on each side and no serial closed loop.
+VOLCAST_AVX2_CLONE
+void quantise_values(const uint16_t* depth, size_t count, int near, uint16_t* q) {
+  // floor((d + 2N) / step) in single precision, exact: (v + 0.5) / step is at least 0.5 / step
+  // away from an integer, and the float error stays below v * 2^-23 / step <= 2^-6 / step.
+  const float inverse = 1.0f / static_cast<float>(2 * near + 1);
+  const float bias = static_cast<float>(2 * near) + 0.5f;
+  for (size_t i = 0; i < count; ++i)
+    q[i] = static_cast<uint16_t>(
+        static_cast<int32_t>((static_cast<float>(depth[i]) + bias) * inverse));
+}
+
+void quantise(const DepthImage& depth, int near, DepthImage& q) {
+  q.width = depth.width;
+  q.height = depth.height;
+  q.pixels.resize(depth.pixels.size());
+  quantise_values(depth.pixels.data(), depth.pixels.size(), near, q.pixels.data());
+}
+
+VOLCAST_AVX2_CLONE
+void dequantise(const uint16_t* q, size_t count, int near, uint16_t* out) {
+  const int32_t step = 2 * near + 1;
+  for (size_t i = 0; i < count; ++i) {
+    const int32_t v = std::min(int32_t{q[i]} * step - near, 65535);
+    out[i] = static_cast<uint16_t>(q[i] ? v : 0);
+  }
 }
 
 class BitWriter {
@@ -196,6 +256,42 @@ void normalize(const uint32_t* counts, uint32_t* freqs) {
   }
 }
 
+// Decoding: the value of a long symbol, its low bits from the raw stream (the cold path).
+[[gnu::noinline]] uint32_t long_value(uint32_t sym, BitReader& bits) {
+  const uint32_t k = (sym - 16u) / 2 + 4, top = (sym - 16u) & 1;
+  return (1u << k) | (top << (k - 1)) | bits.get(k - 1);
+}
+
+// The decoder's tables, per context and slot (context * kProbScale + x % kProbScale), in
+// separate arrays so that each field is one load: the frequency of the symbol whose range holds
+// the slot, the slot's offset in that range, the symbol, and for pixel contexts the residual a
+// symbol below 16 stands for (kLongResidual for longer symbols).
+struct DecodeTables {
+  std::array<uint16_t, kContexts * kProbScale> freq, offset;
+  std::array<uint8_t, kContexts * kProbScale> symbol;
+  std::array<int8_t, kContexts * kProbScale> residual;
+};
+
+// One run-length symbol from `state` in `context`: its value.
+inline uint32_t next_value(const DecodeTables& t, int context, uint32_t& state, const uint8_t*& p,
+                           BitReader& bits) {
+  const uint32_t slot = static_cast<uint32_t>(context) * kProbScale + (state & (kProbScale - 1));
+  rans_advance(state, p, t.freq[slot], t.offset[slot]);
+  const uint32_t sym = t.symbol[slot];
+  return sym < 16 ? sym : long_value(sym, bits);
+}
+
+// One pixel symbol from `state` in the context whose tables start at `table_offset`: its residual.
+inline int32_t next_residual(const DecodeTables& t, uint32_t table_offset, uint32_t& state,
+                             const uint8_t*& p, BitReader& bits) {
+  const uint32_t slot = table_offset + (state & (kProbScale - 1));
+  rans_advance(state, p, t.freq[slot], t.offset[slot]);
+  int32_t r = t.residual[slot];
+  if (r == kLongResidual) [[unlikely]]
+    r = unzigzag(long_value(t.symbol[slot], bits));
+  return r;
+}
+
 class VolcastEncoder final : public DepthEncoder {
  public:
   explicit VolcastEncoder(int near_mm) : near_(near_mm) {
@@ -207,17 +303,15 @@ class VolcastEncoder final : public DepthEncoder {
     const size_t n = depth.size();
     symbols_.resize(2 * n + 2);  // at most two run symbols and one value per pixel
     count_ = 0;
-    counts_.fill(0);
     bits_.reset(raw_bits_);
     if (near_ > 0) {
-      recon_.width = depth.width;
-      recon_.height = depth.height;
-      recon_.pixels.assign(depth.pixels.begin(), depth.pixels.end());
-      model<true>(depth);
+      quantise(depth, near_, quantised_);
+      model(quantised_);
     } else {
-      model<false>(depth);
+      model(depth);
     }
     bits_.finish();
+    count_symbols();
     write_tables();
     const size_t rans_bytes = entropy_code();
 
@@ -247,39 +341,18 @@ class VolcastEncoder final : public DepthEncoder {
       bits_.put(bits, nbits);
     }
     const uint16_t v = static_cast<uint16_t>(context * kAlphabet + static_cast<int>(sym));
-    ++counts_[v];
     symbols_[count_++] = v;
   }
 
-  // Pass 1: runs, contexts, predictions, symbols and their statistics. Lossless residuals are
-  // computed a row at a time (no dependency between pixels, so the loop vectorises);
-  // near-lossless predicts from the values the decoder will reconstruct (closed loop), kept in
-  // recon_, pixel by pixel.
-  template <bool kNear>
+  // Pass 1: runs, contexts, predictions, symbols and their statistics. Residuals are computed a
+  // row at a time (no dependency between pixels, so the loop vectorises).
   void model(const DepthImage& depth) {
     const int w = depth.width;
     const size_t n = depth.size();
-    const uint16_t* src = depth.pixels.data();
-    uint16_t* rec = recon_.pixels.data();
-    const uint16_t* px = kNear ? rec : src;
+    const uint16_t* px = depth.pixels.data();
     zero_row_.assign(static_cast<size_t>(w), 0);
     coded_.resize(static_cast<size_t>(w));
     int model_row = -1;
-    const int32_t step = 2 * near_ + 1;
-    // Exact division by `step` for numerators below 2^17 (the error of the rounded-up reciprocal
-    // stays below 1/step).
-    const uint64_t reciprocal =
-        ((uint64_t{1} << 32) + static_cast<uint64_t>(step) - 1) / static_cast<uint64_t>(step);
-    auto quantise = [&](size_t j, int32_t prediction) -> int32_t {
-      // JPEG-LS near-lossless quantisation: |src - reconstruction| <= near_.
-      const int32_t residual = int32_t{src[j]} - prediction;
-      const int32_t q =
-          residual >= 0
-              ? static_cast<int32_t>((static_cast<uint64_t>(residual + near_) * reciprocal) >> 32)
-              : -static_cast<int32_t>((static_cast<uint64_t>(near_ - residual) * reciprocal) >> 32);
-      rec[j] = static_cast<uint16_t>(std::clamp(prediction + q * step, 1, 65535));
-      return q;
-    };
     int32_t last = 0;
     size_t i = 0;
     while (i < n) {
@@ -300,43 +373,46 @@ class VolcastEncoder final : public DepthEncoder {
         if (y != model_row) {
           rows_.compute(up, w);
           model_row = y;
-          if constexpr (!kNear) {
-            for (int x = 1; x < w; ++x)
-              coded_[x] = zigzag(int32_t{row[x]} - rows_.predict(x, row[x - 1]));
-          }
+          row_residuals(rows_, row, w, coded_.data());
         }
-        const int32_t first = predict_first(up, x0, w, last);
-        if constexpr (kNear) {
-          emit(kBorderContext, zigzag(quantise(j, first)));
-          for (int x = x0 + 1; x < x1; ++x) {
-            const int32_t prediction = rows_.predict(x, row[x - 1]);
-            emit(rows_.context[x], zigzag(quantise(j + static_cast<size_t>(x - x0), prediction)));
+        emit(kBorderContext, zigzag(int32_t{row[x0]} - predict_first(up, x0, w, last)));
+        // The common case inline, with the counter in a local (no member stores per pixel).
+        const uint16_t* offsets = rows_.table_offset;
+        const uint32_t* coded = coded_.data();
+        uint16_t* symbols = symbols_.data();
+        size_t count = count_;
+        for (int x = x0 + 1; x < x1; ++x) {
+          if (coded[x] >= 16) [[unlikely]] {
+            count_ = count;
+            emit(offsets[x] >> kProbBits, coded[x]);
+            count = count_;
+            continue;
           }
-        } else {
-          emit(kBorderContext, zigzag(int32_t{row[x0]} - first));
-          // The common case inline, with the counters in locals (no member stores per pixel).
-          const uint8_t* ctx = rows_.context;
-          const uint32_t* coded = coded_.data();
-          uint16_t* symbols = symbols_.data();
-          uint32_t* counts = counts_.data();
-          size_t count = count_;
-          for (int x = x0 + 1; x < x1; ++x) {
-            if (coded[x] >= 16) [[unlikely]] {
-              count_ = count;
-              emit(ctx[x], coded[x]);
-              count = count_;
-              continue;
-            }
-            const uint16_t v = static_cast<uint16_t>(ctx[x] * kAlphabet + coded[x]);
-            ++counts[v];
-            symbols[count++] = v;
-          }
-          count_ = count;
+          const uint16_t v = static_cast<uint16_t>((offsets[x] >> kSymbolShift) + coded[x]);
+          symbols[count++] = v;
         }
+        count_ = count;
         last = row[x1 - 1];
         j += static_cast<size_t>(x1 - x0);
       }
     }
+  }
+
+  // Symbol statistics in one pass after modelling, four histograms interleaved so that runs of
+  // one symbol do not serialise on one counter.
+  void count_symbols() {
+    std::array<std::array<uint32_t, kContexts * kAlphabet>, 4> partial{};
+    const uint16_t* sym = symbols_.data();
+    size_t k = 0;
+    for (; k + 4 <= count_; k += 4) {
+      ++partial[0][sym[k]];
+      ++partial[1][sym[k + 1]];
+      ++partial[2][sym[k + 2]];
+      ++partial[3][sym[k + 3]];
+    }
+    for (; k < count_; ++k) ++partial[0][sym[k]];
+    for (size_t v = 0; v < counts_.size(); ++v)
+      counts_[v] = partial[0][v] + partial[1][v] + partial[2][v] + partial[3][v];
   }
 
   // Tables: per context a 64-bit presence mask, then each used symbol's frequency as a varint.
@@ -385,7 +461,7 @@ class VolcastEncoder final : public DepthEncoder {
   }
 
   int near_;
-  DepthImage recon_;
+  DepthImage quantised_;
   std::vector<uint16_t> symbols_, zero_row_, rans_;
   size_t count_ = 0;
   const uint16_t* rans_begin_ = nullptr;
@@ -429,15 +505,17 @@ class VolcastDecoder final : public DepthDecoder {
     BitReader bits(p + rans_bytes, end);
     if (out.width != hdr.width || out.height != hdr.height) out = DepthImage(hdr.width, hdr.height);
     if (near > 0) {
-      reconstruct<true>(out, near, rans_bytes, bits);
+      if (quantised_.width != hdr.width || quantised_.height != hdr.height)
+        quantised_ = DepthImage(hdr.width, hdr.height);
+      reconstruct(quantised_, rans_bytes, bits);
+      dequantise(quantised_.pixels.data(), out.size(), near, out.pixels.data());
     } else {
-      reconstruct<false>(out, near, rans_bytes, bits);
+      reconstruct(out, rans_bytes, bits);
     }
   }
 
  private:
-  template <bool kNear>
-  void reconstruct(DepthImage& out, int near, size_t rans_bytes, BitReader& bits) {
+  void reconstruct(DepthImage& out, size_t rans_bytes, BitReader& bits) {
     const uint8_t* rp = stream_.data();
     const uint8_t* const rp_end = stream_.data() + rans_bytes;
     uint32_t s[kRansLanes];
@@ -446,53 +524,17 @@ class VolcastDecoder final : public DepthDecoder {
       rp += 4;
       if (st < kRansLow || st >= (1u << 31)) throw Error("volcast: corrupt stream (rANS state)");
     }
-    uint32_t s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3];
-    auto long_value = [&](uint32_t sym) -> uint32_t {
-      const uint32_t k = (sym - 16u) / 2 + 4, top = (sym - 16u) & 1;
-      return (1u << k) | (top << (k - 1)) | bits.get(k - 1);
-    };
-    // One symbol from `state` in `context`. Contexts without a model decode as symbol 0 (see
-    // read_tables); value() below rejects them where the stream structure depends on it.
-    // One symbol from `state`: its residual (unzigzagged) for the pixel paths, its value for runs.
-    auto decode_residual = [&](uint32_t& state, uint32_t table_offset) -> int32_t {
-      const uint32_t entry = table_[table_offset + (state & (kProbScale - 1))];
-      rans_advance(state, rp, entry);
-      if (entry & kLongFlag) [[unlikely]]
-        return unzigzag(long_value(entry >> 12 & 63));
-      return static_cast<int32_t>(entry << 14) >> 28;
-    };
-    auto decode = [&](uint32_t& state, uint32_t table_offset) -> uint32_t {
-      const uint32_t entry = table_[table_offset + (state & (kProbScale - 1))];
-      rans_advance(state, rp, entry);
-      const uint32_t sym = entry >> 12 & 63;
-      return sym < 16 ? sym : long_value(sym);
-    };
     // Each symbol decodes on lane 0, then the lanes rotate, so symbol k decodes on lane k % 4.
-    auto rotate = [&] {
-      const uint32_t t = s0;
-      s0 = s1, s1 = s2, s2 = s3, s3 = t;
-    };
+    auto rotate = [&] { std::rotate(s, s + 1, s + kRansLanes); };
     auto value = [&](int context) -> uint32_t {
       if (!has_model_[static_cast<size_t>(context)])
         throw Error("volcast: corrupt stream (symbol without a model)");
-      const uint32_t v = decode(s0, static_cast<uint32_t>(context) * kProbScale);
+      const uint32_t v = next_value(tables_, context, s[0], rp, bits);
       rotate();
       return v;
     };
     auto check_position = [&] {
       if (rp > rp_end) throw Error("volcast: truncated stream");
-    };
-    const int32_t step = 2 * near + 1;
-    auto reconstructed = [&](int32_t prediction, int32_t residual) -> int32_t {
-      int32_t v = prediction + residual;
-      if constexpr (kNear) {
-        if (std::abs(residual) > 65535)
-          throw Error("volcast: corrupt stream (residual out of range)");
-        v = std::clamp(prediction + residual * step, 1, 65535);
-      }
-      if (static_cast<uint32_t>(v - 1) >= 65535u) [[unlikely]]
-        throw Error("volcast: corrupt stream (value out of range)");
-      return v;
     };
     const int w = out.width;
     zero_row_.assign(static_cast<size_t>(w), 0);
@@ -521,32 +563,51 @@ class VolcastDecoder final : public DepthDecoder {
         if (y != model_row) rows_.compute(up, w), model_row = y;
         if (!has_model_[kBorderContext])
           throw Error("volcast: corrupt stream (symbol without a model)");
-        int32_t W = reconstructed(predict_first(up, x0, w, last),
-                                  decode_residual(s0, kBorderContext * kProbScale));
-        rotate();
-        row[x0] = static_cast<uint16_t>(W);
-        // The rest of the segment; W stays in a register (the dependency chain from one pixel to
-        // the next is add, max, min, add) while four independent rANS chains decode ahead of it.
-        // Unrolled by the lanes so no state moves.
-        const RowModel& m = rows_;
-        auto pixel = [&](uint32_t& state, int x) {
-          const int32_t r = decode_residual(state, m.table_offset[x]);
-          W = reconstructed(m.predict(x, W), r);
-          row[x] = static_cast<uint16_t>(W);
-        };
-        int x = x0 + 1;
-        for (; x + 4 <= x1; x += 4) {
-          pixel(s0, x);
-          pixel(s1, x + 1);
-          pixel(s2, x + 2);
-          pixel(s3, x + 3);
-        }
-        for (; x < x1; ++x) pixel(s0, x), rotate();
-        last = W;
+        last = decode_segment(row, x0, x1, predict_first(up, x0, w, last), s, rp, bits);
         i += static_cast<size_t>(x1 - x0);
       }
     }
     check_position();
+  }
+
+  // Decodes row[x0, x1), a segment of valid pixels whose first pixel is predicted as `first`;
+  // returns the last value. The lanes and the read position are copied into locals so that they
+  // stay in registers (nothing outside this function sees their addresses); the tables and the
+  // row model are members, all reached from `this`. W stays in a register too: the dependency
+  // chain from one pixel to the next is add, max, min, add, while four independent rANS chains
+  // decode ahead of it. Values are range-checked once per segment: `bad` collects every value's
+  // bits, so a value outside 0..65535 sets a bit above 15 (tables allow residuals up to 2^16
+  // only, so W cannot overflow within a row). A 0 inside a valid run is not an error the decoder
+  // can be hurt by and is not checked.
+  int32_t decode_segment(uint16_t* row, int x0, int x1, int32_t first, uint32_t* lanes,
+                         const uint8_t*& read, BitReader& bits) {
+    uint32_t s0 = lanes[0], s1 = lanes[1], s2 = lanes[2], s3 = lanes[3];
+    const uint8_t* p = read;
+    int32_t W = first + next_residual(tables_, kBorderContext * kProbScale, s0, p, bits);
+    uint32_t bad = static_cast<uint32_t>(W);
+    row[x0] = static_cast<uint16_t>(W);
+    auto pixel = [&](uint32_t& state, int x) {
+      W = rows_.predict(x, W) + next_residual(tables_, rows_.table_offset[x], state, p, bits);
+      bad |= static_cast<uint32_t>(W);
+      row[x] = static_cast<uint16_t>(W);
+    };
+    // Symbol k of the segment on lane k % 4, unrolled by the lanes so no state moves.
+    int x = x0 + 1;
+    for (; x + 4 <= x1; x += 4) {
+      pixel(s1, x);
+      pixel(s2, x + 1);
+      pixel(s3, x + 2);
+      pixel(s0, x + 3);
+    }
+    // The tail, then rotate so that the next symbol is on lane 0.
+    uint32_t t[kRansLanes] = {s0, s1, s2, s3};
+    int k = 1;
+    for (; x < x1; ++x, ++k) pixel(t[k % kRansLanes], x);
+    for (int l = 0; l < kRansLanes; ++l) lanes[l] = t[(k + l) % kRansLanes];
+    read = p;
+    if (bad >> 16) [[unlikely]]
+      throw Error("volcast: corrupt stream (value out of range)");
+    return W;
   }
 
   void read_tables(const uint8_t* p, const uint8_t* end) {
@@ -554,12 +615,12 @@ class VolcastDecoder final : public DepthDecoder {
       if (end - p < 8) throw Error("volcast: truncated tables");
       uint64_t mask = 0;
       for (int b = 0; b < 8; ++b) mask |= uint64_t{*p++} << (8 * b);
-      uint32_t* table = table_.data() + static_cast<size_t>(c) * kProbScale;
+      const size_t base = static_cast<size_t>(c) * kProbScale;
       has_model_[static_cast<size_t>(c)] = mask != 0;
       if (!mask) {
-        // Never used by a valid stream; decodes as symbol 0 consuming nothing, so a corrupt
-        // stream cannot index outside the tables.
-        std::fill(table, table + kProbScale, rans_slot_entry(kProbScale, 0, 0));
+        // Never used by a valid stream; decodes as symbol 0 (residual 0) consuming nothing, so a
+        // corrupt stream cannot index outside the tables.
+        fill_slots(base, kProbScale, kProbScale, 0, 0);
         continue;
       }
       uint32_t start = 0;
@@ -573,20 +634,33 @@ class VolcastDecoder final : public DepthDecoder {
           if (!(byte & 0x80)) break;
         }
         if (f == 0 || start + f > kProbScale) throw Error("volcast: corrupt tables (frequencies)");
-        const uint32_t payload = slot_payload(c, static_cast<uint32_t>(s));
-        for (uint32_t o = 0; o < f; ++o) table[start + o] = rans_slot_entry(f, o, payload);
+        if (c < kZeroRunContext && s > kMaxResidualSymbol)
+          throw Error("volcast: corrupt tables (residual symbol out of range)");
+        fill_slots(
+            base + start, f, f, static_cast<uint8_t>(s),
+            s >= 16 ? kLongResidual : static_cast<int8_t>(unzigzag(static_cast<uint32_t>(s))));
         start += f;
       }
       if (start != kProbScale) throw Error("volcast: corrupt tables (frequencies do not sum up)");
     }
   }
 
-  // Per context and slot: rans_slot_entry(freq, offset, symbol).
-  std::array<uint32_t, kContexts * kProbScale> table_{};
+  // Slots [first, first + count) of one symbol of frequency `freq`.
+  void fill_slots(size_t first, uint32_t count, uint32_t freq, uint8_t symbol, int8_t residual) {
+    for (uint32_t o = 0; o < count; ++o) {
+      tables_.freq[first + o] = static_cast<uint16_t>(freq);
+      tables_.offset[first + o] = static_cast<uint16_t>(o);
+    }
+    std::fill_n(tables_.symbol.data() + first, count, symbol);
+    std::fill_n(tables_.residual.data() + first, count, residual);
+  }
+
+  DecodeTables tables_{};
   std::array<bool, kContexts> has_model_{};
   std::vector<uint8_t> stream_;
   std::vector<uint16_t> zero_row_;
-  RowModel rows_;  // beside table_, both reached from `this` (few registers in the hot loop)
+  DepthImage quantised_;  // near-lossless: the decoded quantised image
+  RowModel rows_;  // beside the tables, both reached from `this` (few registers in the hot loop)
 };
 
 }  // namespace

@@ -1,6 +1,6 @@
 #pragma once
 // Depth codecs, picked by name. Every stream starts with a 12-byte header (little-endian):
-//   'V' 'D' | version (1) | codec id | flags (bit 0: key frame) | 3 reserved zero bytes |
+//   'V' 'D' | version (2) | codec id | flags (bit 0: key frame) | 3 reserved zero bytes |
 //   width u16 | height u16
 // followed by the codec's body. Codecs:
 //   raw  - uint16 little-endian samples (baseline for compression ratios)

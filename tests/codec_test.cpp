@@ -61,6 +61,7 @@ TEST_P(RealSets, RvlAndTemporalRvlRoundTripBitExactlyOnEveryFrame) {
   expect_round_trip("zstd", frames, GetParam());
   expect_round_trip("lz4", frames, GetParam());
   expect_round_trip("volcast", frames, GetParam());
+  expect_round_trip("volcast-t", frames, GetParam());  // every frame after the first a delta
 }
 
 TEST_P(RealSets, NearLosslessVolcastStaysWithinItsBoundOnEveryPixel) {
@@ -167,6 +168,53 @@ TEST(VolcastCodec, NearLosslessBoundHoldsForEveryDepthValue) {
   std::shuffle(shuffled.pixels.begin(), shuffled.pixels.end(), std::mt19937(11));
   for (const std::string codec : {"volcast-n1", "volcast-n2", "volcast-n4"})
     expect_within(codec, near_bound(codec), {ramp, shuffled}, "every uint16 value");
+}
+
+TEST(VolcastTemporal, ResynchronisesAtKeyFramesAndRefusesDeltasWithoutTheirReference) {
+  const auto frames = test::real_depth_frames("hands");
+  ASSERT_GE(frames.size(), 8u);
+  auto enc = make_depth_encoder("volcast-t");
+  std::vector<std::vector<uint8_t>> streams(8);
+  for (size_t i = 0; i < 8; ++i)
+    EXPECT_EQ(enc->encode(frames[i], i % 4 == 0, streams[i]), i % 4 == 0) << i;
+  DepthImage out;
+  auto dec = make_depth_decoder("volcast-t");
+  EXPECT_THROW(dec->decode(streams[1], out), Error);  // no key frame yet
+  dec->decode(streams[0], out);
+  EXPECT_EQ(out, frames[0]);
+  EXPECT_THROW(dec->decode(streams[2], out), Error);  // frame 1 was lost
+  EXPECT_THROW(dec->decode(streams[1], out), Error);  // and after a refusal, until a key frame
+  dec->decode(streams[4], out);                       // the next key frame
+  for (size_t i = 4; i < 8; ++i) {
+    dec->decode(streams[i], out);
+    EXPECT_EQ(out, frames[i]) << i;
+  }
+  // A corrupt delta frame is refused or decodes to something; either way the next delta frame
+  // is not decoded against a reference that may be wrong.
+  auto bad = make_depth_decoder("volcast-t");
+  bad->decode(streams[4], out);
+  std::vector<uint8_t> corrupt = streams[5];
+  corrupt.resize(corrupt.size() / 2);
+  EXPECT_THROW(bad->decode(corrupt, out), Error);
+  EXPECT_THROW(bad->decode(streams[6], out), Error);
+}
+
+TEST(VolcastTemporal, PredictingFromTheLastFrameShrinksConsecutiveFrames) {
+  // Real consecutive Azure Kinect frames (key, delta pairs): temporal blocks must pay off.
+  const auto frames = test::real_depth_frames("binned");
+  ASSERT_GE(frames.size(), 2u);
+  auto spatial = make_depth_encoder("volcast");
+  auto temporal = make_depth_encoder("volcast-t");
+  std::vector<uint8_t> a, b;
+  size_t spatial_bytes = 0, temporal_bytes = 0;
+  for (size_t i = 0; i + 1 < frames.size(); i += 2) {
+    spatial->encode(frames[i + 1], true, a);
+    temporal->encode(frames[i], true, b);
+    temporal->encode(frames[i + 1], false, b);
+    spatial_bytes += a.size();
+    temporal_bytes += b.size();
+  }
+  EXPECT_LT(static_cast<double>(temporal_bytes), 0.97 * static_cast<double>(spatial_bytes));
 }
 
 TEST(BytePlaneCodecs, RoundTripValuesAbove32767AndCompressRealDepth) {

@@ -223,8 +223,8 @@ class TrvlDecoder final : public DepthDecoder {
 }  // namespace
 
 std::vector<std::string> depth_codec_names() {
-  return {"raw",        "rvl",        "trvl",       "zstd", "lz4", "volcast",
-          "volcast-n1", "volcast-n2", "volcast-n4", "h264", "hevc"};
+  return {"raw",       "rvl",        "trvl",       "zstd",       "lz4",  "volcast",
+          "volcast-t", "volcast-n1", "volcast-n2", "volcast-n4", "h264", "hevc"};
 }
 
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
@@ -238,14 +238,16 @@ std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {
   if (name == "zstd") return detail::make_byte_plane_encoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_encoder(detail::kLz4);
   if (name == "volcast") return detail::make_volcast_encoder(0);
+  if (name == "volcast-t") return detail::make_volcast_encoder(0, true);
   if (name == "volcast-n1") return detail::make_volcast_encoder(1);
   if (name == "volcast-n2") return detail::make_volcast_encoder(2);
   if (name == "volcast-n4") return detail::make_volcast_encoder(4);
   if (name == "h264") return detail::make_video_depth_encoder(detail::kH264);
   if (name == "hevc") return detail::make_video_depth_encoder(detail::kHevc);
-  throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2, "
-              "volcast-n4, h264, hevc)");
+  throw Error(
+      "unknown depth codec '" + std::string(name) +
+      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-t, volcast-n1, volcast-n2, "
+      "volcast-n4, h264, hevc)");
 }
 
 std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
@@ -254,13 +256,15 @@ std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
   if (name == "trvl") return std::make_unique<TrvlDecoder>();
   if (name == "zstd") return detail::make_byte_plane_decoder(detail::kZstd);
   if (name == "lz4") return detail::make_byte_plane_decoder(detail::kLz4);
-  if (name == "volcast" || name == "volcast-n1" || name == "volcast-n2" || name == "volcast-n4")
+  if (name == "volcast" || name == "volcast-t" || name == "volcast-n1" || name == "volcast-n2" ||
+      name == "volcast-n4")
     return detail::make_volcast_decoder();
   if (name == "h264") return detail::make_video_depth_decoder(detail::kH264);
   if (name == "hevc") return detail::make_video_depth_decoder(detail::kHevc);
-  throw Error("unknown depth codec '" + std::string(name) +
-              "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2, "
-              "volcast-n4, h264, hevc)");
+  throw Error(
+      "unknown depth codec '" + std::string(name) +
+      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-t, volcast-n1, volcast-n2, "
+      "volcast-n4, h264, hevc)");
 }
 
 bool depth_frame_is_key(std::span<const uint8_t> data) {

@@ -81,8 +81,9 @@ inline void check_size(const DepthImage& depth) {
 /// Zstd or LZ4 after a left-delta and byte-plane transform (byte_plane_codecs.cpp).
 std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id);
 std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id);
-/// Volcast's own codec (volcast_codec.cpp): lossless, or near-lossless within `near_mm` mm.
-std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm);
+/// Volcast's own codec (volcast_codec.cpp): lossless, or near-lossless within `near_mm` mm;
+/// `temporal`: delta frames between key frames predict blocks from the last frame.
+std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm, bool temporal = false);
 std::unique_ptr<DepthDecoder> make_volcast_decoder();
 /// Lossy depth as H.264 or HEVC video (video_codecs.cpp); id is kH264 or kHevc.
 std::unique_ptr<DepthEncoder> make_video_depth_encoder(CodecId id);

@@ -1,6 +1,7 @@
 // Volcast's lossless depth codec ("volcast"): exact on every uint16 value.
 //
-// Structure, per frame (all static: two passes, no state between frames):
+// Structure, per frame (static models: two passes; no state between frames except in temporal
+// streams):
 //  - The image is scanned in raster order as alternating runs, as in RVL: a run of invalid (0)
 //    pixels, then a run of valid ones. Run lengths are entropy coded in their own two contexts.
 //  - Each valid pixel is predicted from its causal valid neighbours: the LOCO-I / JPEG-LS median
@@ -13,10 +14,15 @@
 //  - Values are coded as a symbol (the value itself below 16; above, its bit length and the next
 //    bit) with a per-context static rANS model (11-bit probabilities, tables sent with the frame,
 //    four interleaved states), and the remaining low bits raw in a separate bit stream.
+//  - Temporal streams ("volcast-t"): between key frames, a delta frame chooses per 16x16 block
+//    spatial prediction or the last frame's value (where valid), with 8 more contexts (the row
+//    above's change since the last frame) and a bit per block after the header. Header byte 6 =
+//    1 marks a temporal stream, byte 7 numbers its frames so that a lost frame is detected.
 //  - Near-lossless: with a bound N > 0 the valid values are first quantised in steps of 2N+1
 //    (see quantise()), the result coded losslessly, so every valid pixel decodes within N mm;
 //    which pixels are valid is always exact. N is stored in the header's byte 5.
-// Body: table bytes u32 | tables | rANS bytes u32 | rANS words | raw bit stream.
+// Body: [delta frames: block modes, 1 bit each, row-major] | table bytes u32 | tables (11
+// contexts, 19 in delta frames) | rANS bytes u32 | rANS words | raw bit stream.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -39,7 +45,13 @@ constexpr int kAlphabet = 64;
 constexpr uint8_t kBorderContext = 8;
 constexpr int kZeroRunContext = 9;
 constexpr int kValidRunContext = 10;
-constexpr int kContexts = 11;
+constexpr int kSpatialContexts = 11;   // what a key frame's tables hold
+constexpr int kTemporalContext0 = 11;  // 8 activity levels for pixels predicted from the last frame
+constexpr int kContexts = 19;          // what a delta frame's tables hold
+constexpr int kBlock = 16;             // side of a temporal prediction block, pixels
+inline bool is_pixel_context(int c) {
+  return c != kZeroRunContext && c != kValidRunContext;
+}
 constexpr int kSymbolShift = kProbBits - 6;  // context * kProbScale >> it = context * kAlphabet
 static_assert(kAlphabet == 64 && kProbBits >= 6);
 constexpr int kMaxNear = 16;  // near-lossless error bounds up to 16 mm
@@ -124,6 +136,68 @@ void compute_row_model(RowModel& m, const uint16_t* above, int w) {
   // The first pixel's prediction is never used (a row segment's first pixel is predicted by
   // predict_first); both ends take the border context.
   m.table_offset[0] = m.table_offset[w - 1] = kBorderContext << kProbBits;
+}
+
+// Delta frames: pixels of temporal blocks (mask[x] != 0) whose previous value is valid are
+// predicted as that value (clamp(prev, W - 65535, W + 65535) = prev), in the temporal contexts:
+// the activity is the change of the row above since the last frame, |N - N'| + |NE - NE'|, in
+// the same 8 levels (7 where any of them is invalid). One vectorised pass after the spatial one.
+VOLCAST_AVX2_CLONE
+void apply_temporal(RowModel& m, const uint16_t* above, const uint16_t* prev_row,
+                    const uint16_t* prev_above, const uint8_t* mask, int w) {
+  auto pixel = [&](int x, uint16_t NE, uint16_t PNE) {
+    const uint16_t P = prev_row[x], N = above[x], PN = prev_above[x];
+    const uint16_t temporal = static_cast<uint16_t>(-((mask[x] != 0) & (P != 0)));
+    const uint16_t d1 = std::min<uint16_t>(
+        static_cast<uint16_t>(positive_difference(N, PN) | positive_difference(PN, N)), 65);
+    const uint16_t d2 = std::min<uint16_t>(
+        static_cast<uint16_t>(positive_difference(NE, PNE) | positive_difference(PNE, NE)), 65);
+    const uint16_t a = static_cast<uint16_t>(d1 + d2);
+    const uint16_t invalid =
+        static_cast<uint16_t>(-((N == 0) | (PN == 0) | (NE == 0) | (PNE == 0)));
+    const uint16_t level = static_cast<uint16_t>(
+        (invalid & 7) | (~invalid & ((a >= 1) + (a >= 3) + (a >= 5) + (a >= 9) + (a >= 17) +
+                                     (a >= 33) + (a >= 65))));
+    const uint16_t offset = static_cast<uint16_t>((kTemporalContext0 + level) << kProbBits);
+    m.n[x] = static_cast<uint16_t>((temporal & P) | (~temporal & m.n[x]));
+    m.down[x] = static_cast<uint16_t>(temporal | m.down[x]);
+    m.up[x] = static_cast<uint16_t>(temporal | m.up[x]);
+    m.table_offset[x] =
+        static_cast<uint16_t>((temporal & offset) | (~temporal & m.table_offset[x]));
+  };
+  for (int x = 0; x + 1 < w; ++x) pixel(x, above[x + 1], prev_above[x + 1]);
+  pixel(w - 1, above[w - 1], prev_above[w - 1]);  // no NE: N stands in
+}
+
+// min(bit_width(z), 9): about a residual's code length, branch-free.
+inline uint32_t bit_length_capped(uint32_t z) {
+  return (z > 0) + (z > 1) + (z > 3) + (z > 7) + (z > 15) + (z > 31) + (z > 63) + (z > 127) +
+         (z > 255);
+}
+
+// Encoding, delta frames: adds each pixel's spatial and temporal cost (zigzagged residual capped
+// at 64) to the column sums; invalid pixels cost nothing. One pass, vectorised.
+VOLCAST_AVX2_CLONE
+void block_costs(const uint16_t* row, const uint16_t* prev, const uint32_t* coded, int w,
+                 uint32_t* spatial, uint32_t* temporal) {
+  for (int x = 0; x < w; ++x) {
+    const uint32_t valid = 0u - (row[x] != 0), prev_valid = 0u - (prev[x] != 0);
+    const uint32_t s = bit_length_capped(coded[x]) & valid;
+    const uint32_t t = bit_length_capped(zigzag(int32_t{row[x]} - int32_t{prev[x]}));
+    spatial[x] += s;
+    temporal[x] += (prev_valid & t & valid) | (~prev_valid & s);
+  }
+}
+
+// Per pixel of row y: whether its block is temporal (modes: one byte per block, row-major).
+void expand_modes(const std::vector<uint8_t>& modes, int y, int w, std::vector<uint8_t>& mask) {
+  const int blocks_x = (w + kBlock - 1) / kBlock;
+  mask.resize(static_cast<size_t>(w));
+  for (int bx = 0; bx < blocks_x; ++bx) {
+    const int x0 = bx * kBlock, x1 = std::min(w, x0 + kBlock);
+    std::fill(mask.begin() + x0, mask.begin() + x1,
+              modes[static_cast<size_t>(y / kBlock * blocks_x + bx)]);
+  }
 }
 
 inline void RowModel::compute(const uint16_t* above, int w) {
@@ -294,31 +368,40 @@ inline int32_t next_residual(const DecodeTables& t, uint32_t table_offset, uint3
 
 class VolcastEncoder final : public DepthEncoder {
  public:
-  explicit VolcastEncoder(int near_mm) : near_(near_mm) {
+  VolcastEncoder(int near_mm, bool temporal) : near_(near_mm), temporal_(temporal) {
     if (near_ < 0 || near_ > kMaxNear)
       throw Error("volcast: near-lossless bound must be 0.." + std::to_string(kMaxNear) + " mm");
   }
-  bool encode(const DepthImage& depth, bool, std::vector<uint8_t>& out) override {
+  bool encode(const DepthImage& depth, bool key_frame, std::vector<uint8_t>& out) override {
     check_size(depth);
     const size_t n = depth.size();
     symbols_.resize(2 * n + 2);  // at most two run symbols and one value per pixel
     count_ = 0;
     bits_.reset(raw_bits_);
-    if (near_ > 0) {
-      quantise(depth, near_, quantised_);
-      model(quantised_);
-    } else {
-      model(depth);
-    }
+    // The image the decoder reconstructs exactly: the depth itself, or its quantised values.
+    if (near_ > 0) quantise(depth, near_, quantised_);
+    const DepthImage& exact = near_ > 0 ? quantised_ : depth;
+    const bool key =
+        !temporal_ || key_frame || prev_.width != depth.width || prev_.height != depth.height;
+    if (!key) choose_modes(exact);
+    model(exact, key ? nullptr : prev_.pixels.data());
     bits_.finish();
     count_symbols();
-    write_tables();
+    const int contexts = key ? kSpatialContexts : kContexts;
+    write_tables(contexts);
     const size_t rans_bytes = entropy_code();
 
-    out.resize(kDepthHeaderBytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
-    write_header(out.data(), kVolcast, true, depth.width, depth.height);
+    const size_t mode_bytes = key ? 0 : (modes_.size() + 7) / 8;
+    out.resize(kDepthHeaderBytes + mode_bytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
+    write_header(out.data(), kVolcast, key, depth.width, depth.height);
     out[5] = static_cast<uint8_t>(near_);  // the error bound, in the header's first reserved byte
+    out[6] = temporal_ ? 1 : 0;            // a temporal stream: delta frames may follow
+    out[7] = sequence_++;                  // a delta frame refers to the frame numbered one less
     uint8_t* p = out.data() + kDepthHeaderBytes;
+    std::fill(p, p + mode_bytes, uint8_t{0});
+    for (size_t b = 0; b < (key ? 0 : modes_.size()); ++b)
+      p[b / 8] = static_cast<uint8_t>(p[b / 8] | modes_[b] << (b % 8));
+    p += mode_bytes;
     auto put32 = [&](size_t v) {
       for (int b = 0; b < 4; ++b) *p++ = static_cast<uint8_t>(v >> (8 * b));
     };
@@ -328,9 +411,10 @@ class VolcastEncoder final : public DepthEncoder {
     for (const uint16_t* wd = rans_begin_; wd != rans_.data() + rans_.size(); ++wd)
       *p++ = static_cast<uint8_t>(*wd), *p++ = static_cast<uint8_t>(*wd >> 8);
     std::copy(raw_bits_.begin(), raw_bits_.end(), p);
-    return true;
+    if (temporal_) prev_ = exact;  // what the decoder will hold (copied into existing storage)
+    return key;
   }
-  std::string_view name() const override { return "volcast"; }
+  std::string_view name() const override { return temporal_ ? "volcast-t" : "volcast"; }
 
  private:
   void emit(int context, uint32_t value) {
@@ -344,9 +428,40 @@ class VolcastEncoder final : public DepthEncoder {
     symbols_[count_++] = v;
   }
 
+  // Delta frames: per block, temporal prediction where its residuals are smaller than the
+  // spatial ones (sum of zigzagged residuals capped at 64, a proxy of their code length; pixels
+  // whose last value is invalid count as spatial on both sides).
+  void choose_modes(const DepthImage& depth) {
+    const int w = depth.width, h = depth.height;
+    const int blocks_x = (w + kBlock - 1) / kBlock;
+    modes_.assign(static_cast<size_t>(blocks_x) * static_cast<size_t>((h + kBlock - 1) / kBlock),
+                  0);
+    cost_.assign(2 * static_cast<size_t>(w), 0);  // per column: spatial, then temporal
+    coded_.resize(static_cast<size_t>(w));
+    zero_row_.assign(static_cast<size_t>(w), 0);
+    for (int y = 0; y < h; ++y) {
+      const uint16_t* row = depth.pixels.data() + static_cast<size_t>(y) * w;
+      const uint16_t* prev = prev_.pixels.data() + static_cast<size_t>(y) * w;
+      rows_.compute(y > 0 ? row - w : zero_row_.data(), w);
+      row_residuals(rows_, row, w, coded_.data());
+      coded_[0] = 0;
+      block_costs(row, prev, coded_.data(), w, cost_.data(), cost_.data() + w);
+      if ((y + 1) % kBlock == 0 || y + 1 == h) {
+        for (int bx = 0; bx < blocks_x; ++bx) {
+          const int x0 = bx * kBlock, x1 = std::min(w, x0 + kBlock);
+          uint32_t spatial = 0, temporal = 0;
+          for (int x = x0; x < x1; ++x) spatial += cost_[x], temporal += cost_[w + x];
+          modes_[static_cast<size_t>(y / kBlock * blocks_x + bx)] = temporal < spatial;
+        }
+        std::fill(cost_.begin(), cost_.end(), 0u);
+      }
+    }
+  }
+
   // Pass 1: runs, contexts, predictions, symbols and their statistics. Residuals are computed a
-  // row at a time (no dependency between pixels, so the loop vectorises).
-  void model(const DepthImage& depth) {
+  // row at a time (no dependency between pixels, so the loop vectorises). `prev`: the last
+  // frame's exact values for a delta frame (block modes in modes_), else null.
+  void model(const DepthImage& depth, const uint16_t* prev) {
     const int w = depth.width;
     const size_t n = depth.size();
     const uint16_t* px = depth.pixels.data();
@@ -370,12 +485,21 @@ class VolcastEncoder final : public DepthEncoder {
         const int x1 = static_cast<int>(std::min<size_t>(i - j + static_cast<size_t>(x0), w));
         const uint16_t* row = px + static_cast<size_t>(y) * w;
         const uint16_t* up = y > 0 ? row - w : zero_row_.data();
+        const uint16_t* prev_row = prev ? prev + static_cast<size_t>(y) * w : nullptr;
         if (y != model_row) {
           rows_.compute(up, w);
+          if (prev) {
+            expand_modes(modes_, y, w, mask_);
+            apply_temporal(rows_, up, prev_row, y > 0 ? prev_row - w : zero_row_.data(),
+                           mask_.data(), w);
+          }
           model_row = y;
           row_residuals(rows_, row, w, coded_.data());
         }
-        emit(kBorderContext, zigzag(int32_t{row[x0]} - predict_first(up, x0, w, last)));
+        const int32_t first = prev && mask_[static_cast<size_t>(x0)] && prev_row[x0]
+                                  ? int32_t{prev_row[x0]}
+                                  : predict_first(up, x0, w, last);
+        emit(kBorderContext, zigzag(int32_t{row[x0]} - first));
         // The common case inline, with the counter in a local (no member stores per pixel).
         const uint16_t* offsets = rows_.table_offset;
         const uint32_t* coded = coded_.data();
@@ -416,9 +540,9 @@ class VolcastEncoder final : public DepthEncoder {
   }
 
   // Tables: per context a 64-bit presence mask, then each used symbol's frequency as a varint.
-  void write_tables() {
+  void write_tables(int contexts) {
     tables_.clear();
-    for (int c = 0; c < kContexts; ++c) {
+    for (int c = 0; c < contexts; ++c) {
       uint32_t freqs[kAlphabet];
       normalize(counts_.data() + c * kAlphabet, freqs);
       uint64_t mask = 0;
@@ -461,7 +585,11 @@ class VolcastEncoder final : public DepthEncoder {
   }
 
   int near_;
-  DepthImage quantised_;
+  bool temporal_;
+  uint8_t sequence_ = 0;
+  DepthImage quantised_, prev_;
+  std::vector<uint8_t> modes_, mask_;  // delta frames: per block 1 = temporal; per pixel of a row
+  std::vector<uint32_t> cost_;
   std::vector<uint16_t> symbols_, zero_row_, rans_;
   size_t count_ = 0;
   const uint16_t* rans_begin_ = nullptr;
@@ -476,12 +604,35 @@ class VolcastEncoder final : public DepthEncoder {
 class VolcastDecoder final : public DepthDecoder {
  public:
   void decode(std::span<const uint8_t> data, DepthImage& out) override {
+    // Any frame that fails leaves no reference: delta frames are refused until a key frame.
+    const bool had_prev = has_prev_;
+    has_prev_ = false;
     const Header hdr = read_header(data, "volcast");
     const int near = data[5];
     if (near > kMaxNear)
       throw Error("volcast: corrupt header (error bound " + std::to_string(near) + " mm)");
+    if (data[6] > 1)
+      throw Error("volcast: corrupt header (stream kind " + std::to_string(data[6]) + ")");
+    const bool temporal = data[6] == 1;
     const uint8_t* p = data.data() + kDepthHeaderBytes;
     const uint8_t* end = data.data() + data.size();
+    if (!hdr.key) {
+      if (!temporal) throw Error("volcast: corrupt header (delta frame in a spatial stream)");
+      if (!had_prev) throw Error("volcast: delta frame without a preceding key frame");
+      if (prev_.width != hdr.width || prev_.height != hdr.height)
+        throw Error("volcast: delta frame size differs from its key frame");
+      if (prev_near_ != near)
+        throw Error("volcast: delta frame error bound differs from its key frame");
+      if (data[7] != static_cast<uint8_t>(prev_sequence_ + 1))
+        throw Error("volcast: delta frame does not follow the last decoded frame (one was lost)");
+      const size_t blocks = static_cast<size_t>((hdr.width + kBlock - 1) / kBlock) *
+                            static_cast<size_t>((hdr.height + kBlock - 1) / kBlock);
+      if (static_cast<size_t>(end - p) < (blocks + 7) / 8)
+        throw Error("volcast: truncated stream (block modes)");
+      modes_.resize(blocks);
+      for (size_t b = 0; b < blocks; ++b) modes_[b] = p[b / 8] >> (b % 8) & 1;
+      p += (blocks + 7) / 8;
+    }
     auto get32 = [&]() -> size_t {
       if (end - p < 4) throw Error("volcast: truncated stream");
       const size_t v = size_t{p[0]} | size_t{p[1]} << 8 | size_t{p[2]} << 16 | size_t{p[3]} << 24;
@@ -490,7 +641,7 @@ class VolcastDecoder final : public DepthDecoder {
     };
     const size_t table_bytes = get32();
     if (table_bytes > static_cast<size_t>(end - p)) throw Error("volcast: truncated tables");
-    read_tables(p, p + table_bytes);
+    read_tables(p, p + table_bytes, hdr.key ? kSpatialContexts : kContexts);
     p += table_bytes;
     const size_t rans_bytes = get32();
     if (rans_bytes > static_cast<size_t>(end - p)) throw Error("volcast: truncated stream");
@@ -504,18 +655,24 @@ class VolcastDecoder final : public DepthDecoder {
     std::fill(stream_.begin() + static_cast<ptrdiff_t>(rans_bytes), stream_.end(), uint8_t{0});
     BitReader bits(p + rans_bytes, end);
     if (out.width != hdr.width || out.height != hdr.height) out = DepthImage(hdr.width, hdr.height);
-    if (near > 0) {
-      if (quantised_.width != hdr.width || quantised_.height != hdr.height)
-        quantised_ = DepthImage(hdr.width, hdr.height);
-      reconstruct(quantised_, rans_bytes, bits);
-      dequantise(quantised_.pixels.data(), out.size(), near, out.pixels.data());
-    } else {
-      reconstruct(out, rans_bytes, bits);
+    // The exact image (the depth, or its quantised values when near-lossless) is decoded into
+    // `out` or quantised_; temporal streams keep it as the next delta frame's reference.
+    const uint16_t* prev = hdr.key ? nullptr : prev_.pixels.data();
+    DepthImage& exact = near > 0 ? quantised_ : out;
+    if (near > 0 && (quantised_.width != hdr.width || quantised_.height != hdr.height))
+      quantised_ = DepthImage(hdr.width, hdr.height);
+    reconstruct(exact, rans_bytes, bits, prev);
+    if (near > 0) dequantise(quantised_.pixels.data(), out.size(), near, out.pixels.data());
+    if (temporal) {
+      prev_ = exact;
+      prev_near_ = near;
+      prev_sequence_ = data[7];
+      has_prev_ = true;
     }
   }
 
  private:
-  void reconstruct(DepthImage& out, size_t rans_bytes, BitReader& bits) {
+  void reconstruct(DepthImage& out, size_t rans_bytes, BitReader& bits, const uint16_t* prev) {
     const uint8_t* rp = stream_.data();
     const uint8_t* const rp_end = stream_.data() + rans_bytes;
     uint32_t s[kRansLanes];
@@ -560,10 +717,22 @@ class VolcastDecoder final : public DepthDecoder {
         const int x1 = static_cast<int>(std::min<size_t>(run_end - i + static_cast<size_t>(x0), w));
         uint16_t* row = px + static_cast<size_t>(y) * w;
         const uint16_t* up = y > 0 ? row - w : zero_row_.data();
-        if (y != model_row) rows_.compute(up, w), model_row = y;
+        const uint16_t* prev_row = prev ? prev + static_cast<size_t>(y) * w : nullptr;
+        if (y != model_row) {
+          rows_.compute(up, w);
+          if (prev) {
+            expand_modes(modes_, y, w, mask_);
+            apply_temporal(rows_, up, prev_row, y > 0 ? prev_row - w : zero_row_.data(),
+                           mask_.data(), w);
+          }
+          model_row = y;
+        }
         if (!has_model_[kBorderContext])
           throw Error("volcast: corrupt stream (symbol without a model)");
-        last = decode_segment(row, x0, x1, predict_first(up, x0, w, last), s, rp, bits);
+        const int32_t first = prev && mask_[static_cast<size_t>(x0)] && prev_row[x0]
+                                  ? int32_t{prev_row[x0]}
+                                  : predict_first(up, x0, w, last);
+        last = decode_segment(row, x0, x1, first, s, rp, bits);
         i += static_cast<size_t>(x1 - x0);
       }
     }
@@ -610,8 +779,9 @@ class VolcastDecoder final : public DepthDecoder {
     return W;
   }
 
-  void read_tables(const uint8_t* p, const uint8_t* end) {
-    for (int c = 0; c < kContexts; ++c) {
+  void read_tables(const uint8_t* p, const uint8_t* end, int contexts) {
+    std::fill(has_model_.begin(), has_model_.end(), false);
+    for (int c = 0; c < contexts; ++c) {
       if (end - p < 8) throw Error("volcast: truncated tables");
       uint64_t mask = 0;
       for (int b = 0; b < 8; ++b) mask |= uint64_t{*p++} << (8 * b);
@@ -634,7 +804,7 @@ class VolcastDecoder final : public DepthDecoder {
           if (!(byte & 0x80)) break;
         }
         if (f == 0 || start + f > kProbScale) throw Error("volcast: corrupt tables (frequencies)");
-        if (c < kZeroRunContext && s > kMaxResidualSymbol)
+        if (is_pixel_context(c) && s > kMaxResidualSymbol)
           throw Error("volcast: corrupt tables (residual symbol out of range)");
         fill_slots(
             base + start, f, f, static_cast<uint8_t>(s),
@@ -660,13 +830,18 @@ class VolcastDecoder final : public DepthDecoder {
   std::vector<uint8_t> stream_;
   std::vector<uint16_t> zero_row_;
   DepthImage quantised_;  // near-lossless: the decoded quantised image
+  DepthImage prev_;       // temporal streams: the last frame's exact image
+  int prev_near_ = 0;
+  uint8_t prev_sequence_ = 0;
+  bool has_prev_ = false;
+  std::vector<uint8_t> modes_, mask_;  // delta frames: block modes; per pixel of a row
   RowModel rows_;  // beside the tables, both reached from `this` (few registers in the hot loop)
 };
 
 }  // namespace
 
-std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm) {
-  return std::make_unique<VolcastEncoder>(near_mm);
+std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm, bool temporal) {
+  return std::make_unique<VolcastEncoder>(near_mm, temporal);
 }
 std::unique_ptr<DepthDecoder> make_volcast_decoder() {
   return std::make_unique<VolcastDecoder>();

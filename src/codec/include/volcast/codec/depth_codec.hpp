@@ -13,6 +13,8 @@
 //   lz4  - LZ4 after the same transform
 //   volcast - Volcast's own: RVL-style runs of invalid/valid pixels, LOCO-I median prediction,
 //          8 local-activity contexts and static rANS (see src/codec/volcast_codec.cpp)
+//   volcast-t - volcast with temporal prediction: delta frames between key frames predict each
+//          16x16 block from the last frame or spatially, whichever is cheaper (lossless)
 //   volcast-n1, volcast-n2, volcast-n4 - near-lossless: every valid pixel within 1, 2 or 4 mm;
 //          invalid pixels stay exactly invalid
 //   h264, hevc - lossy video through libavcodec (x264 10-bit, x265 12-bit; ultrafast,
@@ -61,8 +63,8 @@ struct TrvlParams {
   int invalidation_frames = 0;  ///< a pixel turning invalid keeps its value for this many frames
 };
 
-/// Names of the depth codecs: raw, rvl, trvl, zstd, lz4, volcast, volcast-n1, volcast-n2,
-/// volcast-n4, h264, hevc.
+/// Names of the depth codecs: raw, rvl, trvl, zstd, lz4, volcast, volcast-t, volcast-n1,
+/// volcast-n2, volcast-n4, h264, hevc.
 std::vector<std::string> depth_codec_names();
 /// Throws Error("unknown depth codec 'x' (available: ...)").
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name);

@@ -95,7 +95,6 @@ struct RowModel {
   int32_t predict(int x, int32_t W) const {
     return std::min(std::max(int32_t{n[x]}, W - int32_t{down[x]}), W + int32_t{up[x]});
   }
-  int context(int x) const { return table_offset[x] >> kProbBits; }
 };
 
 // |a - b| parts in 16 bits: max(a - b, 0).
@@ -218,6 +217,30 @@ inline int32_t predict_first(const uint16_t* up, int x, int w, int32_t last) {
   if (x > 0 && up[x - 1]) return up[x - 1];
   if (x + 1 < w && up[x + 1]) return up[x + 1];
   return last;
+}
+
+// Sets up the model of row y of `image` (w wide): spatial from the row above, then, in delta
+// frames (`prev`: the last frame, non-null), the temporal pass over the blocks in `modes`, whose
+// per-pixel mask is left in `mask`. Shared by encoder and decoder, which must agree exactly.
+void prepare_row(RowModel& m, std::vector<uint8_t>& mask, const std::vector<uint8_t>& modes,
+                 const uint16_t* image, const uint16_t* prev, const uint16_t* zero_row, int y,
+                 int w) {
+  const size_t at = static_cast<size_t>(y) * static_cast<size_t>(w);
+  const uint16_t* above = y > 0 ? image + at - w : zero_row;
+  m.compute(above, w);
+  if (!prev) return;
+  expand_modes(modes, y, w, mask);
+  apply_temporal(m, above, prev + at, y > 0 ? prev + at - w : zero_row, mask.data(), w);
+}
+
+// Prediction of the first pixel (x0, y) of a row segment: the last frame's value in a temporal
+// block where it is valid, else predict_first.
+inline int32_t first_prediction(const std::vector<uint8_t>& mask, const uint16_t* image,
+                                const uint16_t* prev, const uint16_t* zero_row, int y, int x0,
+                                int w, int32_t last) {
+  const size_t at = static_cast<size_t>(y) * static_cast<size_t>(w);
+  if (prev && mask[static_cast<size_t>(x0)] && prev[at + x0]) return prev[at + x0];
+  return predict_first(y > 0 ? image + at - w : zero_row, x0, w, last);
 }
 
 // Near-lossless by quantising the values themselves (step 2N+1): q = ceil(d / step), so 0 stays 0
@@ -484,21 +507,12 @@ class VolcastEncoder final : public DepthEncoder {
         const int x0 = static_cast<int>(j % static_cast<size_t>(w));
         const int x1 = static_cast<int>(std::min<size_t>(i - j + static_cast<size_t>(x0), w));
         const uint16_t* row = px + static_cast<size_t>(y) * w;
-        const uint16_t* up = y > 0 ? row - w : zero_row_.data();
-        const uint16_t* prev_row = prev ? prev + static_cast<size_t>(y) * w : nullptr;
         if (y != model_row) {
-          rows_.compute(up, w);
-          if (prev) {
-            expand_modes(modes_, y, w, mask_);
-            apply_temporal(rows_, up, prev_row, y > 0 ? prev_row - w : zero_row_.data(),
-                           mask_.data(), w);
-          }
+          prepare_row(rows_, mask_, modes_, px, prev, zero_row_.data(), y, w);
           model_row = y;
           row_residuals(rows_, row, w, coded_.data());
         }
-        const int32_t first = prev && mask_[static_cast<size_t>(x0)] && prev_row[x0]
-                                  ? int32_t{prev_row[x0]}
-                                  : predict_first(up, x0, w, last);
+        const int32_t first = first_prediction(mask_, px, prev, zero_row_.data(), y, x0, w, last);
         emit(kBorderContext, zigzag(int32_t{row[x0]} - first));
         // The common case inline, with the counter in a local (no member stores per pixel).
         const uint16_t* offsets = rows_.table_offset;
@@ -716,22 +730,13 @@ class VolcastDecoder final : public DepthDecoder {
         const int x0 = static_cast<int>(i % static_cast<size_t>(w));
         const int x1 = static_cast<int>(std::min<size_t>(run_end - i + static_cast<size_t>(x0), w));
         uint16_t* row = px + static_cast<size_t>(y) * w;
-        const uint16_t* up = y > 0 ? row - w : zero_row_.data();
-        const uint16_t* prev_row = prev ? prev + static_cast<size_t>(y) * w : nullptr;
         if (y != model_row) {
-          rows_.compute(up, w);
-          if (prev) {
-            expand_modes(modes_, y, w, mask_);
-            apply_temporal(rows_, up, prev_row, y > 0 ? prev_row - w : zero_row_.data(),
-                           mask_.data(), w);
-          }
+          prepare_row(rows_, mask_, modes_, px, prev, zero_row_.data(), y, w);
           model_row = y;
         }
         if (!has_model_[kBorderContext])
           throw Error("volcast: corrupt stream (symbol without a model)");
-        const int32_t first = prev && mask_[static_cast<size_t>(x0)] && prev_row[x0]
-                                  ? int32_t{prev_row[x0]}
-                                  : predict_first(up, x0, w, last);
+        const int32_t first = first_prediction(mask_, px, prev, zero_row_.data(), y, x0, w, last);
         last = decode_segment(row, x0, x1, first, s, rp, bits);
         i += static_cast<size_t>(x1 - x0);
       }

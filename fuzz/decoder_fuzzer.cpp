@@ -91,7 +91,7 @@ void fuzz_protocol(const uint8_t* data, size_t size) {
   attempt([&] { protocol::parse_reject(bytes); });
   attempt([&] { protocol::parse_ack(bytes); });
   attempt([&] {
-    protocol::EncodedFrameSet set;
+    protocol::FrameSetView set;
     protocol::parse_frame_set(bytes, set);
   });
 }

@@ -10,9 +10,9 @@
 #include <set>
 #include <thread>
 
-#include "site.hpp"
+#include "volcast/pipeline/sender.hpp"
 #include "test_data.hpp"
-#include "viewer.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 
@@ -160,12 +160,13 @@ TEST(EndToEnd, ViewerThatStopsReadingDoesNotDelayTheOther) {
   EXPECT_EQ(r.cameras[0].frames_received, 30u);
   EXPECT_LE(r.cameras[0].frames_dropped, 15u);  // it kept up with the 10 fps site
 
-  // The stalled viewer was never sent more than the window, and is dropped after the stall timeout.
+  // The stalled viewer was never sent more than the first window (2 frame sets before any Ack),
+  // and is dropped after the stall timeout.
   bool disconnected = false;
   for (int i = 0; i < 100 && !disconnected; ++i) {
     for (const auto& v : site.server.viewers())
       if (v.depth_codec == "trvl" && v.color_codec == "raw") {
-        EXPECT_LE(v.frames_sent, static_cast<uint64_t>(config.window));
+        EXPECT_LE(v.frames_sent, 2u);
         disconnected = !v.connected && v.error.find("stalled") != std::string::npos;
       }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -283,18 +284,25 @@ TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
   ReceivedFrameSet rx;
   std::set<int64_t> hands_stamps, kinect_stamps;
   uint64_t first = 0, last = 0;
+  bool kinect_in_order = true;
   for (int i = 0; i < 40 && client.receive(rx); ++i) {
     if (i == 0) first = rx.frames.sequence;
     last = rx.frames.sequence;
+    if (!kinect_stamps.empty() && rx.frames.cameras[1].device_timestamp_us < *kinect_stamps.rbegin())
+      kinect_in_order = false;
     hands_stamps.insert(rx.frames.cameras[0].device_timestamp_us);
     kinect_stamps.insert(rx.frames.cameras[1].device_timestamp_us);
   }
   player.stop();
   server.stop();
-  const double sets = static_cast<double>(last - first + 1);
+  EXPECT_GT(last, first);
   EXPECT_EQ(hands_stamps.size(), 40u);  // a new hands frame in every frame set
-  EXPECT_LE(static_cast<double>(kinect_stamps.size()), sets / 6 + 2);
-  EXPECT_GE(static_cast<double>(kinect_stamps.size()), sets / 6 - 2);
+  // The 5 fps recording repeats its frames across frame sets (6 per frame when the machine keeps
+  // up; order and counts only, with room for a loaded machine's skipped ticks): far fewer distinct
+  // frames than frame sets, and at least two in 40 frame sets (1.3 s at 30 fps).
+  EXPECT_LE(kinect_stamps.size(), 20u);
+  EXPECT_GE(kinect_stamps.size(), 2u);
+  EXPECT_TRUE(kinect_in_order);
 }
 
 TEST(EndToEnd, ViewerRendersWhatItReceives) {

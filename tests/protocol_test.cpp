@@ -1,6 +1,7 @@
 // Stream protocol messages: round trips and rejection of malformed or hostile bytes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "volcast/core/error.hpp"
@@ -48,7 +49,9 @@ TEST(Protocol, WelcomeCarriesCalibrationExactly) {
   cam.calibration.world_from_camera.translation = {1.6, -0.2, 0.3};
   cam.description = "Azure Kinect recording";
   w.cameras = {cam, cam};
+  w.server_time_us = 1'700'000'000'000'000;
   const Welcome back = parse_welcome(serialize(w));
+  EXPECT_EQ(back.server_time_us, w.server_time_us);
   ASSERT_EQ(back.cameras.size(), 2u);
   EXPECT_EQ(back.cameras[1].calibration.depth, cam.calibration.depth);
   EXPECT_EQ(back.cameras[1].calibration.world_from_camera.rotation,
@@ -62,21 +65,35 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
   Welcome w;
   w.cameras.resize(1);
   w.cameras[0].calibration.depth = {4, 4, 1, 1, 2, 2};
-  EncodedFrameSet fs;
-  fs.sequence = 42;
-  fs.capture_time_us = 123456789;
-  fs.cameras.resize(2);
-  fs.cameras[0].depth = {1, 2, 3};
-  fs.cameras[1].color = {4, 5};
-  std::vector<uint8_t> frame_msg;
-  serialize(fs, frame_msg);
+  std::vector<EncodedCamera> cams(2);
+  cams[0].depth = {1, 2, 3};
+  cams[0].device_timestamp_us = -5;
+  cams[1].color = {4, 5};
+  SenderTimes times{123456789, 123456790, 123456795, 0};
+  std::vector<uint8_t> body;
+  serialize_frame_set_body(42, true, times, cams, body);
+  const auto prefix = frame_set_prefix(body.size(), 123456800);
+  // The message is the per-viewer prefix followed by the shared body.
+  std::vector<uint8_t> frame_msg(prefix.begin(), prefix.end());
+  frame_msg.insert(frame_msg.end(), body.begin(), body.end());
+  EXPECT_EQ(parse_header(frame_msg).payload_bytes, frame_msg.size() - kHeaderBytes);
+  EXPECT_EQ(parse_header(frame_msg).channel, Channel::kFrames);
   const std::vector<uint8_t> frame_payload(frame_msg.begin() + kHeaderBytes, frame_msg.end());
-  EncodedFrameSet back;
+  FrameSetView back;
   parse_frame_set(frame_payload, back);
   EXPECT_EQ(back.sequence, 42u);
-  EXPECT_EQ(back.cameras[1].color, fs.cameras[1].color);
+  EXPECT_TRUE(back.key);
+  EXPECT_EQ(back.times.capture_us, 123456789);
+  EXPECT_EQ(back.times.filter_done_us, 123456790);
+  EXPECT_EQ(back.times.encode_done_us, 123456795);
+  EXPECT_EQ(back.times.send_us, 123456800);
+  EXPECT_EQ(back.cameras[0].device_timestamp_us, -5);
+  EXPECT_TRUE(std::ranges::equal(back.cameras[0].depth, cams[0].depth));
+  EXPECT_TRUE(std::ranges::equal(back.cameras[1].color, cams[1].color));
+  EXPECT_TRUE(back.cameras[1].depth.empty());
 
-  const auto hello = serialize(Hello{"trvl", "jpeg"});
+  const auto hello = serialize(Hello{"trvl", "jpeg", 80});
+  EXPECT_EQ(parse_hello(hello).color_quality, 80);
   const auto welcome = serialize(w);
   for (size_t n = 0; n < hello.size(); ++n)
     EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
@@ -91,7 +108,7 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
 
 TEST(Protocol, RandomBytesNeverCrashTheParsers) {
   std::mt19937 rng(11);
-  EncodedFrameSet out;
+  FrameSetView out;
   for (int i = 0; i < 2000; ++i) {
     std::vector<uint8_t> bytes(rng() % 200);
     for (auto& b : bytes) b = static_cast<uint8_t>(rng());
@@ -112,6 +129,41 @@ TEST(Protocol, RandomBytesNeverCrashTheParsers) {
     } catch (const Error&) {
     }
   }
+}
+
+TEST(Protocol, ChannelsSeparateFramesControlAndSessionMessages) {
+  uint8_t h[kHeaderBytes];
+  write_header(MessageType::kKeyFrameRequest, 0, h);
+  EXPECT_EQ(parse_header(h).channel, Channel::kControl);
+  EXPECT_EQ(parse_header(h).type, MessageType::kKeyFrameRequest);
+  EXPECT_EQ(h[6], 0);  // channel byte
+  EXPECT_EQ(h[7], 5);  // type byte
+  // A session-channel message of a type this build does not know is accepted (skipped by peers
+  // that do not use the session channel); an unknown frames or control type, or channel, is not.
+  h[6] = 2;
+  h[7] = 42;
+  EXPECT_EQ(parse_header(h).channel, Channel::kSession);
+  h[6] = 1;
+  EXPECT_THROW(parse_header(h), Error);
+  h[6] = 0;
+  h[7] = 6;
+  EXPECT_THROW(parse_header(h), Error);
+  h[6] = 3;
+  h[7] = 1;
+  EXPECT_THROW(parse_header(h), Error);
+  // Version 1 peers are told the version does not match.
+  write_header(MessageType::kHello, 0, h);
+  h[4] = 1;
+  try {
+    parse_header(h);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("version"), std::string::npos);
+  }
+  // Hello with a quality over 100 is malformed.
+  auto hello = serialize(Hello{"volcast", "jpeg", 100});
+  hello.back() = 101;
+  EXPECT_THROW(parse_hello(hello), Error);
 }
 
 TEST(Protocol, WelcomeRejectsImplausibleCameras) {

@@ -38,14 +38,19 @@ struct ServeArgs {
   double fps = 0;          ///< 0 = the recordings' own rate (the fastest source's)
   std::string intrinsics;  ///< "fx,fy,cx,cy" for image sequences without intrinsics.json
   int key_frame_interval = 60;
+  int max_viewers = 16;
+  int max_window = 8;
+  int latency_budget_ms = 150;
+  int min_key_interval_ms = 250;
   double seconds = 0;  ///< 0 = until interrupted
 };
 int run_serve(const ServeArgs& args);
 
 struct ViewArgs {
   std::string connect;
-  std::string depth_codec = "rvl", color_codec = "jpeg";
-  bool headless = false, no_render = false;
+  std::string depth_codec = "volcast", color_codec = "jpeg";
+  int color_quality = 0;
+  bool no_render = false;
   int frames = 0;
   double seconds = 0;
   std::string screenshot, save_frames, stats_json;
@@ -59,7 +64,8 @@ struct DemoArgs {
   std::string out = "out/demo";
   std::string
       data;  ///< folder holding the shared recordings; default: found near the binary or cwd
-  std::string depth_codec = "rvl", color_codec = "jpeg";
+  std::string depth_codec = "volcast", color_codec = "jpeg";
+  int cameras = 2;
 };
 int run_demo(const DemoArgs& args);
 
@@ -88,9 +94,16 @@ struct BenchArgs {
   std::string json;
   std::string data;
   int repeats = 50;
+  bool server = false;         ///< the server benchmark instead of the codec/filter tables
+  double server_seconds = 4;   ///< measured per configuration
+  std::vector<int> viewers;    ///< viewer counts (default 1, 4, 8, 16)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
+/// Runs a server on loopback with the real sets as 2 and 4 cameras and 1..16 receive-only viewers
+/// per tier; prints a table and writes {"server": [{cameras, viewers, tier, fps_min,
+/// latency_ms_p50, latency_ms_p99, server_cpu_percent}]} to args.json if set.
+int run_server_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;

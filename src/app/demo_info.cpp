@@ -5,8 +5,9 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
-#include "site.hpp"
-#include "viewer.hpp"
+#include "real_sites.hpp"
+#include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -15,26 +16,6 @@ namespace volcast {
 namespace fs = std::filesystem;
 namespace {
 
-constexpr const char* kHands = "rgbd-hands-640x360";
-constexpr const char* kKinect = "k4a-recording/recording.mkv";
-
-std::optional<fs::path> find_data(const std::string& flag) {
-  std::vector<fs::path> candidates;
-  if (!flag.empty()) {  // an explicit folder is the only place to look
-    if (fs::exists(fs::path(flag) / kHands) && fs::exists(fs::path(flag) / kKinect))
-      return fs::weakly_canonical(flag);
-    return std::nullopt;
-  }
-  if (const char* env = std::getenv("VOLCAST_DATA")) candidates.push_back(env);
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) candidates.push_back(exe.parent_path() / "../../../shared/data");
-  candidates.push_back(fs::current_path() / "../shared/data");
-  candidates.push_back(fs::current_path() / "shared/data");
-  for (const auto& c : candidates)
-    if (fs::exists(c / kHands) && fs::exists(c / kKinect)) return fs::weakly_canonical(c);
-  return std::nullopt;
-}
 
 // The four corners of the intrinsics line `volcast info` prints.
 std::string intrinsics_line(const Intrinsics& k) {
@@ -77,36 +58,16 @@ int run_demo(const DemoArgs& a) {
         "../shared/data next to the repository, or ./shared/data.\n"
         "Put an Azure Kinect recording (.mkv) and an image sequence (depth/*.png, color/*.jpg)\n"
         "there, or stream your own with: volcast serve --source PATH [--source PATH ...]\n",
-        kHands, kKinect);
+        kHandsSet, kKinectSet);
     return 2;
   }
   spdlog::info("demo: real recordings from {}", data->string());
   const fs::path out = a.out;
   fs::create_directories(out);
 
-  // Camera 0: the hands sequence. Its intrinsics were never published: use the nominal pinhole
-  // the data's README suggests (about 70 degrees horizontal field of view), and say so.
-  SourceOptions hands_options;
-  Intrinsics nominal;
-  nominal.fx = nominal.fy = 460;
-  nominal.cx = 320;
-  nominal.cy = 180;
-  hands_options.intrinsics = nominal;
-  spdlog::warn(
-      "demo: camera 0 ({}) has no published intrinsics; using a NOMINAL pinhole fx=fy=460, cx=320, "
-      "cy=180",
-      kHands);
-  // Camera 1: the genuine Azure Kinect recording, factory calibration; the two scenes are
-  // unrelated, so the site places it 1.6 m to the right of camera 0.
-  SourceOptions kinect_options;
-  RigidTransform beside;
-  beside.translation = {1.6, 0, 0};
-  kinect_options.world_from_camera = beside;
-  std::vector<std::unique_ptr<FrameSource>> sources;
-  sources.push_back(open_source(*data / kHands, hands_options));
-  sources.push_back(open_source(*data / kKinect, kinect_options));
-
-  SitePlayer site(std::move(sources), 0);  // the hands' 30 fps; the Kinect recording's own 5 fps
+  std::vector<std::unique_ptr<FrameSource>> sources =
+      a.cameras == 4 ? four_camera_site(*data) : two_camera_site(*data);
+  SitePlayer site(std::move(sources), 0);  // 30 fps; each recording paced at its own rate
   ServerConfig config;
   config.port = 0;  // any free loopback port
   Server server(site.cameras(), config);
@@ -119,10 +80,14 @@ int run_demo(const DemoArgs& a) {
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.seconds = a.seconds;
-  // Overview: behind, above and between the two cameras, looking into both scenes.
+  // Overview: behind, above and between the cameras (placed along x), looking into every scene.
+  float mid_x = 0;
+  for (const auto& c : site.cameras())
+    mid_x += static_cast<float>(c.calibration.world_from_camera.translation.x());
+  mid_x /= static_cast<float>(site.cameras().size());
   ViewCamera overview;
-  overview.eye = {0.8f, -0.7f, -1.4f};
-  overview.target = {0.8f, 0.1f, 1.4f};
+  overview.eye = {mid_x, -0.7f - 0.3f * mid_x, -1.4f - 0.8f * mid_x};
+  overview.target = {mid_x, 0.1f, 1.4f};
   opt.view = overview;
   opt.screenshot = out / "render_overview.png";
   opt.stats_json = out / "stats.json";
@@ -149,9 +114,8 @@ int run_demo(const DemoArgs& a) {
     write_color_png(file, image);
   }
   std::printf("\n%s", format_stats_table(result).c_str());
-  std::printf("\nwrote %s, %s, %s and %s\n", (out / "stats.json").c_str(),
-              (out / "render_overview.png").c_str(), (out / "render_camera0.png").c_str(),
-              (out / "render_camera1.png").c_str());
+  std::printf("\nwrote %s, %s and render_camera0..%zu.png there\n", (out / "stats.json").c_str(),
+              (out / "render_overview.png").c_str(), cams.size() - 1);
   return 0;
 }
 

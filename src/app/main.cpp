@@ -63,6 +63,17 @@ int main(int argc, char** argv) {
   s->add_option("--key-frame-interval", serve.key_frame_interval,
                 "Frames between temporal-codec key frames")
       ->capture_default_str();
+  s->add_option("--max-viewers", serve.max_viewers, "Viewers served at once; more are rejected")
+      ->capture_default_str();
+  s->add_option("--max-window", serve.max_window,
+                "Frame sets in flight per viewer at most (pacing keeps ~2 bandwidth-delay products)")
+      ->capture_default_str();
+  s->add_option("--latency-budget", serve.latency_budget_ms,
+                "Never send a frame set captured longer ago than this (ms)")
+      ->capture_default_str();
+  s->add_option("--min-key-interval", serve.min_key_interval_ms,
+                "Key frames made on request (joins, skips) at most this often per tier (ms)")
+      ->capture_default_str();
   s->add_option("--seconds", serve.seconds, "Stop after this many seconds (default: until Ctrl-C)");
   s->add_option("--config", serve.config,
                 "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
@@ -77,8 +88,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   v->add_option("--color-codec", view.color_codec, "Color codec: " + join(color_codec_names()))
       ->capture_default_str();
-  v->add_flag("--headless", view.headless, "Render offscreen (EGL), no window");
-  v->add_flag("--no-render", view.no_render, "Receive and decode only");
+  v->add_option("--color-quality", view.color_quality,
+                "Color quality 1..100 (JPEG quality; 0 = the codec's default)")
+      ->capture_default_str();
+  v->add_flag("--no-render", view.no_render,
+              "Receive and decode only (otherwise rendered offscreen with EGL)");
   v->add_option("--frames", view.frames, "Stop after N frame sets");
   v->add_option("--seconds", view.seconds, "Stop after this many seconds");
   v->add_option("--screenshot", view.screenshot, "Write the last render as PNG");
@@ -98,6 +112,10 @@ int main(int argc, char** argv) {
   d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + join(depth_codec_names()))
       ->capture_default_str();
   d->add_option("--color-codec", demo.color_codec, "Color codec: " + join(color_codec_names()))
+      ->capture_default_str();
+  d->add_option("--cameras", demo.cameras,
+                "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")
+      ->check(CLI::IsMember({2, 4}))
       ->capture_default_str();
 
   FilterArgs filter;
@@ -131,6 +149,12 @@ int main(int argc, char** argv) {
   bn->add_option("--json", bench.json, "Write the figures as JSON");
   bn->add_option("--repeats", bench.repeats, "Passes over each set (codecs: a tenth of it)")
       ->capture_default_str();
+  bn->add_flag("--server", bench.server,
+               "Server benchmark instead: 2 and 4 real cameras, 1/4/8/16 receive-only viewers");
+  bn->add_option("--server-seconds", bench.server_seconds,
+                 "With --server: seconds measured per configuration")
+      ->capture_default_str();
+  bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
 
   InfoArgs info;
   auto* i = app.add_subcommand("info", "Describe a recording: streams, frames, derived intrinsics");
@@ -146,7 +170,7 @@ int main(int argc, char** argv) {
     if (*i) return run_info(info);
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
-    if (*bn) return run_bench(bench);
+    if (*bn) return bench.server ? run_server_bench(bench) : run_bench(bench);
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -8,8 +8,8 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "site.hpp"
-#include "viewer.hpp"
+#include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -94,6 +94,10 @@ int run_serve(const ServeArgs& a) {
   config.bind_address = a.bind;
   config.port = a.port;
   config.key_frame_interval = a.key_frame_interval;
+  config.max_viewers = a.max_viewers;
+  config.max_window = a.max_window;
+  config.latency_budget_ms = a.latency_budget_ms;
+  config.min_key_interval_ms = a.min_key_interval_ms;
   Server server(cameras, config);
   site.start(server);
   spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", cameras.size(), site.fps(),
@@ -115,9 +119,11 @@ int run_serve(const ServeArgs& a) {
   site.stop();
   server.stop();
   for (const auto& v : server.viewers())
-    spdlog::info("viewer {} ({}/{}): {} frame sets sent, {} dropped, {:.1f} MB", v.peer,
-                 v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped,
-                 static_cast<double>(v.bytes_sent) / 1e6);
+    spdlog::info(
+        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} MB, "
+        "path RTT {:.1f} ms, {:.1f} Mbit/s",
+        v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
+        static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s);
   return 0;
 }
 
@@ -126,12 +132,10 @@ int run_view(const ViewArgs& a) {
   std::tie(opt.client.host, opt.client.port) = parse_host_port(a.connect);
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
+  opt.client.color_quality = a.color_quality;
   opt.frames = a.frames;
   opt.seconds = a.seconds;
   opt.render = !a.no_render;
-  if (!a.headless && opt.render)
-    spdlog::info(
-        "no windowed viewer in this build yet: rendering headless (use --screenshot to see it)");
   const size_t x = a.size.find('x');
   if (x == std::string::npos) throw Error("--size expects WIDTHxHEIGHT, e.g. 1280x720");
   const auto wh = parse_numbers(a.size.substr(0, x) + "," + a.size.substr(x + 1), 2, "--size");

@@ -1,82 +1,93 @@
 #include "volcast/net/client.hpp"
 
-#include <asio.hpp>
-#include <mutex>
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <cstdlib>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/worker_pool.hpp"
+#include "volcast/net/connection.hpp"
 
 namespace volcast {
 
-using asio::ip::tcp;
-
 struct Client::Impl {
-  asio::io_context io;
-  tcp::socket socket{io};
+  ClientConfig config;
+  std::unique_ptr<Connection> connection;
   protocol::Welcome welcome;
+  int64_t clock_offset_us = 0;
   std::vector<std::unique_ptr<DepthDecoder>> depth;
   std::vector<std::unique_ptr<ColorDecoder>> color;
-  protocol::EncodedFrameSet encoded;
+  std::unique_ptr<WorkerPool> pool;
+  protocol::FrameSetView view;
   std::vector<uint8_t> payload;
-  std::mutex close_mutex;
-  bool closed = false;
+  std::atomic<bool> closed{false};
+  uint64_t undecodable = 0;
 
-  // Reads one message; returns false on a clean close.
+  // Reads one message; returns false on a clean close (by the peer or close()).
   bool read_message(protocol::Header& header, uint32_t max_payload) {
     uint8_t bytes[protocol::kHeaderBytes];
-    asio::error_code ec;
-    asio::read(socket, asio::buffer(bytes), ec);
-    if (ec == asio::error::eof || ec == asio::error::operation_aborted ||
-        ec == asio::error::bad_descriptor)
-      return false;
-    if (ec) {
-      std::lock_guard lock(close_mutex);
-      if (closed) return false;
-      throw Error("connection lost: " + ec.message());
+    try {
+      connection->read_exact(bytes, -1);
+    } catch (const Error& e) {
+      if (closed || std::string(e.what()) == "peer closed the connection") return false;
+      throw Error(std::string("connection lost: ") + e.what());
     }
     header = protocol::parse_header(bytes, max_payload);
     payload.resize(header.payload_bytes);
-    asio::read(socket, asio::buffer(payload), ec);
-    if (ec) {
-      std::lock_guard lock(close_mutex);
+    try {
+      connection->read_exact(payload, -1);
+    } catch (const Error& e) {
       if (closed) return false;
-      throw Error("connection lost in the middle of a message: " + ec.message());
+      throw Error(std::string("connection lost in the middle of a message: ") + e.what());
     }
     return true;
+  }
+
+  void send(protocol::MessageType type, const std::vector<uint8_t>& body) {
+    try {
+      connection->write_all(protocol::message(type, body), 10000);
+    } catch (const Error& e) {
+      if (!closed) throw Error(std::string("connection lost while acknowledging: ") + e.what());
+    }
   }
 };
 
 Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
   // Fail early, before connecting, on a codec this build does not have.
   make_depth_decoder(config.depth_codec);
   make_color_decoder(config.color_codec);
-  try {
-    tcp::resolver resolver(impl_->io);
-    asio::connect(impl_->socket, resolver.resolve(config.host, std::to_string(config.port)));
-    impl_->socket.set_option(tcp::no_delay(true));
-  } catch (const std::system_error& e) {
-    throw Error("cannot connect to " + config.host + ":" + std::to_string(config.port) + ": " +
-                e.what());
-  }
-  const auto hello = protocol::message(
-      protocol::MessageType::kHello,
-      protocol::serialize(protocol::Hello{config.depth_codec, config.color_codec}));
-  asio::error_code ec;
-  asio::write(impl_->socket, asio::buffer(hello), ec);
-  if (ec) throw Error("cannot send Hello: " + ec.message());
+  if (config.color_quality < 0 || config.color_quality > 100)
+    throw Error("color quality must be 1..100 (0 = the codec's default)");
+  impl_->connection = connect_tcp(config.host, config.port);
+  const int64_t sent_us = wall_clock_us();
+  impl_->connection->write_all(
+      protocol::message(protocol::MessageType::kHello,
+                        protocol::serialize(protocol::Hello{config.depth_codec, config.color_codec,
+                                                            config.color_quality})),
+      10000);
   protocol::Header header;
   if (!impl_->read_message(header, 1u << 20))
     throw Error("server closed the connection during the handshake");
+  const int64_t received_us = wall_clock_us();
   if (header.type == protocol::MessageType::kReject)
     throw Error("server rejected the connection: " + protocol::parse_reject(impl_->payload));
   if (header.type != protocol::MessageType::kWelcome)
     throw Error("expected Welcome from the server");
   impl_->welcome = protocol::parse_welcome(impl_->payload);
+  // Offset = server clock - ours, from the server's time at Welcome and our handshake midpoint;
+  // uncertain by half the handshake's round trip, within which the clocks count as one.
+  const int64_t offset = impl_->welcome.server_time_us - (sent_us + received_us) / 2;
+  if (std::llabs(offset) > (received_us - sent_us) / 2) impl_->clock_offset_us = offset;
   for (size_t i = 0; i < impl_->welcome.cameras.size(); ++i) {
     impl_->depth.push_back(make_depth_decoder(config.depth_codec));
     impl_->color.push_back(make_color_decoder(config.color_codec));
   }
+  if (config.decode) impl_->pool = std::make_unique<WorkerPool>(config.decode_threads);
 }
 
 Client::~Client() {
@@ -87,54 +98,84 @@ const protocol::Welcome& Client::welcome() const {
   return impl_->welcome;
 }
 
+int64_t Client::clock_offset_us() const {
+  return impl_->clock_offset_us;
+}
+
+uint64_t Client::frames_undecodable() const {
+  return impl_->undecodable;
+}
+
 bool Client::receive(ReceivedFrameSet& out) {
-  protocol::Header header;
-  if (!impl_->read_message(header, protocol::kMaxPayloadBytes)) return false;
-  if (header.type != protocol::MessageType::kFrameSet) throw Error("expected a FrameSet message");
-  protocol::parse_frame_set(impl_->payload, impl_->encoded);
-  const auto& cams = impl_->welcome.cameras;
-  if (impl_->encoded.cameras.size() != cams.size())
-    throw Error("frame set has " + std::to_string(impl_->encoded.cameras.size()) +
-                " cameras, the site has " + std::to_string(cams.size()));
-  out.frames.sequence = impl_->encoded.sequence;
-  out.frames.capture_time_us = impl_->encoded.capture_time_us;
-  out.frames.cameras.resize(cams.size());
-  out.depth_bytes.resize(cams.size());
-  out.color_bytes.resize(cams.size());
-  out.message_bytes = protocol::kHeaderBytes + header.payload_bytes;
-  for (size_t i = 0; i < cams.size(); ++i) {
-    const protocol::EncodedCamera& e = impl_->encoded.cameras[i];
-    CameraFrame& f = out.frames.cameras[i];
-    f.device_timestamp_us = e.device_timestamp_us;
-    impl_->depth[i]->decode(e.depth, f.depth);
-    impl_->color[i]->decode(e.color, f.color);
-    const Intrinsics& k = cams[i].calibration.depth;
-    if (f.depth.width != k.width || f.depth.height != k.height)
-      throw Error("camera " + std::to_string(i) +
-                  ": depth frame size differs from its calibration");
-    if (!f.color.empty() && (f.color.width != k.width || f.color.height != k.height))
-      throw Error("camera " + std::to_string(i) + ": color frame is not registered to depth");
-    out.depth_bytes[i] = e.depth.size();
-    out.color_bytes[i] = e.color.size();
+  Impl& m = *impl_;
+  const auto& cams = m.welcome.cameras;
+  while (true) {
+    protocol::Header header;
+    if (!m.read_message(header, protocol::kMaxPayloadBytes)) return false;
+    if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
+    if (header.type != protocol::MessageType::kFrameSet)
+      throw Error("expected a FrameSet message");
+    const int64_t received_us = wall_clock_us();
+    protocol::parse_frame_set(m.payload, m.view);
+    if (m.view.cameras.size() != cams.size())
+      throw Error("frame set has " + std::to_string(m.view.cameras.size()) +
+                  " cameras, the site has " + std::to_string(cams.size()));
+    const size_t n = cams.size();
+    out.frames.sequence = m.view.sequence;
+    out.frames.capture_time_us = m.view.times.capture_us - m.clock_offset_us;
+    out.frames.cameras.resize(n);
+    out.key = m.view.key;
+    out.times.capture_us = m.view.times.capture_us - m.clock_offset_us;
+    out.times.filter_done_us = m.view.times.filter_done_us - m.clock_offset_us;
+    out.times.encode_done_us = m.view.times.encode_done_us - m.clock_offset_us;
+    out.times.send_us = m.view.times.send_us - m.clock_offset_us;
+    out.times.received_us = received_us;
+    out.depth_bytes.resize(n);
+    out.color_bytes.resize(n);
+    out.message_bytes = protocol::kHeaderBytes + header.payload_bytes;
+    for (size_t i = 0; i < n; ++i) {
+      out.frames.cameras[i].device_timestamp_us = m.view.cameras[i].device_timestamp_us;
+      out.depth_bytes[i] = m.view.cameras[i].depth.size();
+      out.color_bytes[i] = m.view.cameras[i].color.size();
+    }
+    bool decoded = true;
+    if (m.config.decode) {
+      // Tasks 0..n-1 decode depth, n..2n-1 color, in parallel.
+      try {
+        m.pool->parallel_for(2 * n, [&](size_t t) {
+          const size_t i = t % n;
+          CameraFrame& f = out.frames.cameras[i];
+          if (t < n)
+            m.depth[i]->decode(m.view.cameras[i].depth, f.depth);
+          else
+            m.color[i]->decode(m.view.cameras[i].color, f.color);
+        });
+      } catch (const Error& e) {
+        // A delta whose reference is missing (or a corrupt frame): skip it, ask for a key frame.
+        if (m.undecodable++ == 0) spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
+        decoded = false;
+      }
+      for (size_t i = 0; decoded && i < n; ++i) {
+        const CameraFrame& f = out.frames.cameras[i];
+        const Intrinsics& k = cams[i].calibration.depth;
+        if (f.depth.width != k.width || f.depth.height != k.height)
+          throw Error("camera " + std::to_string(i) +
+                      ": depth frame size differs from its calibration");
+        if (!f.color.empty() && (f.color.width != k.width || f.color.height != k.height))
+          throw Error("camera " + std::to_string(i) + ": color frame is not registered to depth");
+      }
+    }
+    out.times.decoded_us = wall_clock_us();
+    // Tell the server, whose pacing follows these Acks.
+    m.send(protocol::MessageType::kAck, protocol::serialize_ack(out.frames.sequence));
+    if (decoded) return true;
+    m.send(protocol::MessageType::kKeyFrameRequest, {});
   }
-  // Decoded: tell the server, which sends the next (newest) frame set only then.
-  const auto ack =
-      protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(out.frames.sequence));
-  asio::error_code ec;
-  asio::write(impl_->socket, asio::buffer(ack), ec);
-  if (ec) {
-    std::lock_guard lock(impl_->close_mutex);
-    if (!impl_->closed) throw Error("connection lost while acknowledging: " + ec.message());
-  }
-  return true;
 }
 
 void Client::close() {
-  std::lock_guard lock(impl_->close_mutex);
-  if (impl_->closed) return;
-  impl_->closed = true;
-  asio::error_code ec;
-  impl_->socket.shutdown(tcp::socket::shutdown_both, ec);
+  if (impl_->closed.exchange(true)) return;
+  if (impl_->connection) impl_->connection->shutdown();
 }
 
 }  // namespace volcast

@@ -19,7 +19,7 @@ class Writer {
     put<uint16_t>(static_cast<uint16_t>(s.size()));
     append(s.data(), s.size());
   }
-  void put_bytes(const std::vector<uint8_t>& b) {
+  void put_bytes(std::span<const uint8_t> b) {
     put<uint32_t>(static_cast<uint32_t>(b.size()));
     append(b.data(), b.size());
   }
@@ -52,11 +52,12 @@ class Reader {
     pos_ += n;
     return s;
   }
-  void get_bytes(std::vector<uint8_t>& out) {
+  std::span<const uint8_t> get_span() {
     const size_t n = get<uint32_t>();
     need(n);
-    out.assign(in_.data() + pos_, in_.data() + pos_ + n);
+    const auto s = in_.subspan(pos_, n);
     pos_ += n;
+    return s;
   }
   void expect_end() const {
     if (pos_ != in_.size()) fail("trailing bytes");
@@ -80,26 +81,30 @@ void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderB
   const uint16_t t = static_cast<uint16_t>(type);
   std::memcpy(out, &kMagic, 4);
   std::memcpy(out + 4, &kVersion, 2);
-  std::memcpy(out + 6, &t, 2);
+  out[6] = static_cast<uint8_t>(t >> 8);    // channel
+  out[7] = static_cast<uint8_t>(t & 0xff);  // type within the channel
   std::memcpy(out + 8, &payload_bytes, 4);
 }
 
 Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload) {
   if (bytes.size() < kHeaderBytes) throw Error("malformed header: truncated");
   uint32_t magic;
-  uint16_t type;
   Header h;
   std::memcpy(&magic, bytes.data(), 4);
   std::memcpy(&h.version, bytes.data() + 4, 2);
-  std::memcpy(&type, bytes.data() + 6, 2);
+  const uint8_t channel = bytes[6], type = bytes[7];
   std::memcpy(&h.payload_bytes, bytes.data() + 8, 4);
   if (magic != kMagic) throw Error("malformed header: bad magic (not a Volcast peer)");
   if (h.version != kVersion)
     throw Error("protocol version mismatch: peer speaks " + std::to_string(h.version) +
                 ", this build speaks " + std::to_string(kVersion));
-  if (type < 1 || type > 5)
-    throw Error("malformed header: unknown message type " + std::to_string(type));
-  h.type = static_cast<MessageType>(type);
+  const bool known = (channel == 0 && type >= 1 && type <= 5) || (channel == 1 && type == 1) ||
+                     channel == static_cast<uint8_t>(Channel::kSession);
+  if (!known)
+    throw Error("malformed header: unknown message type " + std::to_string(channel) + "." +
+                std::to_string(type));
+  h.channel = static_cast<Channel>(channel);
+  h.type = static_cast<MessageType>(channel << 8 | type);
   if (h.payload_bytes > max_payload)
     throw Error("malformed header: payload of " + std::to_string(h.payload_bytes) +
                 " bytes exceeds the limit of " + std::to_string(max_payload));
@@ -111,6 +116,7 @@ std::vector<uint8_t> serialize(const Hello& m) {
   Writer w(out);
   w.put_string(m.depth_codec);
   w.put_string(m.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
   return out;
 }
 
@@ -119,6 +125,8 @@ Hello parse_hello(std::span<const uint8_t> payload) {
   Hello h;
   h.depth_codec = r.get_string();
   h.color_codec = r.get_string();
+  h.color_quality = r.get<uint8_t>();
+  if (h.color_quality > 100) r.fail("color quality " + std::to_string(h.color_quality) + " > 100");
   r.expect_end();
   return h;
 }
@@ -139,6 +147,7 @@ std::vector<uint8_t> serialize(const Welcome& m) {
     for (int i = 0; i < 3; ++i) w.put<double>(t.translation[i]);
     w.put_string(cam.description);
   }
+  w.put<int64_t>(m.server_time_us);
   return out;
 }
 
@@ -162,6 +171,7 @@ Welcome parse_welcome(std::span<const uint8_t> payload) {
     for (int i = 0; i < 3; ++i) t.translation[i] = r.get<double>();
     cam.description = r.get_string();
   }
+  m.server_time_us = r.get<int64_t>();
   r.expect_end();
   return m;
 }
@@ -192,32 +202,48 @@ std::string parse_reject(std::span<const uint8_t> payload) {
   return s;
 }
 
-void serialize(const EncodedFrameSet& m, std::vector<uint8_t>& out) {
-  out.resize(kHeaderBytes);
+void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& times,
+                              std::span<const EncodedCamera> cameras, std::vector<uint8_t>& out) {
+  out.clear();
   Writer w(out);
-  w.put<uint64_t>(m.sequence);
-  w.put<int64_t>(m.capture_time_us);
-  w.put<uint32_t>(static_cast<uint32_t>(m.cameras.size()));
-  for (const EncodedCamera& c : m.cameras) {
+  w.put<uint64_t>(sequence);
+  w.put<uint8_t>(key ? 1 : 0);
+  w.put<int64_t>(times.capture_us);
+  w.put<int64_t>(times.filter_done_us);
+  w.put<int64_t>(times.encode_done_us);
+  w.put<uint32_t>(static_cast<uint32_t>(cameras.size()));
+  for (const EncodedCamera& c : cameras) {
     w.put<int64_t>(c.device_timestamp_us);
     w.put_bytes(c.depth);
     w.put_bytes(c.color);
   }
-  write_header(MessageType::kFrameSet, static_cast<uint32_t>(out.size() - kHeaderBytes),
-               out.data());
 }
 
-void parse_frame_set(std::span<const uint8_t> payload, EncodedFrameSet& out) {
+std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, int64_t send_us) {
+  if (body_bytes + 8 > kMaxPayloadBytes) throw Error("protocol: frame set too large to send");
+  std::array<uint8_t, kFrameSetPrefixBytes> out;
+  write_header(MessageType::kFrameSet, static_cast<uint32_t>(body_bytes + 8), out.data());
+  std::memcpy(out.data() + kHeaderBytes, &send_us, 8);
+  return out;
+}
+
+void parse_frame_set(std::span<const uint8_t> payload, FrameSetView& out) {
   Reader r(payload, "frame set");
+  out.times.send_us = r.get<int64_t>();
   out.sequence = r.get<uint64_t>();
-  out.capture_time_us = r.get<int64_t>();
+  const uint8_t flags = r.get<uint8_t>();
+  if (flags > 1) r.fail("unknown flags " + std::to_string(flags));
+  out.key = flags & 1;
+  out.times.capture_us = r.get<int64_t>();
+  out.times.filter_done_us = r.get<int64_t>();
+  out.times.encode_done_us = r.get<int64_t>();
   const uint32_t n = r.get<uint32_t>();
   if (n == 0 || n > kMaxCameras) r.fail("camera count " + std::to_string(n));
   out.cameras.resize(n);
-  for (EncodedCamera& c : out.cameras) {
+  for (EncodedCameraView& c : out.cameras) {
     c.device_timestamp_us = r.get<int64_t>();
-    r.get_bytes(c.depth);
-    r.get_bytes(c.color);
+    c.depth = r.get_span();
+    c.color = r.get_span();
   }
   r.expect_end();
 }

@@ -1,73 +1,106 @@
 #include "volcast/net/server.hpp"
 
 #include <spdlog/spdlog.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
-#include <asio.hpp>
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
-#include <functional>
 #include <list>
 #include <mutex>
 #include <thread>
 
-#include "socket_io.hpp"
-#include "volcast/codec/color_codec.hpp"
-#include "volcast/codec/depth_codec.hpp"
+#include "tier_encoder.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/worker_pool.hpp"
+#include "volcast/net/connection.hpp"
+#include "volcast/net/pacing.hpp"
 
 namespace volcast {
+namespace {
 
-using asio::ip::tcp;
+int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// An eventfd that wakes one viewer's thread when its tier has a new frame set.
+struct WakeFd {
+  int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  ~WakeFd() { ::close(fd); }
+  void signal() const {
+    const uint64_t one = 1;
+    [[maybe_unused]] const auto n = ::write(fd, &one, sizeof one);
+  }
+  void drain() const {
+    uint64_t v;
+    [[maybe_unused]] const auto n = ::read(fd, &v, sizeof v);
+  }
+};
+
+}  // namespace
 
 struct Server::Impl {
   ServerConfig config;
   std::vector<protocol::CameraInfo> cameras;
-  asio::io_context io;
-  tcp::acceptor acceptor{io};
+  std::unique_ptr<TcpListener> listener;
+  std::unique_ptr<WorkerPool> pool;
   std::thread accept_thread;
   std::atomic<bool> stopping{false};
 
-  // The newest frame set; viewers wait on `fresh` for a newer sequence.
-  mutable std::mutex mutex;
-  std::condition_variable fresh;
-  std::shared_ptr<const FrameSet> latest;
+  mutable std::mutex mutex;  // guards everything below and each Tier's shared fields
+  std::condition_variable captured_changed;
+  std::shared_ptr<const CapturedFrameSet> captured;  // the newest published frame set
+
+  struct Tier {
+    explicit Tier(detail::TierKey key, size_t cameras) : encoder(std::move(key), cameras) {}
+    detail::TierEncoder encoder;  // used by the tier's thread only
+    std::thread thread;
+    // Guarded by Impl::mutex:
+    std::shared_ptr<const detail::EncodedFrames> latest;
+    std::vector<const WakeFd*> subscribers;
+    bool key_wanted = true;
+    bool stop = false;
+    TierReport report;
+    double encode_ms_total = 0;
+  };
+  std::list<std::shared_ptr<Tier>> tiers;
+  std::vector<std::thread> retired;  // threads of tiers told to stop, to be joined without mutex
 
   struct Viewer {
-    std::unique_ptr<tcp::socket> socket;
+    std::unique_ptr<Connection> connection;
     std::thread thread;
+    WakeFd wake;
     ViewerReport report;
     std::atomic<bool> done{false};
   };
-  std::list<Viewer> viewers;       // guarded by mutex
+  std::list<Viewer> viewers;
   std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
   static constexpr size_t kEndedReportsKept = 256;
 
   void accept_loop() {
     while (!stopping) {
-      asio::error_code ec;
-      auto socket = std::make_unique<tcp::socket>(io);
-      acceptor.accept(*socket, ec);
-      if (stopping) break;
-      if (ec) {
-        spdlog::warn("accept failed: {}", ec.message());
-        std::this_thread::sleep_for(std::chrono::milliseconds(10));
-        continue;
-      }
+      std::unique_ptr<Connection> connection = listener->accept();
+      if (!connection) break;
+      join_retired();
       std::lock_guard lock(mutex);
       reap_finished();
       Viewer& v = viewers.emplace_back();
-      v.socket = std::move(socket);
+      v.connection = std::move(connection);
+      v.report.peer = v.connection->peer();
       v.report.connected = true;
-      asio::error_code peer_ec;
-      const auto ep = v.socket->remote_endpoint(peer_ec);
-      v.report.peer = peer_ec ? "?" : ep.address().to_string() + ":" + std::to_string(ep.port());
-      const bool full = static_cast<int>(viewers.size()) > config.max_clients;
+      const bool full = static_cast<int>(viewers.size()) > config.max_viewers;
       v.thread = std::thread([this, &v, full] { serve_viewer(v, full); });
     }
   }
 
-  // Joins the threads of viewers that have ended and keeps only their reports. Caller holds mutex
-  // (a finished thread no longer takes it).
+  // Joins the threads of viewers that have ended (keeping their reports) and of tiers nobody
+  // watches any more. Caller holds mutex (a finished viewer thread no longer takes it; a tier
+  // thread told to stop leaves without taking it).
   void reap_finished() {
     for (auto it = viewers.begin(); it != viewers.end();) {
       if (!it->done) {
@@ -79,6 +112,26 @@ struct Server::Impl {
       if (ended.size() > kEndedReportsKept) ended.pop_front();
       it = viewers.erase(it);
     }
+    for (auto it = tiers.begin(); it != tiers.end();) {
+      if (!(*it)->subscribers.empty()) {
+        ++it;
+        continue;
+      }
+      (*it)->stop = true;
+      retired.push_back(std::move((*it)->thread));
+      it = tiers.erase(it);
+    }
+    captured_changed.notify_all();
+  }
+
+  // Joins the threads of stopped tiers. Caller must not hold mutex.
+  void join_retired() {
+    std::vector<std::thread> threads;
+    {
+      std::lock_guard lock(mutex);
+      threads.swap(retired);
+    }
+    for (auto& t : threads) t.join();
   }
 
   void update(Viewer& v, const std::function<void(ViewerReport&)>& f) {
@@ -86,158 +139,240 @@ struct Server::Impl {
     f(v.report);
   }
 
-  void serve_viewer(Viewer& v, bool full) {
-    tcp::socket& s = *v.socket;
+  // The tier's thread: encodes the newest frame set whenever there is one it has not encoded.
+  void run_tier(std::shared_ptr<Tier> tier) {
+    uint64_t last_sequence = 0, since_key = 0;
+    auto last_key = std::chrono::steady_clock::now() - std::chrono::hours(1);
+    while (true) {
+      std::shared_ptr<const CapturedFrameSet> frames;
+      bool key = false;
+      {
+        std::unique_lock lock(mutex);
+        captured_changed.wait(lock, [&] {
+          return stopping || tier->stop || (captured && captured->sequence > last_sequence);
+        });
+        if (stopping || tier->stop) break;
+        if (tier->subscribers.empty()) {  // everyone left: encode nothing until reaped or rejoined
+          last_sequence = captured->sequence;
+          continue;
+        }
+        frames = captured;
+        const auto now = std::chrono::steady_clock::now();
+        key = tier->report.frames_encoded == 0 ||
+              since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval) ||
+              (tier->key_wanted &&
+               now - last_key >= std::chrono::milliseconds(config.min_key_interval_ms));
+      }
+      last_sequence = frames->sequence;
+      const auto start = std::chrono::steady_clock::now();
+      std::shared_ptr<const detail::EncodedFrames> encoded;
+      try {
+        encoded = tier->encoder.encode(*frames, key, *pool);
+      } catch (const std::exception& e) {
+        spdlog::error("tier {}/{}: frame set {} not encoded: {}", tier->report.depth_codec,
+                      tier->report.color_codec, frames->sequence, e.what());
+        continue;
+      }
+      const auto end = std::chrono::steady_clock::now();
+      std::lock_guard lock(mutex);
+      if (encoded->key) {
+        since_key = 0;
+        last_key = end;
+        tier->key_wanted = false;
+        ++tier->report.key_frames;
+      } else {
+        ++since_key;
+      }
+      ++tier->report.frames_encoded;
+      tier->encode_ms_total += std::chrono::duration<double, std::milli>(end - start).count();
+      tier->latest = std::move(encoded);
+      for (const WakeFd* w : tier->subscribers) w->signal();
+    }
+  }
+
+  // Finds or makes the tier and subscribes `wake` to it. Caller holds mutex. Throws Error.
+  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd& wake) {
+    std::shared_ptr<Tier> tier;
+    for (const auto& t : tiers)
+      if (t->encoder.key() == key && !t->stop) tier = t;
+    if (!tier) {
+      if (static_cast<int>(tiers.size()) >= config.max_tiers)
+        throw Error("server has " + std::to_string(config.max_tiers) +
+                    " tiers already; choose the codecs of a viewer already watching");
+      tier = std::make_shared<Tier>(key, cameras.size());  // throws for unknown codecs
+      tier->report.depth_codec = key.depth_codec;
+      tier->report.color_codec = key.color_codec;
+      tier->report.color_quality = key.color_quality;
+      tiers.push_back(tier);
+      tier->thread = std::thread([this, tier] { run_tier(tier); });
+    }
+    tier->subscribers.push_back(&wake);
+    tier->key_wanted = true;  // the newcomer needs a key frame (a no-op for non-temporal tiers)
+    return tier;
+  }
+
+  void unsubscribe(Tier& tier, const WakeFd& wake) {
+    std::lock_guard lock(mutex);
+    std::erase(tier.subscribers, &wake);
+  }
+
+  void reject(Connection& c, const std::string& reason) {
+    const auto msg =
+        protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(reason));
     try {
-      s.non_blocking(true);
-      s.set_option(tcp::no_delay(true));
+      c.write_all(msg, 200);  // best effort: tell a confused peer why before closing
+    } catch (const Error&) {
+    }
+  }
+
+  protocol::Hello read_hello(Connection& c) {
+    uint8_t header_bytes[protocol::kHeaderBytes];
+    c.read_exact(header_bytes, config.handshake_timeout_ms);
+    const protocol::Header header = protocol::parse_header(header_bytes, protocol::kMaxHelloBytes);
+    if (header.type != protocol::MessageType::kHello)
+      throw Error("expected Hello as first message");
+    std::vector<uint8_t> payload(header.payload_bytes);
+    c.read_exact(payload, config.handshake_timeout_ms);
+    return protocol::parse_hello(payload);
+  }
+
+  void serve_viewer(Viewer& v, bool full) {
+    Connection& c = *v.connection;
+    std::shared_ptr<Tier> tier;
+    try {
       protocol::Hello hello;
       try {
-        uint8_t header_bytes[protocol::kHeaderBytes];
-        detail::read_exact(s, header_bytes, sizeof header_bytes, config.handshake_timeout_ms,
-                           stopping);
-        const protocol::Header header =
-            protocol::parse_header(header_bytes, protocol::kMaxHelloBytes);
-        if (header.type != protocol::MessageType::kHello)
-          throw Error("expected Hello as first message");
-        std::vector<uint8_t> payload(header.payload_bytes);
-        detail::read_exact(s, payload.data(), payload.size(), config.handshake_timeout_ms,
-                           stopping);
-        hello = protocol::parse_hello(payload);
+        hello = read_hello(c);
       } catch (const Error& e) {
-        // Tell a confused peer why (wrong version, garbage, timeout) before closing; best effort.
-        const auto msg = protocol::message(
-            protocol::MessageType::kReject,
-            protocol::serialize_reject(std::string("handshake failed: ") + e.what()));
-        try {
-          detail::write_all(s, msg.data(), msg.size(), 200, stopping);
-        } catch (const Error&) {
-        }
+        reject(c, std::string("handshake failed: ") + e.what());
         throw;
       }
       update(v, [&](ViewerReport& r) {
         r.depth_codec = hello.depth_codec;
         r.color_codec = hello.color_codec;
+        r.color_quality = hello.color_quality;
       });
-      std::vector<std::unique_ptr<DepthEncoder>> depth;
-      std::vector<std::unique_ptr<ColorEncoder>> color;
       try {
-        if (full) throw Error("server full (" + std::to_string(config.max_clients) + " viewers)");
-        for (size_t i = 0; i < cameras.size(); ++i) {
-          depth.push_back(make_depth_encoder(hello.depth_codec));
-          color.push_back(make_color_encoder(hello.color_codec));
-        }
+        if (full)
+          throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
+        std::lock_guard lock(mutex);
+        tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
       } catch (const Error& e) {
-        const auto msg =
-            protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(e.what()));
-        detail::write_all(s, msg.data(), msg.size(), config.stall_timeout_ms, stopping);
+        reject(c, e.what());
         throw;
       }
-      const auto welcome = protocol::message(protocol::MessageType::kWelcome,
-                                             protocol::serialize(protocol::Welcome{cameras}));
-      detail::write_all(s, welcome.data(), welcome.size(), config.stall_timeout_ms, stopping);
+      protocol::Welcome welcome{cameras, wall_clock_us()};
+      c.write_all(protocol::message(protocol::MessageType::kWelcome, protocol::serialize(welcome)),
+                  config.stall_timeout_ms);
       spdlog::info("viewer {} connected (depth {}, color {})", v.report.peer, hello.depth_codec,
                    hello.color_codec);
-      stream(v, depth, color);
+      stream(v, *tier);
     } catch (const std::exception& e) {
       if (!stopping) spdlog::info("viewer {} ended: {}", v.report.peer, e.what());
       update(v, [&](ViewerReport& r) { r.error = e.what(); });
     }
-    asio::error_code ec;
-    s.shutdown(tcp::socket::shutdown_both, ec);
-    s.close(ec);
+    if (tier) unsubscribe(*tier, v.wake);
+    c.shutdown();
     update(v, [](ViewerReport& r) { r.connected = false; });
     v.done = true;
   }
 
-  void stream(Viewer& v, std::vector<std::unique_ptr<DepthEncoder>>& depth,
-              std::vector<std::unique_ptr<ColorEncoder>>& color) {
-    protocol::EncodedFrameSet encoded;
-    encoded.cameras.resize(cameras.size());
-    std::vector<uint8_t> wire;
-    uint64_t last_sequence = 0;
-    bool first = true;
-    uint64_t since_key = 0;
-    uint64_t in_flight = 0;
-    auto last_ack = std::chrono::steady_clock::now();
-    uint8_t ack_header[protocol::kHeaderBytes];
-    std::vector<uint8_t> ack_payload;
-    // Reads one Ack (or any other message, which is a protocol error at this point).
-    auto read_ack = [&] {
-      detail::read_exact(*v.socket, ack_header, sizeof ack_header, config.handshake_timeout_ms,
-                         stopping);
-      const protocol::Header h = protocol::parse_header(ack_header, 64);
-      if (h.type != protocol::MessageType::kAck) throw Error("viewer sent an unexpected message");
-      ack_payload.resize(h.payload_bytes);
-      detail::read_exact(*v.socket, ack_payload.data(), ack_payload.size(),
-                         config.handshake_timeout_ms, stopping);
-      const uint64_t acked = protocol::parse_ack(ack_payload);
-      if (acked > last_sequence || in_flight == 0)
+  // Reads one message from the viewer: an Ack or a KeyFrameRequest; session-channel messages are
+  // skipped. Anything else ends the connection.
+  void read_control(Viewer& v, Tier& tier, Pacer& pacer, std::vector<uint8_t>& payload) {
+    Connection& c = *v.connection;
+    uint8_t header_bytes[protocol::kHeaderBytes];
+    c.read_exact(header_bytes, config.handshake_timeout_ms);
+    const protocol::Header h = protocol::parse_header(header_bytes, protocol::kMaxControlBytes);
+    payload.resize(h.payload_bytes);
+    c.read_exact(payload, config.handshake_timeout_ms);
+    if (h.type == protocol::MessageType::kAck) {
+      if (!pacer.on_ack(protocol::parse_ack(payload), steady_us()))
         throw Error("viewer acknowledged a frame set it was not sent");
-      --in_flight;
-      last_ack = std::chrono::steady_clock::now();
-    };
+    } else if (h.type == protocol::MessageType::kKeyFrameRequest) {
+      std::lock_guard lock(mutex);
+      tier.key_wanted = true;
+      ++v.report.key_requests;
+    } else if (h.channel != protocol::Channel::kSession) {
+      throw Error("viewer sent an unexpected message");
+    }
+  }
+
+  void stream(Viewer& v, Tier& tier) {
+    Connection& c = *v.connection;
+    Pacer pacer(config.max_window);
+    std::vector<uint8_t> payload;
+    uint64_t last_sequence = 0;  // the site sequence last sent (or skipped)
+    uint64_t last_index = 0;     // the tier index last sent; a delta needs index == last + 1
+    bool synced = false;
+    auto last_progress = std::chrono::steady_clock::now();
     while (!stopping) {
-      while (detail::wait_ready(*v.socket, POLLIN, 0)) read_ack();
-      if (in_flight >= static_cast<uint64_t>(config.window)) {
-        if (std::chrono::steady_clock::now() - last_ack >
-            std::chrono::milliseconds(config.stall_timeout_ms))
-          throw Error("viewer stalled: acknowledged nothing for " +
-                      std::to_string(config.stall_timeout_ms) + " ms");
-        if (detail::wait_ready(*v.socket, POLLIN, 50)) read_ack();
+      const Connection::Ready ready = c.wait(v.wake.fd, 100);
+      if (ready.woken) v.wake.drain();
+      if (ready.readable) {
+        read_control(v, tier, pacer, payload);
+        last_progress = std::chrono::steady_clock::now();
+      }
+      if (pacer.frames_in_flight() > 0 &&
+          std::chrono::steady_clock::now() - last_progress >
+              std::chrono::milliseconds(config.stall_timeout_ms))
+        throw Error("viewer stalled: acknowledged nothing for " +
+                    std::to_string(config.stall_timeout_ms) + " ms");
+      std::shared_ptr<const detail::EncodedFrames> frames;
+      {
+        std::lock_guard lock(mutex);
+        frames = tier.latest;
+      }
+      if (!frames || frames->sequence <= last_sequence) continue;
+      if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) continue;
+      const int64_t now_wall = wall_clock_us();
+      const bool decodable = frames->key || (synced && frames->index == last_index + 1);
+      const bool stale =
+          now_wall - frames->capture_us > int64_t{config.latency_budget_ms} * 1000;
+      if (!decodable || stale) {
+        // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
+        std::lock_guard lock(mutex);
+        ++v.report.frames_dropped;
+        v.report.frames_stale += stale;
+        if (!decodable) tier.key_wanted = true;
+        synced = false;
+        last_sequence = frames->sequence;
         continue;
       }
-      std::shared_ptr<const FrameSet> frames;
-      {
-        std::unique_lock lock(mutex);
-        fresh.wait_for(lock, std::chrono::milliseconds(100), [&] {
-          return stopping || (latest && (first || latest->sequence > last_sequence));
-        });
-        if (stopping) return;
-        if (!latest || (!first && latest->sequence <= last_sequence)) continue;
-        frames = latest;
-        if (!first) v.report.frames_dropped += frames->sequence - last_sequence - 1;
-      }
-      const bool key = first || ++since_key >= static_cast<uint64_t>(config.key_frame_interval);
-      if (key) since_key = 0;
-      encoded.sequence = frames->sequence;
-      encoded.capture_time_us = frames->capture_time_us;
-      for (size_t i = 0; i < cameras.size(); ++i) {
-        const CameraFrame& f = frames->cameras[i];
-        encoded.cameras[i].device_timestamp_us = f.device_timestamp_us;
-        depth[i]->encode(f.depth, key, encoded.cameras[i].depth);
-        color[i]->encode(f.color, key, encoded.cameras[i].color);
-      }
-      protocol::serialize(encoded, wire);
-      detail::write_all(*v.socket, wire.data(), wire.size(), config.stall_timeout_ms, stopping);
-      if (in_flight++ == 0) last_ack = std::chrono::steady_clock::now();
-      first = false;
+      const auto prefix = protocol::frame_set_prefix(frames->body.size(), now_wall);
+      const std::span<const uint8_t> parts[2] = {prefix, frames->body};
+      c.write_all(parts, config.stall_timeout_ms);
+      const size_t bytes = prefix.size() + frames->body.size();
+      if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
+      pacer.on_send(frames->sequence, bytes, steady_us());
+      std::lock_guard lock(mutex);
+      if (last_sequence > 0 && frames->sequence > last_sequence + 1)
+        v.report.frames_dropped += frames->sequence - last_sequence - 1;
       last_sequence = frames->sequence;
-      update(v, [&](ViewerReport& r) {
-        ++r.frames_sent;
-        r.bytes_sent += wire.size();
-      });
+      last_index = frames->index;
+      synced = true;
+      ++v.report.frames_sent;
+      v.report.bytes_sent += bytes;
+      v.report.min_rtt_ms = pacer.min_rtt_us() / 1000;
+      v.report.bottleneck_mbit_s = pacer.bottleneck_bytes_per_us() * 8;
+      v.report.window = pacer.window_frames();
     }
   }
 };
 
 Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
     : impl_(std::make_unique<Impl>()) {
-  if (config.window < 1) throw Error("server: window must be at least 1");
+  if (config.max_window < 1) throw Error("server: --max-window must be at least 1");
+  if (config.latency_budget_ms < 1) throw Error("server: --latency-budget must be at least 1 ms");
+  if (config.max_viewers < 1) throw Error("server: --max-viewers must be at least 1");
+  if (config.key_frame_interval < 1) throw Error("server: --key-frame-interval must be at least 1");
   if (cameras.empty() || static_cast<int>(cameras.size()) > protocol::kMaxCameras)
     throw Error("server: a site needs 1 to " + std::to_string(protocol::kMaxCameras) + " cameras");
   impl_->config = std::move(config);
   impl_->cameras = std::move(cameras);
-  try {
-    const tcp::endpoint ep(asio::ip::make_address(impl_->config.bind_address), impl_->config.port);
-    impl_->acceptor.open(ep.protocol());
-    impl_->acceptor.set_option(tcp::acceptor::reuse_address(true));
-    impl_->acceptor.bind(ep);
-    impl_->acceptor.listen();
-  } catch (const std::system_error& e) {
-    throw Error("cannot listen on " + impl_->config.bind_address + ":" +
-                std::to_string(impl_->config.port) + ": " + e.what());
-  }
+  impl_->pool = std::make_unique<WorkerPool>(impl_->config.encode_threads);
+  impl_->listener =
+      std::make_unique<TcpListener>(impl_->config.bind_address, impl_->config.port);
   impl_->accept_thread = std::thread([this] { impl_->accept_loop(); });
 }
 
@@ -246,17 +381,19 @@ Server::~Server() {
 }
 
 uint16_t Server::port() const {
-  return impl_->acceptor.local_endpoint().port();
+  return impl_->listener->port();
 }
 
-void Server::publish(std::shared_ptr<const FrameSet> frames) {
+void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   if (!frames || frames->cameras.size() != impl_->cameras.size())
     throw Error("server: frame set has the wrong number of cameras");
+  for (const auto& f : frames->cameras)
+    if (!f) throw Error("server: frame set has a missing camera frame");
   {
     std::lock_guard lock(impl_->mutex);
-    impl_->latest = std::move(frames);
+    impl_->captured = std::move(frames);
   }
-  impl_->fresh.notify_all();
+  impl_->captured_changed.notify_all();
 }
 
 std::vector<ViewerReport> Server::viewers() const {
@@ -266,18 +403,37 @@ std::vector<ViewerReport> Server::viewers() const {
   return out;
 }
 
+std::vector<TierReport> Server::tiers() const {
+  std::lock_guard lock(impl_->mutex);
+  std::vector<TierReport> out;
+  for (const auto& t : impl_->tiers) {
+    TierReport r = t->report;
+    r.viewers = static_cast<int>(t->subscribers.size());
+    if (r.frames_encoded > 0) r.encode_ms_mean = t->encode_ms_total / double(r.frames_encoded);
+    out.push_back(r);
+  }
+  return out;
+}
+
 void Server::stop() {
   if (impl_->stopping.exchange(true)) return;
-  impl_->fresh.notify_all();
-  asio::error_code ec;
-  // Unblock accept(): shutdown + close of the listening socket.
-  ::shutdown(impl_->acceptor.native_handle(), SHUT_RDWR);
-  impl_->acceptor.close(ec);
+  impl_->listener->close();
   if (impl_->accept_thread.joinable()) impl_->accept_thread.join();
-  // The accept thread has ended, so the list no longer changes; viewer threads notice `stopping`
-  // within 100 ms and must be joined without holding the mutex they report through.
+  {
+    std::lock_guard lock(impl_->mutex);
+    for (auto& v : impl_->viewers) v.connection->shutdown();
+  }
+  impl_->captured_changed.notify_all();
+  // The accept thread has ended, so the viewer list no longer changes; viewer threads notice
+  // `stopping` within 100 ms and must be joined without holding the mutex they report through.
   for (auto& v : impl_->viewers)
     if (v.thread.joinable()) v.thread.join();
+  {
+    std::lock_guard lock(impl_->mutex);
+    for (auto& t : impl_->tiers) impl_->retired.push_back(std::move(t->thread));
+  }
+  impl_->captured_changed.notify_all();
+  impl_->join_retired();
 }
 
 }  // namespace volcast

@@ -1,6 +1,6 @@
 #pragma once
-// The viewer's side of the stream protocol: connects, names its codecs, receives the calibration
-// and then decoded frame sets.
+// The viewer's side of the stream protocol: connects, names its tier, receives the calibration,
+// then frame sets, decoding the cameras in parallel, and acknowledges each one.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -14,13 +14,29 @@ namespace volcast {
 struct ClientConfig {
   std::string host = "127.0.0.1";
   uint16_t port = 7300;
-  std::string depth_codec = "trvl";
+  std::string depth_codec = "volcast";
   std::string color_codec = "jpeg";
+  int color_quality = 0;  ///< 1..100, 0 = the color codec's default
+  /// false: receive-only -- frame sets are read and acknowledged but not decoded (a load
+  /// generator measuring the server, or a relay).
+  bool decode = true;
+  int decode_threads = 0;  ///< worker threads for decoding (0 = cores - 1)
+};
+
+/// Per-stage times of one frame set, all on this viewer's clock (wall clock, microseconds since
+/// the Unix epoch): the sender's times are shifted by the estimated clock offset (zero when the
+/// two clocks cannot be told apart, e.g. on one machine).
+struct StageTimes {
+  int64_t capture_us = 0, filter_done_us = 0, encode_done_us = 0, send_us = 0;  ///< sender
+  int64_t received_us = 0;  ///< the whole message read
+  int64_t decoded_us = 0;   ///< every camera decoded (= received_us when not decoding)
 };
 
 /// A decoded frame set plus what it cost on the wire.
 struct ReceivedFrameSet {
-  FrameSet frames;                  ///< decoded depth (mm) and color per camera
+  FrameSet frames;  ///< decoded depth (mm) and color per camera (empty images when not decoding)
+  bool key = false;
+  StageTimes times;
   std::vector<size_t> depth_bytes;  ///< encoded depth size per camera
   std::vector<size_t> color_bytes;  ///< encoded color size per camera
   size_t message_bytes = 0;         ///< whole message including headers
@@ -29,17 +45,23 @@ struct ReceivedFrameSet {
 class Client {
  public:
   /// Connects and completes the handshake. Throws Error if the server cannot be reached, rejects
-  /// the codecs (the server's reason is in the message), or answers with a malformed Welcome.
+  /// the tier (the server's reason is in the message), or answers with a malformed Welcome.
   explicit Client(const ClientConfig& config);
   ~Client();
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
   const protocol::Welcome& welcome() const;
-  /// Blocks for the next frame set and decodes it into `out` (buffers reused). Returns false when
-  /// the server closed the connection or close() was called. Throws Error on a malformed message or
-  /// a frame that does not match the camera's calibrated size.
+  /// Estimated server clock minus this clock, microseconds (0 when within the handshake's
+  /// uncertainty).
+  int64_t clock_offset_us() const;
+  /// Blocks for the next frame set, decodes it into `out` (buffers reused) and acknowledges it.
+  /// A frame set whose delta frames cannot be decoded (reference missing) is acknowledged,
+  /// skipped, and a key frame requested; counted in frames_undecodable(). Returns false when the
+  /// server closed the connection or close() was called. Throws Error on a malformed message or a
+  /// frame that does not match the camera's calibrated size.
   bool receive(ReceivedFrameSet& out);
+  uint64_t frames_undecodable() const;
   /// Closes the connection; a receive() blocked in another thread returns false. Thread-safe.
   void close();
 

@@ -1,26 +1,45 @@
 #pragma once
-// Volcast stream protocol, version 1, over one TCP connection per viewer.
+// Volcast stream protocol, version 2: versioned messages on channels, over one connection per
+// viewer (TCP today; TLS and WebSocket carry the same bytes). Little-endian throughout.
 //
-// Every message: a 12-byte header, little-endian:
-//   magic "VCST" (4 bytes) | protocol version u16 | message type u16 | payload length u32
-// then the payload. Strings are u16 length + UTF-8 bytes; doubles are IEEE-754 binary64.
+// Every message: a 12-byte header
+//   magic "VCST" (4 bytes) | protocol version u16 (= 2) | channel u8 | type u8 | payload length u32
+// then the payload. Strings are u16 length + UTF-8 bytes; byte strings u32 length + bytes; doubles
+// IEEE-754 binary64; times i64 microseconds of the sender's wall clock (Unix epoch).
 //
-// Conversation:
-//   viewer -> server  Hello      depth codec name, color codec name
-//   server -> viewer  Welcome    camera count, then per camera: width u16, height u16, the 15
-//                                intrinsics fx fy cx cy k1..k6 p1 p2 codx cody metric_radius (f64),
-//                                world_from_camera rotation (9 f64, row-major) and translation
-//                                (3 f64, metres), and a description string
-//                  or Reject     a reason string (unknown codec, wrong version, server full), then
-//                                the server closes the connection
-//   server -> viewer  FrameSet   sequence u64, capture time i64 (server wall clock, microseconds),
-//                                camera count u32, per camera: device timestamp i64 (us),
-//                                depth bytes (u32 length + codec stream), color bytes (likewise)
-//   viewer -> server  Ack        sequence u64 of a frame set the viewer has decoded
-// The server sends calibration once (Welcome) and then frame sets, at most `window` of them
-// unacknowledged (default 2): the newest frame set goes out only when the viewer has caught up, so
-// a slow viewer misses whole frame sets (sequence numbers jump) instead of letting them queue in
-// socket buffers, and its latency stays bounded.
+// Channels and their messages (channel.type):
+//   0 control
+//     0.1 Hello      viewer -> server: depth codec string, color codec string, color quality u8
+//                    (1..100, 0 = the codec's default). (depth codec, color codec, quality) is
+//                    the viewer's tier.
+//     0.2 Welcome    server -> viewer: camera count u32, then per camera: width u16, height u16,
+//                    the 15 intrinsics fx fy cx cy k1..k6 p1 p2 codx cody metric_radius (f64),
+//                    world_from_camera rotation (9 f64, row-major) and translation (3 f64, metres),
+//                    a description string; then the server's wall clock i64 when it sent Welcome
+//                    (the viewer estimates the offset between the two clocks from it).
+//     0.3 Reject     server -> viewer: a reason string (unknown codec, wrong version, server full);
+//                    the server then closes the connection.
+//     0.4 Ack        viewer -> server: sequence u64 of a frame set the viewer has received and
+//                    decoded (or, for a receive-only peer, read). The server paces by Acks.
+//     0.5 KeyFrameRequest  viewer -> server, empty: the viewer's decoder refused a delta frame;
+//                    the server sends the viewer's tier's next key frame (rate-limited per tier).
+//   1 frames
+//     1.1 FrameSet   server -> viewer: send time i64 (when this server began writing the message
+//                    to this viewer), then the tier's shared body, byte-identical for every viewer
+//                    of the tier: sequence u64 | flags u8 (bit 0: key frame set, every camera's
+//                    depth and color decode on their own) | capture time i64 | filter done i64 |
+//                    encode done i64 | camera count u32 | per camera: device timestamp i64 (us),
+//                    depth bytes (u32 length + codec stream), color bytes (likewise).
+//   2 session        reserved for the shared virtual room (lobby, poses, objects): any type is
+//                    accepted by parse_header; a peer that does not use it skips the payload.
+//
+// Conversation: Hello, then Welcome or Reject; then FrameSets from the server and Acks (and
+// KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the connection.
+//
+// Pacing (see server.hpp): the server keeps about one bandwidth-delay product of frame sets in
+// flight (sent, not acknowledged), always sends the newest frame set, and never one older than its
+// latency budget, so a slow viewer skips whole frame sets instead of building latency.
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -31,35 +50,47 @@
 namespace volcast::protocol {
 
 inline constexpr uint32_t kMagic = 0x54534356;  // "VCST" as little-endian bytes
-inline constexpr uint16_t kVersion = 1;
+inline constexpr uint16_t kVersion = 2;
 inline constexpr size_t kHeaderBytes = 12;
 inline constexpr uint32_t kMaxHelloBytes = 4096;
+inline constexpr uint32_t kMaxControlBytes = 4096;        ///< any viewer -> server message
 inline constexpr uint32_t kMaxPayloadBytes = 256u << 20;  ///< 256 MiB: any larger is hostile
 inline constexpr int kMaxCameras = 64;
 
+enum class Channel : uint8_t { kControl = 0, kFrames = 1, kSession = 2 };
+
+/// channel << 8 | type, as on the wire.
 enum class MessageType : uint16_t {
-  kHello = 1,
-  kWelcome = 2,
-  kReject = 3,
-  kFrameSet = 4,
-  kAck = 5
+  kHello = 0x0001,
+  kWelcome = 0x0002,
+  kReject = 0x0003,
+  kAck = 0x0004,
+  kKeyFrameRequest = 0x0005,
+  kFrameSet = 0x0101,
 };
+
+inline Channel channel_of(MessageType t) {
+  return static_cast<Channel>(static_cast<uint16_t>(t) >> 8);
+}
 
 struct Header {
   uint16_t version = kVersion;
-  MessageType type{};
+  Channel channel{};
+  MessageType type{};  ///< for the session channel, 0x02tt with any tt
   uint32_t payload_bytes = 0;
 };
 
 /// Encodes a header for `type` with `payload_bytes` into 12 bytes.
 void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderBytes]);
-/// Parses and validates a header: magic, version (must equal kVersion), known type, and a payload
-/// no larger than `max_payload`. Throws Error naming the first bad field.
+/// Parses and validates a header: magic, version (must equal kVersion), a known channel and (on
+/// the control and frames channels) a known type, and a payload no larger than `max_payload`.
+/// Throws Error naming the first bad field.
 Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload = kMaxPayloadBytes);
 
 struct Hello {
   std::string depth_codec;
   std::string color_codec;
+  int color_quality = 0;  ///< 1..100, 0 = the color codec's default
 };
 
 struct CameraInfo {
@@ -69,19 +100,36 @@ struct CameraInfo {
 
 struct Welcome {
   std::vector<CameraInfo> cameras;
+  int64_t server_time_us = 0;
 };
 
-/// One camera's share of a frame set, still encoded.
+/// Sender-side times of one frame set (wall clock, microseconds since the Unix epoch).
+struct SenderTimes {
+  int64_t capture_us = 0;      ///< frames read from the sources
+  int64_t filter_done_us = 0;  ///< filter chains done
+  int64_t encode_done_us = 0;  ///< every camera of the tier encoded
+  int64_t send_us = 0;         ///< this server began writing the message to this viewer
+};
+
+/// One camera's share of a parsed frame set: views into the received payload (valid while it is).
+struct EncodedCameraView {
+  int64_t device_timestamp_us = 0;
+  std::span<const uint8_t> depth;
+  std::span<const uint8_t> color;
+};
+
+struct FrameSetView {
+  uint64_t sequence = 0;
+  bool key = false;
+  SenderTimes times;
+  std::vector<EncodedCameraView> cameras;
+};
+
+/// One camera's encoded streams, for building a frame set body.
 struct EncodedCamera {
   int64_t device_timestamp_us = 0;
   std::vector<uint8_t> depth;
   std::vector<uint8_t> color;
-};
-
-struct EncodedFrameSet {
-  uint64_t sequence = 0;
-  int64_t capture_time_us = 0;
-  std::vector<EncodedCamera> cameras;
 };
 
 // Payload serialisation. The parse_* functions throw Error("malformed <message>: ...") on any
@@ -89,17 +137,24 @@ struct EncodedFrameSet {
 std::vector<uint8_t> serialize(const Hello& m);
 std::vector<uint8_t> serialize(const Welcome& m);
 std::vector<uint8_t> serialize_reject(const std::string& reason);
-/// Appends header + payload of a frame set to `out` (cleared first; capacity reused).
-void serialize(const EncodedFrameSet& m, std::vector<uint8_t>& out);
-
 std::vector<uint8_t> serialize_ack(uint64_t sequence);
-uint64_t parse_ack(std::span<const uint8_t> payload);
+
+/// Writes a FrameSet's shared body (everything after the send time) into `out` (cleared first;
+/// capacity reused). `times.send_us` is not part of the body.
+void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& times,
+                              std::span<const EncodedCamera> cameras, std::vector<uint8_t>& out);
+/// The 20 bytes a FrameSet message starts with for one viewer: header (payload = 8 + body size)
+/// and the send time. The message is these bytes followed by the shared body (a gather write).
+inline constexpr size_t kFrameSetPrefixBytes = kHeaderBytes + 8;
+std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, int64_t send_us);
 
 Hello parse_hello(std::span<const uint8_t> payload);
 Welcome parse_welcome(std::span<const uint8_t> payload);
 std::string parse_reject(std::span<const uint8_t> payload);
-/// Parses into `out`, reusing its buffers.
-void parse_frame_set(std::span<const uint8_t> payload, EncodedFrameSet& out);
+uint64_t parse_ack(std::span<const uint8_t> payload);
+/// Parses a FrameSet payload (send time + body) into `out` (its camera list reused); the views
+/// point into `payload`.
+void parse_frame_set(std::span<const uint8_t> payload, FrameSetView& out);
 
 /// Header + payload as one message.
 std::vector<uint8_t> message(MessageType type, const std::vector<uint8_t>& payload);

@@ -1,13 +1,25 @@
 #pragma once
-// The streaming server: accepts viewers over TCP (asio), negotiates codecs per viewer, sends the
-// site's calibration once, then every frame set published to it.
+// The streaming server: accepts viewers, encodes each frame set once per tier and hands the same
+// bytes to every viewer of that tier, paced per viewer to what its path carries.
 //
-// Pacing: the server keeps only the newest frame set. Each viewer has its own thread and encoders;
-// it sends a frame set only while fewer than `window` are unacknowledged, and then always the
-// newest one, so a viewer that cannot keep up skips whole frame sets (counted as dropped) instead
-// of queueing them in socket buffers, and never slows another viewer or the publisher. Temporal
-// codecs stay decodable across skips because each viewer's encoder codes deltas against the last
-// frame that viewer was sent.
+// Tiers. A tier is (depth codec, color codec, color quality). Each tier with at least one viewer
+// has one encoder per camera and a thread that encodes the newest published frame set (the
+// cameras in parallel on a shared worker pool) into one immutable FrameSet body. Every viewer of
+// the tier is sent those bytes (a gather write of a 20-byte per-viewer prefix and the shared body),
+// so 16 viewers cost about what one costs. A tier that falls behind skips frame sets.
+//
+// Key frames. Temporal codecs (trvl, volcast-t, h264, hevc) code deltas against the tier's last
+// frame set, so a viewer can only be sent a delta if it was sent the tier's previous frame set. A
+// viewer that joins, skips frame sets (pacing, latency budget) or asks for one (KeyFrameRequest)
+// waits for the tier's next key frame set; the tier makes one on request at most every
+// `min_key_interval_ms`, and every `key_frame_interval` frame sets anyway.
+//
+// Pacing (per viewer, from Ack timing, after BBR: Cardwell et al., ACM Queue 2016): the server
+// estimates the path's round-trip time (windowed minimum of send -> Ack) and bottleneck rate
+// (windowed maximum of the delivery rate), and keeps about two bandwidth-delay products of bytes in
+// flight (at least one frame set, at most `max_window`). It always sends the newest frame set and
+// never one captured more than `latency_budget_ms` ago, so a slow viewer or path skips whole frame
+// sets instead of building latency, and never slows the publisher or another viewer.
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -21,38 +33,61 @@ namespace volcast {
 struct ServerConfig {
   std::string bind_address = "127.0.0.1";  ///< "0.0.0.0" to accept remote viewers
   uint16_t port = 7300;                    ///< 0 picks a free port (see Server::port)
-  int key_frame_interval = 60;             ///< frames between key frames for temporal codecs
-  int window = 2;                          ///< frame sets in flight (sent, not acknowledged)
-  int max_clients = 16;
+  int key_frame_interval = 60;             ///< frame sets between key frames of temporal tiers
+  int min_key_interval_ms = 250;           ///< a tier makes requested key frames at most this often
+  int max_window = 8;             ///< frame sets in flight (sent, not acknowledged) at most
+  int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
+  int max_viewers = 16;           ///< further viewers are rejected ("server full")
+  int max_tiers = 8;              ///< distinct tiers at once; a viewer asking for another is rejected
+  int encode_threads = 0;         ///< worker threads for encoding (0 = cores - 1)
   int handshake_timeout_ms = 5000;  ///< a viewer must send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
                                     ///< disconnected
 };
 
-/// What the server knows about one viewer (for logs and tests).
+/// What the server knows about one viewer (for logs, tests and the benchmark).
 struct ViewerReport {
   std::string peer;
   std::string depth_codec, color_codec;
+  int color_quality = 0;
   uint64_t frames_sent = 0;
-  uint64_t frames_dropped = 0;  ///< frame sets published while this viewer was busy
+  uint64_t frames_dropped = 0;  ///< frame sets of its tier it skipped (pacing, budget, no key yet)
+  uint64_t frames_stale = 0;    ///< of those, skipped for being older than the latency budget
+  uint64_t key_requests = 0;    ///< KeyFrameRequests the viewer sent
   uint64_t bytes_sent = 0;
+  double min_rtt_ms = 0;          ///< path round trip (send -> Ack), windowed minimum
+  double bottleneck_mbit_s = 0;   ///< delivery-rate estimate, windowed maximum
+  int window = 0;                 ///< frame sets it may have in flight now
   bool connected = false;
   std::string error;  ///< why it ended, if it did
 };
 
+/// One tier's encoder figures.
+struct TierReport {
+  std::string depth_codec, color_codec;
+  int color_quality = 0;
+  int viewers = 0;
+  uint64_t frames_encoded = 0, key_frames = 0;
+  double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set
+};
+
 class Server {
  public:
-  /// Binds and starts accepting. Throws Error if the address or port cannot be bound.
+  /// Binds and starts accepting. Throws Error if the address or port cannot be bound or the
+  /// configuration is invalid.
   Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config);
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
   uint16_t port() const;
-  /// Makes `frames` the newest frame set (one frame per camera, in camera order). Never blocks
-  /// on viewers. Throws Error if the camera count differs from the site's.
-  void publish(std::shared_ptr<const FrameSet> frames);
+  /// Makes `frames` the newest frame set (one frame per camera, in camera order). Never blocks on
+  /// encoders or viewers. Throws Error if the camera count differs from the site's.
+  void publish(std::shared_ptr<const CapturedFrameSet> frames);
+  /// Viewers connected now and the last 256 that left.
   std::vector<ViewerReport> viewers() const;
+  /// Tiers with at least one viewer.
+  std::vector<TierReport> tiers() const;
   /// Stops accepting, disconnects every viewer and joins all threads. Idempotent.
   void stop();
 

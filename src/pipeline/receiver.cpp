@@ -1,4 +1,4 @@
-#include "viewer.hpp"
+#include "volcast/pipeline/receiver.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -14,6 +14,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/core/worker_pool.hpp"
 
 namespace volcast {
 namespace {
@@ -22,14 +23,6 @@ struct Accumulator {
   uint64_t frames = 0, dropped = 0, depth_bytes = 0, color_bytes = 0;
   std::vector<double> latencies_ms;
 };
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i =
-      std::min(v.size() - 1, static_cast<size_t>(p * static_cast<double>(v.size() - 1) + 0.5));
-  return v[i];
-}
 
 // Hands the newest point clouds from the receiving thread to the rendering thread.
 struct CloudMailbox {
@@ -99,6 +92,8 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   std::vector<Accumulator> acc(cams.size());
   std::vector<PointCloud> clouds(cams.size());
   ReceivedFrameSet rx;
+  StageRecorder stages;
+  WorkerPool pool;  // point clouds of the cameras built in parallel
   const auto start = std::chrono::steady_clock::now();
   int64_t first_rx_us = 0, last_rx_us = 0;
   uint64_t last_sequence = 0, received = 0;
@@ -123,9 +118,11 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
            client.receive(rx)) {
       clouds.resize(cams.size());  // after a hand-over these may be the renderer's old buffers
-      for (size_t i = 0; i < cams.size(); ++i)
+      pool.parallel_for(cams.size(), [&](size_t i) {
         builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, clouds[i]);
+      });
       const int64_t now = wall_clock_us();
+      stages.add(rx.times, now);
       const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
       const uint64_t gap = received > 0 && rx.frames.sequence > last_sequence + 1
                                ? rx.frames.sequence - last_sequence - 1
@@ -181,6 +178,8 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   }
   if (receive_error) std::rethrow_exception(receive_error);
   if (render_error) std::rethrow_exception(render_error);
+  result.frames_undecodable = client.frames_undecodable();
+  result.stages = stages.summary();
 
   const double seconds = static_cast<double>(last_rx_us - first_rx_us) / 1e6;
   for (size_t i = 0; i < cams.size(); ++i) {
@@ -214,6 +213,11 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
   j["color_codec"] = r.color_codec;
   j["frames_rendered"] = r.frames_rendered;
   j["renderer"] = r.renderer;
+  j["frames_undecodable"] = r.frames_undecodable;
+  j["stages"] = nlohmann::json::array();
+  for (const StageLatency& l : r.stages)
+    j["stages"].push_back(
+        {{"stage", l.stage}, {"p50_ms", l.p50_ms}, {"p99_ms", l.p99_ms}, {"mean_ms", l.mean_ms}});
   j["cameras"] = nlohmann::json::array();
   for (size_t i = 0; i < r.cameras.size(); ++i) {
     const CameraStats& s = r.cameras[i];
@@ -252,6 +256,15 @@ std::string format_stats_table(const ViewerResult& r) {
         i, fmt::format("{}x{}", c.width, c.height), c.frames_received, c.frames_dropped,
         c.mean_depth_bytes, c.mean_color_bytes, c.depth_compression_ratio, c.received_fps,
         c.mbit_per_s, c.latency_ms_p50, c.latency_ms_p99, c.description);
+  }
+  if (!r.stages.empty()) {
+    s += "latency by stage (ms)  ";
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>9}", l.stage);
+    s += "\n                  p50  ";
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p50_ms);
+    s += "\n                  p99  ";
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p99_ms);
+    s += "\n";
   }
   return s;
 }

@@ -1,12 +1,13 @@
 #pragma once
-// The viewer pipeline: receive and decode (one thread), build point clouds, render (another
-// thread), and measure what arrived.
+// The receiver pipeline: receive and decode (the cameras in parallel), build point clouds, render
+// (another thread), and measure what arrived and what each stage cost.
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "volcast/net/client.hpp"
+#include "volcast/pipeline/stage_stats.hpp"
 #include "volcast/render/splat_renderer.hpp"
 
 namespace volcast {
@@ -41,6 +42,8 @@ struct ViewerResult {
   std::string depth_codec, color_codec;
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
+  uint64_t frames_undecodable = 0;      ///< skipped: a delta without its reference (key requested)
+  std::vector<StageLatency> stages;     ///< per-stage latency, kStageNames order
   std::string renderer;                 ///< GL renderer string, empty when not rendering
   std::vector<PointCloud> last_clouds;  ///< the last frame set's point clouds
 };
@@ -50,9 +53,9 @@ struct ViewerResult {
 ViewerResult run_viewer(const ViewerOptions& options);
 
 /// Writes the figures as JSON ({"depth_codec", "color_codec", "frames_rendered", "cameras":
-/// [...]}).
+/// [...], "stages": [{"stage", "p50_ms", "p99_ms", "mean_ms"}, ...]}).
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& result);
-/// A short human-readable table of the figures.
+/// A short human-readable table of the figures, with the per-stage latencies.
 std::string format_stats_table(const ViewerResult& result);
 
 }  // namespace volcast

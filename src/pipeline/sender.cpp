@@ -1,4 +1,4 @@
-#include "site.hpp"
+#include "volcast/pipeline/sender.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -48,6 +48,14 @@ void SitePlayer::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
+std::shared_ptr<CameraFrame> SitePlayer::spare_frame(size_t i) {
+  for (auto& b : buffers_[i])
+    if (b.use_count() == 1) return b;  // only this list holds it: no frame set, no encoder
+  auto b = std::make_shared<CameraFrame>();
+  if (buffers_[i].size() < 16) buffers_[i].push_back(b);
+  return b;
+}
+
 void SitePlayer::run(Server& server) {
   using clock = std::chrono::steady_clock;
   const auto period =
@@ -55,28 +63,38 @@ void SitePlayer::run(Server& server) {
   auto next = clock::now();
   const auto start = next;
   std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
-  last_frames_.resize(sources_.size());
+  last_frames_.assign(sources_.size(), nullptr);
+  buffers_.resize(sources_.size());
   uint64_t sequence = 0;
   int failures = 0;
   while (!stop_) {
     std::this_thread::sleep_until(next);
     next += period;
     if (clock::now() > next) next = clock::now() + period;  // overran: skip ticks, never queue
-    auto frames = std::make_shared<FrameSet>();
+    auto frames = std::make_shared<CapturedFrameSet>();
     try {
       const auto now = clock::now();
+      // Read every source that is due first (capture), then filter (the stage after capture).
+      std::vector<std::pair<size_t, CameraFrame>> read;
       for (size_t i = 0; i < sources_.size(); ++i) {
-        if (now < due[i] && !last_frames_[i].depth.pixels.empty()) continue;  // not its time yet
+        if (now < due[i] && last_frames_[i]) continue;  // not its time yet: repeat its last frame
         due[i] += std::chrono::duration_cast<clock::duration>(
             std::chrono::duration<double>(1.0 / sources_[i]->fps()));
         if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
+        read.emplace_back(i, sources_[i]->next());
+      }
+      frames->capture_time_us = wall_clock_us();
+      for (auto& [i, frame] : read) {
         if (chains_[i]) {
-          chains_[i]->apply(sources_[i]->next(), last_frames_[i]);
+          std::shared_ptr<CameraFrame> out = spare_frame(i);
+          chains_[i]->apply(frame, *out);
+          last_frames_[i] = std::move(out);
         } else {
-          last_frames_[i] = sources_[i]->next();
+          last_frames_[i] = std::make_shared<const CameraFrame>(std::move(frame));  // no copy
         }
       }
-      frames->cameras = last_frames_;
+      frames->filter_done_us = wall_clock_us();
+      frames->cameras = last_frames_;  // shares the frames, copies pointers
       failures = 0;
     } catch (const std::exception& e) {
       spdlog::error("site: skipping a frame set: {}", e.what());
@@ -87,7 +105,6 @@ void SitePlayer::run(Server& server) {
       continue;
     }
     frames->sequence = ++sequence;
-    frames->capture_time_us = wall_clock_us();
     server.publish(std::move(frames));
     ++published_;
   }

@@ -1,0 +1,31 @@
+#pragma once
+// The real recordings in ../shared/data arranged as sites, for the demo and the server benchmark.
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "volcast/capture/source.hpp"
+
+namespace volcast {
+
+inline constexpr const char* kHandsSet = "rgbd-hands-640x360";
+inline constexpr const char* kKinectSet = "k4a-recording/recording.mkv";
+inline constexpr const char* kFourKinectSet = "k4a-4cam-nfov";
+
+/// The data folder: `flag` if given, else $VOLCAST_DATA, ../shared/data beside the repository or
+/// the working directory, ./shared/data; nullopt if none holds the recordings.
+std::optional<std::filesystem::path> find_data(const std::string& flag);
+
+/// Two cameras: the 207-frame hands sequence (30 fps, nominal pinhole -- its intrinsics were never
+/// published; logged) and the genuine Azure Kinect recording (5 fps, factory calibration), placed
+/// 1.6 m to the right of camera 0. Throws Error if a recording cannot be opened.
+std::vector<std::unique_ptr<FrameSource>> two_camera_site(const std::filesystem::path& data);
+
+/// Four cameras: the four Azure Kinects of k4a-4cam-nfov (one real capture each, repeated at
+/// 30 fps), with the Azure Kinect recording's factory NFOV intrinsics (the set has none) and 1.6 m
+/// apart; their color resampled to the depth grid, not registered (the set has no extrinsics).
+std::vector<std::unique_ptr<FrameSource>> four_camera_site(const std::filesystem::path& data);
+
+}  // namespace volcast

@@ -1,0 +1,169 @@
+// volcast bench --server: the server's cost per viewer, measured with receive-only viewers.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "commands.hpp"
+#include "real_sites.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/stage_stats.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+double process_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) / 1e6;
+}
+
+double thread_cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_THREAD, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) / 1e6;
+}
+
+struct ViewerFigures {
+  uint64_t frames = 0;
+  std::vector<double> latency_ms;  // capture -> message read
+  double cpu_s = 0;                // this viewer thread's CPU time (subtracted from the server's)
+  std::string error;
+};
+
+struct Row {
+  int cameras = 0, viewers = 0;
+  std::string tier;
+  double fps_min = 0, latency_ms_p50 = 0, latency_ms_p99 = 0, server_cpu_percent = 0;
+};
+
+// One configuration: a site of the given sources, `viewers` receive-only viewers on one tier.
+Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
+            const std::string& depth, const std::string& color, double seconds) {
+  const int cameras = static_cast<int>(sources.size());
+  SitePlayer site(std::move(sources), 30);
+  ServerConfig config;
+  config.port = 0;
+  config.max_viewers = std::max(16, viewers);
+  Server server(site.cameras(), config);
+  site.start(server);
+  std::vector<ViewerFigures> figures(static_cast<size_t>(viewers));
+  std::atomic<bool> measuring{false}, done{false};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < viewers; ++i)
+    threads.emplace_back([&, i] {
+      ViewerFigures& f = figures[static_cast<size_t>(i)];
+      try {
+        ClientConfig c;
+        c.port = server.port();
+        c.depth_codec = depth;
+        c.color_codec = color;
+        c.decode = false;  // read and acknowledge only: the figure is the server's
+        Client client(c);
+        ReceivedFrameSet rx;
+        double cpu_start = 0;
+        bool counting = false;
+        while (!done && client.receive(rx)) {
+          if (measuring && !counting) {
+            counting = true;
+            cpu_start = thread_cpu_seconds();
+          }
+          if (!counting) continue;
+          ++f.frames;
+          f.latency_ms.push_back(static_cast<double>(rx.times.received_us - rx.times.capture_us) /
+                                 1000.0);
+        }
+        f.cpu_s = thread_cpu_seconds() - cpu_start;
+        client.close();
+      } catch (const std::exception& e) {
+        f.error = e.what();
+      }
+    });
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // join, key frames, warm-up
+  const double cpu0 = process_cpu_seconds();
+  const auto t0 = std::chrono::steady_clock::now();
+  measuring = true;
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+  done = true;
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double cpu1 = process_cpu_seconds();
+  site.stop();
+  server.stop();  // ends the viewers' connections
+  for (auto& t : threads) t.join();
+
+  Row row;
+  row.cameras = cameras;
+  row.viewers = viewers;
+  row.tier = depth + "/" + color;
+  std::vector<double> all;
+  double viewer_cpu = 0;
+  row.fps_min = 1e9;
+  for (const auto& f : figures) {
+    if (!f.error.empty()) throw Error("bench viewer failed: " + f.error);
+    row.fps_min = std::min(row.fps_min, static_cast<double>(f.frames) / wall);
+    all.insert(all.end(), f.latency_ms.begin(), f.latency_ms.end());
+    viewer_cpu += f.cpu_s;
+  }
+  row.latency_ms_p50 = percentile(all, 0.5);
+  row.latency_ms_p99 = percentile(all, 0.99);
+  // The process's CPU less the viewers' own threads: site reading, tier encoding, sending.
+  row.server_cpu_percent = 100 * std::max(0.0, cpu1 - cpu0 - viewer_cpu) / wall;
+  return row;
+}
+
+}  // namespace
+
+int run_server_bench(const BenchArgs& a) {
+  const auto data = find_data(a.data);
+  if (!data) throw Error("bench --server: the real recordings were not found (--data DIR)");
+  std::vector<int> viewer_counts = a.viewers.empty() ? std::vector<int>{1, 4, 8, 16} : a.viewers;
+  for (int v : viewer_counts)
+    if (v < 1 || v > 64) throw Error("--viewers must be 1..64");
+  if (!(a.server_seconds > 0)) throw Error("--server-seconds must be positive");
+  spdlog::set_level(spdlog::level::warn);  // viewers connecting and leaving are not news here
+  std::vector<Row> rows;
+  std::printf("%-8s %-8s %-14s %9s %9s %9s %11s\n", "cameras", "viewers", "tier", "fps min",
+              "lat p50", "lat p99", "server CPU");
+  const size_t total = 2 * viewer_counts.size();
+  for (int cameras : {2, 4})
+    for (int viewers : viewer_counts) {
+      std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers...\r", rows.size() + 1, total,
+                   cameras, viewers);
+      auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
+      rows.push_back(measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds));
+      const Row& r = rows.back();
+      std::printf("%-8d %-8d %-14s %9.1f %7.1fms %7.1fms %10.0f%%\n", r.cameras, r.viewers,
+                  r.tier.c_str(), r.fps_min, r.latency_ms_p50, r.latency_ms_p99,
+                  r.server_cpu_percent);
+      std::fflush(stdout);
+    }
+  if (!a.json.empty()) {
+    nlohmann::json j;
+    j["server"] = nlohmann::json::array();
+    for (const Row& r : rows)
+      j["server"].push_back({{"cameras", r.cameras},
+                             {"viewers", r.viewers},
+                             {"tier", r.tier},
+                             {"fps_min", r.fps_min},
+                             {"latency_ms_p50", r.latency_ms_p50},
+                             {"latency_ms_p99", r.latency_ms_p99},
+                             {"server_cpu_percent", r.server_cpu_percent}});
+    const fs::path path = a.json;
+    if (path.has_parent_path()) fs::create_directories(path.parent_path());
+    std::ofstream(path) << j.dump(2) << "\n";
+    std::printf("wrote %s\n", path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace volcast

@@ -1,0 +1,242 @@
+#include "volcast/net/connection.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <linux/sockios.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <asio.hpp>
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+std::string errno_text() {
+  return std::strerror(errno);
+}
+
+std::string endpoint_text(const sockaddr_storage& a) {
+  char host[INET6_ADDRSTRLEN] = "?";
+  uint16_t port = 0;
+  if (a.ss_family == AF_INET) {
+    const auto* v4 = reinterpret_cast<const sockaddr_in*>(&a);
+    inet_ntop(AF_INET, &v4->sin_addr, host, sizeof host);
+    port = ntohs(v4->sin_port);
+  } else if (a.ss_family == AF_INET6) {
+    const auto* v6 = reinterpret_cast<const sockaddr_in6*>(&a);
+    inet_ntop(AF_INET6, &v6->sin6_addr, host, sizeof host);
+    port = ntohs(v6->sin6_port);
+  }
+  return std::string(host) + ":" + std::to_string(port);
+}
+
+void configure_stream_socket(int fd) {
+  const int one = 1;
+  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  // BBR keeps throughput on lossy long paths where loss-based control collapses; best effort.
+  static const char kBbr[] = "bbr";
+  ::setsockopt(fd, IPPROTO_TCP, TCP_CONGESTION, kBbr, sizeof kBbr - 1);
+  const int flags = ::fcntl(fd, F_GETFL);
+  ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+}
+
+int remaining_ms(Clock::time_point deadline) {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+  return static_cast<int>(std::max<int64_t>(0, left.count()));
+}
+
+class TcpConnection final : public Connection {
+ public:
+  TcpConnection(int fd, std::string peer) : fd_(fd), peer_(std::move(peer)) {
+    configure_stream_socket(fd_);
+  }
+  ~TcpConnection() override { ::close(fd_); }
+
+  void read_exact(std::span<uint8_t> data, int timeout_ms) override {
+    const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 0));
+    size_t done = 0;
+    while (done < data.size()) {
+      check_open();
+      const ssize_t n = ::recv(fd_, data.data() + done, data.size() - done, 0);
+      if (n > 0) {
+        done += static_cast<size_t>(n);
+        continue;
+      }
+      if (n == 0) throw Error(shut_ ? "connection shut down" : "peer closed the connection");
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) throw Error("read failed: " + errno_text());
+      if (timeout_ms >= 0 && Clock::now() >= deadline)
+        throw Error("timed out waiting for the peer");
+      poll_fd(POLLIN, timeout_ms < 0 ? -1 : remaining_ms(deadline));
+    }
+  }
+
+  void write_all(std::span<const std::span<const uint8_t>> parts, int stall_ms) override {
+    constexpr size_t kMaxParts = 16;
+    if (parts.size() > kMaxParts) throw Error("write_all: too many parts");
+    iovec iov[kMaxParts];
+    size_t count = 0, total = 0;
+    for (const auto& p : parts) {
+      if (p.empty()) continue;
+      iov[count++] = {const_cast<uint8_t*>(p.data()), p.size()};
+      total += p.size();
+    }
+    auto last_progress = Clock::now();
+    size_t first = 0;
+    while (total > 0) {
+      check_open();
+      msghdr msg{};
+      msg.msg_iov = iov + first;
+      msg.msg_iovlen = count - first;
+      const ssize_t n = ::sendmsg(fd_, &msg, MSG_NOSIGNAL);
+      if (n > 0) {
+        size_t left = static_cast<size_t>(n);
+        total -= left;
+        while (left > 0) {  // advance past what was written
+          if (left >= iov[first].iov_len) {
+            left -= iov[first].iov_len;
+            ++first;
+          } else {
+            iov[first].iov_base = static_cast<uint8_t*>(iov[first].iov_base) + left;
+            iov[first].iov_len -= left;
+            left = 0;
+          }
+        }
+        last_progress = Clock::now();
+        continue;
+      }
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
+        throw Error(shut_ ? "connection shut down" : "write failed: " + errno_text());
+      const auto deadline = last_progress + std::chrono::milliseconds(stall_ms);
+      if (Clock::now() >= deadline)
+        throw Error("peer stalled: accepted no data for " + std::to_string(stall_ms) + " ms");
+      poll_fd(POLLOUT, remaining_ms(deadline));
+    }
+  }
+
+  Ready wait(int wake_fd, int timeout_ms) override {
+    check_open();
+    pollfd p[2] = {{fd_, POLLIN, 0}, {wake_fd, POLLIN, 0}};
+    const int n = ::poll(p, wake_fd >= 0 ? 2 : 1, timeout_ms);
+    Ready r;
+    if (n > 0) {
+      r.readable = p[0].revents != 0;
+      r.woken = wake_fd >= 0 && p[1].revents != 0;
+    }
+    return r;
+  }
+
+  size_t unacknowledged_bytes() const override {
+    int queued = 0;
+    if (::ioctl(fd_, SIOCOUTQ, &queued) != 0) return 0;
+    return static_cast<size_t>(std::max(queued, 0));
+  }
+
+  std::string peer() const override { return peer_; }
+
+  void shutdown() override {
+    if (shut_.exchange(true)) return;
+    ::shutdown(fd_, SHUT_RDWR);  // wakes poll() in other threads
+  }
+
+ private:
+  void check_open() const {
+    if (shut_) throw Error("connection shut down");
+  }
+  void poll_fd(short events, int timeout_ms) const {
+    // Wake at least every 100 ms to notice shutdown() (the socket's shutdown also wakes us).
+    pollfd p{fd_, events, 0};
+    ::poll(&p, 1, timeout_ms < 0 ? 100 : std::min(timeout_ms, 100));
+  }
+
+  int fd_;
+  std::string peer_;
+  std::atomic<bool> shut_{false};
+};
+
+}  // namespace
+
+std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port) {
+  try {
+    asio::io_context io;
+    asio::ip::tcp::resolver resolver(io);
+    asio::ip::tcp::socket socket(io);
+    const auto endpoint = asio::connect(socket, resolver.resolve(host, std::to_string(port)));
+    const std::string peer = endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
+    return std::make_unique<TcpConnection>(socket.release(), peer);
+  } catch (const std::system_error& e) {
+    throw Error("cannot connect to " + host + ":" + std::to_string(port) + ": " + e.what());
+  }
+}
+
+TcpListener::TcpListener(const std::string& bind_address, uint16_t port) {
+  const std::string where = bind_address + ":" + std::to_string(port);
+  asio::error_code ec;
+  const asio::ip::address address = asio::ip::make_address(bind_address, ec);
+  if (ec) throw Error("cannot listen on " + where + ": not an IP address");
+  const asio::ip::tcp::endpoint ep(address, port);
+  fd_ = ::socket(ep.protocol().family(), SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd_ < 0) throw Error("cannot listen on " + where + ": " + errno_text());
+  const int one = 1;
+  ::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
+  if (::bind(fd_, ep.data(), static_cast<socklen_t>(ep.size())) != 0 || ::listen(fd_, 64) != 0) {
+    const std::string why = errno_text();
+    ::close(fd_);
+    throw Error("cannot listen on " + where + ": " + why);
+  }
+  sockaddr_storage local{};
+  socklen_t len = sizeof local;
+  ::getsockname(fd_, reinterpret_cast<sockaddr*>(&local), &len);
+  port_ = local.ss_family == AF_INET6 ? ntohs(reinterpret_cast<sockaddr_in6*>(&local)->sin6_port)
+                                      : ntohs(reinterpret_cast<sockaddr_in*>(&local)->sin_port);
+}
+
+TcpListener::~TcpListener() {
+  close();
+  ::close(fd_);
+}
+
+uint16_t TcpListener::port() const {
+  return port_;
+}
+
+std::unique_ptr<Connection> TcpListener::accept() {
+  while (!closed_) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, 100) <= 0) continue;
+    sockaddr_storage peer{};
+    socklen_t len = sizeof peer;
+    const int fd = ::accept4(fd_, reinterpret_cast<sockaddr*>(&peer), &len, SOCK_CLOEXEC);
+    if (closed_) {
+      if (fd >= 0) ::close(fd);
+      break;
+    }
+    if (fd < 0) {
+      // EMFILE and friends: back off instead of spinning; the listener stays up.
+      if (errno != EAGAIN && errno != EINTR && errno != ECONNABORTED)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      continue;
+    }
+    return std::make_unique<TcpConnection>(fd, endpoint_text(peer));
+  }
+  return nullptr;
+}
+
+void TcpListener::close() {
+  if (closed_.exchange(true)) return;
+  ::shutdown(fd_, SHUT_RDWR);
+}
+
+}  // namespace volcast

@@ -1,0 +1,62 @@
+#pragma once
+// Per-viewer pacing from Ack timing: how many frame sets may be in flight on this viewer's path.
+// After BBR (N. Cardwell et al., "BBR: Congestion-Based Congestion Control", ACM Queue 14(5),
+// 2016), at frame-set granularity: the round-trip time is the windowed minimum of send -> Ack
+// (10 s), the bottleneck rate the windowed maximum of delivery-rate samples (2 s), and the bytes in
+// flight are kept under `gain` bandwidth-delay products -- at least one frame set, at most
+// `max_window`. Before the first Ack two frame sets may be in flight.
+// All times are microseconds of one steady clock; sizes are bytes.
+#include <cstddef>
+#include <cstdint>
+#include <deque>
+
+namespace volcast {
+
+class Pacer {
+ public:
+  explicit Pacer(int max_window, double gain = 2.0);
+
+  /// True if a frame set of `bytes` may be sent now.
+  bool can_send(size_t bytes) const;
+  void on_send(uint64_t sequence, size_t bytes, int64_t now_us);
+  /// Takes the Ack of `sequence`. Returns false (and changes nothing) if it is not in flight.
+  bool on_ack(uint64_t sequence, int64_t now_us);
+
+  size_t frames_in_flight() const { return flight_.size(); }
+  size_t bytes_in_flight() const { return bytes_in_flight_; }
+  /// Send time of the oldest unacknowledged frame set (0 if none).
+  int64_t oldest_send_us() const { return flight_.empty() ? 0 : flight_.front().send_us; }
+  /// 0 until the first Ack.
+  double min_rtt_us() const { return rtt_.empty() ? 0 : static_cast<double>(rtt_.front().value); }
+  /// Bytes per microsecond (= MB/s); 0 until the first Ack.
+  double bottleneck_bytes_per_us() const { return rate_.empty() ? 0 : rate_.front().value; }
+  /// Frame sets of the recent mean size that fit in the allowance now (1..max_window).
+  int window_frames() const;
+
+ private:
+  struct Sent {
+    uint64_t sequence;
+    int64_t send_us;
+    size_t bytes;
+    uint64_t delivered_at_send;  // bytes acknowledged when this was sent
+    int64_t delivered_us_at_send;
+  };
+  template <typename T>
+  struct Sample {
+    int64_t time_us;
+    T value;
+  };
+  double allowance_bytes() const;
+
+  int max_window_;
+  double gain_;
+  std::deque<Sent> flight_;
+  size_t bytes_in_flight_ = 0;
+  uint64_t delivered_ = 0;
+  int64_t delivered_us_ = 0;
+  double mean_frame_bytes_ = 0;
+  std::deque<Sample<int64_t>> rtt_;  // monotonic: front is the window's minimum
+  std::deque<Sample<double>> rate_;  // monotonic: front is the window's maximum
+};
+
+}  // namespace volcast

@@ -1,0 +1,52 @@
+#pragma once
+// Internal: one tier's encoders. A tier (depth codec, color codec, color quality) encodes each
+// frame set once; the result is immutable and shared by every viewer of the tier.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/frame.hpp"
+#include "volcast/core/worker_pool.hpp"
+#include "volcast/net/protocol.hpp"
+
+namespace volcast::detail {
+
+struct TierKey {
+  std::string depth_codec, color_codec;
+  int color_quality = 0;
+  bool operator==(const TierKey&) const = default;
+};
+
+/// One encoded frame set of a tier: the FrameSet body every viewer of the tier is sent.
+struct EncodedFrames {
+  uint64_t sequence = 0;  ///< the site's frame-set sequence
+  uint64_t index = 0;     ///< the tier's own count: 1, 2, ... (deltas code against index - 1)
+  bool key = false;       ///< every camera's depth and color decode on their own
+  int64_t capture_us = 0;
+  int64_t encode_done_us = 0;
+  std::vector<uint8_t> body;  ///< protocol::serialize_frame_set_body
+};
+
+class TierEncoder {
+ public:
+  /// Throws Error naming an unknown codec.
+  TierEncoder(TierKey key, size_t cameras);
+  const TierKey& key() const { return key_; }
+  /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
+  /// `pool`, into a recycled buffer. Not thread-safe: one caller at a time.
+  std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
+                                              WorkerPool& pool);
+
+ private:
+  TierKey key_;
+  std::vector<std::unique_ptr<DepthEncoder>> depth_;
+  std::vector<std::unique_ptr<ColorEncoder>> color_;
+  std::vector<protocol::EncodedCamera> encoded_;
+  std::vector<char> key_flags_;  // per task: emitted a key frame
+  std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
+  uint64_t index_ = 0;
+};
+
+}  // namespace volcast::detail

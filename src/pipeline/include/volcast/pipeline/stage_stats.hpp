@@ -1,0 +1,40 @@
+#pragma once
+// Per-stage latency of the stream, from the sender's and receiver's timestamps of each frame set
+// (one clock: see StageTimes). Stages, each named by where it ends:
+//   filter  capture -> filter chains done         encode   -> every camera of the tier encoded
+//   send    -> the server began sending (waiting for the path's window)
+//   receive -> the whole message read by the viewer  decode -> every camera decoded
+//   ready   -> point clouds built                   total    capture -> point clouds ready
+#include <array>
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "volcast/net/client.hpp"
+
+namespace volcast {
+
+inline constexpr std::array<std::string_view, 7> kStageNames = {
+    "filter", "encode", "send", "receive", "decode", "ready", "total"};
+
+struct StageLatency {
+  std::string_view stage;
+  double p50_ms = 0, p99_ms = 0, mean_ms = 0;
+};
+
+/// Collects per-frame-set stage durations; summary() gives p50/p99 per stage in kStageNames order.
+class StageRecorder {
+ public:
+  /// `ready_us`: when the point clouds were built, same clock as `t`.
+  void add(const StageTimes& t, int64_t ready_us);
+  std::vector<StageLatency> summary() const;
+  size_t count() const { return samples_[0].size(); }
+
+ private:
+  std::array<std::vector<double>, kStageNames.size()> samples_;  // milliseconds
+};
+
+/// The value at quantile `p` (0..1) of `v` (nearest rank); 0 for an empty list.
+double percentile(std::vector<double> v, double p);
+
+}  // namespace volcast

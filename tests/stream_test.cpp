@@ -1,0 +1,312 @@
+// The shared encoded stream: one encoding per tier, identical bytes for every viewer of a tier,
+// key frames for joiners, pacing that follows the path. Real recordings (the hands sequence).
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+#include <future>
+#include <map>
+#include <random>
+#include <thread>
+
+#include "test_data.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/core/worker_pool.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/net/connection.hpp"
+#include "volcast/net/pacing.hpp"
+#include "volcast/pipeline/sender.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+// One site streaming the real hands sequence (one camera) on a free loopback port.
+struct HandsSite {
+  SitePlayer player;
+  Server server;
+  explicit HandsSite(double fps, ServerConfig config = {})
+      : player(sources(), fps), server(player.cameras(), with_free_port(config)) {
+    player.start(server);
+  }
+  ~HandsSite() {
+    player.stop();
+    server.stop();
+  }
+  static std::vector<std::unique_ptr<FrameSource>> sources() {
+    SourceOptions opt;
+    opt.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};  // nominal: the set has no intrinsics
+    std::vector<std::unique_ptr<FrameSource>> v;
+    v.push_back(open_source(test::hands_dir(), opt));
+    return v;
+  }
+  static ServerConfig with_free_port(ServerConfig c) {
+    c.port = 0;
+    return c;
+  }
+};
+
+// Frame set n of a hands site carries hands frame (n - 1) % 207.
+DepthImage hands_source_frame(uint64_t sequence) {
+  return read_depth_png(test::hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207));
+}
+
+// A viewer speaking the protocol directly, keeping each frame set's shared body as received.
+struct RawViewer {
+  std::unique_ptr<Connection> c;
+  std::vector<uint8_t> payload;
+  RawViewer(uint16_t port, const std::string& depth, const std::string& color) {
+    c = connect_tcp("127.0.0.1", port);
+    c->write_all(protocol::message(protocol::MessageType::kHello,
+                                   protocol::serialize(protocol::Hello{depth, color, 0})),
+                 5000);
+    const protocol::Header h = read();
+    if (h.type != protocol::MessageType::kWelcome) throw Error("no Welcome");
+  }
+  protocol::Header read() {
+    uint8_t bytes[protocol::kHeaderBytes];
+    c->read_exact(bytes, 20000);
+    const protocol::Header h = protocol::parse_header(bytes);
+    payload.resize(h.payload_bytes);
+    c->read_exact(payload, 20000);
+    return h;
+  }
+  // Reads the next frame set: its sequence and body (the payload after the 8-byte send time).
+  std::pair<uint64_t, std::vector<uint8_t>> next_frame_set(bool ack = true) {
+    const protocol::Header h = read();
+    if (h.type != protocol::MessageType::kFrameSet) throw Error("expected a frame set");
+    protocol::FrameSetView view;
+    protocol::parse_frame_set(payload, view);
+    if (ack)
+      c->write_all(protocol::message(protocol::MessageType::kAck,
+                                     protocol::serialize_ack(view.sequence)),
+                   5000);
+    return {view.sequence, std::vector<uint8_t>(payload.begin() + 8, payload.end())};
+  }
+};
+
+TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAndLeaving) {
+  ServerConfig config;
+  config.key_frame_interval = 1000;  // key frames only when someone joins or skips
+  config.min_key_interval_ms = 50;
+  HandsSite site(15, config);
+  // Six viewers on one temporal tier join at random times and leave after a random number of
+  // frame sets; each decodes what it gets with its own decoder.
+  std::mt19937 rng(7);
+  std::vector<std::future<std::map<uint64_t, std::vector<uint8_t>>>> viewers;
+  std::atomic<int> decoded{0};
+  for (int i = 0; i < 6; ++i) {
+    const int delay_ms = static_cast<int>(rng() % 1200);
+    const int frames = 4 + static_cast<int>(rng() % 10);
+    viewers.push_back(std::async(std::launch::async, [&, delay_ms, frames] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+      RawViewer v(site.server.port(), "volcast-t", "jpeg");
+      auto decoder = make_depth_decoder("volcast-t");
+      std::map<uint64_t, std::vector<uint8_t>> got;
+      DepthImage depth;
+      for (int n = 0; n < frames; ++n) {
+        auto [sequence, body] = v.next_frame_set();
+        protocol::FrameSetView view;
+        std::vector<uint8_t> payload(8, 0);
+        payload.insert(payload.end(), body.begin(), body.end());
+        protocol::parse_frame_set(payload, view);
+        if (n == 0) {
+          EXPECT_TRUE(view.key) << "a joiner's first frame set is a key frame set";
+        }
+        decoder->decode(view.cameras[0].depth, depth);  // throws if its reference is missing
+        EXPECT_EQ(depth, hands_source_frame(sequence)) << "frame set " << sequence;
+        ++decoded;
+        got.emplace(sequence, std::move(body));
+      }
+      return got;
+    }));
+  }
+  std::map<uint64_t, std::vector<std::vector<uint8_t>>> by_sequence;
+  for (auto& f : viewers)
+    for (auto& [sequence, body] : f.get()) by_sequence[sequence].push_back(std::move(body));
+  size_t shared = 0;
+  for (const auto& [sequence, bodies] : by_sequence) {
+    for (const auto& b : bodies) EXPECT_EQ(b, bodies.front()) << "frame set " << sequence;
+    shared += bodies.size() > 1;
+  }
+  EXPECT_GT(shared, 0u) << "viewers overlapped in time, so some frame sets went to several";
+  EXPECT_GE(decoded.load(), 6 * 4);
+  // Viewers that left are gone from their tier.
+  for (const auto& t : site.server.tiers()) EXPECT_EQ(t.viewers, 0);
+}
+
+class JoinMidStream : public testing::TestWithParam<const char*> {};
+
+TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
+  const std::string codec = GetParam();
+  ServerConfig config;
+  config.key_frame_interval = 1000;  // so the joiner's key frame is the one made for it
+  HandsSite site(15, config);
+  ClientConfig c;
+  c.port = site.server.port();
+  c.depth_codec = codec;
+  Client first(c);
+  ReceivedFrameSet rx;
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(first.receive(rx));
+  uint64_t keys_before = 0;
+  for (const auto& t : site.server.tiers()) keys_before = t.key_frames;
+
+  Client joiner(c);
+  ReceivedFrameSet jx;
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_TRUE(joiner.receive(jx));
+    if (i == 0) {
+      EXPECT_TRUE(jx.key);
+    }
+    EXPECT_EQ(jx.frames.cameras[0].depth, hands_source_frame(jx.frames.sequence));
+    ASSERT_TRUE(first.receive(rx));  // the first viewer goes on too
+  }
+  EXPECT_EQ(joiner.frames_undecodable(), 0u);
+  const auto tiers = site.server.tiers();
+  ASSERT_EQ(tiers.size(), 1u);  // both on one tier: encoded once
+  EXPECT_EQ(tiers[0].viewers, 2);
+  EXPECT_GT(tiers[0].key_frames, keys_before);  // a key frame was made for the joiner
+  EXPECT_LT(tiers[0].key_frames, tiers[0].frames_encoded);  // and deltas otherwise
+}
+
+INSTANTIATE_TEST_SUITE_P(TemporalCodecs, JoinMidStream, testing::Values("volcast-t", "trvl"));
+
+TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
+  HandsSite site(15);
+  std::vector<std::unique_ptr<Client>> clients;
+  ClientConfig c;
+  c.port = site.server.port();
+  c.decode = false;
+  for (int i = 0; i < 4; ++i) clients.push_back(std::make_unique<Client>(c));
+  c.depth_codec = "rvl";
+  clients.push_back(std::make_unique<Client>(c));
+  ReceivedFrameSet rx;
+  for (int n = 0; n < 5; ++n)
+    for (auto& cl : clients) ASSERT_TRUE(cl->receive(rx));
+  std::map<std::string, int> viewers;
+  for (const auto& t : site.server.tiers()) viewers[t.depth_codec] = t.viewers;
+  EXPECT_EQ(viewers.size(), 2u);
+  EXPECT_EQ(viewers["volcast"], 4);
+  EXPECT_EQ(viewers["rvl"], 1);
+}
+
+TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
+  HandsSite site(15);
+  // A viewer that takes 400 ms to acknowledge each frame set (a slow decoder or path).
+  std::atomic<bool> stop{false};
+  std::atomic<int> slow_frames{0};
+  std::thread slow([&] {
+    RawViewer v(site.server.port(), "volcast", "jpeg");
+    while (!stop) {
+      v.next_frame_set(false);
+      std::this_thread::sleep_for(std::chrono::milliseconds(400));
+      if (stop) break;
+      ++slow_frames;
+      protocol::FrameSetView view;
+      protocol::parse_frame_set(v.payload, view);
+      v.c->write_all(protocol::message(protocol::MessageType::kAck,
+                                       protocol::serialize_ack(view.sequence)),
+                     5000);
+    }
+  });
+  ClientConfig c;
+  c.port = site.server.port();
+  Client fast(c);
+  ReceivedFrameSet rx;
+  uint64_t first = 0, last = 0;
+  for (int i = 0; i < 30; ++i) {
+    ASSERT_TRUE(fast.receive(rx));
+    if (i == 0) first = rx.frames.sequence;
+    last = rx.frames.sequence;
+  }
+  stop = true;
+  fast.close();
+  site.server.stop();
+  slow.join();
+  // Counts, not times: the fast viewer got most frame sets of the span; the slow one far fewer.
+  EXPECT_LE(last - first + 1, 30u + 15u);
+  EXPECT_LT(slow_frames.load(), 20);
+}
+
+// Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,
+// frame sets of 100 kB every 33 ms -- the window must grow past the 2 frame sets that capped the
+// old fixed window, and stay bounded.
+TEST(Pacer, WindowFollowsTheBandwidthDelayProduct) {
+  Pacer p(8);
+  const int64_t rtt = 100'000, frame_us = 33'333;
+  const size_t bytes = 100'000;
+  const double bytes_per_us = 10.0;  // 80 Mbit/s
+  std::deque<std::pair<uint64_t, int64_t>> acks;  // sequence, when its Ack arrives
+  int64_t link_free = 0;
+  uint64_t sent = 0, offered = 0;
+  for (int64_t t = 0; t < 5'000'000; t += 1000) {
+    while (!acks.empty() && acks.front().second <= t) {
+      EXPECT_TRUE(p.on_ack(acks.front().first, t));
+      acks.pop_front();
+    }
+    if (t >= static_cast<int64_t>(offered) * frame_us) {
+      ++offered;
+      if (p.can_send(bytes)) {
+        p.on_send(offered, bytes, t);
+        ++sent;
+        link_free = std::max(link_free, t) + static_cast<int64_t>(bytes / bytes_per_us);
+        acks.emplace_back(offered, link_free + rtt);
+      }
+    }
+  }
+  EXPECT_NEAR(p.min_rtt_us(), rtt + 10'000, 1000);  // the path plus one frame's transmission
+  EXPECT_GE(p.window_frames(), 4);                    // about 3 frame sets per round trip
+  EXPECT_LE(p.window_frames(), 8);
+  EXPECT_GE(sent, offered * 95 / 100);  // the path carries the stream: almost nothing skipped
+  EXPECT_FALSE(p.on_ack(999999, 0));    // never sent
+}
+
+// On a path slower than the stream, the Pacer keeps about 2 BDP in flight instead of queueing.
+TEST(Pacer, BoundsTheQueueOnASlowPath) {
+  Pacer p(8);
+  const int64_t rtt = 20'000, frame_us = 33'333;
+  const size_t bytes = 100'000;
+  const double bytes_per_us = 1.0;  // 8 Mbit/s: one frame set takes 100 ms to transmit
+  std::deque<std::pair<uint64_t, int64_t>> acks;
+  int64_t link_free = 0;
+  uint64_t offered = 0;
+  int64_t worst_queue_us = 0;
+  for (int64_t t = 0; t < 10'000'000; t += 1000) {
+    while (!acks.empty() && acks.front().second <= t) {
+      p.on_ack(acks.front().first, t);
+      acks.pop_front();
+    }
+    if (t >= static_cast<int64_t>(offered) * frame_us) {
+      ++offered;
+      if (p.can_send(bytes)) {
+        p.on_send(offered, bytes, t);
+        worst_queue_us = std::max(worst_queue_us, link_free - t);
+        link_free = std::max(link_free, t) + static_cast<int64_t>(bytes / bytes_per_us);
+        acks.emplace_back(offered, link_free + rtt);
+      }
+    }
+  }
+  EXPECT_LE(p.frames_in_flight(), 3u);
+  EXPECT_LE(worst_queue_us, 300'000);  // at most a few frame sets' transmission queued
+}
+
+TEST(WorkerPool, RunsEveryIndexOnceAndRethrows) {
+  WorkerPool pool(3);
+  for (int round = 0; round < 50; ++round) {
+    std::vector<std::atomic<int>> hits(17);
+    pool.parallel_for(hits.size(), [&](size_t i) { ++hits[i]; });
+    for (auto& h : hits) EXPECT_EQ(h.load(), 1);
+  }
+  EXPECT_THROW(pool.parallel_for(8,
+                                 [](size_t i) {
+                                   if (i == 5) throw Error("five");
+                                 }),
+               Error);
+  std::atomic<int> after{0};
+  pool.parallel_for(4, [&](size_t) { ++after; });  // still usable
+  EXPECT_EQ(after.load(), 4);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -173,8 +173,8 @@ TEST(SplatRenderer, DrawsIntoAFramebufferItDidNotCreateOnlyInsideTheViewport) {
 TEST(SplatRenderer, AsymmetricProjectionShiftsThePictureAsTheTangentsSay) {
   HeadlessTarget target(160, 120);
   SplatRenderer renderer;
-  // An eye that sees 4x farther to the right than to the left (like a headset's left eye
-  // turned outwards): tangents 0.8 wide and 0.6 high, so square pixels in 160 x 120.
+  // An eye that sees 3x farther to the right than to the left (like a headset's right eye, whose
+  // outer side is the wider one): tangents 0.8 wide and 0.6 high, so square pixels in 160 x 120.
   View view;
   view.clip_from_view = perspective_from_tangents(-0.2f, 0.6f, 0.3f, -0.3f, 0.1f, 10);
   // On the axis: x_ndc = -(right + left) / (right - left) = -0.5, a quarter of the way across.
@@ -253,7 +253,7 @@ TEST(SplatRenderer, NeedsACurrentContext) {
   EXPECT_NE(message.find("no OpenGL context is current"), std::string::npos) << message;
 }
 
-TEST(View, LookAtPutsTheTargetDownMinusZWithUpAlongY) {
+TEST(RenderView, LookAtPutsTheTargetDownMinusZWithUpAlongY) {
   const Eigen::Vector3d eye(1, 2, 3), target(1, 2, 5);
   const RigidTransform world_from_view = look_at(eye, target, {0, -1, 0});
   EXPECT_TRUE(world_from_view.translation.isApprox(eye));
@@ -270,7 +270,7 @@ TEST(View, LookAtPutsTheTargetDownMinusZWithUpAlongY) {
   EXPECT_THROW(look_at(eye, target, {0, 0, 1}), Error);  // up along the line of sight
 }
 
-TEST(View, PerspectiveIsTheSymmetricCaseOfTangents) {
+TEST(RenderView, PerspectiveIsTheSymmetricCaseOfTangents) {
   const float t = std::tan(30.0f * 3.14159265f / 180);  // half of 60 degrees
   const Eigen::Matrix4f p = perspective(60, 1.5f, 0.1f, 20);
   EXPECT_TRUE(p.isApprox(perspective_from_tangents(-1.5f * t, 1.5f * t, t, -t, 0.1f, 20), 1e-5f));
@@ -288,7 +288,7 @@ TEST(View, PerspectiveIsTheSymmetricCaseOfTangents) {
   EXPECT_TRUE((right_top.head<2>() / right_top.w()).isApprox(Eigen::Vector2f(1, 1)));
 }
 
-TEST(View, ProjectionsRefuseParametersOutOfRange) {
+TEST(RenderView, ProjectionsRefuseParametersOutOfRange) {
   EXPECT_THROW(perspective(0, 1, 0.1f, 10), Error);
   EXPECT_THROW(perspective(180, 1, 0.1f, 10), Error);
   EXPECT_THROW(perspective(60, 0, 0.1f, 10), Error);
@@ -304,7 +304,7 @@ TEST(View, ProjectionsRefuseParametersOutOfRange) {
   }
 }
 
-TEST(View, ViewCameraBecomesTheViewItDescribes) {
+TEST(RenderView, ViewCameraBecomesTheViewItDescribes) {
   ViewCamera camera;  // the origin, looking down +z, up -y
   camera.vertical_fov_deg = 90;
   const View view = to_view(camera, 2);

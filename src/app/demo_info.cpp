@@ -11,6 +11,7 @@
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/render/headless_target.hpp"
 
 namespace volcast {
 namespace fs = std::filesystem;
@@ -97,7 +98,8 @@ int run_demo(const DemoArgs& a) {
   server.stop();
 
   // Extra renders of the last frame set: from each camera's own viewpoint.
-  SplatRenderer renderer(1280, 720);
+  HeadlessTarget target(1280, 720);
+  SplatRenderer renderer;
   ColorImage image;
   std::vector<const PointCloud*> clouds;
   for (const auto& c : result.last_clouds) clouds.push_back(&c);
@@ -109,7 +111,8 @@ int run_demo(const DemoArgs& a) {
     v.target = (w * Eigen::Vector3d(0, 0, 1)).cast<float>();
     v.up = (w.rotation * Eigen::Vector3d(0, -1, 0)).cast<float>();
     v.vertical_fov_deg = 65;
-    renderer.render(clouds, v, image);
+    renderer.draw(clouds, to_view(v, target.target().aspect()), target.target());
+    target.read_image(image);
     const fs::path file = out / fmt::format("render_camera{}.png", i);
     write_color_png(file, image);
   }

@@ -15,6 +15,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/worker_pool.hpp"
+#include "volcast/render/headless_target.hpp"
 
 namespace volcast {
 namespace {
@@ -36,11 +37,11 @@ struct CloudMailbox {
 void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, CloudMailbox& box,
                  ViewerResult& result, std::exception_ptr& error) {
   try {
-    SplatRenderer renderer(opt.width, opt.height);
+    HeadlessTarget target(opt.width, opt.height);  // before the renderer: it owns the context
+    SplatRenderer renderer;
     result.renderer = renderer.gl_description();
     std::vector<PointCloud> clouds;
     std::vector<const PointCloud*> views;
-    ColorImage image;
     uint64_t seen = 0;
     std::optional<ViewCamera> view = opt.view;
     while (true) {
@@ -55,10 +56,12 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
       views.clear();
       for (const auto& c : clouds) views.push_back(&c);
       if (!view) view = orbit_view(first_camera, views);
-      renderer.render(views, *view, image);
+      renderer.draw(views, to_view(*view, target.target().aspect()), target.target());
       ++result.frames_rendered;
     }
     if (!opt.screenshot.empty() && result.frames_rendered > 0) {
+      ColorImage image;  // the only read-back: the last frame, for the screenshot
+      target.read_image(image);
       write_color_png(opt.screenshot, image);
       spdlog::info("wrote {}", opt.screenshot.string());
     }

@@ -1,10 +1,11 @@
-#include "egl_context.hpp"
+#include <epoxy/egl.h>
 
-#include <vector>
+#include <string>
 
 #include "volcast/core/error.hpp"
+#include "volcast/render/headless_target.hpp"
 
-namespace volcast::detail {
+namespace volcast {
 namespace {
 
 bool has_extension(EGLDisplay dpy, const char* name) {
@@ -40,19 +41,8 @@ EGLDisplay open_display() {
   throw Error("EGL: no display could be initialised (is libegl-mesa0 / a GPU driver installed?)");
 }
 
-}  // namespace
-
-EglContext::EglContext() {
-  display = open_display();
-  try {
-    create_context();
-  } catch (...) {
-    this->~EglContext();
-    throw;
-  }
-}
-
-void EglContext::create_context() {
+// Creates an OpenGL 4.5 core context without a surface and makes it current.
+EGLContext create_context(EGLDisplay display) {
   if (!eglBindAPI(EGL_OPENGL_API)) throw Error("EGL: desktop OpenGL API unavailable");
   const EGLint config_attribs[] = {EGL_SURFACE_TYPE,
                                    0,
@@ -76,18 +66,42 @@ void EglContext::create_context() {
                                     EGL_CONTEXT_OPENGL_PROFILE_MASK,
                                     EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
                                     EGL_NONE};
-  context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
+  EGLContext context = eglCreateContext(display, config, EGL_NO_CONTEXT, context_attribs);
   if (context == EGL_NO_CONTEXT) throw Error("EGL: cannot create an OpenGL 4.5 core context");
-  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context))
+  if (!eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, context)) {
+    eglDestroyContext(display, context);
     throw Error("EGL: cannot make the context current without a surface");
+  }
+  return context;
 }
 
-EglContext::~EglContext() {
-  if (display != EGL_NO_DISPLAY) {
-    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    if (context != EGL_NO_CONTEXT) eglDestroyContext(display, context);
-    eglTerminate(display);
+}  // namespace
+
+struct EglContext::Impl {
+  EGLDisplay display = EGL_NO_DISPLAY;
+  EGLContext context = EGL_NO_CONTEXT;
+};
+
+EglContext::EglContext() : impl_(std::make_unique<Impl>()) {
+  impl_->display = open_display();
+  try {
+    impl_->context = create_context(impl_->display);
+  } catch (...) {
+    eglTerminate(impl_->display);
+    throw;
   }
 }
 
-}  // namespace volcast::detail
+EglContext::~EglContext() {
+  if (eglGetCurrentContext() == impl_->context)
+    eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  eglDestroyContext(impl_->display, impl_->context);
+  eglTerminate(impl_->display);
+}
+
+void EglContext::make_current() const {
+  if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context))
+    throw Error("EGL: cannot make the context current on this thread (current on another one?)");
+}
+
+}  // namespace volcast

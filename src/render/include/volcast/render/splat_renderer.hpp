@@ -1,51 +1,42 @@
 #pragma once
-// Point-splat rendering with OpenGL 4.5 core. Headless through EGL (Mesa's llvmpipe needs no GPU or
-// display; on a GPU machine the vendor's EGL device is used), into an offscreen framebuffer that
-// is read back as an image.
+// The splat pass: draws point clouds as round splats, with OpenGL 4.5 core, into a RenderTarget it
+// is given. It creates no context and no framebuffer and reads nothing back; the caller supplies
+// a current context (a window's, an OpenXR session's, or a HeadlessTarget's) and decides if and
+// when pixels are read (HeadlessTarget::read_image).
 //
 // Each point is drawn as a round splat whose screen size follows its world-space radius:
-// size_px = 2 * radius_m * (viewport_height / 2) * P[1][1] / w_clip.
+// size_px = 2 * radius_m * (viewport_height / 2) * clip_from_view(1, 1) / w_clip,
+// clamped to 1..64 pixels.
 #include <memory>
 #include <span>
 #include <string>
 
-#include "volcast/core/image.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
+#include "volcast/render/render_target.hpp"
+#include "volcast/render/view.hpp"
 
 namespace volcast {
 
-/// A viewpoint in the world frame (metres). The default up is -y because camera frames (and so an
-/// identity world_from_camera) have y pointing down.
-struct ViewCamera {
-  Eigen::Vector3f eye{0, 0, 0};
-  Eigen::Vector3f target{0, 0, 1};
-  Eigen::Vector3f up{0, -1, 0};
-  float vertical_fov_deg = 60;
-  float near_m = 0.05f, far_m = 100;
-};
-
-/// A viewpoint that orbits a pivot starting from a camera: the pivot lies on the camera's optical
-/// axis at the median depth of the points; the eye starts at `world_from_camera`'s origin and is
-/// turned `yaw_deg` about the camera's up axis and `pitch_deg` about its right axis, around the
-/// pivot, looking at it. Shows the scene roughly as that camera saw it, but from the side, so
-/// depth is visible.
-ViewCamera orbit_view(const RigidTransform& world_from_camera,
-                      std::span<const PointCloud* const> clouds, float yaw_deg = 20,
-                      float pitch_deg = 10);
-
 class SplatRenderer {
  public:
-  /// Creates an EGL context (no window) with an offscreen framebuffer of width x height pixels.
-  /// Throws Error if EGL or OpenGL 4.5 core is unavailable, naming what failed.
-  SplatRenderer(int width, int height);
+  /// Builds the splat program and vertex buffers in the OpenGL context current on the calling
+  /// thread; every later call must be made with that context current. Throws Error if no context
+  /// is current, it is older than OpenGL 4.5, or the shaders do not compile or link.
+  SplatRenderer();
+  /// Deletes the GL objects; the same context must still be current.
   ~SplatRenderer();
   SplatRenderer(const SplatRenderer&) = delete;
   SplatRenderer& operator=(const SplatRenderer&) = delete;
 
-  /// Renders the clouds from `view` and reads the image back into `out` (BGRA, top row first).
-  /// Must be called on the thread that created the renderer.
-  void render(std::span<const PointCloud* const> clouds, const ViewCamera& view, ColorImage& out);
-  /// GL_RENDERER and GL_VERSION strings, e.g. "llvmpipe (LLVM 15.0.6, 256 bits), 4.5 (Core ...)".
+  /// Clears the target's viewport (colour to dark grey-blue, depth to far) and draws every point
+  /// of `clouds` (world frame) as seen through `view`. Touches no pixel outside the viewport.
+  /// Leaves `target.framebuffer` bound for drawing and the scissor test disabled. Throws Error if
+  /// the viewport is empty, the framebuffer is not complete, or OpenGL reports an error.
+  void draw(std::span<const PointCloud* const> clouds, const View& view,
+            const RenderTarget& target);
+
+  /// GL_RENDERER and GL_VERSION of the current context, e.g.
+  /// "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".
   std::string gl_description() const;
 
  private:

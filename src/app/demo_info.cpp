@@ -81,6 +81,7 @@ int run_demo(const DemoArgs& a) {
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.seconds = a.seconds;
+  opt.software_render_fps = 2;  // without a GPU, llvmpipe would take both cores from the stream
   // Overview: behind, above and between the cameras (placed along x), looking into every scene.
   float mid_x = 0;
   for (const auto& c : site.cameras())

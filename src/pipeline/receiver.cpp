@@ -40,6 +40,13 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
     HeadlessTarget target(opt.width, opt.height);  // before the renderer: it owns the context
     SplatRenderer renderer;
     result.renderer = renderer.gl_description();
+    // A software rasteriser (no GPU) takes the cores the stream needs: draw it less often.
+    const bool software = result.renderer.find("llvmpipe") != std::string::npos ||
+                          result.renderer.find("softpipe") != std::string::npos;
+    const bool throttle = software && opt.software_render_fps > 0;
+    if (throttle)
+      spdlog::info("software renderer ({}): drawing at most {} frames per second", result.renderer,
+                   opt.software_render_fps);
     std::vector<PointCloud> clouds;
     std::vector<const PointCloud*> views;
     uint64_t seen = 0;
@@ -58,6 +65,11 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
       if (!view) view = orbit_view(first_camera, views);
       renderer.draw(views, to_view(*view, target.target().aspect()), target.target());
       ++result.frames_rendered;
+      if (throttle) {
+        std::unique_lock lock(box.mutex);
+        box.changed.wait_for(lock, std::chrono::duration<double>(1.0 / opt.software_render_fps),
+                             [&] { return box.done; });
+      }
     }
     if (!opt.screenshot.empty() && result.frames_rendered > 0) {
       ColorImage image;  // the only read-back: the last frame, for the screenshot

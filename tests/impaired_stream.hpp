@@ -1,0 +1,22 @@
+#pragma once
+// Runs the real two-camera site over an ImpairedLink (server namespace -> client namespace) with
+// one receive-only viewer and reports what it got. Shared by the test and the link benchmark.
+#include <filesystem>
+
+#include "support/impaired_link.hpp"
+
+namespace volcast {
+
+struct PathRun {
+  double fps = 0;                                 ///< frame sets received per second
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture -> whole message received
+  double worst_send_age_ms = 0;                   ///< max over frame sets of send - capture
+  double min_rtt_ms = 0;                          ///< the server's path estimate
+  int window = 0;                                 ///< frame sets the server allowed in flight
+  uint64_t frames = 0, skipped = 0;
+};
+
+/// Streams `seconds` (after 1 s of warm-up) and returns the figures. Throws Error on failure.
+PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds);
+
+}  // namespace volcast

@@ -17,6 +17,8 @@ struct PathRun {
 };
 
 /// Streams `seconds` (after 1 s of warm-up) and returns the figures. Throws Error on failure.
-PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds);
+/// `max_window` 2 reproduces the old fixed window of two unacknowledged frame sets.
+PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds,
+                      int max_window = 8);
 
 }  // namespace volcast

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "volcast/pipeline/sender.hpp"
+#include "hands_site.hpp"
 #include "test_data.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/core/error.hpp"
@@ -20,30 +21,7 @@ namespace volcast {
 namespace {
 namespace fs = std::filesystem;
 
-// One site streaming the real hands sequence (camera 0) on a free loopback port.
-struct HandsSite {
-  SitePlayer player;
-  Server server;
-  explicit HandsSite(double fps, ServerConfig config = {})
-      : player(sources(), fps), server(player.cameras(), with_free_port(config)) {
-    player.start(server);
-  }
-  ~HandsSite() {
-    player.stop();
-    server.stop();
-  }
-  static std::vector<std::unique_ptr<FrameSource>> sources() {
-    SourceOptions opt;
-    opt.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};  // nominal: the set has no intrinsics
-    std::vector<std::unique_ptr<FrameSource>> v;
-    v.push_back(open_source(test::hands_dir(), opt));
-    return v;
-  }
-  static ServerConfig with_free_port(ServerConfig c) {
-    c.port = 0;
-    return c;
-  }
-};
+using test::HandsSite;
 
 // Frame set n carries hands frame (n - 1) % 207: compares every saved depth PNG with its source.
 size_t expect_saved_depth_equals_source(const fs::path& dir) {

@@ -40,8 +40,8 @@
 // frame ending in invalid pixels ends with (Z, 0).
 //
 // ## trvl (id 2; lossless; temporal) - H. Jun, J. Bailenson, "Temporal RVL", ISMAR 2020.
-// Key frames: an rvl body. Delta frames (same size as the last key frame, else refused; refused
-// without one): against the frame the decoder holds (the last decoded), repeated until n pixels:
+// Key frames: an rvl body. Delta frames (refused without a key frame before them, or at another
+// size): against the frame the decoder holds (the last decoded), repeated until n pixels:
 // S (S pixels keep their held value), C (C changed pixels), then C nibble-coded
 // zigzag(new - held) of those pixels, each result 0..65535 (0: the pixel became invalid).
 // make_trvl_encoder() with thresholds above 0 writes the same format (lossy: what the decoder holds
@@ -72,11 +72,12 @@
 //   u32 R (even, >= 16), then R bytes of rANS data: four u32 initial states (lanes 0..3), each in
 //     [2^15, 2^31), then 16-bit words, read forward. Reading past the R bytes is corrupt.
 //   the rest: the raw bit stream, read from the first byte on, least significant bit first.
-// Symbols: the k-th symbol decoded in a frame (counting every symbol below) uses lane k % 4, with
-// state x: slot = x & 2047; s = the symbol with start(s) <= slot < start(s) + f(s) in the
-// symbol's context; x = f(s) * (x >> 11) + slot - start(s); if x < 2^15, x = (x << 16) | the next
-// word. Symbol -> value u: s < 16: u = s; else k = (s - 16) / 2 + 4, u = 2^k | ((s - 16) & 1) <<
-// (k - 1) | (the next k - 1 raw bits, the first bit read the least significant).
+// Symbols: the k-th symbol of a frame (run lengths and pixels alike, in the scan order below)
+// is decoded on lane k % 4, with that lane's state x: slot = x & 2047; s = the symbol with
+// start(s) <= slot < start(s) + f(s) in the symbol's context; x = f(s) * (x >> 11) + slot -
+// start(s); if x < 2^15, x = (x << 16) | the next word. Symbol -> value u: s < 16: u = s; else
+// k = (s - 16) / 2 + 4, u = 2^k | ((s - 16) & 1) << (k - 1) | (the next k - 1 raw bits, the
+// first bit read the least significant).
 // Contexts: 0-7 spatial activity levels, 8 border, 9 invalid-run lengths, 10 valid-run lengths,
 // 11-18 temporal activity levels 0-7 (delta frames only).
 // Scan, repeated until n pixels are filled: Z = value in context 9 (Z invalid pixels), V = value

@@ -13,6 +13,7 @@
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/protocol.hpp"
 
@@ -97,6 +98,12 @@ void fuzz_protocol(const uint8_t* data, size_t size) {
 }
 
 }  // namespace
+
+// The video codecs join the codec table once, before the first input.
+extern "C" int LLVMFuzzerInitialize(int*, char***) {
+  volcast::register_video_codecs();
+  return 0;
+}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view kind = VOLCAST_FUZZ_KIND;

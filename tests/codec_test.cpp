@@ -10,6 +10,7 @@
 #include "test_data.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/jpeg.hpp"
 
@@ -310,6 +311,7 @@ TEST(DepthCodecs, UnknownNamesAreRejectedWithTheList) {
 }
 
 TEST(DepthCodecs, RejectTruncatedAndBitFlippedRealStreams) {
+  register_video_codecs();  // h264 and hevc too
   const auto frames = test::real_depth_frames("hands");
   for (const std::string& codec : depth_codec_names()) {
     auto enc = make_depth_encoder(codec);

@@ -9,11 +9,20 @@
 #include "test_data.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
+
+// Every test starts with the video codecs in the codec table, as the volcast CLI does in main().
+class VideoCodecTest : public ::testing::Test {
+ protected:
+  void SetUp() override { register_video_codecs(); }
+};
+class VideoDepth : public VideoCodecTest {};
+class VideoColor : public VideoCodecTest {};
 
 struct VideoResult {
   double mean_error = 0, max_error = 0, ratio = 0;
@@ -47,7 +56,7 @@ VideoResult stream(const std::string& codec, const std::vector<DepthImage>& fram
   return r;
 }
 
-TEST(VideoDepth, KeepsTheValidMaskExactAndTheErrorSmallOnRealSets) {
+TEST_F(VideoDepth, KeepsTheValidMaskExactAndTheErrorSmallOnRealSets) {
   // Measured (mean / max error over valid pixels): see the bench; the bounds leave a margin.
   for (const std::string codec : {"h264", "hevc"}) {
     auto kinect = test::real_depth_frames("kinect");
@@ -62,7 +71,7 @@ TEST(VideoDepth, KeepsTheValidMaskExactAndTheErrorSmallOnRealSets) {
   }
 }
 
-TEST(VideoDepth, HandlesOddAndDegenerateSizes) {
+TEST_F(VideoDepth, HandlesOddAndDegenerateSizes) {
   // Synthetic (labelled): 1x1, a 33x17 ramp with holes, all invalid.
   DepthImage one(1, 1), ramp(33, 17), empty(8, 6);
   one.pixels[0] = 1234;
@@ -76,7 +85,7 @@ TEST(VideoDepth, HandlesOddAndDegenerateSizes) {
   }
 }
 
-TEST(VideoDepth, DeltaWithoutKeyFrameIsAnErrorAndAKeyFrameResynchronises) {
+TEST_F(VideoDepth, DeltaWithoutKeyFrameIsAnErrorAndAKeyFrameResynchronises) {
   const auto frames = test::real_depth_frames("hands");
   for (const std::string codec : {"h264", "hevc"}) {
     auto enc = make_depth_encoder(codec);
@@ -108,7 +117,7 @@ ColorImage hands_color(int index) {
   return image;
 }
 
-TEST(VideoColor, H264StreamsRealColorClosely) {
+TEST_F(VideoColor, H264StreamsRealColorClosely) {
   auto enc = make_color_encoder("h264");
   auto dec = make_color_decoder("h264");
   std::vector<uint8_t> bytes;

@@ -7,15 +7,11 @@
 #include "commands.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/registry.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 
 namespace {
-
-std::string join(const std::vector<std::string>& v) {
-  std::string s;
-  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
-  return s;
-}
 
 void add_filter_flags(CLI::App* app, volcast::FilterFlags& f, bool with_background) {
   app->add_flag("--undistort", f.undistort,
@@ -43,6 +39,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, [](int) { g_interrupted = true; });
   std::signal(SIGTERM, [](int) { g_interrupted = true; });
   std::signal(SIGPIPE, SIG_IGN);
+  register_video_codecs();  // h264 and hevc join the codec table before anything looks one up
 
   CLI::App app{"volcast: stream RGB-D cameras to remote viewers as live point clouds"};
   app.require_subcommand(1);
@@ -84,9 +81,9 @@ int main(int argc, char** argv) {
   auto* v =
       app.add_subcommand("view", "Receive a site's stream, build point clouds and render them");
   v->add_option("--connect", view.connect, "Server as HOST:PORT")->required();
-  v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + join(depth_codec_names()))
+  v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + depth_codec_help())
       ->capture_default_str();
-  v->add_option("--color-codec", view.color_codec, "Color codec: " + join(color_codec_names()))
+  v->add_option("--color-codec", view.color_codec, "Color codec: " + color_codec_help())
       ->capture_default_str();
   v->add_option("--color-quality", view.color_quality,
                 "Color quality 1..100 (JPEG quality; 0 = the codec's default)")
@@ -109,9 +106,9 @@ int main(int argc, char** argv) {
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
-  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + join(depth_codec_names()))
+  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + depth_codec_help())
       ->capture_default_str();
-  d->add_option("--color-codec", demo.color_codec, "Color codec: " + join(color_codec_names()))
+  d->add_option("--color-codec", demo.color_codec, "Color codec: " + color_codec_help())
       ->capture_default_str();
   d->add_option("--cameras", demo.cameras,
                 "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")

@@ -11,6 +11,7 @@ extern "C" {
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <span>
 
 #include "volcast/capture/registration.hpp"
 #include "volcast/core/error.hpp"
@@ -107,11 +108,23 @@ double recorded_fps(const Demuxer& dm) {
   return fps >= 1 && fps <= 120 ? fps : 30.0;
 }
 
-// A raw capture: one depth packet and the color packet taken at the same moment, if any.
+using Packet = std::unique_ptr<AVPacket, PacketFreer>;
+
+// The bytes of a packet (none for no packet). The packet owns a reference to its buffer, so they
+// stay valid for as long as the packet lives, whatever the demuxer reads next.
+std::span<const uint8_t> bytes_of(const Packet& p) {
+  if (!p || !p->data) return {};
+  return {p->data, static_cast<size_t>(p->size)};
+}
+
+// A raw capture: one depth packet and the color packet taken at the same moment, if any. The
+// packets are the demuxer's, moved out rather than copied.
 struct RawCapture {
-  std::vector<uint8_t> depth;
-  std::vector<uint8_t> color;
+  Packet depth;
+  Packet color;
   int64_t timestamp_us = 0;
+  std::span<const uint8_t> depth_bytes() const { return bytes_of(depth); }
+  std::span<const uint8_t> color_bytes() const { return bytes_of(color); }
 };
 
 // Pairs depth and color packets by timestamp. k4arecorder writes the packets of a capture next
@@ -130,21 +143,22 @@ class CaptureReader {
       if (rc == AVERROR_EOF) return take_pending();
       if (rc < 0)
         throw Error("recording '" + dm_.path + "' is corrupt or truncated: " + av_error(rc));
-      AVPacket& p = *packet_;
-      const int64_t ts = dm_.to_us(p);
-      std::vector<uint8_t> bytes(p.data, p.data + p.size);
-      const int index = p.stream_index;
-      av_packet_unref(&p);
+      const int64_t ts = dm_.to_us(*packet_);
+      const int index = packet_->stream_index;
+      if (index != dm_.depth && index != dm_.color) {
+        av_packet_unref(packet_.get());
+        continue;
+      }
+      Packet bytes = take_packet();
       if (index == dm_.depth) {
         std::optional<RawCapture> done = take_pending();
-        pending_ = RawCapture{std::move(bytes), {}, ts};
+        pending_ = RawCapture{std::move(bytes), nullptr, ts};
         if (last_color_ && std::llabs(last_color_ts_ - ts) <= kTolerance) {
-          pending_->color = std::move(*last_color_);
-          last_color_.reset();
+          pending_->color = std::move(last_color_);
         }
         if (done) return done;
-      } else if (index == dm_.color) {
-        if (pending_ && pending_->color.empty() &&
+      } else {
+        if (pending_ && pending_->color_bytes().empty() &&
             std::llabs(ts - pending_->timestamp_us) <= kTolerance) {
           pending_->color = std::move(bytes);
           return take_pending();
@@ -162,10 +176,20 @@ class CaptureReader {
     pending_.reset();
     return out;
   }
+  // The packet just read, moved out of packet_ (no copy of its data) into one of its own. The
+  // demuxer's packets are reference-counted; one that is not is made so (a copy, then only).
+  Packet take_packet() {
+    if (!packet_->buf && av_packet_make_refcounted(packet_.get()) < 0)
+      throw Error("recording '" + dm_.path + "': out of memory");
+    Packet p(av_packet_alloc());
+    if (!p) throw Error("recording '" + dm_.path + "': out of memory");
+    av_packet_move_ref(p.get(), packet_.get());
+    return p;
+  }
   Demuxer dm_;
-  std::unique_ptr<AVPacket, PacketFreer> packet_;
+  Packet packet_;
   std::optional<RawCapture> pending_;
-  std::optional<std::vector<uint8_t>> last_color_;
+  Packet last_color_;  // a color packet not yet paired with a depth packet, or null
   int64_t last_color_ts_ = 0;
 };
 
@@ -233,25 +257,26 @@ class K4aRecordingSource final : public FrameSource {
   void decode(const RawCapture& cap, CameraFrame& out) {
     const Intrinsics& k = calibration_.depth;
     const size_t n = static_cast<size_t>(k.width) * k.height;
-    if (cap.depth.size() != n * 2)
+    const std::span<const uint8_t> depth = cap.depth_bytes(), color = cap.color_bytes();
+    if (depth.size() != n * 2)
       throw Error("recording '" + path_.string() + "': depth frame at " +
-                  std::to_string(cap.timestamp_us) + " us has " + std::to_string(cap.depth.size()) +
+                  std::to_string(cap.timestamp_us) + " us has " + std::to_string(depth.size()) +
                   " bytes, expected " + std::to_string(n * 2) + " (truncated?)");
     out.depth = DepthImage(k.width, k.height);
     for (size_t i = 0; i < n; ++i)  // b16g: big-endian
-      out.depth.pixels[i] = static_cast<uint16_t>((cap.depth[2 * i] << 8) | cap.depth[2 * i + 1]);
+      out.depth.pixels[i] = static_cast<uint16_t>((depth[2 * i] << 8) | depth[2 * i + 1]);
     out.device_timestamp_us = cap.timestamp_us;
     out.color = ColorImage(k.width, k.height);  // alpha 0 = no color, until registered
-    if (!registration_ || cap.color.empty()) return;
+    if (!registration_ || color.empty()) return;
     if (color_is_jpeg_) {
-      decode_jpeg(cap.color, color_scratch_);
+      decode_jpeg(color, color_scratch_);
     } else {
       const size_t bytes =
           static_cast<size_t>(color_intrinsics_.width) * color_intrinsics_.height * 4;
-      if (cap.color.size() != bytes)
+      if (color.size() != bytes)
         throw Error("recording '" + path_.string() + "': truncated BGRA frame");
       color_scratch_ = ColorImage(color_intrinsics_.width, color_intrinsics_.height);
-      std::copy(cap.color.begin(), cap.color.end(), color_scratch_.bgra.begin());
+      std::copy(color.begin(), color.end(), color_scratch_.bgra.begin());
     }
     if (color_scratch_.width != color_intrinsics_.width ||
         color_scratch_.height != color_intrinsics_.height)
@@ -311,8 +336,8 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
   }
   while (auto cap = reader.next()) {
     ++info.depth_frames;
-    if (!cap->color.empty()) ++info.color_frames;
-    if (cap->depth.size() !=
+    if (!cap->color_bytes().empty()) ++info.color_frames;
+    if (cap->depth_bytes().size() !=
         static_cast<size_t>(info.depth_intrinsics.width) * info.depth_intrinsics.height * 2)
       throw Error("recording '" + path.string() + "': depth frame " +
                   std::to_string(info.depth_frames) + " is truncated");

@@ -6,7 +6,8 @@
 #include <lz4.h>
 #include <zstd.h>
 
-#include "frame_header.hpp"
+#include "builtin_codecs.hpp"
+#include "volcast/codec/detail/frame_header.hpp"
 
 namespace volcast::detail {
 namespace {

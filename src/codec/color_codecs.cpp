@@ -1,15 +1,11 @@
 #include <cstring>
 
+#include "builtin_codecs.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/jpeg.hpp"
 
 namespace volcast {
-namespace detail {
-/// H.264 color (video_codecs.cpp).
-std::unique_ptr<ColorEncoder> make_h264_color_encoder();
-std::unique_ptr<ColorDecoder> make_h264_color_decoder();
-}  // namespace detail
 namespace {
 
 constexpr size_t kHeader = 12;
@@ -81,24 +77,25 @@ class NoneDecoder final : public ColorDecoder {
 
 }  // namespace
 
-std::vector<std::string> color_codec_names() {
-  return {"jpeg", "h264", "raw", "none"};
+namespace detail {
+std::unique_ptr<ColorEncoder> make_jpeg_color_encoder() {
+  return std::make_unique<JpegEncoder>();
 }
-
-std::unique_ptr<ColorEncoder> make_color_encoder(std::string_view name) {
-  if (name == "jpeg") return std::make_unique<JpegEncoder>();
-  if (name == "h264") return detail::make_h264_color_encoder();
-  if (name == "raw") return std::make_unique<RawEncoder>();
-  if (name == "none") return std::make_unique<NoneEncoder>();
-  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, h264, raw, none)");
+std::unique_ptr<ColorDecoder> make_jpeg_color_decoder() {
+  return std::make_unique<JpegDecoder>();
 }
-
-std::unique_ptr<ColorDecoder> make_color_decoder(std::string_view name) {
-  if (name == "jpeg") return std::make_unique<JpegDecoder>();
-  if (name == "h264") return detail::make_h264_color_decoder();
-  if (name == "raw") return std::make_unique<RawDecoder>();
-  if (name == "none") return std::make_unique<NoneDecoder>();
-  throw Error("unknown color codec '" + std::string(name) + "' (available: jpeg, h264, raw, none)");
+std::unique_ptr<ColorEncoder> make_raw_color_encoder() {
+  return std::make_unique<RawEncoder>();
 }
+std::unique_ptr<ColorDecoder> make_raw_color_decoder() {
+  return std::make_unique<RawDecoder>();
+}
+std::unique_ptr<ColorEncoder> make_none_color_encoder() {
+  return std::make_unique<NoneEncoder>();
+}
+std::unique_ptr<ColorDecoder> make_none_color_decoder() {
+  return std::make_unique<NoneDecoder>();
+}
+}  // namespace detail
 
 }  // namespace volcast

@@ -2,9 +2,10 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "frame_header.hpp"
+#include "builtin_codecs.hpp"
 #include "nibble_coding.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/detail/frame_header.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -222,50 +223,27 @@ class TrvlDecoder final : public DepthDecoder {
 
 }  // namespace
 
-std::vector<std::string> depth_codec_names() {
-  return {"raw",       "rvl",        "trvl",       "zstd",       "lz4",  "volcast",
-          "volcast-t", "volcast-n1", "volcast-n2", "volcast-n4", "h264", "hevc"};
-}
-
 std::unique_ptr<DepthEncoder> make_trvl_encoder(const TrvlParams& params) {
   return std::make_unique<TrvlEncoder>(params);
 }
 
-std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {
-  if (name == "raw") return std::make_unique<RawEncoder>();
-  if (name == "rvl") return std::make_unique<RvlEncoder>();
-  if (name == "trvl") return make_trvl_encoder({});
-  if (name == "zstd") return detail::make_byte_plane_encoder(detail::kZstd);
-  if (name == "lz4") return detail::make_byte_plane_encoder(detail::kLz4);
-  if (name == "volcast") return detail::make_volcast_encoder(0);
-  if (name == "volcast-t") return detail::make_volcast_encoder(0, true);
-  if (name == "volcast-n1") return detail::make_volcast_encoder(1);
-  if (name == "volcast-n2") return detail::make_volcast_encoder(2);
-  if (name == "volcast-n4") return detail::make_volcast_encoder(4);
-  if (name == "h264") return detail::make_video_depth_encoder(detail::kH264);
-  if (name == "hevc") return detail::make_video_depth_encoder(detail::kHevc);
-  throw Error(
-      "unknown depth codec '" + std::string(name) +
-      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-t, volcast-n1, volcast-n2, "
-      "volcast-n4, h264, hevc)");
+namespace detail {
+std::unique_ptr<DepthEncoder> make_raw_depth_encoder() {
+  return std::make_unique<RawEncoder>();
 }
-
-std::unique_ptr<DepthDecoder> make_depth_decoder(std::string_view name) {
-  if (name == "raw") return std::make_unique<RawDecoder>();
-  if (name == "rvl") return std::make_unique<RvlDecoder>();
-  if (name == "trvl") return std::make_unique<TrvlDecoder>();
-  if (name == "zstd") return detail::make_byte_plane_decoder(detail::kZstd);
-  if (name == "lz4") return detail::make_byte_plane_decoder(detail::kLz4);
-  if (name == "volcast" || name == "volcast-t" || name == "volcast-n1" || name == "volcast-n2" ||
-      name == "volcast-n4")
-    return detail::make_volcast_decoder();
-  if (name == "h264") return detail::make_video_depth_decoder(detail::kH264);
-  if (name == "hevc") return detail::make_video_depth_decoder(detail::kHevc);
-  throw Error(
-      "unknown depth codec '" + std::string(name) +
-      "' (available: raw, rvl, trvl, zstd, lz4, volcast, volcast-t, volcast-n1, volcast-n2, "
-      "volcast-n4, h264, hevc)");
+std::unique_ptr<DepthDecoder> make_raw_depth_decoder() {
+  return std::make_unique<RawDecoder>();
 }
+std::unique_ptr<DepthEncoder> make_rvl_encoder() {
+  return std::make_unique<RvlEncoder>();
+}
+std::unique_ptr<DepthDecoder> make_rvl_decoder() {
+  return std::make_unique<RvlDecoder>();
+}
+std::unique_ptr<DepthDecoder> make_trvl_decoder() {
+  return std::make_unique<TrvlDecoder>();
+}
+}  // namespace detail
 
 bool depth_frame_is_key(std::span<const uint8_t> data) {
   if (data.size() < kDepthHeaderBytes || data[0] != 'V' || data[1] != 'D')

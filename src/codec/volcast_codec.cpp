@@ -27,8 +27,9 @@
 #include <array>
 #include <bit>
 
-#include "frame_header.hpp"
+#include "builtin_codecs.hpp"
 #include "rans.hpp"
+#include "volcast/codec/detail/frame_header.hpp"
 
 // Vectorised passes are also built for AVX2 and picked at run time (function multi-versioning,
 // GCC on x86-64); the default build targets baseline x86-64.
@@ -391,7 +392,11 @@ inline int32_t next_residual(const DecodeTables& t, uint32_t table_offset, uint3
 
 class VolcastEncoder final : public DepthEncoder {
  public:
-  VolcastEncoder(int near_mm, bool temporal) : near_(near_mm), temporal_(temporal) {
+  VolcastEncoder(int near_mm, bool temporal)
+      : near_(near_mm),
+        temporal_(temporal),
+        name_(std::string(temporal ? "volcast-t" : "volcast") +
+              (near_mm > 0 ? "-n" + std::to_string(near_mm) : "")) {
     if (near_ < 0 || near_ > kMaxNear)
       throw Error("volcast: near-lossless bound must be 0.." + std::to_string(kMaxNear) + " mm");
   }
@@ -417,7 +422,7 @@ class VolcastEncoder final : public DepthEncoder {
     const size_t mode_bytes = key ? 0 : (modes_.size() + 7) / 8;
     out.resize(kDepthHeaderBytes + mode_bytes + 8 + tables_.size() + rans_bytes + raw_bits_.size());
     write_header(out.data(), kVolcast, key, depth.width, depth.height);
-    out[5] = static_cast<uint8_t>(near_);  // the error bound, in the header's first reserved byte
+    out[5] = static_cast<uint8_t>(near_);  // header bytes 5-7: see depth_codec.hpp
     out[6] = temporal_ ? 1 : 0;            // a temporal stream: delta frames may follow
     out[7] = sequence_++;                  // a delta frame refers to the frame numbered one less
     uint8_t* p = out.data() + kDepthHeaderBytes;
@@ -437,7 +442,7 @@ class VolcastEncoder final : public DepthEncoder {
     if (temporal_) prev_ = exact;  // what the decoder will hold (copied into existing storage)
     return key;
   }
-  std::string_view name() const override { return temporal_ ? "volcast-t" : "volcast"; }
+  std::string_view name() const override { return name_; }  // the registry's name
 
  private:
   void emit(int context, uint32_t value) {
@@ -600,6 +605,7 @@ class VolcastEncoder final : public DepthEncoder {
 
   int near_;
   bool temporal_;
+  std::string name_;
   uint8_t sequence_ = 0;
   DepthImage quantised_, prev_;
   std::vector<uint8_t> modes_, mask_;  // delta frames: per block 1 = temporal; per pixel of a row

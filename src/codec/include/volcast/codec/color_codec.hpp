@@ -1,10 +1,17 @@
 #pragma once
-// Color codecs for BGRA images, picked by name:
-//   jpeg - libjpeg-turbo, 4:2:0, quality 90 by default; alpha is not kept (decodes as 255)
-//   raw  - BGRA as is, behind a 12-byte header ('V' 'C' | version | 0 | 4 reserved | w u16 | h u16)
-//   h264 - H.264 video (x264 through libavcodec: ultrafast, zerolatency, no B-frames, CRF 23),
-//          4:2:0, even sides only; temporal: a viewer's decoder needs the stream from a key frame
-//   none - no color is sent; decodes to an empty image
+// Color codecs for BGRA images, picked by name (the table is in registry.hpp). Wire formats:
+//   jpeg (lossy) - a plain baseline JPEG stream from libjpeg-turbo: 4:2:0, quality 90, no Volcast
+//          header; decoded to BGRA with alpha 255 (alpha is not sent). Every frame stands alone.
+//   raw (lossless) - a 12-byte header, then w * h * 4 bytes of BGRA, row-major. Header:
+//          'V' 'C' | version 1 | codec id 0 | 4 zero bytes | width u16 | height u16
+//          (little-endian). The decoder checks 'V' 'C' 1 and that the body is exactly w * h * 4
+//          bytes; it does not read bytes 3-7.
+//   h264 (lossy, temporal) - in volcast_codec_video (libavcodec); its header
+//          volcast/codec_video/video_codecs.hpp documents the format. It shares the 12-byte
+//          'V' 'C' header with codec id 2 and byte 4 bit 0 = key frame.
+//   none - nothing: every frame is 0 bytes; the decoder ignores its input and yields an empty
+//          (0 x 0) image.
+// Color codec ids in byte 3 of the 'V' 'C' header: 0 raw, 2 h264 (1 is unused).
 #include <cstdint>
 #include <memory>
 #include <span>
@@ -32,8 +39,11 @@ class ColorDecoder {
   virtual void decode(std::span<const uint8_t> data, ColorImage& out) = 0;
 };
 
+/// Names of the registered color codecs (registry.hpp), in registration order: jpeg, raw, none,
+/// then h264 once volcast_codec_video's register_video_codecs() has run.
 std::vector<std::string> color_codec_names();
-/// Throws Error("unknown color codec 'x' (available: ...)").
+/// A registered codec's encoder / decoder; throws Error("unknown color codec 'x' (available:
+/// ...)").
 std::unique_ptr<ColorEncoder> make_color_encoder(std::string_view name);
 std::unique_ptr<ColorDecoder> make_color_decoder(std::string_view name);
 

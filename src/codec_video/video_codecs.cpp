@@ -6,16 +6,18 @@
 // step is (far - near) / (2^bits - 1) mm; invalid pixels take their left neighbour's code so that
 // holes add no edges to code. Which pixels are valid is sent losslessly beside the video (run
 // lengths, Zstd), so the valid mask decodes exactly and only valid depth carries the video's
-// error. Body: near u16 | far u16 | mask bytes u32 | packet bytes u32 | mask | video packet
-// (Annex B).
+// error. The wire formats are documented in volcast/codec_video/video_codecs.hpp.
 #include <zstd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 
-#include "frame_header.hpp"
 #include "video.hpp"
 #include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/detail/frame_header.hpp"
+#include "volcast/codec/registry.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 
 extern "C" {
 #include <libswscale/swscale.h>
@@ -302,17 +304,37 @@ class H264ColorDecoder final : public ColorDecoder {
 
 }  // namespace
 
-std::unique_ptr<DepthEncoder> make_video_depth_encoder(CodecId id) {
-  return std::make_unique<VideoDepthEncoder>(id);
-}
-std::unique_ptr<DepthDecoder> make_video_depth_decoder(CodecId id) {
-  return std::make_unique<VideoDepthDecoder>(id);
-}
-std::unique_ptr<ColorEncoder> make_h264_color_encoder() {
-  return std::make_unique<H264ColorEncoder>();
-}
-std::unique_ptr<ColorDecoder> make_h264_color_decoder() {
-  return std::make_unique<H264ColorDecoder>();
+}  // namespace volcast::detail
+
+namespace volcast {
+
+void register_video_codecs() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    using namespace detail;
+    register_depth_codec(
+        {"h264", kH264, false, -1, true,
+         "H.264 video (x264, 10-bit): depth mapped over the key frame's range; exact valid mask",
+         []() -> std::unique_ptr<DepthEncoder> {
+           return std::make_unique<VideoDepthEncoder>(kH264);
+         },
+         []() -> std::unique_ptr<DepthDecoder> {
+           return std::make_unique<VideoDepthDecoder>(kH264);
+         }});
+    register_depth_codec(
+        {"hevc", kHevc, false, -1, true,
+         "HEVC video (x265, 12-bit): depth mapped over the key frame's range; exact valid mask",
+         []() -> std::unique_ptr<DepthEncoder> {
+           return std::make_unique<VideoDepthEncoder>(kHevc);
+         },
+         []() -> std::unique_ptr<DepthDecoder> {
+           return std::make_unique<VideoDepthDecoder>(kHevc);
+         }});
+    register_color_codec(
+        {"h264", false, true, "H.264 video (x264, 8-bit 4:2:0, CRF 23), even sides only",
+         []() -> std::unique_ptr<ColorEncoder> { return std::make_unique<H264ColorEncoder>(); },
+         []() -> std::unique_ptr<ColorDecoder> { return std::make_unique<H264ColorDecoder>(); }});
+  });
 }
 
-}  // namespace volcast::detail
+}  // namespace volcast

@@ -1,9 +1,9 @@
 #pragma once
-// Internal: the 12-byte header every depth codec stream starts with (see depth_codec.hpp), and
-// the factories of codecs defined in their own files.
+// Internal to the codec libraries (volcast_codec, volcast_codec_video): the 12-byte header every
+// depth codec stream starts with (its layout is documented in volcast/codec/depth_codec.hpp).
+// Not a stable interface.
 #include <cstdint>
 #include <cstring>
-#include <memory>
 #include <span>
 #include <string>
 
@@ -33,6 +33,8 @@ inline const char* codec_label(uint8_t id) {
   return id < std::size(kLabels) ? kLabels[id] : "unknown";
 }
 
+/// Writes the header with bytes 5-7 zero; codecs that use them (volcast, h264, hevc) set them
+/// afterwards.
 inline void write_header(uint8_t* out, CodecId id, bool key, int w, int h) {
   const uint8_t header[kDepthHeaderBytes] = {'V',
                                              'D',
@@ -77,16 +79,5 @@ inline void check_size(const DepthImage& depth) {
       depth.pixels.size() != static_cast<size_t>(depth.width) * depth.height)
     throw Error("depth encoder: invalid image size");
 }
-
-/// Zstd or LZ4 after a left-delta and byte-plane transform (byte_plane_codecs.cpp).
-std::unique_ptr<DepthEncoder> make_byte_plane_encoder(CodecId id);
-std::unique_ptr<DepthDecoder> make_byte_plane_decoder(CodecId id);
-/// Volcast's own codec (volcast_codec.cpp): lossless, or near-lossless within `near_mm` mm;
-/// `temporal`: delta frames between key frames predict blocks from the last frame.
-std::unique_ptr<DepthEncoder> make_volcast_encoder(int near_mm, bool temporal = false);
-std::unique_ptr<DepthDecoder> make_volcast_decoder();
-/// Lossy depth as H.264 or HEVC video (video_codecs.cpp); id is kH264 or kHevc.
-std::unique_ptr<DepthEncoder> make_video_depth_encoder(CodecId id);
-std::unique_ptr<DepthDecoder> make_video_depth_decoder(CodecId id);
 
 }  // namespace volcast::detail

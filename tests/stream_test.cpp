@@ -169,6 +169,27 @@ TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
   EXPECT_EQ(viewers["rvl"], 1);
 }
 
+TEST(SharedStream, ColorQualityIsPartOfTheTier) {
+  HandsSite site(15);
+  ClientConfig c;
+  c.port = site.server.port();
+  Client standard(c);
+  c.color_quality = 40;
+  Client low(c);
+  ReceivedFrameSet a, b;
+  size_t standard_bytes = 0, low_bytes = 0;
+  for (int n = 0; n < 5; ++n) {
+    ASSERT_TRUE(standard.receive(a));
+    ASSERT_TRUE(low.receive(b));
+    standard_bytes += a.color_bytes[0];
+    low_bytes += b.color_bytes[0];
+  }
+  EXPECT_EQ(site.server.tiers().size(), 2u);
+  EXPECT_LT(low_bytes, standard_bytes * 3 / 4);  // JPEG q40 against q90 on the real frames
+  c.color_quality = 101;
+  EXPECT_THROW(Client{c}, Error);
+}
+
 TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
   HandsSite site(15);
   // A viewer that takes 400 ms to acknowledge each frame set (a slow decoder or path).

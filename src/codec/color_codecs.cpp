@@ -10,13 +10,29 @@ namespace {
 
 constexpr size_t kHeader = 12;
 
+}  // namespace
+
+void ColorEncoder::set_quality(int quality) {
+  if (quality < 1 || quality > 100)
+    throw Error("color quality " + std::to_string(quality) + " is outside 1..100");
+}
+
+namespace {
+
 class JpegEncoder final : public ColorEncoder {
  public:
   bool encode(const ColorImage& image, bool, std::vector<uint8_t>& out) override {
-    encode_jpeg(image, 90, out);
+    encode_jpeg(image, quality_, out);
     return true;
   }
   std::string_view name() const override { return "jpeg"; }
+  void set_quality(int quality) override {
+    ColorEncoder::set_quality(quality);  // checks the range
+    quality_ = quality;
+  }
+
+ private:
+  int quality_ = 90;
 };
 
 class JpegDecoder final : public ColorDecoder {

@@ -26,6 +26,8 @@ class VideoEncoder {
   /// The frame to fill next, w x h in the stream's pixel format; (re)opens the encoder when the
   /// size changes (the next frame is then a key frame). Throws Error if FFmpeg lacks the encoder.
   AVFrame* frame(int w, int h);
+  /// Constant rate factor (0..51) from the next (re)open on.
+  void set_crf(int crf) { crf_ = crf; }
   /// Encodes the filled frame and appends its packet to `out`; returns true for a key frame.
   bool encode(bool key_frame, std::vector<uint8_t>& out);
 

@@ -222,6 +222,10 @@ constexpr uint8_t kColorH264 = 2;
 class H264ColorEncoder final : public ColorEncoder {
  public:
   H264ColorEncoder() : video_("libx264", "h264 color", AV_PIX_FMT_YUV420P, kColorCrf) {}
+  void set_quality(int quality) override {
+    ColorEncoder::set_quality(quality);  // checks the range
+    video_.set_crf(static_cast<int>(std::lround(51 - 0.45 * quality)));
+  }
   ~H264ColorEncoder() override { sws_freeContext(sws_); }
   bool encode(const ColorImage& image, bool key_frame, std::vector<uint8_t>& out) override {
     out.clear();

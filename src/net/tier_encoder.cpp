@@ -9,6 +9,7 @@ TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
   for (size_t i = 0; i < cameras; ++i) {
     depth_.push_back(make_depth_encoder(key_.depth_codec));
     color_.push_back(make_color_encoder(key_.color_codec));
+    if (key_.color_quality > 0) color_.back()->set_quality(key_.color_quality);
   }
   encoded_.resize(cameras);
   key_flags_.resize(2 * cameras);

@@ -30,6 +30,10 @@ class ColorEncoder {
   /// its own (temporal codecs; the others always emit one). Returns true for a key frame.
   virtual bool encode(const ColorImage& image, bool key_frame, std::vector<uint8_t>& out) = 0;
   virtual std::string_view name() const = 0;
+  /// Sets the quality, 1..100 (higher is better and larger), before the first frame: JPEG quality
+  /// (default 90); h264 CRF = round(51 - 0.45 * quality) (default CRF 23, about quality 62).
+  /// Lossless and empty codecs ignore it. Throws Error outside 1..100.
+  virtual void set_quality(int quality);
 };
 
 class ColorDecoder {

@@ -66,6 +66,7 @@ struct DemoArgs {
       data;  ///< folder holding the shared recordings; default: found near the binary or cwd
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int cameras = 2;
+  bool no_render = false;  ///< render only the PNGs at the end, not while streaming
 };
 int run_demo(const DemoArgs& args);
 

@@ -82,6 +82,7 @@ int run_demo(const DemoArgs& a) {
   opt.client.color_codec = a.color_codec;
   opt.seconds = a.seconds;
   opt.software_render_fps = 2;  // without a GPU, llvmpipe would take both cores from the stream
+  opt.render = !a.no_render;
   // Overview: behind, above and between the cameras (placed along x), looking into every scene.
   float mid_x = 0;
   for (const auto& c : site.cameras())
@@ -104,6 +105,11 @@ int run_demo(const DemoArgs& a) {
   ColorImage image;
   std::vector<const PointCloud*> clouds;
   for (const auto& c : result.last_clouds) clouds.push_back(&c);
+  if (a.no_render) {  // the overview was not drawn while streaming: draw it now
+    renderer.draw(clouds, to_view(overview, target.target().aspect()), target.target());
+    target.read_image(image);
+    write_color_png(out / "render_overview.png", image);
+  }
   const auto cams = site.cameras();
   for (size_t i = 0; i < cams.size(); ++i) {
     const RigidTransform& w = cams[i].calibration.world_from_camera;

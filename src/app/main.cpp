@@ -114,6 +114,8 @@ int main(int argc, char** argv) {
                 "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")
       ->check(CLI::IsMember({2, 4}))
       ->capture_default_str();
+  d->add_flag("--no-render", demo.no_render,
+              "Render the PNGs only at the end, not while streaming (latency without a GPU)");
 
   FilterArgs filter;
   auto* f = app.add_subcommand(

@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <fstream>
@@ -137,8 +138,9 @@ int run_server_bench(const BenchArgs& a) {
   const size_t total = 2 * viewer_counts.size();
   for (int cameras : {2, 4})
     for (int viewers : viewer_counts) {
-      std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers...\r", rows.size() + 1, total,
-                   cameras, viewers);
+      if (isatty(STDERR_FILENO))  // progress where a person watches; the table goes to stdout
+        std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers...\r", rows.size() + 1, total,
+                     cameras, viewers);
       auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
       rows.push_back(measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds));
       const Row& r = rows.back();

@@ -21,7 +21,10 @@ TEST(ImpairedPath, HundredMsRoundTripKeepsTheFullFrameRate) {
   const PathRun r = run_over_link(*link, test::data_dir(), 4.0);
   std::printf("100 ms RTT: %.1f fps, latency p50 %.1f ms p99 %.1f ms, window %d, RTT %.1f ms\n",
               r.fps, r.latency_ms_p50, r.latency_ms_p99, r.window, r.min_rtt_ms);
-  EXPECT_GE(r.fps, 24.0);  // above what the fixed window allowed
+  // The fixed window could not pass 2 frame sets per round trip: 20 fps here. (30 fps measured on
+  // an idle machine; the bound leaves room for a loaded one.)
+  EXPECT_GE(r.window, 3);
+  EXPECT_GT(r.fps, 21.0);
   EXPECT_GE(r.min_rtt_ms, 100.0);
   EXPECT_LE(r.worst_send_age_ms, 150.0);  // the latency budget, checked by the sender exactly
 }

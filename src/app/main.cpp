@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   v->add_option("--color-codec", view.color_codec, "Color codec: " + color_codec_help())
       ->capture_default_str();
   v->add_option("--color-quality", view.color_quality,
-                "Color quality 1..100 (JPEG quality; 0 = the codec's default)")
+                "Color quality 1..100 (JPEG quality, H.264 CRF from it; 0 = the codec default)")
       ->capture_default_str();
   v->add_flag("--no-render", view.no_render,
               "Receive and decode only (otherwise rendered offscreen with EGL)");
@@ -95,7 +95,8 @@ int main(int argc, char** argv) {
   v->add_option("--screenshot", view.screenshot, "Write the last render as PNG");
   v->add_option("--save-frames", view.save_frames,
                 "Write decoded depth (16-bit PNG) and color PNGs here");
-  v->add_option("--stats-json", view.stats_json, "Write per-camera statistics as JSON");
+  v->add_option("--stats-json", view.stats_json,
+                "Write per-camera and per-stage latency statistics as JSON");
   v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");

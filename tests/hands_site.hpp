@@ -2,13 +2,21 @@
 // A test site: the real hands sequence (one camera, nominal intrinsics -- the set has none)
 // streamed by a SitePlayer to a Server on a free loopback port. Frame set n carries hands frame
 // (n - 1) % 207.
+#include <fmt/format.h>
+
 #include <memory>
 #include <vector>
 
 #include "test_data.hpp"
+#include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/sender.hpp"
 
 namespace volcast::test {
+
+/// The source frame of frame set `sequence` of a HandsSite: hands frame (sequence - 1) % 207.
+inline DepthImage hands_source_frame(uint64_t sequence) {
+  return read_depth_png(hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207));
+}
 
 struct HandsSite {
   SitePlayer player;

@@ -25,10 +25,6 @@ namespace fs = std::filesystem;
 
 using test::HandsSite;
 
-// Frame set n of a hands site carries hands frame (n - 1) % 207.
-DepthImage hands_source_frame(uint64_t sequence) {
-  return read_depth_png(test::hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207));
-}
 
 // A viewer speaking the protocol directly, keeping each frame set's shared body as received.
 struct RawViewer {
@@ -93,7 +89,7 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
           EXPECT_TRUE(view.key) << "a joiner's first frame set is a key frame set";
         }
         decoder->decode(view.cameras[0].depth, depth);  // throws if its reference is missing
-        EXPECT_EQ(depth, hands_source_frame(sequence)) << "frame set " << sequence;
+        EXPECT_EQ(depth, test::hands_source_frame(sequence)) << "frame set " << sequence;
         ++decoded;
         got.emplace(sequence, std::move(body));
       }
@@ -143,7 +139,7 @@ TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
     if (i == 0) {
       EXPECT_TRUE(jx.key);
     }
-    EXPECT_EQ(jx.frames.cameras[0].depth, hands_source_frame(jx.frames.sequence));
+    EXPECT_EQ(jx.frames.cameras[0].depth, test::hands_source_frame(jx.frames.sequence));
     ASSERT_TRUE(first.receive(rx));  // the first viewer goes on too
   }
   EXPECT_EQ(joiner.frames_undecodable(), 0u);
@@ -194,6 +190,42 @@ TEST(SharedStream, ColorQualityIsPartOfTheTier) {
   EXPECT_LT(low_bytes, standard_bytes * 3 / 4);  // JPEG q40 against q90 on the real frames
   c.color_quality = 101;
   EXPECT_THROW(Client{c}, Error);
+}
+
+// A camera slower than the site (the 5 fps Azure Kinect recording in a 30 fps site) repeats its
+// frame: a stateless tier sends the same bytes without encoding again, and the viewer neither
+// decodes them again nor rebuilds the cloud -- yet always holds the right images.
+TEST(SharedStream, RepeatedFramesOfASlowCameraAreNotCodedAgain) {
+  for (const char* codec : {"volcast", "volcast-t"}) {
+    std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
+    sources.push_back(open_source(test::kinect_mkv()));
+    SitePlayer player(std::move(sources), 0);
+    ServerConfig config;
+    config.port = 0;
+    Server server(player.cameras(), config);
+    player.start(server);
+    ClientConfig c;
+    c.port = server.port();
+    c.depth_codec = codec;
+    Client client(c);
+    ReceivedFrameSet rx;
+    const DepthImage kinect = open_source(test::kinect_mkv())->next().depth;  // its one capture
+    int repeated = 0, hands_repeated = 0;
+    for (int i = 0; i < 24; ++i) {
+      ASSERT_TRUE(client.receive(rx));
+      repeated += rx.repeated[1];
+      hands_repeated += rx.repeated[0];
+      EXPECT_EQ(rx.frames.cameras[1].depth, kinect);
+      EXPECT_EQ(rx.frames.cameras[0].depth, test::hands_source_frame(rx.frames.sequence));
+    }
+    player.stop();
+    server.stop();
+    EXPECT_EQ(hands_repeated, 0) << codec;  // a new hands frame in every frame set
+    if (std::string(codec) == "volcast")
+      EXPECT_GE(repeated, 10) << "about 5 of every 6 Kinect frames repeat";
+    else
+      EXPECT_EQ(repeated, 0) << "temporal codecs code every frame";
+  }
 }
 
 TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {

@@ -2,11 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
@@ -26,6 +28,11 @@ struct Client::Impl {
   std::vector<uint8_t> payload;
   std::atomic<bool> closed{false};
   uint64_t undecodable = 0;
+  // Repeated frames: each camera's last decoded bytes, and the object they were decoded into.
+  bool stateless = false;  // both codecs non-temporal
+  const ReceivedFrameSet* last_out = nullptr;
+  std::vector<std::vector<uint8_t>> last_depth, last_color;
+  std::vector<size_t> tasks;
 
   // Reads one message; returns false on a clean close (by the peer or close()).
   bool read_message(protocol::Header& header, uint32_t max_payload) {
@@ -88,6 +95,11 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
     impl_->color.push_back(make_color_decoder(config.color_codec));
   }
   if (config.decode) impl_->pool = std::make_unique<WorkerPool>(config.decode_threads);
+  const DepthCodecInfo* d = find_depth_codec(config.depth_codec);
+  const ColorCodecInfo* c = find_color_codec(config.color_codec);
+  impl_->stateless = d && c && !d->temporal && !c->temporal;
+  impl_->last_depth.resize(impl_->welcome.cameras.size());
+  impl_->last_color.resize(impl_->welcome.cameras.size());
 }
 
 Client::~Client() {
@@ -139,18 +151,39 @@ bool Client::receive(ReceivedFrameSet& out) {
       out.color_bytes[i] = m.view.cameras[i].color.size();
     }
     bool decoded = true;
+    out.repeated.assign(n, 0);
     if (m.config.decode) {
-      // Tasks 0..n-1 decode depth, n..2n-1 color, in parallel.
+      // A camera whose bytes equal those decoded into this same `out` last time is not decoded
+      // again (stateless codecs only: the same bytes decode to the same images).
+      const bool same_out = m.stateless && m.last_out == &out;
+      m.tasks.clear();
+      for (size_t i = 0; i < n; ++i) {
+        const auto& e = m.view.cameras[i];
+        out.repeated[i] = same_out && std::ranges::equal(e.depth, m.last_depth[i]) &&
+                          std::ranges::equal(e.color, m.last_color[i]);
+        if (!out.repeated[i]) {
+          m.tasks.push_back(i);
+          m.tasks.push_back(n + i);
+        }
+      }
+      // Tasks decode depth (t < n) or color (t >= n) of camera t % n, in parallel.
       try {
-        m.pool->parallel_for(2 * n, [&](size_t t) {
-          const size_t i = t % n;
+        m.pool->parallel_for(m.tasks.size(), [&](size_t k) {
+          const size_t t = m.tasks[k], i = t % n;
           CameraFrame& f = out.frames.cameras[i];
           if (t < n)
             m.depth[i]->decode(m.view.cameras[i].depth, f.depth);
           else
             m.color[i]->decode(m.view.cameras[i].color, f.color);
         });
+        m.last_out = &out;
+        if (m.stateless)
+          for (size_t i = 0; i < n; ++i) {
+            m.last_depth[i].assign(m.view.cameras[i].depth.begin(), m.view.cameras[i].depth.end());
+            m.last_color[i].assign(m.view.cameras[i].color.begin(), m.view.cameras[i].color.end());
+          }
       } catch (const Error& e) {
+        m.last_out = nullptr;  // `out` holds partly decoded images now
         // A delta whose reference is missing (or a corrupt frame): skip it, ask for a key frame.
         if (m.undecodable++ == 0) spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
         decoded = false;

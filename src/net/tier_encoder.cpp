@@ -1,5 +1,6 @@
 #include "tier_encoder.hpp"
 
+#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 
@@ -13,19 +14,28 @@ TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
   }
   encoded_.resize(cameras);
   key_flags_.resize(2 * cameras);
+  last_.resize(cameras);
+  const DepthCodecInfo* d = find_depth_codec(key_.depth_codec);
+  const ColorCodecInfo* c = find_color_codec(key_.color_codec);
+  stateless_ = d && c && !d->temporal && !c->temporal;
 }
 
 std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet& frames, bool key,
                                                          WorkerPool& pool) {
   const size_t n = depth_.size();
   if (frames.cameras.size() != n) throw Error("tier: frame set has the wrong number of cameras");
-  // Tasks 0..n-1 encode depth, n..2n-1 color: the slowest of the 2n sets the time.
-  pool.parallel_for(2 * n, [&](size_t t) {
-    const size_t i = t % n;
+  // Tasks 0..n-1 encode depth, n..2n-1 color: the slowest of the 2n sets the time. A repeated
+  // frame of a stateless tier keeps last time's bytes (and key flags: always key).
+  tasks_.clear();
+  for (size_t t = 0; t < 2 * n; ++t)
+    if (!(stateless_ && last_[t % n] == frames.cameras[t % n])) tasks_.push_back(t);
+  pool.parallel_for(tasks_.size(), [&](size_t k) {
+    const size_t t = tasks_[k], i = t % n;
     const CameraFrame& f = *frames.cameras[i];
     key_flags_[t] = t < n ? depth_[i]->encode(f.depth, key, encoded_[i].depth)
                           : color_[i]->encode(f.color, key, encoded_[i].color);
   });
+  for (size_t i = 0; i < n; ++i) last_[i] = frames.cameras[i];
   bool all_key = true;
   for (size_t i = 0; i < n; ++i) {
     encoded_[i].device_timestamp_us = frames.cameras[i]->device_timestamp_us;

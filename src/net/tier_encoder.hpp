@@ -35,7 +35,10 @@ class TierEncoder {
   TierEncoder(TierKey key, size_t cameras);
   const TierKey& key() const { return key_; }
   /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
-  /// `pool`, into a recycled buffer. Not thread-safe: one caller at a time.
+  /// `pool`, into a recycled buffer. A camera whose frame is the one it encoded last time (a
+  /// camera slower than the site repeats its frame) keeps its bytes when both codecs are
+  /// non-temporal (the same frame encodes to the same bytes). Not thread-safe: one caller at a
+  /// time.
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
                                               WorkerPool& pool);
 
@@ -45,6 +48,10 @@ class TierEncoder {
   std::vector<std::unique_ptr<ColorEncoder>> color_;
   std::vector<protocol::EncodedCamera> encoded_;
   std::vector<char> key_flags_;  // per task: emitted a key frame
+  std::vector<size_t> tasks_;     // the tasks of this call (tasks 0..n-1 depth, n..2n-1 color)
+  // The frame each camera encoded last, held so its address cannot be reused by a new frame.
+  std::vector<std::shared_ptr<const CameraFrame>> last_;
+  bool stateless_ = false;        // both codecs non-temporal: bytes depend on the frame alone
   std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
   uint64_t index_ = 0;
 };

@@ -25,11 +25,12 @@ struct Accumulator {
   std::vector<double> latencies_ms;
 };
 
-// Hands the newest point clouds from the receiving thread to the rendering thread.
+// Hands the newest point clouds from the receiving thread to the rendering thread. Clouds are
+// shared, immutable once built: a camera that repeats its frame keeps its cloud.
 struct CloudMailbox {
   std::mutex mutex;
   std::condition_variable changed;
-  std::vector<PointCloud> clouds;
+  std::vector<std::shared_ptr<const PointCloud>> clouds;
   uint64_t version = 0;
   bool done = false;
 };
@@ -47,7 +48,7 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
     if (throttle)
       spdlog::info("software renderer ({}): drawing at most {} frames per second", result.renderer,
                    opt.software_render_fps);
-    std::vector<PointCloud> clouds;
+    std::vector<std::shared_ptr<const PointCloud>> clouds;
     std::vector<const PointCloud*> views;
     uint64_t seen = 0;
     std::optional<ViewCamera> view = opt.view;
@@ -57,11 +58,10 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
         box.changed.wait(lock, [&] { return box.done || box.version != seen; });
         if (box.version == seen) break;  // finished, and nothing new to draw
         seen = box.version;
-        // Take the newest clouds; the receiver gets these buffers back to refill.
-        std::swap(clouds, box.clouds);
+        clouds = box.clouds;  // the newest clouds (shared; the receiver builds into others)
       }
       views.clear();
-      for (const auto& c : clouds) views.push_back(&c);
+      for (const auto& c : clouds) views.push_back(c.get());
       if (!view) view = orbit_view(first_camera, views);
       renderer.draw(views, to_view(*view, target.target().aspect()), target.target());
       ++result.frames_rendered;
@@ -77,7 +77,6 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
       write_color_png(opt.screenshot, image);
       spdlog::info("wrote {}", opt.screenshot.string());
     }
-    result.last_clouds = std::move(clouds);
   } catch (...) {
     error = std::current_exception();
     std::lock_guard lock(box.mutex);
@@ -105,7 +104,12 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     render_thread = std::thread([&] { render_loop(opt, first_camera, box, result, render_error); });
 
   std::vector<Accumulator> acc(cams.size());
-  std::vector<PointCloud> clouds(cams.size());
+  // Each camera's newest cloud, and per camera the buffers clouds are built into (one no longer
+  // held by the renderer is reused; a repeated frame keeps its cloud).
+  std::vector<std::shared_ptr<const PointCloud>> clouds(cams.size());
+  std::vector<std::vector<std::shared_ptr<PointCloud>>> buffers(cams.size());
+  std::vector<std::shared_ptr<PointCloud>> building(cams.size());
+  std::vector<size_t> to_build;
   ReceivedFrameSet rx;
   StageRecorder stages;
   WorkerPool pool;  // point clouds of the cameras built in parallel
@@ -132,10 +136,23 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   try {
     while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
            client.receive(rx)) {
-      clouds.resize(cams.size());  // after a hand-over these may be the renderer's old buffers
-      pool.parallel_for(cams.size(), [&](size_t i) {
-        builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, clouds[i]);
+      to_build.clear();
+      for (size_t i = 0; i < cams.size(); ++i) {
+        if (rx.repeated[i] && clouds[i]) continue;
+        building[i] = nullptr;
+        for (auto& b : buffers[i])
+          if (b.use_count() == 1) building[i] = b;
+        if (!building[i]) {
+          building[i] = std::make_shared<PointCloud>();
+          if (buffers[i].size() < 4) buffers[i].push_back(building[i]);
+        }
+        to_build.push_back(i);
+      }
+      pool.parallel_for(to_build.size(), [&](size_t k) {
+        const size_t i = to_build[k];
+        builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, *building[i]);
       });
+      for (size_t i : to_build) clouds[i] = std::move(building[i]);
       const int64_t now = wall_clock_us();
       stages.add(rx.times, now);
       const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
@@ -156,7 +173,7 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       ++received;
       if (opt.render) {
         std::lock_guard lock(box.mutex);
-        std::swap(box.clouds, clouds);
+        box.clouds = clouds;
         ++box.version;
         box.changed.notify_one();
         if (box.done) break;  // renderer failed
@@ -187,10 +204,10 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       box.done = true;
     }
     box.changed.notify_one();
-    render_thread.join();  // renders whatever is still pending, then keeps it in last_clouds
-  } else {
-    result.last_clouds = std::move(clouds);
+    render_thread.join();  // renders whatever is still pending
   }
+  for (const auto& c : clouds)  // the last frame set's clouds, copied once
+    result.last_clouds.push_back(c ? *c : PointCloud{});
   if (receive_error) std::rethrow_exception(receive_error);
   if (render_error) std::rethrow_exception(render_error);
   result.frames_undecodable = client.frames_undecodable();

@@ -37,6 +37,10 @@ struct ReceivedFrameSet {
   FrameSet frames;  ///< decoded depth (mm) and color per camera (empty images when not decoding)
   bool key = false;
   StageTimes times;
+  /// Per camera: 1 if its encoded frame is byte-identical to the one this Client decoded into
+  /// this same object last time (a camera slower than the site repeats frames) with non-temporal
+  /// codecs; it was not decoded again and its images above are unchanged.
+  std::vector<char> repeated;
   std::vector<size_t> depth_bytes;  ///< encoded depth size per camera
   std::vector<size_t> color_bytes;  ///< encoded color size per camera
   size_t message_bytes = 0;         ///< whole message including headers

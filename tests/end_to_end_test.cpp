@@ -10,12 +10,12 @@
 #include <set>
 #include <thread>
 
-#include "volcast/pipeline/sender.hpp"
 #include "hands_site.hpp"
 #include "test_data.hpp"
-#include "volcast/pipeline/receiver.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/sender.hpp"
 
 namespace volcast {
 namespace {
@@ -266,7 +266,8 @@ TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
   for (int i = 0; i < 40 && client.receive(rx); ++i) {
     if (i == 0) first = rx.frames.sequence;
     last = rx.frames.sequence;
-    if (!kinect_stamps.empty() && rx.frames.cameras[1].device_timestamp_us < *kinect_stamps.rbegin())
+    if (!kinect_stamps.empty() &&
+        rx.frames.cameras[1].device_timestamp_us < *kinect_stamps.rbegin())
       kinect_in_order = false;
     hands_stamps.insert(rx.frames.cameras[0].device_timestamp_us);
     kinect_stamps.insert(rx.frames.cameras[1].device_timestamp_us);

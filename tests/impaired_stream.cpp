@@ -10,15 +10,15 @@
 
 namespace volcast {
 
-PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data,
-                      double seconds, int max_window) {
+PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds,
+                      int max_window) {
   SitePlayer site(two_camera_site(data), 30);
   ServerConfig config;
   config.bind_address = link.server_address();
   config.port = 0;
   config.max_window = max_window;
-  auto server = link.in_server_namespace(
-      [&] { return std::make_unique<Server>(site.cameras(), config); });
+  auto server =
+      link.in_server_namespace([&] { return std::make_unique<Server>(site.cameras(), config); });
   site.start(*server);
   ClientConfig c;
   c.host = link.server_address();

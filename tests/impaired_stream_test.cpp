@@ -35,12 +35,13 @@ TEST(ImpairedPath, FiftyMsRoundTripWithFivePercentLossStaysWithinTheBudget) {
   if (!link) GTEST_SKIP() << why;
   const PathRun r = run_over_link(*link, test::data_dir(), 4.0);
   const auto c = link->counters();
-  std::printf("50 ms RTT + 5%% loss: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu packets lost\n",
-              r.fps, r.latency_ms_p50, r.latency_ms_p99,
-              static_cast<unsigned long long>(c.server_to_client.dropped_loss));
+  std::printf(
+      "50 ms RTT + 5%% loss: %.1f fps, latency p50 %.1f ms p99 %.1f ms, %llu packets lost\n", r.fps,
+      r.latency_ms_p50, r.latency_ms_p99,
+      static_cast<unsigned long long>(c.server_to_client.dropped_loss));
   EXPECT_GT(c.server_to_client.dropped_loss, 0u);
   EXPECT_GE(r.fps, 12.0);
-  EXPECT_LE(r.worst_send_age_ms, 150.0);  // nothing older than the budget was sent
+  EXPECT_LE(r.worst_send_age_ms, 150.0);              // nothing older than the budget was sent
   EXPECT_LE(r.latency_ms_p50, 150.0 + 25.0 + 250.0);  // budget + path + loss recovery, loosely
 }
 

@@ -25,7 +25,6 @@ namespace fs = std::filesystem;
 
 using test::HandsSite;
 
-
 // A viewer speaking the protocol directly, keeping each frame set's shared body as received.
 struct RawViewer {
   std::unique_ptr<Connection> c;
@@ -53,9 +52,9 @@ struct RawViewer {
     protocol::FrameSetView view;
     protocol::parse_frame_set(payload, view);
     if (ack)
-      c->write_all(protocol::message(protocol::MessageType::kAck,
-                                     protocol::serialize_ack(view.sequence)),
-                   5000);
+      c->write_all(
+          protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(view.sequence)),
+          5000);
     return {view.sequence, std::vector<uint8_t>(payload.begin() + 8, payload.end())};
   }
 };
@@ -146,7 +145,7 @@ TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
   const auto tiers = site.server.tiers();
   ASSERT_EQ(tiers.size(), 1u);  // both on one tier: encoded once
   EXPECT_EQ(tiers[0].viewers, 2);
-  EXPECT_GT(tiers[0].key_frames, keys_before);  // a key frame was made for the joiner
+  EXPECT_GT(tiers[0].key_frames, keys_before);              // a key frame was made for the joiner
   EXPECT_LT(tiers[0].key_frames, tiers[0].frames_encoded);  // and deltas otherwise
 }
 
@@ -242,9 +241,9 @@ TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
       ++slow_frames;
       protocol::FrameSetView view;
       protocol::parse_frame_set(v.payload, view);
-      v.c->write_all(protocol::message(protocol::MessageType::kAck,
-                                       protocol::serialize_ack(view.sequence)),
-                     5000);
+      v.c->write_all(
+          protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(view.sequence)),
+          5000);
     }
   });
   ClientConfig c;
@@ -273,7 +272,7 @@ TEST(Pacer, WindowFollowsTheBandwidthDelayProduct) {
   Pacer p(8);
   const int64_t rtt = 100'000, frame_us = 33'333;
   const size_t bytes = 100'000;
-  const double bytes_per_us = 10.0;  // 80 Mbit/s
+  const double bytes_per_us = 10.0;               // 80 Mbit/s
   std::deque<std::pair<uint64_t, int64_t>> acks;  // sequence, when its Ack arrives
   int64_t link_free = 0;
   uint64_t sent = 0, offered = 0;
@@ -293,7 +292,7 @@ TEST(Pacer, WindowFollowsTheBandwidthDelayProduct) {
     }
   }
   EXPECT_NEAR(p.min_rtt_us(), rtt + 10'000, 1000);  // the path plus one frame's transmission
-  EXPECT_GE(p.window_frames(), 4);                    // about 3 frame sets per round trip
+  EXPECT_GE(p.window_frames(), 4);                  // about 3 frame sets per round trip
   EXPECT_LE(p.window_frames(), 8);
   EXPECT_GE(sent, offered * 95 / 100);  // the path carries the stream: almost nothing skipped
   EXPECT_FALSE(p.on_ack(999999, 0));    // never sent

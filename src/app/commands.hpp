@@ -95,9 +95,9 @@ struct BenchArgs {
   std::string json;
   std::string data;
   int repeats = 50;
-  bool server = false;         ///< the server benchmark instead of the codec/filter tables
-  double server_seconds = 4;   ///< measured per configuration
-  std::vector<int> viewers;    ///< viewer counts (default 1, 4, 8, 16)
+  bool server = false;        ///< the server benchmark instead of the codec/filter tables
+  double server_seconds = 4;  ///< measured per configuration
+  std::vector<int> viewers;   ///< viewer counts (default 1, 4, 8, 16)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);

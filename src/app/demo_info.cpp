@@ -6,17 +6,16 @@
 
 #include "commands.hpp"
 #include "real_sites.hpp"
-#include "volcast/pipeline/sender.hpp"
-#include "volcast/pipeline/receiver.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/sender.hpp"
 #include "volcast/render/headless_target.hpp"
 
 namespace volcast {
 namespace fs = std::filesystem;
 namespace {
-
 
 // The four corners of the intrinsics line `volcast info` prints.
 std::string intrinsics_line(const Intrinsics& k) {

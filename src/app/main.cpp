@@ -62,8 +62,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   s->add_option("--max-viewers", serve.max_viewers, "Viewers served at once; more are rejected")
       ->capture_default_str();
-  s->add_option("--max-window", serve.max_window,
-                "Frame sets in flight per viewer at most (pacing keeps ~2 bandwidth-delay products)")
+  s->add_option(
+       "--max-window", serve.max_window,
+       "Frame sets in flight per viewer at most (pacing keeps ~2 bandwidth-delay products)")
       ->capture_default_str();
   s->add_option("--latency-budget", serve.latency_budget_ms,
                 "Never send a frame set captured longer ago than this (ms)")

@@ -8,9 +8,9 @@
 
 #include "commands.hpp"
 #include "options.hpp"
-#include "volcast/pipeline/sender.hpp"
-#include "volcast/pipeline/receiver.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/sender.hpp"
 
 namespace volcast {
 
@@ -120,7 +120,8 @@ int run_serve(const ServeArgs& a) {
   server.stop();
   for (const auto& v : server.viewers())
     spdlog::info(
-        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} MB, "
+        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} "
+        "MB, "
         "path RTT {:.1f} ms, {:.1f} Mbit/s",
         v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
         static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s);

@@ -9,7 +9,9 @@ namespace {
 class StillSource final : public FrameSource {
  public:
   StillSource(CameraFrame frame, CameraCalibration calibration, double fps, std::string what)
-      : frame_(std::move(frame)), calibration_(std::move(calibration)), fps_(fps),
+      : frame_(std::move(frame)),
+        calibration_(std::move(calibration)),
+        fps_(fps),
         description_(std::move(what)) {}
   const CameraCalibration& calibration() const override { return calibration_; }
   double fps() const override { return fps_; }

@@ -5,7 +5,8 @@
 namespace volcast {
 
 WorkerPool::WorkerPool(int threads) {
-  if (threads <= 0) threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
+  if (threads <= 0)
+    threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) - 1);
   for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { work(); });
 }
 

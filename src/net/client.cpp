@@ -125,8 +125,7 @@ bool Client::receive(ReceivedFrameSet& out) {
     protocol::Header header;
     if (!m.read_message(header, protocol::kMaxPayloadBytes)) return false;
     if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
-    if (header.type != protocol::MessageType::kFrameSet)
-      throw Error("expected a FrameSet message");
+    if (header.type != protocol::MessageType::kFrameSet) throw Error("expected a FrameSet message");
     const int64_t received_us = wall_clock_us();
     protocol::parse_frame_set(m.payload, m.view);
     if (m.view.cameras.size() != cams.size())
@@ -185,7 +184,8 @@ bool Client::receive(ReceivedFrameSet& out) {
       } catch (const Error& e) {
         m.last_out = nullptr;  // `out` holds partly decoded images now
         // A delta whose reference is missing (or a corrupt frame): skip it, ask for a key frame.
-        if (m.undecodable++ == 0) spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
+        if (m.undecodable++ == 0)
+          spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
         decoded = false;
       }
       for (size_t i = 0; decoded && i < n; ++i) {

@@ -253,8 +253,7 @@ struct Server::Impl {
         r.color_quality = hello.color_quality;
       });
       try {
-        if (full)
-          throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
+        if (full) throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
         std::lock_guard lock(mutex);
         tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
       } catch (const Error& e) {
@@ -313,9 +312,8 @@ struct Server::Impl {
         read_control(v, tier, pacer, payload);
         last_progress = std::chrono::steady_clock::now();
       }
-      if (pacer.frames_in_flight() > 0 &&
-          std::chrono::steady_clock::now() - last_progress >
-              std::chrono::milliseconds(config.stall_timeout_ms))
+      if (pacer.frames_in_flight() > 0 && std::chrono::steady_clock::now() - last_progress >
+                                              std::chrono::milliseconds(config.stall_timeout_ms))
         throw Error("viewer stalled: acknowledged nothing for " +
                     std::to_string(config.stall_timeout_ms) + " ms");
       std::shared_ptr<const detail::EncodedFrames> frames;
@@ -327,8 +325,7 @@ struct Server::Impl {
       if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) continue;
       const int64_t now_wall = wall_clock_us();
       const bool decodable = frames->key || (synced && frames->index == last_index + 1);
-      const bool stale =
-          now_wall - frames->capture_us > int64_t{config.latency_budget_ms} * 1000;
+      const bool stale = now_wall - frames->capture_us > int64_t{config.latency_budget_ms} * 1000;
       if (!decodable || stale) {
         // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
         std::lock_guard lock(mutex);
@@ -371,8 +368,7 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   impl_->config = std::move(config);
   impl_->cameras = std::move(cameras);
   impl_->pool = std::make_unique<WorkerPool>(impl_->config.encode_threads);
-  impl_->listener =
-      std::make_unique<TcpListener>(impl_->config.bind_address, impl_->config.port);
+  impl_->listener = std::make_unique<TcpListener>(impl_->config.bind_address, impl_->config.port);
   impl_->accept_thread = std::thread([this] { impl_->accept_loop(); });
 }
 

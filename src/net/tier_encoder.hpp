@@ -48,10 +48,10 @@ class TierEncoder {
   std::vector<std::unique_ptr<ColorEncoder>> color_;
   std::vector<protocol::EncodedCamera> encoded_;
   std::vector<char> key_flags_;  // per task: emitted a key frame
-  std::vector<size_t> tasks_;     // the tasks of this call (tasks 0..n-1 depth, n..2n-1 color)
+  std::vector<size_t> tasks_;    // the tasks of this call (tasks 0..n-1 depth, n..2n-1 color)
   // The frame each camera encoded last, held so its address cannot be reused by a new frame.
   std::vector<std::shared_ptr<const CameraFrame>> last_;
-  bool stateless_ = false;        // both codecs non-temporal: bytes depend on the frame alone
+  bool stateless_ = false;  // both codecs non-temporal: bytes depend on the frame alone
   std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
   uint64_t index_ = 0;
 };

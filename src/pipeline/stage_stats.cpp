@@ -14,8 +14,8 @@ double percentile(std::vector<double> v, double p) {
 }
 
 void StageRecorder::add(const StageTimes& t, int64_t ready_us) {
-  const int64_t ends[] = {t.filter_done_us, t.encode_done_us, t.send_us, t.received_us,
-                          t.decoded_us, ready_us};
+  const int64_t ends[] = {t.filter_done_us, t.encode_done_us, t.send_us,
+                          t.received_us,    t.decoded_us,     ready_us};
   int64_t start = t.capture_us;
   for (size_t i = 0; i < 6; ++i) {
     samples_[i].push_back(static_cast<double>(ends[i] - start) / 1000.0);

@@ -28,7 +28,7 @@ class WorkerPool {
 
  private:
   void work();
-  bool run_one();  // claims and runs one index of the current job; false if none is left
+  bool run_one();          // claims and runs one index of the current job; false if none is left
   std::mutex call_mutex_;  // one parallel_for at a time
   std::mutex mutex_;
   std::condition_variable wake_, done_;

@@ -16,8 +16,8 @@ class Connection {
   virtual ~Connection() = default;
 
   /// Reads exactly `data.size()` bytes. `timeout_ms` < 0 waits without limit. Throws Error
-  /// ("timed out waiting for the peer", "peer closed the connection", "connection shut down", or the
-  /// system's reason).
+  /// ("timed out waiting for the peer", "peer closed the connection", "connection shut down", or
+  /// the system's reason).
   virtual void read_exact(std::span<uint8_t> data, int timeout_ms) = 0;
   /// Writes every byte of `parts` in order, as one gather write where it can (no copy into one
   /// buffer). Throws Error if the peer accepts nothing for `stall_ms`, the connection breaks, or it

@@ -35,11 +35,11 @@ struct ServerConfig {
   uint16_t port = 7300;                    ///< 0 picks a free port (see Server::port)
   int key_frame_interval = 60;             ///< frame sets between key frames of temporal tiers
   int min_key_interval_ms = 250;           ///< a tier makes requested key frames at most this often
-  int max_window = 8;             ///< frame sets in flight (sent, not acknowledged) at most
-  int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
-  int max_viewers = 16;           ///< further viewers are rejected ("server full")
-  int max_tiers = 8;              ///< distinct tiers at once; a viewer asking for another is rejected
-  int encode_threads = 0;         ///< worker threads for encoding (0 = cores - 1)
+  int max_window = 8;           ///< frame sets in flight (sent, not acknowledged) at most
+  int latency_budget_ms = 150;  ///< a frame set captured longer ago is never sent
+  int max_viewers = 16;         ///< further viewers are rejected ("server full")
+  int max_tiers = 8;            ///< distinct tiers at once; a viewer asking for another is rejected
+  int encode_threads = 0;       ///< worker threads for encoding (0 = cores - 1)
   int handshake_timeout_ms = 5000;  ///< a viewer must send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
                                     ///< disconnected
@@ -55,9 +55,9 @@ struct ViewerReport {
   uint64_t frames_stale = 0;    ///< of those, skipped for being older than the latency budget
   uint64_t key_requests = 0;    ///< KeyFrameRequests the viewer sent
   uint64_t bytes_sent = 0;
-  double min_rtt_ms = 0;          ///< path round trip (send -> Ack), windowed minimum
-  double bottleneck_mbit_s = 0;   ///< delivery-rate estimate, windowed maximum
-  int window = 0;                 ///< frame sets it may have in flight now
+  double min_rtt_ms = 0;         ///< path round trip (send -> Ack), windowed minimum
+  double bottleneck_mbit_s = 0;  ///< delivery-rate estimate, windowed maximum
+  int window = 0;                ///< frame sets it may have in flight now
   bool connected = false;
   std::string error;  ///< why it ended, if it did
 };

@@ -18,7 +18,7 @@ struct ViewerOptions {
   double seconds = 0;                       ///< stop after this long (0 = no limit)
   bool render = true;                       ///< render headless with EGL
   int width = 1280, height = 720;           ///< render size, pixels
-  double software_render_fps = 0;          ///< with a software rasteriser (no GPU), draw at most
+  double software_render_fps = 0;           ///< with a software rasteriser (no GPU), draw at most
                                             ///< this often (0 = every frame set)
   std::optional<ViewCamera> view;           ///< default: orbit_view from the site's first camera
   std::filesystem::path screenshot;         ///< PNG of the last render, if set

@@ -42,7 +42,7 @@ class SitePlayer {
   std::shared_ptr<CameraFrame> spare_frame(size_t i);
   std::vector<std::unique_ptr<FrameSource>> sources_;
   std::vector<std::optional<FilterChain>> chains_;
-  std::vector<std::shared_ptr<const CameraFrame>> last_frames_;  // each camera's latest frame
+  std::vector<std::shared_ptr<const CameraFrame>> last_frames_;     // each camera's latest frame
   std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers_;  // per camera, recycled
   double fps_;
   std::thread thread_;

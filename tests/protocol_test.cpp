@@ -160,6 +160,10 @@ TEST(Protocol, ChannelsSeparateFramesControlAndSessionMessages) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("version"), std::string::npos);
   }
+  // The allocation-free Ack is the same message as header + serialize_ack.
+  const auto ack = ack_message(0x0102030405060708ull);
+  EXPECT_TRUE(
+      std::ranges::equal(ack, message(MessageType::kAck, serialize_ack(0x0102030405060708ull))));
   // Hello with a quality over 100 is malformed.
   auto hello = serialize(Hello{"volcast", "jpeg", 100});
   hello.back() = 101;

@@ -21,16 +21,10 @@ namespace volcast {
 namespace {
 namespace fs = std::filesystem;
 
-double process_cpu_seconds() {
+// User + system CPU seconds of the process (RUSAGE_SELF) or the calling thread (RUSAGE_THREAD).
+double cpu_seconds(int who) {
   rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) / 1e6;
-}
-
-double thread_cpu_seconds() {
-  rusage u{};
-  getrusage(RUSAGE_THREAD, &u);
+  getrusage(who, &u);
   return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
          static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec) / 1e6;
 }
@@ -77,27 +71,27 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
         while (!done && client.receive(rx)) {
           if (measuring && !counting) {
             counting = true;
-            cpu_start = thread_cpu_seconds();
+            cpu_start = cpu_seconds(RUSAGE_THREAD);
           }
           if (!counting) continue;
           ++f.frames;
           f.latency_ms.push_back(static_cast<double>(rx.times.received_us - rx.times.capture_us) /
                                  1000.0);
         }
-        f.cpu_s = thread_cpu_seconds() - cpu_start;
+        f.cpu_s = cpu_seconds(RUSAGE_THREAD) - cpu_start;
         client.close();
       } catch (const std::exception& e) {
         f.error = e.what();
       }
     });
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // join, key frames, warm-up
-  const double cpu0 = process_cpu_seconds();
+  const double cpu0 = cpu_seconds(RUSAGE_SELF);
   const auto t0 = std::chrono::steady_clock::now();
   measuring = true;
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   done = true;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double cpu1 = process_cpu_seconds();
+  const double cpu1 = cpu_seconds(RUSAGE_SELF);
   site.stop();
   server.stop();  // ends the viewers' connections
   for (auto& t : threads) t.join();

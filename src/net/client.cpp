@@ -54,9 +54,9 @@ struct Client::Impl {
     return true;
   }
 
-  void send(protocol::MessageType type, const std::vector<uint8_t>& body) {
+  void send(std::span<const uint8_t> message) {
     try {
-      connection->write_all(protocol::message(type, body), 10000);
+      connection->write_all(message, 10000);
     } catch (const Error& e) {
       if (!closed) throw Error(std::string("connection lost while acknowledging: ") + e.what());
     }
@@ -200,9 +200,9 @@ bool Client::receive(ReceivedFrameSet& out) {
     }
     out.times.decoded_us = wall_clock_us();
     // Tell the server, whose pacing follows these Acks.
-    m.send(protocol::MessageType::kAck, protocol::serialize_ack(out.frames.sequence));
+    m.send(protocol::ack_message(out.frames.sequence));
     if (decoded) return true;
-    m.send(protocol::MessageType::kKeyFrameRequest, {});
+    m.send(protocol::message(protocol::MessageType::kKeyFrameRequest, {}));
   }
 }
 

@@ -2,11 +2,9 @@
 
 #include <arpa/inet.h>
 #include <fcntl.h>
-#include <linux/sockios.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
-#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -136,12 +134,6 @@ class TcpConnection final : public Connection {
       r.woken = wake_fd >= 0 && p[1].revents != 0;
     }
     return r;
-  }
-
-  size_t unacknowledged_bytes() const override {
-    int queued = 0;
-    if (::ioctl(fd_, SIOCOUTQ, &queued) != 0) return 0;
-    return static_cast<size_t>(std::max(queued, 0));
   }
 
   std::string peer() const override { return peer_; }

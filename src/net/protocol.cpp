@@ -182,6 +182,13 @@ std::vector<uint8_t> serialize_ack(uint64_t sequence) {
   return out;
 }
 
+std::array<uint8_t, kHeaderBytes + 8> ack_message(uint64_t sequence) {
+  std::array<uint8_t, kHeaderBytes + 8> out;
+  write_header(MessageType::kAck, 8, out.data());
+  std::memcpy(out.data() + kHeaderBytes, &sequence, 8);
+  return out;
+}
+
 uint64_t parse_ack(std::span<const uint8_t> payload) {
   Reader r(payload, "ack");
   const uint64_t sequence = r.get<uint64_t>();

@@ -35,9 +35,6 @@ class Connection {
   /// Waits until the connection is readable or `wake_fd` (an eventfd or pipe, -1 for none) is,
   /// at most `timeout_ms` (< 0: no limit). Does not consume the wake fd's counter.
   virtual Ready wait(int wake_fd, int timeout_ms) = 0;
-  /// Bytes this side has written that the peer has not yet acknowledged at the transport level
-  /// (TCP: SIOCOUTQ), 0 where the transport cannot tell.
-  virtual size_t unacknowledged_bytes() const = 0;
   /// "address:port" of the peer, for logs.
   virtual std::string peer() const = 0;
   /// Ends the connection: calls blocked in other threads return by throwing Error. Thread-safe

@@ -26,9 +26,6 @@ class Pacer {
   bool on_ack(uint64_t sequence, int64_t now_us);
 
   size_t frames_in_flight() const { return flight_.size(); }
-  size_t bytes_in_flight() const { return bytes_in_flight_; }
-  /// Send time of the oldest unacknowledged frame set (0 if none).
-  int64_t oldest_send_us() const { return flight_.empty() ? 0 : flight_.front().send_us; }
   /// 0 until the first Ack.
   double min_rtt_us() const { return rtt_.empty() ? 0 : static_cast<double>(rtt_.front().value); }
   /// Bytes per microsecond (= MB/s); 0 until the first Ack.

@@ -69,10 +69,6 @@ enum class MessageType : uint16_t {
   kFrameSet = 0x0101,
 };
 
-inline Channel channel_of(MessageType t) {
-  return static_cast<Channel>(static_cast<uint16_t>(t) >> 8);
-}
-
 struct Header {
   uint16_t version = kVersion;
   Channel channel{};
@@ -138,6 +134,8 @@ std::vector<uint8_t> serialize(const Hello& m);
 std::vector<uint8_t> serialize(const Welcome& m);
 std::vector<uint8_t> serialize_reject(const std::string& reason);
 std::vector<uint8_t> serialize_ack(uint64_t sequence);
+/// A whole Ack message (header + sequence), without allocating: the viewer sends one per frame set.
+std::array<uint8_t, kHeaderBytes + 8> ack_message(uint64_t sequence);
 
 /// Writes a FrameSet's shared body (everything after the send time) into `out` (cleared first;
 /// capacity reused). `times.send_us` is not part of the body.

@@ -28,7 +28,6 @@ class StageRecorder {
   /// `ready_us`: when the point clouds were built, same clock as `t`.
   void add(const StageTimes& t, int64_t ready_us);
   std::vector<StageLatency> summary() const;
-  size_t count() const { return samples_[0].size(); }
 
  private:
   std::array<std::vector<double>, kStageNames.size()> samples_;  // milliseconds

@@ -323,9 +323,10 @@ TEST(Pacer, BoundsTheQueueOnASlowPath) {
       }
     }
   }
-  EXPECT_LE(p.frames_in_flight(), 2u);
-  // At most about one frame set (100 ms of transmission) waits at the bottleneck.
-  EXPECT_LE(worst_queue_us, 150'000);
+  EXPECT_LE(p.frames_in_flight(), 3u);
+  // At most a few frame sets (100 ms of transmission each) wait at the bottleneck, not a growing
+  // queue.
+  EXPECT_LE(worst_queue_us, 300'000);
 }
 
 TEST(WorkerPool, RunsEveryIndexOnceAndRethrows) {

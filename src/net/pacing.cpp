@@ -12,14 +12,9 @@ constexpr int64_t kRateWindowUs = 2'000'000;
 Pacer::Pacer(int max_window, double gain) : max_window_(std::max(1, max_window)), gain_(gain) {}
 
 double Pacer::allowance_bytes() const {
-  // `gain` bandwidth-delay products: headroom for an app-limited estimate to grow. While the
-  // recent round trips show a queue (longer than the minimum by more than a frame set's
-  // transmission), one BDP: the queue drains instead of growing.
-  const double rate = bottleneck_bytes_per_us();
-  const double bdp = rate * min_rtt_us();
-  const double frame_us = rate > 0 ? mean_frame_bytes_ / rate : 0;
-  const bool queueing = recent_rtt_us_ > min_rtt_us() + frame_us + 5000;
-  return (queueing ? 1.0 : gain_) * bdp;
+  // `gain` bandwidth-delay products: headroom for an app-limited estimate to grow, and for TCP's
+  // loss recovery on a lossy path.
+  return gain_ * bottleneck_bytes_per_us() * min_rtt_us();
 }
 
 bool Pacer::can_send(size_t bytes) const {
@@ -59,9 +54,6 @@ bool Pacer::on_ack(uint64_t sequence, int64_t now_us) {
   delivered_us_ = now_us;
   const int64_t rtt = std::max<int64_t>(1, now_us - sent.send_us);
 
-  // The smaller of the last two round trips: one late Ack is not a queue.
-  recent_rtt_us_ = static_cast<double>(std::min(rtt, last_rtt_us_));
-  last_rtt_us_ = rtt;
   while (!rtt_.empty() && rtt_.back().value >= rtt) rtt_.pop_back();
   rtt_.push_back({now_us, rtt});
   while (rtt_.front().time_us < now_us - kRttWindowUs) rtt_.pop_front();

@@ -3,11 +3,11 @@
 // After BBR (N. Cardwell et al., "BBR: Congestion-Based Congestion Control", ACM Queue 14(5),
 // 2016), at frame-set granularity: the round-trip time is the windowed minimum of send -> Ack
 // (10 s; it includes a frame set's own transmission), the bottleneck rate the windowed maximum of
-// delivery-rate samples (2 s), and the bytes in flight are kept under min(gain x BDP, BDP + one
-// frame set of the recent mean size), BDP = rate x round trip -- at least one frame set, at most
-// `max_window`. The gain lets an app-limited estimate grow by a frame set per round trip until the
-// stream fits; the cap keeps at most about one frame set queued on a path slower than the
-// stream. Before the first Ack two frame sets may be in flight.
+// delivery-rate samples (2 s), and the bytes in flight are kept under `gain` (2) x BDP, BDP = rate
+// x round trip -- at least one frame set, at most `max_window`. The gain lets an app-limited
+// estimate grow until the stream fits and rides out TCP's loss recovery; on a path slower than
+// the stream about one BDP waits at the bottleneck (the tier's bitrate should drop there: not yet
+// done). Before the first Ack two frame sets may be in flight.
 // All times are microseconds of one steady clock; sizes are bytes.
 #include <cstddef>
 #include <cstdint>
@@ -55,8 +55,6 @@ class Pacer {
   uint64_t delivered_ = 0;
   int64_t delivered_us_ = 0;
   double mean_frame_bytes_ = 0;
-  double recent_rtt_us_ = 0;  // min of the last two round trips
-  int64_t last_rtt_us_ = 0;
   std::deque<Sample<int64_t>> rtt_;  // monotonic: front is the window's minimum
   std::deque<Sample<double>> rate_;  // monotonic: front is the window's maximum
 };

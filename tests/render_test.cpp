@@ -127,6 +127,115 @@ TEST(SplatRenderer, RendersARealFrameFromItsCamera) {
   EXPECT_GT(static_cast<double>(covered) / (image.width * image.height), 0.4);
 }
 
+// Pixels whose colour differs by more than `tolerance` in some channel, as a fraction of all.
+double fraction_differing(const ColorImage& a, const ColorImage& b, int tolerance) {
+  size_t differing = 0;
+  for (size_t i = 0; i < a.bgra.size(); i += 4)
+    for (size_t c = 0; c < 3; ++c)
+      if (std::abs(int{a.bgra[i + c]} - int{b.bgra[i + c]}) > tolerance) {
+        ++differing;
+        break;
+      }
+  return static_cast<double>(differing) / static_cast<double>(a.bgra.size() / 4);
+}
+
+double fraction_covered(const ColorImage& image) {
+  size_t covered = 0;
+  for (size_t i = 0; i < image.bgra.size(); i += 4)
+    covered += image.bgra[i] + image.bgra[i + 1] + image.bgra[i + 2] > 90;
+  return static_cast<double>(covered) / static_cast<double>(image.bgra.size() / 4);
+}
+
+TEST(SplatRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
+  // The real Azure Kinect frame (lens model with distortion: the rays come from the ray table),
+  // placed away from the world origin and turned, seen from the side.
+  auto src = open_source(test::kinect_mkv());
+  const CameraFrame f = src->next();
+  CameraCalibration cal = src->calibration();
+  cal.world_from_camera.rotation =
+      Eigen::AngleAxisd(0.5, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+  cal.world_from_camera.translation = Eigen::Vector3d(0.4, -0.2, 1.5);
+  PointCloud cloud;
+  CloudBuilder(cal).build(f.depth, f.color, cloud);
+  const PointCloud* clouds[] = {&cloud};
+  HeadlessTarget target(320, 288);
+  SplatRenderer renderer;
+  const View view =
+      to_view(orbit_view(cal.world_from_camera, clouds, 25, 10), target.target().aspect());
+
+  renderer.draw(clouds, view, target.target());
+  ColorImage from_cpu, from_gpu;
+  target.read_image(from_cpu);
+  renderer.set_cameras(std::span(&cal, 1));
+  renderer.draw_cameras(view, target.target());
+  ColorImage nothing_uploaded;
+  target.read_image(nothing_uploaded);
+  EXPECT_LT(fraction_covered(nothing_uploaded), 0.001) << "a camera drew before any upload";
+  renderer.upload(0, f);
+  renderer.draw_cameras(view, target.target());
+  target.read_image(from_gpu);
+
+  EXPECT_GT(fraction_covered(from_cpu), 0.2);
+  // Same points, same sizes: only float rounding (R p + t, then P, against (P M) p) can move a
+  // splat edge by a pixel.
+  EXPECT_LT(fraction_differing(from_cpu, from_gpu, 12), 0.01);
+}
+
+TEST(SplatRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
+  // Synthetic (labelled): a 4x2 pinhole camera at the origin looking down +z; two valid pixels,
+  // red at (0, 0) and green at (3, 1), the rest depth 0 with a blue colour that must not appear.
+  CameraCalibration cal;
+  cal.depth = {.width = 4, .height = 2, .fx = 4, .fy = 4, .cx = 2, .cy = 1};
+  CameraFrame f;
+  f.depth = DepthImage(4, 2);
+  f.color = ColorImage(4, 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) {
+      uint8_t* p = f.color.pixel(x, y);
+      p[0] = 255, p[1] = 0, p[2] = 0, p[3] = 255;  // BGRA blue
+    }
+  f.depth.pixels[0] = 2000;
+  f.color.pixel(0, 0)[0] = 0, f.color.pixel(0, 0)[2] = 255;  // red
+  f.depth.pixels[7] = 2500;
+  f.color.pixel(3, 1)[0] = 0, f.color.pixel(3, 1)[1] = 255;  // green
+  PointCloud cloud;
+  CloudBuilder(cal).build(f.depth, f.color, cloud);
+  ASSERT_EQ(cloud.points.size(), 2u);
+
+  HeadlessTarget target(160, 120);
+  SplatRenderer renderer;
+  ViewCamera camera;  // at the origin looking down +z, up = -y: the camera's own view
+  const View view = to_view(camera, target.target().aspect());
+  renderer.set_cameras(std::span(&cal, 1));
+  renderer.upload(0, f);
+  renderer.draw_cameras(view, target.target());
+  ColorImage image;
+  target.read_image(image);
+  const auto image_pixel = [&](const SplatPoint& p) {
+    // GL window coordinates to image rows (top row first).
+    const Eigen::Vector3d p_world(p.position[0], p.position[1], p.position[2]);
+    const Eigen::Vector3f p_view = (view.world_from_view.inverse() * p_world).cast<float>();
+    const Eigen::Vector2f w = window_from_view(view.clip_from_view, p_view, target.target());
+    return rgba_of(image, static_cast<int>(w.x()), image.height - 1 - static_cast<int>(w.y()));
+  };
+  EXPECT_TRUE(is_red(image_pixel(cloud.points[0])));
+  EXPECT_TRUE(is_green(image_pixel(cloud.points[1])));
+  size_t blue = 0;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) blue += rgba_of(image, x, y)[2] > 200;
+  EXPECT_EQ(blue, 0u) << "pixels with depth 0 were drawn";
+
+  f.color = ColorImage();  // no colour: gray, as CloudBuilder draws it
+  renderer.upload(0, f);
+  renderer.draw_cameras(view, target.target());
+  target.read_image(image);
+  EXPECT_EQ(image_pixel(cloud.points[0]), (std::array<uint8_t, 4>{160, 160, 160, 255}));
+
+  f.depth = DepthImage(3, 2);
+  EXPECT_THROW(renderer.upload(0, f), Error);  // not the calibration's size
+  EXPECT_THROW(renderer.upload(1, f), Error);  // no such camera
+}
+
 TEST(SplatRenderer, DrawsIntoAFramebufferItDidNotCreateOnlyInsideTheViewport) {
   EglContext context;  // the caller's context, as a window or an OpenXR session would have
   TestFramebuffer fb(200, 150);

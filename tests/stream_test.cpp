@@ -11,6 +11,7 @@
 #include "hands_site.hpp"
 #include "test_data.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/cpu_latency.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/worker_pool.hpp"
@@ -327,6 +328,23 @@ TEST(Pacer, BoundsTheQueueOnASlowPath) {
   // At most a few frame sets (100 ms of transmission each) wait at the bottleneck, not a growing
   // queue.
   EXPECT_LE(worst_queue_us, 300'000);
+}
+
+TEST(CpuLatencyRequest, HoldsTheLimitAtZeroWhileAliveAndDropsItAfter) {
+  const int64_t before = current_cpu_latency_limit_us();
+  {
+    CpuLatencyRequest request(0);
+    if (!request.active()) {  // no PM QoS device, or not root: says why, changes nothing
+      EXPECT_NE(request.error().find("/dev/cpu_dma_latency"), std::string::npos) << request.error();
+      EXPECT_EQ(current_cpu_latency_limit_us(), before);
+      GTEST_SKIP() << request.error();
+    }
+    EXPECT_EQ(current_cpu_latency_limit_us(), 0);
+  }
+  if (before > 0) {  // nobody else held a request of 0: ours is gone with the object
+    EXPECT_EQ(current_cpu_latency_limit_us(), before);
+  }
+  EXPECT_FALSE(CpuLatencyRequest(-1).active());
 }
 
 TEST(WorkerPool, RunsEveryIndexOnceAndRethrows) {

@@ -3,13 +3,19 @@
 // and reported by main.
 #include <atomic>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
 
 namespace volcast {
+
+/// With `on`, asks the kernel to keep idle cores awake while the returned request lives (see
+/// volcast/core/cpu_latency.hpp) and logs whether it could; null without `on`.
+std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on);
 
 /// Set by SIGINT/SIGTERM; long-running commands stop cleanly when it becomes true.
 extern std::atomic<bool> g_interrupted;
@@ -42,7 +48,8 @@ struct ServeArgs {
   int max_window = 8;
   int latency_budget_ms = 150;
   int min_key_interval_ms = 250;
-  double seconds = 0;  ///< 0 = until interrupted
+  double seconds = 0;        ///< 0 = until interrupted
+  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
 };
 int run_serve(const ServeArgs& args);
 
@@ -56,6 +63,7 @@ struct ViewArgs {
   std::string screenshot, save_frames, stats_json;
   std::string size = "1280x720";
   std::string eye, target;
+  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
 };
 int run_view(const ViewArgs& args);
 
@@ -66,7 +74,8 @@ struct DemoArgs {
       data;  ///< folder holding the shared recordings; default: found near the binary or cwd
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int cameras = 2;
-  bool no_render = false;  ///< render only the PNGs at the end, not while streaming
+  bool no_render = false;    ///< render only the PNGs at the end, not while streaming
+  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
 };
 int run_demo(const DemoArgs& args);
 

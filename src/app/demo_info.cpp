@@ -49,6 +49,7 @@ nlohmann::json intrinsics_json(const Intrinsics& k) {
 }  // namespace
 
 int run_demo(const DemoArgs& a) {
+  const auto low_latency = hold_low_latency(a.low_latency);
   const auto data = find_data(a.data);
   if (!data) {
     std::fprintf(

@@ -46,6 +46,10 @@ int main(int argc, char** argv) {
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log debug messages");
 
+  const std::string kLowLatencyHelp =
+      "Keep idle cores awake while streaming (Linux PM QoS: /dev/cpu_dma_latency = 0, needs "
+      "root). Lower latency where waking a core is slow, e.g. virtual machines; costs power";
+
   ServeArgs serve;
   auto* s = app.add_subcommand("serve", "Stream one site (several cameras) to viewers over TCP");
   s->add_option("--source", serve.sources,
@@ -77,6 +81,7 @@ int main(int argc, char** argv) {
                 "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
   add_filter_flags(s, serve.filters, true);
   s->get_option("--source")->required(false);
+  s->add_flag("--low-latency", serve.low_latency, kLowLatencyHelp);
 
   ViewArgs view;
   auto* v =
@@ -101,6 +106,7 @@ int main(int argc, char** argv) {
   v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");
+  v->add_flag("--low-latency", view.low_latency, kLowLatencyHelp);
 
   DemoArgs demo;
   auto* d = app.add_subcommand("demo",
@@ -118,6 +124,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   d->add_flag("--no-render", demo.no_render,
               "Render the PNGs only at the end, not while streaming (latency without a GPU)");
+  d->add_flag("--low-latency", demo.low_latency, kLowLatencyHelp);
 
   FilterArgs filter;
   auto* f = app.add_subcommand(

@@ -76,7 +76,18 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
 
 }  // namespace
 
+std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on) {
+  if (!on) return nullptr;
+  auto request = std::make_unique<CpuLatencyRequest>(0);
+  if (request->active())
+    spdlog::info("--low-latency: idle cores kept awake (CPU wake-up latency held at 0 us)");
+  else
+    spdlog::warn("--low-latency has no effect: {}", request->error());
+  return request;
+}
+
 int run_serve(const ServeArgs& a) {
+  const auto low_latency = hold_low_latency(a.low_latency);
   std::vector<std::unique_ptr<FrameSource>> sources;
   std::vector<FilterConfig> filters;
   load_site(a, sources, filters);
@@ -129,6 +140,7 @@ int run_serve(const ServeArgs& a) {
 }
 
 int run_view(const ViewArgs& a) {
+  const auto low_latency = hold_low_latency(a.low_latency);
   ViewerOptions opt;
   std::tie(opt.client.host, opt.client.port) = parse_host_port(a.connect);
   opt.client.depth_codec = a.depth_codec;

@@ -189,6 +189,7 @@ bool Client::receive(ReceivedFrameSet& out) {
         decoded = false;
       }
       for (size_t i = 0; decoded && i < n; ++i) {
+        if (out.repeated[i]) continue;  // not decoded: what the caller left there
         const CameraFrame& f = out.frames.cameras[i];
         const Intrinsics& k = cams[i].calibration.depth;
         if (f.depth.width != k.width || f.depth.height != k.height)

@@ -14,7 +14,6 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
-#include "volcast/core/worker_pool.hpp"
 #include "volcast/render/headless_target.hpp"
 
 namespace volcast {
@@ -25,18 +24,19 @@ struct Accumulator {
   std::vector<double> latencies_ms;
 };
 
-// Hands the newest point clouds from the receiving thread to the rendering thread. Clouds are
-// shared, immutable once built: a camera that repeats its frame keeps its cloud.
-struct CloudMailbox {
+// Hands the newest decoded images from the receiving thread to the rendering thread, which
+// uploads them and reconstructs the points on the GPU. Frames are shared, immutable once handed
+// over: a camera that repeats its frame keeps its frame (and the renderer skips its upload).
+struct FrameMailbox {
   std::mutex mutex;
   std::condition_variable changed;
-  std::vector<std::shared_ptr<const PointCloud>> clouds;
+  std::vector<std::shared_ptr<const CameraFrame>> frames;
   uint64_t version = 0;
   bool done = false;
 };
 
-void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, CloudMailbox& box,
-                 ViewerResult& result, std::exception_ptr& error) {
+void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInfo>& cams,
+                 FrameMailbox& box, ViewerResult& result, std::exception_ptr& error) {
   try {
     HeadlessTarget target(opt.width, opt.height);  // before the renderer: it owns the context
     SplatRenderer renderer;
@@ -48,8 +48,10 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
     if (throttle)
       spdlog::info("software renderer ({}): drawing at most {} frames per second", result.renderer,
                    opt.software_render_fps);
-    std::vector<std::shared_ptr<const PointCloud>> clouds;
-    std::vector<const PointCloud*> views;
+    std::vector<CameraCalibration> calibrations;
+    for (const auto& c : cams) calibrations.push_back(c.calibration);
+    renderer.set_cameras(calibrations);
+    std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cams.size());
     uint64_t seen = 0;
     std::optional<ViewCamera> view = opt.view;
     while (true) {
@@ -58,12 +60,26 @@ void render_loop(const ViewerOptions& opt, const RigidTransform& first_camera, C
         box.changed.wait(lock, [&] { return box.done || box.version != seen; });
         if (box.version == seen) break;  // finished, and nothing new to draw
         seen = box.version;
-        clouds = box.clouds;  // the newest clouds (shared; the receiver builds into others)
+        frames = box.frames;  // the newest frames (shared; the receiver decodes into others)
       }
-      views.clear();
-      for (const auto& c : clouds) views.push_back(c.get());
-      if (!view) view = orbit_view(first_camera, views);
-      renderer.draw(views, to_view(*view, target.target().aspect()), target.target());
+      // A frame this thread still holds cannot have been reused by the receiver: the same
+      // pointer is the same images, already on the GPU.
+      for (size_t i = 0; i < frames.size(); ++i)
+        if (frames[i] && frames[i] != uploaded[i]) {
+          renderer.upload(i, *frames[i]);
+          uploaded[i] = frames[i];
+        }
+      if (!view) {  // the default viewpoint needs the points once: built on the CPU this once
+        std::vector<PointCloud> clouds(frames.size());
+        std::vector<const PointCloud*> views;
+        for (size_t i = 0; i < frames.size(); ++i) {
+          if (frames[i])
+            CloudBuilder(calibrations[i]).build(frames[i]->depth, frames[i]->color, clouds[i]);
+          views.push_back(&clouds[i]);
+        }
+        view = orbit_view(calibrations.front().world_from_camera, views);
+      }
+      renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target());
       ++result.frames_rendered;
       if (throttle) {
         std::unique_lock lock(box.mutex);
@@ -92,27 +108,21 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   ViewerResult result;
   result.depth_codec = opt.client.depth_codec;
   result.color_codec = opt.client.color_codec;
-  std::vector<CloudBuilder> builders;
-  for (const auto& c : cams) builders.emplace_back(c.calibration);
   if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
 
-  CloudMailbox box;
+  FrameMailbox box;
   std::exception_ptr render_error;
-  const RigidTransform first_camera = cams.front().calibration.world_from_camera;
   std::thread render_thread;
   if (opt.render)
-    render_thread = std::thread([&] { render_loop(opt, first_camera, box, result, render_error); });
+    render_thread = std::thread([&] { render_loop(opt, cams, box, result, render_error); });
 
   std::vector<Accumulator> acc(cams.size());
-  // Each camera's newest cloud, and per camera the buffers clouds are built into (one no longer
-  // held by the renderer is reused; a repeated frame keeps its cloud).
-  std::vector<std::shared_ptr<const PointCloud>> clouds(cams.size());
-  std::vector<std::vector<std::shared_ptr<PointCloud>>> buffers(cams.size());
-  std::vector<std::shared_ptr<PointCloud>> building(cams.size());
-  std::vector<size_t> to_build;
+  // Each camera's newest decoded frame, and per camera the frames images are moved into (one no
+  // longer held by the renderer is reused; a repeated frame keeps its frame).
+  std::vector<std::shared_ptr<const CameraFrame>> frames(cams.size());
+  std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers(cams.size());
   ReceivedFrameSet rx;
   StageRecorder stages;
-  WorkerPool pool;  // point clouds of the cameras built in parallel
   const auto start = std::chrono::steady_clock::now();
   int64_t first_rx_us = 0, last_rx_us = 0;
   uint64_t last_sequence = 0, received = 0;
@@ -136,23 +146,23 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   try {
     while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
            client.receive(rx)) {
-      to_build.clear();
+      // The decoded images move (swap, no copy) into a frame the renderer may hold; the client
+      // decodes into the swapped-in buffers next time (decoders keep their own references).
       for (size_t i = 0; i < cams.size(); ++i) {
-        if (rx.repeated[i] && clouds[i]) continue;
-        building[i] = nullptr;
+        if (rx.repeated[i] && frames[i]) continue;
+        std::shared_ptr<CameraFrame> frame;
         for (auto& b : buffers[i])
-          if (b.use_count() == 1) building[i] = b;
-        if (!building[i]) {
-          building[i] = std::make_shared<PointCloud>();
-          if (buffers[i].size() < 4) buffers[i].push_back(building[i]);
+          if (b.use_count() == 1) frame = b;
+        if (!frame) {
+          frame = std::make_shared<CameraFrame>();
+          if (buffers[i].size() < 4) buffers[i].push_back(frame);
         }
-        to_build.push_back(i);
+        CameraFrame& decoded = rx.frames.cameras[i];
+        std::swap(frame->depth, decoded.depth);
+        std::swap(frame->color, decoded.color);
+        frame->device_timestamp_us = decoded.device_timestamp_us;
+        frames[i] = std::move(frame);
       }
-      pool.parallel_for(to_build.size(), [&](size_t k) {
-        const size_t i = to_build[k];
-        builders[i].build(rx.frames.cameras[i].depth, rx.frames.cameras[i].color, *building[i]);
-      });
-      for (size_t i : to_build) clouds[i] = std::move(building[i]);
       const int64_t now = wall_clock_us();
       stages.add(rx.times, now);
       const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
@@ -173,14 +183,14 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       ++received;
       if (opt.render) {
         std::lock_guard lock(box.mutex);
-        box.clouds = clouds;
+        box.frames = frames;
         ++box.version;
         box.changed.notify_one();
         if (box.done) break;  // renderer failed
       }
       if (!opt.save_frames_dir.empty()) {
         for (size_t i = 0; i < cams.size(); ++i) {
-          const CameraFrame& f = rx.frames.cameras[i];
+          const CameraFrame& f = *frames[i];
           const std::string stem = fmt::format("cam{}_{:08d}", i, rx.frames.sequence);
           write_depth_png(opt.save_frames_dir / (stem + "_depth.png"), f.depth);
           if (!f.color.empty())
@@ -206,8 +216,12 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     box.changed.notify_one();
     render_thread.join();  // renders whatever is still pending
   }
-  for (const auto& c : clouds)  // the last frame set's clouds, copied once
-    result.last_clouds.push_back(c ? *c : PointCloud{});
+  for (size_t i = 0; i < cams.size(); ++i) {  // the last frame set's clouds, built once
+    result.last_clouds.emplace_back();
+    if (frames[i])
+      CloudBuilder(cams[i].calibration)
+          .build(frames[i]->depth, frames[i]->color, result.last_clouds.back());
+  }
   if (receive_error) std::rethrow_exception(receive_error);
   if (render_error) std::rethrow_exception(render_error);
   result.frames_undecodable = client.frames_undecodable();

@@ -11,8 +11,7 @@ CloudBuilder::CloudBuilder(const CameraCalibration& calibration)
       rays_(make_ray_table(calibration.depth)),
       rotation_(calibration.world_from_camera.rotation.cast<float>()),
       translation_(calibration.world_from_camera.translation.cast<float>()),
-      radius_per_metre_(
-          static_cast<float>(0.75 * 2.0 / (calibration.depth.fx + calibration.depth.fy))) {}
+      radius_per_metre_(splat_radius_per_metre(calibration.depth)) {}
 
 void CloudBuilder::build(const DepthImage& depth, const ColorImage& color, PointCloud& out) const {
   const Intrinsics& k = calibration_.depth;

@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <vector>
+
+#include "volcast/core/ray_table.hpp"
 
 #include "volcast/core/error.hpp"
 
@@ -22,6 +25,35 @@ void main() {
   gl_Position = clip_from_world * vec4(position, 1.0);
   gl_PointSize = clamp(2.0 * radius * pixels_per_unit / gl_Position.w, 1.0, 64.0);
   v_color = color;
+}
+)";
+
+// GPU reconstruction: vertex gl_VertexID is depth pixel (id % width, id / width) of one camera.
+constexpr const char* kCameraVertexShader = R"(#version 450 core
+layout(binding = 0) uniform usampler2D depth_mm;  // R16UI, 0 = invalid
+layout(binding = 1) uniform sampler2D rays;       // RG32F: X/Z, Y/Z; NaN where the lens has none
+layout(binding = 2) uniform sampler2D color;      // RGBA8, registered to depth
+uniform bool has_color;
+uniform int width;
+uniform mat4 clip_from_camera;                    // clip_from_world * world_from_camera
+uniform float radius_per_metre;
+uniform float pixels_per_unit;
+out vec4 v_color;
+void main() {
+  const ivec2 px = ivec2(gl_VertexID % width, gl_VertexID / width);
+  const uint d = texelFetch(depth_mm, px, 0).r;
+  const vec2 ray = texelFetch(rays, px, 0).rg;
+  if (d == 0u || isnan(ray.x)) {
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);       // beyond the far plane: clipped, nothing drawn
+    gl_PointSize = 1.0;
+    v_color = vec4(0.0);
+    return;
+  }
+  const float z = float(d) * 0.001;
+  gl_Position = clip_from_camera * vec4(ray * z, z, 1.0);
+  gl_PointSize = clamp(2.0 * z * radius_per_metre * pixels_per_unit / gl_Position.w, 1.0, 64.0);
+  const vec4 c = texelFetch(color, px, 0);
+  v_color = has_color && c.a > 0.0 ? vec4(c.rgb, 1.0) : vec4(vec3(160.0 / 255.0), 1.0);
 }
 )";
 
@@ -50,12 +82,69 @@ GLuint compile(GLenum type, const char* source) {
   return s;
 }
 
+GLuint link(const char* vertex_source, const char* fragment_source) {
+  const GLuint vs = compile(GL_VERTEX_SHADER, vertex_source);
+  GLuint fs = 0;
+  try {
+    fs = compile(GL_FRAGMENT_SHADER, fragment_source);
+  } catch (...) {
+    glDeleteShader(vs);
+    throw;
+  }
+  const GLuint program = glCreateProgram();
+  glAttachShader(program, vs);
+  glAttachShader(program, fs);
+  glLinkProgram(program);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(program, sizeof log, nullptr, log);
+    glDeleteProgram(program);
+    throw Error(std::string("splat renderer: program does not link: ") + log);
+  }
+  return program;
+}
+
+GLuint texture(GLenum format, int width, int height) {
+  GLuint t = 0;
+  glCreateTextures(GL_TEXTURE_2D, 1, &t);
+  glTextureStorage2D(t, 1, format, width, height);
+  glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  return t;
+}
+
+// One camera of the GPU reconstruction: its textures and where it sits.
+struct GpuCamera {
+  int width = 0, height = 0;
+  GLuint rays = 0, depth = 0, color = 0;
+  bool uploaded = false, has_color = false;
+  Eigen::Matrix4f world_from_camera = Eigen::Matrix4f::Identity();
+  float radius_per_metre = 0;
+};
+
 }  // namespace
 
 struct SplatRenderer::Impl {
   GLuint program = 0, vao = 0, vbo = 0;
   GLint clip_from_world = -1, pixels_per_unit = -1;  // uniform locations
   size_t vbo_capacity = 0;                           // bytes
+  // GPU reconstruction
+  GLuint camera_program = 0, empty_vao = 0;
+  GLint c_has_color = -1, c_width = -1, c_clip_from_camera = -1, c_radius_per_metre = -1,
+        c_pixels_per_unit = -1;
+  std::vector<GpuCamera> cameras;
+
+  void delete_cameras() {
+    for (const GpuCamera& c : cameras) {
+      const GLuint t[3] = {c.rays, c.depth, c.color};
+      glDeleteTextures(3, t);
+    }
+    cameras.clear();
+  }
 };
 
 SplatRenderer::SplatRenderer() {
@@ -67,26 +156,19 @@ SplatRenderer::SplatRenderer() {
                 std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))));
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
-  const GLuint vs = compile(GL_VERTEX_SHADER, kVertexShader);
-  GLuint fs = 0;
+  r.program = link(kVertexShader, kFragmentShader);
   try {
-    fs = compile(GL_FRAGMENT_SHADER, kFragmentShader);
+    r.camera_program = link(kCameraVertexShader, kFragmentShader);
   } catch (...) {
-    glDeleteShader(vs);
+    glDeleteProgram(r.program);
     throw;
   }
-  r.program = glCreateProgram();
-  glAttachShader(r.program, vs);
-  glAttachShader(r.program, fs);
-  glLinkProgram(r.program);
-  glDeleteShader(vs);
-  glDeleteShader(fs);
-  GLint ok = 0;
-  glGetProgramiv(r.program, GL_LINK_STATUS, &ok);
-  if (!ok) {
-    glDeleteProgram(r.program);
-    throw Error("splat renderer: splat program does not link");
-  }
+  r.c_has_color = glGetUniformLocation(r.camera_program, "has_color");
+  r.c_width = glGetUniformLocation(r.camera_program, "width");
+  r.c_clip_from_camera = glGetUniformLocation(r.camera_program, "clip_from_camera");
+  r.c_radius_per_metre = glGetUniformLocation(r.camera_program, "radius_per_metre");
+  r.c_pixels_per_unit = glGetUniformLocation(r.camera_program, "pixels_per_unit");
+  glCreateVertexArrays(1, &r.empty_vao);  // the camera pass reads textures, not attributes
   r.clip_from_world = glGetUniformLocation(r.program, "clip_from_world");
   r.pixels_per_unit = glGetUniformLocation(r.program, "pixels_per_unit");
 
@@ -106,14 +188,15 @@ SplatRenderer::SplatRenderer() {
 
 SplatRenderer::~SplatRenderer() {
   Impl& r = *impl_;
+  r.delete_cameras();
   glDeleteBuffers(1, &r.vbo);
   glDeleteVertexArrays(1, &r.vao);
+  glDeleteVertexArrays(1, &r.empty_vao);
   glDeleteProgram(r.program);
+  glDeleteProgram(r.camera_program);
 }
 
-void SplatRenderer::draw(std::span<const PointCloud* const> clouds, const View& view,
-                         const RenderTarget& target) {
-  Impl& r = *impl_;
+void SplatRenderer::begin_pass(const RenderTarget& target) {
   if (target.width <= 0 || target.height <= 0)
     throw Error(fmt::format("splat renderer: empty viewport {}x{} in framebuffer {}", target.width,
                             target.height, target.framebuffer));
@@ -121,7 +204,35 @@ void SplatRenderer::draw(std::span<const PointCloud* const> clouds, const View& 
       status != GL_FRAMEBUFFER_COMPLETE)
     throw Error(fmt::format("splat renderer: framebuffer {} is not complete (status {:#x})",
                             target.framebuffer, status));
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
+  glViewport(target.x, target.y, target.width, target.height);
+  // The scissor keeps the clear, and splats that straddle the viewport's edge, inside it.
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(target.x, target.y, target.width, target.height);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDepthMask(GL_TRUE);
+  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_BLEND);
+  glEnable(GL_PROGRAM_POINT_SIZE);
+}
 
+void SplatRenderer::end_pass(const RenderTarget& target, size_t points) {
+  glDisable(GL_SCISSOR_TEST);
+  if (const GLenum err = glGetError(); err != GL_NO_ERROR)
+    throw Error(
+        fmt::format("splat renderer: OpenGL error {:#x} drawing {} points into "
+                    "framebuffer {}",
+                    err, points, target.framebuffer));
+}
+
+void SplatRenderer::draw(std::span<const PointCloud* const> clouds, const View& view,
+                         const RenderTarget& target) {
+  Impl& r = *impl_;
+  begin_pass(target);
   size_t total = 0;
   for (const PointCloud* c : clouds) total += c->points.size();
   const size_t bytes = total * sizeof(SplatPoint);
@@ -137,34 +248,92 @@ void SplatRenderer::draw(std::span<const PointCloud* const> clouds, const View& 
                            c->points.data());
     offset += n;
   }
-
   const Eigen::Matrix4f clip_from_world = view.clip_from_world();
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
-  glViewport(target.x, target.y, target.width, target.height);
-  // The scissor keeps the clear, and splats that straddle the viewport's edge, inside it.
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(target.x, target.y, target.width, target.height);
-  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  glDepthMask(GL_TRUE);
-  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
-  glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDisable(GL_BLEND);
-  glEnable(GL_PROGRAM_POINT_SIZE);
   glUseProgram(r.program);
   glUniformMatrix4fv(r.clip_from_world, 1, GL_FALSE, clip_from_world.data());
   glUniform1f(r.pixels_per_unit,
               0.5f * static_cast<float>(target.height) * view.clip_from_view(1, 1));
   glBindVertexArray(r.vao);
   glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(total));
-  glDisable(GL_SCISSOR_TEST);
+  end_pass(target, total);
+}
+
+void SplatRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
+  Impl& r = *impl_;
+  r.delete_cameras();
+  for (const CameraCalibration& cal : cameras) {
+    const Intrinsics& k = cal.depth;
+    if (k.width <= 0 || k.height <= 0)
+      throw Error(fmt::format("splat renderer: camera {} has no pixels ({}x{})", r.cameras.size(),
+                              k.width, k.height));
+    GpuCamera c;
+    c.width = k.width;
+    c.height = k.height;
+    c.world_from_camera = cal.world_from_camera.matrix4f();
+    c.radius_per_metre = splat_radius_per_metre(k);
+    const RayTable rays = make_ray_table(k);
+    std::vector<float> xy(rays.x.size() * 2);
+    for (size_t i = 0; i < rays.x.size(); ++i) {
+      xy[2 * i] = rays.x[i];
+      xy[2 * i + 1] = rays.y[i];
+    }
+    c.rays = texture(GL_RG32F, c.width, c.height);
+    c.depth = texture(GL_R16UI, c.width, c.height);
+    c.color = texture(GL_RGBA8, c.width, c.height);
+    r.cameras.push_back(c);  // owned from here: deleted with the others on error
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTextureSubImage2D(c.rays, 0, 0, 0, c.width, c.height, GL_RG, GL_FLOAT, xy.data());
+  }
   if (const GLenum err = glGetError(); err != GL_NO_ERROR)
-    throw Error(
-        fmt::format("splat renderer: OpenGL error {:#x} drawing {} points into "
-                    "framebuffer {}",
-                    err, total, target.framebuffer));
+    throw Error(fmt::format("splat renderer: OpenGL error {:#x} making camera textures", err));
+}
+
+void SplatRenderer::upload(size_t camera, const CameraFrame& frame) {
+  Impl& r = *impl_;
+  if (camera >= r.cameras.size())
+    throw Error(fmt::format("splat renderer: no camera {} (set_cameras gave {})", camera,
+                            r.cameras.size()));
+  GpuCamera& c = r.cameras[camera];
+  if (frame.depth.width != c.width || frame.depth.height != c.height)
+    throw Error(fmt::format("splat renderer: camera {} depth is {}x{}, its calibration {}x{}",
+                            camera, frame.depth.width, frame.depth.height, c.width, c.height));
+  c.has_color = !frame.color.empty();
+  if (c.has_color && (frame.color.width != c.width || frame.color.height != c.height))
+    throw Error(fmt::format("splat renderer: camera {} color is {}x{}, not registered to depth",
+                            camera, frame.color.width, frame.color.height));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(c.depth, 0, 0, 0, c.width, c.height, GL_RED_INTEGER, GL_UNSIGNED_SHORT,
+                      frame.depth.pixels.data());
+  if (c.has_color)
+    glTextureSubImage2D(c.color, 0, 0, 0, c.width, c.height, GL_BGRA, GL_UNSIGNED_BYTE,
+                        frame.color.bgra.data());
+  c.uploaded = true;
+}
+
+void SplatRenderer::draw_cameras(const View& view, const RenderTarget& target) {
+  Impl& r = *impl_;
+  begin_pass(target);
+  const Eigen::Matrix4f clip_from_world = view.clip_from_world();
+  glUseProgram(r.camera_program);
+  glUniform1f(r.c_pixels_per_unit,
+              0.5f * static_cast<float>(target.height) * view.clip_from_view(1, 1));
+  glBindVertexArray(r.empty_vao);
+  size_t total = 0;
+  for (const GpuCamera& c : r.cameras) {
+    if (!c.uploaded) continue;
+    const Eigen::Matrix4f clip_from_camera = clip_from_world * c.world_from_camera;
+    glUniformMatrix4fv(r.c_clip_from_camera, 1, GL_FALSE, clip_from_camera.data());
+    glUniform1i(r.c_width, c.width);
+    glUniform1i(r.c_has_color, c.has_color ? 1 : 0);
+    glUniform1f(r.c_radius_per_metre, c.radius_per_metre);
+    glBindTextureUnit(0, c.depth);
+    glBindTextureUnit(1, c.rays);
+    glBindTextureUnit(2, c.color);
+    const size_t n = static_cast<size_t>(c.width) * static_cast<size_t>(c.height);
+    glDrawArrays(GL_POINTS, 0, static_cast<GLsizei>(n));
+    total += n;
+  }
+  end_pass(target, total);
 }
 
 std::string SplatRenderer::gl_description() const {

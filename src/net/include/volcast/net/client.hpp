@@ -39,7 +39,9 @@ struct ReceivedFrameSet {
   StageTimes times;
   /// Per camera: 1 if its encoded frame is byte-identical to the one this Client decoded into
   /// this same object last time (a camera slower than the site repeats frames) with non-temporal
-  /// codecs; it was not decoded again and its images above are unchanged.
+  /// codecs; it was not decoded again and its images above are what the caller left there (the
+  /// last decoded ones, unless the caller moved them out: decoders keep their own references, so
+  /// a caller may swap decoded images out for other buffers, which are then overwritten).
   std::vector<char> repeated;
   std::vector<size_t> depth_bytes;  ///< encoded depth size per camera
   std::vector<size_t> color_bytes;  ///< encoded color size per camera

@@ -1,6 +1,8 @@
 #pragma once
-// The receiver pipeline: receive and decode (the cameras in parallel), build point clouds, render
-// (another thread), and measure what arrived and what each stage cost.
+// The receiver pipeline: receive and decode (the cameras in parallel), hand the decoded images to
+// the renderer (another thread), which uploads them and reconstructs the points on the GPU
+// (SplatRenderer::draw_cameras: no per-point CPU work), and measure what arrived and what each
+// stage cost.
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -37,7 +39,7 @@ struct CameraStats {
   double depth_compression_ratio = 0;  ///< raw depth (width*height*2) / mean encoded depth
   double received_fps = 0;
   double mbit_per_s = 0;                          ///< depth + color at the received rate
-  double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> point cloud ready
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> ready (stage_stats.hpp)
 };
 
 struct ViewerResult {
@@ -47,7 +49,7 @@ struct ViewerResult {
   uint64_t frames_undecodable = 0;      ///< skipped: a delta without its reference (key requested)
   std::vector<StageLatency> stages;     ///< per-stage latency, kStageNames order
   std::string renderer;                 ///< GL renderer string, empty when not rendering
-  std::vector<PointCloud> last_clouds;  ///< the last frame set's point clouds
+  std::vector<PointCloud> last_clouds;  ///< the last frame set's point clouds (CPU, built once)
 };
 
 /// Connects, receives until a limit is reached or the server closes, and returns the figures.

@@ -4,7 +4,9 @@
 //   filter  capture -> filter chains done         encode   -> every camera of the tier encoded
 //   send    -> the server began sending (waiting for the path's window)
 //   receive -> the whole message read by the viewer  decode -> every camera decoded
-//   ready   -> point clouds built                   total    capture -> point clouds ready
+//   ready   -> the decoded images handed to the renderer, which unprojects them into points on the
+//              GPU (SplatRenderer::draw_cameras): nothing is left for the CPU after this stage
+//   total   capture -> ready
 #include <array>
 #include <cstdint>
 #include <string_view>
@@ -25,7 +27,7 @@ struct StageLatency {
 /// Collects per-frame-set stage durations; summary() gives p50/p99 per stage in kStageNames order.
 class StageRecorder {
  public:
-  /// `ready_us`: when the point clouds were built, same clock as `t`.
+  /// `ready_us`: when the frame set was handed to the renderer, same clock as `t`.
   void add(const StageTimes& t, int64_t ready_us);
   std::vector<StageLatency> summary() const;
 

@@ -20,6 +20,12 @@ struct PointCloud {
   std::vector<SplatPoint> points;
 };
 
+/// The splat radius per metre of depth: 0.75 x the pixel footprint, 0.75 * 2 / (fx + fy). The
+/// GPU reconstruction (SplatRenderer::draw_cameras) uses the same figure.
+inline float splat_radius_per_metre(const Intrinsics& k) {
+  return static_cast<float>(0.75 * 2.0 / (k.fx + k.fy));
+}
+
 /// Turns one camera's depth images into world-space point clouds. Builds the camera's per-pixel
 /// ray table (lens distortion included) once; build() allocates nothing once `out` has grown.
 class CloudBuilder {

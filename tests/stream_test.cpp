@@ -6,6 +6,7 @@
 #include <future>
 #include <map>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "hands_site.hpp"
@@ -328,6 +329,35 @@ TEST(Pacer, BoundsTheQueueOnASlowPath) {
   // At most a few frame sets (100 ms of transmission each) wait at the bottleneck, not a growing
   // queue.
   EXPECT_LE(worst_queue_us, 300'000);
+}
+
+TEST(WorkerPool, PrewokenWorkersTakeTheNextJobAndSleepAgainWhenNoneComes) {
+  WorkerPool pool(2);
+  for (int round = 0; round < 50; ++round) {
+    // Woken ahead of a job that comes at once, later, or (every fifth round) only after the spin.
+    pool.prewake(std::chrono::microseconds(round % 5 == 4 ? 100 : 5000));
+    if (round % 5 == 4) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (round % 3 == 1) std::this_thread::sleep_for(std::chrono::microseconds(300));
+    std::vector<std::atomic<int>> hits(9);
+    std::set<std::thread::id> threads;
+    std::mutex m;
+    pool.parallel_for(hits.size(), [&](size_t i) {
+      ++hits[i];
+      std::lock_guard lock(m);
+      threads.insert(std::this_thread::get_id());
+    });
+    for (auto& h : hits) EXPECT_EQ(h.load(), 1);
+    EXPECT_LE(threads.size(), 3u);
+  }
+  // A prewake during a job changes nothing about it.
+  std::atomic<int> count{0};
+  pool.parallel_for(6, [&](size_t i) {
+    if (i == 0) pool.prewake(std::chrono::microseconds(200));
+    ++count;
+  });
+  EXPECT_EQ(count.load(), 6);
+  pool.prewake(std::chrono::seconds(600));  // destroyed while its workers poll: they stop
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
 }
 
 TEST(CpuLatencyRequest, HoldsTheLimitAtZeroWhileAliveAndDropsItAfter) {

@@ -14,6 +14,7 @@ WorkerPool::~WorkerPool() {
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
+    posted_.fetch_add(1, std::memory_order_release);  // ends any prewake polling
   }
   wake_.notify_all();
   for (auto& t : workers_) t.join();
@@ -41,17 +42,40 @@ bool WorkerPool::run_one() {
 }
 
 void WorkerPool::work() {
-  uint64_t seen = 0;
+  uint64_t seen = 0, seen_prewakes = 0;
   while (true) {
+    std::chrono::steady_clock::time_point spin_until;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || (generation_ != seen && fn_ && next_ < n_); });
+      const auto job = [&] { return generation_ != seen && fn_ && next_ < n_; };
+      wake_.wait(lock, [&] { return stop_ || job() || prewakes_ != seen_prewakes; });
       if (stop_) return;
-      seen = generation_;
+      if (!job()) {  // woken ahead of a job: poll for it until spin_until, then sleep again
+        seen_prewakes = prewakes_;
+        spin_until = spin_until_;
+      } else {
+        seen = generation_;
+      }
+    }
+    if (spin_until != std::chrono::steady_clock::time_point{}) {
+      while (posted_.load(std::memory_order_acquire) == seen &&
+             std::chrono::steady_clock::now() < spin_until)
+        std::this_thread::yield();
+      continue;  // a job posted meanwhile is taken up by the wait above
     }
     while (run_one()) {
     }
   }
+}
+
+void WorkerPool::prewake(std::chrono::microseconds spin) {
+  if (workers_.empty()) return;
+  {
+    std::lock_guard lock(mutex_);
+    ++prewakes_;
+    spin_until_ = std::chrono::steady_clock::now() + spin;
+  }
+  wake_.notify_all();
 }
 
 void WorkerPool::parallel_for(size_t n, const std::function<void(size_t)>& fn) {
@@ -68,6 +92,7 @@ void WorkerPool::parallel_for(size_t n, const std::function<void(size_t)>& fn) {
     next_ = finished_ = 0;
     error_ = nullptr;
     ++generation_;
+    posted_.store(generation_, std::memory_order_release);
   }
   wake_.notify_all();
   while (run_one()) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 
 #include "volcast/codec/color_codec.hpp"
@@ -44,6 +45,9 @@ struct Client::Impl {
       throw Error(std::string("connection lost: ") + e.what());
     }
     header = protocol::parse_header(bytes, max_payload);
+    // The decode workers wake while the frame set's body arrives, not after it.
+    if (pool && header.type == protocol::MessageType::kFrameSet)
+      pool->prewake(std::chrono::milliseconds(1));
     payload.resize(header.payload_bytes);
     try {
       connection->read_exact(payload, -1);

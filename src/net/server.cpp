@@ -390,6 +390,8 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
     impl_->captured = std::move(frames);
   }
   impl_->captured_changed.notify_all();
+  // The tiers' threads wake to encode it on the pool: wake its workers now too, not after them.
+  impl_->pool->prewake(std::chrono::milliseconds(2));
 }
 
 std::vector<ViewerReport> Server::viewers() const {

@@ -7,9 +7,10 @@
 // wakes. On a virtual machine whose idle driver halts at once (cpuidle-haltpoll with
 // guest_halt_poll_ns = 0, as on the 2-core CI machine) that wait was 1.7 ms at the median and the
 // woken core runs its first tasks with cold caches: 4 cameras' decode tasks took 14.3 ms of CPU
-// in the viewer against 7.6 ms in the one-thread benchmark. Asking for 0 µs of wake-up latency
-// makes idle cores poll instead of halting: the same run gave p50 13.7 ms end to end instead of
-// 16.2 (volcast demo --cameras 4 --no-render, with and without --low-latency).
+// in the viewer against 7.6 ms in the one-thread benchmark. WorkerPool::prewake hides part of the
+// wake-up; asking for 0 µs of wake-up latency makes idle cores poll instead of halting: p50
+// 13.5 ms end to end instead of 14.6-15.1 (volcast demo --cameras 4 --no-render --seconds 20,
+// with and without --low-latency).
 // The price: idle cores spin (power, and a busy-looking machine) while the request is held.
 #include <cstdint>
 #include <string>

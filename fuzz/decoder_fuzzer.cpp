@@ -15,6 +15,7 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
 
 namespace {
@@ -87,7 +88,12 @@ void fuzz_protocol(const uint8_t* data, size_t size) {
     }
   };
   attempt([&] { protocol::parse_header(bytes); });
+  attempt([&] { protocol::hello_token(bytes); });
   attempt([&] { protocol::parse_hello(bytes); });
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  attempt([&] { parse_join_link(text); });
+  attempt([&] { parse_join_token(text); });
+  attempt([&] { parse_fingerprint(text); });
   attempt([&] { protocol::parse_welcome(bytes); });
   attempt([&] { protocol::parse_reject(bytes); });
   attempt([&] { protocol::parse_ack(bytes); });

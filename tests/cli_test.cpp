@@ -42,7 +42,9 @@ TEST(Cli, BadInputGivesAClearErrorAndNonZeroExit) {
   EXPECT_NE(out.find("does not exist"), std::string::npos) << out;
   EXPECT_EQ(test::run_command(kVolcast + " serve --source /nonexistent/folder", out), 1);
   EXPECT_NE(out.find("/nonexistent/folder"), std::string::npos) << out;
-  EXPECT_EQ(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --depth-codec bogus", out),
+  EXPECT_EQ(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --token " +
+                                  std::string(32, '0') + " --depth-codec bogus",
+                              out),
             1);
   EXPECT_NE(out.find("unknown depth codec 'bogus'"), std::string::npos) << out;
   EXPECT_EQ(test::run_command(kVolcast + " view --connect nohost", out), 1);
@@ -78,28 +80,61 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
     EXPECT_GT(std::filesystem::file_size(dir / png), 10'000u) << png;
 }
 
-TEST(Cli, ServeAndViewTalkOverLoopback) {
+TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {
   const auto dir = test::temp_dir("cli_serve");
-  const int port = 20000 + ::getpid() % 20000;
+  std::filesystem::remove_all(dir / "config");
+  const std::string env = "XDG_CONFIG_HOME=" + (dir / "config").string() + " ";
   std::string out;
-  const std::string serve = kVolcast + " serve --source " + test::hands_dir().string() +
-                            " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port " +
-                            std::to_string(port) + " > " + (dir / "serve.log").string() +
-                            " 2>&1 & echo $!";
+  const std::string serve = env + kVolcast + " serve --source " + test::hands_dir().string() +
+                            " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port 0 > " +
+                            (dir / "serve.log").string() + " 2>&1 & echo $!";
   ASSERT_EQ(test::run_command(serve, out), 0);
   const std::string pid = out.substr(0, out.find('\n'));
-  int rc = 1;
-  for (int attempt = 0; attempt < 50 && rc != 0; ++attempt) {  // wait for the server to listen
-    rc = test::run_command(
-        kVolcast + " view --no-render --connect 127.0.0.1:" + std::to_string(port) +
-            " --frames 5 --depth-codec rvl --stats-json " + (dir / "s.json").string(),
-        out);
-    if (rc != 0) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::string link;
+  for (int attempt = 0; attempt < 100 && link.empty(); ++attempt) {  // wait for the link
+    std::ifstream log(dir / "serve.log");
+    for (std::string line; std::getline(log, line);)
+      if (line.find("volcast://") != std::string::npos) link = line.substr(line.find("volcast://"));
+    if (link.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
+  ASSERT_FALSE(link.empty());
+  EXPECT_NE(link.find("&fp="), std::string::npos) << link;  // TLS by default
+  const int rc = test::run_command(env + kVolcast + " view --no-render --connect '" + link +
+                                       "' --frames 5 --depth-codec rvl --stats-json " +
+                                       (dir / "s.json").string(),
+                                   out);
+  // The same server again by HOST:PORT and token alone: its certificate was pinned on first use.
+  const std::string host_port = link.substr(10, link.find('/', 10) - 10);
+  const std::string token = link.substr(link.find("token=") + 6, 32);
+  const int rc_pinned = test::run_command(env + kVolcast + " view --no-render --connect " +
+                                              host_port + " --token " + token + " --frames 2",
+                                          out);
   test::run_command("kill " + pid, out);
   ASSERT_EQ(rc, 0) << out;
+  EXPECT_EQ(rc_pinned, 0) << out;
   std::ifstream in(dir / "s.json");
-  EXPECT_EQ(nlohmann::json::parse(in)["cameras"][0]["frames_received"], 5);
+  const auto stats = nlohmann::json::parse(in);
+  EXPECT_EQ(stats["cameras"][0]["frames_received"], 5);
+  EXPECT_EQ(stats["cameras"][0]["description"], "camera 0");  // a name, never the server's path
+  EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "server" / "key.pem"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "known_servers"));
+}
+
+TEST(Cli, ServeRefusesPlainTcpBeyondLoopbackAndBindsHostNames) {
+  std::string out;
+  EXPECT_EQ(test::run_command(kVolcast + " serve --source " + test::hands_dir().string() +
+                                  " --intrinsics 460,460,320,180 --bind 0.0.0.0 --insecure "
+                                  "--seconds 1 --port 0",
+                              out),
+            1);
+  EXPECT_NE(out.find("only on a loopback"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(kVolcast + " serve --source " + test::hands_dir().string() +
+                                  " --intrinsics 460,460,320,180 --bind localhost --insecure "
+                                  "--seconds 0.5 --port 0",
+                              out),
+            0)
+      << out;
+  EXPECT_NE(out.find("insecure=1"), std::string::npos) << out;
 }
 
 TEST(Cli, FilterWritesBeforeAfterImagesAndQualityFigures) {

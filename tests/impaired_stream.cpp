@@ -20,9 +20,7 @@ PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& dat
   auto server =
       link.in_server_namespace([&] { return std::make_unique<Server>(site.cameras(), config); });
   site.start(*server);
-  ClientConfig c;
-  c.host = link.server_address();
-  c.port = server->port();
+  ClientConfig c = client_config_from_link(server->join_link(link.server_address()));
   c.decode = false;  // the figure is the path's and the server's pacing
   auto client = link.in_client_namespace([&] { return std::make_unique<Client>(c); });
   ReceivedFrameSet rx;

@@ -92,8 +92,18 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
   EXPECT_TRUE(std::ranges::equal(back.cameras[1].color, cams[1].color));
   EXPECT_TRUE(back.cameras[1].depth.empty());
 
-  const auto hello = serialize(Hello{"trvl", "jpeg", 80});
+  Hello sent;
+  sent.token[0] = 0xab;
+  sent.token[15] = 0xcd;
+  sent.depth_codec = "trvl";
+  sent.color_codec = "jpeg";
+  sent.color_quality = 80;
+  const auto hello = serialize(sent);
   EXPECT_EQ(parse_hello(hello).color_quality, 80);
+  EXPECT_EQ(parse_hello(hello).token, sent.token);
+  // The token is the first 16 bytes, readable without parsing the rest.
+  EXPECT_TRUE(std::ranges::equal(hello_token(hello), sent.token));
+  EXPECT_THROW(hello_token(std::span(hello).first(15)), Error);
   const auto welcome = serialize(w);
   for (size_t n = 0; n < hello.size(); ++n)
     EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
@@ -165,7 +175,7 @@ TEST(Protocol, ChannelsSeparateFramesControlAndSessionMessages) {
   EXPECT_TRUE(
       std::ranges::equal(ack, message(MessageType::kAck, serialize_ack(0x0102030405060708ull))));
   // Hello with a quality over 100 is malformed.
-  auto hello = serialize(Hello{"volcast", "jpeg", 100});
+  auto hello = serialize(Hello{{}, "volcast", "jpeg", 100});
   hello.back() = 101;
   EXPECT_THROW(parse_hello(hello), Error);
 }

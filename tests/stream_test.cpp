@@ -19,6 +19,7 @@
 #include "volcast/net/client.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/pacing.hpp"
+#include "volcast/net/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
 
 namespace volcast {
@@ -31,10 +32,13 @@ using test::HandsSite;
 struct RawViewer {
   std::unique_ptr<Connection> c;
   std::vector<uint8_t> payload;
-  RawViewer(uint16_t port, const std::string& depth, const std::string& color) {
-    c = connect_tcp("127.0.0.1", port);
-    c->write_all(protocol::message(protocol::MessageType::kHello,
-                                   protocol::serialize(protocol::Hello{depth, color, 0})),
+  RawViewer(const Server& server, const std::string& depth, const std::string& color) {
+    c = connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
+    protocol::Hello hello;
+    hello.token = server.token();
+    hello.depth_codec = depth;
+    hello.color_codec = color;
+    c->write_all(protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
                  5000);
     const protocol::Header h = read();
     if (h.type != protocol::MessageType::kWelcome) throw Error("no Welcome");
@@ -76,7 +80,7 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
     const int frames = 4 + static_cast<int>(rng() % 10);
     viewers.push_back(std::async(std::launch::async, [&, delay_ms, frames] {
       std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
-      RawViewer v(site.server.port(), "volcast-t", "jpeg");
+      RawViewer v(site.server, "volcast-t", "jpeg");
       auto decoder = make_depth_decoder("volcast-t");
       std::map<uint64_t, std::vector<uint8_t>> got;
       DepthImage depth;
@@ -124,8 +128,7 @@ TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
   ServerConfig config;
   config.key_frame_interval = 1000;  // so the joiner's key frame is the one made for it
   HandsSite site(15, config);
-  ClientConfig c;
-  c.port = site.server.port();
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   c.depth_codec = codec;
   Client first(c);
   ReceivedFrameSet rx;
@@ -156,8 +159,7 @@ INSTANTIATE_TEST_SUITE_P(TemporalCodecs, JoinMidStream, testing::Values("volcast
 TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
   HandsSite site(15);
   std::vector<std::unique_ptr<Client>> clients;
-  ClientConfig c;
-  c.port = site.server.port();
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   c.decode = false;
   for (int i = 0; i < 4; ++i) clients.push_back(std::make_unique<Client>(c));
   c.depth_codec = "rvl";
@@ -174,8 +176,7 @@ TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
 
 TEST(SharedStream, ColorQualityIsPartOfTheTier) {
   HandsSite site(15);
-  ClientConfig c;
-  c.port = site.server.port();
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   Client standard(c);
   c.color_quality = 40;
   Client low(c);
@@ -205,8 +206,7 @@ TEST(SharedStream, RepeatedFramesOfASlowCameraAreNotCodedAgain) {
     config.port = 0;
     Server server(player.cameras(), config);
     player.start(server);
-    ClientConfig c;
-    c.port = server.port();
+    ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
     c.depth_codec = codec;
     Client client(c);
     ReceivedFrameSet rx;
@@ -235,7 +235,7 @@ TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
   std::atomic<bool> stop{false};
   std::atomic<int> slow_frames{0};
   std::thread slow([&] {
-    RawViewer v(site.server.port(), "volcast", "jpeg");
+    RawViewer v(site.server, "volcast", "jpeg");
     while (!stop) {
       v.next_frame_set(false);
       std::this_thread::sleep_for(std::chrono::milliseconds(400));
@@ -248,8 +248,7 @@ TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
           5000);
     }
   });
-  ClientConfig c;
-  c.port = site.server.port();
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   Client fast(c);
   ReceivedFrameSet rx;
   uint64_t first = 0, last = 0;

@@ -50,11 +50,25 @@ struct ServeArgs {
   int min_key_interval_ms = 250;
   double seconds = 0;        ///< 0 = until interrupted
   bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  // Security and policy (volcast/net/server.hpp).
+  bool insecure = false;           ///< plain TCP, loopback only
+  std::string cert, key;           ///< PEM files; default: user_config_dir()/server/*.pem
+  std::string token_file;          ///< 32 hex digits; default: a random token per session
+  std::string link_host;           ///< host written into the join link; default: found
+  std::vector<std::string> tiers;  ///< offered tiers DEPTH/COLOR[/QUALITY]; empty: any
+  int handshake_timeout_ms = 5000;
+  int max_pending = 64;
+  int max_pending_per_address = 8;
 };
 int run_serve(const ServeArgs& args);
 
 struct ViewArgs {
-  std::string connect;
+  std::string connect;        ///< join link volcast://... or HOST:PORT
+  std::string token;          ///< with HOST:PORT: the join token
+  std::string fingerprint;    ///< with HOST:PORT: the server certificate's SHA-256 (else pinned)
+  std::string known_servers;  ///< pin store; default user_config_dir()/known_servers
+  bool insecure = false;      ///< plain TCP, loopback only
+  int connect_timeout_ms = 5000;
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int color_quality = 0;
   bool no_render = false;

@@ -82,11 +82,48 @@ int main(int argc, char** argv) {
   add_filter_flags(s, serve.filters, true);
   s->get_option("--source")->required(false);
   s->add_flag("--low-latency", serve.low_latency, kLowLatencyHelp);
+  s->add_flag("--insecure", serve.insecure,
+              "Plain TCP instead of TLS 1.3 (allowed only with a loopback --bind)");
+  s->add_option("--cert", serve.cert,
+                "TLS certificate PEM (default: a self-signed one made on first run in "
+                "$XDG_CONFIG_HOME/volcast/server/)");
+  s->add_option("--key", serve.key, "Private key PEM for --cert");
+  s->add_option("--token-file", serve.token_file,
+                "Join token file, 32 hex digits (default: a new random token per session)");
+  s->add_option("--link-host", serve.link_host,
+                "Host name or address to print in the join link (default: --bind, or this "
+                "host's first non-loopback address when bound to all)");
+  s->add_option("--tiers", serve.tiers,
+                "Offered tiers, comma-separated DEPTH/COLOR[/QUALITY], e.g. volcast/jpeg,trvl/none "
+                "(default: any codec)")
+      ->delimiter(',');
+  s->add_option("--handshake-timeout", serve.handshake_timeout_ms,
+                "A viewer must finish TLS and its Hello within this many ms")
+      ->capture_default_str();
+  s->add_option("--max-pending", serve.max_pending,
+                "Handshakes in progress at once (the oldest is dropped for a newcomer)")
+      ->capture_default_str();
+  s->add_option("--max-pending-per-address", serve.max_pending_per_address,
+                "Handshakes in progress at once from one address")
+      ->capture_default_str();
 
   ViewArgs view;
   auto* v =
       app.add_subcommand("view", "Receive a site's stream, build point clouds and render them");
-  v->add_option("--connect", view.connect, "Server as HOST:PORT")->required();
+  v->add_option("--connect", view.connect,
+                "The join link the server printed (volcast://HOST:PORT/?token=...&fp=...), or "
+                "HOST:PORT with --token")
+      ->required();
+  v->add_option("--token", view.token, "Join token (32 hex digits) with --connect HOST:PORT");
+  v->add_option("--fingerprint", view.fingerprint,
+                "Server certificate SHA-256 (64 hex) with --connect HOST:PORT (default: the one "
+                "pinned on first use)");
+  v->add_option("--known-servers", view.known_servers,
+                "Pinned server certificates (default $XDG_CONFIG_HOME/volcast/known_servers)");
+  v->add_flag("--insecure", view.insecure, "Plain TCP instead of TLS (loopback servers only)");
+  v->add_option("--connect-timeout", view.connect_timeout_ms,
+                "TCP connect and TLS handshake timeout (ms)")
+      ->capture_default_str();
   v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + depth_codec_help())
       ->capture_default_str();
   v->add_option("--color-codec", view.color_codec, "Color codec: " + color_codec_help())

@@ -1,3 +1,5 @@
+#include <arpa/inet.h>
+#include <ifaddrs.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -9,6 +11,9 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/net/connection.hpp"
+#include "volcast/net/join.hpp"
+#include "volcast/net/tls.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
 
@@ -39,7 +44,7 @@ namespace {
 
 // Cameras from the site config file (if any), then from --source, each with its filters.
 void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& sources,
-               std::vector<FilterConfig>& filters) {
+               std::vector<FilterConfig>& filters, std::vector<std::string>& names) {
   SourceOptions defaults;
   if (!a.intrinsics.empty()) defaults.intrinsics = parse_pinhole(a.intrinsics);
   if (!a.config.empty()) {
@@ -64,14 +69,70 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
           throw Error(where + ": " + e.what());
         }
       }
+      std::string name = "camera " + std::to_string(sources.size());
+      if (cam.contains("name")) {
+        if (!cam["name"].is_string() || cam["name"].get<std::string>().empty() ||
+            cam["name"].get<std::string>().size() > 64)
+          throw Error(where + ": \"name\" must be a string of 1 to 64 characters");
+        name = cam["name"].get<std::string>();
+      }
       sources.push_back(open_source(cam["source"].get<std::string>(), opt));
       filters.push_back(f);
+      names.push_back(name);
     }
   }
   for (const auto& path : a.sources) {
     filters.push_back(a.filters.to_config(sources.size()));
+    names.push_back("camera " + std::to_string(sources.size()));
     sources.push_back(open_source(path, defaults));
   }
+}
+
+// The server's security settings from the flags: TLS identity (made on first run), join token,
+// policy limits. Logs where the identity comes from.
+void apply_security(const ServeArgs& a, ServerConfig& config) {
+  config.insecure = a.insecure;
+  if (!a.insecure) {
+    if (a.cert.empty() != a.key.empty()) throw Error("serve: --cert and --key go together");
+    if (!a.cert.empty()) {
+      config.identity = load_identity(a.cert, a.key);
+    } else {
+      const auto dir = user_config_dir() / "server";
+      bool created = false;
+      config.identity = load_or_create_identity(dir, &created);
+      if (created)
+        spdlog::info("made a self-signed TLS certificate in {} (kept for later runs)",
+                     dir.string());
+    }
+  }
+  if (!a.token_file.empty()) config.token = read_token_file(a.token_file);
+  config.offered_tiers = a.tiers;
+  config.handshake_timeout_ms = a.handshake_timeout_ms;
+  config.max_pending = a.max_pending;
+  config.max_pending_per_address = a.max_pending_per_address;
+}
+
+// The host for the join link: --link-host, else the bind address, else (bound to all addresses)
+// this host's first non-loopback address.
+std::string link_host(const ServeArgs& a) {
+  if (!a.link_host.empty()) return a.link_host;
+  const std::string bound = resolve_bind_address(a.bind);
+  if (bound != "0.0.0.0" && bound != "::") return a.bind;
+  ifaddrs* list = nullptr;
+  std::string found = "HOST";
+  if (::getifaddrs(&list) == 0) {
+    for (ifaddrs* i = list; i; i = i->ifa_next) {
+      if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET) continue;
+      char text[INET_ADDRSTRLEN];
+      const auto* in = reinterpret_cast<const sockaddr_in*>(i->ifa_addr);
+      if (!inet_ntop(AF_INET, &in->sin_addr, text, sizeof text)) continue;
+      if (std::string(text).starts_with("127.")) continue;
+      found = text;
+      break;
+    }
+    ::freeifaddrs(list);
+  }
+  return found;
 }
 
 }  // namespace
@@ -90,10 +151,11 @@ int run_serve(const ServeArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   std::vector<std::unique_ptr<FrameSource>> sources;
   std::vector<FilterConfig> filters;
-  load_site(a, sources, filters);
+  std::vector<std::string> names;
+  load_site(a, sources, filters, names);
   if (sources.empty()) throw Error("serve: give at least one --source or a --config with cameras");
   SitePlayer site(std::move(sources), a.fps, filters);
-  const auto cameras = site.cameras();
+  auto cameras = site.cameras();
   for (size_t i = 0; i < cameras.size(); ++i) {
     const auto& k = cameras[i].calibration.depth;
     spdlog::info("camera {}: {} (sent as {}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}{}{})", i,
@@ -101,7 +163,10 @@ int run_serve(const ServeArgs& a) {
                  k.is_pinhole() ? ", pinhole" : ", Brown-Conrady",
                  filters[i].any() ? ", filtered" : "");
   }
+  std::vector<protocol::CameraInfo> for_viewers = cameras;  // names, never file paths
+  for (size_t i = 0; i < cameras.size(); ++i) for_viewers[i].description = names[i];
   ServerConfig config;
+  apply_security(a, config);
   config.bind_address = a.bind;
   config.port = a.port;
   config.key_frame_interval = a.key_frame_interval;
@@ -109,10 +174,20 @@ int run_serve(const ServeArgs& a) {
   config.max_window = a.max_window;
   config.latency_budget_ms = a.latency_budget_ms;
   config.min_key_interval_ms = a.min_key_interval_ms;
-  Server server(cameras, config);
+  if (!is_loopback_address(a.bind))
+    spdlog::warn(
+        "listening on {} beyond this host: anyone who can reach it can try to join; only "
+        "holders of the join link get in",
+        a.bind);
+  Server server(for_viewers, config);
   site.start(server);
-  spdlog::info("serving {} camera(s) at {} fps on {}:{} (Ctrl-C stops)", cameras.size(), site.fps(),
-               a.bind, server.port());
+  spdlog::info("serving {} camera(s) at {} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
+               site.fps(), a.bind, server.port(),
+               a.insecure ? "plain TCP, loopback only" : "TLS 1.3");
+  if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
+  std::printf("join link (give it only to the viewers of this session):\n  %s\n",
+              server.join_link(link_host(a)).c_str());
+  std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;
   while (!g_interrupted) {
@@ -142,7 +217,24 @@ int run_serve(const ServeArgs& a) {
 int run_view(const ViewArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   ViewerOptions opt;
-  std::tie(opt.client.host, opt.client.port) = parse_host_port(a.connect);
+  if (is_join_link(a.connect)) {
+    if (!a.token.empty() || !a.fingerprint.empty())
+      throw Error(
+          "view: the join link holds the token and fingerprint; drop --token/--fingerprint");
+    opt.client = client_config_from_link(a.connect);
+  } else {
+    std::tie(opt.client.host, opt.client.port) = parse_host_port(a.connect);
+    if (a.token.empty())
+      throw Error("view: --connect HOST:PORT needs --token (or give the join link instead)");
+    opt.client.token = parse_join_token(a.token);
+    if (!a.fingerprint.empty()) opt.client.fingerprint = parse_fingerprint(a.fingerprint);
+    opt.client.insecure = a.insecure;
+  }
+  if (a.insecure && !opt.client.insecure)
+    throw Error("view: --insecure conflicts with a TLS join link (it has fp=)");
+  opt.client.known_servers =
+      a.known_servers.empty() ? (user_config_dir() / "known_servers").string() : a.known_servers;
+  opt.client.connect_timeout_ms = a.connect_timeout_ms;
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.client.color_quality = a.color_quality;

@@ -39,18 +39,22 @@ struct ViewerFigures {
 struct Row {
   int cameras = 0, viewers = 0;
   std::string tier;
+  bool tls = true;
   double fps_min = 0, latency_ms_p50 = 0, latency_ms_p99 = 0, server_cpu_percent = 0;
 };
 
 // One configuration: a site of the given sources, `viewers` receive-only viewers on one tier.
+// With `tls`, over TLS 1.3 (the default transport); else plain TCP on loopback (--insecure).
 Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
-            const std::string& depth, const std::string& color, double seconds) {
+            const std::string& depth, const std::string& color, double seconds, bool tls) {
   const int cameras = static_cast<int>(sources.size());
   SitePlayer site(std::move(sources), 30);
   ServerConfig config;
   config.port = 0;
   config.max_viewers = std::max(16, viewers);
+  config.insecure = !tls;
   Server server(site.cameras(), config);
+  const std::string link = server.join_link("127.0.0.1");
   site.start(server);
   std::vector<ViewerFigures> figures(static_cast<size_t>(viewers));
   std::atomic<bool> measuring{false}, done{false};
@@ -59,8 +63,7 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
     threads.emplace_back([&, i] {
       ViewerFigures& f = figures[static_cast<size_t>(i)];
       try {
-        ClientConfig c;
-        c.port = server.port();
+        ClientConfig c = client_config_from_link(link);
         c.depth_codec = depth;
         c.color_codec = color;
         c.decode = false;  // read and acknowledge only: the figure is the server's
@@ -100,6 +103,7 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   row.cameras = cameras;
   row.viewers = viewers;
   row.tier = depth + "/" + color;
+  row.tls = tls;
   std::vector<double> all;
   double viewer_cpu = 0;
   row.fps_min = 1e9;
@@ -127,22 +131,29 @@ int run_server_bench(const BenchArgs& a) {
   if (!(a.server_seconds > 0)) throw Error("--server-seconds must be positive");
   spdlog::set_level(spdlog::level::warn);  // viewers connecting and leaving are not news here
   std::vector<Row> rows;
-  std::printf("%-8s %-8s %-14s %9s %9s %9s %11s\n", "cameras", "viewers", "tier", "fps min",
-              "lat p50", "lat p99", "server CPU");
-  const size_t total = 2 * viewer_counts.size();
+  std::printf("%-8s %-8s %-14s %-5s %9s %9s %9s %11s %10s\n", "cameras", "viewers", "tier", "link",
+              "fps min", "lat p50", "lat p99", "server CPU", "TLS / TCP");
+  const size_t total = 4 * viewer_counts.size();
   for (int cameras : {2, 4})
-    for (int viewers : viewer_counts) {
-      if (isatty(STDERR_FILENO))  // progress where a person watches; the table goes to stdout
-        std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers...\r", rows.size() + 1, total,
-                     cameras, viewers);
-      auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
-      rows.push_back(measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds));
-      const Row& r = rows.back();
-      std::printf("%-8d %-8d %-14s %9.1f %7.1fms %7.1fms %10.0f%%\n", r.cameras, r.viewers,
-                  r.tier.c_str(), r.fps_min, r.latency_ms_p50, r.latency_ms_p99,
-                  r.server_cpu_percent);
-      std::fflush(stdout);
-    }
+    for (int viewers : viewer_counts)
+      for (bool tls : {false, true}) {  // same tier and viewers, plain TCP then TLS
+        if (isatty(STDERR_FILENO))      // progress where a person watches; the table goes to stdout
+          std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers, %s...\r", rows.size() + 1, total,
+                       cameras, viewers, tls ? "TLS" : "TCP");
+        auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
+        rows.push_back(
+            measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds, tls));
+        const Row& r = rows.back();
+        const std::string ratio =
+            tls ? fmt::format("{:.2f}x",
+                              r.server_cpu_percent /
+                                  std::max(1e-9, rows[rows.size() - 2].server_cpu_percent))
+                : "";
+        std::printf("%-8d %-8d %-14s %-5s %9.1f %7.1fms %7.1fms %10.0f%% %10s\n", r.cameras,
+                    r.viewers, r.tier.c_str(), tls ? "TLS" : "TCP", r.fps_min, r.latency_ms_p50,
+                    r.latency_ms_p99, r.server_cpu_percent, ratio.c_str());
+        std::fflush(stdout);
+      }
   if (!a.json.empty()) {
     nlohmann::json j;
     j["server"] = nlohmann::json::array();
@@ -150,6 +161,7 @@ int run_server_bench(const BenchArgs& a) {
       j["server"].push_back({{"cameras", r.cameras},
                              {"viewers", r.viewers},
                              {"tier", r.tier},
+                             {"transport", r.tls ? "tls" : "tcp"},
                              {"fps_min", r.fps_min},
                              {"latency_ms_p50", r.latency_ms_p50},
                              {"latency_ms_p99", r.latency_ms_p99},

@@ -14,6 +14,8 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/connection.hpp"
+#include "volcast/net/tls.hpp"
+#include "volcast/net/trust.hpp"
 
 namespace volcast {
 
@@ -74,13 +76,35 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   make_color_decoder(config.color_codec);
   if (config.color_quality < 0 || config.color_quality > 100)
     throw Error("color quality must be 1..100 (0 = the codec's default)");
-  impl_->connection = connect_tcp(config.host, config.port);
+  const std::string where = config.host + ":" + std::to_string(config.port);
+  if (config.insecure) {
+    if (!is_loopback_address(config.host))
+      throw Error("--insecure (plain TCP) is allowed only to a loopback address, not " +
+                  config.host + ": the stream shows an operating room");
+    impl_->connection = connect_tcp(config.host, config.port, config.connect_timeout_ms);
+  } else {
+    if (config.fingerprint.empty() && config.known_servers.empty())
+      throw Error("no certificate fingerprint to check " + where +
+                  " against: join with the server's link (volcast://...)");
+    TlsClientConnection tls =
+        connect_tls(config.host, config.port, TlsContext::client(), config.connect_timeout_ms);
+    const TrustDecision trust = check_server_fingerprint(
+        config.known_servers, where, tls.server_fingerprint, config.fingerprint);
+    if (trust == TrustDecision::kFirstUse)
+      spdlog::warn(
+          "first connection to {}: trusting its certificate, SHA-256 {} (compare it with "
+          "the fingerprint the server printed; pinned in {})",
+          where, tls.server_fingerprint, config.known_servers);
+    impl_->connection = std::move(tls.connection);
+  }
   const int64_t sent_us = wall_clock_us();
+  protocol::Hello hello;
+  hello.token = config.token;
+  hello.depth_codec = config.depth_codec;
+  hello.color_codec = config.color_codec;
+  hello.color_quality = config.color_quality;
   impl_->connection->write_all(
-      protocol::message(protocol::MessageType::kHello,
-                        protocol::serialize(protocol::Hello{config.depth_codec, config.color_codec,
-                                                            config.color_quality})),
-      10000);
+      protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)), 10000);
   protocol::Header header;
   if (!impl_->read_message(header, 1u << 20))
     throw Error("server closed the connection during the handshake");
@@ -104,6 +128,17 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   impl_->stateless = d && c && !d->temporal && !c->temporal;
   impl_->last_depth.resize(impl_->welcome.cameras.size());
   impl_->last_color.resize(impl_->welcome.cameras.size());
+}
+
+ClientConfig client_config_from_link(const std::string& text) {
+  const JoinLink link = parse_join_link(text);
+  ClientConfig c;
+  c.host = link.host;
+  c.port = link.port;
+  c.token = link.token;
+  c.fingerprint = link.fingerprint;
+  c.insecure = link.insecure;
+  return c;
 }
 
 Client::~Client() {

@@ -39,14 +39,9 @@ std::string endpoint_text(const sockaddr_storage& a) {
   return std::string(host) + ":" + std::to_string(port);
 }
 
-void configure_stream_socket(int fd) {
-  const int one = 1;
-  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  // BBR keeps throughput on lossy long paths where loss-based control collapses; best effort.
-  static const char kBbr[] = "bbr";
-  ::setsockopt(fd, IPPROTO_TCP, TCP_CONGESTION, kBbr, sizeof kBbr - 1);
-  const int flags = ::fcntl(fd, F_GETFL);
-  ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+std::string address_text(const sockaddr_storage& a) {
+  const std::string s = endpoint_text(a);
+  return s.substr(0, s.rfind(':'));
 }
 
 int remaining_ms(Clock::time_point deadline) {
@@ -59,6 +54,21 @@ class TcpConnection final : public Connection {
   TcpConnection(int fd, std::string peer) : fd_(fd), peer_(std::move(peer)) {
     configure_stream_socket(fd_);
   }
+
+  size_t read_available(std::span<uint8_t> data) override {
+    while (true) {
+      check_open();
+      const ssize_t n = ::recv(fd_, data.data(), data.size(), 0);
+      if (n > 0) return static_cast<size_t>(n);
+      if (n == 0) throw Error(shut_ ? "connection shut down" : "peer closed the connection");
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
+      throw Error("read failed: " + errno_text());
+    }
+  }
+
+  int handshake_step() override { return 0; }
+  int fd() const override { return fd_; }
   ~TcpConnection() override { ::close(fd_); }
 
   void read_exact(std::span<uint8_t> data, int timeout_ms) override {
@@ -160,30 +170,109 @@ class TcpConnection final : public Connection {
 
 }  // namespace
 
-std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port) {
-  try {
-    asio::io_context io;
-    asio::ip::tcp::resolver resolver(io);
-    asio::ip::tcp::socket socket(io);
-    const auto endpoint = asio::connect(socket, resolver.resolve(host, std::to_string(port)));
-    const std::string peer = endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
-    return std::make_unique<TcpConnection>(socket.release(), peer);
-  } catch (const std::system_error& e) {
-    throw Error("cannot connect to " + host + ":" + std::to_string(port) + ": " + e.what());
+void configure_stream_socket(int fd) {
+  const int one = 1;
+  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  // BBR keeps throughput on lossy long paths where loss-based control collapses; best effort.
+  static const char kBbr[] = "bbr";
+  ::setsockopt(fd, IPPROTO_TCP, TCP_CONGESTION, kBbr, sizeof kBbr - 1);
+  // Keepalive: probe after 10 s of silence, every 3 s, give up after 3 unanswered probes; and never
+  // wait more than 20 s for unacknowledged data (a peer that vanished without a FIN).
+  const int idle = 10, interval = 3, probes = 3;
+  const unsigned user_timeout_ms = 20000;
+  ::setsockopt(fd, SOL_SOCKET, SO_KEEPALIVE, &one, sizeof one);
+  ::setsockopt(fd, IPPROTO_TCP, TCP_KEEPIDLE, &idle, sizeof idle);
+  ::setsockopt(fd, IPPROTO_TCP, TCP_KEEPINTVL, &interval, sizeof interval);
+  ::setsockopt(fd, IPPROTO_TCP, TCP_KEEPCNT, &probes, sizeof probes);
+  ::setsockopt(fd, IPPROTO_TCP, TCP_USER_TIMEOUT, &user_timeout_ms, sizeof user_timeout_ms);
+  const int flags = ::fcntl(fd, F_GETFL);
+  ::fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+}
+
+std::unique_ptr<Connection> make_tcp_connection(int fd, std::string peer) {
+  return std::make_unique<TcpConnection>(fd, std::move(peer));
+}
+
+std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port, int timeout_ms) {
+  const std::string where = host + ":" + std::to_string(port);
+  const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 1));
+  asio::io_context io;
+  asio::ip::tcp::resolver resolver(io);
+  asio::error_code ec;
+  const auto results = resolver.resolve(host, std::to_string(port), ec);
+  if (ec) throw Error("cannot connect to " + where + ": " + ec.message());
+  std::string why = "no address";
+  for (const auto& r : results) {
+    const auto ep = r.endpoint();
+    const int fd = ::socket(ep.protocol().family(), SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+    if (fd < 0) {
+      why = errno_text();
+      continue;
+    }
+    int rc = ::connect(fd, ep.data(), static_cast<socklen_t>(ep.size()));
+    if (rc != 0 && errno == EINPROGRESS) {
+      pollfd p{fd, POLLOUT, 0};
+      int n;
+      do {
+        n = ::poll(&p, 1, remaining_ms(deadline));
+      } while (n < 0 && errno == EINTR);
+      int err = 0;
+      socklen_t len = sizeof err;
+      if (n == 0) {
+        err = ETIMEDOUT;
+      } else {
+        ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len);
+      }
+      rc = err == 0 ? 0 : -1;
+      errno = err;
+    }
+    if (rc == 0) {
+      const std::string peer = ep.address().to_string() + ":" + std::to_string(ep.port());
+      return std::make_unique<TcpConnection>(fd, peer);
+    }
+    why =
+        errno == ETIMEDOUT ? "timed out after " + std::to_string(timeout_ms) + " ms" : errno_text();
+    ::close(fd);
+    if (Clock::now() >= deadline) break;
   }
+  throw Error("cannot connect to " + where + ": " + why);
+}
+
+std::string resolve_bind_address(const std::string& host) {
+  asio::error_code ec;
+  const asio::ip::address literal = asio::ip::make_address(host, ec);
+  if (!ec) return literal.to_string();
+  asio::io_context io;
+  asio::ip::tcp::resolver resolver(io);
+  const auto results = resolver.resolve(host, "", ec);
+  if (ec || results.empty()) throw Error("cannot listen on " + host + ": unknown host name");
+  for (const auto& r : results)
+    if (r.endpoint().address().is_v4()) return r.endpoint().address().to_string();
+  return results.begin()->endpoint().address().to_string();
+}
+
+bool is_loopback_address(const std::string& host) {
+  asio::error_code ec;
+  const asio::ip::address literal = asio::ip::make_address(host, ec);
+  if (!ec) return literal.is_loopback();
+  asio::io_context io;
+  asio::ip::tcp::resolver resolver(io);
+  const auto results = resolver.resolve(host, "", ec);
+  if (ec || results.empty()) return false;
+  for (const auto& r : results)
+    if (!r.endpoint().address().is_loopback()) return false;
+  return true;
 }
 
 TcpListener::TcpListener(const std::string& bind_address, uint16_t port) {
   const std::string where = bind_address + ":" + std::to_string(port);
-  asio::error_code ec;
-  const asio::ip::address address = asio::ip::make_address(bind_address, ec);
-  if (ec) throw Error("cannot listen on " + where + ": not an IP address");
+  const asio::ip::address address = asio::ip::make_address(resolve_bind_address(bind_address));
   const asio::ip::tcp::endpoint ep(address, port);
-  fd_ = ::socket(ep.protocol().family(), SOCK_STREAM | SOCK_CLOEXEC, 0);
+  fd_ = ::socket(ep.protocol().family(), SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (fd_ < 0) throw Error("cannot listen on " + where + ": " + errno_text());
   const int one = 1;
   ::setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one);
-  if (::bind(fd_, ep.data(), static_cast<socklen_t>(ep.size())) != 0 || ::listen(fd_, 64) != 0) {
+  if (::bind(fd_, ep.data(), static_cast<socklen_t>(ep.size())) != 0 || ::listen(fd_, 256) != 0) {
     const std::string why = errno_text();
     ::close(fd_);
     throw Error("cannot listen on " + where + ": " + why);
@@ -224,6 +313,20 @@ std::unique_ptr<Connection> TcpListener::accept() {
     return std::make_unique<TcpConnection>(fd, endpoint_text(peer));
   }
   return nullptr;
+}
+
+AcceptedSocket TcpListener::accept_nonblocking() {
+  AcceptedSocket out;
+  if (closed_) return out;
+  sockaddr_storage peer{};
+  socklen_t len = sizeof peer;
+  const int fd =
+      ::accept4(fd_, reinterpret_cast<sockaddr*>(&peer), &len, SOCK_CLOEXEC | SOCK_NONBLOCK);
+  if (fd < 0) return out;  // nothing waiting, or a transient failure (EMFILE): the caller polls on
+  out.fd = fd;
+  out.peer = endpoint_text(peer);
+  out.address = address_text(peer);
+  return out;
 }
 
 void TcpListener::close() {

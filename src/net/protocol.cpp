@@ -114,15 +114,22 @@ Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload) {
 std::vector<uint8_t> serialize(const Hello& m) {
   std::vector<uint8_t> out;
   Writer w(out);
+  w.append(m.token.data(), m.token.size());
   w.put_string(m.depth_codec);
   w.put_string(m.color_codec);
   w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
   return out;
 }
 
+std::span<const uint8_t, kTokenBytes> hello_token(std::span<const uint8_t> payload) {
+  if (payload.size() < kTokenBytes) throw Error("malformed hello: truncated");
+  return payload.first<kTokenBytes>();
+}
+
 Hello parse_hello(std::span<const uint8_t> payload) {
   Reader r(payload, "hello");
   Hello h;
+  for (uint8_t& b : h.token) b = r.get<uint8_t>();
   h.depth_codec = r.get_string();
   h.color_codec = r.get_string();
   h.color_quality = r.get<uint8_t>();

@@ -8,11 +8,14 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <functional>
 #include <list>
 #include <mutex>
 #include <thread>
 
+#include "door.hpp"
 #include "tier_encoder.hpp"
+#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
@@ -49,7 +52,10 @@ struct Server::Impl {
   std::vector<protocol::CameraInfo> cameras;
   std::unique_ptr<TcpListener> listener;
   std::unique_ptr<WorkerPool> pool;
-  std::thread accept_thread;
+  detail::DoorConfig door;
+  detail::DoorCounters door_counters;
+  std::function<void(detail::Admitted&)> admit_fn;
+  std::thread door_thread;
   std::atomic<bool> stopping{false};
 
   mutable std::mutex mutex;  // guards everything below and each Tier's shared fields
@@ -73,6 +79,7 @@ struct Server::Impl {
 
   struct Viewer {
     std::unique_ptr<Connection> connection;
+    std::shared_ptr<Tier> tier;
     std::thread thread;
     WakeFd wake;
     ViewerReport report;
@@ -82,20 +89,57 @@ struct Server::Impl {
   std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
   static constexpr size_t kEndedReportsKept = 256;
 
-  void accept_loop() {
-    while (!stopping) {
-      std::unique_ptr<Connection> connection = listener->accept();
-      if (!connection) break;
-      join_retired();
-      std::lock_guard lock(mutex);
-      reap_finished();
+  // Runs on the door's thread for each authenticated viewer: applies the server's policy, then
+  // gives the viewer a tier and a thread. Throws Error (the door sends it as a Reject).
+  void admit(detail::Admitted& a) {
+    join_retired();
+    std::lock_guard lock(mutex);
+    reap_finished();
+    const protocol::Hello& hello = a.hello;
+    try {
+      int active = 0;
+      for (const auto& v : viewers) active += !v.done;
+      if (active >= config.max_viewers)
+        throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
+      check_offered(hello);
       Viewer& v = viewers.emplace_back();
-      v.connection = std::move(connection);
+      try {
+        v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
+      } catch (...) {
+        viewers.pop_back();
+        throw;
+      }
+      v.connection = std::move(a.connection);
       v.report.peer = v.connection->peer();
       v.report.connected = true;
-      const bool full = static_cast<int>(viewers.size()) > config.max_viewers;
-      v.thread = std::thread([this, &v, full] { serve_viewer(v, full); });
+      v.report.depth_codec = hello.depth_codec;  // known codec names: subscribe checked them
+      v.report.color_codec = hello.color_codec;
+      v.report.color_quality = hello.color_quality;
+      v.thread = std::thread([this, &v] { serve_viewer(v); });
+    } catch (const Error& e) {
+      ViewerReport r;
+      r.peer = a.connection->peer();
+      r.error = e.what();
+      ended.push_back(std::move(r));
+      if (ended.size() > kEndedReportsKept) ended.pop_front();
+      throw;
     }
+  }
+
+  // Throws Error naming the offered tiers if the viewer's is not one of them.
+  void check_offered(const protocol::Hello& hello) const {
+    if (config.offered_tiers.empty()) return;
+    std::string list;
+    for (const auto& t : config.offered_tiers) {
+      const size_t a = t.find('/'), b = t.find('/', a + 1);
+      const bool quality_given = b != std::string::npos;
+      if (t.substr(0, a) == hello.depth_codec &&
+          t.substr(a + 1, quality_given ? b - a - 1 : std::string::npos) == hello.color_codec &&
+          (!quality_given || std::stoi(t.substr(b + 1)) == hello.color_quality))
+        return;
+      list += (list.empty() ? "" : ", ") + t;
+    }
+    throw Error("this server does not offer that tier; it offers " + list);
   }
 
   // Joins the threads of viewers that have ended (keeping their reports) and of tiers nobody
@@ -216,61 +260,20 @@ struct Server::Impl {
     std::erase(tier.subscribers, &wake);
   }
 
-  void reject(Connection& c, const std::string& reason) {
-    const auto msg =
-        protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(reason));
-    try {
-      c.write_all(msg, 200);  // best effort: tell a confused peer why before closing
-    } catch (const Error&) {
-    }
-  }
-
-  protocol::Hello read_hello(Connection& c) {
-    uint8_t header_bytes[protocol::kHeaderBytes];
-    c.read_exact(header_bytes, config.handshake_timeout_ms);
-    const protocol::Header header = protocol::parse_header(header_bytes, protocol::kMaxHelloBytes);
-    if (header.type != protocol::MessageType::kHello)
-      throw Error("expected Hello as first message");
-    std::vector<uint8_t> payload(header.payload_bytes);
-    c.read_exact(payload, config.handshake_timeout_ms);
-    return protocol::parse_hello(payload);
-  }
-
-  void serve_viewer(Viewer& v, bool full) {
+  void serve_viewer(Viewer& v) {
     Connection& c = *v.connection;
-    std::shared_ptr<Tier> tier;
     try {
-      protocol::Hello hello;
-      try {
-        hello = read_hello(c);
-      } catch (const Error& e) {
-        reject(c, std::string("handshake failed: ") + e.what());
-        throw;
-      }
-      update(v, [&](ViewerReport& r) {
-        r.depth_codec = hello.depth_codec;
-        r.color_codec = hello.color_codec;
-        r.color_quality = hello.color_quality;
-      });
-      try {
-        if (full) throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
-        std::lock_guard lock(mutex);
-        tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
-      } catch (const Error& e) {
-        reject(c, e.what());
-        throw;
-      }
       protocol::Welcome welcome{cameras, wall_clock_us()};
       c.write_all(protocol::message(protocol::MessageType::kWelcome, protocol::serialize(welcome)),
                   config.stall_timeout_ms);
-      spdlog::info("viewer {} connected (depth {}, color {})", v.report.peer, hello.depth_codec,
-                   hello.color_codec);
-      stream(v, *tier);
+      spdlog::info("viewer {} connected (depth {}, color {})", v.report.peer, v.report.depth_codec,
+                   v.report.color_codec);
+      stream(v, *v.tier);
     } catch (const std::exception& e) {
       if (!stopping) spdlog::info("viewer {} ended: {}", v.report.peer, e.what());
       update(v, [&](ViewerReport& r) { r.error = e.what(); });
     }
-    if (tier) unsubscribe(*tier, v.wake);
+    unsubscribe(*v.tier, v.wake);
     c.shutdown();
     update(v, [](ViewerReport& r) { r.connected = false; });
     v.done = true;
@@ -365,11 +368,49 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.key_frame_interval < 1) throw Error("server: --key-frame-interval must be at least 1");
   if (cameras.empty() || static_cast<int>(cameras.size()) > protocol::kMaxCameras)
     throw Error("server: a site needs 1 to " + std::to_string(protocol::kMaxCameras) + " cameras");
+  if (config.handshake_timeout_ms < 1 || config.max_pending < 1 ||
+      config.max_pending_per_address < 1)
+    throw Error("server: handshake timeout and pending-handshake limits must be at least 1");
+  for (const auto& t : config.offered_tiers) {
+    const size_t a = t.find('/'), b = a == std::string::npos ? a : t.find('/', a + 1);
+    const std::string depth = t.substr(0, a);
+    const std::string color =
+        a == std::string::npos ? "" : t.substr(a + 1, b == std::string::npos ? b : b - a - 1);
+    int quality = 0;
+    if (b != std::string::npos) {
+      const std::string q = t.substr(b + 1);
+      const bool digits =
+          !q.empty() && q.size() <= 3 && q.find_first_not_of("0123456789") == std::string::npos;
+      quality = digits ? std::stoi(q) : -1;
+    }
+    if (!find_depth_codec(depth) || !find_color_codec(color) || quality < 0 || quality > 100)
+      throw Error("server: offered tier '" + t +
+                  "' must be DEPTH/COLOR or DEPTH/COLOR/QUALITY with codecs this build has "
+                  "(volcast view --help lists them) and a quality 1..100");
+  }
+  const std::string bind = resolve_bind_address(config.bind_address);
+  if (config.insecure && !is_loopback_address(bind))
+    throw Error(
+        "server: --insecure (plain TCP, no encryption) is allowed only on a loopback "
+        "address, not " +
+        config.bind_address + ": the stream shows an operating room; drop --insecure to use TLS");
+  impl_->door.token = config.token ? *config.token : random_join_token();
+  if (!config.insecure)
+    impl_->door.tls = TlsContext::server(config.identity.certificate_pem.empty()
+                                             ? make_self_signed_identity("volcast server")
+                                             : config.identity);
+  impl_->door.handshake_timeout_ms = config.handshake_timeout_ms;
+  impl_->door.max_pending = config.max_pending;
+  impl_->door.max_pending_per_address = config.max_pending_per_address;
   impl_->config = std::move(config);
   impl_->cameras = std::move(cameras);
   impl_->pool = std::make_unique<WorkerPool>(impl_->config.encode_threads);
-  impl_->listener = std::make_unique<TcpListener>(impl_->config.bind_address, impl_->config.port);
-  impl_->accept_thread = std::thread([this] { impl_->accept_loop(); });
+  impl_->listener = std::make_unique<TcpListener>(bind, impl_->config.port);
+  impl_->admit_fn = [this](detail::Admitted& a) { impl_->admit(a); };
+  impl_->door_thread = std::thread([this] {
+    detail::run_door(*impl_->listener, impl_->door, impl_->stopping, impl_->admit_fn,
+                     impl_->door_counters);
+  });
 }
 
 Server::~Server() {
@@ -378,6 +419,29 @@ Server::~Server() {
 
 uint16_t Server::port() const {
   return impl_->listener->port();
+}
+
+const JoinToken& Server::token() const {
+  return impl_->door.token;
+}
+
+std::string Server::fingerprint() const {
+  return impl_->door.tls ? impl_->door.tls->fingerprint() : std::string();
+}
+
+std::string Server::join_link(const std::string& host) const {
+  JoinLink link;
+  link.host = host;
+  link.port = port();
+  link.token = token();
+  link.fingerprint = fingerprint();
+  link.insecure = !impl_->door.tls;
+  return format_join_link(link);
+}
+
+DoorReport Server::door() const {
+  const auto& c = impl_->door_counters;
+  return {c.admitted, c.wrong_token, c.backed_off, c.failed, c.over_limit};
 }
 
 void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
@@ -416,13 +480,13 @@ std::vector<TierReport> Server::tiers() const {
 void Server::stop() {
   if (impl_->stopping.exchange(true)) return;
   impl_->listener->close();
-  if (impl_->accept_thread.joinable()) impl_->accept_thread.join();
+  if (impl_->door_thread.joinable()) impl_->door_thread.join();
   {
     std::lock_guard lock(impl_->mutex);
     for (auto& v : impl_->viewers) v.connection->shutdown();
   }
   impl_->captured_changed.notify_all();
-  // The accept thread has ended, so the viewer list no longer changes; viewer threads notice
+  // The door's thread has ended, so the viewer list no longer changes; viewer threads notice
   // `stopping` within 100 ms and must be joined without holding the mutex they report through.
   for (auto& v : impl_->viewers)
     if (v.thread.joinable()) v.thread.join();

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "volcast/core/frame.hpp"
+#include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
 
 namespace volcast {
@@ -14,6 +15,14 @@ namespace volcast {
 struct ClientConfig {
   std::string host = "127.0.0.1";
   uint16_t port = 7300;
+  JoinToken token{};        ///< the session's join token (from the join link)
+  std::string fingerprint;  ///< the server certificate's SHA-256 (64 hex) from the link; may be
+                            ///< empty only if `known_servers` pins it or is to learn it
+  /// The pin store (trust.hpp): checked, and updated on first use or from the link; empty: none,
+  /// so `fingerprint` must be given.
+  std::string known_servers;
+  bool insecure = false;          ///< plain TCP: refused unless `host` is a loopback address
+  int connect_timeout_ms = 5000;  ///< TCP connect and TLS handshake
   std::string depth_codec = "volcast";
   std::string color_codec = "jpeg";
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default
@@ -48,10 +57,16 @@ struct ReceivedFrameSet {
   size_t message_bytes = 0;         ///< whole message including headers
 };
 
+/// A config joining the session of `link` (join.hpp); codecs and the rest stay at their defaults.
+/// Throws Error like parse_join_link.
+ClientConfig client_config_from_link(const std::string& link);
+
 class Client {
  public:
-  /// Connects and completes the handshake. Throws Error if the server cannot be reached, rejects
-  /// the tier (the server's reason is in the message), or answers with a malformed Welcome.
+  /// Connects (TLS 1.3 unless `insecure`), checks the server's certificate fingerprint, and
+  /// completes the handshake. Throws Error if the server cannot be reached, presents another
+  /// certificate than the pinned one (trust.hpp; nothing secret was sent then), rejects the token
+  /// or the tier (the server's reason is in the message), or answers with a malformed Welcome.
   explicit Client(const ClientConfig& config);
   ~Client();
   Client(const Client&) = delete;

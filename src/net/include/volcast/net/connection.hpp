@@ -1,8 +1,8 @@
 #pragma once
 // Connection: a byte stream to one peer with deadlines, the seam between the protocol and its
-// transports. TCP today; TLS and WebSocket implement the same interface next. A silent or stalled
-// peer can never hold a thread forever: every blocking call has a deadline and shutdown() from any
-// thread ends it.
+// transports: plain TCP (here; loopback only outside tests) and TLS 1.3 (tls.hpp); WebSocket next.
+// A silent or stalled peer can never hold a thread forever: every blocking call has a deadline and
+// shutdown() from any thread ends it. One thread at a time reads and writes a connection.
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -35,6 +35,15 @@ class Connection {
   /// Waits until the connection is readable or `wake_fd` (an eventfd or pipe, -1 for none) is,
   /// at most `timeout_ms` (< 0: no limit). Does not consume the wake fd's counter.
   virtual Ready wait(int wake_fd, int timeout_ms) = 0;
+  /// Reads whatever is available now, at most `data.size()` bytes, without blocking; 0 when
+  /// nothing is. Throws Error like read_exact (e.g. "peer closed the connection").
+  virtual size_t read_available(std::span<uint8_t> data) = 0;
+  /// Advances the transport's own handshake (TLS) without blocking: 0 when it is complete, else the
+  /// poll(2) events (POLLIN, POLLOUT) the socket must become ready for before the next call.
+  /// Throws Error if the handshake failed. A transport without a handshake returns 0 at once.
+  virtual int handshake_step() = 0;
+  /// The socket, for poll(2) by a caller multiplexing many connections (it stays owned here).
+  virtual int fd() const = 0;
   /// "address:port" of the peer, for logs.
   virtual std::string peer() const = 0;
   /// Ends the connection: calls blocked in other threads return by throwing Error. Thread-safe
@@ -42,13 +51,35 @@ class Connection {
   virtual void shutdown() = 0;
 };
 
-/// Connects over TCP (TCP_NODELAY on). Throws Error("cannot connect to HOST:PORT: reason").
-std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port);
+/// Connects over TCP (TCP_NODELAY and keepalive on), trying each address HOST resolves to within
+/// `timeout_ms` in all. Throws Error("cannot connect to HOST:PORT: reason").
+std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port,
+                                        int timeout_ms = 5000);
+/// Wraps a connected socket (owned from here on) as a plain TCP connection.
+std::unique_ptr<Connection> make_tcp_connection(int fd, std::string peer);
+/// Configures a stream socket as every Volcast connection is: non-blocking, TCP_NODELAY, BBR
+/// congestion control where the kernel has it, and TCP keepalive (a peer that vanishes without a
+/// FIN is noticed within about 20 s even when nothing is being sent).
+void configure_stream_socket(int fd);
+
+/// An accepted socket not yet wrapped in a Connection.
+struct AcceptedSocket {
+  int fd = -1;          ///< owned by the caller
+  std::string peer;     ///< "address:port"
+  std::string address;  ///< the address alone (for per-address limits)
+};
+
+/// Resolves a bind address: an IP address, or a host name such as "localhost" (its first IPv4
+/// address, else its first IPv6 one). Throws Error("cannot listen on HOST: reason").
+std::string resolve_bind_address(const std::string& host);
+/// True for 127.0.0.0/8, ::1 and names resolving only to them.
+bool is_loopback_address(const std::string& host);
 
 /// Listens on TCP and hands out accepted connections.
 class TcpListener {
  public:
-  /// Binds and listens. Throws Error("cannot listen on ADDRESS:PORT: reason").
+  /// Binds and listens on `bind_address` (see resolve_bind_address). Throws Error("cannot listen on
+  /// ADDRESS:PORT: reason").
   TcpListener(const std::string& bind_address, uint16_t port);
   ~TcpListener();
   TcpListener(const TcpListener&) = delete;
@@ -57,6 +88,11 @@ class TcpListener {
   /// Blocks for the next connection (TCP_NODELAY on, BBR congestion control where the kernel has
   /// it); nullptr once close() was called. Transient failures are retried.
   std::unique_ptr<Connection> accept();
+  /// The next pending connection without blocking (nothing configured yet), or fd -1 when none
+  /// is waiting. For a caller polling fd() itself.
+  AcceptedSocket accept_nonblocking();
+  /// The listening socket, for poll(2).
+  int fd() const { return fd_; }
   /// Unblocks accept() and stops listening. Thread-safe, idempotent.
   void close();
 

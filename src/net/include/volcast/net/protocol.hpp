@@ -1,24 +1,29 @@
 #pragma once
-// Volcast stream protocol, version 2: versioned messages on channels, over one connection per
-// viewer (TCP today; TLS and WebSocket carry the same bytes). Little-endian throughout.
+// Volcast stream protocol, version 3: versioned messages on channels, over one connection per
+// viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; WebSocket will carry the same
+// bytes). Little-endian throughout.
 //
 // Every message: a 12-byte header
-//   magic "VCST" (4 bytes) | protocol version u16 (= 2) | channel u8 | type u8 | payload length u32
+//   magic "VCST" (4 bytes) | protocol version u16 (= 3) | channel u8 | type u8 | payload length u32
 // then the payload. Strings are u16 length + UTF-8 bytes; byte strings u32 length + bytes; doubles
 // IEEE-754 binary64; times i64 microseconds of the sender's wall clock (Unix epoch).
 //
 // Channels and their messages (channel.type):
 //   0 control
-//     0.1 Hello      viewer -> server: depth codec string, color codec string, color quality u8
-//                    (1..100, 0 = the codec's default). (depth codec, color codec, quality) is
-//                    the viewer's tier.
+//     0.1 Hello      viewer -> server: join token (16 bytes, join.hpp), depth codec string, color
+//                    codec string, color quality u8 (1..100, 0 = the codec's default). (depth
+//                    codec, color codec, quality) is the viewer's tier. The server compares the
+//                    token (constant time) before it parses anything after it; at most
+//                    kMaxHelloBytes, and it must arrive within the server's handshake timeout.
 //     0.2 Welcome    server -> viewer: camera count u32, then per camera: width u16, height u16,
 //                    the 15 intrinsics fx fy cx cy k1..k6 p1 p2 codx cody metric_radius (f64),
 //                    world_from_camera rotation (9 f64, row-major) and translation (3 f64, metres),
-//                    a description string; then the server's wall clock i64 when it sent Welcome
-//                    (the viewer estimates the offset between the two clocks from it).
-//     0.3 Reject     server -> viewer: a reason string (unknown codec, wrong version, server full);
-//                    the server then closes the connection.
+//                    the camera's name string (for people; never a file path); then the server's
+//                    wall clock i64 when it sent Welcome (the viewer estimates the offset between
+//                    the two clocks from it).
+//     0.3 Reject     server -> viewer: a reason string (wrong token, a tier the server does not
+//                    offer -- naming the offered ones --, wrong version, server full); the server
+//                    then closes the connection.
 //     0.4 Ack        viewer -> server: sequence u64 of a frame set the viewer has received and
 //                    decoded (or, for a receive-only peer, read). The server paces by Acks.
 //     0.5 KeyFrameRequest  viewer -> server, empty: the viewer's decoder refused a delta frame;
@@ -50,7 +55,8 @@
 namespace volcast::protocol {
 
 inline constexpr uint32_t kMagic = 0x54534356;  // "VCST" as little-endian bytes
-inline constexpr uint16_t kVersion = 2;
+inline constexpr uint16_t kVersion = 3;
+inline constexpr size_t kTokenBytes = 16;
 inline constexpr size_t kHeaderBytes = 12;
 inline constexpr uint32_t kMaxHelloBytes = 4096;
 inline constexpr uint32_t kMaxControlBytes = 4096;        ///< any viewer -> server message
@@ -84,6 +90,7 @@ void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderB
 Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload = kMaxPayloadBytes);
 
 struct Hello {
+  std::array<uint8_t, kTokenBytes> token{};  ///< the session's join token (join.hpp)
   std::string depth_codec;
   std::string color_codec;
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default
@@ -91,7 +98,7 @@ struct Hello {
 
 struct CameraInfo {
   CameraCalibration calibration;
-  std::string description;
+  std::string description;  ///< the camera's name for viewers (never a file path: sent to all)
 };
 
 struct Welcome {
@@ -146,6 +153,9 @@ void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& ti
 inline constexpr size_t kFrameSetPrefixBytes = kHeaderBytes + 8;
 std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, int64_t send_us);
 
+/// The token a Hello payload starts with, without parsing the rest (the server checks it first).
+/// Throws Error("malformed hello: truncated") if the payload is shorter than a token.
+std::span<const uint8_t, kTokenBytes> hello_token(std::span<const uint8_t> payload);
 Hello parse_hello(std::span<const uint8_t> payload);
 Welcome parse_welcome(std::span<const uint8_t> payload);
 std::string parse_reject(std::span<const uint8_t> payload);

@@ -14,6 +14,13 @@
 // waits for the tier's next key frame set; the tier makes one on request at most every
 // `min_key_interval_ms`, and every `key_frame_interval` frame sets anyway.
 //
+// Security (door.hpp): TLS 1.3 by default with the server's certificate (a new self-signed one
+// for this Server if the config gives none); `insecure` (plain TCP) only on a loopback address.
+// Every viewer must send the session's join token in its Hello; one thread runs all pending
+// handshakes (no thread per unauthenticated peer), with a handshake timeout, limits on pending
+// handshakes in total and per address, and a back-off for addresses that send wrong tokens. Only
+// then does a viewer get a thread, a tier, and count against `max_viewers`.
+//
 // Pacing (per viewer, from Ack timing, after BBR: Cardwell et al., ACM Queue 2016): the server
 // estimates the path's round-trip time (windowed minimum of send -> Ack) and bottleneck rate
 // (windowed maximum of the delivery rate), and keeps about two bandwidth-delay products of bytes in
@@ -22,27 +29,51 @@
 // sets instead of building latency, and never slows the publisher or another viewer.
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "volcast/core/frame.hpp"
+#include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
+#include "volcast/net/tls.hpp"
 
 namespace volcast {
 
 struct ServerConfig {
-  std::string bind_address = "127.0.0.1";  ///< "0.0.0.0" to accept remote viewers
-  uint16_t port = 7300;                    ///< 0 picks a free port (see Server::port)
-  int key_frame_interval = 60;             ///< frame sets between key frames of temporal tiers
-  int min_key_interval_ms = 250;           ///< a tier makes requested key frames at most this often
-  int max_window = 8;           ///< frame sets in flight (sent, not acknowledged) at most
-  int latency_budget_ms = 150;  ///< a frame set captured longer ago is never sent
-  int max_viewers = 16;         ///< further viewers are rejected ("server full")
-  int max_tiers = 8;            ///< distinct tiers at once; a viewer asking for another is rejected
-  int encode_threads = 0;       ///< worker threads for encoding (0 = cores - 1)
-  int handshake_timeout_ms = 5000;  ///< a viewer must send Hello within this time
+  std::string bind_address =
+      "127.0.0.1";                ///< an address or host name; "0.0.0.0" for remote viewers
+  uint16_t port = 7300;           ///< 0 picks a free port (see Server::port)
+  int key_frame_interval = 60;    ///< frame sets between key frames of temporal tiers
+  int min_key_interval_ms = 250;  ///< a tier makes requested key frames at most this often
+  int max_window = 8;             ///< frame sets in flight (sent, not acknowledged) at most
+  int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
+  int max_viewers = 16;           ///< further viewers are rejected ("server full")
+  int max_tiers = 8;       ///< distinct tiers at once; a viewer asking for another is rejected
+  int encode_threads = 0;  ///< worker threads for encoding (0 = cores - 1)
+  int handshake_timeout_ms = 5000;  ///< a viewer must finish TLS and send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
                                     ///< disconnected
+  int max_pending = 64;             ///< handshakes at once (the oldest is dropped for a newcomer)
+  int max_pending_per_address = 8;  ///< handshakes at once from one address (more are closed)
+  /// Tiers offered, each "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" (e.g. "volcast/jpeg/90"); a viewer
+  /// asking for another is rejected with the list. Empty: any codecs this build has.
+  std::vector<std::string> offered_tiers;
+  bool insecure = false;  ///< plain TCP instead of TLS; refused unless bind_address is loopback
+  TlsIdentity identity;   ///< certificate and key; empty: a new self-signed one for this server
+  std::optional<JoinToken> token;  ///< the session's join token; empty: a random one
+};
+
+/// Wrong join tokens an address may send before it is backed off (1 s, doubling up to 60 s).
+inline constexpr int kFreeWrongTokens = 3;
+
+/// What came to the server's door (counts since start).
+struct DoorReport {
+  uint64_t admitted = 0;  ///< viewers with the right token (then served, or rejected: full, tier)
+  uint64_t wrong_token = 0;  ///< refused for a wrong join token
+  uint64_t backed_off = 0;   ///< refused during their address's back-off after wrong tokens
+  uint64_t failed = 0;       ///< TLS or protocol errors and handshake timeouts
+  uint64_t over_limit = 0;   ///< closed at once: too many pending handshakes
 };
 
 /// What the server knows about one viewer (for logs, tests and the benchmark).
@@ -74,17 +105,27 @@ struct TierReport {
 class Server {
  public:
   /// Binds and starts accepting. Throws Error if the address or port cannot be bound or the
-  /// configuration is invalid.
+  /// configuration is invalid (e.g. `insecure` on a non-loopback address, an offered tier with an
+  /// unknown codec, an unusable certificate).
   Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config);
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
 
   uint16_t port() const;
+  /// The session's join token.
+  const JoinToken& token() const;
+  /// SHA-256 of the server's certificate (64 hex digits); empty when insecure.
+  std::string fingerprint() const;
+  /// The join link for viewers reaching this server at `host` (join.hpp).
+  std::string join_link(const std::string& host) const;
+  /// What came to the door so far.
+  DoorReport door() const;
   /// Makes `frames` the newest frame set (one frame per camera, in camera order). Never blocks on
   /// encoders or viewers. Throws Error if the camera count differs from the site's.
   void publish(std::shared_ptr<const CapturedFrameSet> frames);
-  /// Viewers connected now and the last 256 that left.
+  /// Viewers connected now and the last 256 that left (including authenticated ones rejected for
+  /// policy: server full, a tier not offered).
   std::vector<ViewerReport> viewers() const;
   /// Tiers with at least one viewer.
   std::vector<TierReport> tiers() const;

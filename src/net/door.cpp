@@ -1,0 +1,282 @@
+#include "door.hpp"
+
+#include <poll.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <list>
+#include <unordered_map>
+#include <vector>
+
+#include "volcast/core/error.hpp"
+#include "volcast/net/server.hpp"
+
+namespace volcast::detail {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// One handshake in progress: TLS (if any), then the 12-byte header and the Hello payload.
+struct Pending {
+  std::unique_ptr<Connection> connection;
+  std::string address;
+  Clock::time_point deadline;
+  short events = POLLIN;       // what the next step waits for
+  std::vector<uint8_t> bytes;  // header, then header + payload
+  size_t have = 0;
+  bool tls_done = false;
+};
+
+// Wrong-token history of one address.
+struct Offences {
+  int wrong_tokens = 0;
+  Clock::time_point blocked_until{};
+  Clock::time_point last{};
+};
+
+// Logs the first failure, then at most one line per interval with how many were not logged.
+class FailureLog {
+ public:
+  void add(const std::string& peer, const std::string& why) {
+    const auto now = Clock::now();
+    if (now - last_ < std::chrono::seconds(10)) {
+      ++suppressed_;
+      return;
+    }
+    if (suppressed_ > 0)
+      spdlog::warn("handshake from {} failed: {} ({} more failed handshakes not logged since)",
+                   peer, why, suppressed_);
+    else
+      spdlog::warn("handshake from {} failed: {}", peer, why);
+    suppressed_ = 0;
+    last_ = now;
+  }
+  void flush() {
+    if (suppressed_ > 0) spdlog::warn("{} more failed handshakes not logged", suppressed_);
+    suppressed_ = 0;
+  }
+
+ private:
+  Clock::time_point last_ = Clock::now() - std::chrono::hours(1);
+  uint64_t suppressed_ = 0;
+};
+
+int ms_until(Clock::time_point t) {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(t - Clock::now());
+  return static_cast<int>(std::clamp<int64_t>(left.count(), 0, 100));
+}
+
+class Door {
+ public:
+  Door(TcpListener& listener, const DoorConfig& config, const std::function<void(Admitted&)>& admit,
+       DoorCounters& counters)
+      : listener_(listener), config_(config), admit_(admit), counters_(counters) {}
+
+  void run(const std::atomic<bool>& stopping) {
+    std::vector<pollfd> fds;
+    std::vector<std::list<Pending>::iterator> owners;
+    while (!stopping) {
+      fds.assign(1, pollfd{listener_.fd(), POLLIN, 0});
+      owners.clear();
+      auto next_deadline = Clock::now() + std::chrono::milliseconds(100);
+      for (auto it = pending_.begin(); it != pending_.end(); ++it) {
+        fds.push_back({it->connection->fd(), it->events, 0});
+        owners.push_back(it);
+        next_deadline = std::min(next_deadline, it->deadline);
+      }
+      if (::poll(fds.data(), fds.size(), ms_until(next_deadline)) < 0 && errno != EINTR) break;
+      for (size_t i = 1; i < fds.size(); ++i)
+        if (fds[i].revents != 0) step(owners[i - 1]);
+      if (fds[0].revents != 0) accept_all();
+      expire();
+    }
+    log_.flush();
+  }
+
+ private:
+  void accept_all() {
+    for (int k = 0; k < 64; ++k) {  // a bounded batch; the rest next round
+      AcceptedSocket s = listener_.accept_nonblocking();
+      if (s.fd < 0) return;
+      if (count_from(s.address) >= config_.max_pending_per_address) {
+        ::close(s.fd);
+        ++counters_.over_limit;
+        log_.add(s.peer, "too many pending handshakes from this address");
+        continue;
+      }
+      if (static_cast<int>(pending_.size()) >= config_.max_pending) {
+        // Drop the oldest: a real viewer finishes its handshake in a round trip or two.
+        ++counters_.over_limit;
+        log_.add(pending_.front().connection->peer(),
+                 "dropped for a newer handshake (server busy)");
+        pending_.pop_front();
+      }
+      Pending p;
+      try {
+        p.connection =
+            config_.tls ? accept_tls(s.fd, s.peer, config_.tls) : make_tcp_connection(s.fd, s.peer);
+      } catch (const Error& e) {
+        ++counters_.failed;
+        log_.add(s.peer, e.what());
+        continue;
+      }
+      p.address = s.address;
+      p.deadline = Clock::now() + std::chrono::milliseconds(config_.handshake_timeout_ms);
+      p.tls_done = !config_.tls;
+      p.bytes.resize(protocol::kHeaderBytes);
+      pending_.push_back(std::move(p));
+      step(std::prev(pending_.end()));  // the peer may have spoken already
+    }
+  }
+
+  int count_from(const std::string& address) const {
+    int n = 0;
+    for (const auto& p : pending_) n += p.address == address;
+    return n;
+  }
+
+  // Advances one handshake as far as it can go without blocking.
+  void step(std::list<Pending>::iterator it) {
+    Pending& p = *it;
+    try {
+      if (!p.tls_done) {
+        const int want = p.connection->handshake_step();
+        if (want != 0) {
+          p.events = static_cast<short>(want);
+          return;
+        }
+        p.tls_done = true;
+        p.events = POLLIN;
+      }
+      while (true) {
+        const size_t n = p.connection->read_available(std::span(p.bytes).subspan(p.have));
+        p.have += n;
+        if (p.have == protocol::kHeaderBytes && p.bytes.size() == protocol::kHeaderBytes) {
+          const protocol::Header h = protocol::parse_header(p.bytes, protocol::kMaxHelloBytes);
+          if (h.type != protocol::MessageType::kHello)
+            throw Error("expected Hello as first message");
+          if (h.payload_bytes < protocol::kTokenBytes) throw Error("malformed hello: truncated");
+          p.bytes.resize(protocol::kHeaderBytes + h.payload_bytes);
+        }
+        if (p.have == p.bytes.size() && p.bytes.size() > protocol::kHeaderBytes) break;
+        if (n == 0) return;  // wait for more
+      }
+    } catch (const Error& e) {
+      ++counters_.failed;
+      log_.add(p.connection->peer(), e.what());
+      if (p.tls_done) send_reject(*p.connection, std::string("handshake failed: ") + e.what());
+      pending_.erase(it);
+      return;
+    }
+    finish(it);
+  }
+
+  // The whole Hello is here: token first, then the rest.
+  void finish(std::list<Pending>::iterator it) {
+    Pending p = std::move(*it);
+    pending_.erase(it);
+    const auto payload = std::span<const uint8_t>(p.bytes).subspan(protocol::kHeaderBytes);
+    const auto now = Clock::now();
+    const auto known = offences_.find(p.address);
+    if (known != offences_.end() && now < known->second.blocked_until) {
+      ++counters_.backed_off;
+      const auto wait_s =
+          std::chrono::duration_cast<std::chrono::seconds>(known->second.blocked_until - now)
+              .count() +
+          1;
+      log_.add(p.connection->peer(), "refused during this address's back-off");
+      send_reject(*p.connection, "too many wrong join tokens from your address: try again in " +
+                                     std::to_string(wait_s) + " s");
+      return;
+    }
+    Admitted a;
+    try {
+      if (!tokens_equal(protocol::hello_token(payload), config_.token)) {
+        ++counters_.wrong_token;
+        Offences& o = offences_[p.address];
+        o.last = now;
+        if (++o.wrong_tokens >= volcast::kFreeWrongTokens) {
+          const int doublings = std::min(o.wrong_tokens - volcast::kFreeWrongTokens, 6);
+          o.blocked_until =
+              now + std::min(std::chrono::seconds(1 << doublings), std::chrono::seconds(60));
+        }
+        log_.add(p.connection->peer(), "wrong join token");
+        send_reject(*p.connection, "wrong join token: use the link the server printed at start");
+        prune();
+        return;
+      }
+      a.hello = protocol::parse_hello(payload);
+    } catch (const Error& e) {
+      ++counters_.failed;
+      log_.add(p.connection->peer(), e.what());
+      send_reject(*p.connection, std::string("handshake failed: ") + e.what());
+      return;
+    }
+    offences_.erase(p.address);
+    ++counters_.admitted;
+    a.connection = std::move(p.connection);
+    try {
+      admit_(a);
+    } catch (const Error& e) {
+      if (a.connection) send_reject(*a.connection, e.what());
+    }
+  }
+
+  void expire() {
+    const auto now = Clock::now();
+    for (auto it = pending_.begin(); it != pending_.end();) {
+      if (now < it->deadline) {
+        ++it;
+        continue;
+      }
+      ++counters_.failed;
+      log_.add(it->connection->peer(),
+               "no Hello within " + std::to_string(config_.handshake_timeout_ms) + " ms");
+      it = pending_.erase(it);
+    }
+  }
+
+  // Keeps the offence table bounded: forgets addresses quiet for 10 minutes, then the oldest.
+  void prune() {
+    constexpr size_t kMaxAddresses = 4096;
+    if (offences_.size() <= kMaxAddresses) return;
+    const auto now = Clock::now();
+    std::erase_if(offences_, [&](const auto& kv) {
+      return now > kv.second.blocked_until && now - kv.second.last > std::chrono::minutes(10);
+    });
+    while (offences_.size() > kMaxAddresses) {
+      auto oldest = offences_.begin();
+      for (auto i = offences_.begin(); i != offences_.end(); ++i)
+        if (i->second.last < oldest->second.last) oldest = i;
+      offences_.erase(oldest);
+    }
+  }
+
+  TcpListener& listener_;
+  const DoorConfig& config_;
+  const std::function<void(Admitted&)>& admit_;
+  DoorCounters& counters_;
+  std::list<Pending> pending_;
+  std::unordered_map<std::string, Offences> offences_;
+  FailureLog log_;
+};
+
+}  // namespace
+
+void run_door(TcpListener& listener, const DoorConfig& config, const std::atomic<bool>& stopping,
+              const std::function<void(Admitted&)>& admit, DoorCounters& counters) {
+  Door(listener, config, admit, counters).run(stopping);
+}
+
+void send_reject(Connection& c, const std::string& reason) {
+  const auto msg =
+      protocol::message(protocol::MessageType::kReject, protocol::serialize_reject(reason));
+  try {
+    c.write_all(msg, 200);  // best effort: tell a confused peer why before closing
+  } catch (const Error&) {
+  }
+}
+
+}  // namespace volcast::detail

@@ -1,0 +1,58 @@
+#pragma once
+// The server's door (internal to volcast_net): one thread accepts connections and runs every
+// pending handshake -- TLS, then the Hello with its join token -- without a thread per peer, and
+// hands only authenticated viewers on. Unauthenticated peers never reach the tiers, cost no
+// encoding, and are never logged with their own bytes.
+//
+// Policy: a handshake must finish within `handshake_timeout_ms`; at most `max_pending` handshakes
+// run at once (the oldest is dropped for a newcomer) and `max_pending_per_address` per peer
+// address (more are closed at once). Wrong tokens are refused after a constant-time compare; an
+// address that sent `kFreeWrongTokens` wrong tokens is refused for a back-off that doubles with
+// each further one (1 s up to 60 s) without its token being compared. Failures are logged at most
+// once per 10 s, with a count.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "volcast/net/connection.hpp"
+#include "volcast/net/join.hpp"
+#include "volcast/net/protocol.hpp"
+#include "volcast/net/tls.hpp"
+
+namespace volcast::detail {
+
+struct DoorConfig {
+  std::shared_ptr<const TlsContext> tls;  ///< null: plain TCP (loopback only, checked by Server)
+  JoinToken token{};
+  int handshake_timeout_ms = 5000;
+  int max_pending = 64;
+  int max_pending_per_address = 8;
+};
+
+/// Counts of what came to the door, updated by its thread, read from any.
+struct DoorCounters {
+  std::atomic<uint64_t> admitted{0};     ///< authenticated (then admitted or rejected by policy)
+  std::atomic<uint64_t> wrong_token{0};  ///< refused: wrong join token
+  std::atomic<uint64_t> backed_off{0};   ///< refused during their address's back-off
+  std::atomic<uint64_t> failed{0};       ///< TLS or protocol errors, handshake timeouts
+  std::atomic<uint64_t> over_limit{0};   ///< closed at once: too many pending handshakes
+};
+
+/// An authenticated viewer: its connection (handshake done) and its Hello.
+struct Admitted {
+  std::unique_ptr<Connection> connection;
+  protocol::Hello hello;
+};
+
+/// Runs the door on `listener` until `stopping` becomes true; calls `admit` (on this thread) for
+/// each authenticated viewer. `admit` may throw Error: the viewer is then sent a Reject with its
+/// message and closed.
+void run_door(TcpListener& listener, const DoorConfig& config, const std::atomic<bool>& stopping,
+              const std::function<void(Admitted&)>& admit, DoorCounters& counters);
+
+/// Writes a Reject with `reason` (already safe to show) without waiting more than 200 ms.
+void send_reject(Connection& c, const std::string& reason);
+
+}  // namespace volcast::detail

@@ -1,0 +1,523 @@
+#include "volcast/net/tls.hpp"
+
+#include <fcntl.h>
+#include <openssl/err.h>
+#include <openssl/evp.h>
+#include <openssl/pem.h>
+#include <openssl/rand.h>
+#include <openssl/ssl.h>
+#include <openssl/x509.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <asio.hpp>
+#include <asio/ssl.hpp>
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The newest OpenSSL error on this thread's queue, as text (and the queue cleared).
+std::string openssl_error() {
+  const unsigned long code = ERR_get_error();
+  ERR_clear_error();
+  if (code == 0) return "unknown OpenSSL error";
+  char text[256];
+  ERR_error_string_n(code, text, sizeof text);
+  return text;
+}
+
+template <typename T, void (*Free)(T*)>
+struct Deleter {
+  void operator()(T* p) const { Free(p); }
+};
+using Bio = std::unique_ptr<BIO, Deleter<BIO, BIO_free_all>>;
+using X509Ptr = std::unique_ptr<X509, Deleter<X509, X509_free>>;
+using Pkey = std::unique_ptr<EVP_PKEY, Deleter<EVP_PKEY, EVP_PKEY_free>>;
+
+std::string bio_text(BIO* bio) {
+  char* data = nullptr;
+  const long n = BIO_get_mem_data(bio, &data);
+  return std::string(data, static_cast<size_t>(n));
+}
+
+X509Ptr parse_certificate(const std::string& pem) {
+  Bio bio(BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size())));
+  X509Ptr cert(PEM_read_bio_X509(bio.get(), nullptr, nullptr, nullptr));
+  if (!cert) throw Error("not a PEM certificate: " + openssl_error());
+  return cert;
+}
+
+Pkey parse_private_key(const std::string& pem) {
+  Bio bio(BIO_new_mem_buf(pem.data(), static_cast<int>(pem.size())));
+  Pkey key(PEM_read_bio_PrivateKey(bio.get(), nullptr, nullptr, nullptr));
+  if (!key) throw Error("not a PEM private key: " + openssl_error());
+  return key;
+}
+
+std::string hex(const unsigned char* data, size_t n) {
+  static const char kDigits[] = "0123456789abcdef";
+  std::string out;
+  for (size_t i = 0; i < n; ++i) {
+    out += kDigits[data[i] >> 4];
+    out += kDigits[data[i] & 15];
+  }
+  return out;
+}
+
+std::string fingerprint_of(X509* cert) {
+  unsigned char md[EVP_MAX_MD_SIZE];
+  unsigned int n = 0;
+  if (X509_digest(cert, EVP_sha256(), md, &n) != 1)
+    throw Error("cannot hash the certificate: " + openssl_error());
+  return hex(md, n);
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read '" + path.string() + "'");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Writes a new file with `mode`; never replaces one (O_EXCL).
+void write_new_file(const std::filesystem::path& path, const std::string& text, mode_t mode) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, mode);
+  if (fd < 0) throw Error("cannot create '" + path.string() + "': " + std::strerror(errno));
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n <= 0) {
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      throw Error("cannot write '" + path.string() + "': " + why);
+    }
+    done += static_cast<size_t>(n);
+  }
+  if (::close(fd) != 0)
+    throw Error("cannot write '" + path.string() + "': " + std::strerror(errno));
+}
+
+int remaining_ms(Clock::time_point deadline) {
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+  return static_cast<int>(std::max<int64_t>(0, left.count()));
+}
+
+// A socket BIO that writes with MSG_NOSIGNAL: OpenSSL's own uses write(2), which raises SIGPIPE
+// when the peer has gone -- and would kill a server over one viewer that left mid-handshake.
+int fd_of(BIO* b) {
+  return static_cast<int>(reinterpret_cast<intptr_t>(BIO_get_data(b)));
+}
+
+int bio_write(BIO* b, const char* data, int n) {
+  BIO_clear_retry_flags(b);
+  const ssize_t w = ::send(fd_of(b), data, static_cast<size_t>(n), MSG_NOSIGNAL);
+  if (w < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) BIO_set_retry_write(b);
+  return static_cast<int>(w);
+}
+
+int bio_read(BIO* b, char* data, int n) {
+  BIO_clear_retry_flags(b);
+  const ssize_t r = ::recv(fd_of(b), data, static_cast<size_t>(n), 0);
+  if (r < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) BIO_set_retry_read(b);
+  return static_cast<int>(r);
+}
+
+long bio_ctrl(BIO*, int cmd, long, void*) {
+  return cmd == BIO_CTRL_FLUSH ? 1 : 0;
+}
+
+int bio_create(BIO* b) {
+  BIO_set_init(b, 1);
+  return 1;
+}
+
+const BIO_METHOD* socket_method() {
+  static BIO_METHOD* method = [] {
+    BIO_METHOD* m = BIO_meth_new(BIO_get_new_index() | BIO_TYPE_SOURCE_SINK, "volcast socket");
+    BIO_meth_set_write(m, bio_write);
+    BIO_meth_set_read(m, bio_read);
+    BIO_meth_set_ctrl(m, bio_ctrl);
+    BIO_meth_set_create(m, bio_create);
+    return m;
+  }();
+  return method;
+}
+
+}  // namespace
+
+TlsIdentity make_self_signed_identity(const std::string& common_name) {
+  Pkey key(EVP_EC_gen("P-256"));
+  if (!key) throw Error("cannot make a TLS key: " + openssl_error());
+  X509Ptr cert(X509_new());
+  if (!cert) throw Error("cannot make a certificate: " + openssl_error());
+  X509_set_version(cert.get(), 2);  // v3
+  unsigned char serial[16];
+  if (RAND_bytes(serial, sizeof serial) != 1) throw Error("random source failed");
+  serial[0] &= 0x7f;  // positive
+  BIGNUM* bn = BN_bin2bn(serial, sizeof serial, nullptr);
+  BN_to_ASN1_INTEGER(bn, X509_get_serialNumber(cert.get()));
+  BN_free(bn);
+  X509_gmtime_adj(X509_getm_notBefore(cert.get()), -3600);
+  X509_gmtime_adj(X509_getm_notAfter(cert.get()), 10L * 365 * 24 * 3600);
+  X509_set_pubkey(cert.get(), key.get());
+  X509_NAME* name = X509_get_subject_name(cert.get());
+  X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_UTF8,
+                             reinterpret_cast<const unsigned char*>(common_name.c_str()), -1, -1,
+                             0);
+  X509_set_issuer_name(cert.get(), name);
+  if (X509_sign(cert.get(), key.get(), EVP_sha256()) == 0)
+    throw Error("cannot sign the certificate: " + openssl_error());
+  Bio cert_bio(BIO_new(BIO_s_mem())), key_bio(BIO_new(BIO_s_mem()));
+  if (PEM_write_bio_X509(cert_bio.get(), cert.get()) != 1 ||
+      PEM_write_bio_PrivateKey(key_bio.get(), key.get(), nullptr, nullptr, 0, nullptr, nullptr) !=
+          1)
+    throw Error("cannot write the certificate: " + openssl_error());
+  return {bio_text(cert_bio.get()), bio_text(key_bio.get())};
+}
+
+TlsIdentity load_identity(const std::filesystem::path& certificate_file,
+                          const std::filesystem::path& private_key_file) {
+  TlsIdentity id{read_file(certificate_file), read_file(private_key_file)};
+  X509Ptr cert, dummy;
+  try {
+    cert = parse_certificate(id.certificate_pem);
+  } catch (const Error& e) {
+    throw Error("certificate '" + certificate_file.string() + "': " + e.what());
+  }
+  Pkey key;
+  try {
+    key = parse_private_key(id.private_key_pem);
+  } catch (const Error& e) {
+    throw Error("private key '" + private_key_file.string() + "': " + e.what());
+  }
+  if (X509_check_private_key(cert.get(), key.get()) != 1) {
+    ERR_clear_error();
+    throw Error("private key '" + private_key_file.string() + "' does not belong to certificate '" +
+                certificate_file.string() + "'");
+  }
+  return id;
+}
+
+TlsIdentity load_or_create_identity(const std::filesystem::path& dir, bool* created) {
+  const auto cert = dir / "cert.pem", key = dir / "key.pem";
+  std::error_code ec;
+  if (std::filesystem::exists(cert, ec) && std::filesystem::exists(key, ec)) {
+    if (created) *created = false;
+    return load_identity(cert, key);
+  }
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error("cannot create '" + dir.string() + "': " + ec.message());
+  ::chmod(dir.c_str(), 0700);
+  char host[256] = "volcast";
+  ::gethostname(host, sizeof host - 1);
+  const TlsIdentity id = make_self_signed_identity(std::string("volcast server ") + host);
+  write_new_file(key, id.private_key_pem, 0600);
+  write_new_file(cert, id.certificate_pem, 0644);
+  if (created) *created = true;
+  return id;
+}
+
+std::string certificate_fingerprint(const std::string& certificate_pem) {
+  return fingerprint_of(parse_certificate(certificate_pem).get());
+}
+
+std::filesystem::path user_config_dir() {
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg == '/')
+    return std::filesystem::path(xdg) / "volcast";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return std::filesystem::path(home) / ".config" / "volcast";
+  return std::filesystem::current_path() / ".volcast";
+}
+
+struct TlsContext::Impl {
+  explicit Impl(asio::ssl::context::method m) : context(m) {}
+  asio::ssl::context context;
+  std::string fingerprint;
+};
+
+TlsContext::TlsContext(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+TlsContext::~TlsContext() = default;
+
+const std::string& TlsContext::fingerprint() const {
+  return impl_->fingerprint;
+}
+
+namespace {
+
+void restrict_to_tls13(SSL_CTX* ctx) {
+  SSL_CTX_set_min_proto_version(ctx, TLS1_3_VERSION);
+  SSL_CTX_set_max_proto_version(ctx, TLS1_3_VERSION);
+  SSL_CTX_set_ciphersuites(ctx,
+                           "TLS_AES_128_GCM_SHA256:TLS_AES_256_GCM_SHA384:"
+                           "TLS_CHACHA20_POLY1305_SHA256");
+  // Our messages are length-framed, so a missing close_notify cannot truncate one unnoticed.
+  SSL_CTX_set_options(ctx, SSL_OP_IGNORE_UNEXPECTED_EOF | SSL_OP_NO_COMPRESSION);
+  SSL_CTX_set_mode(ctx, SSL_MODE_ENABLE_PARTIAL_WRITE | SSL_MODE_ACCEPT_MOVING_WRITE_BUFFER |
+                            SSL_MODE_RELEASE_BUFFERS);
+}
+
+}  // namespace
+
+std::shared_ptr<TlsContext> TlsContext::server(const TlsIdentity& identity) {
+  auto impl = std::make_unique<Impl>(asio::ssl::context::tls_server);
+  SSL_CTX* ctx = impl->context.native_handle();
+  restrict_to_tls13(ctx);
+  SSL_CTX_set_num_tickets(ctx, 0);  // no resumption: one connection per session anyway
+  SSL_CTX_set_session_cache_mode(ctx, SSL_SESS_CACHE_OFF);
+  try {
+    impl->context.use_certificate_chain(asio::buffer(identity.certificate_pem));
+    impl->context.use_private_key(asio::buffer(identity.private_key_pem), asio::ssl::context::pem);
+  } catch (const std::system_error& e) {
+    throw Error(std::string("TLS identity: ") + e.what());
+  }
+  if (SSL_CTX_check_private_key(ctx) != 1)
+    throw Error("TLS identity: the private key does not belong to the certificate");
+  impl->fingerprint = certificate_fingerprint(identity.certificate_pem);
+  return std::shared_ptr<TlsContext>(new TlsContext(std::move(impl)));
+}
+
+std::shared_ptr<TlsContext> TlsContext::client() {
+  auto impl = std::make_unique<Impl>(asio::ssl::context::tls_client);
+  restrict_to_tls13(impl->context.native_handle());
+  impl->context.set_verify_mode(asio::ssl::verify_none);  // pinned by fingerprint instead
+  return std::shared_ptr<TlsContext>(new TlsContext(std::move(impl)));
+}
+
+namespace {
+
+class TlsConnection final : public Connection {
+ public:
+  TlsConnection(int fd, std::string peer, std::shared_ptr<const TlsContext> context, bool server)
+      : fd_(fd), peer_(std::move(peer)), context_(std::move(context)) {
+    configure_stream_socket(fd_);
+    ssl_ = SSL_new(context_->impl().context.native_handle());
+    BIO* bio = ssl_ ? BIO_new(socket_method()) : nullptr;
+    if (!bio) {
+      if (ssl_) SSL_free(ssl_);
+      ::close(fd_);
+      throw Error("cannot start TLS: " + openssl_error());
+    }
+    BIO_set_data(bio, reinterpret_cast<void*>(static_cast<intptr_t>(fd_)));
+    SSL_set_bio(ssl_, bio, bio);  // ssl_ owns it
+    server_ = server;
+    if (server)
+      SSL_set_accept_state(ssl_);
+    else
+      SSL_set_connect_state(ssl_);
+  }
+  ~TlsConnection() override {
+    if (handshaken_ && !failed_ && !shut_) {
+      ERR_clear_error();
+      SSL_shutdown(ssl_);  // close_notify, best effort (non-blocking)
+    }
+    SSL_free(ssl_);
+    ERR_clear_error();
+    ::close(fd_);
+  }
+
+  int handshake_step() override {
+    if (handshaken_) return 0;
+    check_open();
+    ERR_clear_error();
+    const int rc = SSL_do_handshake(ssl_);
+    if (rc == 1) {
+      handshaken_ = true;
+      return 0;
+    }
+    const int err = SSL_get_error(ssl_, rc);
+    if (err == SSL_ERROR_WANT_READ) return POLLIN;
+    if (err == SSL_ERROR_WANT_WRITE) return POLLOUT;
+    failed_ = true;
+    if (err == SSL_ERROR_SYSCALL || err == SSL_ERROR_ZERO_RETURN) {
+      ERR_clear_error();
+      throw Error("TLS handshake failed: the peer closed the connection");
+    }
+    const std::string why = openssl_error();
+    if (server_ && BIO_number_written(SSL_get_wbio(ssl_)) == 0) {
+      // Not TLS at all (OpenSSL answers nothing then): one fatal protocol_version alert record
+      // (RFC 8446 sec. 6), so a plain-TCP client learns this is TLS -- and nothing else.
+      static const uint8_t kAlert[] = {0x15, 0x03, 0x03, 0x00, 0x02, 0x02, 0x46};
+      [[maybe_unused]] const ssize_t n = ::send(fd_, kAlert, sizeof kAlert, MSG_NOSIGNAL);
+    }
+    throw Error("TLS handshake failed: " + why);
+  }
+
+  void read_exact(std::span<uint8_t> data, int timeout_ms) override {
+    const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 0));
+    size_t done = 0;
+    while (done < data.size()) {
+      const int want = read_some(data.subspan(done), done);
+      if (want == 0) continue;
+      if (timeout_ms >= 0 && Clock::now() >= deadline)
+        throw Error("timed out waiting for the peer");
+      poll_fd(static_cast<short>(want), timeout_ms < 0 ? -1 : remaining_ms(deadline));
+    }
+  }
+
+  size_t read_available(std::span<uint8_t> data) override {
+    size_t done = 0;
+    while (done < data.size() && read_some(data.subspan(done), done) == 0) {
+    }
+    return done;
+  }
+
+  void write_all(std::span<const std::span<const uint8_t>> parts, int stall_ms) override {
+    auto last_progress = Clock::now();
+    for (const auto& part : parts) {
+      size_t done = 0;
+      while (done < part.size()) {
+        check_open();
+        ERR_clear_error();
+        size_t n = 0;
+        const int rc = SSL_write_ex(ssl_, part.data() + done, part.size() - done, &n);
+        if (rc == 1) {
+          done += n;
+          last_progress = Clock::now();
+          continue;
+        }
+        const int err = SSL_get_error(ssl_, rc);
+        short want = 0;
+        if (err == SSL_ERROR_WANT_WRITE)
+          want = POLLOUT;
+        else if (err == SSL_ERROR_WANT_READ)
+          want = POLLIN;
+        else
+          fail(shut_ ? "connection shut down" : "write failed", err);
+        const auto deadline = last_progress + std::chrono::milliseconds(stall_ms);
+        if (Clock::now() >= deadline)
+          throw Error("peer stalled: accepted no data for " + std::to_string(stall_ms) + " ms");
+        poll_fd(want, remaining_ms(deadline));
+      }
+    }
+  }
+
+  Ready wait(int wake_fd, int timeout_ms) override {
+    check_open();
+    Ready r;
+    if (SSL_has_pending(ssl_)) {  // decrypted (or raw) bytes already buffered inside OpenSSL
+      r.readable = true;
+      return r;
+    }
+    pollfd p[2] = {{fd_, POLLIN, 0}, {wake_fd, POLLIN, 0}};
+    const int n = ::poll(p, wake_fd >= 0 ? 2 : 1, timeout_ms);
+    if (n > 0) {
+      r.readable = p[0].revents != 0;
+      r.woken = wake_fd >= 0 && p[1].revents != 0;
+    }
+    return r;
+  }
+
+  int fd() const override { return fd_; }
+  std::string peer() const override { return peer_; }
+
+  void shutdown() override {
+    if (shut_.exchange(true)) return;
+    ::shutdown(fd_, SHUT_RDWR);  // wakes poll() in other threads; no SSL call from this thread
+  }
+
+  std::string peer_fingerprint() const {
+    X509* cert = SSL_get1_peer_certificate(ssl_);
+    if (!cert) return {};
+    X509Ptr owned(cert);
+    return fingerprint_of(cert);
+  }
+
+ private:
+  // One SSL_read into `data`: adds what it read to `done` and returns 0, or returns the poll(2)
+  // events to wait for before trying again. Throws on close or error.
+  int read_some(std::span<uint8_t> data, size_t& done) {
+    check_open();
+    if (!handshaken_) {
+      const int want = handshake_step();
+      if (want != 0) return want;
+    }
+    ERR_clear_error();
+    size_t n = 0;
+    const int rc = SSL_read_ex(ssl_, data.data(), data.size(), &n);
+    if (rc == 1) {
+      done += n;
+      return 0;
+    }
+    const int err = SSL_get_error(ssl_, rc);
+    if (err == SSL_ERROR_WANT_READ) return POLLIN;
+    if (err == SSL_ERROR_WANT_WRITE) return POLLOUT;
+    if (err == SSL_ERROR_ZERO_RETURN)
+      throw Error(shut_ ? "connection shut down" : "peer closed the connection");
+    fail("read failed", err);
+  }
+
+  [[noreturn]] void fail(const std::string& what, int err) {
+    failed_ = true;
+    if (shut_) throw Error("connection shut down");
+    if (err == SSL_ERROR_SYSCALL) {
+      ERR_clear_error();
+      if (errno == 0 || errno == EPIPE || errno == ECONNRESET)
+        throw Error("peer closed the connection");
+      throw Error(what + ": " + std::strerror(errno));
+    }
+    throw Error(what + ": TLS error: " + openssl_error());
+  }
+  void check_open() const {
+    if (shut_) throw Error("connection shut down");
+  }
+  void poll_fd(short events, int timeout_ms) const {
+    pollfd p{fd_, events, 0};
+    ::poll(&p, 1, timeout_ms < 0 ? 100 : std::min(timeout_ms, 100));
+  }
+
+  int fd_;
+  std::string peer_;
+  std::shared_ptr<const TlsContext> context_;
+  SSL* ssl_ = nullptr;
+  bool server_ = false;
+  bool handshaken_ = false;
+  bool failed_ = false;
+  std::atomic<bool> shut_{false};
+};
+
+}  // namespace
+
+std::unique_ptr<Connection> accept_tls(int fd, std::string peer,
+                                       std::shared_ptr<const TlsContext> context) {
+  return std::make_unique<TlsConnection>(fd, std::move(peer), std::move(context), true);
+}
+
+TlsClientConnection connect_tls(const std::string& host, uint16_t port,
+                                std::shared_ptr<const TlsContext> context, int timeout_ms) {
+  const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 1));
+  std::unique_ptr<Connection> tcp = connect_tcp(host, port, timeout_ms);
+  const std::string peer = tcp->peer();
+  const int fd = ::dup(tcp->fd());  // the TLS connection takes its own descriptor
+  tcp.reset();
+  if (fd < 0) throw Error("cannot connect to " + peer + ": " + std::strerror(errno));
+  auto tls = std::make_unique<TlsConnection>(fd, peer, std::move(context), false);
+  const std::string where = host + ":" + std::to_string(port);
+  try {
+    while (const int want = tls->handshake_step()) {
+      if (Clock::now() >= deadline) throw Error("TLS handshake timed out");
+      pollfd p{tls->fd(), static_cast<short>(want), 0};
+      ::poll(&p, 1, std::min(remaining_ms(deadline), 100));
+    }
+  } catch (const Error& e) {
+    throw Error("cannot connect to " + where + ": " + e.what() +
+                " (a plain-TCP server started with --insecure needs view --insecure)");
+  }
+  TlsClientConnection out;
+  out.server_fingerprint = tls->peer_fingerprint();
+  out.connection = std::move(tls);
+  return out;
+}
+
+}  // namespace volcast

@@ -1,0 +1,305 @@
+// TLS, join tokens, certificate pinning and the server's door policy, on loopback with the real
+// hands sequence: who gets in, who does not, and that those who do not cost the others nothing.
+#include <gtest/gtest.h>
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
+#include <asio.hpp>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "hands_site.hpp"
+#include "test_data.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/net/join.hpp"
+#include "volcast/net/tls.hpp"
+#include "volcast/net/trust.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+using test::HandsSite;
+
+// Receives `n` frame sets as the viewer of `config`; returns how many arrived.
+int receive(const ClientConfig& config, int n) {
+  Client client(config);
+  ReceivedFrameSet rx;
+  int got = 0;
+  while (got < n && client.receive(rx)) ++got;
+  return got;
+}
+
+ClientConfig joining(const Server& server) {
+  return client_config_from_link(server.join_link("127.0.0.1"));
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// A TCP socket from loopback address `source` (127.0.0.x) to the server, saying nothing.
+asio::ip::tcp::socket idle_socket(asio::io_context& io, const std::string& source, uint16_t port) {
+  asio::ip::tcp::socket s(io);
+  s.open(asio::ip::tcp::v4());
+  s.bind({asio::ip::make_address(source), 0});
+  s.connect({asio::ip::make_address("127.0.0.1"), port});
+  return s;
+}
+
+int threads_in_process() {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("Threads:", 0) == 0) return std::stoi(line.substr(8));
+  return -1;
+}
+
+// Waits (bounded) until `done` holds.
+bool eventually(const std::function<bool()>& done) {
+  for (int i = 0; i < 200; ++i) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return done();
+}
+
+TEST(JoinLink, RoundTripsAndRefusesMalformedLinksWithoutEchoingTheToken) {
+  JoinLink link;
+  link.host = "192.168.1.20";
+  link.port = 7300;
+  link.token = random_join_token();
+  link.fingerprint = std::string(64, 'a');
+  const std::string text = format_join_link(link);
+  EXPECT_EQ(text.rfind("volcast://192.168.1.20:7300/?token=", 0), 0u);
+  const JoinLink back = parse_join_link(text);
+  EXPECT_EQ(back.host, link.host);
+  EXPECT_EQ(back.port, 7300);
+  EXPECT_EQ(back.token, link.token);
+  EXPECT_EQ(back.fingerprint, link.fingerprint);
+
+  link.host = "::1";
+  EXPECT_EQ(parse_join_link(format_join_link(link)).host, "::1");
+
+  const std::string token = to_hex(link.token);
+  for (const std::string& bad :
+       {"http://h:1/?token=" + token + "&fp=" + std::string(64, 'a'),
+        "volcast://h/?token=" + token + "&fp=" + std::string(64, 'a'),
+        "volcast://h:0/?token=" + token + "&fp=" + std::string(64, 'a'),
+        "volcast://h:70000/?token=" + token + "&fp=" + std::string(64, 'a'),
+        "volcast://h:1/?fp=" + std::string(64, 'a'),
+        "volcast://h:1/?token=" + token.substr(1) + "x&fp=" + std::string(64, 'a'),
+        "volcast://h:1/?token=" + token, "volcast://h:1/?token=" + token + "&fp=abc",
+        "volcast://h:1/?token=" + token + "&insecure=1&fp=" + std::string(64, 'a'),
+        "volcast://h\n:1/?token=" + token + "&insecure=1",
+        "volcast://h:1/?token=" + token + "&insecure=1&debug=1"}) {
+    const std::string why = error_of([&] { parse_join_link(bad); });
+    EXPECT_FALSE(why.empty()) << bad;
+    EXPECT_EQ(why.find(token.substr(4, 20)), std::string::npos) << why;
+  }
+  EXPECT_TRUE(tokens_equal(link.token, link.token));
+  JoinToken other = link.token;
+  other[15] ^= 1;
+  EXPECT_FALSE(tokens_equal(link.token, other));
+}
+
+TEST(Tls, ViewerWithTheLinkStreamsOverTls13) {
+  HandsSite site(30);
+  EXPECT_EQ(site.server.fingerprint().size(), 64u);
+  EXPECT_EQ(receive(joining(site.server), 10), 10);
+  EXPECT_EQ(site.server.door().admitted, 1u);
+}
+
+TEST(Tls, WrongTokenIsRefusedAndCostsNoViewerSlot) {
+  HandsSite site(30);
+  ClientConfig c = joining(site.server);
+  c.token[0] ^= 0xff;
+  const std::string why = error_of([&] { Client{c}; });
+  EXPECT_NE(why.find("wrong join token"), std::string::npos) << why;
+  EXPECT_EQ(site.server.door().wrong_token, 1u);
+  EXPECT_EQ(site.server.door().admitted, 0u);
+  EXPECT_TRUE(site.server.viewers().empty());  // never a viewer, never a tier
+  EXPECT_TRUE(site.server.tiers().empty());
+  EXPECT_EQ(receive(joining(site.server), 5), 5);  // the right token still gets in
+}
+
+TEST(Tls, RepeatedWrongTokensBackOffTheAddress) {
+  HandsSite site(30);
+  ClientConfig wrong = joining(site.server);
+  wrong.token[3] ^= 1;
+  for (int i = 0; i < kFreeWrongTokens; ++i) error_of([&] { Client{wrong}; });
+  // Within the back-off even the right token is turned away, without being compared.
+  const std::string why = error_of([&] { Client{joining(site.server)}; });
+  EXPECT_NE(why.find("try again in"), std::string::npos) << why;
+  EXPECT_EQ(site.server.door().backed_off, 1u);
+  EXPECT_EQ(site.server.door().wrong_token, static_cast<uint64_t>(kFreeWrongTokens));
+  // After it (1 s for the first), the right token gets in.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  EXPECT_EQ(receive(joining(site.server), 3), 3);
+}
+
+TEST(Tls, AChangedFingerprintIsRefusedBeforeTheTokenIsSent) {
+  HandsSite site(30);
+  const fs::path known = test::temp_dir("tls_pins") / "known_servers";
+  fs::remove(known);
+  const std::string where = "127.0.0.1:" + std::to_string(site.server.port());
+
+  // The link's fingerprint is not the server's.
+  ClientConfig c = joining(site.server);
+  c.fingerprint = std::string(64, '0');
+  std::string why = error_of([&] { Client{c}; });
+  EXPECT_NE(why.find("join link says"), std::string::npos) << why;
+
+  // First use of HOST:PORT without a fingerprint pins it; later connections must match it.
+  c.fingerprint.clear();
+  c.known_servers = known.string();
+  EXPECT_EQ(receive(c, 2), 2);
+  std::ifstream in(known);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find(where + " " + site.server.fingerprint()), std::string::npos);
+  EXPECT_EQ(receive(c, 2), 2);
+
+  // Another certificate at the same HOST:PORT (as after a server's key was replaced).
+  {
+    std::ofstream out(known, std::ios::trunc);
+    out << where << " " << std::string(64, 'b') << "\n";
+  }
+  why = error_of([&] { Client{c}; });
+  EXPECT_NE(why.find("not the one pinned"), std::string::npos) << why;
+  EXPECT_NE(why.find(known.string() + " line 1"), std::string::npos) << why;
+  // Refused before the Hello: the door saw no token at all (2 viewers admitted above, no more).
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(site.server.door().admitted, 2u);
+  EXPECT_EQ(site.server.door().wrong_token, 0u);
+}
+
+TEST(Tls, APlainTcpClientGetsNothingButATlsAlert) {
+  HandsSite site(30);
+  asio::io_context io;
+  auto s = idle_socket(io, "127.0.0.1", site.server.port());
+  protocol::Hello hello;
+  hello.token = site.server.token();  // even with the right token, in the clear
+  hello.depth_codec = "volcast";
+  hello.color_codec = "jpeg";
+  asio::write(s, asio::buffer(
+                     protocol::message(protocol::MessageType::kHello, protocol::serialize(hello))));
+  std::vector<uint8_t> answer;
+  asio::error_code ec;
+  uint8_t buf[4096];
+  while (!ec) {
+    const size_t n = s.read_some(asio::buffer(buf), ec);
+    answer.insert(answer.end(), buf, buf + n);
+  }
+  ASSERT_FALSE(answer.empty());
+  EXPECT_EQ(answer[0], 0x15);  // a TLS record of type alert, and nothing of the stream
+  EXPECT_LE(answer.size(), 16u);
+  EXPECT_EQ(site.server.door().admitted, 0u);
+}
+
+TEST(Tls, InsecureIsRefusedBeyondLoopback) {
+  ServerConfig config;
+  config.port = 0;
+  config.insecure = true;
+  config.bind_address = "0.0.0.0";
+  std::vector<protocol::CameraInfo> cameras(1);
+  cameras[0].calibration.depth = Intrinsics{64, 48, 50, 50, 32, 24};
+  const std::string why = error_of([&] { Server(cameras, config); });
+  EXPECT_NE(why.find("only on a loopback"), std::string::npos) << why;
+  config.bind_address = "localhost";  // a name resolving to loopback is fine
+  Server server(cameras, config);
+  EXPECT_NE(server.join_link("localhost").find("insecure=1"), std::string::npos);
+
+  ClientConfig c;
+  c.host = "192.0.2.1";  // TEST-NET-1: never reached, refused before connecting
+  c.insecure = true;
+  EXPECT_NE(error_of([&] { Client{c}; }).find("only to a loopback"), std::string::npos);
+}
+
+TEST(Door, IdleSocketsFromManyAddressesCostNoThreadAndKeepNoViewerOut) {
+  ServerConfig config;
+  config.max_viewers = 1;  // pending handshakes must not count as viewers
+  HandsSite site(30, config);
+  const int threads_before = threads_in_process();
+  asio::io_context io;
+  std::vector<asio::ip::tcp::socket> idle;
+  for (int i = 0; i < 30; ++i)
+    idle.push_back(idle_socket(io, "127.0.0." + std::to_string(2 + i), site.server.port()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_LE(threads_in_process(), threads_before + 1);  // no thread per pending handshake
+  EXPECT_EQ(receive(joining(site.server), 10), 10);
+  EXPECT_EQ(site.server.door().over_limit, 0u);
+}
+
+TEST(Door, PendingHandshakesAreLimitedPerAddressAndInTotalAndTimeOut) {
+  ServerConfig config;
+  config.max_pending = 16;
+  config.max_pending_per_address = 4;
+  config.handshake_timeout_ms = 3000;
+  HandsSite site(30, config);
+  asio::io_context io;
+  std::vector<asio::ip::tcp::socket> idle;
+  for (int i = 0; i < 10; ++i) idle.push_back(idle_socket(io, "127.0.0.2", site.server.port()));
+  EXPECT_TRUE(eventually([&] { return site.server.door().over_limit == 6u; }));
+  for (int i = 0; i < 20; ++i)
+    idle.push_back(idle_socket(io, "127.0.0." + std::to_string(3 + i), site.server.port()));
+  // 4 + 20 > 16: the oldest are dropped for newcomers; a real viewer still gets in.
+  EXPECT_TRUE(eventually([&] { return site.server.door().over_limit == 6u + 8u; }));
+  EXPECT_EQ(receive(joining(site.server), 5), 5);  // it displaced one more idle socket
+  EXPECT_EQ(site.server.door().over_limit, 6u + 8u + 1u);
+  // The other 15 time out.
+  EXPECT_TRUE(eventually([&] { return site.server.door().failed == 15u; }));
+}
+
+TEST(Door, OnlyOfferedTiersAreServedAndTheRejectNamesThem) {
+  ServerConfig config;
+  config.offered_tiers = {"volcast/jpeg", "rvl/none/0"};
+  HandsSite site(30, config);
+  ClientConfig c = joining(site.server);
+  c.depth_codec = "trvl";
+  const std::string why = error_of([&] { Client{c}; });
+  EXPECT_NE(why.find("offers volcast/jpeg, rvl/none/0"), std::string::npos) << why;
+  c.depth_codec = "rvl";
+  c.color_codec = "none";
+  EXPECT_EQ(receive(c, 3), 3);
+
+  config.offered_tiers = {"volcast/bogus"};
+  EXPECT_THROW(HandsSite(30, config), Error);
+}
+
+TEST(Door, FailedHandshakesAreLoggedRateLimitedWithACount) {
+  auto stream = std::make_shared<std::ostringstream>();
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(*stream);
+  auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("capture", sink));
+  {
+    ServerConfig config;
+    config.insecure = true;
+    config.max_pending_per_address = 1000;
+    HandsSite site(30, config);
+    asio::io_context io;
+    for (int i = 0; i < 200; ++i) {
+      auto s = idle_socket(io, "127.0.0.1", site.server.port());
+      asio::write(s, asio::buffer(std::string("GET / HTTP/1.1\r\n\r\n")));
+    }
+    EXPECT_TRUE(eventually([&] { return site.server.door().failed == 200u; }));
+  }
+  spdlog::set_default_logger(previous);
+  const std::string log = stream->str();
+  size_t lines = 0;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) lines += line.find("handshake") != line.npos;
+  EXPECT_GE(lines, 1u);
+  EXPECT_LE(lines, 3u) << log;
+  EXPECT_NE(log.find("more failed handshakes not logged"), std::string::npos) << log;
+  EXPECT_EQ(log.find("GET /"), std::string::npos);  // the peer's bytes never reach the log
+}
+
+}  // namespace
+}  // namespace volcast

@@ -193,6 +193,36 @@ TEST_F(CodecRegistry, LosslessColorIsExactOnARealImage) {
   }
 }
 
+TEST_F(CodecRegistry, EveryCodecsFramesDeclareTheirSizeBeforeDecoding) {
+  const DepthImage depth = test::real_depth_frames("kinect").front();
+  for (const DepthCodecInfo& c : all_depth_codecs()) {
+    std::vector<uint8_t> bytes;
+    c.make_encoder()->encode(depth, true, bytes);
+    const auto size = declared_depth_size(bytes);
+    ASSERT_TRUE(size) << c.name;
+    EXPECT_EQ(size->width, depth.width) << c.name;
+    EXPECT_EQ(size->height, depth.height) << c.name;
+  }
+  const ColorImage color = real_color(50);
+  for (const ColorCodecInfo& c : all_color_codecs()) {
+    std::vector<uint8_t> bytes;
+    c.make_encoder()->encode(color, true, bytes);
+    const auto size = declared_color_size(bytes);
+    if (bytes.empty()) {  // none: no image
+      EXPECT_FALSE(size) << c.name;
+      continue;
+    }
+    ASSERT_TRUE(size) << c.name;
+    EXPECT_EQ(size->width, color.width) << c.name;
+    EXPECT_EQ(size->height, color.height) << c.name;
+  }
+  // Too short, or no known format: the decoder is left to refuse it.
+  const std::vector<uint8_t> junk = {'V', 'D', 2, 0};
+  EXPECT_FALSE(declared_depth_size(junk));
+  EXPECT_FALSE(declared_color_size(junk));
+  EXPECT_FALSE(declared_color_size(std::vector<uint8_t>{0xff, 0xd8, 0xff}));  // truncated JPEG
+}
+
 TEST_F(CodecRegistry, UnknownNamesGiveAnErrorListingTheAvailableCodecs) {
   EXPECT_EQ(find_depth_codec("zdepth"), nullptr);
   try {

@@ -188,5 +188,46 @@ TEST(Protocol, WelcomeRejectsImplausibleCameras) {
   EXPECT_THROW(parse_welcome(serialize(Welcome{})), Error);  // no cameras
 }
 
+TEST(Protocol, WelcomeAndFrameSetSizesAreBoundedForTheViewer) {
+  CameraInfo cam;
+  cam.calibration.depth = {kMaxCameraSide, 1024, 500, 500, 2048, 512};
+  Welcome w{{cam}, 0};
+  EXPECT_EQ(parse_welcome(serialize(w)).cameras.size(), 1u);
+  w.cameras[0].calibration.depth.width = kMaxCameraSide + 1;  // one side too large
+  try {
+    parse_welcome(serialize(w));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("4097x1024"), std::string::npos) << e.what();
+  }
+  // Each camera within the side limit, together over the pixel budget.
+  cam.calibration.depth.width = cam.calibration.depth.height = 2048;
+  w.cameras.assign(kMaxSitePixels / (2048 * 2048), cam);
+  EXPECT_NO_THROW(parse_welcome(serialize(w)));
+  w.cameras.push_back(cam);
+  EXPECT_THROW(parse_welcome(serialize(w)), Error);
+  w.cameras.assign(kMaxCameras + 1, CameraInfo{});
+  EXPECT_THROW(parse_welcome(serialize(w)), Error);
+
+  // The frame set bound: more than raw depth + raw BGRA per camera, never above the protocol's.
+  cam.calibration.depth.width = 640;
+  cam.calibration.depth.height = 576;
+  const uint32_t two = frame_set_payload_limit(Welcome{{cam, cam}, 0});
+  EXPECT_GT(two, 2u * 640 * 576 * 6);
+  EXPECT_LT(two, 2u * 640 * 576 * 8 + 2 * kFrameSetCameraOverhead + 1000);
+  cam.calibration.depth.width = cam.calibration.depth.height = 4096;
+  EXPECT_EQ(frame_set_payload_limit(Welcome{std::vector<CameraInfo>(64, cam), 0}),
+            kMaxPayloadBytes);
+  // The largest frame set a viewer of this site accepts parses.
+  std::vector<EncodedCamera> cams(2);
+  for (auto& c : cams) {
+    c.depth.resize(640 * 576 * 2);
+    c.color.resize(640 * 576 * 4);
+  }
+  std::vector<uint8_t> body;
+  serialize_frame_set_body(1, true, {}, cams, body);
+  EXPECT_LE(body.size() + 8, two);
+}
+
 }  // namespace
 }  // namespace volcast::protocol

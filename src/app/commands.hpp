@@ -77,8 +77,13 @@ struct ViewArgs {
   std::string screenshot, save_frames, stats_json;
   std::string size = "1280x720";
   std::string eye, target;
-  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  bool low_latency = false;         ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  int handshake_timeout_ms = 5000;  ///< ClientConfig::handshake_timeout_ms
+  int receive_timeout_ms = 10000;   ///< ClientConfig::receive_timeout_ms
 };
+/// Returns 0 when frame sets arrived and the session ended normally (--frames or --seconds
+/// reached, interrupted, the server closed); throws Error (main: exit 1) when none arrived or it
+/// ended on an error, after printing the table and writing --stats-json.
 int run_view(const ViewArgs& args);
 
 struct DemoArgs {

@@ -143,7 +143,19 @@ int main(int argc, char** argv) {
   v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");
+  v->add_option("--handshake-timeout", view.handshake_timeout_ms,
+                "Give up unless the server's Welcome arrives this soon after connecting (ms, "
+                "0 = never)")
+      ->capture_default_str();
+  v->add_option("--receive-timeout", view.receive_timeout_ms,
+                "End the session when no complete message arrives for this long (ms, 0 = never)")
+      ->capture_default_str();
   v->add_flag("--low-latency", view.low_latency, kLowLatencyHelp);
+  v->footer(
+      "Exit status: 0 when frame sets arrived and the session ended as asked (--frames, "
+      "--seconds, Ctrl-C) or the server closed it; 1 when none arrived or it ended on an error "
+      "(timeout, rejected, protocol error, connection lost), after printing the table and "
+      "writing --stats-json with \"ended\" and \"error\".");
 
   DemoArgs demo;
   auto* d = app.add_subcommand("demo",

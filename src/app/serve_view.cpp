@@ -238,6 +238,8 @@ int run_view(const ViewArgs& a) {
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.client.color_quality = a.color_quality;
+  opt.client.handshake_timeout_ms = a.handshake_timeout_ms;
+  opt.client.receive_timeout_ms = a.receive_timeout_ms;
   opt.frames = a.frames;
   opt.seconds = a.seconds;
   opt.render = !a.no_render;
@@ -259,8 +261,18 @@ int run_view(const ViewArgs& a) {
   opt.save_frames_dir = a.save_frames;
   opt.stats_json = a.stats_json;
   opt.stop = &g_interrupted;
-  const ViewerResult result = run_viewer(opt);
+  ViewerResult result;
+  try {
+    result = run_viewer(opt);
+  } catch (const ViewerError& e) {
+    std::printf("%s", format_stats_table(e.result()).c_str());
+    std::fflush(stdout);
+    throw;  // main reports the error; exit 1
+  }
   std::printf("%s", format_stats_table(result).c_str());
+  std::fflush(stdout);
+  if (result.frame_sets_received == 0)
+    throw Error(std::string("no frame set received (") + to_string(result.ended) + ")");
   return 0;
 }
 

@@ -6,6 +6,7 @@
 
 #include "builtin_codecs.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
@@ -194,6 +195,26 @@ std::vector<std::string> color_codec_names() {
   std::vector<std::string> out;
   for (const ColorCodecInfo& c : all_color_codecs()) out.emplace_back(c.name);
   return out;
+}
+
+std::optional<DeclaredSize> declared_depth_size(std::span<const uint8_t> f) {
+  if (f.size() < kDepthHeaderBytes || f[0] != 'V' || f[1] != 'D') return std::nullopt;
+  return DeclaredSize{f[8] | f[9] << 8, f[10] | f[11] << 8};
+}
+
+std::optional<DeclaredSize> declared_color_size(std::span<const uint8_t> f) {
+  if (f.size() >= 12 && f[0] == 'V' && f[1] == 'C')
+    return DeclaredSize{f[8] | f[9] << 8, f[10] | f[11] << 8};
+  if (f.size() >= 2 && f[0] == 0xff && f[1] == 0xd8) {
+    DeclaredSize size;
+    try {
+      jpeg_size(f, size.width, size.height);
+    } catch (const Error&) {
+      return std::nullopt;
+    }
+    return size;
+  }
+  return std::nullopt;
 }
 
 std::unique_ptr<DepthEncoder> make_depth_encoder(std::string_view name) {

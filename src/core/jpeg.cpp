@@ -44,6 +44,15 @@ void decode_jpeg(std::span<const uint8_t> jpeg, ColorImage& out) {
     throw Error(std::string("corrupt JPEG: ") + tjGetErrorStr2(tj));
 }
 
+void jpeg_size(std::span<const uint8_t> jpeg, int& width, int& height) {
+  tjhandle tj = decompressor();
+  int subsamp = 0, colorspace = 0;
+  if (jpeg.empty() || tjDecompressHeader3(tj, jpeg.data(), static_cast<unsigned long>(jpeg.size()),
+                                          &width, &height, &subsamp, &colorspace) != 0)
+    throw Error(std::string("corrupt JPEG: ") + tjGetErrorStr2(tj));
+  if (width <= 0 || height <= 0) throw Error("corrupt JPEG: no frame header");
+}
+
 void encode_jpeg(const ColorImage& image, int quality, std::vector<uint8_t>& out) {
   tjhandle tj = compressor();
   const unsigned long bound = tjBufSize(image.width, image.height, TJSAMP_420);

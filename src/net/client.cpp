@@ -6,12 +6,14 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <optional>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/tls.hpp"
@@ -19,16 +21,29 @@
 
 namespace volcast {
 
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Kind = ClientError::Kind;
+
+// A payload is read this much at a time, its buffer growing only as bytes arrive: a header that
+// promises a large payload and is followed by silence costs little.
+constexpr size_t kReadChunkBytes = 1 << 20;
+
+}  // namespace
+
 struct Client::Impl {
   ClientConfig config;
   std::unique_ptr<Connection> connection;
   protocol::Welcome welcome;
+  uint32_t frame_set_limit = 0;  // protocol::frame_set_payload_limit(welcome)
   int64_t clock_offset_us = 0;
   std::vector<std::unique_ptr<DepthDecoder>> depth;
   std::vector<std::unique_ptr<ColorDecoder>> color;
   std::unique_ptr<WorkerPool> pool;
   protocol::FrameSetView view;
-  std::vector<uint8_t> payload;
+  std::vector<uint8_t> buffer;  // the last message's payload is its first payload_bytes bytes
+  size_t payload_bytes = 0;
   std::atomic<bool> closed{false};
   uint64_t undecodable = 0;
   // Repeated frames: each camera's last decoded bytes, and the object they were decoded into.
@@ -37,34 +52,104 @@ struct Client::Impl {
   std::vector<std::vector<uint8_t>> last_depth, last_color;
   std::vector<size_t> tasks;
 
-  // Reads one message; returns false on a clean close (by the peer or close()).
-  bool read_message(protocol::Header& header, uint32_t max_payload) {
+  std::span<const uint8_t> payload() const { return {buffer.data(), payload_bytes}; }
+
+  // What the error messages of read_message() say ran out.
+  std::string timeout_message(bool handshake) const {
+    return handshake ? "no Welcome from the server within " +
+                           std::to_string(config.handshake_timeout_ms) +
+                           " ms of connecting (handshake timeout)"
+                     : "no complete message from the server for " +
+                           std::to_string(config.receive_timeout_ms) + " ms (receive timeout)";
+  }
+
+  // Reads one message whose payload may be at most `max_payload` bytes, all of it before
+  // `deadline` (none: no limit); returns false on a clean close (by the peer between messages, or
+  // close()). `handshake`: the Welcome is expected (else a FrameSet), for errors.
+  bool read_message(protocol::Header& header, uint32_t max_payload,
+                    std::optional<Clock::time_point> deadline, bool handshake) {
+    // Whether a failed read ran out of time; the time left for the next read (-1: no limit; 0
+    // still reads what has arrived).
+    const auto timed_out = [&](const Error& e) {
+      return deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
+                          Clock::now() >= *deadline);
+    };
+    const auto time_left_ms = [&]() -> int {
+      if (!deadline) return -1;
+      const auto left =
+          std::chrono::ceil<std::chrono::milliseconds>(*deadline - Clock::now()).count();
+      return static_cast<int>(std::clamp<int64_t>(left, 0, INT32_MAX));
+    };
     uint8_t bytes[protocol::kHeaderBytes];
     try {
-      connection->read_exact(bytes, -1);
+      connection->read_exact(bytes, time_left_ms());
     } catch (const Error& e) {
       if (closed || std::string(e.what()) == "peer closed the connection") return false;
-      throw Error(std::string("connection lost: ") + e.what());
+      if (timed_out(e)) throw ClientError(Kind::kTimedOut, timeout_message(handshake));
+      throw ClientError(Kind::kConnectionLost, std::string("connection lost: ") + e.what());
     }
-    header = protocol::parse_header(bytes, max_payload);
+    try {
+      header = protocol::parse_header(bytes, max_payload);
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, std::string(handshake ? "handshake" : "FrameSet") +
+                                             " from the server: " + e.what());
+    }
     // The decode workers wake while the frame set's body arrives, not after it.
     if (pool && header.type == protocol::MessageType::kFrameSet)
       pool->prewake(std::chrono::milliseconds(1));
-    payload.resize(header.payload_bytes);
-    try {
-      connection->read_exact(payload, -1);
-    } catch (const Error& e) {
-      if (closed) return false;
-      throw Error(std::string("connection lost in the middle of a message: ") + e.what());
+    payload_bytes = 0;
+    for (size_t done = 0; done < header.payload_bytes;) {
+      const size_t end = std::min<size_t>(header.payload_bytes, done + kReadChunkBytes);
+      if (buffer.size() < end) buffer.resize(end);  // capacity at least doubles
+      try {
+        connection->read_exact(std::span(buffer).subspan(done, end - done), time_left_ms());
+      } catch (const Error& e) {
+        if (closed) return false;
+        if (timed_out(e))
+          throw ClientError(Kind::kTimedOut, timeout_message(handshake) + " (" +
+                                                 std::to_string(done) + " of " +
+                                                 std::to_string(header.payload_bytes) +
+                                                 " bytes of a message received)");
+        throw ClientError(Kind::kConnectionLost,
+                          std::string("connection lost in the middle of a message: ") + e.what());
+      }
+      done = end;
     }
+    payload_bytes = header.payload_bytes;
     return true;
+  }
+
+  static std::optional<Clock::time_point> deadline_in(int timeout_ms) {
+    if (timeout_ms <= 0) return std::nullopt;
+    return Clock::now() + std::chrono::milliseconds(timeout_ms);
+  }
+
+  // Each camera's streams must declare its calibrated size, checked before a decoder allocates
+  // for what they declare.
+  void check_declared_sizes() const {
+    for (size_t i = 0; i < view.cameras.size(); ++i) {
+      const Intrinsics& k = welcome.cameras[i].calibration.depth;
+      const auto check = [&](const char* stream, const std::optional<DeclaredSize>& size) {
+        if (size && (size->width != k.width || size->height != k.height))
+          throw ClientError(Kind::kProtocol,
+                            "camera " + std::to_string(i) + " (" +
+                                printable(welcome.cameras[i].description, 80) + "): its " + stream +
+                                " stream declares " + std::to_string(size->width) + "x" +
+                                std::to_string(size->height) + ", its calibration is " +
+                                std::to_string(k.width) + "x" + std::to_string(k.height));
+      };
+      check("depth", declared_depth_size(view.cameras[i].depth));
+      check("color", declared_color_size(view.cameras[i].color));
+    }
   }
 
   void send(std::span<const uint8_t> message) {
     try {
       connection->write_all(message, 10000);
     } catch (const Error& e) {
-      if (!closed) throw Error(std::string("connection lost while acknowledging: ") + e.what());
+      if (!closed)
+        throw ClientError(Kind::kConnectionLost,
+                          std::string("connection lost while acknowledging: ") + e.what());
     }
   }
 };
@@ -97,23 +182,37 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
           where, tls.server_fingerprint, config.known_servers);
     impl_->connection = std::move(tls.connection);
   }
+  const auto deadline = Impl::deadline_in(config.handshake_timeout_ms);
   const int64_t sent_us = wall_clock_us();
   protocol::Hello hello;
   hello.token = config.token;
   hello.depth_codec = config.depth_codec;
   hello.color_codec = config.color_codec;
   hello.color_quality = config.color_quality;
-  impl_->connection->write_all(
-      protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)), 10000);
+  try {
+    impl_->connection->write_all(
+        protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
+        config.handshake_timeout_ms > 0 ? config.handshake_timeout_ms : 10000);
+  } catch (const Error& e) {
+    throw ClientError(Kind::kConnectionLost, std::string("cannot send Hello: ") + e.what());
+  }
   protocol::Header header;
-  if (!impl_->read_message(header, 1u << 20))
-    throw Error("server closed the connection during the handshake");
+  if (!impl_->read_message(header, protocol::kMaxWelcomeBytes, deadline, true))
+    throw ClientError(Kind::kConnectionLost, "server closed the connection during the handshake");
   const int64_t received_us = wall_clock_us();
-  if (header.type == protocol::MessageType::kReject)
-    throw Error("server rejected the connection: " + protocol::parse_reject(impl_->payload));
-  if (header.type != protocol::MessageType::kWelcome)
-    throw Error("expected Welcome from the server");
-  impl_->welcome = protocol::parse_welcome(impl_->payload);
+  try {
+    if (header.type == protocol::MessageType::kReject)
+      throw ClientError(Kind::kRejected, "server rejected the connection: " +
+                                             printable(protocol::parse_reject(impl_->payload())));
+    if (header.type != protocol::MessageType::kWelcome)
+      throw ClientError(Kind::kProtocol, "expected Welcome from the server");
+    impl_->welcome = protocol::parse_welcome(impl_->payload());
+  } catch (const ClientError&) {
+    throw;
+  } catch (const Error& e) {
+    throw ClientError(Kind::kProtocol, e.what());
+  }
+  impl_->frame_set_limit = protocol::frame_set_payload_limit(impl_->welcome);
   // Offset = server clock - ours, from the server's time at Welcome and our handshake midpoint;
   // uncertain by half the handshake's round trip, within which the clocks count as one.
   const int64_t offset = impl_->welcome.server_time_us - (sent_us + received_us) / 2;
@@ -162,14 +261,22 @@ bool Client::receive(ReceivedFrameSet& out) {
   const auto& cams = m.welcome.cameras;
   while (true) {
     protocol::Header header;
-    if (!m.read_message(header, protocol::kMaxPayloadBytes)) return false;
+    if (!m.read_message(header, m.frame_set_limit, Impl::deadline_in(m.config.receive_timeout_ms),
+                        false))
+      return false;
     if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
-    if (header.type != protocol::MessageType::kFrameSet) throw Error("expected a FrameSet message");
+    if (header.type != protocol::MessageType::kFrameSet)
+      throw ClientError(Kind::kProtocol, "expected a FrameSet message");
     const int64_t received_us = wall_clock_us();
-    protocol::parse_frame_set(m.payload, m.view);
+    try {
+      protocol::parse_frame_set(m.payload(), m.view);
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, e.what());
+    }
     if (m.view.cameras.size() != cams.size())
-      throw Error("frame set has " + std::to_string(m.view.cameras.size()) +
-                  " cameras, the site has " + std::to_string(cams.size()));
+      throw ClientError(Kind::kProtocol, "frame set has " + std::to_string(m.view.cameras.size()) +
+                                             " cameras, the site has " +
+                                             std::to_string(cams.size()));
     const size_t n = cams.size();
     out.frames.sequence = m.view.sequence;
     out.frames.capture_time_us = m.view.times.capture_us - m.clock_offset_us;
@@ -188,6 +295,7 @@ bool Client::receive(ReceivedFrameSet& out) {
       out.depth_bytes[i] = m.view.cameras[i].depth.size();
       out.color_bytes[i] = m.view.cameras[i].color.size();
     }
+    if (m.config.decode) m.check_declared_sizes();
     bool decoded = true;
     out.repeated.assign(n, 0);
     if (m.config.decode) {

@@ -1,5 +1,6 @@
 #include "volcast/net/protocol.hpp"
 
+#include <algorithm>
 #include <cstring>
 
 #include "volcast/core/error.hpp"
@@ -162,13 +163,25 @@ Welcome parse_welcome(std::span<const uint8_t> payload) {
   Reader r(payload, "welcome");
   Welcome m;
   const uint32_t n = r.get<uint32_t>();
-  if (n == 0 || n > kMaxCameras) r.fail("camera count " + std::to_string(n));
+  if (n == 0 || n > kMaxCameras)
+    r.fail("camera count " + std::to_string(n) + " (1 to " + std::to_string(kMaxCameras) + ")");
   m.cameras.resize(n);
-  for (CameraInfo& cam : m.cameras) {
+  uint64_t pixels = 0;
+  for (size_t c = 0; c < n; ++c) {
+    CameraInfo& cam = m.cameras[c];
     Intrinsics& k = cam.calibration.depth;
     k.width = r.get<uint16_t>();
     k.height = r.get<uint16_t>();
-    if (k.width == 0 || k.height == 0) r.fail("empty camera image size");
+    const std::string size = std::to_string(k.width) + "x" + std::to_string(k.height);
+    if (k.width == 0 || k.height == 0) r.fail("camera " + std::to_string(c) + ": empty image size");
+    if (k.width > kMaxCameraSide || k.height > kMaxCameraSide)
+      r.fail("camera " + std::to_string(c) + ": image size " + size + " exceeds " +
+             std::to_string(kMaxCameraSide) + " pixels per side");
+    pixels += static_cast<uint64_t>(k.width) * static_cast<uint64_t>(k.height);
+    if (pixels > kMaxSitePixels)
+      r.fail("the cameras up to camera " + std::to_string(c) + " (" + size + ") have " +
+             std::to_string(pixels) + " pixels, more than the limit of " +
+             std::to_string(kMaxSitePixels));
     for (double* v : {&k.fx, &k.fy, &k.cx, &k.cy, &k.k1, &k.k2, &k.k3, &k.k4, &k.k5, &k.k6, &k.p1,
                       &k.p2, &k.codx, &k.cody, &k.metric_radius})
       *v = r.get<double>();
@@ -181,6 +194,18 @@ Welcome parse_welcome(std::span<const uint8_t> payload) {
   m.server_time_us = r.get<int64_t>();
   r.expect_end();
   return m;
+}
+
+uint32_t frame_set_payload_limit(const Welcome& welcome) {
+  // send time, sequence, flags, capture / filter / encode times, camera count
+  uint64_t bytes = 8 + 8 + 1 + 8 + 8 + 8 + 4;
+  for (const CameraInfo& cam : welcome.cameras) {
+    const Intrinsics& k = cam.calibration.depth;
+    const uint64_t pixels =
+        static_cast<uint64_t>(std::max(k.width, 0)) * static_cast<uint64_t>(std::max(k.height, 0));
+    bytes += 8 + 4 + 4 + kFrameSetCameraOverhead + kFrameSetBytesPerPixel * pixels;
+  }
+  return static_cast<uint32_t>(std::min<uint64_t>(bytes, kMaxPayloadBytes));
 }
 
 std::vector<uint8_t> serialize_ack(uint64_t sequence) {

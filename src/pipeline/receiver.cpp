@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/core/text.hpp"
 #include "volcast/render/headless_target.hpp"
 
 namespace volcast {
@@ -100,15 +102,98 @@ void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInf
   }
 }
 
+// What ended a session that threw `error`.
+ViewerEnd end_of(const std::exception_ptr& error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const ClientError& e) {
+    switch (e.kind()) {
+      case ClientError::Kind::kTimedOut:
+        return ViewerEnd::kTimedOut;
+      case ClientError::Kind::kRejected:
+        return ViewerEnd::kRejected;
+      case ClientError::Kind::kProtocol:
+        return ViewerEnd::kProtocolError;
+      case ClientError::Kind::kConnectionLost:
+        return ViewerEnd::kConnectionLost;
+    }
+  } catch (...) {
+  }
+  return ViewerEnd::kError;
+}
+
+std::string message_of(const std::exception_ptr& error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const std::exception& e) {
+    return e.what();
+  } catch (...) {
+    return "unknown error";
+  }
+}
+
+bool is_error(ViewerEnd end) {
+  return end >= ViewerEnd::kTimedOut;
+}
+
+// Every end of a session: writes the figures if asked, and throws ViewerError on an error.
+ViewerResult finish(const ViewerOptions& opt, ViewerResult result) {
+  if (!opt.stats_json.empty()) {
+    try {
+      write_stats_json(opt.stats_json, result);
+    } catch (const std::exception& e) {
+      if (!is_error(result.ended)) throw;
+      spdlog::error("{}", e.what());  // the session's own error is the one to report
+    }
+  }
+  if (is_error(result.ended)) {
+    const std::string message = result.error;
+    throw ViewerError(message, std::make_shared<const ViewerResult>(std::move(result)));
+  }
+  return result;
+}
+
 }  // namespace
 
+const char* to_string(ViewerEnd end) {
+  switch (end) {
+    case ViewerEnd::kFramesReached:
+      return "frames_reached";
+    case ViewerEnd::kSecondsReached:
+      return "seconds_reached";
+    case ViewerEnd::kInterrupted:
+      return "interrupted";
+    case ViewerEnd::kServerClosed:
+      return "server_closed";
+    case ViewerEnd::kTimedOut:
+      return "timed_out";
+    case ViewerEnd::kRejected:
+      return "rejected";
+    case ViewerEnd::kProtocolError:
+      return "protocol_error";
+    case ViewerEnd::kConnectionLost:
+      return "connection_lost";
+    case ViewerEnd::kError:
+      return "error";
+  }
+  return "error";
+}
+
 ViewerResult run_viewer(const ViewerOptions& opt) {
-  Client client(opt.client);
-  const auto& cams = client.welcome().cameras;
   ViewerResult result;
   result.depth_codec = opt.client.depth_codec;
   result.color_codec = opt.client.color_codec;
-  if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
+  std::unique_ptr<Client> connected;
+  try {
+    connected = std::make_unique<Client>(opt.client);
+  } catch (...) {
+    const std::exception_ptr error = std::current_exception();
+    result.ended = end_of(error);
+    result.error = message_of(error);
+    return finish(opt, std::move(result));
+  }
+  Client& client = *connected;
+  const auto& cams = client.welcome().cameras;
 
   FrameMailbox box;
   std::exception_ptr render_error;
@@ -127,10 +212,12 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   int64_t first_rx_us = 0, last_rx_us = 0;
   uint64_t last_sequence = 0, received = 0;
   std::exception_ptr receive_error;
-  // A watchdog closes the connection at the time limit so a blocked receive() returns.
+  // A watchdog closes the connection at the time limit so a blocked receive() returns, and says
+  // why.
   std::mutex watchdog_mutex;
   std::condition_variable watchdog_cv;
   bool finished = false;
+  std::atomic<ViewerEnd> stopped_by{ViewerEnd::kServerClosed};
   std::thread watchdog([&] {
     std::unique_lock lock(watchdog_mutex);
     while (!finished) {
@@ -138,12 +225,14 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       const bool timeout = opt.seconds > 0 && std::chrono::steady_clock::now() - start >
                                                   std::chrono::duration<double>(opt.seconds);
       if (timeout || (opt.stop && *opt.stop)) {
+        stopped_by = timeout ? ViewerEnd::kSecondsReached : ViewerEnd::kInterrupted;
         client.close();
         return;
       }
     }
   });
   try {
+    if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
     while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
            client.receive(rx)) {
       // The decoded images move (swap, no copy) into a frame the renderer may hold; the client
@@ -222,8 +311,18 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       CloudBuilder(cams[i].calibration)
           .build(frames[i]->depth, frames[i]->color, result.last_clouds.back());
   }
-  if (receive_error) std::rethrow_exception(receive_error);
-  if (render_error) std::rethrow_exception(render_error);
+  result.frame_sets_received = received;
+  if (receive_error) {
+    result.ended = end_of(receive_error);
+    result.error = message_of(receive_error);
+  } else if (render_error) {
+    result.ended = ViewerEnd::kError;
+    result.error = "renderer: " + message_of(render_error);
+  } else if (opt.frames > 0 && received >= static_cast<uint64_t>(opt.frames)) {
+    result.ended = ViewerEnd::kFramesReached;
+  } else {
+    result.ended = stopped_by;  // seconds reached, interrupted, or else the server closed
+  }
   result.frames_undecodable = client.frames_undecodable();
   result.stages = stages.summary();
 
@@ -231,7 +330,7 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   for (size_t i = 0; i < cams.size(); ++i) {
     const Accumulator& a = acc[i];
     CameraStats s;
-    s.description = cams[i].description;
+    s.description = printable(cams[i].description);
     s.width = cams[i].calibration.depth.width;
     s.height = cams[i].calibration.depth.height;
     s.frames_received = a.frames;
@@ -249,12 +348,14 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     s.latency_ms_p99 = percentile(a.latencies_ms, 0.99);
     result.cameras.push_back(s);
   }
-  if (!opt.stats_json.empty()) write_stats_json(opt.stats_json, result);
-  return result;
+  return finish(opt, std::move(result));
 }
 
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) {
   nlohmann::json j;
+  j["ended"] = to_string(r.ended);
+  j["error"] = r.error.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.error);
+  j["frame_sets_received"] = r.frame_sets_received;
   j["depth_codec"] = r.depth_codec;
   j["color_codec"] = r.color_codec;
   j["frames_rendered"] = r.frames_rendered;
@@ -283,7 +384,7 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
   }
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
   std::ofstream out(path);
-  out << j.dump(2) << "\n";
+  out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
   if (!out) throw Error("cannot write '" + path.string() + "'");
 }
 
@@ -312,6 +413,8 @@ std::string format_stats_table(const ViewerResult& r) {
     for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p99_ms);
     s += "\n";
   }
+  s += fmt::format("ended: {} after {} frame sets{}\n", to_string(r.ended), r.frame_sets_received,
+                   r.error.empty() ? "" : ": " + r.error);
   return s;
 }
 

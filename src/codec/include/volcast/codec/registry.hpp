@@ -14,6 +14,8 @@
 // here stay valid for the life of the program. The order of the table is registration order.
 #include <cstdint>
 #include <memory>
+#include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -62,6 +64,21 @@ const ColorCodecInfo& color_codec_info(std::string_view name);
 /// Every registered codec, in registration order (a snapshot).
 std::vector<DepthCodecInfo> all_depth_codecs();
 std::vector<ColorCodecInfo> all_color_codecs();
+
+/// An image size an encoded frame declares (pixels).
+struct DeclaredSize {
+  int width = 0, height = 0;
+};
+/// The size a depth frame declares in its 12-byte header (depth_codec.hpp; every depth codec
+/// writes it), read without decoding, so that a receiver can refuse a frame of the wrong size
+/// before a decoder allocates for it. std::nullopt when `frame` is shorter than the header or
+/// does not start with 'V' 'D' (then it is no depth frame, and a decoder refuses it as such).
+std::optional<DeclaredSize> declared_depth_size(std::span<const uint8_t> frame);
+/// The size a color frame declares, by its own format: the 12-byte 'V' 'C' header (raw, h264;
+/// color_codec.hpp) or a JPEG's frame header (jpeg: starts with FF D8). std::nullopt for an empty
+/// frame (no color), another format, or headers that cannot be read (a decoder refuses those).
+/// Allocates nothing for the image.
+std::optional<DeclaredSize> declared_color_size(std::span<const uint8_t> frame);
 
 /// For --help: every registered codec with what it guarantees, e.g. "raw (lossless), trvl
 /// (lossless, temporal), volcast-n2 (within 2 mm), h264 (lossy, temporal)".

@@ -12,6 +12,10 @@ namespace volcast {
 /// and reused. Throws Error("corrupt JPEG: ...") on malformed or truncated data.
 void decode_jpeg(std::span<const uint8_t> jpeg, ColorImage& out);
 
+/// Reads the image size from a JPEG's headers (up to its frame header) without decoding it or
+/// allocating for its pixels. Throws Error("corrupt JPEG: ...") if the headers cannot be read.
+void jpeg_size(std::span<const uint8_t> jpeg, int& width, int& height);
+
 /// Encodes BGRA (alpha ignored) as JPEG, 4:2:0, `quality` 1..100, into `out` (resized, reused).
 void encode_jpeg(const ColorImage& image, int quality, std::vector<uint8_t>& out);
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/core/error.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
@@ -30,6 +31,31 @@ struct ClientConfig {
   /// generator measuring the server, or a relay).
   bool decode = true;
   int decode_threads = 0;  ///< worker threads for decoding (0 = cores - 1)
+  /// The server's Welcome (or Reject) must arrive within this many milliseconds of the
+  /// connection being made, or the constructor throws ClientError kTimedOut (<= 0: no limit).
+  int handshake_timeout_ms = 5000;
+  /// receive() throws ClientError kTimedOut when no complete message arrives for this many
+  /// milliseconds of waiting (a server sends frame sets at the site's rate, e.g. 30 per second;
+  /// <= 0: no limit).
+  int receive_timeout_ms = 10000;
+};
+
+/// What Client throws once it has connected: an Error (callers that catch Error still do) that
+/// says what ended the session, for callers that report it. Strings from the server in what()
+/// are sanitised (volcast/core/text.hpp).
+class ClientError : public Error {
+ public:
+  enum class Kind {
+    kTimedOut,        ///< the server was silent past the handshake or receive timeout
+    kRejected,        ///< the server sent Reject (its reason is in what())
+    kProtocol,        ///< a malformed or oversized message, or a frame of the wrong size
+    kConnectionLost,  ///< the connection broke (reset, or closed in the middle of a message)
+  };
+  ClientError(Kind kind, const std::string& message) : Error(message), kind_(kind) {}
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
 };
 
 /// Per-stage times of one frame set, all on this viewer's clock (wall clock, microseconds since
@@ -64,9 +90,12 @@ ClientConfig client_config_from_link(const std::string& link);
 class Client {
  public:
   /// Connects (TLS 1.3 unless `insecure`), checks the server's certificate fingerprint, and
-  /// completes the handshake. Throws Error if the server cannot be reached, presents another
-  /// certificate than the pinned one (trust.hpp; nothing secret was sent then), rejects the token
-  /// or the tier (the server's reason is in the message), or answers with a malformed Welcome.
+  /// completes the handshake. Throws Error if a codec is unknown, the server cannot be reached
+  /// within connect_timeout_ms, or it presents another certificate than the pinned one (trust.hpp;
+  /// nothing secret was sent then); ClientError if the server rejects the token or the tier (its
+  /// reason is in the message), answers with a malformed Welcome or one beyond the viewer's limits
+  /// (protocol.hpp: cameras, sizes, Welcome bytes; checked before anything is allocated for them),
+  /// or does not answer within handshake_timeout_ms.
   explicit Client(const ClientConfig& config);
   ~Client();
   Client(const Client&) = delete;
@@ -79,8 +108,14 @@ class Client {
   /// Blocks for the next frame set, decodes it into `out` (buffers reused) and acknowledges it.
   /// A frame set whose delta frames cannot be decoded (reference missing) is acknowledged,
   /// skipped, and a key frame requested; counted in frames_undecodable(). Returns false when the
-  /// server closed the connection or close() was called. Throws Error on a malformed message or a
-  /// frame that does not match the camera's calibrated size.
+  /// server closed the connection or close() was called (also from another thread, while
+  /// blocked here). Throws ClientError: kTimedOut when no complete message arrives for
+  /// receive_timeout_ms; kProtocol on a malformed message, a FrameSet larger than
+  /// protocol::frame_set_payload_limit(welcome()) (refused from its header, before its bytes are
+  /// read; a payload's buffer grows only as its bytes arrive, 1 MiB at a time), or a camera's
+  /// depth or color stream whose own header declares another size than the camera's calibration
+  /// (checked before decoding; the message names the camera); kConnectionLost if the connection
+  /// breaks.
   bool receive(ReceivedFrameSet& out);
   uint64_t frames_undecodable() const;
   /// Closes the connection; a receive() blocked in another thread returns false. Thread-safe.

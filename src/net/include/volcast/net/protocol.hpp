@@ -41,6 +41,17 @@
 // Conversation: Hello, then Welcome or Reject; then FrameSets from the server and Acks (and
 // KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the connection.
 //
+// Limits a viewer enforces on what a server claims, before it allocates for it (a message over a
+// limit ends the connection with an Error naming it; the constants are below):
+//   Welcome payload <= kMaxWelcomeBytes; 1..kMaxCameras cameras; each camera's width and height
+//   1..kMaxCameraSide; all cameras' pixels together <= kMaxSitePixels.
+//   FrameSet payload <= frame_set_payload_limit(Welcome): room for every camera's depth and
+//   color at kFrameSetBytesPerPixel bytes per pixel (more than raw depth + raw BGRA, and than
+//   any codec's worst case) plus kFrameSetCameraOverhead bytes each; never above
+//   kMaxPayloadBytes. Each codec stream's own header must declare the camera's calibrated size.
+//   A viewer reads a payload in chunks and grows its buffer only as bytes arrive.
+// A server must stay within them (sites of up to 16 Azure Kinects at 1024x1024 do).
+//
 // Pacing (see server.hpp): the server keeps about one bandwidth-delay product of frame sets in
 // flight (sent, not acknowledged), always sends the newest frame set, and never one older than its
 // latency budget, so a slow viewer skips whole frame sets instead of building latency.
@@ -62,6 +73,18 @@ inline constexpr uint32_t kMaxHelloBytes = 4096;
 inline constexpr uint32_t kMaxControlBytes = 4096;        ///< any viewer -> server message
 inline constexpr uint32_t kMaxPayloadBytes = 256u << 20;  ///< 256 MiB: any larger is hostile
 inline constexpr int kMaxCameras = 64;
+/// A viewer refuses a Welcome larger than this (bytes): 64 cameras' calibration take 14 KiB, the
+/// rest is room for their descriptions.
+inline constexpr uint32_t kMaxWelcomeBytes = 256u << 10;
+/// A viewer refuses a camera wider or taller than this (pixels; depth codecs allow 8192).
+inline constexpr int kMaxCameraSide = 4096;
+/// A viewer refuses a site whose cameras have more pixels than this together (16 Mi pixels: 16
+/// cameras of 1024x1024, or one of 4096x4096), which bounds what it allocates per frame set.
+inline constexpr uint64_t kMaxSitePixels = uint64_t{16} << 20;
+/// FrameSet budget per camera pixel (bytes) and per camera (bytes: codec headers and tables, JPEG
+/// markers, video parameter sets): see frame_set_payload_limit().
+inline constexpr uint64_t kFrameSetBytesPerPixel = 8;
+inline constexpr uint64_t kFrameSetCameraOverhead = 64u << 10;
 
 enum class Channel : uint8_t { kControl = 0, kFrames = 1, kSession = 2 };
 
@@ -157,7 +180,13 @@ std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, in
 /// Throws Error("malformed hello: truncated") if the payload is shorter than a token.
 std::span<const uint8_t, kTokenBytes> hello_token(std::span<const uint8_t> payload);
 Hello parse_hello(std::span<const uint8_t> payload);
+/// Also refuses (Error "malformed welcome: ...") what exceeds the viewer's limits above: more
+/// than kMaxCameras cameras, a side above kMaxCameraSide, more than kMaxSitePixels pixels in all.
 Welcome parse_welcome(std::span<const uint8_t> payload);
+/// The largest FrameSet payload (bytes) a viewer accepts from the site `welcome` describes: the
+/// frame set's fixed fields, and per camera its 16 bytes of fields, kFrameSetCameraOverhead and
+/// kFrameSetBytesPerPixel * width * height; at most kMaxPayloadBytes.
+uint32_t frame_set_payload_limit(const Welcome& welcome);
 std::string parse_reject(std::span<const uint8_t> payload);
 uint64_t parse_ack(std::span<const uint8_t> payload);
 /// Parses a FrameSet payload (send time + body) into `out` (its camera list reused); the views

@@ -4,10 +4,12 @@
 // (SplatRenderer::draw_cameras: no per-point CPU work), and measure what arrived and what each
 // stage cost.
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "volcast/core/error.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 #include "volcast/render/splat_renderer.hpp"
@@ -31,7 +33,7 @@ struct ViewerOptions {
 
 /// Figures for one camera, over the whole run.
 struct CameraStats {
-  std::string description;
+  std::string description;  ///< the server's, made printable (volcast/core/text.hpp)
   int width = 0, height = 0;
   uint64_t frames_received = 0;
   uint64_t frames_dropped = 0;  ///< frame sets the server skipped for this viewer
@@ -42,7 +44,26 @@ struct CameraStats {
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> ready (stage_stats.hpp)
 };
 
+/// Why a viewer's session ended. The first four are normal ends; from kTimedOut on, errors.
+enum class ViewerEnd {
+  kFramesReached,   ///< ViewerOptions::frames frame sets received
+  kSecondsReached,  ///< ViewerOptions::seconds passed
+  kInterrupted,     ///< the external stop flag was set (Ctrl-C)
+  kServerClosed,    ///< the server closed the connection between messages
+  kTimedOut,        ///< the server was silent past the handshake or receive timeout
+  kRejected,        ///< the server refused the viewer (Reject)
+  kProtocolError,   ///< a malformed or oversized message, a frame of the wrong size
+  kConnectionLost,  ///< the connection broke
+  kError,           ///< anything else: cannot connect, unknown codec, the renderer failed, ...
+};
+/// "frames_reached", "seconds_reached", "interrupted", "server_closed", "timed_out", "rejected",
+/// "protocol_error", "connection_lost", "error".
+const char* to_string(ViewerEnd end);
+
 struct ViewerResult {
+  ViewerEnd ended = ViewerEnd::kServerClosed;
+  std::string error;  ///< what went wrong, for the error ends; empty otherwise
+  uint64_t frame_sets_received = 0;
   std::string depth_codec, color_codec;
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
@@ -52,14 +73,30 @@ struct ViewerResult {
   std::vector<PointCloud> last_clouds;  ///< the last frame set's point clouds (CPU, built once)
 };
 
-/// Connects, receives until a limit is reached or the server closes, and returns the figures.
-/// Throws Error if the connection or handshake fails, or the renderer cannot start.
+/// Thrown by run_viewer when the session ended on an error (ViewerEnd kTimedOut and after):
+/// what() is the reason, result() the figures up to then.
+class ViewerError : public Error {
+ public:
+  ViewerError(const std::string& message, std::shared_ptr<const ViewerResult> result)
+      : Error(message), result_(std::move(result)) {}
+  const ViewerResult& result() const { return *result_; }
+
+ private:
+  std::shared_ptr<const ViewerResult> result_;
+};
+
+/// Connects, receives until a limit is reached or the server closes, and returns the figures
+/// (`ended` says which). On every end, errors included (a failed connection or handshake, a
+/// timeout, a protocol error, a failed renderer), the figures go to `stats_json` when it is set;
+/// an error then throws ViewerError carrying them.
 ViewerResult run_viewer(const ViewerOptions& options);
 
-/// Writes the figures as JSON ({"depth_codec", "color_codec", "frames_rendered", "cameras":
-/// [...], "stages": [{"stage", "p50_ms", "p99_ms", "mean_ms"}, ...]}).
+/// Writes the figures as JSON ({"ended", "error" (null when none), "frame_sets_received",
+/// "depth_codec", "color_codec", "frames_rendered", "cameras": [...], "stages": [{"stage",
+/// "p50_ms", "p99_ms", "mean_ms"}, ...]}).
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& result);
-/// A short human-readable table of the figures, with the per-stage latencies.
+/// A short human-readable table of the figures, with the per-stage latencies and how the session
+/// ended.
 std::string format_stats_table(const ViewerResult& result);
 
 }  // namespace volcast

@@ -368,6 +368,23 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.key_frame_interval < 1) throw Error("server: --key-frame-interval must be at least 1");
   if (cameras.empty() || static_cast<int>(cameras.size()) > protocol::kMaxCameras)
     throw Error("server: a site needs 1 to " + std::to_string(protocol::kMaxCameras) + " cameras");
+  // What every viewer would refuse (protocol.hpp's limits) is refused here, at start.
+  uint64_t pixels = 0;
+  for (const auto& cam : cameras) {
+    const Intrinsics& k = cam.calibration.depth;
+    if (k.width < 1 || k.height < 1 || k.width > protocol::kMaxCameraSide ||
+        k.height > protocol::kMaxCameraSide)
+      throw Error("server: camera '" + cam.description + "' is " + std::to_string(k.width) + "x" +
+                  std::to_string(k.height) + "; viewers accept 1 to " +
+                  std::to_string(protocol::kMaxCameraSide) + " pixels per side");
+    pixels += uint64_t(k.width) * uint64_t(k.height);
+  }
+  if (pixels > protocol::kMaxSitePixels)
+    throw Error("server: the site's cameras have " + std::to_string(pixels) +
+                " pixels together; viewers accept at most " +
+                std::to_string(protocol::kMaxSitePixels));
+  if (protocol::serialize(protocol::Welcome{cameras, 0}).size() > protocol::kMaxWelcomeBytes)
+    throw Error("server: the Welcome would exceed the viewers' limit (camera names too long?)");
   if (config.handshake_timeout_ms < 1 || config.max_pending < 1 ||
       config.max_pending_per_address < 1)
     throw Error("server: handshake timeout and pending-handshake limits must be at least 1");

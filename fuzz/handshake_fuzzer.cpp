@@ -8,10 +8,12 @@
 // Each input's connection is then half-closed and read for at most 200 ms. Anything but a clean
 // refusal or admission (a crash, a sanitizer report, a hang) is a finding. Run by scripts/fuzz.sh.
 #include <poll.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <memory>
 #include <vector>
 
@@ -55,8 +57,20 @@ void drain(Connection& c) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  static const std::unique_ptr<Server> plain = start(true), tls = start(false);
+  // Made once and stopped at exit before spdlog's registry is destroyed (atexit handlers run in
+  // reverse order of registration, and the registry exists before this one is registered).
+  static Server* const plain = start(true).release();
+  static Server* const tls = start(false).release();
   static const std::shared_ptr<TlsContext> client = TlsContext::client();
+  static const bool stop_at_exit = [] {
+    spdlog::default_logger();
+    std::atexit([] {
+      plain->stop();
+      tls->stop();
+    });
+    return true;
+  }();
+  (void)stop_at_exit;
   if (size == 0) return 0;
   const int mode = data[0] % 4;
   const std::span<const uint8_t> body(data + 1, size - 1);

@@ -17,6 +17,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <vector>
@@ -163,7 +164,9 @@ int bio_write(BIO* b, const char* data, int n) {
     }
   }
   if (s.sent > 0 && s.sent == s.out.size()) s.drain();
-  s.out.insert(s.out.end(), data, data + n);
+  const size_t at = s.out.size();
+  s.out.resize(at + static_cast<size_t>(n));  // capacity kept: no allocation once warm
+  std::memcpy(s.out.data() + at, data, static_cast<size_t>(n));
   return n;
 }
 

@@ -3,11 +3,13 @@
 
 #include <fstream>
 
+#include "sequence_folder.hpp"
 #include "test_data.hpp"
 #include "volcast/capture/image_sequence.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
@@ -178,6 +180,127 @@ TEST(ImageSequence, RejectsACorruptDepthPng) {
   auto src = open_source(dir);
   src->next();
   EXPECT_NE(error_of([&] { src->next(); }).find("b.png"), std::string::npos);
+}
+
+TEST(ImageSequence, SkipsAnUnreadableFrameAndReadsTheNextOne) {
+  const fs::path dir = test::hands_sequence(test::temp_dir("seq_skip"), 4, true);
+  const fs::path bad = test::break_depth(dir, 1, test::BadDepth::kOtherSize);
+  auto src = open_source(dir, test::hands_options(30));
+  EXPECT_EQ(src->next().depth, read_depth_png(test::hands_depth(0)));
+  const std::string err = error_of([&] { src->next(); });
+  EXPECT_NE(err.find(bad.string() + "' is 320x180, the sequence's depth frames are 640x360"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(src->next().depth, read_depth_png(test::hands_depth(2)));  // not frame 1 again
+}
+
+TEST(ImageSequence, ReportsFramesWithoutColorAndChecksEveryFrame) {
+  const fs::path dir = test::hands_sequence(test::temp_dir("seq_check"), 6, true, {2});
+  const fs::path bad = test::break_depth(dir, 4, test::BadDepth::kEightBit);
+  auto src = open_source(dir, test::hands_options(30));
+  EXPECT_EQ(src->frame_count(), 6);
+  EXPECT_EQ(src->color_frame_count(), 5);
+  int calls = 0;
+  const FrameCheck check = check_frames(*src, [&](int done, int total) {
+    EXPECT_EQ(done, ++calls);
+    EXPECT_EQ(total, 6);
+  });
+  EXPECT_EQ(check.frames, 6);
+  EXPECT_EQ(check.frames_without_color, 1);
+  ASSERT_EQ(check.bad.size(), 1u);
+  EXPECT_EQ(check.bad[0].index, 4);
+  EXPECT_NE(check.bad[0].error.find(bad.string()), std::string::npos) << check.bad[0].error;
+  EXPECT_NE(check.bad[0].error.find("16-bit"), std::string::npos) << check.bad[0].error;
+}
+
+TEST(ImageSequence, RefusesAnInvalidFrameRateOrIntrinsicsNamingTheFileAndValue) {
+  // Synthetic intrinsics.json files (labelled) beside two real hands depth frames.
+  const fs::path dir = test::hands_sequence(test::temp_dir("seq_fps"), 2, false);
+  const std::string file = (dir / "intrinsics.json").string();
+  const std::pair<std::string, std::string> cases[] = {
+      {R"("fps": 0)", "fps must be a number in (0, 1000], got 0"},
+      {R"("fps": -5)", "got -5"},
+      {R"("fps": 1e9)", "got 1e+09"},
+      {R"("fps": 1e999)", "1e999"},  // JSON has no infinity: refused by the parser
+      {R"("fps": "NaN")", "fps must be a number, got \"NaN\""},
+      {R"("fps": 30, "cx": null)", "cx must be a number, got null"},
+  };
+  for (const auto& [field, want] : cases) {
+    std::ofstream(file) << R"({"fx": 460, "fy": 460, "cx": 320, "cy": 180, )" << field << "}";
+    const std::string err = error_of([&] { open_source(dir); });
+    EXPECT_NE(err.find(file), std::string::npos) << field << ": " << err;
+    EXPECT_NE(err.find(want), std::string::npos) << field << ": " << err;
+  }
+  std::ofstream(file) << R"({"fx": -460, "fy": 460, "cx": 320, "cy": 180})";
+  EXPECT_NE(error_of([&] { open_source(dir); }).find("fx and fy must be > 0, got -460"),
+            std::string::npos);
+  fs::remove(file);
+  SourceOptions opt = test::hands_options(0);
+  EXPECT_NE(error_of([&] { open_source(dir, opt); }).find("got 0"), std::string::npos);
+  opt.fps = 30;
+  EXPECT_EQ(error_of([&] { open_source(dir, opt); }), "");
+}
+
+TEST(ImageDecoders, RefuseAHugeSizeBeforeAllocatingAndNameIt) {
+  const fs::path dir = test::temp_dir("huge");
+  test::write_png_header_claiming(dir / "huge.png", 20000, 20000);  // 57 bytes
+  EXPECT_EQ(fs::file_size(dir / "huge.png"), 57u);
+  std::string err = error_of([&] { read_depth_png(dir / "huge.png"); });
+  EXPECT_NE(err.find("huge.png' claims 20000x20000 pixels"), std::string::npos) << err;
+  err = error_of([&] { read_color_png(dir / "huge.png"); });
+  EXPECT_NE(err.find("20000x20000"), std::string::npos) << err;
+  // The largest accepted size gets past the header (and fails for its missing data instead).
+  test::write_png_header_claiming(dir / "max.png", kMaxImageSide, 1);
+  err = error_of([&] { read_depth_png(dir / "max.png"); });
+  EXPECT_EQ(err.find("claims"), std::string::npos) << err;
+  EXPECT_NE(err.find("max.png"), std::string::npos) << err;
+
+  // A real JPEG whose frame header is patched (synthetic) to claim 10000 x 10000.
+  std::ifstream in(test::hands_color(0), std::ios::binary);
+  std::vector<uint8_t> jpeg((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  size_t sof = 0;
+  for (size_t i = 0; i + 9 < jpeg.size() && !sof; ++i)
+    if (jpeg[i] == 0xff && (jpeg[i + 1] == 0xc0 || jpeg[i + 1] == 0xc2)) sof = i;
+  ASSERT_GT(sof, 0u);
+  for (size_t at : {sof + 5, sof + 7}) jpeg[at] = 10000 >> 8, jpeg[at + 1] = 10000 & 0xff;
+  ColorImage out;
+  err = error_of([&] { decode_jpeg(jpeg, out); });
+  EXPECT_NE(err.find("JPEG claims 10000x10000 pixels"), std::string::npos) << err;
+  EXPECT_TRUE(out.bgra.empty());
+}
+
+TEST(ImageDecoders, TruncatedJpegAndPngAreErrorsNotGreyFrames) {
+  std::ifstream in(test::hands_color(0), std::ios::binary);
+  const std::vector<uint8_t> jpeg((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
+  ColorImage out;
+  decode_jpeg(jpeg, out);  // whole: fine
+  for (double fraction : {0.3, 0.6, 0.9, 0.99}) {
+    const auto cut =
+        std::span(jpeg).first(static_cast<size_t>(static_cast<double>(jpeg.size()) * fraction));
+    const std::string err = error_of([&] { decode_jpeg(cut, out); });
+    EXPECT_NE(err.find("corrupt JPEG"), std::string::npos) << fraction << ": '" << err << "'";
+  }
+  const fs::path dir = test::hands_sequence(test::temp_dir("truncated"), 1, false);
+  const fs::path png = test::break_depth(dir, 0, test::BadDepth::kTruncated);
+  const std::string err = error_of([&] { read_depth_png(png); });
+  EXPECT_NE(err.find("truncated PNG '" + png.string() + "'"), std::string::npos) << err;
+}
+
+TEST(ImageSequence, ATruncatedColorJpegMakesTheFrameUnreadable) {
+  const fs::path dir = test::hands_sequence(test::temp_dir("seq_bad_jpeg"), 3, true);
+  const fs::path jpg = dir / "color" / test::hands_color(1).filename();
+  fs::remove(jpg);
+  std::ifstream in(test::hands_color(1), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::ofstream(jpg, std::ios::binary)
+      .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * 2 / 3));
+  auto src = open_source(dir, test::hands_options(30));
+  src->next();
+  const std::string err = error_of([&] { src->next(); });
+  EXPECT_NE(err.find(jpg.string()), std::string::npos) << err;
+  EXPECT_NE(err.find("corrupt JPEG"), std::string::npos) << err;
+  EXPECT_EQ(src->next().color.width, 640);
 }
 
 }  // namespace

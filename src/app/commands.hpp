@@ -48,8 +48,9 @@ struct ServeArgs {
   int max_window = 8;
   int latency_budget_ms = 150;
   int min_key_interval_ms = 250;
-  double seconds = 0;        ///< 0 = until interrupted
-  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  int max_read_failures = 30;  ///< failed reads in a row that mark a camera failed
+  double seconds = 0;          ///< 0 = until interrupted
+  bool low_latency = false;    ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
   // Security and policy (volcast/net/server.hpp).
   bool insecure = false;           ///< plain TCP, loopback only
   std::string cert, key;           ///< PEM files; default: user_config_dir()/server/*.pem

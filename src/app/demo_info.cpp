@@ -1,6 +1,9 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
@@ -134,27 +137,72 @@ int run_demo(const DemoArgs& a) {
   return 0;
 }
 
+namespace {
+
+// Reads every frame of a freshly opened source (one pass), with a progress line on stderr when a
+// person watches (a terminal), as the server benchmark does.
+FrameCheck check_every_frame(FrameSource& src) {
+  const bool tty = isatty(STDERR_FILENO);
+  int shown = -1;
+  FrameCheck c = check_frames(src, [&](int done, int total) {
+    const int percent = done * 100 / std::max(total, 1);
+    if (!tty || percent == shown) return;
+    shown = percent;
+    std::fprintf(stderr, "\rchecking every frame: %d/%d (%d %%)", done, total, percent);
+  });
+  if (tty) std::fprintf(stderr, "\r\033[K");  // clear the progress line
+  return c;
+}
+
+void add_check_json(const FrameCheck& c, nlohmann::json& j) {
+  j["checked_frames"] = c.frames;
+  j["bad_frame_count"] = c.bad.size();
+  j["bad_frames"] = nlohmann::json::array();
+  for (const auto& b : c.bad) j["bad_frames"].push_back({{"index", b.index}, {"error", b.error}});
+  j["frames_without_color"] = c.frames_without_color;
+}
+
+void print_check(const FrameCheck& c) {
+  constexpr size_t kListed = 50;  // --json lists every one
+  std::printf("  checked %d frames: %zu cannot be read%s, %d without color\n", c.frames,
+              c.bad.size(), c.bad.empty() ? "" : " (skipped when streaming)",
+              c.frames_without_color);
+  for (size_t i = 0; i < c.bad.size() && i < kListed; ++i)
+    std::printf("    BAD frame %d: %s\n", c.bad[i].index, c.bad[i].error.c_str());
+  if (c.bad.size() > kListed)
+    std::printf("    ... and %zu more (--json lists all)\n", c.bad.size() - kListed);
+}
+
+}  // namespace
+
+// Exit code 0 whenever the source opens, bad frames or not: they are listed (and counted in
+// bad_frame_count) for the reader to act on; 1 if the source cannot be opened at all.
 int run_info(const InfoArgs& a) {
   const fs::path path = a.file;
   nlohmann::json j;
   if (fs::is_directory(path)) {
     auto src = open_source(path, {});
     const auto& k = src->calibration().depth;
+    const FrameCheck check = check_every_frame(*src);
     j = {{"kind", "image sequence"},
          {"path", path.string()},
          {"frames", src->frame_count()},
+         {"color_frames", src->color_frame_count()},
          {"fps", src->fps()},
          {"depth_intrinsics", intrinsics_json(k)}};
+    add_check_json(check, j);
     if (a.json) {
       std::printf("%s\n", j.dump(2).c_str());
     } else {
-      std::printf("%s\n  frames: %d at %.1f fps\n  depth intrinsics: %s\n",
+      std::printf("%s\n  frames: %d at %.1f fps, %d with a color file\n  depth intrinsics: %s\n",
                   src->description().c_str(), src->frame_count(), src->fps(),
-                  intrinsics_line(k).c_str());
+                  src->color_frame_count(), intrinsics_line(k).c_str());
+      print_check(check);
     }
     return 0;
   }
   const K4aRecordingInfo info = probe_k4a_recording(path);
+  const FrameCheck check = check_every_frame(*open_source(path, {}));
   if (a.json) {
     j = {{"kind", "Azure Kinect recording"},
          {"path", path.string()},
@@ -173,6 +221,7 @@ int run_info(const InfoArgs& a) {
                               {"codec", s.codec},
                               {"width", s.width},
                               {"height", s.height}});
+    add_check_json(check, j);
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
@@ -188,6 +237,7 @@ int run_info(const InfoArgs& a) {
   std::printf("  depth intrinsics: %s\n", intrinsics_line(info.depth_intrinsics).c_str());
   if (info.color_intrinsics.width)
     std::printf("  color intrinsics: %s\n", intrinsics_line(info.color_intrinsics).c_str());
+  print_check(check);
   return 0;
 }
 

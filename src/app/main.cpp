@@ -1,4 +1,5 @@
 // volcast: live RGB-D streaming for VR telepresence. One executable, one subcommand per task.
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -39,6 +40,9 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, [](int) { g_interrupted = true; });
   std::signal(SIGTERM, [](int) { g_interrupted = true; });
   std::signal(SIGPIPE, SIG_IGN);
+  // Logs go to stderr: stdout carries results (info's text and --json, the viewer's table).
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>(
+      "", std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
   register_video_codecs();  // h264 and hevc join the codec table before anything looks one up
 
   CLI::App app{"volcast: stream RGB-D cameras to remote viewers as live point clouds"};
@@ -77,6 +81,10 @@ int main(int argc, char** argv) {
                 "Key frames made on request (joins, skips) at most this often per tier (ms)")
       ->capture_default_str();
   s->add_option("--seconds", serve.seconds, "Stop after this many seconds (default: until Ctrl-C)");
+  s->add_option("--max-read-failures", serve.max_read_failures,
+                "A camera whose frames fail to read this many times in a row is marked failed "
+                "(it repeats its last good frame; the others go on)")
+      ->capture_default_str();
   s->add_option("--config", serve.config,
                 "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
   add_filter_flags(s, serve.filters, true);
@@ -214,7 +222,10 @@ int main(int argc, char** argv) {
   bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
 
   InfoArgs info;
-  auto* i = app.add_subcommand("info", "Describe a recording: streams, frames, derived intrinsics");
+  auto* i = app.add_subcommand(
+      "info",
+      "Describe a recording: streams, frames, derived intrinsics; reads every frame and lists "
+      "those that cannot be read (exit code 0 whenever the source opens)");
   i->add_option("file", info.file, "Azure Kinect .mkv or image-sequence folder")->required();
   i->add_flag("--json", info.json, "Print JSON");
 

@@ -1,4 +1,5 @@
 #include <arpa/inet.h>
+#include <fmt/format.h>
 #include <ifaddrs.h>
 #include <spdlog/spdlog.h>
 
@@ -154,14 +155,22 @@ int run_serve(const ServeArgs& a) {
   std::vector<std::string> names;
   load_site(a, sources, filters, names);
   if (sources.empty()) throw Error("serve: give at least one --source or a --config with cameras");
-  SitePlayer site(std::move(sources), a.fps, filters);
+  std::vector<std::string> color_notes;  // per camera: ", no color" etc.
+  for (const auto& src : sources) {
+    const int color = src->color_frame_count(), frames = src->frame_count();
+    color_notes.push_back(color == 0 ? ", NO COLOR (depth only)"
+                          : color < frames
+                              ? fmt::format(", no color in {} of {} frames", frames - color, frames)
+                              : "");
+  }
+  SitePlayer site(std::move(sources), a.fps, filters, SiteOptions{a.max_read_failures});
   auto cameras = site.cameras();
   for (size_t i = 0; i < cameras.size(); ++i) {
     const auto& k = cameras[i].calibration.depth;
-    spdlog::info("camera {}: {} (sent as {}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}{}{})", i,
+    spdlog::info("camera {}: {} (sent as {}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}{}{}{})", i,
                  cameras[i].description, k.width, k.height, k.fx, k.fy, k.cx, k.cy,
                  k.is_pinhole() ? ", pinhole" : ", Brown-Conrady",
-                 filters[i].any() ? ", filtered" : "");
+                 filters[i].any() ? ", filtered" : "", color_notes[i]);
   }
   std::vector<protocol::CameraInfo> for_viewers = cameras;  // names, never file paths
   for (size_t i = 0; i < cameras.size(); ++i) for_viewers[i].description = names[i];
@@ -198,8 +207,13 @@ int run_serve(const ServeArgs& a) {
       last_report = now;
       int connected = 0;
       for (const auto& v : server.viewers()) connected += v.connected;
-      spdlog::info("{} frame sets published, {} viewer(s) connected", site.frame_sets_published(),
-                   connected);
+      std::string failed;  // cameras that cannot be read now
+      const auto status = site.camera_status();
+      for (size_t i = 0; i < status.size(); ++i)
+        if (status[i].failed) failed += fmt::format("{}{}", failed.empty() ? "" : ", ", i);
+      spdlog::info("{} frame sets published, {} viewer(s) connected{}", site.frame_sets_published(),
+                   connected,
+                   failed.empty() ? "" : "; FAILED camera(s) " + failed + " (last good frame)");
     }
   }
   site.stop();

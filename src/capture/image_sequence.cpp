@@ -8,6 +8,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <sstream>
 
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
@@ -32,14 +33,19 @@ std::vector<fs::path> list_files(const fs::path& dir, std::initializer_list<cons
   return out;
 }
 
+std::string size_text(int w, int h) {
+  return std::to_string(w) + "x" + std::to_string(h);
+}
+
 ColorImage read_color(const fs::path& path) {
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
   if (ext == ".png") return read_color_png(path);
   std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open '" + path.string() + "'");
   std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
                              std::istreambuf_iterator<char>());
-  if (!in.good() && !in.eof()) throw Error("cannot read '" + path.string() + "'");
+  if (in.bad()) throw Error("cannot read '" + path.string() + "'");
   ColorImage out;
   try {
     decode_jpeg(bytes, out);
@@ -47,6 +53,33 @@ ColorImage read_color(const fs::path& path) {
     throw Error("'" + path.string() + "': " + e.what());
   }
   return out;
+}
+
+// The frame rates a source may play at, frames per second.
+constexpr double kMaxFps = 1000;
+
+std::string number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// Throws Error naming `where` unless fps is finite and in (0, kMaxFps].
+void check_fps(double fps, const std::string& where) {
+  if (!(std::isfinite(fps) && fps > 0 && fps <= kMaxFps))
+    throw Error(where + ": fps must be a number in (0, " + number(kMaxFps) + "], got " +
+                number(fps));
+}
+
+// Throws Error naming `where` and the field unless every value is finite and fx, fy are > 0.
+void check_intrinsics(const Intrinsics& k, const std::string& where) {
+  const std::pair<const char*, double> fields[] = {
+      {"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"k1", k.k1}, {"k2", k.k2},
+      {"k3", k.k3}, {"k4", k.k4}, {"k5", k.k5}, {"k6", k.k6}, {"p1", k.p1}, {"p2", k.p2}};
+  for (const auto& [name, v] : fields)
+    if (!std::isfinite(v)) throw Error(where + ": " + name + " must be finite, got " + number(v));
+  if (!(k.fx > 0 && k.fy > 0))
+    throw Error(where + ": fx and fy must be > 0, got " + number(k.fx) + " and " + number(k.fy));
 }
 
 struct SequenceConfig {
@@ -59,21 +92,37 @@ SequenceConfig read_config(const fs::path& file) {
   SequenceConfig cfg;
   if (!fs::exists(file)) return cfg;
   std::ifstream in(file);
-  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded() || !j.is_object())
-    throw Error("'" + file.string() + "' is not a JSON object");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {  // e.g. 1e999: JSON has no infinity
+    throw Error("'" + file.string() + "' is not valid JSON: " + e.what());
+  }
+  if (!j.is_object()) throw Error("'" + file.string() + "' is not a JSON object");
+  const std::string where = "'" + file.string() + "'";
+  // A numeric field: `fallback` if absent (nullopt: required); Error naming it if not a number.
+  auto field = [&](const char* name, std::optional<double> fallback) {
+    if (!j.contains(name)) {
+      if (fallback) return *fallback;
+      throw Error(where + ": missing field \"" + name + "\"");
+    }
+    if (!j[name].is_number())
+      throw Error(where + ": " + name + " must be a number, got " + j[name].dump());
+    return j[name].get<double>();
+  };
   try {
     Intrinsics k;
-    k.fx = j.at("fx").get<double>();
-    k.fy = j.at("fy").get<double>();
-    k.cx = j.at("cx").get<double>();
-    k.cy = j.at("cy").get<double>();
-    k.k1 = j.value("k1", 0.0), k.k2 = j.value("k2", 0.0), k.k3 = j.value("k3", 0.0);
-    k.k4 = j.value("k4", 0.0), k.k5 = j.value("k5", 0.0), k.k6 = j.value("k6", 0.0);
-    k.p1 = j.value("p1", 0.0), k.p2 = j.value("p2", 0.0);
-    if (!(k.fx > 0 && k.fy > 0)) throw Error("'" + file.string() + "': fx and fy must be > 0");
+    k.fx = field("fx", std::nullopt), k.fy = field("fy", std::nullopt);
+    k.cx = field("cx", std::nullopt), k.cy = field("cy", std::nullopt);
+    k.k1 = field("k1", 0.0), k.k2 = field("k2", 0.0), k.k3 = field("k3", 0.0);
+    k.k4 = field("k4", 0.0), k.k5 = field("k5", 0.0), k.k6 = field("k6", 0.0);
+    k.p1 = field("p1", 0.0), k.p2 = field("p2", 0.0);
+    check_intrinsics(k, where);
     cfg.intrinsics = k;
-    if (j.contains("fps")) cfg.fps = j.at("fps").get<double>();
+    if (j.contains("fps")) {
+      cfg.fps = field("fps", std::nullopt);
+      check_fps(*cfg.fps, where);
+    }
     if (j.contains("world_from_camera")) {
       const auto& w = j.at("world_from_camera");
       RigidTransform t;
@@ -84,6 +133,8 @@ SequenceConfig read_config(const fs::path& file) {
                     "': world_from_camera needs 9 rotation and 3 translation values");
       for (int i = 0; i < 9; ++i) t.rotation(i / 3, i % 3) = r[static_cast<size_t>(i)];
       for (int i = 0; i < 3; ++i) t.translation[i] = tr[static_cast<size_t>(i)];
+      if (!t.rotation.allFinite() || !t.translation.allFinite())
+        throw Error("'" + file.string() + "': world_from_camera must be finite");
       cfg.world_from_camera = t;
     }
   } catch (const nlohmann::json::exception& e) {
@@ -106,14 +157,16 @@ class ImageSequenceSource final : public FrameSource {
     for (const auto& d : depth_files_) {
       auto it = colors.find(d.stem().string());
       color_files_.push_back(it == colors.end() ? fs::path() : it->second);
+      color_frames_ += it != colors.end();
     }
-    const DepthImage first = read_depth_png(depth_files_.front());
+    const DepthImage first = first_readable_depth();
     const SequenceConfig cfg = read_config(dir / "intrinsics.json");
     Intrinsics k;
     if (cfg.intrinsics) {
       k = *cfg.intrinsics;
     } else if (options.intrinsics) {
       k = *options.intrinsics;
+      check_intrinsics(k, "image sequence '" + dir.string() + "': --intrinsics");
     } else {
       const double f = first.width / 2.0 / std::tan(35.0 * std::numbers::pi / 180.0);
       k.fx = k.fy = f;
@@ -130,37 +183,60 @@ class ImageSequenceSource final : public FrameSource {
     calibration_.depth = k;
     calibration_.world_from_camera = options.world_from_camera.value_or(
         cfg.world_from_camera.value_or(RigidTransform::identity()));
+    if (options.fps) check_fps(*options.fps, "image sequence '" + dir.string() + "'");
     fps_ = options.fps.value_or(cfg.fps.value_or(30.0));
   }
 
   const CameraCalibration& calibration() const override { return calibration_; }
   double fps() const override { return fps_; }
   int frame_count() const override { return static_cast<int>(depth_files_.size()); }
+  int color_frame_count() const override { return color_frames_; }
   std::string description() const override { return "image sequence " + dir_.string(); }
 
+  // The index moves on before reading: a frame that cannot be read is skipped, never retried.
   CameraFrame next() override {
-    const size_t i = index_ % depth_files_.size();
+    const uint64_t n = index_++;
+    const size_t i = n % depth_files_.size();
     CameraFrame f;
     f.depth = read_depth_png(depth_files_[i]);
     const Intrinsics& k = calibration_.depth;
     if (f.depth.width != k.width || f.depth.height != k.height)
-      throw Error("'" + depth_files_[i].string() + "' differs in size from the first depth frame");
+      throw Error("'" + depth_files_[i].string() + "' is " +
+                  size_text(f.depth.width, f.depth.height) + ", the sequence's depth frames are " +
+                  size_text(k.width, k.height));
     if (!color_files_[i].empty()) {
       f.color = read_color(color_files_[i]);
       if (f.color.width != k.width || f.color.height != k.height)
-        throw Error("'" + color_files_[i].string() + "' is not registered to depth (size differs)");
+        throw Error("'" + color_files_[i].string() + "' is " +
+                    size_text(f.color.width, f.color.height) +
+                    ", not registered to its depth frame (" + size_text(k.width, k.height) + ")");
     }
-    f.device_timestamp_us = static_cast<int64_t>(static_cast<double>(index_) * 1e6 / fps_);
-    ++index_;
+    f.device_timestamp_us = static_cast<int64_t>(static_cast<double>(n) * 1e6 / fps_);
     return f;
   }
 
  private:
+  // The first depth frame that reads (it sets the sequence's size); unreadable ones before it are
+  // left to next() to skip. Throws Error with the first file's error if none reads.
+  DepthImage first_readable_depth() const {
+    std::string first_error;
+    for (const auto& file : depth_files_) {
+      try {
+        return read_depth_png(file);
+      } catch (const Error& e) {
+        if (first_error.empty()) first_error = e.what();
+      }
+    }
+    throw Error("image sequence '" + dir_.string() + "': no depth frame can be read (" +
+                first_error + ")");
+  }
+
   fs::path dir_;
   std::vector<fs::path> depth_files_, color_files_;
   CameraCalibration calibration_;
   double fps_ = 30;
   uint64_t index_ = 0;
+  int color_frames_ = 0;  // depth frames with a color file
 };
 
 }  // namespace

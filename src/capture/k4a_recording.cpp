@@ -217,12 +217,16 @@ class K4aRecordingSource final : public FrameSource {
         registration_.emplace(calibration_.depth, color_intrinsics_, cal.color.camera_from_depth);
       }
     }
+    if (options.fps && !(std::isfinite(*options.fps) && *options.fps > 0 && *options.fps <= 1000))
+      throw Error("recording '" + dm.path + "': fps must be a number in (0, 1000], got " +
+                  std::to_string(*options.fps));
     fps_ = options.fps.value_or(recorded_fps(dm));
-    // Count the frames of one pass and check that the first capture decodes.
+    // Count the frames of one pass (and those with color) and check that the first decodes.
     CaptureReader counter(path);
     while (auto cap = counter.next()) {
       if (frame_count_ == 0) decode(*cap, first_);
       ++frame_count_;
+      color_frame_count_ += registration_ && !cap->color_bytes().empty();
     }
     if (frame_count_ == 0) throw Error("recording '" + dm.path + "' holds no depth frames");
   }
@@ -230,6 +234,7 @@ class K4aRecordingSource final : public FrameSource {
   const CameraCalibration& calibration() const override { return calibration_; }
   double fps() const override { return fps_; }
   int frame_count() const override { return frame_count_; }
+  int color_frame_count() const override { return color_frame_count_; }
   std::string description() const override { return "Azure Kinect recording " + path_.string(); }
 
   CameraFrame next() override {
@@ -266,10 +271,17 @@ class K4aRecordingSource final : public FrameSource {
     for (size_t i = 0; i < n; ++i)  // b16g: big-endian
       out.depth.pixels[i] = static_cast<uint16_t>((depth[2 * i] << 8) | depth[2 * i + 1]);
     out.device_timestamp_us = cap.timestamp_us;
-    out.color = ColorImage(k.width, k.height);  // alpha 0 = no color, until registered
-    if (!registration_ || color.empty()) return;
+    if (!registration_ || color.empty()) {  // no color track we read, or none at this moment
+      out.color = ColorImage();
+      return;
+    }
     if (color_is_jpeg_) {
-      decode_jpeg(color, color_scratch_);
+      try {
+        decode_jpeg(color, color_scratch_);
+      } catch (const Error& e) {
+        throw Error("recording '" + path_.string() + "': color frame at " +
+                    std::to_string(cap.timestamp_us) + " us: " + e.what());
+      }
     } else {
       const size_t bytes =
           static_cast<size_t>(color_intrinsics_.width) * color_intrinsics_.height * 4;
@@ -281,7 +293,7 @@ class K4aRecordingSource final : public FrameSource {
     if (color_scratch_.width != color_intrinsics_.width ||
         color_scratch_.height != color_intrinsics_.height)
       throw Error("recording '" + path_.string() + "': color frame size differs from its track");
-    registration_->apply(out.depth, color_scratch_, out.color);
+    registration_->apply(out.depth, color_scratch_, out.color);  // sizes out.color
   }
 
   std::filesystem::path path_;
@@ -291,7 +303,7 @@ class K4aRecordingSource final : public FrameSource {
   std::optional<ColorToDepthRegistration> registration_;
   bool color_is_jpeg_ = false, color_is_bgra_ = false;
   double fps_ = 30;
-  int frame_count_ = 0;
+  int frame_count_ = 0, color_frame_count_ = 0;
   int64_t loops_ = 0, loop_offset_us_ = 0, last_timestamp_us_ = 0;
   CameraFrame first_;
   ColorImage color_scratch_;
@@ -334,13 +346,9 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
     info.color_mode = tag(dm.stream(dm.color)->metadata, "K4A_COLOR_MODE");
     info.color_intrinsics = k4a_color_mode_intrinsics(cal.color, c->width, c->height);
   }
-  while (auto cap = reader.next()) {
+  while (auto cap = reader.next()) {  // a frame of the wrong size counts: check_frames names it
     ++info.depth_frames;
     if (!cap->color_bytes().empty()) ++info.color_frames;
-    if (cap->depth_bytes().size() !=
-        static_cast<size_t>(info.depth_intrinsics.width) * info.depth_intrinsics.height * 2)
-      throw Error("recording '" + path.string() + "': depth frame " +
-                  std::to_string(info.depth_frames) + " is truncated");
   }
   if (info.depth_frames == 0)
     throw Error("recording '" + path.string() + "' holds no depth frames");

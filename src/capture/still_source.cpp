@@ -16,6 +16,7 @@ class StillSource final : public FrameSource {
   const CameraCalibration& calibration() const override { return calibration_; }
   double fps() const override { return fps_; }
   int frame_count() const override { return 1; }
+  int color_frame_count() const override { return frame_.color.empty() ? 0 : 1; }
   CameraFrame next() override {
     CameraFrame f = frame_;
     f.device_timestamp_us = static_cast<int64_t>(static_cast<double>(count_++) * 1e6 / fps_);

@@ -36,26 +36,61 @@ struct RawPng {
   std::vector<uint8_t> data;
 };
 
+// libpng's read structures, freed however read_png leaves (return, throw, or longjmp then throw).
+struct PngReadGuard {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngReadGuard() {
+    if (png) png_destroy_read_struct(&png, info ? &info : nullptr, nullptr);
+  }
+};
+
+// What read_png fills in. On the heap, and reached through a pointer set before setjmp: objects
+// changed between setjmp and a longjmp back must not be automatic variables of that frame.
+struct PngReadState {
+  RawPng out;
+  std::vector<png_bytep> rows;
+  std::string error;
+};
+
 // Reads any PNG; for 16-bit data the samples are converted to host byte order. `want16` asks to
 // keep 16 bits (depth); otherwise 16-bit color is stripped to 8 bits and palettes are expanded.
+// The size in the header is checked against kMaxImageSide before any pixel memory is allocated.
 RawPng read_png(const std::filesystem::path& path, bool want16) {
   File f = open_file(path, "rb");
   uint8_t sig[8];
-  if (std::fread(sig, 1, 8, f.get()) != 8 || png_sig_cmp(sig, 0, 8) != 0)
+  const size_t got = std::fread(sig, 1, 8, f.get());
+  if (got != 8 && got > 0 && png_sig_cmp(sig, 0, got) == 0)
+    throw Error("truncated PNG '" + path.string() + "': the file ends inside the signature");
+  if (got != 8 || png_sig_cmp(sig, 0, 8) != 0)
     throw Error("'" + path.string() + "' is not a PNG file");
-  std::string err;
-  png_structp png =
-      png_create_read_struct(PNG_LIBPNG_VER_STRING, &err, png_error_fn, png_warning_fn);
-  png_infop info = png_create_info_struct(png);
-  RawPng out;
-  std::vector<png_bytep> rows;
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_read_struct(&png, &info, nullptr);
-    throw Error("corrupt PNG '" + path.string() + "': " + err);
+  const auto state = std::make_unique<PngReadState>();
+  PngReadGuard g;
+  g.png =
+      png_create_read_struct(PNG_LIBPNG_VER_STRING, &state->error, png_error_fn, png_warning_fn);
+  if (!g.png) throw Error("cannot read '" + path.string() + "': out of memory");
+  g.info = png_create_info_struct(g.png);
+  if (!g.info) throw Error("cannot read '" + path.string() + "': out of memory");
+  if (setjmp(png_jmpbuf(g.png))) {
+    if (std::feof(f.get()))
+      throw Error("truncated PNG '" + path.string() + "': the file ends early (" + state->error +
+                  ")");
+    throw Error("corrupt PNG '" + path.string() + "': " + state->error);
   }
+  png_structp png = g.png;
+  png_infop info = g.info;
+  // libpng's own limit would refuse a huge header without saying the size; ours below does.
+  png_set_user_limits(png, 0x7fffffff, 0x7fffffff);
   png_init_io(png, f.get());
   png_set_sig_bytes(png, 8);
   png_read_info(png, info);
+  const png_uint_32 header_w = png_get_image_width(png, info);
+  const png_uint_32 header_h = png_get_image_height(png, info);
+  if (header_w > static_cast<png_uint_32>(kMaxImageSide) ||
+      header_h > static_cast<png_uint_32>(kMaxImageSide))
+    throw Error("PNG '" + path.string() + "' claims " + std::to_string(header_w) + "x" +
+                std::to_string(header_h) + " pixels, more than the " +
+                std::to_string(kMaxImageSide) + " per side accepted");
   const int color_type = png_get_color_type(png, info);
   int bit_depth = png_get_bit_depth(png, info);
   if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
@@ -68,18 +103,19 @@ RawPng read_png(const std::filesystem::path& path, bool want16) {
     }
   }
   png_read_update_info(png, info);
+  RawPng& out = state->out;
   out.width = static_cast<int>(png_get_image_width(png, info));
   out.height = static_cast<int>(png_get_image_height(png, info));
   out.channels = png_get_channels(png, info);
   out.bit_depth = png_get_bit_depth(png, info);
   const size_t row_bytes = png_get_rowbytes(png, info);
   out.data.resize(row_bytes * static_cast<size_t>(out.height));
-  rows.resize(static_cast<size_t>(out.height));
-  for (int y = 0; y < out.height; ++y) rows[static_cast<size_t>(y)] = &out.data[row_bytes * y];
-  png_read_image(png, rows.data());
+  state->rows.resize(static_cast<size_t>(out.height));
+  for (int y = 0; y < out.height; ++y)
+    state->rows[static_cast<size_t>(y)] = &out.data[row_bytes * static_cast<size_t>(y)];
+  png_read_image(png, state->rows.data());
   png_read_end(png, nullptr);
-  png_destroy_read_struct(&png, &info, nullptr);
-  return out;
+  return std::move(state->out);
 }
 
 void write_png(const std::filesystem::path& path, int width, int height, int color_type,

@@ -34,13 +34,14 @@ void decode_jpeg(std::span<const uint8_t> jpeg, ColorImage& out) {
   int w = 0, h = 0, subsamp = 0, colorspace = 0;
   if (jpeg.empty() || tjDecompressHeader3(tj, jpeg.data(), static_cast<unsigned long>(jpeg.size()),
                                           &w, &h, &subsamp, &colorspace) != 0)
-    throw Error(std::string("corrupt JPEG: ") + tjGetErrorStr2(tj));
-  if (w <= 0 || h <= 0 || w > 16384 || h > 16384)
-    throw Error("corrupt JPEG: implausible size " + std::to_string(w) + "x" + std::to_string(h));
+    throw Error(std::string("corrupt JPEG: ") + (jpeg.empty() ? "no data" : tjGetErrorStr2(tj)));
+  if (w <= 0 || h <= 0 || w > kMaxImageSide || h > kMaxImageSide)
+    throw Error("JPEG claims " + std::to_string(w) + "x" + std::to_string(h) +
+                " pixels, more than the " + std::to_string(kMaxImageSide) + " per side accepted");
   if (out.width != w || out.height != h) out = ColorImage(w, h);
+  // Warnings too ("Premature end of JPEG file": truncated data decodes as a grey tail otherwise).
   if (tjDecompress2(tj, jpeg.data(), static_cast<unsigned long>(jpeg.size()), out.bgra.data(), w, 0,
-                    h, TJPF_BGRA, TJFLAG_FASTDCT) != 0 &&
-      tjGetErrorCode(tj) == TJERR_FATAL)
+                    h, TJPF_BGRA, TJFLAG_FASTDCT | TJFLAG_STOPONWARNING) != 0)
     throw Error(std::string("corrupt JPEG: ") + tjGetErrorStr2(tj));
 }
 

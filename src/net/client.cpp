@@ -319,6 +319,8 @@ bool Client::receive(ReceivedFrameSet& out) {
           CameraFrame& f = out.frames.cameras[i];
           if (t < n)
             m.depth[i]->decode(m.view.cameras[i].depth, f.depth);
+          else if (m.view.cameras[i].color.empty())
+            f.color = ColorImage();  // zero-length color: none for this frame (protocol.hpp)
           else
             m.color[i]->decode(m.view.cameras[i].color, f.color);
         });

@@ -14,6 +14,7 @@ TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
   }
   encoded_.resize(cameras);
   key_flags_.resize(2 * cameras);
+  color_gap_.resize(cameras);
   last_.resize(cameras);
   const DepthCodecInfo* d = find_depth_codec(key_.depth_codec);
   const ColorCodecInfo* c = find_color_codec(key_.color_codec);
@@ -32,8 +33,19 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   pool.parallel_for(tasks_.size(), [&](size_t k) {
     const size_t t = tasks_[k], i = t % n;
     const CameraFrame& f = *frames.cameras[i];
-    key_flags_[t] = t < n ? depth_[i]->encode(f.depth, key, encoded_[i].depth)
-                          : color_[i]->encode(f.color, key, encoded_[i].color);
+    if (t < n) {
+      key_flags_[t] = depth_[i]->encode(f.depth, key, encoded_[i].depth);
+    } else if (f.color.empty()) {
+      // No color: zero bytes (protocol.hpp), which decode on their own. The encoder is not
+      // called, so a temporal one keeps its reference; its next frame is a key frame all the
+      // same, for viewers that started on a frame set without this camera's color.
+      encoded_[i].color.clear();
+      key_flags_[t] = 1;
+      color_gap_[i] = 1;
+    } else {
+      key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
+      color_gap_[i] = 0;
+    }
   });
   for (size_t i = 0; i < n; ++i) last_[i] = frames.cameras[i];
   bool all_key = true;

@@ -35,9 +35,11 @@ class TierEncoder {
   TierEncoder(TierKey key, size_t cameras);
   const TierKey& key() const { return key_; }
   /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
-  /// `pool`, into a recycled buffer. A camera whose frame is the one it encoded last time (a
-  /// camera slower than the site repeats its frame) keeps its bytes when both codecs are
-  /// non-temporal (the same frame encodes to the same bytes). Not thread-safe: one caller at a
+  /// `pool`, into a recycled buffer. A camera with an empty color image gets a zero-length color
+  /// stream (no color, see protocol.hpp) without calling its color encoder, and its next
+  /// non-empty color frame is forced to a key frame. A camera whose frame is the one it encoded
+  /// last time (a camera slower than the site repeats its frame) keeps its bytes when both codecs
+  /// are non-temporal (the same frame encodes to the same bytes). Not thread-safe: one caller at a
   /// time.
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
                                               WorkerPool& pool);
@@ -48,6 +50,7 @@ class TierEncoder {
   std::vector<std::unique_ptr<ColorEncoder>> color_;
   std::vector<protocol::EncodedCamera> encoded_;
   std::vector<char> key_flags_;  // per task: emitted a key frame
+  std::vector<char> color_gap_;  // per camera: its last frame had no color (next color is a key)
   std::vector<size_t> tasks_;    // the tasks of this call (tasks 0..n-1 depth, n..2n-1 color)
   // The frame each camera encoded last, held so its address cannot be reused by a new frame.
   std::vector<std::shared_ptr<const CameraFrame>> last_;

@@ -10,18 +10,29 @@
 
 namespace volcast {
 
+namespace {
+
+// Distinct read errors remembered per camera (so that each is logged once); past this many, new
+// ones are no longer logged one by one.
+constexpr size_t kMaxRememberedErrors = 1024;
+
+}  // namespace
+
 SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps,
-                       const std::vector<FilterConfig>& filters)
-    : sources_(std::move(sources)), fps_(fps) {
+                       const std::vector<FilterConfig>& filters, SiteOptions options)
+    : sources_(std::move(sources)), options_(options), fps_(fps) {
   if (sources_.empty()) throw Error("a site needs at least one --source");
   if (fps_ == 0)
     for (const auto& s : sources_) fps_ = std::max(fps_, s->fps());
   if (!(fps_ > 0 && fps_ <= 1000)) throw Error("--fps must be in (0, 1000]");
+  if (options_.max_read_failures < 1) throw Error("--max-read-failures must be at least 1");
   if (!filters.empty() && filters.size() != sources_.size())
     throw Error("one filter configuration per camera is needed");
   chains_.resize(sources_.size());
   for (size_t i = 0; i < filters.size(); ++i)
     if (filters[i].any()) chains_[i].emplace(sources_[i]->calibration().depth, filters[i]);
+  status_.resize(sources_.size());
+  warned_.resize(sources_.size());
 }
 
 SitePlayer::~SitePlayer() {
@@ -39,8 +50,19 @@ std::vector<protocol::CameraInfo> SitePlayer::cameras() const {
 }
 
 void SitePlayer::start(Server& server) {
+  start([&server](std::shared_ptr<const CapturedFrameSet> frames) {
+    server.publish(std::move(frames));
+  });
+}
+
+void SitePlayer::start(Publish publish) {
   stop_ = false;
-  thread_ = std::thread([this, &server] { run(server); });
+  thread_ = std::thread([this, publish = std::move(publish)] { run(publish); });
+}
+
+std::vector<CameraStatus> SitePlayer::camera_status() const {
+  std::lock_guard lock(status_mutex_);
+  return status_;
 }
 
 void SitePlayer::stop() {
@@ -56,7 +78,41 @@ std::shared_ptr<CameraFrame> SitePlayer::spare_frame(size_t i) {
   return b;
 }
 
-void SitePlayer::run(Server& server) {
+void SitePlayer::read_succeeded(size_t i) {
+  std::lock_guard lock(status_mutex_);
+  CameraStatus& st = status_[i];
+  ++st.frames_read;
+  st.consecutive_failures = 0;
+  if (st.failed) {
+    st.failed = false;
+    spdlog::info("camera {} ({}): recovered, frames read again", i, sources_[i]->description());
+  }
+}
+
+void SitePlayer::read_failed(size_t i, const std::string& error) {
+  auto& warned = warned_[i];
+  if (warned.size() < kMaxRememberedErrors) {
+    if (warned.insert(error).second) {
+      spdlog::warn("camera {}: skipping a frame that cannot be read: {}", i, error);
+      if (warned.size() == kMaxRememberedErrors)
+        spdlog::warn("camera {}: {} distinct read errors; further ones are not logged", i,
+                     kMaxRememberedErrors);
+    }
+  }
+  std::lock_guard lock(status_mutex_);
+  CameraStatus& st = status_[i];
+  ++st.read_failures;
+  st.last_error = error;
+  if (++st.consecutive_failures >= options_.max_read_failures && !st.failed) {
+    st.failed = true;
+    spdlog::error(
+        "camera {} ({}): FAILED: {} frames in a row could not be read; it keeps sending its last "
+        "good frame and recovers when a frame reads again",
+        i, sources_[i]->description(), st.consecutive_failures);
+  }
+}
+
+void SitePlayer::run(const Publish& publish) {
   using clock = std::chrono::steady_clock;
   const auto period =
       std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps_));
@@ -65,26 +121,32 @@ void SitePlayer::run(Server& server) {
   std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
   last_frames_.assign(sources_.size(), nullptr);
   buffers_.resize(sources_.size());
+  const std::vector<protocol::CameraInfo> infos = cameras();
+  std::vector<std::pair<size_t, CameraFrame>> read;
   uint64_t sequence = 0;
-  int failures = 0;
   while (!stop_) {
     std::this_thread::sleep_until(next);
     next += period;
     if (clock::now() > next) next = clock::now() + period;  // overran: skip ticks, never queue
     auto frames = std::make_shared<CapturedFrameSet>();
-    try {
-      const auto now = clock::now();
-      // Read every source that is due first (capture), then filter (the stage after capture).
-      std::vector<std::pair<size_t, CameraFrame>> read;
-      for (size_t i = 0; i < sources_.size(); ++i) {
-        if (now < due[i] && last_frames_[i]) continue;  // not its time yet: repeat its last frame
-        due[i] += std::chrono::duration_cast<clock::duration>(
-            std::chrono::duration<double>(1.0 / sources_[i]->fps()));
-        if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
+    const auto now = clock::now();
+    // Read every source that is due first (capture), then filter (the stage after capture). A
+    // camera whose frame fails keeps its last frame; the others go on.
+    read.clear();
+    for (size_t i = 0; i < sources_.size(); ++i) {
+      if (now < due[i] && last_frames_[i]) continue;  // not its time yet: repeat its last frame
+      due[i] += std::chrono::duration_cast<clock::duration>(
+          std::chrono::duration<double>(1.0 / sources_[i]->fps()));
+      if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
+      try {
         read.emplace_back(i, sources_[i]->next());
+      } catch (const std::exception& e) {
+        read_failed(i, e.what());
       }
-      frames->capture_time_us = wall_clock_us();
-      for (auto& [i, frame] : read) {
+    }
+    frames->capture_time_us = wall_clock_us();
+    for (auto& [i, frame] : read) {
+      try {
         if (chains_[i]) {
           std::shared_ptr<CameraFrame> out = spare_frame(i);
           chains_[i]->apply(frame, *out);
@@ -92,20 +154,26 @@ void SitePlayer::run(Server& server) {
         } else {
           last_frames_[i] = std::make_shared<const CameraFrame>(std::move(frame));  // no copy
         }
+        read_succeeded(i);
+      } catch (const std::exception& e) {
+        read_failed(i, e.what());
       }
-      frames->filter_done_us = wall_clock_us();
-      frames->cameras = last_frames_;  // shares the frames, copies pointers
-      failures = 0;
-    } catch (const std::exception& e) {
-      spdlog::error("site: skipping a frame set: {}", e.what());
-      if (++failures >= 30) {
-        spdlog::error("site: 30 frame sets in a row failed to read; stopping playback");
-        return;
-      }
-      continue;
     }
+    for (size_t i = 0; i < sources_.size(); ++i)
+      if (!last_frames_[i]) {  // nothing read yet: an empty frame of the camera's size
+        const Intrinsics& k = infos[i].calibration.depth;
+        auto empty = std::make_shared<CameraFrame>();
+        empty->depth = DepthImage(k.width, k.height);
+        last_frames_[i] = std::move(empty);
+      }
+    frames->filter_done_us = wall_clock_us();
+    frames->cameras = last_frames_;  // shares the frames, copies pointers
     frames->sequence = ++sequence;
-    server.publish(std::move(frames));
+    try {
+      publish(std::move(frames));
+    } catch (const std::exception& e) {
+      spdlog::error("site: frame set {} not published: {}", sequence, e.what());
+    }
     ++published_;
   }
 }

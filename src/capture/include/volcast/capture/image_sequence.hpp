@@ -14,8 +14,15 @@
 namespace volcast {
 
 /// Opens an image-sequence folder. Without intrinsics.json, options.intrinsics is used; without
-/// either, a nominal pinhole of 70 degrees horizontal field of view, with a loud warning.
-/// Throws Error if DIR/depth holds no PNG, or intrinsics.json is malformed.
+/// either, a nominal pinhole of 70 degrees horizontal field of view, with a loud warning. The
+/// first readable depth PNG sets the size every frame must have. A depth frame without a color
+/// file of its stem has an empty color image (no color/ folder at all: depth only).
+/// Throws Error naming the file and field if DIR/depth holds no PNG or none that can be read,
+/// intrinsics.json is malformed, or a value is out of range: fps (there or in options) must be
+/// finite and in (0, 1000]; intrinsics finite with fx, fy > 0; world_from_camera finite.
+/// next() throws Error naming the file for a frame that cannot be read (corrupt, truncated, not
+/// 16-bit, another size, a color file that does not decode or is not registered) and moves on:
+/// the following call reads the following frame.
 std::unique_ptr<FrameSource> open_image_sequence(const std::filesystem::path& dir,
                                                  const SourceOptions& options);
 

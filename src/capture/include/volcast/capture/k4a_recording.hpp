@@ -32,12 +32,18 @@ struct K4aRecordingInfo {
   RigidTransform color_from_depth;
 };
 
-/// Reads a recording's layout and derived intrinsics. Throws Error if the file is missing, is not
-/// Matroska, has no DEPTH track or no calibration attachment, or is truncated mid-packet.
+/// Reads a recording's layout and derived intrinsics, without decoding frames (a depth frame of
+/// the wrong size is counted; check_frames in source.hpp finds it). Throws Error if the file is
+/// missing, is not Matroska, has no DEPTH track or no calibration attachment, or is truncated
+/// mid-packet.
 K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path);
 
 /// A looping FrameSource over a recording: depth as written, color decoded (libjpeg-turbo) and
-/// registered to depth, so each frame is depth WxH plus BGRA WxH of the depth mode.
+/// registered to depth, so each frame is depth WxH plus BGRA WxH of the depth mode -- or empty
+/// color (0 x 0) where the recording has no color track of a supported format (MJPG, BGRA) or a
+/// capture has no color frame. next() throws Error naming the recording and the frame's time for
+/// a depth frame of the wrong size or a color frame that does not decode, and moves on to the
+/// next capture.
 std::unique_ptr<FrameSource> open_k4a_recording(const std::filesystem::path& path,
                                                 const SourceOptions& options);
 

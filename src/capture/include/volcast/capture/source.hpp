@@ -2,9 +2,11 @@
 // Frame sources: one camera each (an Azure Kinect recording, an image-sequence folder). Several
 // sources form one site; the server reads one frame from each per frame set.
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
@@ -22,8 +24,14 @@ class FrameSource {
   virtual double fps() const = 0;
   /// Number of frames in one pass of the recording.
   virtual int frame_count() const = 0;
-  /// Reads the next frame (depth and registered color of calibration().depth's size); after the
-  /// last frame it starts again at the first (playback loops). Throws Error on corrupt data.
+  /// Frames of one pass that carry color, as far as the source knows without decoding them: 0 for
+  /// a depth-only source; less than frame_count() when some frames have none. A frame without
+  /// color has an empty ColorImage (0 x 0) -- sent as a zero-length color stream.
+  virtual int color_frame_count() const = 0;
+  /// Reads the next frame (depth and registered color of calibration().depth's size, or empty
+  /// color); after the last frame it starts again at the first (playback loops). Throws Error
+  /// naming the file (and frame) on corrupt data; the frame is then skipped: the next call reads
+  /// the frame after it.
   virtual CameraFrame next() = 0;
   /// Human-readable description (kind and path) for logs.
   virtual std::string description() const = 0;
@@ -43,5 +51,25 @@ struct SourceOptions {
 /// recording. Throws Error naming the path and what is wrong with it.
 std::unique_ptr<FrameSource> open_source(const std::filesystem::path& path,
                                          const SourceOptions& options = {});
+
+/// One frame that could not be read.
+struct BadFrame {
+  int index = 0;      ///< position in the pass, 0-based
+  std::string error;  ///< the source's Error: names the file (or recording and time) and why
+};
+
+/// What check_frames found in one pass of a source.
+struct FrameCheck {
+  int frames = 0;                ///< frames read (good and bad): frame_count()
+  int frames_without_color = 0;  ///< good frames with an empty color image
+  std::vector<BadFrame> bad;     ///< in order
+};
+
+/// Reads frame_count() frames from `source` (one pass, from where it stands: a freshly opened
+/// source starts at its first frame), decoding each, and lists those that throw. `progress`, if
+/// given, is called after each frame with (frames done, frames in all). Other exceptions than
+/// Error propagate.
+FrameCheck check_frames(FrameSource& source,
+                        const std::function<void(int done, int total)>& progress = {});
 
 }  // namespace volcast

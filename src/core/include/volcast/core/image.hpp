@@ -5,6 +5,10 @@
 
 namespace volcast {
 
+/// The largest width or height the image decoders (PNG, JPEG) accept, pixels: the same as the
+/// depth codecs' limit. A file claiming more is refused before anything is allocated for it.
+inline constexpr int kMaxImageSide = 8192;
+
 /// Depth image: width*height uint16 samples in millimetres; 0 means invalid (no measurement).
 struct DepthImage {
   int width = 0;

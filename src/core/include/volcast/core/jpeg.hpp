@@ -9,7 +9,10 @@
 namespace volcast {
 
 /// Decodes a baseline/progressive JPEG (any subsampling) to BGRA with A = 255. `out` is resized
-/// and reused. Throws Error("corrupt JPEG: ...") on malformed or truncated data.
+/// and reused. Throws Error("corrupt JPEG: ...") on malformed or truncated data -- anything
+/// libjpeg-turbo warns about (e.g. "Premature end of JPEG file") is an error, never a partly grey
+/// image -- and Error("JPEG claims WxH pixels, ...") for a header beyond kMaxImageSide per side,
+/// before allocating. `out` is unspecified after an error.
 void decode_jpeg(std::span<const uint8_t> jpeg, ColorImage& out);
 
 /// Reads the image size from a JPEG's headers (up to its frame header) without decoding it or

@@ -34,7 +34,12 @@
 //                    of the tier: sequence u64 | flags u8 (bit 0: key frame set, every camera's
 //                    depth and color decode on their own) | capture time i64 | filter done i64 |
 //                    encode done i64 | camera count u32 | per camera: device timestamp i64 (us),
-//                    depth bytes (u32 length + codec stream), color bytes (likewise).
+//                    depth bytes (u32 length + codec stream), color bytes (likewise). A color
+//                    stream of length 0 means "no color for this frame" (a depth-only camera, or
+//                    a frame whose color is missing) under every color codec: the viewer does not
+//                    decode it and leaves that camera's color image empty (0 x 0); it decodes on
+//                    its own (counts as key). A temporal color codec's first frame after one is a
+//                    key frame.
 //   2 session        reserved for the shared virtual room (lobby, poses, objects): any type is
 //                    accepted by parse_header; a peer that does not use it skips the payload.
 //

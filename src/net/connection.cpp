@@ -8,10 +8,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <asio.hpp>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <vector>
 
 #include "volcast/core/error.hpp"
 
@@ -238,30 +240,35 @@ std::unique_ptr<Connection> connect_tcp(const std::string& host, uint16_t port, 
   throw Error("cannot connect to " + where + ": " + why);
 }
 
-std::string resolve_bind_address(const std::string& host) {
+namespace {
+
+// The addresses `host` names: itself if it is an IP address, else what the resolver returns
+// (empty if it cannot be resolved).
+std::vector<asio::ip::address> addresses_of(const std::string& host) {
   asio::error_code ec;
   const asio::ip::address literal = asio::ip::make_address(host, ec);
-  if (!ec) return literal.to_string();
+  if (!ec) return {literal};
   asio::io_context io;
   asio::ip::tcp::resolver resolver(io);
-  const auto results = resolver.resolve(host, "", ec);
-  if (ec || results.empty()) throw Error("cannot listen on " + host + ": unknown host name");
-  for (const auto& r : results)
-    if (r.endpoint().address().is_v4()) return r.endpoint().address().to_string();
-  return results.begin()->endpoint().address().to_string();
+  std::vector<asio::ip::address> out;
+  for (const auto& r : resolver.resolve(host, "", ec)) out.push_back(r.endpoint().address());
+  return out;
+}
+
+}  // namespace
+
+std::string resolve_bind_address(const std::string& host) {
+  const auto addresses = addresses_of(host);
+  if (addresses.empty()) throw Error("cannot listen on " + host + ": unknown host name");
+  for (const auto& a : addresses)
+    if (a.is_v4()) return a.to_string();
+  return addresses.front().to_string();
 }
 
 bool is_loopback_address(const std::string& host) {
-  asio::error_code ec;
-  const asio::ip::address literal = asio::ip::make_address(host, ec);
-  if (!ec) return literal.is_loopback();
-  asio::io_context io;
-  asio::ip::tcp::resolver resolver(io);
-  const auto results = resolver.resolve(host, "", ec);
-  if (ec || results.empty()) return false;
-  for (const auto& r : results)
-    if (!r.endpoint().address().is_loopback()) return false;
-  return true;
+  const auto addresses = addresses_of(host);
+  return !addresses.empty() &&
+         std::ranges::all_of(addresses, [](const asio::ip::address& a) { return a.is_loopback(); });
 }
 
 TcpListener::TcpListener(const std::string& bind_address, uint16_t port) {

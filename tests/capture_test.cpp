@@ -15,14 +15,7 @@ namespace volcast {
 namespace {
 namespace fs = std::filesystem;
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 TEST(K4aRecording, DecodesBigEndianDepthInAPlausibleMillimetreRange) {
   auto src = open_source(test::kinect_mkv());

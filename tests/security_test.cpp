@@ -35,14 +35,7 @@ ClientConfig joining(const Server& server) {
   return client_config_from_link(server.join_link("127.0.0.1"));
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::error_of;
 
 // A TCP socket from loopback address `source` (127.0.0.x) to the server, saying nothing.
 asio::ip::tcp::socket idle_socket(asio::io_context& io, const std::string& source, uint16_t port) {

@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include "volcast/capture/source.hpp"
+#include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 
 namespace volcast::test {
@@ -64,6 +65,15 @@ int run_command(const std::string& command, std::string& output) {
   while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) output.append(buf.data(), n);
   const int status = pclose(p);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace volcast::test

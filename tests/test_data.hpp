@@ -1,6 +1,7 @@
 #pragma once
 // Access to the shared real RGB-D recordings (../shared/data) for tests.
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -19,5 +20,7 @@ std::vector<DepthImage> real_depth_frames(const std::string& set);
 std::filesystem::path temp_dir(const std::string& name);
 /// Runs a shell command, returns its exit code; its stdout+stderr are stored in `output`.
 int run_command(const std::string& command, std::string& output);
+/// Runs `f`; returns the message of the volcast::Error it threw, or "" if it threw none.
+std::string error_of(const std::function<void()>& f);
 
 }  // namespace volcast::test

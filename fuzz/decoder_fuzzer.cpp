@@ -6,6 +6,7 @@
 //     well-formed stream without a seed corpus.
 // A decoder may throw volcast::Error; anything else (a crash, a sanitizer report, another
 // exception) is a finding. Run by scripts/fuzz.sh.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -17,6 +18,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
+#include "volcast/net/seal.hpp"
 
 namespace {
 
@@ -100,6 +102,22 @@ void fuzz_protocol(const uint8_t* data, size_t size) {
   attempt([&] {
     protocol::FrameSetView set;
     protocol::parse_frame_set(bytes, set);
+  });
+  attempt([&] {
+    protocol::SealedFrameSet seal;
+    protocol::parse_sealed_frame_set(bytes, seal);
+  });
+  // A sealed frame set: the first byte's length of descriptor, then what follows it outside TLS
+  // (padded or cut to the body length it declares, up to 1 MiB), opened as a viewer does.
+  attempt([&] {
+    if (size < 1) return;
+    const size_t n = std::min<size_t>(size - 1, size_t{data[0]} * 48 + 32);
+    protocol::SealedFrameSet seal;
+    protocol::parse_sealed_frame_set(bytes.subspan(1, n), seal);
+    if (seal.body_bytes > (1u << 20)) return;
+    std::vector<uint8_t> body(bytes.begin() + 1 + static_cast<std::ptrdiff_t>(n), bytes.end());
+    body.resize(seal.body_bytes);
+    open_sealed(seal, body, nullptr);
   });
 }
 

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <fmt/format.h>
+#include <array>
 #include <future>
 #include <map>
+#include <mutex>
 #include <random>
 #include <set>
 #include <thread>
@@ -19,6 +21,7 @@
 #include "volcast/net/client.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/pacing.hpp"
+#include "volcast/net/seal.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
 
@@ -52,9 +55,22 @@ struct RawViewer {
     return h;
   }
   // Reads the next frame set: its sequence and body (the payload after the 8-byte send time).
+  // Over TLS the server seals it (protocol 1.2): the sealed bytes, read from outside TLS as they
+  // came on the wire, are kept in `sealed`, and `payload` is left as a FrameSet's would be.
+  std::vector<uint8_t> sealed;
+  std::array<uint8_t, protocol::kSealKeyBytes> key{};  // the last frame set's key
   std::pair<uint64_t, std::vector<uint8_t>> next_frame_set(bool ack = true) {
     const protocol::Header h = read();
-    if (h.type != protocol::MessageType::kFrameSet) throw Error("expected a frame set");
+    if (h.type != protocol::MessageType::kSealedFrameSet)
+      throw Error("expected a sealed frame set");
+    protocol::SealedFrameSet seal;
+    protocol::parse_sealed_frame_set(payload, seal);
+    key = seal.key;
+    sealed.resize(seal.body_bytes);
+    c->read_raw(sealed, 20000);
+    payload.assign(8, 0);
+    payload.insert(payload.end(), sealed.begin(), sealed.end());
+    open_sealed(seal, std::span(payload).subspan(8), nullptr);
     protocol::FrameSetView view;
     protocol::parse_frame_set(payload, view);
     if (ack)
@@ -73,7 +89,11 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
   // Six viewers on one temporal tier join at random times and leave after a random number of
   // frame sets; each decodes what it gets with its own decoder.
   std::mt19937 rng(7);
-  std::vector<std::future<std::map<uint64_t, std::vector<uint8_t>>>> viewers;
+  // Per viewer: frame set -> (body, its sealed bytes as they came on the wire, its key).
+  using Got = std::map<uint64_t, std::pair<std::vector<uint8_t>, std::vector<uint8_t>>>;
+  std::mutex keys_mutex;
+  std::map<uint64_t, std::set<std::array<uint8_t, protocol::kSealKeyBytes>>> keys;
+  std::vector<std::future<Got>> viewers;
   std::atomic<int> decoded{0};
   for (int i = 0; i < 6; ++i) {
     const int delay_ms = static_cast<int>(rng() % 1200);
@@ -82,7 +102,7 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
       std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
       RawViewer v(site.server, "volcast-t", "jpeg");
       auto decoder = make_depth_decoder("volcast-t");
-      std::map<uint64_t, std::vector<uint8_t>> got;
+      Got got;
       DepthImage depth;
       for (int n = 0; n < frames; ++n) {
         auto [sequence, body] = v.next_frame_set();
@@ -96,19 +116,30 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
         decoder->decode(view.cameras[0].depth, depth);  // throws if its reference is missing
         EXPECT_EQ(depth, test::hands_source_frame(sequence)) << "frame set " << sequence;
         ++decoded;
-        got.emplace(sequence, std::move(body));
+        got.emplace(sequence, std::pair(std::move(body), v.sealed));
+        std::lock_guard lock(keys_mutex);
+        keys[sequence].insert(v.key);
       }
       return got;
     }));
   }
-  std::map<uint64_t, std::vector<std::vector<uint8_t>>> by_sequence;
+  std::map<uint64_t, std::vector<std::pair<std::vector<uint8_t>, std::vector<uint8_t>>>>
+      by_sequence;
   for (auto& f : viewers)
-    for (auto& [sequence, body] : f.get()) by_sequence[sequence].push_back(std::move(body));
+    for (auto& [sequence, got] : f.get()) by_sequence[sequence].push_back(std::move(got));
   size_t shared = 0;
+  std::set<std::array<uint8_t, protocol::kSealKeyBytes>> all_keys;
   for (const auto& [sequence, bodies] : by_sequence) {
-    for (const auto& b : bodies) EXPECT_EQ(b, bodies.front()) << "frame set " << sequence;
+    for (const auto& [body, sealed] : bodies) {
+      EXPECT_EQ(body, bodies.front().first) << "frame set " << sequence;
+      // Sealed once for the tier: the same bytes on every viewer's wire.
+      EXPECT_EQ(sealed, bodies.front().second) << "frame set " << sequence;
+    }
     shared += bodies.size() > 1;
+    EXPECT_EQ(keys[sequence].size(), 1u) << "one key per frame set for the whole tier";
+    all_keys.insert(*keys[sequence].begin());
   }
+  EXPECT_EQ(all_keys.size(), by_sequence.size()) << "a fresh key for every frame set";
   EXPECT_GT(shared, 0u) << "viewers overlapped in time, so some frame sets went to several";
   EXPECT_GE(decoded.load(), 6 * 4);
   // Viewers that left are gone from their tier (once the server has seen each connection close).

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <optional>
 
 #include "volcast/codec/color_codec.hpp"
@@ -16,6 +17,7 @@
 #include "volcast/core/text.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/connection.hpp"
+#include "volcast/net/seal.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/net/trust.hpp"
 
@@ -44,6 +46,8 @@ struct Client::Impl {
   protocol::FrameSetView view;
   std::vector<uint8_t> buffer;  // the last message's payload is its first payload_bytes bytes
   size_t payload_bytes = 0;
+  size_t wire_bytes = 0;          // the last message's bytes on the wire (sealed body included)
+  protocol::SealedFrameSet seal;  // the last SealedFrameSet's descriptor (chunk list reused)
   std::atomic<bool> closed{false};
   uint64_t undecodable = 0;
   // Repeated frames: each camera's last decoded bytes, and the object they were decoded into.
@@ -68,55 +72,112 @@ struct Client::Impl {
   // close()). `handshake`: the Welcome is expected (else a FrameSet), for errors.
   bool read_message(protocol::Header& header, uint32_t max_payload,
                     std::optional<Clock::time_point> deadline, bool handshake) {
-    // Whether a failed read ran out of time; the time left for the next read (-1: no limit; 0
-    // still reads what has arrived).
+    // Whether a failed read ran out of time.
     const auto timed_out = [&](const Error& e) {
       return deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
                           Clock::now() >= *deadline);
     };
-    const auto time_left_ms = [&]() -> int {
-      if (!deadline) return -1;
-      const auto left =
-          std::chrono::ceil<std::chrono::milliseconds>(*deadline - Clock::now()).count();
-      return static_cast<int>(std::clamp<int64_t>(left, 0, INT32_MAX));
-    };
     uint8_t bytes[protocol::kHeaderBytes];
     try {
-      connection->read_exact(bytes, time_left_ms());
+      connection->read_exact(bytes, ms_left(deadline));
     } catch (const Error& e) {
       if (closed || std::string(e.what()) == "peer closed the connection") return false;
       if (timed_out(e)) throw ClientError(Kind::kTimedOut, timeout_message(handshake));
       throw ClientError(Kind::kConnectionLost, std::string("connection lost: ") + e.what());
     }
     try {
-      header = protocol::parse_header(bytes, max_payload);
+      // A SealedFrameSet's payload is its descriptor, whose own limit may exceed a tiny site's.
+      header = protocol::parse_header(
+          bytes,
+          handshake ? max_payload : std::max(max_payload, protocol::kMaxSealedFrameSetBytes));
+      const uint32_t limit = header.type == protocol::MessageType::kSealedFrameSet
+                                 ? protocol::kMaxSealedFrameSetBytes
+                                 : max_payload;
+      if (header.payload_bytes > limit)
+        throw Error("malformed header: payload of " + std::to_string(header.payload_bytes) +
+                    " bytes exceeds the limit of " + std::to_string(limit));
     } catch (const Error& e) {
       throw ClientError(Kind::kProtocol, std::string(handshake ? "handshake" : "FrameSet") +
                                              " from the server: " + e.what());
     }
     // The decode workers wake while the frame set's body arrives, not after it.
-    if (pool && header.type == protocol::MessageType::kFrameSet)
+    if (pool && (header.type == protocol::MessageType::kFrameSet ||
+                 header.type == protocol::MessageType::kSealedFrameSet))
       pool->prewake(std::chrono::milliseconds(1));
     payload_bytes = 0;
-    for (size_t done = 0; done < header.payload_bytes;) {
-      const size_t end = std::min<size_t>(header.payload_bytes, done + kReadChunkBytes);
-      if (buffer.size() < end) buffer.resize(end);  // capacity at least doubles
+    if (!read_bytes(0, header.payload_bytes, false, deadline, handshake)) return false;
+    payload_bytes = header.payload_bytes;
+    wire_bytes = protocol::kHeaderBytes + payload_bytes;
+    return true;
+  }
+
+  // Reads `n` bytes into buffer[at, at + n) -- through the transport, or `raw` (outside TLS) --
+  // growing the buffer only as they arrive (kReadChunkBytes at a time), all before `deadline`;
+  // false after close(). Throws ClientError like read_message.
+  bool read_bytes(size_t at, size_t n, bool raw, std::optional<Clock::time_point> deadline,
+                  bool handshake) {
+    for (size_t done = 0; done < n;) {
+      const size_t end = std::min(n, done + kReadChunkBytes);
+      if (buffer.size() < at + end) buffer.resize(at + end);  // capacity at least doubles
+      const auto chunk = std::span(buffer).subspan(at + done, end - done);
+      const int left_ms = ms_left(deadline);
       try {
-        connection->read_exact(std::span(buffer).subspan(done, end - done), time_left_ms());
+        if (raw)
+          connection->read_raw(chunk, left_ms);
+        else
+          connection->read_exact(chunk, left_ms);
       } catch (const Error& e) {
         if (closed) return false;
-        if (timed_out(e))
+        if (deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
+                         Clock::now() >= *deadline))
           throw ClientError(Kind::kTimedOut, timeout_message(handshake) + " (" +
-                                                 std::to_string(done) + " of " +
-                                                 std::to_string(header.payload_bytes) +
+                                                 std::to_string(done) + " of " + std::to_string(n) +
                                                  " bytes of a message received)");
         throw ClientError(Kind::kConnectionLost,
                           std::string("connection lost in the middle of a message: ") + e.what());
       }
       done = end;
     }
-    payload_bytes = header.payload_bytes;
     return true;
+  }
+
+  // After a SealedFrameSet's descriptor (in `buffer`): reads its sealed body from outside TLS,
+  // checks and opens it, and leaves the frame set's payload (send time + body) in `buffer` as a
+  // FrameSet would. False after close(). Throws ClientError kProtocol on a malformed descriptor,
+  // a body above the site's bound (before reading it) or one that fails its digest or tag.
+  bool read_sealed_body(std::optional<Clock::time_point> deadline) {
+    if (!connection->encrypted())
+      throw ClientError(Kind::kProtocol,
+                        "a sealed frame set arrived over a connection without TLS");
+    try {
+      protocol::parse_sealed_frame_set(payload(), seal);
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, e.what());
+    }
+    if (8 + uint64_t{seal.body_bytes} > frame_set_limit)
+      throw ClientError(Kind::kProtocol, "sealed frame set of " + std::to_string(seal.body_bytes) +
+                                             " bytes exceeds the limit of " +
+                                             std::to_string(frame_set_limit) + " for this site");
+    if (!read_bytes(8, seal.body_bytes, true, deadline, false)) return false;
+    std::memcpy(buffer.data(), &seal.send_us, 8);
+    try {
+      // The workers that open it then poll for the decode job instead of falling asleep.
+      open_sealed(seal, std::span(buffer).subspan(8, seal.body_bytes), pool.get(),
+                  std::chrono::milliseconds(1));
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, e.what());
+    }
+    payload_bytes = 8 + seal.body_bytes;
+    wire_bytes += seal.body_bytes;
+    return true;
+  }
+
+  // The time left until `deadline` for the next read (-1: no limit; 0 still reads what arrived).
+  static int ms_left(std::optional<Clock::time_point> deadline) {
+    if (!deadline) return -1;
+    const auto left =
+        std::chrono::ceil<std::chrono::milliseconds>(*deadline - Clock::now()).count();
+    return static_cast<int>(std::clamp<int64_t>(left, 0, INT32_MAX));
   }
 
   static std::optional<Clock::time_point> deadline_in(int timeout_ms) {
@@ -261,12 +322,14 @@ bool Client::receive(ReceivedFrameSet& out) {
   const auto& cams = m.welcome.cameras;
   while (true) {
     protocol::Header header;
-    if (!m.read_message(header, m.frame_set_limit, Impl::deadline_in(m.config.receive_timeout_ms),
-                        false))
-      return false;
+    const auto deadline = Impl::deadline_in(m.config.receive_timeout_ms);
+    if (!m.read_message(header, m.frame_set_limit, deadline, false)) return false;
     if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
-    if (header.type != protocol::MessageType::kFrameSet)
+    if (header.type == protocol::MessageType::kSealedFrameSet) {
+      if (!m.read_sealed_body(deadline)) return false;
+    } else if (header.type != protocol::MessageType::kFrameSet) {
       throw ClientError(Kind::kProtocol, "expected a FrameSet message");
+    }
     const int64_t received_us = wall_clock_us();
     try {
       protocol::parse_frame_set(m.payload(), m.view);
@@ -289,7 +352,7 @@ bool Client::receive(ReceivedFrameSet& out) {
     out.times.received_us = received_us;
     out.depth_bytes.resize(n);
     out.color_bytes.resize(n);
-    out.message_bytes = protocol::kHeaderBytes + header.payload_bytes;
+    out.message_bytes = m.wire_bytes;
     for (size_t i = 0; i < n; ++i) {
       out.frames.cameras[i].device_timestamp_us = m.view.cameras[i].device_timestamp_us;
       out.depth_bytes[i] = m.view.cameras[i].depth.size();

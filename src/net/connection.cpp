@@ -15,6 +15,7 @@
 #include <cstring>
 #include <vector>
 
+#include "socket_io.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -51,6 +52,72 @@ int remaining_ms(Clock::time_point deadline) {
   return static_cast<int>(std::max<int64_t>(0, left.count()));
 }
 
+}  // namespace
+
+namespace detail {
+
+void recv_exact(int fd, std::span<uint8_t> data, int timeout_ms, const std::atomic<bool>& shut) {
+  const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 0));
+  size_t done = 0;
+  while (done < data.size()) {
+    if (shut) throw Error("connection shut down");
+    const ssize_t n = ::recv(fd, data.data() + done, data.size() - done, 0);
+    if (n > 0) {
+      done += static_cast<size_t>(n);
+      continue;
+    }
+    if (n == 0) throw Error(shut ? "connection shut down" : "peer closed the connection");
+    if (errno == EINTR) continue;
+    if (errno != EAGAIN && errno != EWOULDBLOCK) throw Error("read failed: " + errno_text());
+    if (timeout_ms >= 0 && Clock::now() >= deadline) throw Error("timed out waiting for the peer");
+    // Wake at least every 100 ms to notice shutdown (the socket's shutdown also wakes poll).
+    pollfd p{fd, POLLIN, 0};
+    ::poll(&p, 1, timeout_ms < 0 ? 100 : std::min(remaining_ms(deadline), 100));
+  }
+}
+
+void send_all(int fd, iovec* iov, size_t count, int stall_ms, const std::atomic<bool>& shut) {
+  size_t total = 0;
+  for (size_t i = 0; i < count; ++i) total += iov[i].iov_len;
+  auto last_progress = Clock::now();
+  size_t first = 0;
+  while (total > 0) {
+    if (shut) throw Error("connection shut down");
+    msghdr msg{};
+    msg.msg_iov = iov + first;
+    msg.msg_iovlen = count - first;
+    const ssize_t n = ::sendmsg(fd, &msg, MSG_NOSIGNAL);
+    if (n > 0) {
+      size_t left = static_cast<size_t>(n);
+      total -= left;
+      while (left > 0) {  // advance past what was written
+        if (left >= iov[first].iov_len) {
+          left -= iov[first].iov_len;
+          ++first;
+        } else {
+          iov[first].iov_base = static_cast<uint8_t*>(iov[first].iov_base) + left;
+          iov[first].iov_len -= left;
+          left = 0;
+        }
+      }
+      last_progress = Clock::now();
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
+      throw Error(shut ? "connection shut down" : "write failed: " + errno_text());
+    const auto deadline = last_progress + std::chrono::milliseconds(stall_ms);
+    if (Clock::now() >= deadline)
+      throw Error("peer stalled: accepted no data for " + std::to_string(stall_ms) + " ms");
+    pollfd p{fd, POLLOUT, 0};
+    ::poll(&p, 1, std::min(remaining_ms(deadline), 100));
+  }
+}
+
+}  // namespace detail
+
+namespace {
+
 class TcpConnection final : public Connection {
  public:
   TcpConnection(int fd, std::string peer) : fd_(fd), peer_(std::move(peer)) {
@@ -74,67 +141,29 @@ class TcpConnection final : public Connection {
   ~TcpConnection() override { ::close(fd_); }
 
   void read_exact(std::span<uint8_t> data, int timeout_ms) override {
-    const auto deadline = Clock::now() + std::chrono::milliseconds(std::max(timeout_ms, 0));
-    size_t done = 0;
-    while (done < data.size()) {
-      check_open();
-      const ssize_t n = ::recv(fd_, data.data() + done, data.size() - done, 0);
-      if (n > 0) {
-        done += static_cast<size_t>(n);
-        continue;
-      }
-      if (n == 0) throw Error(shut_ ? "connection shut down" : "peer closed the connection");
-      if (errno == EINTR) continue;
-      if (errno != EAGAIN && errno != EWOULDBLOCK) throw Error("read failed: " + errno_text());
-      if (timeout_ms >= 0 && Clock::now() >= deadline)
-        throw Error("timed out waiting for the peer");
-      poll_fd(POLLIN, timeout_ms < 0 ? -1 : remaining_ms(deadline));
-    }
+    detail::recv_exact(fd_, data, timeout_ms, shut_);
+  }
+  void read_raw(std::span<uint8_t> data, int timeout_ms) override {
+    detail::recv_exact(fd_, data, timeout_ms, shut_);
   }
 
   void write_all(std::span<const std::span<const uint8_t>> parts, int stall_ms) override {
-    constexpr size_t kMaxParts = 16;
-    if (parts.size() > kMaxParts) throw Error("write_all: too many parts");
-    iovec iov[kMaxParts];
-    size_t count = 0, total = 0;
-    for (const auto& p : parts) {
-      if (p.empty()) continue;
-      iov[count++] = {const_cast<uint8_t*>(p.data()), p.size()};
-      total += p.size();
-    }
-    auto last_progress = Clock::now();
-    size_t first = 0;
-    while (total > 0) {
-      check_open();
-      msghdr msg{};
-      msg.msg_iov = iov + first;
-      msg.msg_iovlen = count - first;
-      const ssize_t n = ::sendmsg(fd_, &msg, MSG_NOSIGNAL);
-      if (n > 0) {
-        size_t left = static_cast<size_t>(n);
-        total -= left;
-        while (left > 0) {  // advance past what was written
-          if (left >= iov[first].iov_len) {
-            left -= iov[first].iov_len;
-            ++first;
-          } else {
-            iov[first].iov_base = static_cast<uint8_t*>(iov[first].iov_base) + left;
-            iov[first].iov_len -= left;
-            left = 0;
-          }
-        }
-        last_progress = Clock::now();
-        continue;
-      }
-      if (n < 0 && errno == EINTR) continue;
-      if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK)
-        throw Error(shut_ ? "connection shut down" : "write failed: " + errno_text());
-      const auto deadline = last_progress + std::chrono::milliseconds(stall_ms);
-      if (Clock::now() >= deadline)
-        throw Error("peer stalled: accepted no data for " + std::to_string(stall_ms) + " ms");
-      poll_fd(POLLOUT, remaining_ms(deadline));
-    }
+    write_with_raw(parts, {}, stall_ms);
   }
+
+  void write_with_raw(std::span<const std::span<const uint8_t>> parts, std::span<const uint8_t> raw,
+                      int stall_ms) override {
+    constexpr size_t kMaxParts = 16;
+    if (parts.size() + 1 > kMaxParts) throw Error("write_all: too many parts");
+    iovec iov[kMaxParts];
+    size_t count = 0;
+    for (const auto& p : parts)
+      if (!p.empty()) iov[count++] = {const_cast<uint8_t*>(p.data()), p.size()};
+    if (!raw.empty()) iov[count++] = {const_cast<uint8_t*>(raw.data()), raw.size()};
+    detail::send_all(fd_, iov, count, stall_ms, shut_);
+  }
+
+  bool encrypted() const override { return false; }
 
   Ready wait(int wake_fd, int timeout_ms) override {
     check_open();
@@ -158,11 +187,6 @@ class TcpConnection final : public Connection {
  private:
   void check_open() const {
     if (shut_) throw Error("connection shut down");
-  }
-  void poll_fd(short events, int timeout_ms) const {
-    // Wake at least every 100 ms to notice shutdown() (the socket's shutdown also wakes us).
-    pollfd p{fd_, events, 0};
-    ::poll(&p, 1, timeout_ms < 0 ? 100 : std::min(timeout_ms, 100));
   }
 
   int fd_;

@@ -63,7 +63,7 @@ struct Server::Impl {
   std::shared_ptr<const CapturedFrameSet> captured;  // the newest published frame set
 
   struct Tier {
-    explicit Tier(detail::TierKey key, size_t cameras) : encoder(std::move(key), cameras) {}
+    Tier(detail::TierKey key, size_t cameras, bool seal) : encoder(std::move(key), cameras, seal) {}
     detail::TierEncoder encoder;  // used by the tier's thread only
     std::thread thread;
     // Guarded by Impl::mutex:
@@ -243,7 +243,9 @@ struct Server::Impl {
       if (static_cast<int>(tiers.size()) >= config.max_tiers)
         throw Error("server has " + std::to_string(config.max_tiers) +
                     " tiers already; choose the codecs of a viewer already watching");
-      tier = std::make_shared<Tier>(key, cameras.size());  // throws for unknown codecs
+      // Over TLS every frame set is sealed once here rather than encrypted once per viewer.
+      tier =
+          std::make_shared<Tier>(key, cameras.size(), !config.insecure);  // throws: unknown codec
       tier->report.depth_codec = key.depth_codec;
       tier->report.color_codec = key.color_codec;
       tier->report.color_quality = key.color_quality;
@@ -339,10 +341,20 @@ struct Server::Impl {
         last_sequence = frames->sequence;
         continue;
       }
-      const auto prefix = protocol::frame_set_prefix(frames->body.size(), now_wall);
-      const std::span<const uint8_t> parts[2] = {prefix, frames->body};
-      c.write_all(parts, config.stall_timeout_ms);
-      const size_t bytes = prefix.size() + frames->body.size();
+      size_t bytes = 0;
+      if (c.encrypted() && !frames->sealed.empty()) {
+        // Key, tags and digests inside this viewer's TLS session; the sealed body after them,
+        // outside TLS: the same bytes for every viewer of the tier (protocol.hpp, 1.2).
+        const auto prefix = protocol::sealed_frame_set_prefix(frames->seal_rest.size(), now_wall);
+        const std::span<const uint8_t> parts[2] = {prefix, frames->seal_rest};
+        c.write_with_raw(parts, frames->sealed, config.stall_timeout_ms);
+        bytes = prefix.size() + frames->seal_rest.size() + frames->sealed.size();
+      } else {
+        const auto prefix = protocol::frame_set_prefix(frames->body.size(), now_wall);
+        const std::span<const uint8_t> parts[2] = {prefix, frames->body};
+        c.write_all(parts, config.stall_timeout_ms);
+        bytes = prefix.size() + frames->body.size();
+      }
       if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
       pacer.on_send(frames->sequence, bytes, steady_us());
       std::lock_guard lock(mutex);

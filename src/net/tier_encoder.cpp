@@ -3,10 +3,12 @@
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/net/seal.hpp"
 
 namespace volcast::detail {
 
-TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
+TierEncoder::TierEncoder(TierKey key, size_t cameras, bool seal)
+    : key_(std::move(key)), seal_(seal) {
   for (size_t i = 0; i < cameras; ++i) {
     depth_.push_back(make_depth_encoder(key_.depth_codec));
     color_.push_back(make_color_encoder(key_.color_codec));
@@ -30,23 +32,28 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   tasks_.clear();
   for (size_t t = 0; t < 2 * n; ++t)
     if (!(stateless_ && last_[t % n] == frames.cameras[t % n])) tasks_.push_back(t);
-  pool.parallel_for(tasks_.size(), [&](size_t k) {
-    const size_t t = tasks_[k], i = t % n;
-    const CameraFrame& f = *frames.cameras[i];
-    if (t < n) {
-      key_flags_[t] = depth_[i]->encode(f.depth, key, encoded_[i].depth);
-    } else if (f.color.empty()) {
-      // No color: zero bytes (protocol.hpp), which decode on their own. The encoder is not
-      // called, so a temporal one keeps its reference; its next frame is a key frame all the
-      // same, for viewers that started on a frame set without this camera's color.
-      encoded_[i].color.clear();
-      key_flags_[t] = 1;
-      color_gap_[i] = 1;
-    } else {
-      key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
-      color_gap_[i] = 0;
-    }
-  });
+  // A sealing tier seals on the same workers right after: they linger for it instead of sleeping.
+  const auto linger = seal_ ? std::chrono::milliseconds(1) : std::chrono::milliseconds(0);
+  pool.parallel_for(
+      tasks_.size(),
+      [&](size_t k) {
+        const size_t t = tasks_[k], i = t % n;
+        const CameraFrame& f = *frames.cameras[i];
+        if (t < n) {
+          key_flags_[t] = depth_[i]->encode(f.depth, key, encoded_[i].depth);
+        } else if (f.color.empty()) {
+          // No color: zero bytes (protocol.hpp), which decode on their own. The encoder is not
+          // called, so a temporal one keeps its reference; its next frame is a key frame all the
+          // same, for viewers that started on a frame set without this camera's color.
+          encoded_[i].color.clear();
+          key_flags_[t] = 1;
+          color_gap_[i] = 1;
+        } else {
+          key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
+          color_gap_[i] = 0;
+        }
+      },
+      linger);
   for (size_t i = 0; i < n; ++i) last_[i] = frames.cameras[i];
   bool all_key = true;
   for (size_t i = 0; i < n; ++i) {
@@ -74,6 +81,10 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   times.filter_done_us = frames.filter_done_us;
   times.encode_done_us = out->encode_done_us;
   protocol::serialize_frame_set_body(frames.sequence, all_key, times, encoded_, out->body);
+  if (seal_) {
+    seal_body(out->body, kSealChunkBytes, seal_scratch_, out->sealed, &pool);
+    protocol::serialize_sealed_frame_set_rest(seal_scratch_, out->seal_rest);
+  }
   return out;
 }
 

@@ -27,19 +27,24 @@ struct EncodedFrames {
   int64_t capture_us = 0;
   int64_t encode_done_us = 0;
   std::vector<uint8_t> body;  ///< protocol::serialize_frame_set_body
+  /// Sealed tiers (TLS): `body` sealed once for every viewer (seal.hpp), and the SealedFrameSet
+  /// payload after its send time (key, tags, digests). Both empty when the tier does not seal.
+  std::vector<uint8_t> sealed;
+  std::vector<uint8_t> seal_rest;
 };
 
 class TierEncoder {
  public:
-  /// Throws Error naming an unknown codec.
-  TierEncoder(TierKey key, size_t cameras);
+  /// Throws Error naming an unknown codec. `seal`: also seal each body (for viewers over TLS).
+  TierEncoder(TierKey key, size_t cameras, bool seal);
   const TierKey& key() const { return key_; }
   /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
   /// `pool`, into a recycled buffer. A camera with an empty color image gets a zero-length color
   /// stream (no color, see protocol.hpp) without calling its color encoder, and its next
   /// non-empty color frame is forced to a key frame. A camera whose frame is the one it encoded
   /// last time (a camera slower than the site repeats its frame) keeps its bytes when both codecs
-  /// are non-temporal (the same frame encodes to the same bytes). Not thread-safe: one caller at a
+  /// are non-temporal (the same frame encodes to the same bytes). A sealing tier then seals the
+  /// body under a fresh key, its chunks in parallel on `pool`. Not thread-safe: one caller at a
   /// time.
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
                                               WorkerPool& pool);
@@ -55,6 +60,8 @@ class TierEncoder {
   // The frame each camera encoded last, held so its address cannot be reused by a new frame.
   std::vector<std::shared_ptr<const CameraFrame>> last_;
   bool stateless_ = false;  // both codecs non-temporal: bytes depend on the frame alone
+  bool seal_ = false;
+  protocol::SealedFrameSet seal_scratch_;                // chunk list reused
   std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
   uint64_t index_ = 0;
 };

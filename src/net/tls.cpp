@@ -22,6 +22,7 @@
 #include <sstream>
 #include <vector>
 
+#include "socket_io.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -369,6 +370,8 @@ class TlsConnection final : public Connection {
     }
     socket_of(bio).fd = fd_;
     SSL_set_bio(ssl_, bio, bio);  // ssl_ owns it
+    // Records are read one at a time, never ahead: raw bytes after a record stay in the socket.
+    SSL_set_read_ahead(ssl_, 0);
     server_ = server;
     if (server)
       SSL_set_accept_state(ssl_);
@@ -432,6 +435,48 @@ class TlsConnection final : public Connection {
   }
 
   void write_all(std::span<const std::span<const uint8_t>> parts, int stall_ms) override {
+    write_with_raw(parts, {}, stall_ms);
+  }
+
+  void write_with_raw(std::span<const std::span<const uint8_t>> parts, std::span<const uint8_t> raw,
+                      int stall_ms) override {
+    auto last_progress = write_records(parts, stall_ms);
+    if (raw.empty()) {
+      flush(last_progress, stall_ms);
+      return;
+    }
+    // The records gathered in the BIO, then the raw bytes: one gather write, and the records end
+    // exactly where the raw bytes begin (OpenSSL writes nothing between SSL_write calls).
+    SocketBio& s = socket_of(SSL_get_wbio(ssl_));
+    iovec iov[2];
+    size_t count = 0;
+    if (s.pending() > 0) iov[count++] = {s.out.data() + s.sent, s.pending()};
+    iov[count++] = {const_cast<uint8_t*>(raw.data()), raw.size()};
+    try {
+      detail::send_all(fd_, iov, count, stall_ms, shut_);
+    } catch (const Error&) {
+      failed_ = true;  // the stream is cut mid-message: nothing more may be written
+      throw;
+    }
+    s.out.clear();  // keeps its capacity
+    s.sent = 0;
+  }
+
+  void read_raw(std::span<uint8_t> data, int timeout_ms) override {
+    check_open();
+    if (SSL_has_pending(ssl_))
+      throw Error(
+          "TLS bytes are buffered where raw bytes should begin (a record straddles them: the peer "
+          "broke the framing)");
+    detail::recv_exact(fd_, data, timeout_ms, shut_);
+  }
+
+  bool encrypted() const override { return true; }
+
+ private:
+  // SSL_write of every part: the records gather in the BIO (sent when it holds kGatherBytes).
+  // Returns when the last write made progress.
+  Clock::time_point write_records(std::span<const std::span<const uint8_t>> parts, int stall_ms) {
     auto last_progress = Clock::now();
     for (const auto& part : parts) {
       size_t done = 0;
@@ -459,7 +504,11 @@ class TlsConnection final : public Connection {
         poll_fd(want, remaining_ms(deadline));
       }
     }
-    // The records are gathered in the BIO (SocketBio): send them all now.
+    return last_progress;
+  }
+
+  // Sends the records gathered in the BIO (SocketBio).
+  void flush(Clock::time_point last_progress, int stall_ms) {
     BIO* wbio = SSL_get_wbio(ssl_);
     size_t left = BIO_wpending(wbio);
     while (BIO_flush(wbio) <= 0) {
@@ -477,6 +526,7 @@ class TlsConnection final : public Connection {
     }
   }
 
+ public:
   Ready wait(int wake_fd, int timeout_ms) override {
     check_open();
     Ready r;

@@ -27,6 +27,18 @@ class Connection {
     const std::span<const uint8_t> parts[1] = {bytes};
     write_all(parts, stall_ms);
   }
+  /// Like write_all(parts), then writes `raw` right after them on the same stream, bypassing the
+  /// transport's protection: bytes the caller has sealed itself (protocol.hpp, SealedFrameSet). On
+  /// TLS the records of `parts` end exactly where `raw` begins, and both go out in one gather
+  /// write; on plain TCP `raw` is just more bytes. Throws Error like write_all.
+  virtual void write_with_raw(std::span<const std::span<const uint8_t>> parts,
+                              std::span<const uint8_t> raw, int stall_ms) = 0;
+  /// Reads exactly `data.size()` bytes that the peer wrote as write_with_raw's `raw`. On TLS,
+  /// throws Error if decrypted or undecrypted TLS bytes are still buffered (a record that
+  /// straddles the raw bytes: the peer broke the framing). Otherwise like read_exact.
+  virtual void read_raw(std::span<uint8_t> data, int timeout_ms) = 0;
+  /// True if the transport encrypts and authenticates what write_all writes (TLS).
+  virtual bool encrypted() const = 0;
 
   struct Ready {
     bool readable = false;  ///< bytes (or the peer's close) can be read without blocking

@@ -1,5 +1,5 @@
 #pragma once
-// Volcast stream protocol, version 3: versioned messages on channels, over one connection per
+// Volcast stream protocol, version 4: versioned messages on channels, over one connection per
 // viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; WebSocket will carry the same
 // bytes). Little-endian throughout.
 //
@@ -39,17 +39,41 @@
 //                    a frame whose color is missing) under every color codec: the viewer does not
 //                    decode it and leaves that camera's color image empty (0 x 0); it decodes on
 //                    its own (counts as key). A temporal color codec's first frame after one is a
-//                    key frame.
+//                    key frame. Sent over a transport that does not encrypt (plain TCP); a viewer
+//                    accepts it over TLS too.
+//     1.2 SealedFrameSet  server -> viewer, only over TLS: the same frame set, its body encrypted
+//                    once per tier instead of once per viewer (TLS would encrypt it again for each
+//                    viewer). The payload, inside TLS like every other message: send time i64 |
+//                    body length u32 | chunk length u32 (a power of two, kMinSealChunkBytes to
+//                    kMaxSealChunkBytes) | key (16 bytes: AES-128, random, fresh for every frame
+//                    set of every tier) | per chunk, ceil(body length / chunk length) of them (at
+//                    most kMaxSealChunks): its AES-GCM tag (16 bytes) | the SHA-256 of its
+//                    ciphertext (32 bytes). Directly after the TLS record that ends this message,
+//                    OUTSIDE TLS on the same TCP stream, come `body length` bytes: the 1.1 body
+//                    (everything after its send time) encrypted with AES-128-GCM, chunk i = body
+//                    bytes [i * chunk length, min((i + 1) * chunk length, body length)) under the
+//                    key with the 12-byte nonce (i as u32, then 8 zero bytes) and no associated
+//                    data; the tags are detached (above). The viewer checks each chunk's SHA-256,
+//                    then its tag, and only then decrypts it: the digests come through its own
+//                    authenticated TLS session, so not even another viewer of the tier, who holds
+//                    the same key, can alter the bytes unnoticed (GCM alone would let it: a key
+//                    holder can forge a tag). Confidentiality: the key travels only inside each
+//                    viewer's TLS session; a viewer that left never learns a later key. This is
+//                    the pattern of SFrame (RFC 9605: media encrypted once for a group) and of
+//                    encrypted attachments (key and digest in the secure channel, bulk outside).
 //   2 session        reserved for the shared virtual room (lobby, poses, objects): any type is
 //                    accepted by parse_header; a peer that does not use it skips the payload.
 //
-// Conversation: Hello, then Welcome or Reject; then FrameSets from the server and Acks (and
-// KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the connection.
+// Conversation: Hello, then Welcome or Reject; then FrameSets (1.1 or 1.2) from the server and
+// Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the
+// connection; so is a TLS record that straddles the sealed bytes of a 1.2 message.
 //
 // Limits a viewer enforces on what a server claims, before it allocates for it (a message over a
 // limit ends the connection with an Error naming it; the constants are below):
 //   Welcome payload <= kMaxWelcomeBytes; 1..kMaxCameras cameras; each camera's width and height
 //   1..kMaxCameraSide; all cameras' pixels together <= kMaxSitePixels.
+//   SealedFrameSet payload <= kMaxSealedFrameSetBytes, and 8 + its body length within the
+//   FrameSet limit below, checked before any sealed byte is read.
 //   FrameSet payload <= frame_set_payload_limit(Welcome): room for every camera's depth and
 //   color at kFrameSetBytesPerPixel bytes per pixel (more than raw depth + raw BGRA, and than
 //   any codec's worst case) plus kFrameSetCameraOverhead bytes each; never above
@@ -71,7 +95,7 @@
 namespace volcast::protocol {
 
 inline constexpr uint32_t kMagic = 0x54534356;  // "VCST" as little-endian bytes
-inline constexpr uint16_t kVersion = 3;
+inline constexpr uint16_t kVersion = 4;
 inline constexpr size_t kTokenBytes = 16;
 inline constexpr size_t kHeaderBytes = 12;
 inline constexpr uint32_t kMaxHelloBytes = 4096;
@@ -91,6 +115,15 @@ inline constexpr uint64_t kMaxSitePixels = uint64_t{16} << 20;
 inline constexpr uint64_t kFrameSetBytesPerPixel = 8;
 inline constexpr uint64_t kFrameSetCameraOverhead = 64u << 10;
 
+/// SealedFrameSet (1.2) limits: chunk lengths (bytes, powers of two) and chunks per frame set.
+inline constexpr uint32_t kMinSealChunkBytes = 4u << 10;
+inline constexpr uint32_t kMaxSealChunkBytes = 16u << 20;
+inline constexpr uint32_t kMaxSealChunks = 4096;
+inline constexpr size_t kSealKeyBytes = 16, kSealTagBytes = 16, kSealDigestBytes = 32;
+/// The largest SealedFrameSet payload (the descriptor inside TLS, not the sealed bytes after it).
+inline constexpr uint32_t kMaxSealedFrameSetBytes =
+    8 + 4 + 4 + kSealKeyBytes + kMaxSealChunks * (kSealTagBytes + kSealDigestBytes);
+
 enum class Channel : uint8_t { kControl = 0, kFrames = 1, kSession = 2 };
 
 /// channel << 8 | type, as on the wire.
@@ -101,6 +134,7 @@ enum class MessageType : uint16_t {
   kAck = 0x0004,
   kKeyFrameRequest = 0x0005,
   kFrameSet = 0x0101,
+  kSealedFrameSet = 0x0102,
 };
 
 struct Header {
@@ -180,6 +214,34 @@ void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& ti
 /// and the send time. The message is these bytes followed by the shared body (a gather write).
 inline constexpr size_t kFrameSetPrefixBytes = kHeaderBytes + 8;
 std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, int64_t send_us);
+
+/// One chunk of a sealed body: its detached AES-GCM tag and the SHA-256 of its ciphertext.
+struct SealChunk {
+  std::array<uint8_t, kSealTagBytes> tag{};
+  std::array<uint8_t, kSealDigestBytes> digest{};
+};
+
+/// What a SealedFrameSet (1.2) carries inside TLS: how to check and open the sealed body that
+/// follows it outside TLS (seal.hpp seals and opens).
+struct SealedFrameSet {
+  int64_t send_us = 0;       ///< as in FrameSet: when this server began writing to this viewer
+  uint32_t body_bytes = 0;   ///< sealed bytes that follow (= the FrameSet body's length)
+  uint32_t chunk_bytes = 0;  ///< power of two in [kMinSealChunkBytes, kMaxSealChunkBytes]
+  std::array<uint8_t, kSealKeyBytes> key{};
+  std::vector<SealChunk> chunks;  ///< ceil(body_bytes / chunk_bytes) of them
+};
+
+/// The SealedFrameSet payload after its send time (shared by every viewer of the tier), written
+/// into `out` (cleared first; capacity reused). Throws Error if `m` breaks the limits above.
+void serialize_sealed_frame_set_rest(const SealedFrameSet& m, std::vector<uint8_t>& out);
+/// The 20 bytes a SealedFrameSet message starts with for one viewer (header with payload
+/// 8 + rest_bytes, and the send time), followed by the shared rest (a gather write).
+std::array<uint8_t, kFrameSetPrefixBytes> sealed_frame_set_prefix(size_t rest_bytes,
+                                                                  int64_t send_us);
+/// Parses a SealedFrameSet payload into `out` (its chunk list reused). Throws Error("malformed
+/// sealed frame set: ...") on a chunk length that is not a power of two in range, a chunk count
+/// other than ceil(body / chunk) or above kMaxSealChunks, truncation or trailing bytes.
+void parse_sealed_frame_set(std::span<const uint8_t> payload, SealedFrameSet& out);
 
 /// The token a Hello payload starts with, without parsing the rest (the server checks it first).
 /// Throws Error("malformed hello: truncated") if the payload is shorter than a token.

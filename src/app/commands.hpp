@@ -126,13 +126,16 @@ struct BenchArgs {
   int repeats = 50;
   bool server = false;        ///< the server benchmark instead of the codec/filter tables
   double server_seconds = 4;  ///< measured per configuration
+  int server_repeats = 3;     ///< TCP/TLS pairs per configuration, interleaved (medians reported)
   std::vector<int> viewers;   ///< viewer counts (default 1, 4, 8, 16)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
 /// Runs a server on loopback with the real sets as 2 and 4 cameras and 1..16 receive-only viewers
-/// per tier; prints a table and writes {"server": [{cameras, viewers, tier, fps_min,
-/// latency_ms_p50, latency_ms_p99, server_cpu_percent}]} to args.json if set.
+/// per tier, each over plain TCP and over TLS, `server_repeats` times interleaved; prints a table
+/// of medians and writes {"server": [{cameras, viewers, tier, transport, fps_min, latency_ms_p50,
+/// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs}]}
+/// to args.json if set (tls_over_tcp on TLS rows: the median of each pair's ratio).
 int run_server_bench(const BenchArgs& args);
 
 struct InfoArgs {

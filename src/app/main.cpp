@@ -219,6 +219,9 @@ int main(int argc, char** argv) {
   bn->add_option("--server-seconds", bench.server_seconds,
                  "With --server: seconds measured per configuration")
       ->capture_default_str();
+  bn->add_option("--server-repeats", bench.server_repeats,
+                 "With --server: TCP/TLS pairs run per configuration, interleaved; medians shown")
+      ->capture_default_str();
   bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
 
   InfoArgs info;

@@ -4,6 +4,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -121,6 +122,18 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   return row;
 }
 
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0 : n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
+}
+
+std::string runs_text(const std::vector<double>& v, const char* format) {
+  std::string out;
+  for (double x : v) out += (out.empty() ? "" : " ") + fmt::format(fmt::runtime(format), x);
+  return out;
+}
+
 }  // namespace
 
 int run_server_bench(const BenchArgs& a) {
@@ -130,43 +143,67 @@ int run_server_bench(const BenchArgs& a) {
   for (int v : viewer_counts)
     if (v < 1 || v > 64) throw Error("--viewers must be 1..64");
   if (!(a.server_seconds > 0)) throw Error("--server-seconds must be positive");
+  if (a.server_repeats < 1 || a.server_repeats > 20) throw Error("--server-repeats must be 1..20");
   spdlog::set_level(spdlog::level::warn);  // viewers connecting and leaving are not news here
-  std::vector<Row> rows;
-  std::printf("%-8s %-8s %-14s %-5s %9s %9s %9s %11s %10s\n", "cameras", "viewers", "tier", "link",
-              "fps min", "lat p50", "lat p99", "server CPU", "TLS / TCP");
-  const size_t total = 4 * viewer_counts.size();
+  // Each configuration runs as TCP, TLS, TCP, TLS, ...: a pair shares the machine's state of the
+  // moment (other load, clock), so the ratio of each pair is steadier than the ratio of averages.
+  std::printf("%-8s %-8s %-14s %-5s %9s %9s %9s %11s %10s  %s\n", "cameras", "viewers", "tier",
+              "link", "fps min", "lat p50", "lat p99", "server CPU", "TLS / TCP",
+              "per run (CPU % or ratio)");
+  nlohmann::json rows = nlohmann::json::array();
+  const size_t total = 2 * viewer_counts.size() * static_cast<size_t>(a.server_repeats) * 2;
+  size_t done = 0;
   for (int cameras : {2, 4})
-    for (int viewers : viewer_counts)
-      for (bool tls : {false, true}) {  // same tier and viewers, plain TCP then TLS
-        if (isatty(STDERR_FILENO))      // progress where a person watches; the table goes to stdout
-          std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers, %s...\r", rows.size() + 1, total,
-                       cameras, viewers, tls ? "TLS" : "TCP");
-        auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
-        rows.push_back(
-            measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds, tls));
-        const Row& r = rows.back();
-        const std::string ratio =
-            tls ? fmt::format("{:.2f}x",
-                              r.server_cpu_percent /
-                                  std::max(1e-9, rows[rows.size() - 2].server_cpu_percent))
-                : "";
-        std::printf("%-8d %-8d %-14s %-5s %9.1f %7.1fms %7.1fms %10.0f%% %10s\n", r.cameras,
-                    r.viewers, r.tier.c_str(), tls ? "TLS" : "TCP", r.fps_min, r.latency_ms_p50,
-                    r.latency_ms_p99, r.server_cpu_percent, ratio.c_str());
-        std::fflush(stdout);
+    for (int viewers : viewer_counts) {
+      std::vector<Row> runs[2];  // [0] TCP, [1] TLS
+      std::vector<double> ratios;
+      for (int r = 0; r < a.server_repeats; ++r)
+        for (bool tls : {false, true}) {
+          if (isatty(STDERR_FILENO))  // progress where a person watches; the table goes to stdout
+            std::fprintf(stderr, "[%zu/%zu] %d cameras, %d viewers, %s, run %d...\r", ++done, total,
+                         cameras, viewers, tls ? "TLS" : "TCP", r + 1);
+          auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
+          runs[tls].push_back(
+              measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds, tls));
+          if (tls)
+            ratios.push_back(runs[1].back().server_cpu_percent /
+                             std::max(1e-9, runs[0].back().server_cpu_percent));
+        }
+      for (bool tls : {false, true}) {
+        const std::vector<Row>& v = runs[tls];
+        std::vector<double> cpu, fps, p50, p99;
+        for (const Row& r : v) {
+          cpu.push_back(r.server_cpu_percent);
+          fps.push_back(r.fps_min);
+          p50.push_back(r.latency_ms_p50);
+          p99.push_back(r.latency_ms_p99);
+        }
+        const double fps_min = *std::min_element(fps.begin(), fps.end());
+        const std::string ratio = tls ? fmt::format("{:.2f}x", median(ratios)) : "";
+        const std::string per_run = tls ? runs_text(ratios, "{:.2f}") : runs_text(cpu, "{:.0f}");
+        std::printf("%-8d %-8d %-14s %-5s %9.1f %7.1fms %7.1fms %10.0f%% %10s  %s\n", cameras,
+                    viewers, v[0].tier.c_str(), tls ? "TLS" : "TCP", fps_min, median(p50),
+                    median(p99), median(cpu), ratio.c_str(), per_run.c_str());
+        nlohmann::json row = {{"cameras", cameras},
+                              {"viewers", viewers},
+                              {"tier", v[0].tier},
+                              {"transport", tls ? "tls" : "tcp"},
+                              {"fps_min", fps_min},
+                              {"latency_ms_p50", median(p50)},
+                              {"latency_ms_p99", median(p99)},
+                              {"server_cpu_percent", median(cpu)},
+                              {"server_cpu_percent_runs", cpu}};
+        if (tls) {
+          row["tls_over_tcp"] = median(ratios);
+          row["tls_over_tcp_runs"] = ratios;
+        }
+        rows.push_back(row);
       }
+      std::fflush(stdout);
+    }
   if (!a.json.empty()) {
     nlohmann::json j;
-    j["server"] = nlohmann::json::array();
-    for (const Row& r : rows)
-      j["server"].push_back({{"cameras", r.cameras},
-                             {"viewers", r.viewers},
-                             {"tier", r.tier},
-                             {"transport", r.tls ? "tls" : "tcp"},
-                             {"fps_min", r.fps_min},
-                             {"latency_ms_p50", r.latency_ms_p50},
-                             {"latency_ms_p99", r.latency_ms_p99},
-                             {"server_cpu_percent", r.server_cpu_percent}});
+    j["server"] = rows;
     const fs::path path = a.json;
     if (path.has_parent_path()) fs::create_directories(path.parent_path());
     std::ofstream(path) << j.dump(2) << "\n";

@@ -134,8 +134,9 @@ int run_bench(const BenchArgs& args);
 /// Runs a server on loopback with the real sets as 2 and 4 cameras and 1..16 receive-only viewers
 /// per tier, each over plain TCP and over TLS, `server_repeats` times interleaved; prints a table
 /// of medians and writes {"server": [{cameras, viewers, tier, transport, fps_min, latency_ms_p50,
-/// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs}]}
-/// to args.json if set (tls_over_tcp on TLS rows: the median of each pair's ratio).
+/// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, send_cpu_percent (the threads
+/// serving viewers), send_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs, send_tls_over_tcp,
+/// send_tls_over_tcp_runs}]} to args.json if set (ratios on TLS rows: the median of each pair's).
 int run_server_bench(const BenchArgs& args);
 
 struct InfoArgs {

@@ -42,7 +42,15 @@ struct Row {
   std::string tier;
   bool tls = true;
   double fps_min = 0, latency_ms_p50 = 0, latency_ms_p99 = 0, server_cpu_percent = 0;
+  double send_cpu_percent = 0;  ///< the threads serving the viewers (ViewerReport::send_cpu_ms)
 };
+
+// The CPU (ms) the server's viewer threads have spent so far, over all viewers.
+double send_cpu_ms(const Server& server) {
+  double ms = 0;
+  for (const ViewerReport& v : server.viewers()) ms += v.send_cpu_ms;
+  return ms;
+}
 
 // One configuration: a site of the given sources, `viewers` receive-only viewers on one tier.
 // With `tls`, over TLS 1.3 (the default transport); else plain TCP on loopback (--insecure).
@@ -90,13 +98,13 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
       }
     });
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // join, key frames, warm-up
-  const double cpu0 = cpu_seconds(RUSAGE_SELF);
+  const double cpu0 = cpu_seconds(RUSAGE_SELF), send0 = send_cpu_ms(server);
   const auto t0 = std::chrono::steady_clock::now();
   measuring = true;
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   done = true;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const double cpu1 = cpu_seconds(RUSAGE_SELF);
+  const double cpu1 = cpu_seconds(RUSAGE_SELF), send1 = send_cpu_ms(server);
   site.stop();
   server.stop();  // ends the viewers' connections
   for (auto& t : threads) t.join();
@@ -119,6 +127,7 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   row.latency_ms_p99 = percentile(all, 0.99);
   // The process's CPU less the viewers' own threads: site reading, tier encoding, sending.
   row.server_cpu_percent = 100 * std::max(0.0, cpu1 - cpu0 - viewer_cpu) / wall;
+  row.send_cpu_percent = 0.1 * (send1 - send0) / wall;
   return row;
 }
 
@@ -147,16 +156,16 @@ int run_server_bench(const BenchArgs& a) {
   spdlog::set_level(spdlog::level::warn);  // viewers connecting and leaving are not news here
   // Each configuration runs as TCP, TLS, TCP, TLS, ...: a pair shares the machine's state of the
   // moment (other load, clock), so the ratio of each pair is steadier than the ratio of averages.
-  std::printf("%-8s %-8s %-14s %-5s %9s %9s %9s %11s %10s  %s\n", "cameras", "viewers", "tier",
-              "link", "fps min", "lat p50", "lat p99", "server CPU", "TLS / TCP",
-              "per run (CPU % or ratio)");
+  std::printf("%-8s %-8s %-14s %-5s %9s %9s %9s %11s %10s %9s %10s  %s\n", "cameras", "viewers",
+              "tier", "link", "fps min", "lat p50", "lat p99", "server CPU", "TLS / TCP",
+              "send CPU", "TLS / TCP", "per run (server CPU % or ratio)");
   nlohmann::json rows = nlohmann::json::array();
   const size_t total = 2 * viewer_counts.size() * static_cast<size_t>(a.server_repeats) * 2;
   size_t done = 0;
   for (int cameras : {2, 4})
     for (int viewers : viewer_counts) {
       std::vector<Row> runs[2];  // [0] TCP, [1] TLS
-      std::vector<double> ratios;
+      std::vector<double> ratios, send_ratios;
       for (int r = 0; r < a.server_repeats; ++r)
         for (bool tls : {false, true}) {
           if (isatty(STDERR_FILENO))  // progress where a person watches; the table goes to stdout
@@ -165,25 +174,31 @@ int run_server_bench(const BenchArgs& a) {
           auto sources = cameras == 2 ? two_camera_site(*data) : four_camera_site(*data);
           runs[tls].push_back(
               measure(std::move(sources), viewers, "volcast", "jpeg", a.server_seconds, tls));
-          if (tls)
+          if (tls) {
             ratios.push_back(runs[1].back().server_cpu_percent /
                              std::max(1e-9, runs[0].back().server_cpu_percent));
+            send_ratios.push_back(runs[1].back().send_cpu_percent /
+                                  std::max(1e-9, runs[0].back().send_cpu_percent));
+          }
         }
       for (bool tls : {false, true}) {
         const std::vector<Row>& v = runs[tls];
-        std::vector<double> cpu, fps, p50, p99;
+        std::vector<double> cpu, send, fps, p50, p99;
         for (const Row& r : v) {
           cpu.push_back(r.server_cpu_percent);
+          send.push_back(r.send_cpu_percent);
           fps.push_back(r.fps_min);
           p50.push_back(r.latency_ms_p50);
           p99.push_back(r.latency_ms_p99);
         }
         const double fps_min = *std::min_element(fps.begin(), fps.end());
         const std::string ratio = tls ? fmt::format("{:.2f}x", median(ratios)) : "";
+        const std::string send_ratio = tls ? fmt::format("{:.2f}x", median(send_ratios)) : "";
         const std::string per_run = tls ? runs_text(ratios, "{:.2f}") : runs_text(cpu, "{:.0f}");
-        std::printf("%-8d %-8d %-14s %-5s %9.1f %7.1fms %7.1fms %10.0f%% %10s  %s\n", cameras,
-                    viewers, v[0].tier.c_str(), tls ? "TLS" : "TCP", fps_min, median(p50),
-                    median(p99), median(cpu), ratio.c_str(), per_run.c_str());
+        std::printf("%-8d %-8d %-14s %-5s %9.1f %7.1fms %7.1fms %10.0f%% %10s %8.1f%% %10s  %s\n",
+                    cameras, viewers, v[0].tier.c_str(), tls ? "TLS" : "TCP", fps_min, median(p50),
+                    median(p99), median(cpu), ratio.c_str(), median(send), send_ratio.c_str(),
+                    per_run.c_str());
         nlohmann::json row = {{"cameras", cameras},
                               {"viewers", viewers},
                               {"tier", v[0].tier},
@@ -192,10 +207,14 @@ int run_server_bench(const BenchArgs& a) {
                               {"latency_ms_p50", median(p50)},
                               {"latency_ms_p99", median(p99)},
                               {"server_cpu_percent", median(cpu)},
-                              {"server_cpu_percent_runs", cpu}};
+                              {"server_cpu_percent_runs", cpu},
+                              {"send_cpu_percent", median(send)},
+                              {"send_cpu_percent_runs", send}};
         if (tls) {
           row["tls_over_tcp"] = median(ratios);
           row["tls_over_tcp_runs"] = ratios;
+          row["send_tls_over_tcp"] = median(send_ratios);
+          row["send_tls_over_tcp_runs"] = send_ratios;
         }
         rows.push_back(row);
       }

@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 #include <sys/eventfd.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -24,6 +25,13 @@
 
 namespace volcast {
 namespace {
+
+// CPU time of the calling thread, milliseconds.
+double thread_cpu_ms() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+}
 
 int64_t steady_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
@@ -310,6 +318,7 @@ struct Server::Impl {
     uint64_t last_index = 0;     // the tier index last sent; a delta needs index == last + 1
     bool synced = false;
     auto last_progress = std::chrono::steady_clock::now();
+    const double cpu_start_ms = thread_cpu_ms();
     while (!stopping) {
       const Connection::Ready ready = c.wait(v.wake.fd, 100);
       if (ready.woken) v.wake.drain();
@@ -368,6 +377,7 @@ struct Server::Impl {
       v.report.min_rtt_ms = pacer.min_rtt_us() / 1000;
       v.report.bottleneck_mbit_s = pacer.bottleneck_bytes_per_us() * 8;
       v.report.window = pacer.window_frames();
+      v.report.send_cpu_ms = thread_cpu_ms() - cpu_start_ms;
     }
   }
 };

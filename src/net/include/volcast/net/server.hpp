@@ -89,6 +89,10 @@ struct ViewerReport {
   double min_rtt_ms = 0;         ///< path round trip (send -> Ack), windowed minimum
   double bottleneck_mbit_s = 0;  ///< delivery-rate estimate, windowed maximum
   int window = 0;                ///< frame sets it may have in flight now
+  /// CPU time (ms) of the thread that serves this viewer since it began streaming: writing frame
+  /// sets (TLS records or plain bytes, the sealed body), reading Acks, pacing. Its tier's encoding
+  /// and sealing are not in it.
+  double send_cpu_ms = 0;
   bool connected = false;
   std::string error;  ///< why it ended, if it did
 };
@@ -99,7 +103,7 @@ struct TierReport {
   int color_quality = 0;
   int viewers = 0;
   uint64_t frames_encoded = 0, key_frames = 0;
-  double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set
+  double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set (and seal it)
 };
 
 class Server {

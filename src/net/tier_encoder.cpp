@@ -32,28 +32,25 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   tasks_.clear();
   for (size_t t = 0; t < 2 * n; ++t)
     if (!(stateless_ && last_[t % n] == frames.cameras[t % n])) tasks_.push_back(t);
-  // A sealing tier seals on the same workers right after: they linger for it instead of sleeping.
-  const auto linger = seal_ ? std::chrono::milliseconds(1) : std::chrono::milliseconds(0);
-  pool.parallel_for(
-      tasks_.size(),
-      [&](size_t k) {
-        const size_t t = tasks_[k], i = t % n;
-        const CameraFrame& f = *frames.cameras[i];
-        if (t < n) {
-          key_flags_[t] = depth_[i]->encode(f.depth, key, encoded_[i].depth);
-        } else if (f.color.empty()) {
-          // No color: zero bytes (protocol.hpp), which decode on their own. The encoder is not
-          // called, so a temporal one keeps its reference; its next frame is a key frame all the
-          // same, for viewers that started on a frame set without this camera's color.
-          encoded_[i].color.clear();
-          key_flags_[t] = 1;
-          color_gap_[i] = 1;
-        } else {
-          key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
-          color_gap_[i] = 0;
-        }
-      },
-      linger);
+  // No linger for the sealing that follows: a worker done with its share of uneven encode tasks
+  // would spin while the caller still encodes (measured: +3 % of a core at 2 cameras, 1 viewer).
+  pool.parallel_for(tasks_.size(), [&](size_t k) {
+    const size_t t = tasks_[k], i = t % n;
+    const CameraFrame& f = *frames.cameras[i];
+    if (t < n) {
+      key_flags_[t] = depth_[i]->encode(f.depth, key, encoded_[i].depth);
+    } else if (f.color.empty()) {
+      // No color: zero bytes (protocol.hpp), which decode on their own. The encoder is not
+      // called, so a temporal one keeps its reference; its next frame is a key frame all the
+      // same, for viewers that started on a frame set without this camera's color.
+      encoded_[i].color.clear();
+      key_flags_[t] = 1;
+      color_gap_[i] = 1;
+    } else {
+      key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
+      color_gap_[i] = 0;
+    }
+  });
   for (size_t i = 0; i < n; ++i) last_[i] = frames.cameras[i];
   bool all_key = true;
   for (size_t i = 0; i < n; ++i) {

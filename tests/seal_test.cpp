@@ -165,6 +165,27 @@ TEST(Seal, AnAlteredByteOrTagIsRefusedNamingItsChunk) {
   EXPECT_FALSE(error_of([&] { open_sealed(seal, altered, nullptr); }).empty());
 }
 
+TEST(Seal, ChunksOpenOneByOneAsTheyArrive) {
+  const Bytes body = real_body(2);
+  protocol::SealedFrameSet seal;
+  Bytes sealed;
+  seal_body(body, 16 << 10, seal, sealed, nullptr);
+  ASSERT_GT(seal.chunks.size(), 2u);
+  Bytes opened = sealed;
+  for (size_t i = 0, at = 0; i < seal.chunks.size(); ++i, at += seal.chunk_bytes)
+    open_sealed_chunk(seal, i,
+                      std::span(opened).subspan(at, std::min<size_t>(16 << 10, body.size() - at)));
+  EXPECT_EQ(opened, body);
+  // A chunk's bytes with another chunk's index, a short chunk, an index past the end: refused.
+  Bytes first(sealed.begin(), sealed.begin() + (16 << 10));
+  EXPECT_NE(error_of([&] { open_sealed_chunk(seal, 1, first); }).find("chunk 2 of"),
+            std::string::npos);
+  first.pop_back();
+  EXPECT_NE(error_of([&] { open_sealed_chunk(seal, 0, first); }).find("do not match"),
+            std::string::npos);
+  EXPECT_FALSE(error_of([&] { open_sealed_chunk(seal, seal.chunks.size(), first); }).empty());
+}
+
 // AES-128-GCM of `plain` under `key` with chunk 0's nonce (protocol.hpp): what anyone holding a
 // frame set's key can compute. Returns the ciphertext; `tag` receives its tag.
 Bytes gcm_encrypt(const std::array<uint8_t, 16>& key, const Bytes& plain,
@@ -396,14 +417,15 @@ std::string viewer_error(const Script& script, bool tls = true) {
 // Sends a frame set of real hands depth sealed as the server does, after `edit` changed it.
 Script sealed_frame_set(
     const std::function<void(protocol::SealedFrameSet&, Bytes& sealed)>& edit = {},
-    bool body_inside_tls = false, size_t extra_bytes_in_record = 0) {
+    bool body_inside_tls = false, size_t extra_bytes_in_record = 0,
+    uint32_t chunk_bytes = kSealChunkBytes) {
   return [=](Connection& c) {
     std::vector<protocol::EncodedCamera> cams(1);
     cams[0].depth = hands_depth_stream(1);
     Bytes body, sealed, rest;
     protocol::serialize_frame_set_body(1, true, {}, cams, body);
     protocol::SealedFrameSet seal;
-    seal_body(body, kSealChunkBytes, seal, sealed, nullptr);
+    seal_body(body, chunk_bytes, seal, sealed, nullptr);
     if (edit) edit(seal, sealed);
     protocol::serialize_sealed_frame_set_rest(seal, rest);
     const auto prefix = protocol::sealed_frame_set_prefix(rest.size(), 0);
@@ -447,6 +469,13 @@ TEST(HostileSealedServer, AlteredSealedBytesAreRefused) {
   EXPECT_NE(e.find("protocol: sealed frame set: chunk 1 of 1 does not match its SHA-256"),
             std::string::npos)
       << e;
+}
+
+TEST(HostileSealedServer, AnAlteredLaterChunkIsRefusedNamingIt) {
+  const std::string e = viewer_error(
+      sealed_frame_set([](auto&, Bytes& sealed) { sealed[2 * 4096 + 7] ^= 0x20; }, false, 0, 4096));
+  EXPECT_NE(e.find("protocol: sealed frame set: chunk 3 of "), std::string::npos) << e;
+  EXPECT_NE(e.find("does not match its SHA-256"), std::string::npos) << e;
 }
 
 TEST(HostileSealedServer, ABodySentInsideTlsInsteadOfAfterItIsRefused) {

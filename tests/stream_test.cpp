@@ -397,35 +397,6 @@ TEST(WorkerPool, PrewokenWorkersTakeTheNextJobAndSleepAgainWhenNoneComes) {
   std::this_thread::sleep_for(std::chrono::milliseconds(5));
 }
 
-TEST(WorkerPool, LingeringWorkersTakeTheJobThatFollowsAndStopWhenDestroyed) {
-  WorkerPool pool(2);
-  std::set<std::thread::id> all;
-  for (int round = 0; round < 60; ++round) {
-    // A job whose workers linger, then one that follows at once, after a while, or after the
-    // linger ran out; now and then a prewake between them.
-    std::vector<std::atomic<int>> hits(7);
-    std::set<std::thread::id> threads;
-    std::mutex m;
-    const auto job = [&](size_t i) {
-      ++hits[i];
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-      std::lock_guard lock(m);
-      threads.insert(std::this_thread::get_id());
-    };
-    pool.parallel_for(hits.size(), job, std::chrono::microseconds(round % 4 == 3 ? 50 : 3000));
-    if (round % 4 == 1) std::this_thread::sleep_for(std::chrono::microseconds(500));
-    if (round % 4 == 3) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    if (round % 5 == 2) pool.prewake(std::chrono::microseconds(500));
-    pool.parallel_for(hits.size(), job);
-    for (auto& h : hits) EXPECT_EQ(h.load(), 2);
-    EXPECT_LE(threads.size(), 3u);
-    all.insert(threads.begin(), threads.end());
-  }
-  EXPECT_GE(all.size(), 2u) << "the workers took part, not only the caller";
-  pool.parallel_for(
-      4, [](size_t) {}, std::chrono::seconds(600));  // destroyed while lingering
-}
-
 TEST(CpuLatencyRequest, HoldsTheLimitAtZeroWhileAliveAndDropsItAfter) {
   const int64_t before = current_cpu_latency_limit_us();
   {

@@ -45,7 +45,6 @@ void WorkerPool::work() {
   uint64_t seen = 0, seen_prewakes = 0;
   while (true) {
     std::chrono::steady_clock::time_point spin_until;
-    std::chrono::microseconds linger{};
     {
       std::unique_lock lock(mutex_);
       const auto job = [&] { return generation_ != seen && fn_ && next_ < n_; };
@@ -56,19 +55,16 @@ void WorkerPool::work() {
         spin_until = spin_until_;
       } else {
         seen = generation_;
-        linger = linger_;
       }
     }
-    if (spin_until == std::chrono::steady_clock::time_point{}) {
-      while (run_one()) {
-      }
-      if (linger.count() == 0) continue;
-      spin_until = std::chrono::steady_clock::now() + linger;  // poll for the job that follows
+    if (spin_until != std::chrono::steady_clock::time_point{}) {
+      while (posted_.load(std::memory_order_acquire) == seen &&
+             std::chrono::steady_clock::now() < spin_until)
+        std::this_thread::yield();
+      continue;  // a job posted meanwhile is taken up by the wait above
     }
-    while (posted_.load(std::memory_order_acquire) == seen &&
-           std::chrono::steady_clock::now() < spin_until)
-      std::this_thread::yield();
-    // A job posted meanwhile is taken up by the wait above.
+    while (run_one()) {
+    }
   }
 }
 
@@ -82,8 +78,7 @@ void WorkerPool::prewake(std::chrono::microseconds spin) {
   wake_.notify_all();
 }
 
-void WorkerPool::parallel_for(size_t n, const std::function<void(size_t)>& fn,
-                              std::chrono::microseconds linger) {
+void WorkerPool::parallel_for(size_t n, const std::function<void(size_t)>& fn) {
   if (n == 0) return;
   if (n == 1 || workers_.empty()) {
     for (size_t i = 0; i < n; ++i) fn(i);
@@ -95,7 +90,6 @@ void WorkerPool::parallel_for(size_t n, const std::function<void(size_t)>& fn,
     fn_ = &fn;
     n_ = n;
     next_ = finished_ = 0;
-    linger_ = linger;
     error_ = nullptr;
     ++generation_;
     posted_.store(generation_, std::memory_order_release);

@@ -158,15 +158,21 @@ struct Client::Impl {
       throw ClientError(Kind::kProtocol, "sealed frame set of " + std::to_string(seal.body_bytes) +
                                              " bytes exceeds the limit of " +
                                              std::to_string(frame_set_limit) + " for this site");
-    if (!read_bytes(8, seal.body_bytes, true, deadline, false)) return false;
-    std::memcpy(buffer.data(), &seal.send_us, 8);
-    try {
-      // The workers that open it then poll for the decode job instead of falling asleep.
-      open_sealed(seal, std::span(buffer).subspan(8, seal.body_bytes), pool.get(),
-                  std::chrono::milliseconds(1));
-    } catch (const Error& e) {
-      throw ClientError(Kind::kProtocol, e.what());
+    // Each chunk is opened as soon as it has arrived, while the next is still on the way: on a
+    // real link little is left to open after the last byte.
+    for (size_t i = 0, at = 0; i < seal.chunks.size(); ++i, at += seal.chunk_bytes) {
+      const size_t n = std::min<size_t>(seal.chunk_bytes, seal.body_bytes - at);
+      if (!read_bytes(8 + at, n, true, deadline, false)) return false;
+      // The decode workers wake while the last chunk is opened, not after it.
+      if (pool && i + 1 == seal.chunks.size()) pool->prewake(std::chrono::milliseconds(1));
+      try {
+        open_sealed_chunk(seal, i, std::span(buffer).subspan(8 + at, n));
+      } catch (const Error& e) {
+        throw ClientError(Kind::kProtocol, e.what());
+      }
     }
+    if (buffer.size() < 8) buffer.resize(8);  // an empty body
+    std::memcpy(buffer.data(), &seal.send_us, 8);
     payload_bytes = 8 + seal.body_bytes;
     wire_bytes += seal.body_bytes;
     return true;

@@ -62,10 +62,9 @@ void digest_of(std::span<const uint8_t> data, uint8_t out[protocol::kSealDigestB
 
 // Runs fn(i) for each chunk, on `pool` when given and there is more than one chunk.
 template <typename Fn>
-void for_each_chunk(size_t chunks, WorkerPool* pool, Fn&& fn,
-                    std::chrono::microseconds linger = {}) {
+void for_each_chunk(size_t chunks, WorkerPool* pool, Fn&& fn) {
   if (pool && chunks > 1)
-    pool->parallel_for(chunks, fn, linger);
+    pool->parallel_for(chunks, fn);
   else
     for (size_t i = 0; i < chunks; ++i) fn(i);
 }
@@ -109,45 +108,48 @@ void seal_body(std::span<const uint8_t> body, uint32_t chunk_bytes, protocol::Se
   });
 }
 
-void open_sealed(const protocol::SealedFrameSet& seal, std::span<uint8_t> data, WorkerPool* pool,
-                 std::chrono::microseconds linger) {
+void open_sealed_chunk(const protocol::SealedFrameSet& seal, size_t i, std::span<uint8_t> chunk) {
+  const size_t chunks = seal.chunks.size();
+  const std::string name =
+      "sealed frame set: chunk " + std::to_string(i + 1) + " of " + std::to_string(chunks);
+  const size_t at = i * size_t{seal.chunk_bytes};
+  if (i >= chunks || at >= seal.body_bytes ||
+      chunk.size() != std::min<size_t>(seal.chunk_bytes, seal.body_bytes - at))
+    throw Error(name + ": " + std::to_string(chunk.size()) + " bytes do not match the descriptor");
+  uint8_t digest[protocol::kSealDigestBytes];
+  digest_of(chunk, digest);
+  if (CRYPTO_memcmp(digest, seal.chunks[i].digest.data(), sizeof digest) != 0)
+    throw Error(name + " does not match its SHA-256 (altered on the way)");
+  EVP_CIPHER_CTX* ctx = contexts().cipher;
+  const auto nonce = nonce_of(i);
+  std::array<uint8_t, protocol::kSealTagBytes> tag = seal.chunks[i].tag;
+  int out = 0, tail = 0;
+  if (EVP_DecryptInit_ex2(ctx, aes_128_gcm(), seal.key.data(), nonce.data(), nullptr) != 1 ||
+      EVP_CIPHER_CTX_ctrl(ctx, EVP_CTRL_GCM_SET_TAG, static_cast<int>(tag.size()), tag.data()) !=
+          1 ||
+      EVP_DecryptUpdate(ctx, chunk.data(), &out, chunk.data(), static_cast<int>(chunk.size())) !=
+          1) {
+    ERR_clear_error();
+    throw Error(name + ": AES-GCM failed");
+  }
+  if (EVP_DecryptFinal_ex(ctx, chunk.data() + out, &tail) != 1) {
+    ERR_clear_error();
+    throw Error(name + " fails its AES-GCM tag (wrong key or altered)");
+  }
+}
+
+void open_sealed(const protocol::SealedFrameSet& seal, std::span<uint8_t> data, WorkerPool* pool) {
   const size_t chunks = seal.chunks.size();
   if (data.size() != seal.body_bytes || seal.chunk_bytes == 0 ||
       chunks != (data.size() + seal.chunk_bytes - 1) / seal.chunk_bytes)
     throw Error("sealed frame set: " + std::to_string(data.size()) + " bytes and " +
                 std::to_string(chunks) + " chunks do not match a body of " +
                 std::to_string(seal.body_bytes) + " bytes");
-  const EVP_CIPHER* cipher = aes_128_gcm();
-  const auto name = [&](size_t i) {
-    return "sealed frame set: chunk " + std::to_string(i + 1) + " of " + std::to_string(chunks);
-  };
-  for_each_chunk(
-      chunks, pool,
-      [&](size_t i) {
-        const size_t at = i * seal.chunk_bytes,
-                     n = std::min<size_t>(seal.chunk_bytes, data.size() - at);
-        uint8_t digest[protocol::kSealDigestBytes];
-        digest_of({data.data() + at, n}, digest);
-        if (CRYPTO_memcmp(digest, seal.chunks[i].digest.data(), sizeof digest) != 0)
-          throw Error(name(i) + " does not match its SHA-256 (altered on the way)");
-        EVP_CIPHER_CTX* ctx = contexts().cipher;
-        const auto nonce = nonce_of(i);
-        std::array<uint8_t, protocol::kSealTagBytes> tag = seal.chunks[i].tag;
-        int out = 0, tail = 0;
-        if (EVP_DecryptInit_ex2(ctx, cipher, seal.key.data(), nonce.data(), nullptr) != 1 ||
-            EVP_CIPHER_CTX_ctrl(ctx, EVP_CTRL_GCM_SET_TAG, static_cast<int>(tag.size()),
-                                tag.data()) != 1 ||
-            EVP_DecryptUpdate(ctx, data.data() + at, &out, data.data() + at, static_cast<int>(n)) !=
-                1) {
-          ERR_clear_error();
-          throw Error(name(i) + ": AES-GCM failed");
-        }
-        if (EVP_DecryptFinal_ex(ctx, data.data() + at + out, &tail) != 1) {
-          ERR_clear_error();
-          throw Error(name(i) + " fails its AES-GCM tag (wrong key or altered)");
-        }
-      },
-      linger);
+  for_each_chunk(chunks, pool, [&](size_t i) {
+    const size_t at = i * seal.chunk_bytes;
+    open_sealed_chunk(seal, i,
+                      data.subspan(at, std::min<size_t>(seal.chunk_bytes, data.size() - at)));
+  });
 }
 
 }  // namespace volcast

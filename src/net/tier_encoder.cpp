@@ -32,8 +32,6 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   tasks_.clear();
   for (size_t t = 0; t < 2 * n; ++t)
     if (!(stateless_ && last_[t % n] == frames.cameras[t % n])) tasks_.push_back(t);
-  // No linger for the sealing that follows: a worker done with its share of uneven encode tasks
-  // would spin while the caller still encodes (measured: +3 % of a core at 2 cameras, 1 viewer).
   pool.parallel_for(tasks_.size(), [&](size_t k) {
     const size_t t = tasks_[k], i = t % n;
     const CameraFrame& f = *frames.cameras[i];

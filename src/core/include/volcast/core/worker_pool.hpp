@@ -25,12 +25,8 @@ class WorkerPool {
   /// Calls fn(i) for every i in [0, n), spread over the workers and the calling thread, and
   /// returns when all have finished. If calls throw, the first exception is rethrown here after all
   /// have finished. One parallel_for at a time per pool (calls from several threads take turns).
-  /// `fn` must not call parallel_for on the same pool. `linger`: the workers poll (yielding) for
-  /// this long after the job for a next one instead of going to sleep -- for a job that another
-  /// follows at once (a frame set opened, then decoded), whose workers would otherwise fall asleep
-  /// in between and wake slowly.
-  void parallel_for(size_t n, const std::function<void(size_t)>& fn,
-                    std::chrono::microseconds linger = {});
+  /// `fn` must not call parallel_for on the same pool.
+  void parallel_for(size_t n, const std::function<void(size_t)>& fn);
   int threads() const { return static_cast<int>(workers_.size()); }
   /// Wakes the workers ahead of a parallel_for expected within `spin`: until it comes (or `spin`
   /// has passed) they poll for it, yielding, instead of sleeping, so the job does not first wait
@@ -46,7 +42,6 @@ class WorkerPool {
   std::condition_variable wake_, done_;
   const std::function<void(size_t)>* fn_ = nullptr;
   size_t n_ = 0, next_ = 0, finished_ = 0;
-  std::chrono::microseconds linger_{};  // of the current job
   uint64_t generation_ = 0;
   std::atomic<uint64_t> posted_{0};  // generation_, readable without the mutex
   uint64_t prewakes_ = 0;

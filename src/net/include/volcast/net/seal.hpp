@@ -6,7 +6,6 @@
 // encrypts a few hundred bytes per viewer and frame set instead of the whole body (AES-GCM over
 // every viewer's copy was most of what TLS cost a server with many viewers).
 // Through OpenSSL's EVP interface (AES-NI and SHA-NI where the CPU has them).
-#include <chrono>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -31,10 +30,14 @@ void seal_body(std::span<const uint8_t> body, uint32_t chunk_bytes, protocol::Se
 
 /// Opens `data` (the seal.body_bytes sealed bytes that followed `seal`) in place: checks each
 /// chunk's SHA-256, then its tag, and decrypts it. Chunks run in parallel on `pool` (nullptr: on
-/// the calling thread), whose workers then linger for `linger` (WorkerPool::parallel_for). Throws
-/// Error("sealed frame set: chunk I of N ...") naming the first chunk that fails; `data` is then
-/// partly decrypted and must be discarded.
-void open_sealed(const protocol::SealedFrameSet& seal, std::span<uint8_t> data, WorkerPool* pool,
-                 std::chrono::microseconds linger = {});
+/// the calling thread). Throws Error("sealed frame set: chunk I of N ...") naming the first chunk
+/// that fails; `data` is then partly decrypted and must be discarded.
+void open_sealed(const protocol::SealedFrameSet& seal, std::span<uint8_t> data, WorkerPool* pool);
+
+/// Opens chunk `i` of `seal` alone, in place: `chunk` holds exactly its sealed bytes (bytes
+/// [i * chunk_bytes, min((i + 1) * chunk_bytes, body_bytes)) of the body). For a viewer that opens
+/// each chunk as it arrives, while the next is still on the way. Throws Error like open_sealed,
+/// also for an index out of range or a chunk of the wrong length.
+void open_sealed_chunk(const protocol::SealedFrameSet& seal, size_t i, std::span<uint8_t> chunk);
 
 }  // namespace volcast

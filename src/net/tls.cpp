@@ -473,6 +473,37 @@ class TlsConnection final : public Connection {
 
   bool encrypted() const override { return true; }
 
+  Ready wait(int wake_fd, int timeout_ms) override {
+    check_open();
+    Ready r;
+    if (SSL_has_pending(ssl_)) {  // decrypted (or raw) bytes already buffered inside OpenSSL
+      r.readable = true;
+      return r;
+    }
+    pollfd p[2] = {{fd_, POLLIN, 0}, {wake_fd, POLLIN, 0}};
+    const int n = ::poll(p, wake_fd >= 0 ? 2 : 1, timeout_ms);
+    if (n > 0) {
+      r.readable = p[0].revents != 0;
+      r.woken = wake_fd >= 0 && p[1].revents != 0;
+    }
+    return r;
+  }
+
+  int fd() const override { return fd_; }
+  std::string peer() const override { return peer_; }
+
+  void shutdown() override {
+    if (shut_.exchange(true)) return;
+    ::shutdown(fd_, SHUT_RDWR);  // wakes poll() in other threads; no SSL call from this thread
+  }
+
+  std::string peer_fingerprint() const {
+    X509* cert = SSL_get1_peer_certificate(ssl_);
+    if (!cert) return {};
+    X509Ptr owned(cert);
+    return fingerprint_of(cert);
+  }
+
  private:
   // SSL_write of every part: the records gather in the BIO (sent when it holds kGatherBytes).
   // Returns when the last write made progress.
@@ -526,39 +557,6 @@ class TlsConnection final : public Connection {
     }
   }
 
- public:
-  Ready wait(int wake_fd, int timeout_ms) override {
-    check_open();
-    Ready r;
-    if (SSL_has_pending(ssl_)) {  // decrypted (or raw) bytes already buffered inside OpenSSL
-      r.readable = true;
-      return r;
-    }
-    pollfd p[2] = {{fd_, POLLIN, 0}, {wake_fd, POLLIN, 0}};
-    const int n = ::poll(p, wake_fd >= 0 ? 2 : 1, timeout_ms);
-    if (n > 0) {
-      r.readable = p[0].revents != 0;
-      r.woken = wake_fd >= 0 && p[1].revents != 0;
-    }
-    return r;
-  }
-
-  int fd() const override { return fd_; }
-  std::string peer() const override { return peer_; }
-
-  void shutdown() override {
-    if (shut_.exchange(true)) return;
-    ::shutdown(fd_, SHUT_RDWR);  // wakes poll() in other threads; no SSL call from this thread
-  }
-
-  std::string peer_fingerprint() const {
-    X509* cert = SSL_get1_peer_certificate(ssl_);
-    if (!cert) return {};
-    X509Ptr owned(cert);
-    return fingerprint_of(cert);
-  }
-
- private:
   // One SSL_read into `data`: adds what it read to `done` and returns 0, or returns the poll(2)
   // events to wait for before trying again. Throws on close or error.
   int read_some(std::span<uint8_t> data, size_t& done) {

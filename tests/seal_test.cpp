@@ -317,7 +317,9 @@ int shared_windows(const Bytes& a, const Bytes& b, int windows) {
 }
 
 TEST(SealedStream, TheWireCarriesNoPlaintextAndViewersOfATierShareTheSealedBytes) {
-  HandsSite site(15);
+  ServerConfig config;
+  config.seal_from_viewers = 2;
+  HandsSite site(15, config);
   RecordingRelay a(site.server.port()), b(site.server.port());
   auto fa = std::async(std::launch::async, [&] { return view_through(site.server, a, 20); });
   auto fb = std::async(std::launch::async, [&] { return view_through(site.server, b, 20); });
@@ -338,6 +340,75 @@ TEST(SealedStream, TheWireCarriesNoPlaintextAndViewersOfATierShareTheSealedBytes
   EXPECT_GE(shared_windows(wire_a, wire_b, 32), 16);
   const auto tiers = site.server.tiers();
   ASSERT_EQ(tiers.size(), 1u);
+}
+
+// Speaks the protocol directly over TLS and reports which frame set message each one was.
+struct MessageTypeViewer {
+  std::unique_ptr<Connection> c;
+  Bytes payload, sealed;
+  explicit MessageTypeViewer(const Server& server) {
+    c = connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
+    protocol::Hello hello;
+    hello.token = server.token();
+    hello.depth_codec = "volcast";
+    hello.color_codec = "jpeg";
+    c->write_all(protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
+                 5000);
+    if (read() != protocol::MessageType::kWelcome) throw Error("no Welcome");
+  }
+  protocol::MessageType read() {
+    uint8_t bytes[protocol::kHeaderBytes];
+    c->read_exact(bytes, 20000);
+    const protocol::Header h = protocol::parse_header(bytes);
+    payload.resize(h.payload_bytes);
+    c->read_exact(payload, 20000);
+    return h.type;
+  }
+  // Reads the next frame set (opening it if sealed), acknowledges it, returns its message type.
+  protocol::MessageType next() {
+    const protocol::MessageType type = read();
+    if (type == protocol::MessageType::kSealedFrameSet) {
+      protocol::SealedFrameSet seal;
+      protocol::parse_sealed_frame_set(payload, seal);
+      sealed.resize(seal.body_bytes);
+      c->read_raw(sealed, 20000);
+      open_sealed(seal, sealed, nullptr);
+      payload.resize(8);
+      payload.insert(payload.end(), sealed.begin(), sealed.end());
+    }
+    protocol::FrameSetView view;
+    protocol::parse_frame_set(payload, view);
+    c->write_all(protocol::ack_message(view.sequence), 5000);
+    return type;
+  }
+};
+
+// Sealing costs about what TLS's own encryption costs 2.5 viewers: a tier seals only from
+// seal_from_viewers viewers (3 by default) and goes back to TLS alone when they leave.
+TEST(SealedStream, ATierSealsFromThreeViewersAndUsesTlsAloneBelow) {
+  HandsSite site(15);
+  MessageTypeViewer first(site.server);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(first.next(), protocol::MessageType::kFrameSet);
+  const auto type_within = [&](protocol::MessageType want) {
+    for (int i = 0; i < 150; ++i)
+      if (first.next() == want) return true;
+    return false;
+  };
+  {
+    std::atomic<bool> stop{false};
+    std::vector<std::thread> others;
+    for (int i = 0; i < 2; ++i)
+      others.emplace_back([&] {
+        Client client(client_config_from_link(site.server.join_link("127.0.0.1")));
+        ReceivedFrameSet rx;
+        while (!stop && client.receive(rx)) {
+        }
+      });
+    EXPECT_TRUE(type_within(protocol::MessageType::kSealedFrameSet)) << "three viewers: sealed";
+    stop = true;
+    for (auto& t : others) t.join();
+  }
+  EXPECT_TRUE(type_within(protocol::MessageType::kFrameSet)) << "alone again: TLS alone";
 }
 
 // The same check's positive control: on plain TCP (--insecure, loopback) the coded depth is there
@@ -440,6 +511,13 @@ Script sealed_frame_set(
       c.write_with_raw(parts, sealed, 5000);
     }
   };
+}
+
+TEST(SealedStream, ServerRefusesSealingFromZeroViewers) {
+  ServerConfig config;
+  config.seal_from_viewers = 0;
+  EXPECT_NE(error_of([&] { HandsSite site(15, config); }).find("seal_from_viewers"),
+            std::string::npos);
 }
 
 TEST(HostileSealedServer, AWellFormedSealedFrameSetIsReceived) {

@@ -55,22 +55,26 @@ struct RawViewer {
     return h;
   }
   // Reads the next frame set: its sequence and body (the payload after the 8-byte send time).
-  // Over TLS the server seals it (protocol 1.2): the sealed bytes, read from outside TLS as they
-  // came on the wire, are kept in `sealed`, and `payload` is left as a FrameSet's would be.
+  // When the server sealed it (protocol 1.2: TLS and enough viewers on the tier), the sealed
+  // bytes, read from outside TLS as they came on the wire, are kept in `sealed` (else it is
+  // empty), and `payload` is left as a FrameSet's would be.
   std::vector<uint8_t> sealed;
   std::array<uint8_t, protocol::kSealKeyBytes> key{};  // the last frame set's key
   std::pair<uint64_t, std::vector<uint8_t>> next_frame_set(bool ack = true) {
     const protocol::Header h = read();
-    if (h.type != protocol::MessageType::kSealedFrameSet)
-      throw Error("expected a sealed frame set");
-    protocol::SealedFrameSet seal;
-    protocol::parse_sealed_frame_set(payload, seal);
-    key = seal.key;
-    sealed.resize(seal.body_bytes);
-    c->read_raw(sealed, 20000);
-    payload.assign(8, 0);
-    payload.insert(payload.end(), sealed.begin(), sealed.end());
-    open_sealed(seal, std::span(payload).subspan(8), nullptr);
+    sealed.clear();
+    if (h.type == protocol::MessageType::kSealedFrameSet) {
+      protocol::SealedFrameSet seal;
+      protocol::parse_sealed_frame_set(payload, seal);
+      key = seal.key;
+      sealed.resize(seal.body_bytes);
+      c->read_raw(sealed, 20000);
+      payload.assign(8, 0);
+      payload.insert(payload.end(), sealed.begin(), sealed.end());
+      open_sealed(seal, std::span(payload).subspan(8), nullptr);
+    } else if (h.type != protocol::MessageType::kFrameSet) {
+      throw Error("expected a frame set");
+    }
     protocol::FrameSetView view;
     protocol::parse_frame_set(payload, view);
     if (ack)
@@ -85,6 +89,7 @@ TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAnd
   ServerConfig config;
   config.key_frame_interval = 1000;  // key frames only when someone joins or skips
   config.min_key_interval_ms = 50;
+  config.seal_from_viewers = 1;  // sealed however many watch: the sealed bytes are compared too
   HandsSite site(15, config);
   // Six viewers on one temporal tier join at random times and leave after a random number of
   // frame sets; each decodes what it gets with its own decoder.

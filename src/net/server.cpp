@@ -71,7 +71,7 @@ struct Server::Impl {
   std::shared_ptr<const CapturedFrameSet> captured;  // the newest published frame set
 
   struct Tier {
-    Tier(detail::TierKey key, size_t cameras, bool seal) : encoder(std::move(key), cameras, seal) {}
+    Tier(detail::TierKey key, size_t cameras) : encoder(std::move(key), cameras) {}
     detail::TierEncoder encoder;  // used by the tier's thread only
     std::thread thread;
     // Guarded by Impl::mutex:
@@ -197,7 +197,7 @@ struct Server::Impl {
     auto last_key = std::chrono::steady_clock::now() - std::chrono::hours(1);
     while (true) {
       std::shared_ptr<const CapturedFrameSet> frames;
-      bool key = false;
+      bool key = false, seal = false;
       {
         std::unique_lock lock(mutex);
         captured_changed.wait(lock, [&] {
@@ -209,6 +209,9 @@ struct Server::Impl {
           continue;
         }
         frames = captured;
+        // Over TLS and for enough viewers, sealed once here rather than encrypted once per viewer.
+        seal = !config.insecure &&
+               static_cast<int>(tier->subscribers.size()) >= config.seal_from_viewers;
         const auto now = std::chrono::steady_clock::now();
         key = tier->report.frames_encoded == 0 ||
               since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval) ||
@@ -219,7 +222,7 @@ struct Server::Impl {
       const auto start = std::chrono::steady_clock::now();
       std::shared_ptr<const detail::EncodedFrames> encoded;
       try {
-        encoded = tier->encoder.encode(*frames, key, *pool);
+        encoded = tier->encoder.encode(*frames, key, *pool, seal);
       } catch (const std::exception& e) {
         spdlog::error("tier {}/{}: frame set {} not encoded: {}", tier->report.depth_codec,
                       tier->report.color_codec, frames->sequence, e.what());
@@ -251,9 +254,7 @@ struct Server::Impl {
       if (static_cast<int>(tiers.size()) >= config.max_tiers)
         throw Error("server has " + std::to_string(config.max_tiers) +
                     " tiers already; choose the codecs of a viewer already watching");
-      // Over TLS every frame set is sealed once here rather than encrypted once per viewer.
-      tier =
-          std::make_shared<Tier>(key, cameras.size(), !config.insecure);  // throws: unknown codec
+      tier = std::make_shared<Tier>(key, cameras.size());  // throws for unknown codecs
       tier->report.depth_codec = key.depth_codec;
       tier->report.color_codec = key.color_codec;
       tier->report.color_quality = key.color_quality;
@@ -387,6 +388,7 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.max_window < 1) throw Error("server: --max-window must be at least 1");
   if (config.latency_budget_ms < 1) throw Error("server: --latency-budget must be at least 1 ms");
   if (config.max_viewers < 1) throw Error("server: --max-viewers must be at least 1");
+  if (config.seal_from_viewers < 1) throw Error("server: seal_from_viewers must be at least 1");
   if (config.key_frame_interval < 1) throw Error("server: --key-frame-interval must be at least 1");
   if (cameras.empty() || static_cast<int>(cameras.size()) > protocol::kMaxCameras)
     throw Error("server: a site needs 1 to " + std::to_string(protocol::kMaxCameras) + " cameras");

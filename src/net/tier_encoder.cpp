@@ -7,8 +7,7 @@
 
 namespace volcast::detail {
 
-TierEncoder::TierEncoder(TierKey key, size_t cameras, bool seal)
-    : key_(std::move(key)), seal_(seal) {
+TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
   for (size_t i = 0; i < cameras; ++i) {
     depth_.push_back(make_depth_encoder(key_.depth_codec));
     color_.push_back(make_color_encoder(key_.color_codec));
@@ -24,7 +23,7 @@ TierEncoder::TierEncoder(TierKey key, size_t cameras, bool seal)
 }
 
 std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet& frames, bool key,
-                                                         WorkerPool& pool) {
+                                                         WorkerPool& pool, bool seal) {
   const size_t n = depth_.size();
   if (frames.cameras.size() != n) throw Error("tier: frame set has the wrong number of cameras");
   // Tasks 0..n-1 encode depth, n..2n-1 color: the slowest of the 2n sets the time. A repeated
@@ -76,7 +75,9 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   times.filter_done_us = frames.filter_done_us;
   times.encode_done_us = out->encode_done_us;
   protocol::serialize_frame_set_body(frames.sequence, all_key, times, encoded_, out->body);
-  if (seal_) {
+  out->sealed.clear();
+  out->seal_rest.clear();
+  if (seal) {
     seal_body(out->body, kSealChunkBytes, seal_scratch_, out->sealed, &pool);
     protocol::serialize_sealed_frame_set_rest(seal_scratch_, out->seal_rest);
   }

@@ -27,27 +27,28 @@ struct EncodedFrames {
   int64_t capture_us = 0;
   int64_t encode_done_us = 0;
   std::vector<uint8_t> body;  ///< protocol::serialize_frame_set_body
-  /// Sealed tiers (TLS): `body` sealed once for every viewer (seal.hpp), and the SealedFrameSet
-  /// payload after its send time (key, tags, digests). Both empty when the tier does not seal.
+  /// When sealed (TLS, enough viewers: ServerConfig::seal_from_viewers): `body` sealed once for
+  /// every viewer (seal.hpp), and the SealedFrameSet payload after its send time (key, tags,
+  /// digests). Both empty when this frame set was not sealed.
   std::vector<uint8_t> sealed;
   std::vector<uint8_t> seal_rest;
 };
 
 class TierEncoder {
  public:
-  /// Throws Error naming an unknown codec. `seal`: also seal each body (for viewers over TLS).
-  TierEncoder(TierKey key, size_t cameras, bool seal);
+  /// Throws Error naming an unknown codec.
+  TierEncoder(TierKey key, size_t cameras);
   const TierKey& key() const { return key_; }
   /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
   /// `pool`, into a recycled buffer. A camera with an empty color image gets a zero-length color
   /// stream (no color, see protocol.hpp) without calling its color encoder, and its next
   /// non-empty color frame is forced to a key frame. A camera whose frame is the one it encoded
   /// last time (a camera slower than the site repeats its frame) keeps its bytes when both codecs
-  /// are non-temporal (the same frame encodes to the same bytes). A sealing tier then seals the
-  /// body under a fresh key, its chunks in parallel on `pool`. Not thread-safe: one caller at a
-  /// time.
+  /// are non-temporal (the same frame encodes to the same bytes). With `seal` it then seals the
+  /// body under a fresh key, its chunks in parallel on `pool` (else `sealed` stays empty). Not
+  /// thread-safe: one caller at a time.
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
-                                              WorkerPool& pool);
+                                              WorkerPool& pool, bool seal);
 
  private:
   TierKey key_;

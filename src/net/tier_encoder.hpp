@@ -61,7 +61,6 @@ class TierEncoder {
   // The frame each camera encoded last, held so its address cannot be reused by a new frame.
   std::vector<std::shared_ptr<const CameraFrame>> last_;
   bool stateless_ = false;  // both codecs non-temporal: bytes depend on the frame alone
-  bool seal_ = false;
   protocol::SealedFrameSet seal_scratch_;                // chunk list reused
   std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
   uint64_t index_ = 0;

@@ -39,11 +39,13 @@
 //                    a frame whose color is missing) under every color codec: the viewer does not
 //                    decode it and leaves that camera's color image empty (0 x 0); it decodes on
 //                    its own (counts as key). A temporal color codec's first frame after one is a
-//                    key frame. Sent over a transport that does not encrypt (plain TCP); a viewer
-//                    accepts it over TLS too.
+//                    key frame. Sent over plain TCP, and over TLS to a tier with fewer viewers
+//                    than the server seals for (ServerConfig::seal_from_viewers; TLS then encrypts
+//                    it per viewer, which costs less for one or two).
 //     1.2 SealedFrameSet  server -> viewer, only over TLS: the same frame set, its body encrypted
 //                    once per tier instead of once per viewer (TLS would encrypt it again for each
-//                    viewer). The payload, inside TLS like every other message: send time i64 |
+//                    viewer); a viewer may get 1.1 and 1.2 in turn as others join and leave. The
+//                    payload, inside TLS like every other message: send time i64 |
 //                    body length u32 | chunk length u32 (a power of two, kMinSealChunkBytes to
 //                    kMaxSealChunkBytes) | key (16 bytes: AES-128, random, fresh for every frame
 //                    set of every tier) | per chunk, ceil(body length / chunk length) of them (at

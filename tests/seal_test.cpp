@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "hands_site.hpp"
+#include "raw_viewer.hpp"
 #include "test_data.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/error.hpp"
@@ -342,56 +343,19 @@ TEST(SealedStream, TheWireCarriesNoPlaintextAndViewersOfATierShareTheSealedBytes
   ASSERT_EQ(tiers.size(), 1u);
 }
 
-// Speaks the protocol directly over TLS and reports which frame set message each one was.
-struct MessageTypeViewer {
-  std::unique_ptr<Connection> c;
-  Bytes payload, sealed;
-  explicit MessageTypeViewer(const Server& server) {
-    c = connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
-    protocol::Hello hello;
-    hello.token = server.token();
-    hello.depth_codec = "volcast";
-    hello.color_codec = "jpeg";
-    c->write_all(protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
-                 5000);
-    if (read() != protocol::MessageType::kWelcome) throw Error("no Welcome");
-  }
-  protocol::MessageType read() {
-    uint8_t bytes[protocol::kHeaderBytes];
-    c->read_exact(bytes, 20000);
-    const protocol::Header h = protocol::parse_header(bytes);
-    payload.resize(h.payload_bytes);
-    c->read_exact(payload, 20000);
-    return h.type;
-  }
-  // Reads the next frame set (opening it if sealed), acknowledges it, returns its message type.
-  protocol::MessageType next() {
-    const protocol::MessageType type = read();
-    if (type == protocol::MessageType::kSealedFrameSet) {
-      protocol::SealedFrameSet seal;
-      protocol::parse_sealed_frame_set(payload, seal);
-      sealed.resize(seal.body_bytes);
-      c->read_raw(sealed, 20000);
-      open_sealed(seal, sealed, nullptr);
-      payload.resize(8);
-      payload.insert(payload.end(), sealed.begin(), sealed.end());
-    }
-    protocol::FrameSetView view;
-    protocol::parse_frame_set(payload, view);
-    c->write_all(protocol::ack_message(view.sequence), 5000);
-    return type;
-  }
-};
-
 // Sealing costs about what TLS's own encryption costs 2.5 viewers: a tier seals only from
 // seal_from_viewers viewers (3 by default) and goes back to TLS alone when they leave.
 TEST(SealedStream, ATierSealsFromThreeViewersAndUsesTlsAloneBelow) {
   HandsSite site(15);
-  MessageTypeViewer first(site.server);
-  for (int i = 0; i < 5; ++i) EXPECT_EQ(first.next(), protocol::MessageType::kFrameSet);
+  test::RawViewer first(site.server);
+  const auto next_type = [&] {
+    first.next_frame_set();
+    return first.type;
+  };
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(next_type(), protocol::MessageType::kFrameSet);
   const auto type_within = [&](protocol::MessageType want) {
     for (int i = 0; i < 150; ++i)
-      if (first.next() == want) return true;
+      if (next_type() == want) return true;
     return false;
   };
   {

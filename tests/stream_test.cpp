@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "hands_site.hpp"
+#include "raw_viewer.hpp"
 #include "test_data.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/cpu_latency.hpp"
@@ -30,60 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using test::HandsSite;
-
-// A viewer speaking the protocol directly, keeping each frame set's shared body as received.
-struct RawViewer {
-  std::unique_ptr<Connection> c;
-  std::vector<uint8_t> payload;
-  RawViewer(const Server& server, const std::string& depth, const std::string& color) {
-    c = connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
-    protocol::Hello hello;
-    hello.token = server.token();
-    hello.depth_codec = depth;
-    hello.color_codec = color;
-    c->write_all(protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
-                 5000);
-    const protocol::Header h = read();
-    if (h.type != protocol::MessageType::kWelcome) throw Error("no Welcome");
-  }
-  protocol::Header read() {
-    uint8_t bytes[protocol::kHeaderBytes];
-    c->read_exact(bytes, 20000);
-    const protocol::Header h = protocol::parse_header(bytes);
-    payload.resize(h.payload_bytes);
-    c->read_exact(payload, 20000);
-    return h;
-  }
-  // Reads the next frame set: its sequence and body (the payload after the 8-byte send time).
-  // When the server sealed it (protocol 1.2: TLS and enough viewers on the tier), the sealed
-  // bytes, read from outside TLS as they came on the wire, are kept in `sealed` (else it is
-  // empty), and `payload` is left as a FrameSet's would be.
-  std::vector<uint8_t> sealed;
-  std::array<uint8_t, protocol::kSealKeyBytes> key{};  // the last frame set's key
-  std::pair<uint64_t, std::vector<uint8_t>> next_frame_set(bool ack = true) {
-    const protocol::Header h = read();
-    sealed.clear();
-    if (h.type == protocol::MessageType::kSealedFrameSet) {
-      protocol::SealedFrameSet seal;
-      protocol::parse_sealed_frame_set(payload, seal);
-      key = seal.key;
-      sealed.resize(seal.body_bytes);
-      c->read_raw(sealed, 20000);
-      payload.assign(8, 0);
-      payload.insert(payload.end(), sealed.begin(), sealed.end());
-      open_sealed(seal, std::span(payload).subspan(8), nullptr);
-    } else if (h.type != protocol::MessageType::kFrameSet) {
-      throw Error("expected a frame set");
-    }
-    protocol::FrameSetView view;
-    protocol::parse_frame_set(payload, view);
-    if (ack)
-      c->write_all(
-          protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(view.sequence)),
-          5000);
-    return {view.sequence, std::vector<uint8_t>(payload.begin() + 8, payload.end())};
-  }
-};
+using test::RawViewer;
 
 TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAndLeaving) {
   ServerConfig config;

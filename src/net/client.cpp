@@ -72,17 +72,12 @@ struct Client::Impl {
   // close()). `handshake`: the Welcome is expected (else a FrameSet), for errors.
   bool read_message(protocol::Header& header, uint32_t max_payload,
                     std::optional<Clock::time_point> deadline, bool handshake) {
-    // Whether a failed read ran out of time.
-    const auto timed_out = [&](const Error& e) {
-      return deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
-                          Clock::now() >= *deadline);
-    };
     uint8_t bytes[protocol::kHeaderBytes];
     try {
       connection->read_exact(bytes, ms_left(deadline));
     } catch (const Error& e) {
       if (closed || std::string(e.what()) == "peer closed the connection") return false;
-      if (timed_out(e)) throw ClientError(Kind::kTimedOut, timeout_message(handshake));
+      if (timed_out(e, deadline)) throw ClientError(Kind::kTimedOut, timeout_message(handshake));
       throw ClientError(Kind::kConnectionLost, std::string("connection lost: ") + e.what());
     }
     try {
@@ -128,8 +123,7 @@ struct Client::Impl {
           connection->read_exact(chunk, left_ms);
       } catch (const Error& e) {
         if (closed) return false;
-        if (deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
-                         Clock::now() >= *deadline))
+        if (timed_out(e, deadline))
           throw ClientError(Kind::kTimedOut, timeout_message(handshake) + " (" +
                                                  std::to_string(done) + " of " + std::to_string(n) +
                                                  " bytes of a message received)");
@@ -176,6 +170,12 @@ struct Client::Impl {
     payload_bytes = 8 + seal.body_bytes;
     wire_bytes += seal.body_bytes;
     return true;
+  }
+
+  // Whether a read that failed with `e` ran out of time.
+  static bool timed_out(const Error& e, std::optional<Clock::time_point> deadline) {
+    return deadline && (std::string_view(e.what()) == "timed out waiting for the peer" ||
+                        Clock::now() >= *deadline);
   }
 
   // The time left until `deadline` for the next read (-1: no limit; 0 still reads what arrived).

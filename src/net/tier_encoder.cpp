@@ -75,11 +75,12 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   times.filter_done_us = frames.filter_done_us;
   times.encode_done_us = out->encode_done_us;
   protocol::serialize_frame_set_body(frames.sequence, all_key, times, encoded_, out->body);
-  out->sealed.clear();
-  out->seal_rest.clear();
-  if (seal) {
+  if (seal) {  // a recycled buffer of the same size is not cleared or zero-filled again
     seal_body(out->body, kSealChunkBytes, seal_scratch_, out->sealed, &pool);
     protocol::serialize_sealed_frame_set_rest(seal_scratch_, out->seal_rest);
+  } else {
+    out->sealed.clear();
+    out->seal_rest.clear();
   }
   return out;
 }

@@ -7,6 +7,7 @@
 #include "test_data.hpp"
 #include "volcast/capture/image_sequence.hpp"
 #include "volcast/capture/k4a_recording.hpp"
+#include "volcast/capture/still_source.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/jpeg.hpp"
@@ -70,6 +71,40 @@ TEST(K4aRecording, LoopsAndKeepsTimestampsIncreasing) {
   const CameraFrame b = src->next();
   EXPECT_EQ(a.depth, b.depth);
   EXPECT_GT(b.device_timestamp_us, a.device_timestamp_us);
+}
+
+// A capture loop recycles its frames (SitePlayer): a source that reads into one must reuse its
+// buffers, not allocate new ones per frame, and still deliver the frame.
+TEST(Sources, ReadingIntoARecycledFrameReusesItsBuffersAndMatchesAFreshRead) {
+  const fs::path four = test::data_dir() / "k4a-4cam-nfov";
+  fs::path depth_png, color_png;
+  for (const auto& e : fs::directory_iterator(four)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind("depth.", 0) == 0 && (depth_png.empty() || e.path() < depth_png)) {
+      depth_png = e.path();
+      color_png = four / ("rgb." + name.substr(6));
+    }
+  }
+  ASSERT_FALSE(depth_png.empty());
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  sources.push_back(open_source(test::kinect_mkv()));
+  sources.push_back(open_still_source(depth_png, color_png, sources[0]->calibration(), 30));
+  for (auto& src : sources) {
+    CameraFrame f;
+    src->next(f);
+    ASSERT_FALSE(f.color.empty()) << src->description();
+    const uint16_t* depth = f.depth.pixels.data();
+    const uint8_t* color = f.color.bgra.data();
+    const int64_t t0 = f.device_timestamp_us;
+    f.depth.pixels[1000] ^= 1;  // what a filter might have done to the recycled frame
+    src->next(f);
+    EXPECT_EQ(f.depth.pixels.data(), depth) << src->description();
+    EXPECT_EQ(f.color.bgra.data(), color) << src->description();
+    EXPECT_GT(f.device_timestamp_us, t0);
+    const CameraFrame fresh = src->next();
+    EXPECT_EQ(f.depth, fresh.depth) << src->description();  // a still frame is the same each time
+    EXPECT_EQ(f.color, fresh.color) << src->description();
+  }
 }
 
 TEST(K4aRecording, ProbeReportsStreamsAndIntrinsics) {

@@ -58,6 +58,9 @@ bool contains(const Bytes& haystack, std::span<const uint8_t> needle) {
 TEST(SealedFrameSet, DescriptorRoundTripsAndRefusesBadChunking) {
   protocol::SealedFrameSet m;
   m.send_us = 123456789;
+  m.sequence = 42;
+  m.key_frame_set = true;
+  m.times = {11, 22, 33, 0};
   m.body_bytes = 300000;
   m.chunk_bytes = 128 << 10;
   m.key[3] = 9;
@@ -75,6 +78,11 @@ TEST(SealedFrameSet, DescriptorRoundTripsAndRefusesBadChunking) {
   protocol::SealedFrameSet back;
   protocol::parse_sealed_frame_set(payload, back);
   EXPECT_EQ(back.send_us, m.send_us);
+  EXPECT_EQ(back.sequence, 42u);
+  EXPECT_TRUE(back.key_frame_set);
+  EXPECT_EQ(back.times.capture_us, 11);
+  EXPECT_EQ(back.times.filter_done_us, 22);
+  EXPECT_EQ(back.times.encode_done_us, 33);
   EXPECT_EQ(back.body_bytes, m.body_bytes);
   EXPECT_EQ(back.chunk_bytes, m.chunk_bytes);
   EXPECT_EQ(back.key, m.key);
@@ -90,14 +98,16 @@ TEST(SealedFrameSet, DescriptorRoundTripsAndRefusesBadChunking) {
     EXPECT_NE(e.find(why), std::string::npos) << e;
   };
   const auto set_u32 = [](Bytes& b, size_t at, uint32_t v) { std::memcpy(b.data() + at, &v, 4); };
-  refused([&](Bytes& b) { set_u32(b, 12, 100000); }, "not a power of two");
-  refused([&](Bytes& b) { set_u32(b, 12, 2048); }, "not a power of two");  // below the minimum
-  refused([&](Bytes& b) { set_u32(b, 12, 32u << 20); }, "not a power of two");
-  refused([&](Bytes& b) { set_u32(b, 8, 600000); }, "payload of");  // 5 chunks, 3 listed
+  // Offsets: send time 0, sequence 8, flags 16, times 17..40, body length 41, chunk length 45.
+  refused([&](Bytes& b) { b[16] = 2; }, "unknown flags 2");
+  refused([&](Bytes& b) { set_u32(b, 45, 100000); }, "not a power of two");
+  refused([&](Bytes& b) { set_u32(b, 45, 2048); }, "not a power of two");  // below the minimum
+  refused([&](Bytes& b) { set_u32(b, 45, 32u << 20); }, "not a power of two");
+  refused([&](Bytes& b) { set_u32(b, 41, 600000); }, "payload of");  // 5 chunks, 3 listed
   refused(
       [&](Bytes& b) {
-        set_u32(b, 8, 200u << 20);
-        set_u32(b, 12, 4096);
+        set_u32(b, 41, 200u << 20);
+        set_u32(b, 45, 4096);
       },
       "chunks, more than");
   refused([&](Bytes& b) { b.pop_back(); }, "payload of");
@@ -375,6 +385,38 @@ TEST(SealedStream, ATierSealsFromThreeViewersAndUsesTlsAloneBelow) {
   EXPECT_TRUE(type_within(protocol::MessageType::kFrameSet)) << "alone again: TLS alone";
 }
 
+// A receive-only viewer (a load generator) reads a sealed body but does not open it: it
+// acknowledges from the descriptor, and the server's pacing, which follows Acks, keeps sending.
+TEST(SealedStream, AReceiveOnlyViewerAcknowledgesSealedFrameSetsFromTheDescriptor) {
+  ServerConfig config;
+  config.seal_from_viewers = 1;
+  HandsSite site(15, config);
+  test::RawViewer raw(site.server);  // a second viewer: sees which message the tier sends
+  raw.next_frame_set();
+  EXPECT_EQ(raw.type, protocol::MessageType::kSealedFrameSet);
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
+  c.decode = false;
+  Client client(c);
+  ReceivedFrameSet rx;
+  uint64_t last = 0;
+  int got = 0, keys = 0;
+  for (; got < 40 && client.receive(rx); ++got) {  // far more than the server keeps in flight
+    if (got > 0) {
+      EXPECT_GT(rx.frames.sequence, last);
+    }
+    last = rx.frames.sequence;
+    keys += rx.key;
+    EXPECT_GT(rx.times.capture_us, 0);
+    EXPECT_LE(rx.times.capture_us, rx.times.encode_done_us);
+    EXPECT_GT(rx.message_bytes, 20000u);  // descriptor and sealed body
+    ASSERT_EQ(rx.depth_bytes.size(), 1u);
+    EXPECT_EQ(rx.depth_bytes[0], 0u);  // in the unopened body
+    if (got % 8 == 0) raw.next_frame_set();
+  }
+  EXPECT_EQ(got, 40);
+  EXPECT_GE(keys, 1);  // the first frame set of a new viewer is a key frame set
+}
+
 // The same check's positive control: on plain TCP (--insecure, loopback) the coded depth is there
 // to be found, so the test above would see it if the server sent it in the clear.
 TEST(SealedStream, OnPlainTcpTheSameCheckFindsThePlaintext) {
@@ -461,6 +503,8 @@ Script sealed_frame_set(
     protocol::serialize_frame_set_body(1, true, {}, cams, body);
     protocol::SealedFrameSet seal;
     seal_body(body, chunk_bytes, seal, sealed, nullptr);
+    seal.sequence = 1;  // the body's copied head, as the server fills it
+    seal.key_frame_set = true;
     if (edit) edit(seal, sealed);
     protocol::serialize_sealed_frame_set_rest(seal, rest);
     const auto prefix = protocol::sealed_frame_set_prefix(rest.size(), 0);
@@ -509,6 +553,17 @@ TEST(HostileSealedServer, AlteredSealedBytesAreRefused) {
   const std::string e =
       viewer_error(sealed_frame_set([](auto&, Bytes& sealed) { sealed[10] ^= 4; }));
   EXPECT_NE(e.find("protocol: sealed frame set: chunk 1 of 1 does not match its SHA-256"),
+            std::string::npos)
+      << e;
+}
+
+// The descriptor's copy of the head must match the body: a receive-only viewer acknowledges
+// from the copy, so a server must not tell the two kinds of viewer different things.
+TEST(HostileSealedServer, ADescriptorWhoseHeadDiffersFromTheBodyIsRefused) {
+  const std::string e =
+      viewer_error(sealed_frame_set([](auto& seal, Bytes&) { seal.sequence = 2; }));
+  EXPECT_NE(e.find("protocol: sealed frame set: the descriptor's copy of sequence, flags and "
+                   "times differs from the opened body's"),
             std::string::npos)
       << e;
 }

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <condition_variable>
+#include <deque>
+#include <set>
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -138,6 +140,62 @@ TEST(SiteCapture, ConsecutiveBadFramesMarkOnlyThatCameraFailedUntilItReadsAgain)
   EXPECT_EQ(log.count("recovered"), recoveries) << log.text();
   for (int i : {3, 4, 5})
     EXPECT_EQ(log.count((dir / "depth" / test::hands_depth(i).filename()).string()), 1);
+}
+
+// A consumer that, like a tier encoder, holds only the newest frame sets: the site recycles the
+// frames no frame set holds any more (no allocation per frame), and never one still held.
+TEST(SiteCapture, FramesAreRecycledOnlyOnceNoFrameSetHoldsThem) {
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  sources.push_back(open_source(test::hands_dir(), test::hands_options(kFps)));
+  SourceOptions kinect;
+  kinect.fps = kFps;
+  sources.push_back(open_source(test::kinect_mkv(), kinect));
+  std::vector<std::unique_ptr<FrameSource>> reference;  // the same sources, read directly
+  reference.push_back(open_source(test::hands_dir(), test::hands_options(kFps)));
+  reference.push_back(open_source(test::kinect_mkv(), kinect));
+  std::vector<CameraFrame> expected;
+  constexpr size_t kSets = 60;
+  for (size_t n = 0; n < kSets; ++n)
+    for (auto& r : reference) expected.push_back(r->next());
+
+  SitePlayer player(std::move(sources), kFps);
+  std::mutex m;
+  std::condition_variable cv;
+  std::deque<std::shared_ptr<const CapturedFrameSet>> held;  // the newest two
+  std::set<const CameraFrame*> addresses[2];
+  size_t seen = 0;
+  player.start([&](std::shared_ptr<const CapturedFrameSet> f) {
+    std::lock_guard lock(m);
+    if (seen >= kSets) return;
+    // Every frame set still held shows what it showed when it was published.
+    for (const auto& h : held)
+      for (size_t i = 0; i < 2; ++i) {
+        const CameraFrame& want = expected[2 * (h->sequence - 1) + i];
+        EXPECT_EQ(h->cameras[i]->device_timestamp_us, want.device_timestamp_us);
+        EXPECT_EQ(h->cameras[i]->depth, want.depth) << "frame set " << h->sequence;
+      }
+    for (size_t i = 0; i < 2; ++i) addresses[i].insert(f->cameras[i].get());
+    held.push_back(std::move(f));
+    if (held.size() > 2) held.pop_front();
+    ++seen;
+    cv.notify_all();
+  });
+  {
+    std::unique_lock lock(m);
+    EXPECT_TRUE(cv.wait_for(lock, std::chrono::seconds(120), [&] { return seen >= kSets; }));
+  }
+  player.stop();
+  std::lock_guard lock(m);
+  for (size_t n = 0; n < held.size(); ++n) EXPECT_EQ(held[n]->sequence, kSets - 1 + n);
+  for (const auto& h : held)
+    for (size_t i = 0; i < 2; ++i) {
+      const CameraFrame& want = expected[2 * (h->sequence - 1) + i];
+      EXPECT_EQ(h->cameras[i]->depth, want.depth);
+      EXPECT_EQ(h->cameras[i]->color, want.color);
+    }
+  // Two held, one being read, one just released: a handful of buffers for 60 frame sets.
+  EXPECT_LE(addresses[0].size(), 5u);
+  EXPECT_LE(addresses[1].size(), 5u);
 }
 
 TEST(SiteCapture, ACameraWithoutAGoodFrameYetSendsAnEmptyFrame) {

@@ -194,10 +194,9 @@ class ImageSequenceSource final : public FrameSource {
   std::string description() const override { return "image sequence " + dir_.string(); }
 
   // The index moves on before reading: a frame that cannot be read is skipped, never retried.
-  CameraFrame next() override {
+  void next(CameraFrame& f) override {
     const uint64_t n = index_++;
     const size_t i = n % depth_files_.size();
-    CameraFrame f;
     f.depth = read_depth_png(depth_files_[i]);
     const Intrinsics& k = calibration_.depth;
     if (f.depth.width != k.width || f.depth.height != k.height)
@@ -210,9 +209,10 @@ class ImageSequenceSource final : public FrameSource {
         throw Error("'" + color_files_[i].string() + "' is " +
                     size_text(f.color.width, f.color.height) +
                     ", not registered to its depth frame (" + size_text(k.width, k.height) + ")");
+    } else {
+      f.color = ColorImage();  // no color for this frame
     }
     f.device_timestamp_us = static_cast<int64_t>(static_cast<double>(n) * 1e6 / fps_);
-    return f;
   }
 
  private:

@@ -237,11 +237,11 @@ class K4aRecordingSource final : public FrameSource {
   int color_frame_count() const override { return color_frame_count_; }
   std::string description() const override { return "Azure Kinect recording " + path_.string(); }
 
-  CameraFrame next() override {
+  void next(CameraFrame& out) override {
     if (frame_count_ == 1) {  // a single capture: decode once, replay it
-      CameraFrame f = first_;
-      f.device_timestamp_us += loops_++ * static_cast<int64_t>(1e6 / fps_);
-      return f;
+      out = first_;           // copy assignment keeps a recycled frame's capacity
+      out.device_timestamp_us += loops_++ * static_cast<int64_t>(1e6 / fps_);
+      return;
     }
     std::optional<RawCapture> cap = reader_->next();
     if (!cap) {
@@ -251,11 +251,9 @@ class K4aRecordingSource final : public FrameSource {
       cap = reader_->next();
       if (!cap) throw Error("recording '" + path_.string() + "' holds no depth frames");
     }
-    CameraFrame f;
-    decode(*cap, f);
-    f.device_timestamp_us += loop_offset_us_;
-    last_timestamp_us_ = f.device_timestamp_us;
-    return f;
+    decode(*cap, out);
+    out.device_timestamp_us += loop_offset_us_;
+    last_timestamp_us_ = out.device_timestamp_us;
   }
 
  private:
@@ -267,7 +265,9 @@ class K4aRecordingSource final : public FrameSource {
       throw Error("recording '" + path_.string() + "': depth frame at " +
                   std::to_string(cap.timestamp_us) + " us has " + std::to_string(depth.size()) +
                   " bytes, expected " + std::to_string(n * 2) + " (truncated?)");
-    out.depth = DepthImage(k.width, k.height);
+    out.depth.width = k.width;  // a recycled frame's buffer is reused
+    out.depth.height = k.height;
+    out.depth.pixels.resize(n);
     for (size_t i = 0; i < n; ++i)  // b16g: big-endian
       out.depth.pixels[i] = static_cast<uint16_t>((depth[2 * i] << 8) | depth[2 * i + 1]);
     out.device_timestamp_us = cap.timestamp_us;

@@ -17,10 +17,12 @@ class StillSource final : public FrameSource {
   double fps() const override { return fps_; }
   int frame_count() const override { return 1; }
   int color_frame_count() const override { return frame_.color.empty() ? 0 : 1; }
-  CameraFrame next() override {
-    CameraFrame f = frame_;
-    f.device_timestamp_us = static_cast<int64_t>(static_cast<double>(count_++) * 1e6 / fps_);
-    return f;
+  // A new copy of the frame every time, as a camera delivers new buffers (copy assignment keeps
+  // the capacity of a recycled `out`: no allocation).
+  void next(CameraFrame& out) override {
+    out.depth = frame_.depth;
+    out.color = frame_.color;
+    out.device_timestamp_us = static_cast<int64_t>(static_cast<double>(count_++) * 1e6 / fps_);
   }
   std::string description() const override { return description_; }
 

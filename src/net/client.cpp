@@ -135,11 +135,12 @@ struct Client::Impl {
     return true;
   }
 
-  // After a SealedFrameSet's descriptor (in `buffer`): reads its sealed body from outside TLS,
-  // checks and opens it, and leaves the frame set's payload (send time + body) in `buffer` as a
-  // FrameSet would. False after close(). Throws ClientError kProtocol on a malformed descriptor,
-  // a body above the site's bound (before reading it) or one that fails its digest or tag.
-  bool read_sealed_body(std::optional<Clock::time_point> deadline) {
+  // After a SealedFrameSet's descriptor (in `buffer`): reads its sealed body from outside TLS
+  // and, if `open`, checks and opens it, leaving the frame set's payload (send time + body) in
+  // `buffer` as a FrameSet would (unopened, `buffer` holds the sealed bytes). False after close().
+  // Throws ClientError kProtocol on a malformed descriptor, a body above the site's bound (before
+  // reading it) or one that fails its digest or tag.
+  bool read_sealed_body(std::optional<Clock::time_point> deadline, bool open) {
     if (!connection->encrypted())
       throw ClientError(Kind::kProtocol,
                         "a sealed frame set arrived over a connection without TLS");
@@ -152,6 +153,11 @@ struct Client::Impl {
       throw ClientError(Kind::kProtocol, "sealed frame set of " + std::to_string(seal.body_bytes) +
                                              " bytes exceeds the limit of " +
                                              std::to_string(frame_set_limit) + " for this site");
+    if (!open) {
+      if (!read_bytes(8, seal.body_bytes, true, deadline, false)) return false;
+      wire_bytes += seal.body_bytes;
+      return true;
+    }
     // Each chunk is opened as soon as it has arrived, while the next is still on the way: on a
     // real link little is left to open after the last byte.
     for (size_t i = 0, at = 0; i < seal.chunks.size(); ++i, at += seal.chunk_bytes) {
@@ -331,16 +337,33 @@ bool Client::receive(ReceivedFrameSet& out) {
     const auto deadline = Impl::deadline_in(m.config.receive_timeout_ms);
     if (!m.read_message(header, m.frame_set_limit, deadline, false)) return false;
     if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
-    if (header.type == protocol::MessageType::kSealedFrameSet) {
-      if (!m.read_sealed_body(deadline)) return false;
+    const bool sealed = header.type == protocol::MessageType::kSealedFrameSet;
+    if (sealed) {
+      // A receive-only viewer has no use for the body: it acknowledges from the descriptor.
+      if (!m.read_sealed_body(deadline, m.config.decode)) return false;
     } else if (header.type != protocol::MessageType::kFrameSet) {
       throw ClientError(Kind::kProtocol, "expected a FrameSet message");
     }
     const int64_t received_us = wall_clock_us();
-    try {
-      protocol::parse_frame_set(m.payload(), m.view);
-    } catch (const Error& e) {
-      throw ClientError(Kind::kProtocol, e.what());
+    if (sealed && !m.config.decode) {
+      m.view.sequence = m.seal.sequence;
+      m.view.key = m.seal.key_frame_set;
+      m.view.times = m.seal.times;
+      m.view.times.send_us = m.seal.send_us;
+      m.view.cameras.assign(cams.size(), {});  // sizes and device times are in the body
+    } else {
+      try {
+        protocol::parse_frame_set(m.payload(), m.view);
+      } catch (const Error& e) {
+        throw ClientError(Kind::kProtocol, e.what());
+      }
+      if (sealed && (m.view.sequence != m.seal.sequence || m.view.key != m.seal.key_frame_set ||
+                     m.view.times.capture_us != m.seal.times.capture_us ||
+                     m.view.times.filter_done_us != m.seal.times.filter_done_us ||
+                     m.view.times.encode_done_us != m.seal.times.encode_done_us))
+        throw ClientError(Kind::kProtocol,
+                          "sealed frame set: the descriptor's copy of sequence, flags and times "
+                          "differs from the opened body's");
     }
     if (m.view.cameras.size() != cams.size())
       throw ClientError(Kind::kProtocol, "frame set has " + std::to_string(m.view.cameras.size()) +

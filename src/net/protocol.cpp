@@ -321,6 +321,11 @@ void serialize_sealed_frame_set_rest(const SealedFrameSet& m, std::vector<uint8_
                 std::to_string(m.body_bytes));
   out.clear();
   Writer w(out);
+  w.put<uint64_t>(m.sequence);
+  w.put<uint8_t>(m.key_frame_set ? 1 : 0);
+  w.put<int64_t>(m.times.capture_us);
+  w.put<int64_t>(m.times.filter_done_us);
+  w.put<int64_t>(m.times.encode_done_us);
   w.put<uint32_t>(m.body_bytes);
   w.put<uint32_t>(m.chunk_bytes);
   w.append(m.key.data(), m.key.size());
@@ -339,6 +344,13 @@ std::array<uint8_t, kFrameSetPrefixBytes> sealed_frame_set_prefix(size_t rest_by
 void parse_sealed_frame_set(std::span<const uint8_t> payload, SealedFrameSet& out) {
   Reader r(payload, "sealed frame set");
   out.send_us = r.get<int64_t>();
+  out.sequence = r.get<uint64_t>();
+  const uint8_t flags = r.get<uint8_t>();
+  if (flags > 1) r.fail("unknown flags " + std::to_string(flags));
+  out.key_frame_set = flags & 1;
+  out.times.capture_us = r.get<int64_t>();
+  out.times.filter_done_us = r.get<int64_t>();
+  out.times.encode_done_us = r.get<int64_t>();
   out.body_bytes = r.get<uint32_t>();
   out.chunk_bytes = r.get<uint32_t>();
   const auto count = seal_chunk_count(out.body_bytes, out.chunk_bytes);
@@ -349,7 +361,8 @@ void parse_sealed_frame_set(std::span<const uint8_t> payload, SealedFrameSet& ou
     r.fail(std::to_string(*count) + " chunks, more than " + std::to_string(kMaxSealChunks));
   for (uint8_t& b : out.key) b = r.get<uint8_t>();
   // The count is bounded above, and the payload must hold every chunk: check before resizing.
-  if (payload.size() != 8 + 4 + 4 + kSealKeyBytes + *count * (kSealTagBytes + kSealDigestBytes))
+  if (payload.size() !=
+      8 + kFrameSetHeadBytes + 4 + 4 + kSealKeyBytes + *count * (kSealTagBytes + kSealDigestBytes))
     r.fail("payload of " + std::to_string(payload.size()) + " bytes for " + std::to_string(*count) +
            " chunks");
   out.chunks.resize(static_cast<size_t>(*count));

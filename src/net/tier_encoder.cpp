@@ -76,6 +76,9 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   times.encode_done_us = out->encode_done_us;
   protocol::serialize_frame_set_body(frames.sequence, all_key, times, encoded_, out->body);
   if (seal) {  // a recycled buffer of the same size is not cleared or zero-filled again
+    seal_scratch_.sequence = frames.sequence;
+    seal_scratch_.key_frame_set = all_key;
+    seal_scratch_.times = times;
     seal_body(out->body, kSealChunkBytes, seal_scratch_, out->sealed, &pool);
     protocol::serialize_sealed_frame_set_rest(seal_scratch_, out->seal_rest);
   } else {

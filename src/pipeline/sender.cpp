@@ -121,8 +121,10 @@ void SitePlayer::run(const Publish& publish) {
   std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
   last_frames_.assign(sources_.size(), nullptr);
   buffers_.resize(sources_.size());
+  raw_.resize(sources_.size());
   const std::vector<protocol::CameraInfo> infos = cameras();
-  std::vector<std::pair<size_t, CameraFrame>> read;
+  // Cameras read this tick: a recycled frame, or (with a filter chain) null: the frame is in raw_.
+  std::vector<std::pair<size_t, std::shared_ptr<CameraFrame>>> read;
   uint64_t sequence = 0;
   while (!stop_) {
     std::this_thread::sleep_until(next);
@@ -139,7 +141,14 @@ void SitePlayer::run(const Publish& publish) {
           std::chrono::duration<double>(1.0 / sources_[i]->fps()));
       if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
       try {
-        read.emplace_back(i, sources_[i]->next());
+        if (chains_[i]) {
+          sources_[i]->next(raw_[i]);
+          read.emplace_back(i, nullptr);
+        } else {
+          std::shared_ptr<CameraFrame> out = spare_frame(i);  // no allocation once warm
+          sources_[i]->next(*out);
+          read.emplace_back(i, std::move(out));
+        }
       } catch (const std::exception& e) {
         read_failed(i, e.what());
       }
@@ -149,10 +158,10 @@ void SitePlayer::run(const Publish& publish) {
       try {
         if (chains_[i]) {
           std::shared_ptr<CameraFrame> out = spare_frame(i);
-          chains_[i]->apply(frame, *out);
+          chains_[i]->apply(raw_[i], *out);
           last_frames_[i] = std::move(out);
         } else {
-          last_frames_[i] = std::make_shared<const CameraFrame>(std::move(frame));  // no copy
+          last_frames_[i] = std::move(frame);
         }
         read_succeeded(i);
       } catch (const std::exception& e) {

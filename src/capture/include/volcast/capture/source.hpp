@@ -29,10 +29,18 @@ class FrameSource {
   /// color has an empty ColorImage (0 x 0) -- sent as a zero-length color stream.
   virtual int color_frame_count() const = 0;
   /// Reads the next frame (depth and registered color of calibration().depth's size, or empty
-  /// color); after the last frame it starts again at the first (playback loops). Throws Error
-  /// naming the file (and frame) on corrupt data; the frame is then skipped: the next call reads
-  /// the frame after it.
-  virtual CameraFrame next() = 0;
+  /// color) into `out`, reusing its images' buffers where it can: a capture loop that recycles
+  /// its frames allocates nothing per frame for a still or recorded camera. After the last frame
+  /// it starts again at the first (playback loops). Throws Error naming the file (and frame) on
+  /// corrupt data, leaving `out` valid but unspecified; the frame is then skipped: the next call
+  /// reads the frame after it.
+  virtual void next(CameraFrame& out) = 0;
+  /// The same, into a new frame.
+  CameraFrame next() {
+    CameraFrame f;
+    next(f);
+    return f;
+  }
   /// Human-readable description (kind and path) for logs.
   virtual std::string description() const = 0;
 };

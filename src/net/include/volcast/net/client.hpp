@@ -28,7 +28,9 @@ struct ClientConfig {
   std::string color_codec = "jpeg";
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default
   /// false: receive-only -- frame sets are read and acknowledged but not decoded (a load
-  /// generator measuring the server, or a relay).
+  /// generator measuring the server, or a relay). A sealed one (protocol.hpp 1.2) is not even
+  /// opened: its sequence, key flag and times come from the descriptor, and its per-camera sizes
+  /// and device times are reported as 0.
   bool decode = true;
   int decode_threads = 0;  ///< worker threads for decoding (0 = cores - 1)
   /// The server's Welcome (or Reject) must arrive within this many milliseconds of the

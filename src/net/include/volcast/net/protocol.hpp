@@ -1,10 +1,10 @@
 #pragma once
-// Volcast stream protocol, version 4: versioned messages on channels, over one connection per
+// Volcast stream protocol, version 5: versioned messages on channels, over one connection per
 // viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; WebSocket will carry the same
 // bytes). Little-endian throughout.
 //
 // Every message: a 12-byte header
-//   magic "VCST" (4 bytes) | protocol version u16 (= 3) | channel u8 | type u8 | payload length u32
+//   magic "VCST" (4 bytes) | protocol version u16 (= 5) | channel u8 | type u8 | payload length u32
 // then the payload. Strings are u16 length + UTF-8 bytes; byte strings u32 length + bytes; doubles
 // IEEE-754 binary64; times i64 microseconds of the sender's wall clock (Unix epoch).
 //
@@ -45,7 +45,10 @@
 //     1.2 SealedFrameSet  server -> viewer, only over TLS: the same frame set, its body encrypted
 //                    once per tier instead of once per viewer (TLS would encrypt it again for each
 //                    viewer); a viewer may get 1.1 and 1.2 in turn as others join and leave. The
-//                    payload, inside TLS like every other message: send time i64 |
+//                    payload, inside TLS like every other message: send time i64 | the
+//                    body's first 33 bytes, copied: sequence u64 | flags u8 | capture time i64 |
+//                    filter done i64 | encode done i64 (a viewer that opens the body refuses a
+//                    copy that differs; a receive-only one acknowledges from it unopened) |
 //                    body length u32 | chunk length u32 (a power of two, kMinSealChunkBytes to
 //                    kMaxSealChunkBytes) | key (16 bytes: AES-128, random, fresh for every frame
 //                    set of every tier) | per chunk, ceil(body length / chunk length) of them (at
@@ -97,7 +100,7 @@
 namespace volcast::protocol {
 
 inline constexpr uint32_t kMagic = 0x54534356;  // "VCST" as little-endian bytes
-inline constexpr uint16_t kVersion = 4;
+inline constexpr uint16_t kVersion = 5;
 inline constexpr size_t kTokenBytes = 16;
 inline constexpr size_t kHeaderBytes = 12;
 inline constexpr uint32_t kMaxHelloBytes = 4096;
@@ -122,9 +125,13 @@ inline constexpr uint32_t kMinSealChunkBytes = 4u << 10;
 inline constexpr uint32_t kMaxSealChunkBytes = 16u << 20;
 inline constexpr uint32_t kMaxSealChunks = 4096;
 inline constexpr size_t kSealKeyBytes = 16, kSealTagBytes = 16, kSealDigestBytes = 32;
+/// A FrameSet body's fixed head: sequence, flags and three sender times (a SealedFrameSet copies
+/// it).
+inline constexpr uint32_t kFrameSetHeadBytes = 8 + 1 + 3 * 8;
 /// The largest SealedFrameSet payload (the descriptor inside TLS, not the sealed bytes after it).
 inline constexpr uint32_t kMaxSealedFrameSetBytes =
-    8 + 4 + 4 + kSealKeyBytes + kMaxSealChunks * (kSealTagBytes + kSealDigestBytes);
+    8 + kFrameSetHeadBytes + 4 + 4 + kSealKeyBytes +
+    kMaxSealChunks * (kSealTagBytes + kSealDigestBytes);
 
 enum class Channel : uint8_t { kControl = 0, kFrames = 1, kSession = 2 };
 
@@ -226,7 +233,11 @@ struct SealChunk {
 /// What a SealedFrameSet (1.2) carries inside TLS: how to check and open the sealed body that
 /// follows it outside TLS (seal.hpp seals and opens).
 struct SealedFrameSet {
-  int64_t send_us = 0;       ///< as in FrameSet: when this server began writing to this viewer
+  int64_t send_us = 0;  ///< as in FrameSet: when this server began writing to this viewer
+  /// Copies of the sealed body's sequence, key flag and sender times (send_us unused here).
+  uint64_t sequence = 0;
+  bool key_frame_set = false;
+  SenderTimes times;
   uint32_t body_bytes = 0;   ///< sealed bytes that follow (= the FrameSet body's length)
   uint32_t chunk_bytes = 0;  ///< power of two in [kMinSealChunkBytes, kMaxSealChunkBytes]
   std::array<uint8_t, kSealKeyBytes> key{};

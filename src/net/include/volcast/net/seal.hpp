@@ -22,9 +22,9 @@ inline constexpr uint32_t kSealChunkBytes = 128u << 10;
 
 /// Seals `body` into `sealed` (resized to body.size(); capacity reused) under a new random key,
 /// in chunks of `chunk_bytes` (a power of two within protocol.hpp's limits), and fills `seal`'s
-/// body length, chunk length, key, tags and digests (its send time is left alone). Chunks run in
-/// parallel on `pool` (nullptr: on the calling thread). Throws Error if the random source or the
-/// cipher fails, or the body needs more than protocol::kMaxSealChunks chunks.
+/// body length, chunk length, key, tags and digests (its send time and head copy are left alone).
+/// Chunks run in parallel on `pool` (nullptr: on the calling thread). Throws Error if the random
+/// source or the cipher fails, or the body needs more than protocol::kMaxSealChunks chunks.
 void seal_body(std::span<const uint8_t> body, uint32_t chunk_bytes, protocol::SealedFrameSet& seal,
                std::vector<uint8_t>& sealed, WorkerPool* pool);
 

@@ -6,10 +6,10 @@
 
 #include <condition_variable>
 #include <deque>
-#include <set>
 #include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "sequence_folder.hpp"
 #include "test_data.hpp"

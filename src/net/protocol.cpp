@@ -243,15 +243,35 @@ std::string parse_reject(std::span<const uint8_t> payload) {
   return s;
 }
 
-void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& times,
-                              std::span<const EncodedCamera> cameras, std::vector<uint8_t>& out) {
-  out.clear();
-  Writer w(out);
+namespace {
+
+// A frame set body's fixed head (kFrameSetHeadBytes), which a SealedFrameSet copies.
+void put_frame_set_head(Writer& w, uint64_t sequence, bool key, const SenderTimes& times) {
   w.put<uint64_t>(sequence);
   w.put<uint8_t>(key ? 1 : 0);
   w.put<int64_t>(times.capture_us);
   w.put<int64_t>(times.filter_done_us);
   w.put<int64_t>(times.encode_done_us);
+}
+
+// Reads that head into the given fields (times.send_us untouched); refuses unknown flags.
+void get_frame_set_head(Reader& r, uint64_t& sequence, bool& key, SenderTimes& times) {
+  sequence = r.get<uint64_t>();
+  const uint8_t flags = r.get<uint8_t>();
+  if (flags > 1) r.fail("unknown flags " + std::to_string(flags));
+  key = flags & 1;
+  times.capture_us = r.get<int64_t>();
+  times.filter_done_us = r.get<int64_t>();
+  times.encode_done_us = r.get<int64_t>();
+}
+
+}  // namespace
+
+void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& times,
+                              std::span<const EncodedCamera> cameras, std::vector<uint8_t>& out) {
+  out.clear();
+  Writer w(out);
+  put_frame_set_head(w, sequence, key, times);
   w.put<uint32_t>(static_cast<uint32_t>(cameras.size()));
   for (const EncodedCamera& c : cameras) {
     w.put<int64_t>(c.device_timestamp_us);
@@ -283,13 +303,7 @@ std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, in
 void parse_frame_set(std::span<const uint8_t> payload, FrameSetView& out) {
   Reader r(payload, "frame set");
   out.times.send_us = r.get<int64_t>();
-  out.sequence = r.get<uint64_t>();
-  const uint8_t flags = r.get<uint8_t>();
-  if (flags > 1) r.fail("unknown flags " + std::to_string(flags));
-  out.key = flags & 1;
-  out.times.capture_us = r.get<int64_t>();
-  out.times.filter_done_us = r.get<int64_t>();
-  out.times.encode_done_us = r.get<int64_t>();
+  get_frame_set_head(r, out.sequence, out.key, out.times);
   const uint32_t n = r.get<uint32_t>();
   if (n == 0 || n > kMaxCameras) r.fail("camera count " + std::to_string(n));
   out.cameras.resize(n);
@@ -321,11 +335,7 @@ void serialize_sealed_frame_set_rest(const SealedFrameSet& m, std::vector<uint8_
                 std::to_string(m.body_bytes));
   out.clear();
   Writer w(out);
-  w.put<uint64_t>(m.sequence);
-  w.put<uint8_t>(m.key_frame_set ? 1 : 0);
-  w.put<int64_t>(m.times.capture_us);
-  w.put<int64_t>(m.times.filter_done_us);
-  w.put<int64_t>(m.times.encode_done_us);
+  put_frame_set_head(w, m.sequence, m.key_frame_set, m.times);
   w.put<uint32_t>(m.body_bytes);
   w.put<uint32_t>(m.chunk_bytes);
   w.append(m.key.data(), m.key.size());
@@ -344,13 +354,7 @@ std::array<uint8_t, kFrameSetPrefixBytes> sealed_frame_set_prefix(size_t rest_by
 void parse_sealed_frame_set(std::span<const uint8_t> payload, SealedFrameSet& out) {
   Reader r(payload, "sealed frame set");
   out.send_us = r.get<int64_t>();
-  out.sequence = r.get<uint64_t>();
-  const uint8_t flags = r.get<uint8_t>();
-  if (flags > 1) r.fail("unknown flags " + std::to_string(flags));
-  out.key_frame_set = flags & 1;
-  out.times.capture_us = r.get<int64_t>();
-  out.times.filter_done_us = r.get<int64_t>();
-  out.times.encode_done_us = r.get<int64_t>();
+  get_frame_set_head(r, out.sequence, out.key_frame_set, out.times);
   out.body_bytes = r.get<uint32_t>();
   out.chunk_bytes = r.get<uint32_t>();
   const auto count = seal_chunk_count(out.body_bytes, out.chunk_bytes);

@@ -54,6 +54,16 @@ TEST(Cli, BadInputGivesAClearErrorAndNonZeroExit) {
           kVolcast + " serve --source " + test::hands_dir().string() + " --intrinsics 1,2", out),
       1);
   EXPECT_NE(out.find("--intrinsics"), std::string::npos) << out;
+  // The avatar filter flags are checked before connecting.
+  const std::string view = kVolcast + " view --connect 127.0.0.1:1 --token " + std::string(32, '0');
+  EXPECT_EQ(test::run_command(view + " --keep-within 1,2,3", out), 1);
+  EXPECT_NE(out.find("--keep-within needs 4 comma-separated numbers, got 3"), std::string::npos)
+      << out;
+  EXPECT_EQ(test::run_command(view + " --keep-within 0,1,2,-0.5", out), 1);
+  EXPECT_NE(out.find("--keep-within: the radius must be positive"), std::string::npos) << out;
+  EXPECT_EQ(test::run_command(view + " --hide-headset 1,2", out), 1);
+  EXPECT_NE(out.find("--hide-headset needs 3 comma-separated numbers, got 2"), std::string::npos)
+      << out;
 }
 
 TEST(Cli, DemoWithoutDataSaysWhereToPutIt) {

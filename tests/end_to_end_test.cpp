@@ -314,6 +314,18 @@ TEST(EndToEnd, ViewerRendersWhatItReceives) {
     covered += shot.bgra[i] + shot.bgra[i + 1] + shot.bgra[i + 2] > 90;
   EXPECT_GT(covered,
             shot.bgra.size() / 4 / 10);  // the table and hands fill a good part of the view
+
+  // The same stream through an avatar filter that keeps only a small sphere far from the scene:
+  // nothing is drawn.
+  opt.avatar_filter.keep = KeepSphere{{50, 50, 50}, 0.1f};
+  opt.screenshot = dir / "filtered.png";
+  const ViewerResult f = run_viewer(opt);
+  EXPECT_GE(f.frames_rendered, 1u);
+  const ColorImage filtered = read_color_png(opt.screenshot);
+  size_t drawn = 0;
+  for (size_t i = 0; i < filtered.bgra.size(); i += 4)
+    drawn += filtered.bgra[i] + filtered.bgra[i + 1] + filtered.bgra[i + 2] > 90;
+  EXPECT_EQ(drawn, 0u);
 }
 
 }  // namespace

@@ -181,6 +181,60 @@ TEST(SplatRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
   EXPECT_LT(fraction_differing(from_cpu, from_gpu, 12), 0.01);
 }
 
+// The avatar filter in the vertex shaders drops the points the CPU filter drops: a sphere around a
+// point of the real scene, with a headset box inside it, drawn both ways.
+TEST(SplatRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
+  auto src = open_source(test::kinect_mkv());
+  const CameraFrame f = src->next();
+  CameraCalibration cal = src->calibration();
+  cal.world_from_camera.rotation =
+      Eigen::AngleAxisd(-0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  cal.world_from_camera.translation = Eigen::Vector3d(-0.3, 0.1, 0.8);
+  PointCloud cloud;
+  CloudBuilder(cal).build(f.depth, f.color, cloud);
+  const SplatPoint& mid = cloud.points[cloud.points.size() / 2];
+  const Eigen::Vector3f head(mid.position[0], mid.position[1], mid.position[2]);
+  AvatarFilter filter;
+  filter.keep = KeepSphere{head, 0.5f};
+  HideBox box;
+  box.world_from_headset.rotation =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  box.world_from_headset.translation = head.cast<double>();
+  filter.hide = box;
+  PointCloud filtered = cloud;
+  const size_t removed = apply_avatar_filter(filter, filtered);
+  ASSERT_GT(removed, cloud.points.size() / 4);
+  ASSERT_GT(filtered.points.size(), 2000u);
+
+  HeadlessTarget target(320, 288);
+  SplatRenderer renderer;
+  const PointCloud* all[] = {&cloud};
+  const View view =
+      to_view(orbit_view(cal.world_from_camera, all, 20, 15), target.target().aspect());
+  ColorImage unfiltered, from_cpu, from_gpu, from_gpu_cloud;
+  renderer.draw(all, view, target.target());
+  target.read_image(unfiltered);
+  const PointCloud* cpu[] = {&filtered};
+  renderer.draw(cpu, view, target.target());
+  target.read_image(from_cpu);
+  renderer.set_avatar_filter(filter);
+  renderer.set_cameras(std::span(&cal, 1));
+  renderer.upload(0, f);
+  renderer.draw_cameras(view, target.target());
+  target.read_image(from_gpu);
+  renderer.draw(all, view, target.target());  // the unfiltered cloud, filtered by the shader
+  target.read_image(from_gpu_cloud);
+
+  EXPECT_GT(fraction_covered(from_cpu), 0.02);
+  EXPECT_LT(fraction_covered(from_cpu), 0.8 * fraction_covered(unfiltered));
+  EXPECT_LT(fraction_differing(from_cpu, from_gpu, 12), 0.01);
+  EXPECT_LT(fraction_differing(from_cpu, from_gpu_cloud, 12), 0.01);
+  renderer.set_avatar_filter({});  // off again: everything back
+  renderer.draw(all, view, target.target());
+  target.read_image(from_gpu_cloud);
+  EXPECT_LT(fraction_differing(unfiltered, from_gpu_cloud, 12), 0.001);
+}
+
 TEST(SplatRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
   // Synthetic (labelled): a 4x2 pinhole camera at the origin looking down +z; two valid pixels,
   // red at (0, 0) and green at (3, 1), the rest depth 0 with a blue colour that must not appear.

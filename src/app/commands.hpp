@@ -78,6 +78,8 @@ struct ViewArgs {
   std::string screenshot, save_frames, stats_json;
   std::string size = "1280x720";
   std::string eye, target;
+  std::string keep_within;          ///< avatar filter: "x,y,z,radius" (metres, world frame)
+  std::string hide_headset;         ///< avatar filter: "x,y,z[,yaw_degrees]" (metres, world frame)
   bool low_latency = false;         ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
   int handshake_timeout_ms = 5000;  ///< ClientConfig::handshake_timeout_ms
   int receive_timeout_ms = 10000;   ///< ClientConfig::receive_timeout_ms

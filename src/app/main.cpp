@@ -151,6 +151,11 @@ int main(int argc, char** argv) {
   v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");
+  v->add_option("--keep-within", view.keep_within,
+                "Avatar filter: draw only points within R metres of x,y,z (world frame): x,y,z,R");
+  v->add_option("--hide-headset", view.hide_headset,
+                "Avatar filter: hide the points of a headset at x,y,z (world frame, metres), "
+                "facing -z turned by yaw degrees about +y: x,y,z[,yaw]");
   v->add_option("--handshake-timeout", view.handshake_timeout_ms,
                 "Give up unless the server's Welcome arrives this soon after connecting (ms, "
                 "0 = never)")

@@ -3,6 +3,7 @@
 #include <ifaddrs.h>
 #include <spdlog/spdlog.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <fstream>
@@ -270,6 +271,22 @@ int run_view(const ViewArgs& a) {
     v.eye = Eigen::Vector3d(e[0], e[1], e[2]).cast<float>();
     v.target = Eigen::Vector3d(t[0], t[1], t[2]).cast<float>();
     opt.view = v;
+  }
+  if (!a.keep_within.empty()) {
+    const auto k = parse_numbers(a.keep_within, 4, "--keep-within");
+    if (!(k[3] > 0)) throw Error("--keep-within: the radius must be positive metres");
+    opt.avatar_filter.keep =
+        KeepSphere{Eigen::Vector3d(k[0], k[1], k[2]).cast<float>(), static_cast<float>(k[3])};
+  }
+  if (!a.hide_headset.empty()) {
+    const bool yaw = std::count(a.hide_headset.begin(), a.hide_headset.end(), ',') == 3;
+    const auto h = parse_numbers(a.hide_headset, yaw ? 4 : 3, "--hide-headset");
+    HideBox box;
+    box.world_from_headset.translation = {h[0], h[1], h[2]};
+    if (yaw)
+      box.world_from_headset.rotation =
+          Eigen::AngleAxisd(h[3] * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    opt.avatar_filter.hide = box;
   }
   opt.screenshot = a.screenshot;
   opt.save_frames_dir = a.save_frames;

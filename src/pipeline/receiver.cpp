@@ -53,6 +53,7 @@ void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInf
     std::vector<CameraCalibration> calibrations;
     for (const auto& c : cams) calibrations.push_back(c.calibration);
     renderer.set_cameras(calibrations);
+    renderer.set_avatar_filter(opt.avatar_filter);
     std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cams.size());
     uint64_t seen = 0;
     std::optional<ViewCamera> view = opt.view;

@@ -14,7 +14,21 @@
 namespace volcast {
 namespace {
 
-constexpr const char* kVertexShader = R"(#version 450 core
+// The avatar filter (avatar_filter.hpp), in the frame of the pass's points: world for draw(), the
+// camera's for draw_cameras(). The same inclusive tests as avatar_filter_keeps().
+#define VOLCAST_AVATAR_FILTER                                                              \
+  "uniform vec4 keep_sphere;         /* centre (metres), radius; radius <= 0: off */\n"    \
+  "uniform mat4 headset_from_points;\n"                                                    \
+  "uniform vec3 hide_half_extent;    /* metres; x <= 0: off */\n"                          \
+  "bool avatar_hidden(vec3 p) {\n"                                                         \
+  "  vec3 d = p - keep_sphere.xyz;\n"                                                      \
+  "  if (keep_sphere.w > 0.0 && dot(d, d) > keep_sphere.w * keep_sphere.w) return true;\n" \
+  "  if (hide_half_extent.x <= 0.0) return false;\n"                                       \
+  "  vec3 h = abs((headset_from_points * vec4(p, 1.0)).xyz);\n"                            \
+  "  return all(lessThanEqual(h, hide_half_extent));\n"                                    \
+  "}\n"
+
+constexpr const char* kVertexShader = "#version 450 core\n" VOLCAST_AVATAR_FILTER R"(
 layout(location = 0) in vec3 position;   // world, metres
 layout(location = 1) in float radius;    // metres
 layout(location = 2) in vec4 color;
@@ -22,6 +36,12 @@ uniform mat4 clip_from_world;
 uniform float pixels_per_unit;           // viewport_height / 2 * P[1][1]
 out vec4 v_color;
 void main() {
+  if (avatar_hidden(position)) {
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);       // beyond the far plane: clipped, nothing drawn
+    gl_PointSize = 1.0;
+    v_color = vec4(0.0);
+    return;
+  }
   gl_Position = clip_from_world * vec4(position, 1.0);
   gl_PointSize = clamp(2.0 * radius * pixels_per_unit / gl_Position.w, 1.0, 64.0);
   v_color = color;
@@ -29,7 +49,7 @@ void main() {
 )";
 
 // GPU reconstruction: vertex gl_VertexID is depth pixel (id % width, id / width) of one camera.
-constexpr const char* kCameraVertexShader = R"(#version 450 core
+constexpr const char* kCameraVertexShader = "#version 450 core\n" VOLCAST_AVATAR_FILTER R"(
 layout(binding = 0) uniform usampler2D depth_mm;  // R16UI, 0 = invalid
 layout(binding = 1) uniform sampler2D rays;       // RG32F: X/Z, Y/Z; NaN where the lens has none
 layout(binding = 2) uniform sampler2D color;      // RGBA8, registered to depth
@@ -50,6 +70,12 @@ void main() {
     return;
   }
   const float z = float(d) * 0.001;
+  if (avatar_hidden(vec3(ray * z, z))) {
+    gl_Position = vec4(0.0, 0.0, 2.0, 1.0);
+    gl_PointSize = 1.0;
+    v_color = vec4(0.0);
+    return;
+  }
   gl_Position = clip_from_camera * vec4(ray * z, z, 1.0);
   gl_PointSize = clamp(2.0 * z * radius_per_metre * pixels_per_unit / gl_Position.w, 1.0, 64.0);
   const vec4 c = texelFetch(color, px, 0);
@@ -137,6 +163,31 @@ struct SplatRenderer::Impl {
   GLint c_has_color = -1, c_width = -1, c_clip_from_camera = -1, c_radius_per_metre = -1,
         c_pixels_per_unit = -1;
   std::vector<GpuCamera> cameras;
+  // The avatar filter: its uniforms in both programs, and the filter itself.
+  struct FilterUniforms {
+    GLint keep_sphere = -1, headset_from_points = -1, hide_half_extent = -1;
+  } filter_points, filter_camera;
+  AvatarFilter filter;
+
+  // Sets `program`'s filter uniforms for points in a frame placed by `world_from_points`.
+  void set_filter(const FilterUniforms& u, const Eigen::Matrix4f& world_from_points) const {
+    Eigen::Vector4f sphere = Eigen::Vector4f::Zero();
+    if (filter.keep) {
+      const Eigen::Matrix4f points_from_world = world_from_points.inverse();
+      sphere.head<3>() = (points_from_world * filter.keep->center.homogeneous()).head<3>();
+      sphere.w() = filter.keep->radius_m;
+    }
+    glUniform4fv(u.keep_sphere, 1, sphere.data());
+    Eigen::Matrix4f headset_from_points = Eigen::Matrix4f::Identity();
+    Eigen::Vector3f half = Eigen::Vector3f::Zero();
+    if (filter.hide) {
+      headset_from_points =
+          filter.hide->world_from_headset.inverse().matrix4f() * world_from_points;
+      half = filter.hide->half_extent_m;
+    }
+    glUniformMatrix4fv(u.headset_from_points, 1, GL_FALSE, headset_from_points.data());
+    glUniform3fv(u.hide_half_extent, 1, half.data());
+  }
 
   void delete_cameras() {
     for (const GpuCamera& c : cameras) {
@@ -168,6 +219,12 @@ SplatRenderer::SplatRenderer() {
   r.c_clip_from_camera = glGetUniformLocation(r.camera_program, "clip_from_camera");
   r.c_radius_per_metre = glGetUniformLocation(r.camera_program, "radius_per_metre");
   r.c_pixels_per_unit = glGetUniformLocation(r.camera_program, "pixels_per_unit");
+  for (auto [program, u] :
+       {std::pair{r.program, &r.filter_points}, std::pair{r.camera_program, &r.filter_camera}}) {
+    u->keep_sphere = glGetUniformLocation(program, "keep_sphere");
+    u->headset_from_points = glGetUniformLocation(program, "headset_from_points");
+    u->hide_half_extent = glGetUniformLocation(program, "hide_half_extent");
+  }
   glCreateVertexArrays(1, &r.empty_vao);  // the camera pass reads textures, not attributes
   r.clip_from_world = glGetUniformLocation(r.program, "clip_from_world");
   r.pixels_per_unit = glGetUniformLocation(r.program, "pixels_per_unit");
@@ -251,6 +308,7 @@ void SplatRenderer::draw(std::span<const PointCloud* const> clouds, const View& 
   const Eigen::Matrix4f clip_from_world = view.clip_from_world();
   glUseProgram(r.program);
   glUniformMatrix4fv(r.clip_from_world, 1, GL_FALSE, clip_from_world.data());
+  r.set_filter(r.filter_points, Eigen::Matrix4f::Identity());
   glUniform1f(r.pixels_per_unit,
               0.5f * static_cast<float>(target.height) * view.clip_from_view(1, 1));
   glBindVertexArray(r.vao);
@@ -323,6 +381,7 @@ void SplatRenderer::draw_cameras(const View& view, const RenderTarget& target) {
     if (!c.uploaded) continue;
     const Eigen::Matrix4f clip_from_camera = clip_from_world * c.world_from_camera;
     glUniformMatrix4fv(r.c_clip_from_camera, 1, GL_FALSE, clip_from_camera.data());
+    r.set_filter(r.filter_camera, c.world_from_camera);
     glUniform1i(r.c_width, c.width);
     glUniform1i(r.c_has_color, c.has_color ? 1 : 0);
     glUniform1f(r.c_radius_per_metre, c.radius_per_metre);
@@ -334,6 +393,10 @@ void SplatRenderer::draw_cameras(const View& view, const RenderTarget& target) {
     total += n;
   }
   end_pass(target, total);
+}
+
+void SplatRenderer::set_avatar_filter(const AvatarFilter& filter) {
+  impl_->filter = filter;
 }
 
 std::string SplatRenderer::gl_description() const {

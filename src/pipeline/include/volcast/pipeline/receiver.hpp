@@ -12,6 +12,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
+#include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/splat_renderer.hpp"
 
 namespace volcast {
@@ -25,6 +26,7 @@ struct ViewerOptions {
   double software_render_fps = 0;           ///< with a software rasteriser (no GPU), draw at most
                                             ///< this often (0 = every frame set)
   std::optional<ViewCamera> view;           ///< default: orbit_view from the site's first camera
+  AvatarFilter avatar_filter;               ///< points drawn (avatar_filter.hpp); default: all
   std::filesystem::path screenshot;         ///< PNG of the last render, if set
   std::filesystem::path save_frames_dir;    ///< decoded depth/color PNGs per frame, if set
   std::filesystem::path stats_json;         ///< statistics as JSON, if set

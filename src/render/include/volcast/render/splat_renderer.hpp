@@ -22,6 +22,7 @@
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
+#include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
 #include "volcast/render/render_target.hpp"
 #include "volcast/render/view.hpp"
@@ -59,6 +60,10 @@ class SplatRenderer {
   /// As draw(), with the uploaded cameras' pixels as the points (see the top of this file); a
   /// camera not uploaded yet draws nothing, nor does a pixel with depth 0 or without a ray.
   void draw_cameras(const View& view, const RenderTarget& target);
+
+  /// The avatar filter (avatar_filter.hpp) both draw() and draw_cameras() apply from now on, in
+  /// their vertex shaders: a point it does not keep is not drawn. The default keeps every point.
+  void set_avatar_filter(const AvatarFilter& filter);
 
   /// GL_RENDERER and GL_VERSION of the current context, e.g.
   /// "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL 4.5 (Core Profile) Mesa 22.3.6".

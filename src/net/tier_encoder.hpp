@@ -28,8 +28,8 @@ struct EncodedFrames {
   int64_t encode_done_us = 0;
   std::vector<uint8_t> body;  ///< protocol::serialize_frame_set_body
   /// When sealed (TLS, enough viewers: ServerConfig::seal_from_viewers): `body` sealed once for
-  /// every viewer (seal.hpp), and the SealedFrameSet payload after its send time (key, tags,
-  /// digests). Both empty when this frame set was not sealed.
+  /// every viewer (seal.hpp), and the SealedFrameSet payload after its send time (head copy, key,
+  /// tags, digests). Both empty when this frame set was not sealed.
   std::vector<uint8_t> sealed;
   std::vector<uint8_t> seal_rest;
 };

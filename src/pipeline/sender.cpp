@@ -121,9 +121,9 @@ void SitePlayer::run(const Publish& publish) {
   std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
   last_frames_.assign(sources_.size(), nullptr);
   buffers_.resize(sources_.size());
-  raw_.resize(sources_.size());
+  std::vector<CameraFrame> raw(sources_.size());  // a filtered camera's frame before its chain
   const std::vector<protocol::CameraInfo> infos = cameras();
-  // Cameras read this tick: a recycled frame, or (with a filter chain) null: the frame is in raw_.
+  // Cameras read this tick: a recycled frame, or (with a filter chain) null: the frame is in raw.
   std::vector<std::pair<size_t, std::shared_ptr<CameraFrame>>> read;
   uint64_t sequence = 0;
   while (!stop_) {
@@ -142,7 +142,7 @@ void SitePlayer::run(const Publish& publish) {
       if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
       try {
         if (chains_[i]) {
-          sources_[i]->next(raw_[i]);
+          sources_[i]->next(raw[i]);
           read.emplace_back(i, nullptr);
         } else {
           std::shared_ptr<CameraFrame> out = spare_frame(i);  // no allocation once warm
@@ -158,7 +158,7 @@ void SitePlayer::run(const Publish& publish) {
       try {
         if (chains_[i]) {
           std::shared_ptr<CameraFrame> out = spare_frame(i);
-          chains_[i]->apply(raw_[i], *out);
+          chains_[i]->apply(raw[i], *out);
           last_frames_[i] = std::move(out);
         } else {
           last_frames_[i] = std::move(frame);

@@ -80,7 +80,6 @@ class SitePlayer {
   std::vector<std::optional<FilterChain>> chains_;
   std::vector<std::shared_ptr<const CameraFrame>> last_frames_;     // each camera's latest frame
   std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers_;  // per camera, recycled
-  std::vector<CameraFrame> raw_;  // per camera with a filter chain: its frame before filtering
   std::vector<std::unordered_set<std::string>> warned_;  // per camera: errors already logged
   SiteOptions options_;
   double fps_;

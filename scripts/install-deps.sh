@@ -8,6 +8,7 @@ packages=(
   libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libturbojpeg0-dev libpng-dev zlib1g-dev
   libzstd-dev liblz4-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
+  libglfw3-dev libxrandr-dev libimgui-dev libopenxr-dev xvfb xauth
   clang-14 libclang-rt-14-dev
 )
 missing=()

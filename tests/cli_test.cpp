@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "test_data.hpp"
+#include "xvfb.hpp"
 
 namespace volcast {
 namespace {
@@ -86,7 +87,8 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   const auto j = nlohmann::json::parse(in);
   ASSERT_EQ(j["cameras"].size(), 2u);
   for (const auto& c : j["cameras"]) EXPECT_GT(c["frames_received"].get<int>(), 0);
-  for (const char* png : {"render_overview.png", "render_camera0.png", "render_camera1.png"})
+  for (const char* png : {"render_overview.png", "render_overview_mesh.png", "render_camera0.png",
+                          "render_camera1.png"})
     EXPECT_GT(std::filesystem::file_size(dir / png), 10'000u) << png;
 }
 
@@ -257,6 +259,112 @@ TEST(Cli, ServeRejectsABadSiteConfigNamingTheField) {
             0)
       << out;
   EXPECT_NE(out.find("sent as 540x476"), std::string::npos) << out;
+}
+
+// Starts `volcast serve` on the real hands sequence in the background (plain TCP on loopback, a
+// free port, 120 s at most); returns its pid and join link (empty if it printed none within 60 s).
+std::pair<std::string, std::string> start_hands_server(const std::filesystem::path& dir) {
+  std::string out;
+  test::run_command(
+      kVolcast + " serve --source " + test::hands_dir().string() +
+          " --intrinsics 460,460,320,180 --fps 15 --seconds 120 --port 0 --insecure > " +
+          (dir / "serve.log").string() + " 2>&1 & echo $!",
+      out);
+  const std::string pid = out.substr(0, out.find('\n'));
+  std::string link;
+  for (int attempt = 0; attempt < 300 && link.empty(); ++attempt) {
+    std::ifstream log(dir / "serve.log");
+    for (std::string line; std::getline(log, line);)
+      if (line.find("volcast://") != std::string::npos) link = line.substr(line.find("volcast://"));
+    if (link.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return {pid, link};
+}
+
+size_t count_of(const std::string& text, const std::string& what) {
+  size_t n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+TEST(Cli, ViewFallsBackFromOpenXrToTheWindowAndWithoutADisplayToHeadlessSayingSoOnce) {
+  const auto dir = test::temp_dir("cli_view_fallback");
+  std::string out;
+  ASSERT_EQ(test::run_command(kVolcast + " view --help", out), 0);
+  for (const char* flag : {"--headless", "--xr", "--site-config", "--surface", "--splat-size",
+                           "--point-size", "--edge-ratio", "--no-blend"})
+    EXPECT_NE(out.find(flag), std::string::npos) << flag;
+  EXPECT_NE(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --token " +
+                                  std::string(32, '0') + " --surface bogus",
+                              out),
+            0);
+  EXPECT_NE(out.find("--surface"), std::string::npos) << out;
+
+  const auto [pid, link] = start_hands_server(dir);
+  ASSERT_FALSE(link.empty());
+  // No OpenXR runtime (XR_RUNTIME_JSON names no file) and no display: one line each, then the
+  // stream is rendered headless with the pass flags, and the screenshot written.
+  const int rc = test::run_command(
+      "env -u DISPLAY XR_RUNTIME_JSON=/nonexistent/openxr_runtime.json XDG_CONFIG_HOME=" +
+          (dir / "config").string() + " " + kVolcast + " view --xr --connect '" + link +
+          "' --frames 5 --surface mesh --edge-ratio 0.08 --no-blend --screenshot " +
+          (dir / "shot.png").string(),
+      out);
+  std::string ignored;
+  test::run_command("kill " + pid, ignored);
+  EXPECT_EQ(rc, 0) << out;
+  EXPECT_EQ(count_of(out, "OpenXR: no runtime available (XR_ERROR_"), 1u) << out;
+  EXPECT_NE(out.find("; opening the desktop window"), std::string::npos) << out;
+  EXPECT_EQ(count_of(out, "OpenXR"), 1u) << out;  // the loader's own messages stay quiet
+  EXPECT_EQ(count_of(out, "no display for a window"), 1u) << out;
+  EXPECT_NE(out.find("frames_reached"), std::string::npos) << out;
+  EXPECT_GT(std::filesystem::file_size(dir / "shot.png"), 10'000u);
+}
+
+TEST(Cli, ViewOpensTheDesktopWindowByDefaultAndRendersOffscreenWithHeadless) {
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const auto dir = test::temp_dir("cli_view_window");
+  const auto [pid, link] = start_hands_server(dir);
+  ASSERT_FALSE(link.empty());
+  const std::string env =
+      "DISPLAY=" + xvfb.display() + " XDG_CONFIG_HOME=" + (dir / "config").string() + " ";
+  std::string window, headless, ignored;
+  const int rc_window = test::run_command(
+      env + kVolcast + " view --connect '" + link + "' --frames 5 --size 480x320", window);
+  const int rc_headless = test::run_command(
+      env + kVolcast + " view --headless --connect '" + link + "' --frames 3", headless);
+  test::run_command("kill " + pid, ignored);
+  EXPECT_EQ(rc_window, 0) << window;
+  EXPECT_NE(window.find("desktop window 480x320"), std::string::npos) << window;
+  EXPECT_NE(window.find("frames_reached"), std::string::npos) << window;
+  EXPECT_EQ(rc_headless, 0) << headless;
+  EXPECT_EQ(headless.find("desktop window"), std::string::npos) << headless;
+}
+
+TEST(Cli, ServePlacesCamerasWhereTheSiteConfigSaysAndNamesAMalformedPose) {
+  const auto dir = test::temp_dir("cli_config_pose");
+  const auto site = (dir / "site.json").string();
+  const auto write = [&](const std::string& pose) {
+    std::ofstream(site) << R"({"cameras": [{"source": ")" << test::hands_dir().string()
+                        << R"(", "intrinsics": "460,460,320,180", "world_from_camera": )" << pose
+                        << "}]}";
+  };
+  std::string out;
+  write(R"({"translation_m": [0.1, -0.2, 1.5], "rotation_deg": [10, -20, 30]})");
+  EXPECT_EQ(test::run_command(kVolcast + " serve --config " + site + " --seconds 1 --port 0", out),
+            0)
+      << out;
+  EXPECT_NE(out.find("camera 0: placed by the site config at (0.100, -0.200, 1.500) m, turned "
+                     "(10.00, -20.00, 30.00) deg"),
+            std::string::npos)
+      << out;
+  write(R"({"translation_m": [0.1, -0.2, 1.5], "rotation_deg": [0, 90]})");
+  EXPECT_EQ(test::run_command(kVolcast + " serve --config " + site + " --seconds 1 --port 0", out),
+            1);
+  EXPECT_NE(out.find(site), std::string::npos) << out;
+  EXPECT_NE(out.find("camera 0"), std::string::npos) << out;
+  EXPECT_NE(out.find("rotation_deg"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -328,5 +328,54 @@ TEST(EndToEnd, ViewerRendersWhatItReceives) {
   EXPECT_EQ(drawn, 0u);
 }
 
+// The render thread is pluggable (a window, a headset): a presenter sees every camera, takes the
+// newest frames, reads the live figures, and ends the session by closing the feed.
+TEST(EndToEnd, APresenterTakesFramesReadsLiveFiguresAndClosesTheSession) {
+  HandsSite site(15);
+  ViewerOptions opt = viewer_options(site.server, "trvl", "jpeg");
+  opt.render = true;
+  opt.seconds = 60;  // a bound in case closing did not work; the presenter ends it long before
+  size_t cameras = 0, taken = 0;
+  LiveStats live;
+  opt.presenter = [&](FrameFeed& feed, ViewerResult& result) {
+    cameras = feed.cameras().size();
+    std::vector<std::shared_ptr<const CameraFrame>> frames;
+    while (!feed.finished()) {
+      if (!feed.next(frames, std::chrono::milliseconds(200))) continue;
+      EXPECT_EQ(frames.size(), cameras);
+      ASSERT_TRUE(frames[0]);
+      EXPECT_EQ(frames[0]->depth.width, feed.cameras()[0].depth.width);
+      ++taken;
+      ++result.frames_rendered;
+      live = feed.live();
+      if (live.frame_sets_received >= 20 && live.cameras[0].received_fps > 0) feed.close();
+    }
+  };
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed);
+  EXPECT_STREQ(to_string(r.ended), "closed");
+  EXPECT_EQ(cameras, 1u);
+  EXPECT_GE(taken, 2u);
+  EXPECT_EQ(r.frames_rendered, taken);
+  EXPECT_GE(live.frame_sets_received, 20u);
+  ASSERT_EQ(live.cameras.size(), 1u);
+  EXPECT_GT(live.cameras[0].received_fps, 0);
+  EXPECT_GT(live.cameras[0].mbit_per_s, 0);
+  EXPECT_GT(live.cameras[0].frames_received, 0u);
+  EXPECT_EQ(live.depth_codec, "trvl");
+  EXPECT_FALSE(live.stages.empty());
+  EXPECT_LT(r.frame_sets_received, 15u * 50);  // closed, not run out the 60 s
+
+  // A presenter that fails ends the session as an error naming the renderer.
+  opt.presenter = [](FrameFeed&, ViewerResult&) { throw Error("no window"); };
+  try {
+    run_viewer(opt);
+    ADD_FAILURE() << "a failed presenter did not end the session as an error";
+  } catch (const ViewerError& e) {
+    EXPECT_EQ(e.result().ended, ViewerEnd::kError);
+    EXPECT_NE(std::string(e.what()).find("renderer: no window"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace volcast

@@ -11,6 +11,7 @@
 #include "test_data.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/splat_renderer.hpp"
 
@@ -18,6 +19,13 @@ namespace volcast {
 namespace {
 
 constexpr uint32_t kRed = 0xff0000ffu, kGreen = 0xff00ff00u;  // SplatPoint::rgba, R lowest
+// CameraRenderer drawing what CloudBuilder + SplatRenderer draw: footprint splats, no blending.
+const CameraPassOptions kPlainSplats = [] {
+  CameraPassOptions o;
+  o.splat_size = SplatSize::kFootprint;
+  o.blend = false;
+  return o;
+}();
 
 // Where p_view lands in a viewport, in GL window coordinates (pixels from the framebuffer's lower
 // left), as the OpenGL pipeline computes it: clip, divide by w, viewport transform.
@@ -146,7 +154,7 @@ double fraction_covered(const ColorImage& image) {
   return static_cast<double>(covered) / static_cast<double>(image.bgra.size() / 4);
 }
 
-TEST(SplatRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
+TEST(CameraRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
   // The real Azure Kinect frame (lens model with distortion: the rays come from the ray table),
   // placed away from the world origin and turned, seen from the side.
   auto src = open_source(test::kinect_mkv());
@@ -160,19 +168,20 @@ TEST(SplatRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
   const PointCloud* clouds[] = {&cloud};
   HeadlessTarget target(320, 288);
   SplatRenderer renderer;
+  CameraRenderer gpu;
   const View view =
       to_view(orbit_view(cal.world_from_camera, clouds, 25, 10), target.target().aspect());
 
   renderer.draw(clouds, view, target.target());
   ColorImage from_cpu, from_gpu;
   target.read_image(from_cpu);
-  renderer.set_cameras(std::span(&cal, 1));
-  renderer.draw_cameras(view, target.target());
+  gpu.set_cameras(std::span(&cal, 1));
+  gpu.draw_cameras(view, target.target(), kPlainSplats);
   ColorImage nothing_uploaded;
   target.read_image(nothing_uploaded);
   EXPECT_LT(fraction_covered(nothing_uploaded), 0.001) << "a camera drew before any upload";
-  renderer.upload(0, f);
-  renderer.draw_cameras(view, target.target());
+  gpu.upload(0, f);
+  gpu.draw_cameras(view, target.target(), kPlainSplats);
   target.read_image(from_gpu);
 
   EXPECT_GT(fraction_covered(from_cpu), 0.2);
@@ -183,7 +192,7 @@ TEST(SplatRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
 
 // The avatar filter in the vertex shaders drops the points the CPU filter drops: a sphere around a
 // point of the real scene, with a headset box inside it, drawn both ways.
-TEST(SplatRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
+TEST(CameraRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
   auto src = open_source(test::kinect_mkv());
   const CameraFrame f = src->next();
   CameraCalibration cal = src->calibration();
@@ -208,6 +217,7 @@ TEST(SplatRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
 
   HeadlessTarget target(320, 288);
   SplatRenderer renderer;
+  CameraRenderer gpu;
   const PointCloud* all[] = {&cloud};
   const View view =
       to_view(orbit_view(cal.world_from_camera, all, 20, 15), target.target().aspect());
@@ -218,9 +228,10 @@ TEST(SplatRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
   renderer.draw(cpu, view, target.target());
   target.read_image(from_cpu);
   renderer.set_avatar_filter(filter);
-  renderer.set_cameras(std::span(&cal, 1));
-  renderer.upload(0, f);
-  renderer.draw_cameras(view, target.target());
+  gpu.set_avatar_filter(filter);
+  gpu.set_cameras(std::span(&cal, 1));
+  gpu.upload(0, f);
+  gpu.draw_cameras(view, target.target(), kPlainSplats);
   target.read_image(from_gpu);
   renderer.draw(all, view, target.target());  // the unfiltered cloud, filtered by the shader
   target.read_image(from_gpu_cloud);
@@ -235,7 +246,7 @@ TEST(SplatRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
   EXPECT_LT(fraction_differing(unfiltered, from_gpu_cloud, 12), 0.001);
 }
 
-TEST(SplatRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
+TEST(CameraRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
   // Synthetic (labelled): a 4x2 pinhole camera at the origin looking down +z; two valid pixels,
   // red at (0, 0) and green at (3, 1), the rest depth 0 with a blue colour that must not appear.
   CameraCalibration cal;
@@ -258,11 +269,12 @@ TEST(SplatRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGra
 
   HeadlessTarget target(160, 120);
   SplatRenderer renderer;
+  CameraRenderer gpu;
   ViewCamera camera;  // at the origin looking down +z, up = -y: the camera's own view
   const View view = to_view(camera, target.target().aspect());
-  renderer.set_cameras(std::span(&cal, 1));
-  renderer.upload(0, f);
-  renderer.draw_cameras(view, target.target());
+  gpu.set_cameras(std::span(&cal, 1));
+  gpu.upload(0, f);
+  gpu.draw_cameras(view, target.target(), kPlainSplats);
   ColorImage image;
   target.read_image(image);
   const auto image_pixel = [&](const SplatPoint& p) {
@@ -280,14 +292,14 @@ TEST(SplatRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGra
   EXPECT_EQ(blue, 0u) << "pixels with depth 0 were drawn";
 
   f.color = ColorImage();  // no colour: gray, as CloudBuilder draws it
-  renderer.upload(0, f);
-  renderer.draw_cameras(view, target.target());
+  gpu.upload(0, f);
+  gpu.draw_cameras(view, target.target(), kPlainSplats);
   target.read_image(image);
   EXPECT_EQ(image_pixel(cloud.points[0]), (std::array<uint8_t, 4>{160, 160, 160, 255}));
 
   f.depth = DepthImage(3, 2);
-  EXPECT_THROW(renderer.upload(0, f), Error);  // not the calibration's size
-  EXPECT_THROW(renderer.upload(1, f), Error);  // no such camera
+  EXPECT_THROW(gpu.upload(0, f), Error);  // not the calibration's size
+  EXPECT_THROW(gpu.upload(1, f), Error);  // no such camera
 }
 
 TEST(SplatRenderer, DrawsIntoAFramebufferItDidNotCreateOnlyInsideTheViewport) {

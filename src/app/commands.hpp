@@ -37,7 +37,8 @@ struct FilterFlags {
 
 struct ServeArgs {
   std::vector<std::string> sources;
-  std::string config;  ///< site config JSON: {"cameras": [{"source", "intrinsics", "filters"}]}
+  std::string config;  ///< site config JSON: {"cameras": [{"source", "intrinsics", "filters",
+                       ///< "name", "world_from_camera"}]} (volcast/io/site_config.hpp)
   FilterFlags filters;
   std::string bind = "127.0.0.1";
   uint16_t port = 7300;
@@ -73,10 +74,19 @@ struct ViewArgs {
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int color_quality = 0;
   bool no_render = false;
+  bool headless = false;           ///< render offscreen (EGL) instead of opening the desktop window
+  bool xr = false;                 ///< try OpenXR first (falls back to the window, then headless)
+  std::string surface = "splats";  ///< CameraPassOptions::surface: splats | mesh
+  std::string splat_size = "adaptive";  ///< fixed | footprint | adaptive
+  float point_size = 2;                 ///< fixed splats: pixels
+  float splat_scale = 1;                ///< footprint and adaptive splats: x the pixel footprint
+  float edge_ratio = 0.05f;             ///< mesh: CameraPassOptions::max_edge_ratio
+  bool no_blend = false;                ///< depth-test overlapping cameras instead of blending
+  std::string site_config;              ///< where the window's Save writes camera poses
   int frames = 0;
   double seconds = 0;
   std::string screenshot, save_frames, stats_json;
-  std::string size = "1280x720";
+  std::string size = "1280x720";  ///< window or headless render size
   std::string eye, target;
   std::string keep_within;          ///< avatar filter: "x,y,z,radius" (metres, world frame)
   std::string hide_headset;         ///< avatar filter: "x,y,z[,yaw_degrees]" (metres, world frame)
@@ -84,9 +94,12 @@ struct ViewArgs {
   int handshake_timeout_ms = 5000;  ///< ClientConfig::handshake_timeout_ms
   int receive_timeout_ms = 10000;   ///< ClientConfig::receive_timeout_ms
 };
-/// Returns 0 when frame sets arrived and the session ended normally (--frames or --seconds
-/// reached, interrupted, the server closed); throws Error (main: exit 1) when none arrived or it
-/// ended on an error, after printing the table and writing --stats-json.
+/// Renders into the desktop window by default (headless when there is no display, with one line
+/// saying so), OpenXR with --xr (the window when no runtime is available), offscreen with
+/// --headless. Returns 0 when frame sets arrived and the session ended normally (--frames or
+/// --seconds reached, interrupted, the window closed, the server closed); throws Error (main:
+/// exit 1) when none arrived or it ended on an error, after printing the table and writing
+/// --stats-json.
 int run_view(const ViewArgs& args);
 
 struct DemoArgs {
@@ -130,6 +143,8 @@ struct BenchArgs {
   double server_seconds = 4;  ///< measured per configuration
   int server_repeats = 3;     ///< TCP/TLS pairs per configuration, interleaved (medians reported)
   std::vector<int> viewers;   ///< viewer counts (default 1, 4, 8, 16)
+  bool render = false;        ///< the render benchmark instead
+  double render_seconds = 1;  ///< drawn per configuration (at least 3 frames)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
@@ -140,6 +155,12 @@ int run_bench(const BenchArgs& args);
 /// serving viewers), send_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs, send_tls_over_tcp,
 /// send_tls_over_tcp_runs}]} to args.json if set (ratios on TLS rows: the median of each pair's).
 int run_server_bench(const BenchArgs& args);
+/// Draws the real four-camera set with CameraRenderer, headless: splats and mesh, blended or not,
+/// 1/2/4 cameras, 1280x720 mono and 2x2160x2160 stereo; prints a table and writes {"render":
+/// [{renderer, blend, cameras, width, height (per eye), eyes, ms_per_frame (median, both eyes),
+/// frames_timed, upload_ms, first_draw_after_upload_ms, ms_sum_of_cameras_alone (each camera drawn
+/// alone, summed: the linear baseline), gpu}]} to args.json if set.
+int run_render_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;

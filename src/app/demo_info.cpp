@@ -14,6 +14,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
+#include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 
 namespace volcast {
@@ -107,18 +108,26 @@ int run_demo(const DemoArgs& a) {
   site.stop();
   server.stop();
 
-  // Extra renders of the last frame set: from each camera's own viewpoint.
-  HeadlessTarget target(1280, 720);
-  SplatRenderer renderer;
-  ColorImage image;
-  std::vector<const PointCloud*> clouds;
-  for (const auto& c : result.last_clouds) clouds.push_back(&c);
-  if (a.no_render) {  // the overview was not drawn while streaming: draw it now
-    renderer.draw(clouds, to_view(overview, target.target().aspect()), target.target());
-    target.read_image(image);
-    write_color_png(out / "render_overview.png", image);
-  }
+  // Extra renders of the last frame set: from each camera's own viewpoint, and the mesh.
   const auto cams = site.cameras();
+  HeadlessTarget target(1280, 720);
+  CameraRenderer renderer;
+  std::vector<CameraCalibration> calibrations;
+  for (const auto& c : cams) calibrations.push_back(c.calibration);
+  renderer.set_cameras(calibrations);
+  for (size_t i = 0; i < result.last_frames.size() && i < cams.size(); ++i)
+    if (result.last_frames[i]) renderer.upload(i, *result.last_frames[i]);
+  ColorImage image;
+  const auto render = [&](const ViewCamera& v, const CameraPassOptions& o, const fs::path& file) {
+    renderer.draw_cameras(to_view(v, target.target().aspect()), target.target(), o);
+    target.read_image(image);
+    write_color_png(file, image);
+  };
+  if (a.no_render)  // the overview was not drawn while streaming: draw it now
+    render(overview, {}, out / "render_overview.png");
+  CameraPassOptions mesh;
+  mesh.surface = Surface::kMesh;
+  render(overview, mesh, out / "render_overview_mesh.png");
   for (size_t i = 0; i < cams.size(); ++i) {
     const RigidTransform& w = cams[i].calibration.world_from_camera;
     ViewCamera v;
@@ -126,14 +135,11 @@ int run_demo(const DemoArgs& a) {
     v.target = (w * Eigen::Vector3d(0, 0, 1)).cast<float>();
     v.up = (w.rotation * Eigen::Vector3d(0, -1, 0)).cast<float>();
     v.vertical_fov_deg = 65;
-    renderer.draw(clouds, to_view(v, target.target().aspect()), target.target());
-    target.read_image(image);
-    const fs::path file = out / fmt::format("render_camera{}.png", i);
-    write_color_png(file, image);
+    render(v, {}, out / fmt::format("render_camera{}.png", i));
   }
   std::printf("\n%s", format_stats_table(result).c_str());
-  std::printf("\nwrote %s, %s and render_camera0..%zu.png there\n", (out / "stats.json").c_str(),
-              (out / "render_overview.png").c_str(), cams.size() - 1);
+  std::printf("\nwrote %s, %s (splats; _mesh: the grid mesh) and render_camera0..%zu.png there\n",
+              (out / "stats.json").c_str(), (out / "render_overview.png").c_str(), cams.size() - 1);
   return 0;
 }
 

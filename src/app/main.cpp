@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
 
   ViewArgs view;
   auto* v =
-      app.add_subcommand("view", "Receive a site's stream, build point clouds and render them");
+      app.add_subcommand("view", "Receive a site's stream and watch it in a window (or headset)");
   v->add_option("--connect", view.connect,
                 "The join link the server printed (volcast://HOST:PORT/?token=...&fp=...), or "
                 "HOST:PORT with --token")
@@ -140,15 +140,45 @@ int main(int argc, char** argv) {
                 "Color quality 1..100 (JPEG quality, H.264 CRF from it; 0 = the codec default)")
       ->capture_default_str();
   v->add_flag("--no-render", view.no_render,
-              "Receive and decode only (otherwise rendered offscreen with EGL)");
+              "Receive and decode only (otherwise rendered in a window, a headset or offscreen)");
+  v->add_flag("--headless", view.headless,
+              "Render offscreen with EGL instead of opening a window (also the fallback when "
+              "there is no display)");
+  v->add_flag("--xr", view.xr,
+              "Render to a VR headset through OpenXR (the window when no runtime is available)");
+  v->add_option("--surface", view.surface, "Renderer: splats or mesh")
+      ->check(CLI::IsMember({"splats", "splat", "mesh"}))
+      ->capture_default_str();
+  v->add_option("--splat-size", view.splat_size,
+                "Splat size: fixed (--point-size pixels), footprint (the pixel's footprint x "
+                "--splat-scale) or adaptive (footprint, enlarged where points are sparse)")
+      ->check(CLI::IsMember({"fixed", "footprint", "adaptive"}))
+      ->capture_default_str();
+  v->add_option("--point-size", view.point_size, "Fixed splats: width in pixels")
+      ->check(CLI::Range(1.0f, 64.0f))
+      ->capture_default_str();
+  v->add_option("--splat-scale", view.splat_scale, "Footprint splats: x the pixel's footprint")
+      ->check(CLI::Range(0.1f, 10.0f))
+      ->capture_default_str();
+  v->add_option("--edge-ratio", view.edge_ratio,
+                "Mesh: drop a triangle whose edge is longer than this x its nearer depth")
+      ->check(CLI::Range(0.001f, 1.0f))
+      ->capture_default_str();
+  v->add_flag("--no-blend", view.no_blend,
+              "Let the depth test pick between overlapping cameras instead of blending them");
+  v->add_option("--site-config", view.site_config,
+                "Site config JSON where the window's Save writes the cameras' world_from_camera "
+                "(default volcast-site.json)");
   v->add_option("--frames", view.frames, "Stop after N frame sets");
   v->add_option("--seconds", view.seconds, "Stop after this many seconds");
-  v->add_option("--screenshot", view.screenshot, "Write the last render as PNG");
+  v->add_option("--screenshot", view.screenshot,
+                "Headless: write the last render as PNG; window: where F12 / P write "
+                "(default volcast-screenshot-N.png)");
   v->add_option("--save-frames", view.save_frames,
                 "Write decoded depth (16-bit PNG) and color PNGs here");
   v->add_option("--stats-json", view.stats_json,
                 "Write per-camera and per-stage latency statistics as JSON");
-  v->add_option("--size", view.size, "Render size WIDTHxHEIGHT")->capture_default_str();
+  v->add_option("--size", view.size, "Window or render size WIDTHxHEIGHT")->capture_default_str();
   v->add_option("--eye", view.eye, "Viewpoint x,y,z in metres (world frame)");
   v->add_option("--target", view.target, "Look-at point x,y,z in metres (world frame)");
   v->add_option("--keep-within", view.keep_within,
@@ -228,6 +258,11 @@ int main(int argc, char** argv) {
                  "With --server: TCP/TLS pairs run per configuration, interleaved; medians shown")
       ->capture_default_str();
   bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
+  bn->add_flag("--render", bench.render,
+               "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
+  bn->add_option("--render-seconds", bench.render_seconds,
+                 "With --render: seconds drawn per configuration (at least 3 frames)")
+      ->capture_default_str();
 
   InfoArgs info;
   auto* i = app.add_subcommand(
@@ -246,7 +281,12 @@ int main(int argc, char** argv) {
     if (*i) return run_info(info);
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
-    if (*bn) return bench.server ? run_server_bench(bench) : run_bench(bench);
+    if (*bn) {
+      if (bench.server && bench.render) throw Error("bench: --server and --render are two runs");
+      return bench.server   ? run_server_bench(bench)
+             : bench.render ? run_render_bench(bench)
+                            : run_bench(bench);
+    }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());
     return 1;

@@ -13,11 +13,14 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/io/site_config.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/join.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
+#include "volcast/viewer/desktop.hpp"
+#include "volcast/viewer/xr.hpp"
 
 namespace volcast {
 
@@ -55,6 +58,7 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
     const auto j = nlohmann::json::parse(in, nullptr, false);
     if (j.is_discarded() || !j.contains("cameras") || !j["cameras"].is_array())
       throw Error("site config '" + a.config + "' must be a JSON object with a \"cameras\" list");
+    const auto poses = read_site_poses(a.config);  // "world_from_camera", per camera
     for (const auto& cam : j["cameras"]) {
       const std::string where =
           "site config '" + a.config + "' camera " + std::to_string(sources.size());
@@ -63,6 +67,14 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
       SourceOptions opt = defaults;
       if (cam.contains("intrinsics"))
         opt.intrinsics = parse_pinhole(cam["intrinsics"].get<std::string>());
+      if (const auto& pose = poses[sources.size()]) {
+        opt.world_from_camera = *pose;
+        const Eigen::Vector3d t = pose->translation, r = degrees_from_rotation(pose->rotation);
+        spdlog::info(
+            "camera {}: placed by the site config at ({:.3f}, {:.3f}, {:.3f}) m, turned "
+            "({:.2f}, {:.2f}, {:.2f}) deg",
+            sources.size(), t.x(), t.y(), t.z(), r.x(), r.y(), r.z());
+      }
       FilterConfig f = a.filters.to_config(sources.size());
       if (cam.contains("filters")) {
         try {
@@ -135,6 +147,48 @@ std::string link_host(const ServeArgs& a) {
     ::freeifaddrs(list);
   }
   return found;
+}
+
+// The draw pass settings the view flags give, shared by the window, the headset and headless.
+CameraPassOptions pass_options(const ViewArgs& a) {
+  CameraPassOptions pass;
+  pass.surface = parse_surface(a.surface);
+  pass.splat_size = a.splat_size == "fixed"       ? SplatSize::kFixedPixels
+                    : a.splat_size == "footprint" ? SplatSize::kFootprint
+                                                  : SplatSize::kAdaptive;
+  pass.fixed_point_px = a.point_size;
+  pass.splat_scale = a.splat_scale;
+  pass.max_edge_ratio = a.edge_ratio;
+  pass.blend = !a.no_blend;
+  return pass;
+}
+
+// The presenter for a viewer with a display: OpenXR with --xr when a runtime is available, else
+// the desktop window; empty (headless) when no window can be opened. Each fallback is one line.
+Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
+  std::string why;
+  const bool xr = a.xr && xr_available(&why);
+  if (a.xr && !xr) spdlog::warn("OpenXR: {}; opening the desktop window", why);
+  if (!desktop_available(&why)) {  // OpenXR needs the display too, for its OpenGL context
+    spdlog::warn("no display for a window ({}); rendering headless", why);
+    return {};
+  }
+  if (xr) {
+    XrOptions options;
+    options.pass = opt.pass;
+    options.avatar_filter = opt.avatar_filter;
+    options.view = opt.view;
+    return xr_presenter(options);
+  }
+  DesktopOptions desktop;
+  desktop.width = opt.width;
+  desktop.height = opt.height;
+  desktop.pass = opt.pass;
+  desktop.avatar_filter = opt.avatar_filter;
+  desktop.view = opt.view;
+  desktop.screenshot = a.screenshot;
+  if (!a.site_config.empty()) desktop.site_config = a.site_config;
+  return desktop_presenter(desktop);
 }
 
 }  // namespace
@@ -288,10 +342,12 @@ int run_view(const ViewArgs& a) {
           Eigen::AngleAxisd(h[3] * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
     opt.avatar_filter.hide = box;
   }
+  opt.pass = pass_options(a);
   opt.screenshot = a.screenshot;
   opt.save_frames_dir = a.save_frames;
   opt.stats_json = a.stats_json;
   opt.stop = &g_interrupted;
+  if (opt.render && !a.headless) opt.presenter = interactive_presenter(a, opt);
   ViewerResult result;
   try {
     result = run_viewer(opt);

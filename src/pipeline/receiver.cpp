@@ -26,22 +26,57 @@ struct Accumulator {
   std::vector<double> latencies_ms;
 };
 
-// Hands the newest decoded images from the receiving thread to the rendering thread, which
-// uploads them and reconstructs the points on the GPU. Frames are shared, immutable once handed
-// over: a camera that repeats its frame keeps its frame (and the renderer skips its upload).
-struct FrameMailbox {
-  std::mutex mutex;
+}  // namespace
+
+// Hands the newest decoded images from the receiving thread to the render thread (the
+// presenter), which uploads them and reconstructs the points on the GPU. Frames are shared,
+// immutable once handed over: a camera that repeats its frame keeps its frame (and the renderer
+// skips its upload).
+struct FrameFeed::State {
+  std::vector<CameraCalibration> cameras;
+  mutable std::mutex mutex;
   std::condition_variable changed;
   std::vector<std::shared_ptr<const CameraFrame>> frames;
-  uint64_t version = 0;
-  bool done = false;
+  uint64_t version = 0, taken = 0;
+  bool done = false;                // the receiving side is finished
+  std::atomic<bool> closed{false};  // the presenter asked to end
+  LiveStats live;
 };
 
-void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInfo>& cams,
-                 FrameMailbox& box, ViewerResult& result, std::exception_ptr& error) {
-  try {
+const std::vector<CameraCalibration>& FrameFeed::cameras() const {
+  return state_.cameras;
+}
+
+bool FrameFeed::next(std::vector<std::shared_ptr<const CameraFrame>>& frames,
+                     std::chrono::microseconds wait) {
+  std::unique_lock lock(state_.mutex);
+  state_.changed.wait_for(lock, wait,
+                          [&] { return state_.done || state_.version != state_.taken; });
+  if (state_.version == state_.taken) return false;
+  state_.taken = state_.version;
+  frames = state_.frames;
+  return true;
+}
+
+bool FrameFeed::finished() const {
+  std::lock_guard lock(state_.mutex);
+  return (state_.done && state_.version == state_.taken) || state_.closed;
+}
+
+void FrameFeed::close() {
+  state_.closed = true;
+  state_.changed.notify_all();
+}
+
+LiveStats FrameFeed::live() const {
+  std::lock_guard lock(state_.mutex);
+  return state_.live;
+}
+
+Presenter headless_presenter(const ViewerOptions& opt) {
+  return [opt](FrameFeed& feed, ViewerResult& result) {
     HeadlessTarget target(opt.width, opt.height);  // before the renderer: it owns the context
-    SplatRenderer renderer;
+    CameraRenderer renderer;
     result.renderer = renderer.gl_description();
     // A software rasteriser (no GPU) takes the cores the stream needs: draw it less often.
     const bool software = result.renderer.find("llvmpipe") != std::string::npos ||
@@ -50,20 +85,21 @@ void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInf
     if (throttle)
       spdlog::info("software renderer ({}): drawing at most {} frames per second", result.renderer,
                    opt.software_render_fps);
-    std::vector<CameraCalibration> calibrations;
-    for (const auto& c : cams) calibrations.push_back(c.calibration);
+    const std::vector<CameraCalibration>& calibrations = feed.cameras();
     renderer.set_cameras(calibrations);
     renderer.set_avatar_filter(opt.avatar_filter);
-    std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cams.size());
-    uint64_t seen = 0;
+    std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(calibrations.size());
     std::optional<ViewCamera> view = opt.view;
-    while (true) {
-      {
-        std::unique_lock lock(box.mutex);
-        box.changed.wait(lock, [&] { return box.done || box.version != seen; });
-        if (box.version == seen) break;  // finished, and nothing new to draw
-        seen = box.version;
-        frames = box.frames;  // the newest frames (shared; the receiver decodes into others)
+    auto last_draw = std::chrono::steady_clock::now() - std::chrono::hours(1);
+    while (!feed.finished()) {
+      if (!feed.next(frames, std::chrono::milliseconds(100))) continue;
+      if (throttle) {  // draw the newest frames at most software_render_fps times a second
+        const auto due =
+            last_draw + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(1.0 / opt.software_render_fps));
+        while (std::chrono::steady_clock::now() < due && !feed.finished())
+          feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
+                                due - std::chrono::steady_clock::now()));
       }
       // A frame this thread still holds cannot have been reused by the receiver: the same
       // pointer is the same images, already on the GPU.
@@ -72,23 +108,10 @@ void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInf
           renderer.upload(i, *frames[i]);
           uploaded[i] = frames[i];
         }
-      if (!view) {  // the default viewpoint needs the points once: built on the CPU this once
-        std::vector<PointCloud> clouds(frames.size());
-        std::vector<const PointCloud*> views;
-        for (size_t i = 0; i < frames.size(); ++i) {
-          if (frames[i])
-            CloudBuilder(calibrations[i]).build(frames[i]->depth, frames[i]->color, clouds[i]);
-          views.push_back(&clouds[i]);
-        }
-        view = orbit_view(calibrations.front().world_from_camera, views);
-      }
-      renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target());
+      if (!view) view = default_view(calibrations, frames);
+      renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target(), opt.pass);
+      last_draw = std::chrono::steady_clock::now();
       ++result.frames_rendered;
-      if (throttle) {
-        std::unique_lock lock(box.mutex);
-        box.changed.wait_for(lock, std::chrono::duration<double>(1.0 / opt.software_render_fps),
-                             [&] { return box.done; });
-      }
     }
     if (!opt.screenshot.empty() && result.frames_rendered > 0) {
       ColorImage image;  // the only read-back: the last frame, for the screenshot
@@ -96,11 +119,49 @@ void render_loop(const ViewerOptions& opt, const std::vector<protocol::CameraInf
       write_color_png(opt.screenshot, image);
       spdlog::info("wrote {}", opt.screenshot.string());
     }
-  } catch (...) {
-    error = std::current_exception();
-    std::lock_guard lock(box.mutex);
-    box.done = true;
+  };
+}
+
+ViewCamera default_view(std::span<const CameraCalibration> cameras,
+                        std::span<const std::shared_ptr<const CameraFrame>> frames) {
+  // The default viewpoint needs the points once: built on the CPU this once.
+  std::vector<PointCloud> clouds(frames.size());
+  std::vector<const PointCloud*> views;
+  for (size_t i = 0; i < frames.size() && i < cameras.size(); ++i) {
+    if (frames[i]) CloudBuilder(cameras[i]).build(frames[i]->depth, frames[i]->color, clouds[i]);
+    views.push_back(&clouds[i]);
   }
+  if (cameras.empty()) return ViewCamera{};
+  return orbit_view(cameras.front().world_from_camera, views);
+}
+
+namespace {
+
+// Refreshes the live figures from what arrived over the last `interval_us` (then forgotten) and
+// the whole session so far.
+void update_live(LiveStats& live, const std::vector<Accumulator>& total,
+                 std::vector<Accumulator>& recent, const StageRecorder& stages, uint64_t received,
+                 int64_t interval_us) {
+  const double seconds = static_cast<double>(interval_us) / 1e6;
+  for (size_t i = 0; i < recent.size(); ++i) {
+    CameraStats& s = live.cameras[i];
+    Accumulator& a = recent[i];
+    s.frames_received = total[i].frames;
+    s.frames_dropped = total[i].dropped;
+    s.received_fps = seconds > 0 ? static_cast<double>(a.frames) / seconds : 0;
+    s.mbit_per_s =
+        seconds > 0 ? static_cast<double>(a.depth_bytes + a.color_bytes) * 8 / seconds / 1e6 : 0;
+    if (a.frames > 0) {
+      s.mean_depth_bytes = static_cast<double>(a.depth_bytes) / static_cast<double>(a.frames);
+      s.mean_color_bytes = static_cast<double>(a.color_bytes) / static_cast<double>(a.frames);
+      s.depth_compression_ratio = static_cast<double>(s.width) * s.height * 2 / s.mean_depth_bytes;
+    }
+    s.latency_ms_p50 = percentile(a.latencies_ms, 0.50);
+    s.latency_ms_p99 = percentile(a.latencies_ms, 0.99);
+    a = Accumulator{};
+  }
+  live.stages = stages.summary();
+  live.frame_sets_received = received;
 }
 
 // What ended a session that threw `error`.
@@ -164,6 +225,8 @@ const char* to_string(ViewerEnd end) {
       return "seconds_reached";
     case ViewerEnd::kInterrupted:
       return "interrupted";
+    case ViewerEnd::kClosed:
+      return "closed";
     case ViewerEnd::kServerClosed:
       return "server_closed";
     case ViewerEnd::kTimedOut:
@@ -196,11 +259,28 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   Client& client = *connected;
   const auto& cams = client.welcome().cameras;
 
-  FrameMailbox box;
+  FrameFeed::State box;
+  for (const auto& c : cams) box.cameras.push_back(c.calibration);
+  box.live.depth_codec = opt.client.depth_codec;
+  box.live.color_codec = opt.client.color_codec;
+  box.live.cameras.resize(cams.size());
+  for (size_t i = 0; i < cams.size(); ++i) {
+    box.live.cameras[i].description = printable(cams[i].description);
+    box.live.cameras[i].width = cams[i].calibration.depth.width;
+    box.live.cameras[i].height = cams[i].calibration.depth.height;
+  }
+  FrameFeed feed(box);
   std::exception_ptr render_error;
   std::thread render_thread;
   if (opt.render)
-    render_thread = std::thread([&] { render_loop(opt, cams, box, result, render_error); });
+    render_thread = std::thread([&] {
+      try {
+        (opt.presenter ? opt.presenter : headless_presenter(opt))(feed, result);
+      } catch (...) {
+        render_error = std::current_exception();
+      }
+      feed.close();  // the presenter is gone: nothing draws what arrives from now on
+    });
 
   std::vector<Accumulator> acc(cams.size());
   // Each camera's newest decoded frame, and per camera the frames images are moved into (one no
@@ -209,6 +289,8 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers(cams.size());
   ReceivedFrameSet rx;
   StageRecorder stages;
+  std::vector<Accumulator> live_acc(cams.size());  // since the last live refresh
+  int64_t live_from_us = wall_clock_us();
   const auto start = std::chrono::steady_clock::now();
   int64_t first_rx_us = 0, last_rx_us = 0;
   uint64_t last_sequence = 0, received = 0;
@@ -225,8 +307,10 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       watchdog_cv.wait_for(lock, std::chrono::milliseconds(50));
       const bool timeout = opt.seconds > 0 && std::chrono::steady_clock::now() - start >
                                                   std::chrono::duration<double>(opt.seconds);
-      if (timeout || (opt.stop && *opt.stop)) {
-        stopped_by = timeout ? ViewerEnd::kSecondsReached : ViewerEnd::kInterrupted;
+      if (timeout || (opt.stop && *opt.stop) || box.closed) {
+        stopped_by = timeout                 ? ViewerEnd::kSecondsReached
+                     : opt.stop && *opt.stop ? ViewerEnd::kInterrupted
+                                             : ViewerEnd::kClosed;
         client.close();
         return;
       }
@@ -259,14 +343,14 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       const uint64_t gap = received > 0 && rx.frames.sequence > last_sequence + 1
                                ? rx.frames.sequence - last_sequence - 1
                                : 0;
-      for (size_t i = 0; i < cams.size(); ++i) {
-        Accumulator& a = acc[i];
-        ++a.frames;
-        a.dropped += gap;
-        a.depth_bytes += rx.depth_bytes[i];
-        a.color_bytes += rx.color_bytes[i];
-        a.latencies_ms.push_back(latency_ms);
-      }
+      for (size_t i = 0; i < cams.size(); ++i)
+        for (Accumulator* a : {&acc[i], &live_acc[i]}) {
+          ++a->frames;
+          a->dropped += gap;
+          a->depth_bytes += rx.depth_bytes[i];
+          a->color_bytes += rx.color_bytes[i];
+          a->latencies_ms.push_back(latency_ms);
+        }
       if (received == 0) first_rx_us = now;
       last_rx_us = now;
       last_sequence = rx.frames.sequence;
@@ -276,8 +360,12 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
         box.frames = frames;
         ++box.version;
         box.changed.notify_one();
-        if (box.done) break;  // renderer failed
+        if (now - live_from_us >= 500'000) {  // the panel's figures, twice a second
+          update_live(box.live, acc, live_acc, stages, received, now - live_from_us);
+          live_from_us = now;
+        }
       }
+      if (box.closed) break;  // the presenter ended the session, or failed
       if (!opt.save_frames_dir.empty()) {
         for (size_t i = 0; i < cams.size(); ++i) {
           const CameraFrame& f = *frames[i];
@@ -303,26 +391,23 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
       std::lock_guard lock(box.mutex);
       box.done = true;
     }
-    box.changed.notify_one();
+    box.changed.notify_all();
     render_thread.join();  // renders whatever is still pending
   }
-  for (size_t i = 0; i < cams.size(); ++i) {  // the last frame set's clouds, built once
-    result.last_clouds.emplace_back();
-    if (frames[i])
-      CloudBuilder(cams[i].calibration)
-          .build(frames[i]->depth, frames[i]->color, result.last_clouds.back());
-  }
+  result.last_frames = frames;
   result.frame_sets_received = received;
-  if (receive_error) {
-    result.ended = end_of(receive_error);
-    result.error = message_of(receive_error);
-  } else if (render_error) {
+  if (render_error) {  // first: a failed presenter closes the session, which may break a receive
     result.ended = ViewerEnd::kError;
     result.error = "renderer: " + message_of(render_error);
+  } else if (receive_error) {
+    result.ended = end_of(receive_error);
+    result.error = message_of(receive_error);
   } else if (opt.frames > 0 && received >= static_cast<uint64_t>(opt.frames)) {
     result.ended = ViewerEnd::kFramesReached;
+  } else if (box.closed && stopped_by == ViewerEnd::kServerClosed) {
+    result.ended = ViewerEnd::kClosed;  // the presenter ended it before the watchdog saw it
   } else {
-    result.ended = stopped_by;  // seconds reached, interrupted, or else the server closed
+    result.ended = stopped_by;  // seconds reached, interrupted, closed, or else the server closed
   }
   result.frames_undecodable = client.frames_undecodable();
   result.stages = stages.summary();

@@ -60,6 +60,10 @@ const EglContext& HeadlessTarget::context() const {
   return impl_->context;
 }
 
+void HeadlessTarget::finish() const {
+  glFinish();
+}
+
 void HeadlessTarget::read_image(ColorImage& out) const {
   const Impl& t = *impl_;
   if (out.width != t.width || out.height != t.height) out = ColorImage(t.width, t.height);

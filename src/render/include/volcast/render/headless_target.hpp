@@ -54,6 +54,10 @@ class HeadlessTarget {
   int height() const;
   const EglContext& context() const;
 
+  /// Waits until every command issued in the context has finished (glFinish): for timing a pass,
+  /// without reading anything back.
+  void finish() const;
+
   /// Waits for drawing into the framebuffer to finish and copies its colour into `out` (resized
   /// to width x height; BGRA, alpha 255, top row first like every ColorImage). The only
   /// read-back. Throws Error if OpenGL reports an error.

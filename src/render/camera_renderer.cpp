@@ -1,0 +1,402 @@
+#include "volcast/render/camera_renderer.hpp"
+
+#include <epoxy/gl.h>
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "camera_shaders.hpp"
+#include "gl_util.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/ray_table.hpp"
+#include "volcast/reconstruct/point_cloud.hpp"
+
+namespace volcast {
+namespace {
+
+constexpr const char* kPass = "camera renderer";
+
+// One camera: its textures, where it sits, and its mesh's kept triangles.
+struct GpuCamera {
+  int width = 0, height = 0;
+  GLuint rays = 0, depth = 0, color = 0;
+  bool uploaded = false, has_color = false;
+  Eigen::Matrix4f world_from_camera = Eigen::Matrix4f::Identity();
+  float radius_per_metre = 0;
+  // The mesh (kMeshIndices): up to 6 indices per 2x2 pixel quad, and the indirect draw command
+  // whose count the compute pass sets. Made again when the images, the avatar filter, the pose
+  // (the filter is in the world) or the edge threshold change.
+  GLuint mesh_indices = 0, mesh_command = 0;
+  bool mesh_current = false;
+  float mesh_edge_ratio = 0;
+};
+
+// DrawElementsIndirectCommand (OpenGL 4.5 §10.4).
+struct IndirectCommand {
+  uint32_t count, instance_count, first_index;
+  int32_t base_vertex;
+  uint32_t base_instance;
+};
+
+// Uniform locations every camera program has.
+struct CameraUniforms {
+  GLint has_color = -1, size = -1, view_from_camera = -1, clip_from_view = -1, tint = -1,
+        depth_push = -1, accumulate = -1;
+  gl::FilterUniforms filter;
+  CameraUniforms() = default;
+  explicit CameraUniforms(GLuint p)
+      : has_color(glGetUniformLocation(p, "has_color")),
+        size(glGetUniformLocation(p, "size")),
+        view_from_camera(glGetUniformLocation(p, "view_from_camera")),
+        clip_from_view(glGetUniformLocation(p, "clip_from_view")),
+        tint(glGetUniformLocation(p, "tint")),
+        depth_push(glGetUniformLocation(p, "depth_push")),
+        accumulate(glGetUniformLocation(p, "accumulate")),
+        filter(p) {}
+};
+
+void check_options(const CameraPassOptions& o) {
+  if (!(o.fixed_point_px >= 1 && o.fixed_point_px <= 64))
+    throw Error(
+        fmt::format("{}: fixed_point_px {} is outside 1..64 pixels", kPass, o.fixed_point_px));
+  if (!(o.splat_scale > 0 && o.splat_scale <= 16))
+    throw Error(fmt::format("{}: splat_scale {} is outside (0, 16]", kPass, o.splat_scale));
+  if (!(o.max_edge_ratio > 0))
+    throw Error(fmt::format("{}: max_edge_ratio {} must be positive", kPass, o.max_edge_ratio));
+  if (!(o.blend_depth_m > 0 && o.blend_depth_m <= 1))
+    throw Error(
+        fmt::format("{}: blend_depth_m {} is outside (0, 1] metres", kPass, o.blend_depth_m));
+}
+
+}  // namespace
+
+const char* to_string(Surface surface) {
+  return surface == Surface::kMesh ? "mesh" : "splats";
+}
+
+Surface parse_surface(const std::string& name) {
+  if (name == "splats" || name == "splat") return Surface::kSplats;
+  if (name == "mesh") return Surface::kMesh;
+  throw Error("unknown surface '" + name + "' (splats or mesh)");
+}
+
+struct CameraRenderer::Impl {
+  GLuint splat_program = 0, mesh_program = 0, resolve_program = 0, mesh_index_program = 0,
+         empty_vao = 0;
+  CameraUniforms splat, mesh;
+  GLint size_mode = -1, fixed_px = -1, radius_per_metre = -1, splat_scale = -1,
+        pixels_per_unit = -1, half_viewport = -1;  // splats
+  GLint index_size = -1, index_edge_ratio = -1;    // the mesh's triangle pass
+  gl::FilterUniforms index_filter;
+  GLint resolve_origin = -1;
+  std::vector<GpuCamera> cameras;
+  AvatarFilter filter;
+  // The blending pass's own framebuffer: accumulated color (RGBA16F) and the prepass's depth.
+  GLuint blend_fbo = 0, accumulated = 0, front_depth = 0;
+  int blend_width = 0, blend_height = 0;
+
+  void delete_cameras() {
+    for (const GpuCamera& c : cameras) {
+      const GLuint t[3] = {c.rays, c.depth, c.color};
+      glDeleteTextures(3, t);
+      const GLuint b[2] = {c.mesh_indices, c.mesh_command};
+      glDeleteBuffers(2, b);
+    }
+    cameras.clear();
+  }
+
+  // Makes camera c's kept triangles again if what they depend on changed (see GpuCamera).
+  void update_mesh(GpuCamera& c, float max_edge_ratio) {
+    if (c.mesh_current && c.mesh_edge_ratio == max_edge_ratio) return;
+    if (!c.mesh_indices) {
+      const auto quads = static_cast<GLsizeiptr>(c.width - 1) * (c.height - 1);
+      glCreateBuffers(1, &c.mesh_indices);
+      glNamedBufferStorage(c.mesh_indices, std::max<GLsizeiptr>(quads, 1) * 6 * 4, nullptr, 0);
+      glCreateBuffers(1, &c.mesh_command);
+      glNamedBufferStorage(c.mesh_command, sizeof(IndirectCommand), nullptr,
+                           GL_DYNAMIC_STORAGE_BIT);
+    }
+    const IndirectCommand reset{0, 1, 0, 0, 0};
+    glNamedBufferSubData(c.mesh_command, 0, sizeof reset, &reset);
+    glUseProgram(mesh_index_program);
+    glUniform2i(index_size, c.width, c.height);
+    glUniform1f(index_edge_ratio, max_edge_ratio);
+    index_filter.set(filter, c.world_from_camera);
+    glBindTextureUnit(0, c.depth);
+    glBindTextureUnit(1, c.rays);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, c.mesh_command);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, c.mesh_indices);
+    glDispatchCompute(static_cast<GLuint>((c.width + 14) / 16),
+                      static_cast<GLuint>((c.height + 14) / 16), 1);
+    glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT | GL_COMMAND_BARRIER_BIT);
+    c.mesh_current = true;
+    c.mesh_edge_ratio = max_edge_ratio;
+  }
+
+  void ensure_blend_target(int width, int height) {
+    if (blend_fbo && blend_width == width && blend_height == height) return;
+    if (blend_fbo) {
+      glDeleteFramebuffers(1, &blend_fbo);
+      const GLuint t[2] = {accumulated, front_depth};
+      glDeleteTextures(2, t);
+    }
+    accumulated = gl::make_texture(GL_RGBA16F, width, height);
+    front_depth = gl::make_texture(GL_DEPTH_COMPONENT32F, width, height);
+    glCreateFramebuffers(1, &blend_fbo);
+    glNamedFramebufferTexture(blend_fbo, GL_COLOR_ATTACHMENT0, accumulated, 0);
+    glNamedFramebufferTexture(blend_fbo, GL_DEPTH_ATTACHMENT, front_depth, 0);
+    blend_width = width;
+    blend_height = height;
+    if (const GLenum status = glCheckNamedFramebufferStatus(blend_fbo, GL_DRAW_FRAMEBUFFER);
+        status != GL_FRAMEBUFFER_COMPLETE)
+      throw Error(fmt::format("{}: blending framebuffer {}x{} is not complete (status {:#x})",
+                              kPass, width, height, status));
+  }
+
+  // Draws every uploaded, visible camera once with the program in use.
+  void draw_each(const CameraPassOptions& o, const View& view, bool as_mesh, float depth_push,
+                 bool accumulate) {
+    const CameraUniforms& u = as_mesh ? mesh : splat;
+    const Eigen::Matrix4f view_from_world = view.world_from_view.inverse().matrix4f();
+    glUniformMatrix4fv(u.clip_from_view, 1, GL_FALSE, view.clip_from_view.data());
+    glUniform1f(u.depth_push, depth_push);
+    glUniform1i(u.accumulate, accumulate ? 1 : 0);
+    for (size_t i = 0; i < cameras.size(); ++i) {
+      const GpuCamera& c = cameras[i];
+      const CameraLook look = i < o.cameras.size() ? o.cameras[i] : CameraLook{};
+      if (!c.uploaded || !look.visible) continue;
+      const Eigen::Matrix4f view_from_camera = view_from_world * c.world_from_camera;
+      glUniformMatrix4fv(u.view_from_camera, 1, GL_FALSE, view_from_camera.data());
+      u.filter.set(filter, c.world_from_camera);
+      glUniform2i(u.size, c.width, c.height);
+      glUniform1i(u.has_color, c.has_color ? 1 : 0);
+      glUniform4fv(u.tint, 1, look.tint.data());
+      glBindTextureUnit(0, c.depth);
+      glBindTextureUnit(1, c.rays);
+      glBindTextureUnit(2, c.color);
+      if (as_mesh) {
+        glVertexArrayElementBuffer(empty_vao, c.mesh_indices);
+        glBindBuffer(GL_DRAW_INDIRECT_BUFFER, c.mesh_command);
+        glDrawElementsIndirect(GL_TRIANGLES, GL_UNSIGNED_INT, nullptr);
+      } else {
+        glUniform1f(radius_per_metre, c.radius_per_metre * o.splat_scale);
+        glDrawArrays(GL_POINTS, 0, c.width * c.height);
+      }
+    }
+  }
+};
+
+CameraRenderer::CameraRenderer() {
+  // glGetString answers null when no context is current (checked with libepoxy and Mesa).
+  if (glGetString(GL_VERSION) == nullptr)
+    throw Error(std::string(kPass) + ": no OpenGL context is current on this thread");
+  if (epoxy_gl_version() < 45 || !epoxy_is_desktop_gl())
+    throw Error(std::string(kPass) + ": OpenGL 4.5 is required, the current context has " +
+                reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+  impl_ = std::make_unique<Impl>();
+  Impl& r = *impl_;
+  try {
+    r.splat_program = gl::link_program("camera renderer (splats)", shaders::kSplatVertex, nullptr,
+                                       shaders::kSplatFragment);
+    r.mesh_program = gl::link_program("camera renderer (mesh)", shaders::kMeshVertex, nullptr,
+                                      shaders::kMeshFragment);
+    r.mesh_index_program =
+        gl::link_compute("camera renderer (mesh triangles)", shaders::kMeshIndices);
+    r.resolve_program = gl::link_program("camera renderer (blend resolve)", shaders::kResolveVertex,
+                                         nullptr, shaders::kResolveFragment);
+  } catch (...) {
+    glDeleteProgram(r.splat_program);
+    glDeleteProgram(r.mesh_program);
+    glDeleteProgram(r.resolve_program);
+    throw;
+  }
+  r.splat = CameraUniforms(r.splat_program);
+  r.mesh = CameraUniforms(r.mesh_program);
+  r.size_mode = glGetUniformLocation(r.splat_program, "size_mode");
+  r.fixed_px = glGetUniformLocation(r.splat_program, "fixed_px");
+  r.radius_per_metre = glGetUniformLocation(r.splat_program, "radius_per_metre");
+  r.pixels_per_unit = glGetUniformLocation(r.splat_program, "pixels_per_unit");
+  r.splat_scale = glGetUniformLocation(r.splat_program, "splat_scale");
+  r.half_viewport = glGetUniformLocation(r.splat_program, "half_viewport");
+  r.index_size = glGetUniformLocation(r.mesh_index_program, "size");
+  r.index_edge_ratio = glGetUniformLocation(r.mesh_index_program, "max_edge_ratio");
+  r.index_filter = gl::FilterUniforms(r.mesh_index_program);
+  r.resolve_origin = glGetUniformLocation(r.resolve_program, "origin");
+  glCreateVertexArrays(1, &r.empty_vao);  // the passes read textures, not attributes
+}
+
+CameraRenderer::~CameraRenderer() {
+  Impl& r = *impl_;
+  r.delete_cameras();
+  if (r.blend_fbo) {
+    glDeleteFramebuffers(1, &r.blend_fbo);
+    const GLuint t[2] = {r.accumulated, r.front_depth};
+    glDeleteTextures(2, t);
+  }
+  glDeleteVertexArrays(1, &r.empty_vao);
+  glDeleteProgram(r.splat_program);
+  glDeleteProgram(r.mesh_program);
+  glDeleteProgram(r.resolve_program);
+  glDeleteProgram(r.mesh_index_program);
+}
+
+void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
+  Impl& r = *impl_;
+  r.delete_cameras();
+  for (const CameraCalibration& cal : cameras) {
+    const Intrinsics& k = cal.depth;
+    if (k.width <= 0 || k.height <= 0 || k.width > 4096 || k.height > 4096)
+      throw Error(fmt::format("{}: camera {} is {}x{} pixels (1..4096 per side)", kPass,
+                              r.cameras.size(), k.width, k.height));
+    GpuCamera c;
+    c.width = k.width;
+    c.height = k.height;
+    c.world_from_camera = cal.world_from_camera.matrix4f();
+    c.radius_per_metre = splat_radius_per_metre(k);
+    const RayTable rays = make_ray_table(k);
+    std::vector<float> xy(rays.x.size() * 2);
+    for (size_t i = 0; i < rays.x.size(); ++i) {
+      xy[2 * i] = rays.x[i];
+      xy[2 * i + 1] = rays.y[i];
+    }
+    c.rays = gl::make_texture(GL_RG32F, c.width, c.height);
+    c.depth = gl::make_texture(GL_R16UI, c.width, c.height);
+    c.color = gl::make_texture(GL_RGBA8, c.width, c.height);
+    r.cameras.push_back(c);  // owned from here: deleted with the others on error
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTextureSubImage2D(c.rays, 0, 0, 0, c.width, c.height, GL_RG, GL_FLOAT, xy.data());
+  }
+  gl::check(kPass, "making camera textures");
+}
+
+void CameraRenderer::set_world_from_camera(size_t camera, const RigidTransform& world_from_camera) {
+  Impl& r = *impl_;
+  if (camera >= r.cameras.size())
+    throw Error(
+        fmt::format("{}: no camera {} (set_cameras gave {})", kPass, camera, r.cameras.size()));
+  r.cameras[camera].world_from_camera = world_from_camera.matrix4f();
+  r.cameras[camera].mesh_current = false;  // the avatar filter is in the world frame
+}
+
+size_t CameraRenderer::camera_count() const {
+  return impl_->cameras.size();
+}
+
+void CameraRenderer::upload(size_t camera, const CameraFrame& frame) {
+  Impl& r = *impl_;
+  if (camera >= r.cameras.size())
+    throw Error(
+        fmt::format("{}: no camera {} (set_cameras gave {})", kPass, camera, r.cameras.size()));
+  GpuCamera& c = r.cameras[camera];
+  if (frame.depth.width != c.width || frame.depth.height != c.height)
+    throw Error(fmt::format("{}: camera {} depth is {}x{}, its calibration {}x{}", kPass, camera,
+                            frame.depth.width, frame.depth.height, c.width, c.height));
+  c.has_color = !frame.color.empty();
+  if (c.has_color && (frame.color.width != c.width || frame.color.height != c.height))
+    throw Error(fmt::format("{}: camera {} color is {}x{}, not registered to depth", kPass, camera,
+                            frame.color.width, frame.color.height));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(c.depth, 0, 0, 0, c.width, c.height, GL_RED_INTEGER, GL_UNSIGNED_SHORT,
+                      frame.depth.pixels.data());
+  if (c.has_color)
+    glTextureSubImage2D(c.color, 0, 0, 0, c.width, c.height, GL_BGRA, GL_UNSIGNED_BYTE,
+                        frame.color.bgra.data());
+  c.uploaded = true;
+  c.mesh_current = false;
+}
+
+void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
+                                  const CameraPassOptions& options) {
+  Impl& r = *impl_;
+  check_options(options);
+  if (target.width <= 0 || target.height <= 0)
+    throw Error(fmt::format("{}: empty viewport {}x{} in framebuffer {}", kPass, target.width,
+                            target.height, target.framebuffer));
+  if (const GLenum status = glCheckNamedFramebufferStatus(target.framebuffer, GL_DRAW_FRAMEBUFFER);
+      status != GL_FRAMEBUFFER_COMPLETE)
+    throw Error(fmt::format("{}: framebuffer {} is not complete (status {:#x})", kPass,
+                            target.framebuffer, status));
+  const bool mesh = options.surface == Surface::kMesh;
+  // The target: cleared inside its viewport (the scissor keeps splats that straddle the edge in).
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
+  glViewport(target.x, target.y, target.width, target.height);
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(target.x, target.y, target.width, target.height);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDepthMask(GL_TRUE);
+  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_BLEND);
+  glEnable(GL_PROGRAM_POINT_SIZE);
+  glBindVertexArray(r.empty_vao);
+
+  if (mesh)
+    for (size_t i = 0; i < r.cameras.size(); ++i)
+      if (r.cameras[i].uploaded && (i >= options.cameras.size() || options.cameras[i].visible))
+        r.update_mesh(r.cameras[i], options.max_edge_ratio);
+  glUseProgram(mesh ? r.mesh_program : r.splat_program);
+  if (!mesh) {
+    glUniform1i(r.size_mode, static_cast<int>(options.splat_size));
+    glUniform1f(r.fixed_px, options.fixed_point_px);
+    glUniform1f(r.pixels_per_unit,
+                0.5f * static_cast<float>(target.height) * view.clip_from_view(1, 1));
+    glUniform1f(r.splat_scale, options.splat_scale);
+    glUniform2f(r.half_viewport, 0.5f * static_cast<float>(target.width),
+                0.5f * static_cast<float>(target.height));
+  }
+  if (!options.blend) {
+    r.draw_each(options, view, mesh, 0, false);
+  } else {
+    // (1) the front surface's depth, pushed back; (2) what lies within blend_depth_m of it,
+    // weighted, summed; (3) the weighted mean into the target.
+    r.ensure_blend_target(target.width, target.height);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, r.blend_fbo);
+    glViewport(0, 0, target.width, target.height);
+    glDisable(GL_SCISSOR_TEST);
+    glClearColor(0, 0, 0, 0);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    r.draw_each(options, view, mesh, options.blend_depth_m, false);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    glDepthMask(GL_FALSE);
+    glDepthFunc(GL_LEQUAL);
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_ONE, GL_ONE);
+    r.draw_each(options, view, mesh, 0, true);
+    glDisable(GL_BLEND);
+
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
+    glViewport(target.x, target.y, target.width, target.height);
+    glEnable(GL_SCISSOR_TEST);
+    glDepthMask(GL_TRUE);
+    glDepthFunc(GL_ALWAYS);
+    glUseProgram(r.resolve_program);
+    glUniform2i(r.resolve_origin, target.x, target.y);
+    glBindTextureUnit(0, r.accumulated);
+    glBindTextureUnit(1, r.front_depth);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDepthFunc(GL_LESS);
+  }
+  glDisable(GL_SCISSOR_TEST);
+  gl::check(kPass, fmt::format("drawing {} cameras into framebuffer {}", r.cameras.size(),
+                               target.framebuffer)
+                       .c_str());
+}
+
+void CameraRenderer::set_avatar_filter(const AvatarFilter& filter) {
+  impl_->filter = filter;
+  for (GpuCamera& c : impl_->cameras) c.mesh_current = false;
+}
+
+std::string CameraRenderer::gl_description() const {
+  return std::string(reinterpret_cast<const char*>(glGetString(GL_RENDERER))) + ", OpenGL " +
+         reinterpret_cast<const char*>(glGetString(GL_VERSION));
+}
+
+}  // namespace volcast

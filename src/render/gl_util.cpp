@@ -1,0 +1,113 @@
+#include "gl_util.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/LU>
+#include <string>
+
+#include "volcast/core/error.hpp"
+
+namespace volcast::gl {
+namespace {
+
+GLuint compile(const char* pass, GLenum type, const char* source) {
+  GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &source, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    glDeleteShader(s);
+    throw Error(fmt::format("{}: shader does not compile: {}", pass, log));
+  }
+  return s;
+}
+
+}  // namespace
+
+namespace {
+
+GLuint link(const char* pass, const GLenum* types, const char* const* sources, int n) {
+  GLuint shaders[3] = {0, 0, 0};
+  try {
+    for (int i = 0; i < n; ++i)
+      if (sources[i]) shaders[i] = compile(pass, types[i], sources[i]);
+  } catch (...) {
+    for (GLuint s : shaders)
+      if (s) glDeleteShader(s);
+    throw;
+  }
+  const GLuint program = glCreateProgram();
+  for (GLuint s : shaders)
+    if (s) glAttachShader(program, s);
+  glLinkProgram(program);
+  for (GLuint s : shaders)
+    if (s) glDeleteShader(s);
+  GLint ok = 0;
+  glGetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(program, sizeof log, nullptr, log);
+    glDeleteProgram(program);
+    throw Error(fmt::format("{}: program does not link: {}", pass, log));
+  }
+  return program;
+}
+
+}  // namespace
+
+GLuint link_program(const char* pass, const char* vertex, const char* geometry,
+                    const char* fragment) {
+  const GLenum types[3] = {GL_VERTEX_SHADER, GL_GEOMETRY_SHADER, GL_FRAGMENT_SHADER};
+  const char* sources[3] = {vertex, geometry, fragment};
+  return link(pass, types, sources, 3);
+}
+
+GLuint link_compute(const char* pass, const char* compute) {
+  const GLenum type = GL_COMPUTE_SHADER;
+  return link(pass, &type, &compute, 1);
+}
+
+GLuint make_texture(GLenum format, int width, int height) {
+  GLuint t = 0;
+  glCreateTextures(GL_TEXTURE_2D, 1, &t);
+  glTextureStorage2D(t, 1, format, width, height);
+  glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+void check(const char* pass, const char* what) {
+  if (const GLenum err = glGetError(); err != GL_NO_ERROR)
+    throw Error(fmt::format("{}: OpenGL error {:#x} {}", pass, err, what));
+}
+
+FilterUniforms::FilterUniforms(GLuint program)
+    : keep_sphere(program ? glGetUniformLocation(program, "keep_sphere") : -1),
+      headset_from_points(program ? glGetUniformLocation(program, "headset_from_points") : -1),
+      hide_half_extent(program ? glGetUniformLocation(program, "hide_half_extent") : -1) {}
+
+void FilterUniforms::set(const AvatarFilter& filter,
+                         const Eigen::Matrix4f& world_from_points) const {
+  Eigen::Vector4f sphere = Eigen::Vector4f::Zero();
+  if (filter.keep) {
+    const Eigen::Matrix4f points_from_world = world_from_points.inverse();
+    sphere.head<3>() = (points_from_world * filter.keep->center.homogeneous()).head<3>();
+    sphere.w() = filter.keep->radius_m;
+  }
+  glUniform4fv(keep_sphere, 1, sphere.data());
+  Eigen::Matrix4f headset_from_p = Eigen::Matrix4f::Identity();
+  Eigen::Vector3f half = Eigen::Vector3f::Zero();
+  if (filter.hide) {
+    headset_from_p = filter.hide->world_from_headset.inverse().matrix4f() * world_from_points;
+    half = filter.hide->half_extent_m;
+  }
+  glUniformMatrix4fv(headset_from_points, 1, GL_FALSE, headset_from_p.data());
+  glUniform3fv(hide_half_extent, 1, half.data());
+}
+
+}  // namespace volcast::gl

@@ -1,0 +1,49 @@
+#pragma once
+// What the draw passes share (internal to src/render): shader building, textures, and the avatar
+// filter's GLSL and uniforms.
+#include <epoxy/gl.h>
+
+#include <Eigen/Core>
+
+#include "volcast/reconstruct/avatar_filter.hpp"
+
+namespace volcast::gl {
+
+/// Compiles and links a program from the given stages (geometry may be null). Throws Error
+/// starting with `pass` and carrying the driver's log if a stage does not compile or link.
+GLuint link_program(const char* pass, const char* vertex, const char* geometry,
+                    const char* fragment);
+
+/// Compiles and links a compute program; throws as link_program does.
+GLuint link_compute(const char* pass, const char* compute);
+
+/// A 2D texture with one level of `format`, nearest filtering, clamped to its edges.
+GLuint make_texture(GLenum format, int width, int height);
+
+/// Throws Error("<pass>: OpenGL error 0x... <what>") if glGetError() reports one.
+void check(const char* pass, const char* what);
+
+/// The avatar filter (avatar_filter.hpp) in GLSL, for points in the frame of the pass's points
+/// (world for SplatRenderer::draw, the camera's for CameraRenderer): avatar_hidden(p) is true
+/// for a point the filter does not keep -- the same inclusive tests as avatar_filter_keeps().
+#define VOLCAST_AVATAR_FILTER_GLSL                                                         \
+  "uniform vec4 keep_sphere;         /* centre (metres), radius; radius <= 0: off */\n"    \
+  "uniform mat4 headset_from_points;\n"                                                    \
+  "uniform vec3 hide_half_extent;    /* metres; x <= 0: off */\n"                          \
+  "bool avatar_hidden(vec3 p) {\n"                                                         \
+  "  vec3 d = p - keep_sphere.xyz;\n"                                                      \
+  "  if (keep_sphere.w > 0.0 && dot(d, d) > keep_sphere.w * keep_sphere.w) return true;\n" \
+  "  if (hide_half_extent.x <= 0.0) return false;\n"                                       \
+  "  vec3 h = abs((headset_from_points * vec4(p, 1.0)).xyz);\n"                            \
+  "  return all(lessThanEqual(h, hide_half_extent));\n"                                    \
+  "}\n"
+
+/// The filter's uniform locations in one program.
+struct FilterUniforms {
+  GLint keep_sphere = -1, headset_from_points = -1, hide_half_extent = -1;
+  explicit FilterUniforms(GLuint program = 0);
+  /// Sets them (program in use) for points in a frame placed by `world_from_points`.
+  void set(const AvatarFilter& filter, const Eigen::Matrix4f& world_from_points) const;
+};
+
+}  // namespace volcast::gl

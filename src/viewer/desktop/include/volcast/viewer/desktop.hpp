@@ -1,0 +1,71 @@
+#pragma once
+// The desktop viewer: a GLFW window (OpenGL 4.5 core through GLX) that draws the session's cameras
+// with CameraRenderer into its default framebuffer, with a Dear ImGui panel on top. It is a
+// Presenter (volcast/pipeline/receiver.hpp): run_viewer runs it on its render thread.
+//
+// Each loop: poll events, take new frames from the feed (waiting up to 5 ms), upload the cameras
+// whose frame changed (the same pointer is the same images), draw, draw the panel, swap. It redraws
+// only when frames arrived or the user did something, and ends the session (FrameFeed::close(),
+// ViewerEnd::kClosed) when the window is closed.
+//
+// Navigation (navigation.hpp), starting at default_view() or DesktopOptions::view:
+//   left drag   orbit about the pivot       wheel        zoom toward the pivot
+//   right drag  look around (fly)           W A S D Q E  fly forward/left/back/right/down/up
+//   Shift       fly 4x faster               R            back to the starting view
+//   F12 or P    screenshot                  H            hide/show the panel
+//   Ctrl+S      save the camera poses (as the panel's Save)
+// The panel: surface (splats/mesh), splat size mode, point size or splat scale, mesh edge ratio,
+// blending, per camera visible/tint and registration sliders (pose_sliders.hpp) with Save (writes
+// the poses into DesktopOptions::site_config, site_config.hpp), avatar filters, live figures from
+// FrameFeed::live() (per camera fps, latency p50, Mbit/s, frames dropped; per-stage latency; the
+// codec tier) and the GL renderer.
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/reconstruct/avatar_filter.hpp"
+#include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/view.hpp"
+
+namespace volcast {
+
+/// A key press injected by a test as if a user pressed it: handled by the same code as a real
+/// press, just before drawing frame `frame` (counted as DesktopOptions::max_frames counts).
+struct ScriptedKey {
+  uint64_t frame = 0;
+  int key = 0;   ///< a GLFW key code, e.g. GLFW_KEY_F12 (301)
+  int mods = 0;  ///< GLFW modifier bits, e.g. GLFW_MOD_CONTROL (2) for Ctrl+S
+};
+
+struct DesktopOptions {
+  int width = 1280, height = 720;  ///< window size, screen coordinates, 1..8192
+  std::string title = "volcast";
+  CameraPassOptions pass;          ///< initial panel settings
+  AvatarFilter avatar_filter;      ///< initial avatar filters
+  std::optional<ViewCamera> view;  ///< starting view; default: default_view()
+  /// Where the screenshot key writes (overwritten by each press). Empty: volcast-screenshot-<n>.png
+  /// in the working directory, n the smallest number >= 1 not taken. The picture is the scene
+  /// without the panel, at the framebuffer's size, top row first.
+  std::filesystem::path screenshot;
+  /// Where the panel's Save writes the cameras' world_from_camera (site_config.hpp).
+  std::filesystem::path site_config = "volcast-site.json";
+  std::vector<ScriptedKey> script;  ///< key presses for tests
+  /// Close the window (ending the session) after this many frames drawn, 0 = never. Frames are
+  /// counted from the first drawn with images of the stream (earlier ones show nothing).
+  uint64_t max_frames = 0;
+};
+
+/// Whether a window can be opened: GLFW initialises (an X display is reachable). On false, `why`
+/// (if not null) says why in a few words, e.g. "X11: The DISPLAY environment variable is missing".
+/// Throws nothing.
+bool desktop_available(std::string* why);
+
+/// The desktop viewer as a Presenter. The presenter throws Error (ending the session with
+/// ViewerEnd::kError) if GLFW cannot start, the window or its OpenGL 4.5 core context cannot be
+/// made, or drawing fails; a screenshot or Save that fails is logged and shown in the panel.
+Presenter desktop_presenter(const DesktopOptions& options);
+
+}  // namespace volcast

@@ -1,0 +1,319 @@
+// The desktop presenter: GLFW window and context, input, the frame loop.
+#include <epoxy/gl.h>  // before GLFW, which then includes no GL header of its own
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <fmt/format.h>
+#include <imgui.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "panel.hpp"
+#include "screenshot.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/io/site_config.hpp"
+#include "volcast/viewer/desktop.hpp"
+#include "volcast/viewer/navigation.hpp"
+
+namespace volcast {
+namespace {
+
+thread_local std::string t_glfw_error;  // the last GLFW error on this thread
+
+void on_glfw_error(int code, const char* description) {
+  t_glfw_error = description ? description : fmt::format("GLFW error 0x{:x}", code);
+}
+
+// glfwInit() .. glfwTerminate().
+struct Glfw {
+  Glfw() {
+    glfwSetErrorCallback(on_glfw_error);
+    t_glfw_error.clear();
+    if (!glfwInit()) throw Error(t_glfw_error.empty() ? "GLFW cannot start" : t_glfw_error);
+  }
+  ~Glfw() { glfwTerminate(); }
+  Glfw(const Glfw&) = delete;
+  Glfw& operator=(const Glfw&) = delete;
+};
+
+// A window with an OpenGL 4.5 core context (GLX), current on this thread.
+struct Window {
+  GLFWwindow* window = nullptr;
+  explicit Window(const DesktopOptions& o) {
+    if (o.width < 1 || o.width > 8192 || o.height < 1 || o.height > 8192)
+      throw Error(fmt::format("desktop window: size {}x{} is outside 1..8192", o.width, o.height));
+    glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_API);
+    glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_NATIVE_CONTEXT_API);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_DEPTH_BITS, 24);
+    window = glfwCreateWindow(o.width, o.height, o.title.c_str(), nullptr, nullptr);
+    if (!window)
+      throw Error(fmt::format("cannot open a {}x{} window with an OpenGL 4.5 core context: {}",
+                              o.width, o.height, t_glfw_error));
+    glfwMakeContextCurrent(window);
+    glfwSwapInterval(1);
+  }
+  ~Window() { glfwDestroyWindow(window); }
+  Window(const Window&) = delete;
+  Window& operator=(const Window&) = delete;
+};
+
+// Dear ImGui's context and its GLFW and OpenGL 3 backends (our callbacks forward to its own).
+struct Gui {
+  explicit Gui(GLFWwindow* window) {
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the working directory
+    ImGui::StyleColorsDark();
+    if (!ImGui_ImplGlfw_InitForOpenGL(window, false) || !ImGui_ImplOpenGL3_Init("#version 450"))
+      throw Error("Dear ImGui cannot start its GLFW / OpenGL 3 backend");
+  }
+  ~Gui() {
+    ImGui_ImplOpenGL3_Shutdown();
+    ImGui_ImplGlfw_Shutdown();
+    ImGui::DestroyContext();
+  }
+  Gui(const Gui&) = delete;
+  Gui& operator=(const Gui&) = delete;
+};
+
+constexpr float kDegreesPerPixel = 0.3f;
+constexpr int kRedrawFrames = 3;  // frames drawn after an input event (the panel settles)
+
+// What the input callbacks change (reached through glfwGetWindowUserPointer).
+struct Input {
+  ViewerControls& controls;
+  ViewCamera& camera;
+  bool orbiting = false, looking = false;
+  double mouse_x = 0, mouse_y = 0;
+  int redraw = kRedrawFrames;
+};
+
+Input& input_of(GLFWwindow* window) {
+  return *static_cast<Input*>(glfwGetWindowUserPointer(window));
+}
+
+// A key press, from GLFW or from DesktopOptions::script.
+void handle_key(Input& in, int key, int action, int mods) {
+  in.redraw = kRedrawFrames;
+  if (action != GLFW_PRESS) return;
+  if (key == GLFW_KEY_S && (mods & GLFW_MOD_CONTROL)) in.controls.save = true;
+  if (mods & GLFW_MOD_CONTROL) return;
+  if (key == GLFW_KEY_F12 || key == GLFW_KEY_P) in.controls.screenshot = true;
+  if (key == GLFW_KEY_R) in.controls.reset_view = true;
+  if (key == GLFW_KEY_H) in.controls.show_panel = !in.controls.show_panel;
+}
+
+void on_key(GLFWwindow* window, int key, int scancode, int action, int mods) {
+  ImGui_ImplGlfw_KeyCallback(window, key, scancode, action, mods);
+  if (ImGui::GetIO().WantCaptureKeyboard) {  // typing into the panel
+    input_of(window).redraw = kRedrawFrames;
+    return;
+  }
+  handle_key(input_of(window), key, action, mods);
+}
+
+void on_mouse_button(GLFWwindow* window, int button, int action, int mods) {
+  ImGui_ImplGlfw_MouseButtonCallback(window, button, action, mods);
+  Input& in = input_of(window);
+  in.redraw = kRedrawFrames;
+  const bool press = action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse;
+  if (button == GLFW_MOUSE_BUTTON_LEFT) in.orbiting = press;
+  if (button == GLFW_MOUSE_BUTTON_RIGHT) in.looking = press;
+  glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
+}
+
+void on_cursor(GLFWwindow* window, double x, double y) {
+  Input& in = input_of(window);
+  const auto dx = static_cast<float>(x - in.mouse_x), dy = static_cast<float>(y - in.mouse_y);
+  in.mouse_x = x, in.mouse_y = y;
+  in.redraw = kRedrawFrames;
+  // Orbit grabs the scene (it follows the mouse); look turns the eye toward the mouse.
+  if (in.orbiting) in.camera = orbit(in.camera, -dx * kDegreesPerPixel, dy * kDegreesPerPixel);
+  if (in.looking) in.camera = look(in.camera, -dx * kDegreesPerPixel, -dy * kDegreesPerPixel);
+}
+
+void on_scroll(GLFWwindow* window, double x, double y) {
+  ImGui_ImplGlfw_ScrollCallback(window, x, y);
+  Input& in = input_of(window);
+  in.redraw = kRedrawFrames;
+  if (!ImGui::GetIO().WantCaptureMouse) in.camera = zoom(in.camera, static_cast<float>(y));
+}
+
+void on_char(GLFWwindow* window, unsigned int c) {
+  ImGui_ImplGlfw_CharCallback(window, c);
+  input_of(window).redraw = kRedrawFrames;
+}
+
+// WASD / QE held down: moves the camera for `seconds`; true if it moved.
+bool fly_keys(GLFWwindow* window, ViewCamera& camera, float seconds) {
+  if (ImGui::GetIO().WantCaptureKeyboard) return false;
+  const auto held = [&](int key) { return glfwGetKey(window, key) == GLFW_PRESS ? 1.0f : 0.0f; };
+  const Eigen::Vector3f direction(held(GLFW_KEY_D) - held(GLFW_KEY_A),
+                                  held(GLFW_KEY_E) - held(GLFW_KEY_Q),
+                                  held(GLFW_KEY_W) - held(GLFW_KEY_S));
+  if (direction.isZero() || held(GLFW_KEY_LEFT_CONTROL) + held(GLFW_KEY_RIGHT_CONTROL) > 0)
+    return false;  // Ctrl+S saves, it does not fly back
+  const bool fast = held(GLFW_KEY_LEFT_SHIFT) + held(GLFW_KEY_RIGHT_SHIFT) > 0;
+  // Faster far from the pivot, like the wheel; at least 0.25 m/s.
+  const float speed = std::max(0.25f, (camera.target - camera.eye).norm()) * (fast ? 4.0f : 1.0f);
+  camera = fly(camera, direction * speed * std::min(seconds, 0.1f));
+  return true;
+}
+
+// Acts on the panel's requests other than the screenshot (taken right after drawing the scene).
+void apply_requests(ViewerControls& c, CameraRenderer& renderer,
+                    const std::vector<CameraCalibration>& cameras, const DesktopOptions& o,
+                    ViewCamera& camera, const ViewCamera& start) {
+  if (c.poses_changed) {
+    for (size_t i = 0; i < cameras.size(); ++i)
+      renderer.set_world_from_camera(i, apply_sliders(cameras[i].world_from_camera, c.sliders[i]));
+    c.poses_changed = false;
+  }
+  if (c.filter_changed) {
+    renderer.set_avatar_filter(avatar_filter_of(c));
+    c.filter_changed = false;
+  }
+  if (c.reset_view) {
+    camera = start;
+    c.reset_view = false;
+  }
+  if (c.save) {
+    c.save = false;
+    std::vector<RigidTransform> poses;
+    for (size_t i = 0; i < cameras.size(); ++i)
+      poses.push_back(apply_sliders(cameras[i].world_from_camera, c.sliders[i]));
+    try {
+      write_site_poses(o.site_config, poses);
+      c.status = fmt::format("saved {} camera pose(s) to {}", poses.size(), o.site_config.string());
+      spdlog::info("{}", c.status);
+    } catch (const Error& e) {
+      c.status = fmt::format("Save failed: {}", e.what());
+      spdlog::warn("{}", c.status);
+    }
+  }
+}
+
+void take_screenshot(ViewerControls& c, const DesktopOptions& o, const RenderTarget& target) {
+  c.screenshot = false;
+  const std::filesystem::path path = screenshot_path(o.screenshot);
+  try {
+    save_screenshot(target.width, target.height, path);
+    c.status = fmt::format("screenshot {}", path.string());
+    spdlog::info("wrote screenshot {} ({}x{})", path.string(), target.width, target.height);
+  } catch (const Error& e) {
+    c.status = fmt::format("screenshot failed: {}", e.what());
+    spdlog::warn("{}", c.status);
+  }
+}
+
+void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
+  Glfw glfw;
+  Window window(o);
+  CameraRenderer renderer;
+  result.renderer = renderer.gl_description();
+  Gui gui(window.window);
+  const std::vector<CameraCalibration>& cameras = feed.cameras();
+  renderer.set_cameras(cameras);
+  renderer.set_avatar_filter(o.avatar_filter);
+  ViewerControls controls = initial_controls(o.pass, o.avatar_filter, cameras.size());
+  ViewCamera camera, start;
+  Input input{controls, camera};
+  glfwSetWindowUserPointer(window.window, &input);
+  glfwSetKeyCallback(window.window, on_key);
+  glfwSetMouseButtonCallback(window.window, on_mouse_button);
+  glfwSetCursorPosCallback(window.window, on_cursor);
+  glfwSetScrollCallback(window.window, on_scroll);
+  glfwSetCharCallback(window.window, on_char);
+  glfwSetWindowFocusCallback(window.window, ImGui_ImplGlfw_WindowFocusCallback);
+  glfwSetCursorEnterCallback(window.window, ImGui_ImplGlfw_CursorEnterCallback);
+  spdlog::info("desktop window {}x{}: {}", o.width, o.height, result.renderer);
+
+  std::vector<ScriptedKey> script = o.script;
+  std::stable_sort(script.begin(), script.end(),
+                   [](const ScriptedKey& a, const ScriptedKey& b) { return a.frame < b.frame; });
+  size_t next_key = 0;
+  std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
+  bool started = false;  // a frame of the stream arrived: the view is set, frames are counted
+  uint64_t drawn = 0;    // frames drawn since then
+  LiveStats live = feed.live();
+  auto last_live = std::chrono::steady_clock::now(), last_loop = last_live;
+  while (!feed.finished()) {
+    glfwPollEvents();
+    if (glfwWindowShouldClose(window.window)) break;
+    const bool arrived = feed.next(frames, std::chrono::milliseconds(5));
+    const auto now = std::chrono::steady_clock::now();
+    const bool flew =
+        fly_keys(window.window, camera, std::chrono::duration<float>(now - last_loop).count());
+    last_loop = now;
+    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+      if (frames[i] && frames[i] != uploaded[i]) {  // the same pointer is the same images
+        renderer.upload(i, *frames[i]);
+        uploaded[i] = frames[i];
+      }
+    if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
+      started = true;
+      start = o.view ? *o.view : default_view(cameras, uploaded);
+      camera = start;
+    }
+    if (!(arrived || flew || input.redraw > 0)) continue;  // nothing new to draw
+    input.redraw = std::max(0, input.redraw - 1);
+    if (started)
+      for (; next_key < script.size() && script[next_key].frame <= drawn + 1; ++next_key)
+        handle_key(input, script[next_key].key, GLFW_PRESS, script[next_key].mods);
+    apply_requests(controls, renderer, cameras, o, camera, start);
+    int width = 0, height = 0;
+    glfwGetFramebufferSize(window.window, &width, &height);
+    if (width <= 0 || height <= 0) continue;  // minimised
+    const RenderTarget target{0, 0, 0, width, height};
+    renderer.draw_cameras(to_view(camera, target.aspect()), target, controls.pass);
+    if (controls.screenshot) take_screenshot(controls, o, target);
+    if (now - last_live > std::chrono::milliseconds(250)) {
+      live = feed.live();
+      last_live = now;
+    }
+    ImGui_ImplOpenGL3_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    if (controls.show_panel)
+      draw_panel(controls,
+                 PanelInfo{live, result.renderer, camera.target, camera.eye, o.site_config});
+    ImGui::Render();
+    glViewport(0, 0, width, height);
+    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    glfwSwapBuffers(window.window);
+    if (controls.poses_changed || controls.filter_changed || controls.save || controls.screenshot ||
+        controls.reset_view)
+      input.redraw = std::max(input.redraw, 1);  // act on the panel's requests next loop
+    if (!started) continue;
+    ++drawn;
+    ++result.frames_rendered;
+    if (o.max_frames > 0 && drawn >= o.max_frames) break;
+  }
+  feed.close();  // the window closed (or the session ended, when this changes nothing)
+}
+
+}  // namespace
+
+bool desktop_available(std::string* why) {
+  try {
+    Glfw glfw;
+    return true;
+  } catch (const std::exception& e) {
+    if (why) *why = e.what();
+  } catch (...) {
+    if (why) *why = "GLFW cannot start";
+  }
+  return false;
+}
+
+Presenter desktop_presenter(const DesktopOptions& options) {
+  return [options](FrameFeed& feed, ViewerResult& result) { present(feed, result, options); };
+}
+
+}  // namespace volcast

@@ -1,0 +1,40 @@
+#pragma once
+// The VR viewer through OpenXR (Debian's loader, libopenxr-dev): a session on the head-mounted
+// display with XR_KHR_opengl_enable, bound to the OpenGL 4.5 context of a hidden GLFW window
+// (GLX); one swapchain per eye (GL_SRGB8_ALPHA8 where the runtime offers it, else RGBA8), each
+// image attached to an FBO with a depth renderbuffer, drawn by CameraRenderer from that eye's View
+// (xr_view.hpp: the located eye pose and its asymmetric field of view) and submitted as one
+// projection layer in a STAGE reference space (LOCAL where there is no STAGE). It is a Presenter
+// (volcast/pipeline/receiver.hpp). The session's state drives it: READY begins it, STOPPING ends
+// it, EXITING, LOSS_PENDING or a lost instance end the viewer's session (FrameFeed::close()).
+#include <optional>
+#include <string>
+
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/reconstruct/avatar_filter.hpp"
+#include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/view.hpp"
+
+namespace volcast {
+
+struct XrOptions {
+  CameraPassOptions pass;
+  AvatarFilter avatar_filter;
+  /// What the user sees when standing at the stage's origin (world_from_stage()); default:
+  /// default_view() of the first frames.
+  std::optional<ViewCamera> view;
+  float eye_height_m = 1.6f;  ///< assumed eye height above a STAGE space's floor (0 for LOCAL)
+  float near_m = 0.05f, far_m = 100;
+};
+
+/// Whether OpenXR can run here: an instance with XR_KHR_opengl_enable can be made (a runtime is
+/// installed and active) and it has a head-mounted display. On false, `why` (if not null) is one
+/// phrase naming the result, e.g. "no runtime available (XR_ERROR_RUNTIME_UNAVAILABLE)" or "no
+/// headset (XR_ERROR_FORM_FACTOR_UNAVAILABLE)". Throws nothing.
+bool xr_available(std::string* why);
+
+/// The VR viewer as a Presenter. It throws Error naming the OpenXR call and its result (ending
+/// the session with ViewerEnd::kError) if a step fails, e.g. no display for the GLFW context.
+Presenter xr_presenter(const XrOptions& options);
+
+}  // namespace volcast

@@ -1,0 +1,338 @@
+// The OpenXR presenter: instance, session bound to a hidden GLFW window's GLX context, stereo
+// swapchains with an FBO each, and the frame loop.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "volcast/core/error.hpp"
+#include "volcast/viewer/xr.hpp"
+#include "volcast/viewer/xr_view.hpp"
+#include "xr_common.hpp"
+
+// Platform headers last: Xlib's macros (None, Success, Status, ...) would break Eigen above.
+#include <X11/Xlib.h>
+#include <epoxy/gl.h>
+#include <epoxy/glx.h>
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#define GLFW_EXPOSE_NATIVE_X11
+#define GLFW_EXPOSE_NATIVE_GLX
+#include <GLFW/glfw3native.h>  // glfwGetX11Display, glfwGetGLXContext, glfwGetGLXWindow
+#define XR_USE_PLATFORM_XLIB
+#define XR_USE_GRAPHICS_API_OPENGL
+#include <openxr/openxr_platform.h>
+
+namespace volcast {
+namespace {
+
+// glfwInit() .. glfwTerminate() and a hidden window whose OpenGL 4.5 core context (GLX) is
+// current on this thread: the context the session renders with.
+struct HiddenContext {
+  GLFWwindow* window = nullptr;
+  HiddenContext() {
+    if (!glfwInit()) throw Error("OpenXR needs an X display for its OpenGL context (GLX)");
+    glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
+    glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_NATIVE_CONTEXT_API);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    window = glfwCreateWindow(64, 64, "volcast (OpenXR)", nullptr, nullptr);
+    if (!window) {
+      glfwTerminate();
+      throw Error("OpenXR: cannot make an OpenGL 4.5 core context (GLX) for the session");
+    }
+    glfwMakeContextCurrent(window);
+    glfwSwapInterval(0);  // the runtime paces frames (xrWaitFrame)
+  }
+  ~HiddenContext() {
+    glfwDestroyWindow(window);
+    glfwTerminate();
+  }
+  HiddenContext(const HiddenContext&) = delete;
+  HiddenContext& operator=(const HiddenContext&) = delete;
+};
+
+// An OpenXR handle destroyed with its function.
+template <typename Handle, XrResult (*destroy)(Handle)>
+struct XrHandle {
+  Handle handle = XR_NULL_HANDLE;
+  XrHandle() = default;
+  ~XrHandle() {
+    if (handle != XR_NULL_HANDLE) destroy(handle);
+  }
+  XrHandle(const XrHandle&) = delete;
+  XrHandle& operator=(const XrHandle&) = delete;
+};
+using Instance = XrHandle<XrInstance, xrDestroyInstance>;
+using Session = XrHandle<XrSession, xrDestroySession>;
+using Space = XrHandle<XrSpace, xrDestroySpace>;
+using Swapchain = XrHandle<XrSwapchain, xrDestroySwapchain>;
+
+// One eye: its swapchain, the swapchain's images, and an FBO with a depth renderbuffer that each
+// acquired image is attached to.
+struct Eye {
+  Swapchain swapchain;
+  std::vector<XrSwapchainImageOpenGLKHR> images;
+  int width = 0, height = 0;
+  GLuint framebuffer = 0, depth = 0;
+  ~Eye() {
+    glDeleteFramebuffers(1, &framebuffer);
+    glDeleteRenderbuffers(1, &depth);
+  }
+};
+
+XrGraphicsBindingOpenGLXlibKHR glx_binding(GLFWwindow* window) {
+  auto binding =
+      xr_struct<XrGraphicsBindingOpenGLXlibKHR>(XR_TYPE_GRAPHICS_BINDING_OPENGL_XLIB_KHR);
+  binding.xDisplay = glfwGetX11Display();
+  binding.glxContext = glfwGetGLXContext(window);
+  binding.glxDrawable = glfwGetGLXWindow(window);
+  int id = 0;
+  glXQueryContext(binding.xDisplay, binding.glxContext, GLX_FBCONFIG_ID, &id);
+  const int attributes[] = {GLX_FBCONFIG_ID, id, None};
+  int count = 0;
+  GLXFBConfig* configs =
+      glXChooseFBConfig(binding.xDisplay, DefaultScreen(binding.xDisplay), attributes, &count);
+  if (configs && count > 0) {
+    binding.glxFBConfig = configs[0];
+    if (XVisualInfo* visual = glXGetVisualFromFBConfig(binding.xDisplay, configs[0])) {
+      binding.visualid = static_cast<uint32_t>(visual->visualid);
+      XFree(visual);
+    }
+  }
+  if (configs) XFree(configs);
+  return binding;
+}
+
+// GL_SRGB8_ALPHA8 where offered (our colors are sRGB-encoded already and GL_FRAMEBUFFER_SRGB stays
+// off, so they are stored as they are and shown right), else GL_RGBA8, else the runtime's first.
+int64_t pick_format(XrSession session) {
+  uint32_t count = 0;
+  xr_check(xrEnumerateSwapchainFormats(session, 0, &count, nullptr), "xrEnumerateSwapchainFormats");
+  std::vector<int64_t> formats(count);
+  xr_check(xrEnumerateSwapchainFormats(session, count, &count, formats.data()),
+           "xrEnumerateSwapchainFormats");
+  for (const int64_t wanted : {int64_t{GL_SRGB8_ALPHA8}, int64_t{GL_RGBA8}})
+    if (std::find(formats.begin(), formats.end(), wanted) != formats.end()) return wanted;
+  if (formats.empty()) throw Error("OpenXR: the runtime offers no swapchain format");
+  return formats.front();
+}
+
+XrReferenceSpaceType pick_space(XrSession session) {
+  uint32_t count = 0;
+  xr_check(xrEnumerateReferenceSpaces(session, 0, &count, nullptr), "xrEnumerateReferenceSpaces");
+  std::vector<XrReferenceSpaceType> spaces(count);
+  xr_check(xrEnumerateReferenceSpaces(session, count, &count, spaces.data()),
+           "xrEnumerateReferenceSpaces");
+  return std::find(spaces.begin(), spaces.end(), XR_REFERENCE_SPACE_TYPE_STAGE) != spaces.end()
+             ? XR_REFERENCE_SPACE_TYPE_STAGE
+             : XR_REFERENCE_SPACE_TYPE_LOCAL;
+}
+
+void make_eye(XrSession session, const XrViewConfigurationView& config, int64_t format, Eye& eye) {
+  eye.width = static_cast<int>(config.recommendedImageRectWidth);
+  eye.height = static_cast<int>(config.recommendedImageRectHeight);
+  auto info = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
+  info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_SAMPLED_BIT;
+  info.format = format;
+  info.sampleCount = 1;
+  info.width = config.recommendedImageRectWidth;
+  info.height = config.recommendedImageRectHeight;
+  info.faceCount = info.arraySize = info.mipCount = 1;
+  xr_check(xrCreateSwapchain(session, &info, &eye.swapchain.handle), "xrCreateSwapchain");
+  uint32_t count = 0;
+  xr_check(xrEnumerateSwapchainImages(eye.swapchain.handle, 0, &count, nullptr),
+           "xrEnumerateSwapchainImages");
+  eye.images.assign(count,
+                    xr_struct<XrSwapchainImageOpenGLKHR>(XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR));
+  xr_check(
+      xrEnumerateSwapchainImages(eye.swapchain.handle, count, &count,
+                                 reinterpret_cast<XrSwapchainImageBaseHeader*>(eye.images.data())),
+      "xrEnumerateSwapchainImages");
+  glCreateRenderbuffers(1, &eye.depth);
+  glNamedRenderbufferStorage(eye.depth, GL_DEPTH_COMPONENT24, eye.width, eye.height);
+  glCreateFramebuffers(1, &eye.framebuffer);
+  glNamedFramebufferRenderbuffer(eye.framebuffer, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, eye.depth);
+}
+
+// Draws `view` into the eye's next swapchain image.
+void draw_eye(Eye& eye, CameraRenderer& renderer, const View& view, const CameraPassOptions& pass) {
+  uint32_t index = 0;
+  xr_check(xrAcquireSwapchainImage(eye.swapchain.handle, nullptr, &index),
+           "xrAcquireSwapchainImage");
+  auto wait = xr_struct<XrSwapchainImageWaitInfo>(XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO);
+  wait.timeout = XR_INFINITE_DURATION;
+  xr_check(xrWaitSwapchainImage(eye.swapchain.handle, &wait), "xrWaitSwapchainImage");
+  glNamedFramebufferTexture(eye.framebuffer, GL_COLOR_ATTACHMENT0, eye.images[index].image, 0);
+  renderer.draw_cameras(view, RenderTarget{eye.framebuffer, 0, 0, eye.width, eye.height}, pass);
+  xr_check(xrReleaseSwapchainImage(eye.swapchain.handle, nullptr), "xrReleaseSwapchainImage");
+}
+
+// Handles the pending events; false once the viewer should end (exiting, loss pending).
+bool poll_events(XrInstance instance, XrSession session, bool& running) {
+  auto event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
+  while (xrPollEvent(instance, &event) == XR_SUCCESS) {
+    if (event.type == XR_TYPE_EVENT_DATA_INSTANCE_LOSS_PENDING) return false;
+    if (event.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) {
+      const auto& changed = reinterpret_cast<const XrEventDataSessionStateChanged&>(event);
+      switch (changed.state) {
+        case XR_SESSION_STATE_READY: {
+          auto begin = xr_struct<XrSessionBeginInfo>(XR_TYPE_SESSION_BEGIN_INFO);
+          begin.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
+          xr_check(xrBeginSession(session, &begin), "xrBeginSession");
+          running = true;
+          spdlog::info("OpenXR: session running");
+          break;
+        }
+        case XR_SESSION_STATE_STOPPING:
+          xr_check(xrEndSession(session), "xrEndSession");
+          running = false;
+          break;
+        case XR_SESSION_STATE_EXITING:
+        case XR_SESSION_STATE_LOSS_PENDING:
+          return false;
+        default:
+          break;
+      }
+    }
+    event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
+  }
+  return true;
+}
+
+void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
+  HiddenContext context;
+  CameraRenderer renderer;
+  result.renderer = renderer.gl_description();
+  const std::vector<CameraCalibration>& cameras = feed.cameras();
+  renderer.set_cameras(cameras);
+  renderer.set_avatar_filter(o.avatar_filter);
+
+  Instance instance;
+  xr_check(create_gl_instance(&instance.handle), "xrCreateInstance");
+  auto system_info = xr_struct<XrSystemGetInfo>(XR_TYPE_SYSTEM_GET_INFO);
+  system_info.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
+  XrSystemId system = XR_NULL_SYSTEM_ID;
+  xr_check(xrGetSystem(instance.handle, &system_info, &system), "xrGetSystem");
+  PFN_xrGetOpenGLGraphicsRequirementsKHR requirements_of = nullptr;
+  xr_check(xrGetInstanceProcAddr(instance.handle, "xrGetOpenGLGraphicsRequirementsKHR",
+                                 reinterpret_cast<PFN_xrVoidFunction*>(&requirements_of)),
+           "xrGetInstanceProcAddr(xrGetOpenGLGraphicsRequirementsKHR)");
+  auto requirements =
+      xr_struct<XrGraphicsRequirementsOpenGLKHR>(XR_TYPE_GRAPHICS_REQUIREMENTS_OPENGL_KHR);
+  xr_check(requirements_of(instance.handle, system, &requirements),
+           "xrGetOpenGLGraphicsRequirementsKHR");  // required before xrCreateSession
+  if (requirements.minApiVersionSupported > XR_MAKE_VERSION(4, 5, 0))
+    throw Error("OpenXR: the runtime needs a newer OpenGL than 4.5");
+
+  const XrGraphicsBindingOpenGLXlibKHR binding = glx_binding(context.window);
+  auto session_info = xr_struct<XrSessionCreateInfo>(XR_TYPE_SESSION_CREATE_INFO);
+  session_info.next = &binding;
+  session_info.systemId = system;
+  Session session;
+  xr_check(xrCreateSession(instance.handle, &session_info, &session.handle), "xrCreateSession");
+  auto space_info = xr_struct<XrReferenceSpaceCreateInfo>(XR_TYPE_REFERENCE_SPACE_CREATE_INFO);
+  space_info.referenceSpaceType = pick_space(session.handle);
+  space_info.poseInReferenceSpace.orientation.w = 1;
+  Space space;
+  xr_check(xrCreateReferenceSpace(session.handle, &space_info, &space.handle),
+           "xrCreateReferenceSpace");
+  const float eye_height =
+      space_info.referenceSpaceType == XR_REFERENCE_SPACE_TYPE_STAGE ? o.eye_height_m : 0;
+
+  uint32_t view_count = 0;
+  const auto stereo = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
+  xr_check(
+      xrEnumerateViewConfigurationViews(instance.handle, system, stereo, 0, &view_count, nullptr),
+      "xrEnumerateViewConfigurationViews");
+  std::vector<XrViewConfigurationView> configs(
+      view_count, xr_struct<XrViewConfigurationView>(XR_TYPE_VIEW_CONFIGURATION_VIEW));
+  xr_check(xrEnumerateViewConfigurationViews(instance.handle, system, stereo, view_count,
+                                             &view_count, configs.data()),
+           "xrEnumerateViewConfigurationViews");
+  const int64_t format = pick_format(session.handle);
+  std::vector<Eye> eyes(view_count);
+  for (uint32_t i = 0; i < view_count; ++i) make_eye(session.handle, configs[i], format, eyes[i]);
+  spdlog::info("OpenXR: {} eyes of {}x{}, {} space, {}", view_count, view_count ? eyes[0].width : 0,
+               view_count ? eyes[0].height : 0, eye_height > 0 ? "STAGE" : "LOCAL",
+               result.renderer);
+
+  std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
+  std::vector<XrView> views(view_count, xr_struct<XrView>(XR_TYPE_VIEW));
+  std::vector<XrCompositionLayerProjectionView> projected(view_count);
+  RigidTransform world_from_stage_now = world_from_stage(ViewCamera{}, eye_height);
+  bool running = false, started = false;
+  while (!feed.finished()) {
+    glfwPollEvents();
+    if (!poll_events(instance.handle, session.handle, running)) break;
+    // Not running: wait for the runtime (and the stream) without spinning.
+    const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
+    feed.next(frames, wait);
+    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+      if (frames[i] && frames[i] != uploaded[i]) {
+        renderer.upload(i, *frames[i]);
+        uploaded[i] = frames[i];
+      }
+    if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
+      started = true;
+      world_from_stage_now =
+          world_from_stage(o.view ? *o.view : default_view(cameras, uploaded), eye_height);
+    }
+    if (!running) continue;
+    auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
+    xr_check(xrWaitFrame(session.handle, nullptr, &frame), "xrWaitFrame");
+    xr_check(xrBeginFrame(session.handle, nullptr), "xrBeginFrame");
+    auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
+    const XrCompositionLayerBaseHeader* layers[] = {
+        reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
+    uint32_t layer_count = 0;
+    if (frame.shouldRender) {
+      auto locate = xr_struct<XrViewLocateInfo>(XR_TYPE_VIEW_LOCATE_INFO);
+      locate.viewConfigurationType = stereo;
+      locate.displayTime = frame.predictedDisplayTime;
+      locate.space = space.handle;
+      auto state = xr_struct<XrViewState>(XR_TYPE_VIEW_STATE);
+      uint32_t located = 0;
+      xr_check(xrLocateViews(session.handle, &locate, &state, view_count, &located, views.data()),
+               "xrLocateViews");
+      if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) && located == view_count) {
+        for (uint32_t i = 0; i < view_count; ++i) {
+          draw_eye(
+              eyes[i], renderer,
+              xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m),
+              o.pass);
+          projected[i] = xr_struct<XrCompositionLayerProjectionView>(
+              XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
+          projected[i].pose = views[i].pose;
+          projected[i].fov = views[i].fov;
+          projected[i].subImage.swapchain = eyes[i].swapchain.handle;
+          projected[i].subImage.imageRect.extent = {eyes[i].width, eyes[i].height};
+        }
+        layer.space = space.handle;
+        layer.viewCount = view_count;
+        layer.views = projected.data();
+        layer_count = 1;
+      }
+    }
+    auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
+    end.displayTime = frame.predictedDisplayTime;
+    end.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
+    end.layerCount = layer_count;
+    end.layers = layers;
+    xr_check(xrEndFrame(session.handle, &end), "xrEndFrame");
+    if (layer_count > 0 && started) ++result.frames_rendered;
+  }
+  feed.close();  // the headset's session ended (or the stream did, when this changes nothing)
+}
+
+}  // namespace
+
+Presenter xr_presenter(const XrOptions& options) {
+  return [options](FrameFeed& feed, ViewerResult& result) { present(feed, result, options); };
+}
+
+}  // namespace volcast

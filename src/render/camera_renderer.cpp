@@ -312,28 +312,8 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
                                   const CameraPassOptions& options) {
   Impl& r = *impl_;
   check_options(options);
-  if (target.width <= 0 || target.height <= 0)
-    throw Error(fmt::format("{}: empty viewport {}x{} in framebuffer {}", kPass, target.width,
-                            target.height, target.framebuffer));
-  if (const GLenum status = glCheckNamedFramebufferStatus(target.framebuffer, GL_DRAW_FRAMEBUFFER);
-      status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(fmt::format("{}: framebuffer {} is not complete (status {:#x})", kPass,
-                            target.framebuffer, status));
   const bool mesh = options.surface == Surface::kMesh;
-  // The target: cleared inside its viewport (the scissor keeps splats that straddle the edge in).
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
-  glViewport(target.x, target.y, target.width, target.height);
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(target.x, target.y, target.width, target.height);
-  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  glDepthMask(GL_TRUE);
-  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
-  glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDisable(GL_BLEND);
-  glEnable(GL_PROGRAM_POINT_SIZE);
+  gl::begin_target(kPass, target);
   glBindVertexArray(r.empty_vao);
 
   if (mesh)

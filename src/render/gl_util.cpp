@@ -25,10 +25,6 @@ GLuint compile(const char* pass, GLenum type, const char* source) {
   return s;
 }
 
-}  // namespace
-
-namespace {
-
 GLuint link(const char* pass, const GLenum* types, const char* const* sources, int n) {
   GLuint shaders[3] = {0, 0, 0};
   try {
@@ -79,6 +75,30 @@ GLuint make_texture(GLenum format, int width, int height) {
   glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTextureParameteri(t, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   return t;
+}
+
+void begin_target(const char* pass, const RenderTarget& target) {
+  if (target.width <= 0 || target.height <= 0)
+    throw Error(fmt::format("{}: empty viewport {}x{} in framebuffer {}", pass, target.width,
+                            target.height, target.framebuffer));
+  if (const GLenum status = glCheckNamedFramebufferStatus(target.framebuffer, GL_DRAW_FRAMEBUFFER);
+      status != GL_FRAMEBUFFER_COMPLETE)
+    throw Error(fmt::format("{}: framebuffer {} is not complete (status {:#x})", pass,
+                            target.framebuffer, status));
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
+  glViewport(target.x, target.y, target.width, target.height);
+  // The scissor keeps the clear, and splats that straddle the viewport's edge, inside it.
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(target.x, target.y, target.width, target.height);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  glDepthMask(GL_TRUE);
+  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_BLEND);
+  glEnable(GL_PROGRAM_POINT_SIZE);
 }
 
 void check(const char* pass, const char* what) {

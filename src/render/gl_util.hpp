@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 
 #include "volcast/reconstruct/avatar_filter.hpp"
+#include "volcast/render/render_target.hpp"
 
 namespace volcast::gl {
 
@@ -19,6 +20,11 @@ GLuint link_compute(const char* pass, const char* compute);
 
 /// A 2D texture with one level of `format`, nearest filtering, clamped to its edges.
 GLuint make_texture(GLenum format, int width, int height);
+
+/// Starts a pass in `target`: binds its framebuffer, sets the viewport and a scissor to it, clears
+/// it (colour dark grey-blue, depth far) and sets depth test LESS, no blending, program point
+/// size. Throws Error starting with `pass` if the viewport is empty or the framebuffer incomplete.
+void begin_target(const char* pass, const RenderTarget& target);
 
 /// Throws Error("<pass>: OpenGL error 0x... <what>") if glGetError() reports one.
 void check(const char* pass, const char* what);

@@ -89,27 +89,7 @@ SplatRenderer::~SplatRenderer() {
 }
 
 void SplatRenderer::begin_pass(const RenderTarget& target) {
-  if (target.width <= 0 || target.height <= 0)
-    throw Error(fmt::format("splat renderer: empty viewport {}x{} in framebuffer {}", target.width,
-                            target.height, target.framebuffer));
-  if (const GLenum status = glCheckNamedFramebufferStatus(target.framebuffer, GL_DRAW_FRAMEBUFFER);
-      status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(fmt::format("splat renderer: framebuffer {} is not complete (status {:#x})",
-                            target.framebuffer, status));
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
-  glViewport(target.x, target.y, target.width, target.height);
-  // The scissor keeps the clear, and splats that straddle the viewport's edge, inside it.
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(target.x, target.y, target.width, target.height);
-  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  glDepthMask(GL_TRUE);
-  glClearColor(0.08f, 0.09f, 0.11f, 1.0f);
-  glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
-  glDisable(GL_BLEND);
-  glEnable(GL_PROGRAM_POINT_SIZE);
+  gl::begin_target("splat renderer", target);
 }
 
 void SplatRenderer::end_pass(const RenderTarget& target, size_t points) {

@@ -72,6 +72,16 @@ using Session = XrHandle<XrSession, xrDestroySession>;
 using Space = XrHandle<XrSpace, xrDestroySpace>;
 using Swapchain = XrHandle<XrSwapchain, xrDestroySwapchain>;
 
+// The runtime lost the instance or the session (XR_ERROR_INSTANCE_LOST, XR_ERROR_SESSION_LOST, with
+// or without a loss pending event before): the viewer's session ends as closed, not on an error.
+struct Lost {};
+
+// xr_check for the calls of a running session: throws Lost for a lost instance or session.
+XrResult xr_check_live(XrResult result, const char* call) {
+  if (result == XR_ERROR_INSTANCE_LOST || result == XR_ERROR_SESSION_LOST) throw Lost{};
+  return xr_check(result, call);
+}
+
 // One eye: its swapchain, the swapchain's images, and an FBO with a depth renderbuffer that each
 // acquired image is attached to.
 struct Eye {
@@ -162,20 +172,23 @@ void make_eye(XrSession session, const XrViewConfigurationView& config, int64_t 
 // Draws `view` into the eye's next swapchain image.
 void draw_eye(Eye& eye, CameraRenderer& renderer, const View& view, const CameraPassOptions& pass) {
   uint32_t index = 0;
-  xr_check(xrAcquireSwapchainImage(eye.swapchain.handle, nullptr, &index),
-           "xrAcquireSwapchainImage");
+  xr_check_live(xrAcquireSwapchainImage(eye.swapchain.handle, nullptr, &index),
+                "xrAcquireSwapchainImage");
   auto wait = xr_struct<XrSwapchainImageWaitInfo>(XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO);
   wait.timeout = XR_INFINITE_DURATION;
-  xr_check(xrWaitSwapchainImage(eye.swapchain.handle, &wait), "xrWaitSwapchainImage");
+  xr_check_live(xrWaitSwapchainImage(eye.swapchain.handle, &wait), "xrWaitSwapchainImage");
   glNamedFramebufferTexture(eye.framebuffer, GL_COLOR_ATTACHMENT0, eye.images[index].image, 0);
   renderer.draw_cameras(view, RenderTarget{eye.framebuffer, 0, 0, eye.width, eye.height}, pass);
-  xr_check(xrReleaseSwapchainImage(eye.swapchain.handle, nullptr), "xrReleaseSwapchainImage");
+  xr_check_live(xrReleaseSwapchainImage(eye.swapchain.handle, nullptr), "xrReleaseSwapchainImage");
 }
 
-// Handles the pending events; false once the viewer should end (exiting, loss pending).
+// Handles the pending events; false once the viewer should end (exiting, loss pending). A lost
+// instance throws Lost.
 bool poll_events(XrInstance instance, XrSession session, bool& running) {
-  auto event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
-  while (xrPollEvent(instance, &event) == XR_SUCCESS) {
+  for (;;) {
+    auto event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
+    if (xr_check_live(xrPollEvent(instance, &event), "xrPollEvent") == XR_EVENT_UNAVAILABLE)
+      return true;
     if (event.type == XR_TYPE_EVENT_DATA_INSTANCE_LOSS_PENDING) return false;
     if (event.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) {
       const auto& changed = reinterpret_cast<const XrEventDataSessionStateChanged&>(event);
@@ -183,13 +196,13 @@ bool poll_events(XrInstance instance, XrSession session, bool& running) {
         case XR_SESSION_STATE_READY: {
           auto begin = xr_struct<XrSessionBeginInfo>(XR_TYPE_SESSION_BEGIN_INFO);
           begin.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
-          xr_check(xrBeginSession(session, &begin), "xrBeginSession");
+          xr_check_live(xrBeginSession(session, &begin), "xrBeginSession");
           running = true;
           spdlog::info("OpenXR: session running");
           break;
         }
         case XR_SESSION_STATE_STOPPING:
-          xr_check(xrEndSession(session), "xrEndSession");
+          xr_check_live(xrEndSession(session), "xrEndSession");
           running = false;
           break;
         case XR_SESSION_STATE_EXITING:
@@ -199,9 +212,7 @@ bool poll_events(XrInstance instance, XrSession session, bool& running) {
           break;
       }
     }
-    event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
   }
-  return true;
 }
 
 void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
@@ -266,65 +277,70 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   std::vector<XrCompositionLayerProjectionView> projected(view_count);
   RigidTransform world_from_stage_now = world_from_stage(ViewCamera{}, eye_height);
   bool running = false, started = false;
-  while (!feed.finished()) {
-    glfwPollEvents();
-    if (!poll_events(instance.handle, session.handle, running)) break;
-    // Not running: wait for the runtime (and the stream) without spinning.
-    const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
-    feed.next(frames, wait);
-    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
-      if (frames[i] && frames[i] != uploaded[i]) {
-        renderer.upload(i, *frames[i]);
-        uploaded[i] = frames[i];
-      }
-    if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
-      started = true;
-      world_from_stage_now =
-          world_from_stage(o.view ? *o.view : default_view(cameras, uploaded), eye_height);
-    }
-    if (!running) continue;
-    auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
-    xr_check(xrWaitFrame(session.handle, nullptr, &frame), "xrWaitFrame");
-    xr_check(xrBeginFrame(session.handle, nullptr), "xrBeginFrame");
-    auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
-    const XrCompositionLayerBaseHeader* layers[] = {
-        reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
-    uint32_t layer_count = 0;
-    if (frame.shouldRender) {
-      auto locate = xr_struct<XrViewLocateInfo>(XR_TYPE_VIEW_LOCATE_INFO);
-      locate.viewConfigurationType = stereo;
-      locate.displayTime = frame.predictedDisplayTime;
-      locate.space = space.handle;
-      auto state = xr_struct<XrViewState>(XR_TYPE_VIEW_STATE);
-      uint32_t located = 0;
-      xr_check(xrLocateViews(session.handle, &locate, &state, view_count, &located, views.data()),
-               "xrLocateViews");
-      if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) && located == view_count) {
-        for (uint32_t i = 0; i < view_count; ++i) {
-          draw_eye(
-              eyes[i], renderer,
-              xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m),
-              o.pass);
-          projected[i] = xr_struct<XrCompositionLayerProjectionView>(
-              XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
-          projected[i].pose = views[i].pose;
-          projected[i].fov = views[i].fov;
-          projected[i].subImage.swapchain = eyes[i].swapchain.handle;
-          projected[i].subImage.imageRect.extent = {eyes[i].width, eyes[i].height};
+  try {
+    while (!feed.finished()) {
+      glfwPollEvents();
+      if (!poll_events(instance.handle, session.handle, running)) break;
+      // Not running: wait for the runtime (and the stream) without spinning.
+      const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
+      feed.next(frames, wait);
+      for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+        if (frames[i] && frames[i] != uploaded[i]) {
+          renderer.upload(i, *frames[i]);
+          uploaded[i] = frames[i];
         }
-        layer.space = space.handle;
-        layer.viewCount = view_count;
-        layer.views = projected.data();
-        layer_count = 1;
+      if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
+        started = true;
+        world_from_stage_now =
+            world_from_stage(o.view ? *o.view : default_view(cameras, uploaded), eye_height);
       }
+      if (!running) continue;
+      auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
+      xr_check_live(xrWaitFrame(session.handle, nullptr, &frame), "xrWaitFrame");
+      xr_check_live(xrBeginFrame(session.handle, nullptr), "xrBeginFrame");
+      auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
+      const XrCompositionLayerBaseHeader* layers[] = {
+          reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
+      uint32_t layer_count = 0;
+      if (frame.shouldRender) {
+        auto locate = xr_struct<XrViewLocateInfo>(XR_TYPE_VIEW_LOCATE_INFO);
+        locate.viewConfigurationType = stereo;
+        locate.displayTime = frame.predictedDisplayTime;
+        locate.space = space.handle;
+        auto state = xr_struct<XrViewState>(XR_TYPE_VIEW_STATE);
+        uint32_t located = 0;
+        xr_check_live(
+            xrLocateViews(session.handle, &locate, &state, view_count, &located, views.data()),
+            "xrLocateViews");
+        if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) && located == view_count) {
+          for (uint32_t i = 0; i < view_count; ++i) {
+            draw_eye(
+                eyes[i], renderer,
+                xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m),
+                o.pass);
+            projected[i] = xr_struct<XrCompositionLayerProjectionView>(
+                XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
+            projected[i].pose = views[i].pose;
+            projected[i].fov = views[i].fov;
+            projected[i].subImage.swapchain = eyes[i].swapchain.handle;
+            projected[i].subImage.imageRect.extent = {eyes[i].width, eyes[i].height};
+          }
+          layer.space = space.handle;
+          layer.viewCount = view_count;
+          layer.views = projected.data();
+          layer_count = 1;
+        }
+      }
+      auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
+      end.displayTime = frame.predictedDisplayTime;
+      end.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
+      end.layerCount = layer_count;
+      end.layers = layers;
+      xr_check_live(xrEndFrame(session.handle, &end), "xrEndFrame");
+      if (layer_count > 0 && started) ++result.frames_rendered;
     }
-    auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
-    end.displayTime = frame.predictedDisplayTime;
-    end.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
-    end.layerCount = layer_count;
-    end.layers = layers;
-    xr_check(xrEndFrame(session.handle, &end), "xrEndFrame");
-    if (layer_count > 0 && started) ++result.frames_rendered;
+  } catch (const Lost&) {
+    spdlog::warn("OpenXR: the runtime lost the session");
   }
   feed.close();  // the headset's session ended (or the stream did, when this changes nothing)
 }

@@ -1,0 +1,219 @@
+// The OpenXR presenter in a real session against a mock runtime (tests/support/
+// mock_openxr_runtime.cpp, loaded by Debian's OpenXR loader through a runtime manifest named by
+// XR_RUNTIME_JSON), under Xvfb for its GLX context, showing the real hands stream: it runs until
+// the runtime asks to exit, submitting valid stereo projection layers whose two eye images show the
+// scene, each from its own eye; it leaves the runtime cleanly when the stream ends first, and a
+// lost instance ends the viewer's session as closed.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "hands_site.hpp"
+#include "test_data.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/viewer/xr.hpp"
+#include "xvfb.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+// The runtime manifest of the mock runtime in `dir`, for XR_RUNTIME_JSON.
+fs::path write_manifest(const fs::path& dir) {
+  const fs::path manifest = dir / "mock_runtime.json";
+  std::ofstream(manifest) << nlohmann::json{
+      {"file_format_version", "1.0.0"},
+      {"runtime", {{"name", "volcast mock"}, {"library_path", VOLCAST_MOCK_XR}}}};
+  return manifest;
+}
+
+struct Ppm {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgb;
+  const uint8_t* pixel(int x, int y) const { return &rgb[(size_t(y) * width + x) * 3]; }
+};
+
+Ppm read_ppm(const fs::path& path) {  // binary P6 with maxval 255, as the mock writes it
+  std::ifstream in(path, std::ios::binary);
+  std::string magic;
+  int maxval = 0;
+  Ppm image;
+  in >> magic >> image.width >> image.height >> maxval;
+  in.get();
+  if (magic != "P6" || maxval != 255 || image.width <= 0 || image.height <= 0) return {};
+  image.rgb.resize(size_t(image.width) * image.height * 3);
+  in.read(reinterpret_cast<char*>(image.rgb.data()),
+          static_cast<std::streamsize>(image.rgb.size()));
+  if (!in) return {};
+  return image;
+}
+
+// The fraction of pixels clearly off the top-left corner's colour, and the number of colours.
+std::pair<double, size_t> content(const Ppm& image) {
+  const uint8_t* corner = image.pixel(0, 0);
+  size_t differing = 0;
+  std::set<uint32_t> colours;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      differing +=
+          std::abs(p[0] - corner[0]) + std::abs(p[1] - corner[1]) + std::abs(p[2] - corner[2]) > 30;
+      colours.insert(uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16);
+    }
+  return {static_cast<double>(differing) / (image.width * image.height), colours.size()};
+}
+
+double mean_difference(const Ppm& a, const Ppm& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) sum += std::abs(a.rgb[i] - b.rgb[i]);
+  return sum / static_cast<double>(a.rgb.size());
+}
+
+// Mean absolute difference between `a` at x + shift and `b` at x, over the middle columns: smallest
+// at the shift by which `a` shows the scene further right than `b`.
+double shifted_difference(const Ppm& a, const Ppm& b, int shift) {
+  double sum = 0;
+  size_t n = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 32; x < a.width - 32; ++x) {
+      const uint8_t *p = a.pixel(x + shift, y), *q = b.pixel(x, y);
+      sum += std::abs(p[0] - q[0]) + std::abs(p[1] - q[1]) + std::abs(p[2] - q[2]);
+      ++n;
+    }
+  return sum / static_cast<double>(n);
+}
+
+TEST(XrRuntime, ThePresenterRunsASessionOnAMockRuntimeUntilItAsksToExit) {
+  const fs::path dir = test::temp_dir("xr_runtime");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const fs::path manifest = write_manifest(dir);
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
+  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "5");
+  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+
+  std::string why;
+  ASSERT_TRUE(xr_available(&why)) << why;
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.presenter = xr_presenter(XrOptions{});
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  EXPECT_GE(r.frames_rendered, 5u);
+  EXPECT_NE(r.renderer.find("OpenGL 4."), std::string::npos) << r.renderer;
+
+  // What the runtime saw.
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_EQ(log["sessions"], 1);
+  EXPECT_FALSE(log["session_destroyed_running"].get<bool>());
+  EXPECT_EQ(log["sessions_ended"], 1);  // xrEndSession on STOPPING
+  EXPECT_TRUE(log["exit_requested"].get<bool>());
+  EXPECT_GE(log["frames_with_layer"].get<int>(), 5);
+  EXPECT_GE(log["frames_with_content"].get<int>(), 5);
+  ASSERT_TRUE(log["images_written"].get<bool>());
+
+  // The two eyes' last images: the scene, seen from two places.
+  const Ppm left = read_ppm(out / "eye0.ppm"), right = read_ppm(out / "eye1.ppm");
+  ASSERT_EQ(left.width, 256);
+  ASSERT_EQ(left.height, 256);
+  ASSERT_EQ(right.width, 256);
+  ASSERT_EQ(right.height, 256);
+  const auto [left_fraction, left_colours] = content(left);
+  const auto [right_fraction, right_colours] = content(right);
+  const double difference = mean_difference(left, right);
+  std::printf(
+      "eye images: left %.1f %% off the background, %zu colours; right %.1f %%, %zu colours; mean "
+      "difference %.2f\n",
+      100 * left_fraction, left_colours, 100 * right_fraction, right_colours, difference);
+  EXPECT_GT(left_fraction, 0.05);
+  EXPECT_GT(right_fraction, 0.05);
+  EXPECT_GT(left_colours, 200u);
+  EXPECT_GT(right_colours, 200u);
+  EXPECT_GT(difference, 1.0);  // two eyes 64 mm apart see two different images
+  // Each eye drew its own view: the left eye (view 0) sees the scene shifted right against the
+  // right eye's image.
+  int best = 0;
+  for (int shift = -20; shift <= 20; ++shift)
+    if (shifted_difference(left, right, shift) < shifted_difference(left, right, best))
+      best = shift;
+  std::printf("eye images best aligned at a shift of %d px\n", best);
+  EXPECT_GT(best, 0);
+}
+
+TEST(XrRuntime, WhenTheStreamEndsFirstThePresenterLeavesTheRuntimeCleanly) {
+  const fs::path dir = test::temp_dir("xr_runtime_stream_end");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const fs::path manifest = write_manifest(dir);
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
+  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "1000000");  // never asks to exit
+  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.frames = 10;
+  opt.seconds = 300;  // a safety net only
+  opt.presenter = xr_presenter(XrOptions{});
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kFramesReached) << to_string(r.ended) << ": " << r.error;
+
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);  // swapchains and spaces destroyed
+  EXPECT_EQ(log["sessions"], 1);
+  EXPECT_FALSE(log["exit_requested"].get<bool>());
+}
+
+TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
+  const fs::path dir = test::temp_dir("xr_runtime_lost");
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  const fs::path manifest = write_manifest(dir);
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
+  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "5");
+  const test::ScopedEnv end("VOLCAST_MOCK_XR_END", "lost");  // XR_ERROR_INSTANCE_LOST, no event
+  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.seconds = 300;  // a safety net only
+  opt.presenter = xr_presenter(XrOptions{});
+  ViewerResult r;
+  ASSERT_NO_THROW(r = run_viewer(opt));
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_TRUE(log["lost"].get<bool>());
+  EXPECT_GE(log["frames_with_content"].get<int>(), 5);
+}
+
+}  // namespace
+}  // namespace volcast

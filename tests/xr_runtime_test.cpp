@@ -34,6 +34,25 @@ fs::path write_manifest(const fs::path& dir) {
   return manifest;
 }
 
+// The mock runtime installed for one test: its manifest in a fresh folder, its output folder, a
+// display (Xvfb) for the GLX context, and the environment naming them, restored afterwards.
+// frames: VOLCAST_MOCK_XR_FRAMES; end: VOLCAST_MOCK_XR_END (null: ask to exit).
+struct MockRuntime {
+  fs::path dir, out;
+  test::Xvfb xvfb;
+  test::ScopedEnv display, runtime, frames, end, out_env;
+  MockRuntime(const std::string& name, const char* frame_count, const char* end_how = nullptr)
+      : dir(test::temp_dir(name)),
+        out(dir / "out"),
+        display("DISPLAY", xvfb.display().c_str()),
+        runtime("XR_RUNTIME_JSON", write_manifest(dir).c_str()),
+        frames("VOLCAST_MOCK_XR_FRAMES", frame_count),
+        end("VOLCAST_MOCK_XR_END", end_how),
+        out_env("VOLCAST_MOCK_XR_OUT", out.c_str()) {
+    fs::create_directories(out);
+  }
+};
+
 struct Ppm {
   int width = 0, height = 0;
   std::vector<uint8_t> rgb;
@@ -91,16 +110,9 @@ double shifted_difference(const Ppm& a, const Ppm& b, int shift) {
 }
 
 TEST(XrRuntime, ThePresenterRunsASessionOnAMockRuntimeUntilItAsksToExit) {
-  const fs::path dir = test::temp_dir("xr_runtime");
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const fs::path manifest = write_manifest(dir);
-  const test::Xvfb xvfb;
-  ASSERT_TRUE(xvfb.running()) << xvfb.error();
-  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
-  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
-  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "5");
-  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+  const MockRuntime mock("xr_runtime", "5");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
 
   std::string why;
   ASSERT_TRUE(xr_available(&why)) << why;
@@ -157,16 +169,9 @@ TEST(XrRuntime, ThePresenterRunsASessionOnAMockRuntimeUntilItAsksToExit) {
 }
 
 TEST(XrRuntime, WhenTheStreamEndsFirstThePresenterLeavesTheRuntimeCleanly) {
-  const fs::path dir = test::temp_dir("xr_runtime_stream_end");
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const fs::path manifest = write_manifest(dir);
-  const test::Xvfb xvfb;
-  ASSERT_TRUE(xvfb.running()) << xvfb.error();
-  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
-  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
-  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "1000000");  // never asks to exit
-  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+  const MockRuntime mock("xr_runtime_stream_end", "1000000");  // never asks to exit
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
 
   test::HandsSite site(15);
   ViewerOptions opt;
@@ -186,17 +191,9 @@ TEST(XrRuntime, WhenTheStreamEndsFirstThePresenterLeavesTheRuntimeCleanly) {
 }
 
 TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
-  const fs::path dir = test::temp_dir("xr_runtime_lost");
-  const fs::path out = dir / "out";
-  fs::create_directories(out);
-  const fs::path manifest = write_manifest(dir);
-  const test::Xvfb xvfb;
-  ASSERT_TRUE(xvfb.running()) << xvfb.error();
-  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
-  const test::ScopedEnv runtime("XR_RUNTIME_JSON", manifest.c_str());
-  const test::ScopedEnv frames("VOLCAST_MOCK_XR_FRAMES", "5");
-  const test::ScopedEnv end("VOLCAST_MOCK_XR_END", "lost");  // XR_ERROR_INSTANCE_LOST, no event
-  const test::ScopedEnv out_env("VOLCAST_MOCK_XR_OUT", out.c_str());
+  const MockRuntime mock("xr_runtime_lost", "5", "lost");  // lost: XR_ERROR_INSTANCE_LOST, no event
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
 
   test::HandsSite site(15);
   ViewerOptions opt;

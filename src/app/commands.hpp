@@ -134,6 +134,24 @@ struct BackgroundArgs {
 /// Learns a background model (per-pixel minimum) from frames of the empty room.
 int run_background(const BackgroundArgs& args);
 
+struct CalibrateArgs {
+  std::vector<std::string> sources;  ///< .mkv, image-sequence folder, camera folder or depth PNG
+  std::string out = "site.json";     ///< the site config to write
+  std::string preview;               ///< PNG: the registered clouds from above and the side
+  std::string intrinsics_from;       ///< for a camera folder's PNGs: a .mkv or sequence folder
+  std::string start;                 ///< site config with rough poses (e.g. the viewer's sliders)
+  int reference = 0;                 ///< the camera whose frame is the site's (before the floor)
+  bool reference_target = false;     ///< the target's first placement is the world, not a camera
+  int frames = 30;                   ///< frame sets scanned for the target
+  bool no_target = false;            ///< skip the target search
+  bool refine = false;               ///< ICP over the overlap also for target-placed cameras
+  bool no_floor = false;             ///< keep the reference camera's frame (no room alignment)
+};
+/// Registers the cameras (target, then targetless), aligns the floor, prints the residuals and
+/// writes the site config (and a preview). Exit code 0 when every camera was placed, 3 when some
+/// were not (the file is written with the others; each problem is printed naming its camera).
+int run_calibrate(const CalibrateArgs& args);
+
 struct BenchArgs {
   std::vector<std::string> datasets;  ///< extra recordings or folders
   std::string json;

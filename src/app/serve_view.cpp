@@ -6,8 +6,6 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
-#include <fstream>
-#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "commands.hpp"
@@ -53,21 +51,13 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
   SourceOptions defaults;
   if (!a.intrinsics.empty()) defaults.intrinsics = parse_pinhole(a.intrinsics);
   if (!a.config.empty()) {
-    std::ifstream in(a.config);
-    if (!in) throw Error("cannot read site config '" + a.config + "'");
-    const auto j = nlohmann::json::parse(in, nullptr, false);
-    if (j.is_discarded() || !j.contains("cameras") || !j["cameras"].is_array())
-      throw Error("site config '" + a.config + "' must be a JSON object with a \"cameras\" list");
-    const auto poses = read_site_poses(a.config);  // "world_from_camera", per camera
-    for (const auto& cam : j["cameras"]) {
+    const std::vector<SiteCamera> cameras = read_site_config(a.config);
+    for (const SiteCamera& cam : cameras) {
       const std::string where =
           "site config '" + a.config + "' camera " + std::to_string(sources.size());
-      if (!cam.is_object() || !cam.contains("source") || !cam["source"].is_string())
-        throw Error(where + ": needs \"source\"");
       SourceOptions opt = defaults;
-      if (cam.contains("intrinsics"))
-        opt.intrinsics = parse_pinhole(cam["intrinsics"].get<std::string>());
-      if (const auto& pose = poses[sources.size()]) {
+      if (cam.intrinsics) opt.intrinsics = *cam.intrinsics;
+      if (const auto& pose = cam.world_from_camera) {
         opt.world_from_camera = *pose;
         const Eigen::Vector3d t = pose->translation, r = degrees_from_rotation(pose->rotation);
         spdlog::info(
@@ -76,21 +66,16 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
             sources.size(), t.x(), t.y(), t.z(), r.x(), r.y(), r.z());
       }
       FilterConfig f = a.filters.to_config(sources.size());
-      if (cam.contains("filters")) {
+      if (!cam.filters_json.empty()) {
         try {
-          apply_filter_json(cam["filters"].dump(), f);
+          apply_filter_json(cam.filters_json, f);
         } catch (const Error& e) {
           throw Error(where + ": " + e.what());
         }
       }
-      std::string name = "camera " + std::to_string(sources.size());
-      if (cam.contains("name")) {
-        if (!cam["name"].is_string() || cam["name"].get<std::string>().empty() ||
-            cam["name"].get<std::string>().size() > 64)
-          throw Error(where + ": \"name\" must be a string of 1 to 64 characters");
-        name = cam["name"].get<std::string>();
-      }
-      sources.push_back(open_source(cam["source"].get<std::string>(), opt));
+      const std::string name =
+          cam.name.empty() ? "camera " + std::to_string(sources.size()) : cam.name;
+      sources.push_back(open_source(resolve_site_source(cam.source, a.config), opt));
       filters.push_back(f);
       names.push_back(name);
     }

@@ -10,6 +10,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "volcast/capture/camera_folder.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -167,6 +168,10 @@ class ImageSequenceSource final : public FrameSource {
     } else if (options.intrinsics) {
       k = *options.intrinsics;
       check_intrinsics(k, "image sequence '" + dir.string() + "': --intrinsics");
+      if ((k.width > 0 && k.width != first.width) || (k.height > 0 && k.height != first.height))
+        throw Error("image sequence '" + dir.string() + "' is " +
+                    size_text(first.width, first.height) + ", its intrinsics are for " +
+                    size_text(k.width, k.height) + " images");
     } else {
       const double f = first.width / 2.0 / std::tan(35.0 * std::numbers::pi / 180.0);
       k.fx = k.fy = f;
@@ -247,13 +252,28 @@ std::unique_ptr<FrameSource> open_image_sequence(const fs::path& dir,
 }
 
 std::unique_ptr<FrameSource> open_source(const fs::path& path, const SourceOptions& options) {
-  if (fs::is_directory(path)) return open_image_sequence(path, options);
+  if (fs::is_directory(path)) {
+    // A camera folder (depth.<serial>-<n>.png side by side) is several cameras, not one.
+    const auto cameras = list_folder_cameras(path);
+    if (!cameras.empty() && !fs::is_directory(path / "depth")) {
+      std::string serials;
+      for (const auto& c : cameras) serials += (serials.empty() ? "" : ", ") + c.serial;
+      throw Error("source '" + path.string() + "' holds " + std::to_string(cameras.size()) +
+                  (cameras.size() == 1 ? " camera" : " cameras") + " (depth.<serial>-*.png of " +
+                  serials + "), not an image sequence: pass one depth.<serial>-*.png per camera " +
+                  "as a source (with intrinsics), or use --config with a site config (volcast " +
+                  "calibrate writes one)");
+    }
+    return open_image_sequence(path, options);
+  }
   if (!fs::exists(path)) throw Error("source '" + path.string() + "' does not exist");
   std::string ext = path.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
   if (ext == ".mkv") return open_k4a_recording(path, options);
-  throw Error("source '" + path.string() +
-              "' is neither a folder (image sequence) nor an Azure Kinect recording (.mkv)");
+  if (ext == ".png") return open_folder_camera(path, options);
+  throw Error(
+      "source '" + path.string() +
+      "' is neither a folder (image sequence), an Azure Kinect recording (.mkv) nor a depth PNG");
 }
 
 }  // namespace volcast

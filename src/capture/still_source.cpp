@@ -1,7 +1,14 @@
 #include "volcast/capture/still_source.hpp"
 
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <iterator>
+#include <vector>
+
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
@@ -34,6 +41,8 @@ class StillSource final : public FrameSource {
   int64_t count_ = 0;
 };
 
+}  // namespace
+
 ColorImage resample_nearest(const ColorImage& in, int width, int height) {
   ColorImage out(width, height);
   for (int y = 0; y < height; ++y)
@@ -46,7 +55,23 @@ ColorImage resample_nearest(const ColorImage& in, int width, int height) {
   return out;
 }
 
-}  // namespace
+ColorImage read_color_image(const std::filesystem::path& file) {
+  std::string ext = file.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext != ".jpg" && ext != ".jpeg") return read_color_png(file);
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error("cannot read '" + file.string() + "'");
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                   std::istreambuf_iterator<char>());
+  ColorImage out;
+  try {
+    decode_jpeg(bytes, out);
+  } catch (const Error& e) {
+    throw Error("'" + file.string() + "': " + e.what());
+  }
+  return out;
+}
 
 std::unique_ptr<FrameSource> open_still_source(const std::filesystem::path& depth_png,
                                                const std::filesystem::path& color_image,
@@ -57,7 +82,7 @@ std::unique_ptr<FrameSource> open_still_source(const std::filesystem::path& dept
   calibration.depth.width = frame.depth.width;
   calibration.depth.height = frame.depth.height;
   if (!color_image.empty()) {
-    const ColorImage color = read_color_png(color_image);
+    const ColorImage color = read_color_image(color_image);
     frame.color = color.width == frame.depth.width && color.height == frame.depth.height
                       ? color
                       : resample_nearest(color, frame.depth.width, frame.depth.height);

@@ -1,6 +1,7 @@
 #pragma once
-// Frame sources: one camera each (an Azure Kinect recording, an image-sequence folder). Several
-// sources form one site; the server reads one frame from each per frame set.
+// Frame sources: one camera each (an Azure Kinect recording, an image-sequence folder, a camera
+// folder's depth PNGs). Several sources form one site; the server reads one frame from each per
+// frame set.
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -13,12 +14,14 @@
 
 namespace volcast {
 
-/// One camera's stream of registered RGB-D frames. Implementations: Azure Kinect recordings
-/// (k4arecorder Matroska) and image-sequence folders. Not thread-safe; one reader at a time.
+/// One camera's stream of RGB-D frames. Implementations: Azure Kinect recordings (k4arecorder
+/// Matroska), image-sequence folders and camera folders' depth PNGs (camera_folder.hpp; their
+/// color is resampled, not registered). Not thread-safe; one reader at a time.
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
-  /// Depth intrinsics (color is registered to depth) and world_from_camera.
+  /// Depth intrinsics (color comes on the depth grid: registered to depth, except a camera
+  /// folder's, which is resampled) and world_from_camera.
   virtual const CameraCalibration& calibration() const = 0;
   /// Frame rate of the recording, frames per second (as recorded; 30 where a format has none).
   virtual double fps() const = 0;
@@ -47,7 +50,8 @@ class FrameSource {
 
 /// Options shared by every source kind.
 struct SourceOptions {
-  /// Pinhole intrinsics to use when an image sequence has no intrinsics.json (fx, fy, cx, cy).
+  /// Intrinsics (pinhole or the full lens model) for sources that carry none: an image sequence
+  /// without intrinsics.json, a depth PNG. Width/height 0 = take the images'; else they must match.
   std::optional<Intrinsics> intrinsics;
   /// Overrides the recording's frame rate (frames per second).
   std::optional<double> fps;
@@ -56,7 +60,11 @@ struct SourceOptions {
 };
 
 /// Opens PATH as a source: a directory is an image sequence, a `.mkv` file an Azure Kinect
-/// recording. Throws Error naming the path and what is wrong with it.
+/// recording, a `.png` file one camera of a camera folder (depth.<serial>-<n>.png, color NOT
+/// registered) or else a single still depth frame (volcast/capture/camera_folder.hpp; both need
+/// options.intrinsics). A directory holding depth.<serial>-*.png files but no depth/ folder is a
+/// camera folder, refused with an Error saying how many cameras it holds and how to open them.
+/// Throws Error naming the path and what is wrong with it.
 std::unique_ptr<FrameSource> open_source(const std::filesystem::path& path,
                                          const SourceOptions& options = {});
 

@@ -1,0 +1,478 @@
+#include "volcast/calibrate/targetless.hpp"
+
+#include <open3d/geometry/KDTreeFlann.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/pipelines/registration/Feature.h>
+#include <open3d/pipelines/registration/GlobalOptimization.h>
+#include <open3d/pipelines/registration/PoseGraph.h>
+#include <open3d/pipelines/registration/Registration.h>
+#include <open3d/pipelines/registration/RobustKernel.h>
+#include <open3d/utility/Logging.h>
+#include <open3d/utility/Random.h>
+#include <spdlog/fmt/fmt.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <memory>
+
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+namespace {
+
+namespace o3g = open3d::geometry;
+namespace o3r = open3d::pipelines::registration;
+using Cloud = std::shared_ptr<o3g::PointCloud>;
+
+std::string cam(size_t i) {
+  return "camera " + std::to_string(i);
+}
+std::string format_fixed(double v, int digits) {
+  return fmt::format("{:.{}f}", v, digits);
+}
+
+Eigen::Matrix4d matrix(const RigidTransform& t) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = t.rotation;
+  m.topRightCorner<3, 1>() = t.translation;
+  return m;
+}
+
+RigidTransform rigid(const Eigen::Matrix4d& m) {
+  RigidTransform t;
+  // Re-orthonormalise: the pose graph's and ICP's products drift from SO(3) by rounding.
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.topLeftCorner<3, 3>(),
+                                        Eigen::ComputeFullU | Eigen::ComputeFullV);
+  t.rotation = svd.matrixU() * svd.matrixV().transpose();
+  t.translation = m.topRightCorner<3, 1>();
+  return t;
+}
+
+// One camera's cloud voxelised to `voxel_m`, with normals facing the camera (camera frame).
+Cloud prepare(const std::vector<Eigen::Vector3d>& points, double voxel_m) {
+  o3g::PointCloud raw(points);
+  Cloud down = raw.VoxelDownSample(voxel_m);
+  down->EstimateNormals(o3g::KDTreeSearchParamHybrid(voxel_m * 3, 30));
+  down->OrientNormalsTowardsCameraLocation(Eigen::Vector3d::Zero());
+  return down;
+}
+
+// The finest level: measured samples themselves (every k-th, at most ~60000), not voxel centroids,
+// which pull surfaces inward at edges by up to half a voxel and so bias the poses.
+Cloud prepare_fine(const std::vector<Eigen::Vector3d>& points, double radius_m) {
+  o3g::PointCloud raw(points);
+  const size_t every = std::max<size_t>(1, points.size() / 60000);
+  Cloud down = raw.UniformDownSample(every);
+  down->EstimateNormals(o3g::KDTreeSearchParamHybrid(radius_m, 30));
+  down->OrientNormalsTowardsCameraLocation(Eigen::Vector3d::Zero());
+  return down;
+}
+
+// One cloud at every ICP level, with normals (levels 0..2: voxel centroids; 3: samples).
+constexpr int kLevels = 4;
+struct Levels {
+  Cloud level[kLevels];
+};
+
+Levels prepare_levels(const std::vector<Eigen::Vector3d>& points, const TargetlessOptions& o) {
+  return {{prepare(points, o.icp_voxels_m[0]), prepare(points, o.icp_voxels_m[1]),
+           prepare(points, o.icp_voxels_m[2]), prepare_fine(points, 3 * o.icp_voxels_m[2])}};
+}
+
+Cloud transformed(const o3g::PointCloud& cloud, const RigidTransform& t) {
+  auto out = std::make_shared<o3g::PointCloud>(cloud);
+  out->Transform(matrix(t));
+  return out;
+}
+
+struct PairFit {
+  RigidTransform target_from_source;
+  double fitness = 0;  // share of the source's points with a partner
+  double rms_m = 0;
+};
+
+// Coarse-to-fine point-to-plane ICP with a Tukey loss from `start`, over levels `first`..`last`
+// (2: the coarse ones, for checking hypotheses; 3: down to the samples). Fitness and RMS at the
+// last level run, within the overlap distance.
+PairFit icp(const Levels& source, const Levels& target, const RigidTransform& start,
+            const TargetlessOptions& o, int first, int last) {
+  Eigen::Matrix4d t = matrix(start);
+  for (int level = first; level <= last; ++level) {
+    const double voxel = o.icp_voxels_m[level];
+    auto kernel = std::make_shared<o3r::TukeyLoss>(voxel);
+    const auto r =
+        o3r::RegistrationICP(*source.level[level], *target.level[level], voxel * 2.0, t,
+                             o3r::TransformationEstimationPointToPlane(kernel),
+                             o3r::ICPConvergenceCriteria(1e-8, 1e-8, level < 2 ? 60 : 30));
+    t = r.transformation_;
+  }
+  const auto eval =
+      o3r::EvaluateRegistration(*source.level[last], *target.level[last],
+                                std::max(o.overlap_distance_m, o.icp_voxels_m[last]), t);
+  PairFit fit;
+  fit.target_from_source = rigid(t);
+  fit.fitness = eval.fitness_;
+  fit.rms_m = eval.inlier_rmse_;
+  return fit;
+}
+
+// The points of `cloud` off its largest planes (floor, walls, ceiling): the furniture and
+// people that tell one place from another, where the planes match almost anywhere.
+std::vector<size_t> off_planes(const o3g::PointCloud& cloud) {
+  std::vector<bool> on(cloud.points_.size(), false);
+  auto rest = std::make_shared<o3g::PointCloud>(cloud);
+  std::vector<size_t> index(cloud.points_.size());
+  for (size_t i = 0; i < index.size(); ++i) index[i] = i;
+  for (int k = 0; k < 4; ++k) {
+    if (rest->points_.size() < 100) break;
+    const auto [plane, inliers] = rest->SegmentPlane(0.04, 3, 500);
+    if (inliers.size() < cloud.points_.size() / 12) break;
+    std::vector<size_t> keep;
+    std::vector<bool> is_in(rest->points_.size(), false);
+    for (size_t i : inliers) is_in[i] = true;
+    for (size_t i = 0; i < index.size(); ++i)
+      if (is_in[i])
+        on[index[i]] = true;
+      else
+        keep.push_back(index[i]);
+    rest = rest->SelectByIndex(inliers, true);
+    index = keep;
+  }
+  std::vector<size_t> out;
+  for (size_t i = 0; i < on.size(); ++i)
+    if (!on[i]) out.push_back(i);
+  return out;
+}
+
+std::shared_ptr<o3r::Feature> select(const o3r::Feature& f, const std::vector<size_t>& index) {
+  auto out = std::make_shared<o3r::Feature>();
+  out->Resize(static_cast<int>(f.Dimension()), static_cast<int>(index.size()));
+  for (size_t i = 0; i < index.size(); ++i)
+    out->data_.col(static_cast<long>(i)) = f.data_.col(static_cast<long>(index[i]));
+  return out;
+}
+
+// FPFH + RANSAC over the off-plane points: target_from_source from features alone (no start).
+std::vector<RigidTransform> global_candidates(const std::vector<Eigen::Vector3d>& source,
+                                              const std::vector<Eigen::Vector3d>& target,
+                                              const TargetlessOptions& o) {
+  const double v = o.feature_voxel_m;
+  const Cloud s = prepare(source, v), d = prepare(target, v);
+  const o3g::KDTreeSearchParamHybrid feature_search(v * 5, 100);
+  const auto fs = o3r::ComputeFPFHFeature(*s, feature_search);
+  const auto fd = o3r::ComputeFPFHFeature(*d, feature_search);
+  const auto si = off_planes(*s), di = off_planes(*d);
+  const Cloud ss = s->SelectByIndex(si), ds = d->SelectByIndex(di);
+  const auto fss = select(*fs, si), fds = select(*fd, di);
+  const o3r::CorrespondenceCheckerBasedOnEdgeLength edges(0.9);
+  const o3r::CorrespondenceCheckerBasedOnDistance distance(v * 1.5);
+  std::vector<RigidTransform> out;
+  for (int trial = 0; trial < o.global_trials; ++trial) {
+    // Alternate: features over the whole cloud, and over what is off its large planes.
+    const bool whole = trial % 2 == 0;
+    const auto r = o3r::RegistrationRANSACBasedOnFeatureMatching(
+        whole ? *s : *ss, whole ? *d : *ds, whole ? *fs : *fss, whole ? *fd : *fds, true, v * 1.5,
+        o3r::TransformationEstimationPointToPoint(false), 3, {edges, distance},
+        o3r::RANSACConvergenceCriteria(o.ransac_iterations, 0.9999));
+    if (r.correspondence_set_.size() >= 10) out.push_back(rigid(r.transformation_));
+  }
+  return out;
+}
+
+// Share of `source`'s points (in its camera frame, placed in the target camera's frame by
+// target_from_source) that the target camera would have seen in front of what it measured: it
+// looked through where they are, so the hypothesis is wrong (free-space violation).
+double free_space_violations(const std::vector<Eigen::Vector3d>& source_points,
+                             const RigidTransform& target_from_source, const DepthImage& depth,
+                             const Intrinsics& k, double margin_m) {
+  int checked = 0, violated = 0;
+  for (const Eigen::Vector3d& q : source_points) {
+    const Eigen::Vector3d p = target_from_source * q;
+    if (p.z() < 0.2) continue;
+    const auto uv = project_normalized(k, Eigen::Vector2d(p.x() / p.z(), p.y() / p.z()));
+    if (!uv) continue;
+    const long u = std::lround(uv->x()), v = std::lround(uv->y());
+    if (u < 0 || v < 0 || u >= depth.width || v >= depth.height) continue;
+    const uint16_t measured = depth.at(static_cast<int>(u), static_cast<int>(v));
+    if (measured == 0) continue;
+    ++checked;
+    if (p.z() < measured * 1e-3 - margin_m) ++violated;
+  }
+  return checked ? static_cast<double>(violated) / checked : 0.0;
+}
+
+// The smallest / largest eigenvalue of sum n n^T over the overlap's partner normals (the
+// translation block of point-to-plane ICP's normal equations): near 0 when the overlap leaves a
+// direction free (one plane: two directions; two planes: their common line).
+double translation_conditioning(const Eigen::Matrix3d& normals) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(normals);
+  const Eigen::Vector3d ev = eig.eigenvalues();
+  return ev(2) > 0 ? std::max(0.0, ev(0)) / ev(2) : 0.0;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> depth_points(const DepthImage& depth, const RayTable& rays, int stride,
+                                          double min_m, double max_m) {
+  if (depth.width != rays.width || depth.height != rays.height)
+    throw Error("depth_points: depth is " + std::to_string(depth.width) + "x" +
+                std::to_string(depth.height) + " but the ray table is " +
+                std::to_string(rays.width) + "x" + std::to_string(rays.height));
+  stride = std::max(stride, 1);
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(depth.size() / (static_cast<size_t>(stride) * stride));
+  for (int y = 0; y < depth.height; y += stride)
+    for (int x = 0; x < depth.width; x += stride) {
+      const size_t i = static_cast<size_t>(y) * depth.width + x;
+      const double z = depth.pixels[i] * 1e-3;
+      if (z < min_m || z > max_m || !std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i]))
+        continue;
+      out.emplace_back(rays.x[i] * z, rays.y[i] * z, z);
+    }
+  return out;
+}
+
+std::vector<CameraOverlap> measure_overlap(std::span<const std::vector<Eigen::Vector3d>> clouds,
+                                           std::span<const RigidTransform> world_from_camera,
+                                           double voxel_m, double overlap_distance_m) {
+  if (clouds.size() != world_from_camera.size())
+    throw Error("measure_overlap: " + std::to_string(clouds.size()) + " clouds but " +
+                std::to_string(world_from_camera.size()) + " poses");
+  std::vector<Cloud> world(clouds.size());
+  for (size_t c = 0; c < clouds.size(); ++c)
+    world[c] = transformed(*prepare_fine(clouds[c], 3 * voxel_m), world_from_camera[c]);
+  std::vector<CameraOverlap> out(clouds.size());
+  for (size_t c = 0; c < clouds.size(); ++c) {
+    o3g::PointCloud others;
+    for (size_t d = 0; d < clouds.size(); ++d)
+      if (d != c) others += *world[d];
+    if (others.points_.empty() || world[c]->points_.empty()) continue;
+    o3g::KDTreeFlann tree(others);
+    std::vector<int> index(1);
+    std::vector<double> dist2(1);
+    double sum = 0;
+    int n = 0;
+    Eigen::Matrix3d normals = Eigen::Matrix3d::Zero();
+    for (const Eigen::Vector3d& p : world[c]->points_) {
+      if (tree.SearchKNN(p, 1, index, dist2) < 1 ||
+          dist2[0] > overlap_distance_m * overlap_distance_m)
+        continue;
+      const Eigen::Vector3d& normal = others.normals_[index[0]];
+      const double r = (p - others.points_[index[0]]).dot(normal);
+      sum += r * r;
+      normals += normal * normal.transpose();
+      ++n;
+    }
+    out[c].conditioning = translation_conditioning(normals);
+    out[c].points = n;
+    out[c].fraction = static_cast<double>(n) / static_cast<double>(world[c]->points_.size());
+    out[c].rms_m = n ? std::sqrt(sum / n) : 0;
+  }
+  return out;
+}
+
+std::vector<CameraOverlap> measure_overlap(
+    std::span<const std::vector<Eigen::Vector3d>> clouds,
+    std::span<const std::optional<RigidTransform>> world_from_camera, double voxel_m,
+    double overlap_distance_m) {
+  if (clouds.size() != world_from_camera.size())
+    throw Error("measure_overlap: " + std::to_string(clouds.size()) + " clouds but " +
+                std::to_string(world_from_camera.size()) + " poses");
+  std::vector<std::vector<Eigen::Vector3d>> placed_clouds;
+  std::vector<RigidTransform> placed;
+  std::vector<size_t> index;
+  for (size_t c = 0; c < clouds.size(); ++c)
+    if (world_from_camera[c]) {
+      placed_clouds.push_back(clouds[c]);
+      placed.push_back(*world_from_camera[c]);
+      index.push_back(c);
+    }
+  std::vector<CameraOverlap> out(clouds.size());
+  const auto some = measure_overlap(placed_clouds, placed, voxel_m, overlap_distance_m);
+  for (size_t k = 0; k < index.size(); ++k) out[index[k]] = some[k];
+  return out;
+}
+
+TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
+                                     std::span<const std::optional<RigidTransform>> start,
+                                     int reference, const TargetlessOptions& o) {
+  const size_t n = cameras.size();
+  if (start.size() != n)
+    throw Error("register_targetless: " + std::to_string(n) + " cameras but " +
+                std::to_string(start.size()) + " start poses");
+  if (reference < 0 || static_cast<size_t>(reference) >= n)
+    throw Error("register_targetless: reference camera " + std::to_string(reference) +
+                " is not one of the " + std::to_string(n) + " cameras");
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  open3d::utility::random::Seed(static_cast<int>(o.seed));
+  std::vector<std::vector<Eigen::Vector3d>> clouds(n);
+  for (size_t c = 0; c < n; ++c) clouds[c] = cameras[c].cloud;
+  TargetlessResult result;
+  const auto note = [&](const std::string& line) {
+    result.log.push_back(line);
+    if (o.progress) o.progress(line);
+  };
+  result.world_from_camera.assign(n, std::nullopt);
+  result.conditioning.assign(n, 0);
+  const size_t ref = static_cast<size_t>(reference);
+  for (size_t c = 0; c < n; ++c)
+    if (clouds[c].size() < 100)
+      result.problems.push_back(cam(c) + ": fewer than 100 valid depth samples");
+
+  bool all_started = true;
+  for (size_t c = 0; c < n; ++c) all_started = all_started && start[c].has_value();
+  if (all_started) {
+    std::vector<RigidTransform> poses;
+    for (const auto& s : start) poses.push_back(*s);
+    result.before = measure_overlap(clouds, poses, o.icp_voxels_m[3], o.overlap_distance_m);
+  }
+
+  // 1. Placement: started cameras where they are; the others by features, one at a time, each
+  //    against the placed camera it matches best. A hypothesis must agree with what both cameras
+  //    saw: neither may see the other's points in its free space.
+  std::vector<std::vector<Eigen::Vector3d>> sparse(n);
+  std::vector<Levels> levels(n);
+  for (size_t c = 0; c < n; ++c) {
+    sparse[c] = prepare(clouds[c], 0.05)->points_;
+    if (clouds[c].size() >= 100) levels[c] = prepare_levels(clouds[c], o);
+  }
+  // Only the reference is placed as given. A camera with a start is placed like the others, from
+  // hypotheses (its start, and the features') refined and checked against the cameras already
+  // placed -- keeping those that end within the tolerance of its start -- so one rough start
+  // cannot pull the others.
+  std::vector<std::optional<RigidTransform>> pose(n);
+  pose[ref] = start[ref].value_or(RigidTransform{});
+  const auto near_start = [&](size_t c, const RigidTransform& world_from_c) {
+    if (!start[c]) return true;
+    const double angle =
+        Eigen::AngleAxisd(start[c]->rotation.transpose() * world_from_c.rotation).angle();
+    return (world_from_c.translation - start[c]->translation).norm() <= o.start_tolerance_m &&
+           angle <= o.start_tolerance_deg * M_PI / 180;
+  };
+  struct Tried {
+    bool done = false;
+    double score = -1;
+    RigidTransform p_from_c;
+  };
+  std::vector<std::vector<Tried>> tried(n, std::vector<Tried>(n));
+  for (;;) {
+    double best_score = -1;
+    size_t best = n;
+    RigidTransform best_pose;
+    for (size_t c = 0; c < n; ++c) {
+      if (pose[c] || clouds[c].size() < 100) continue;
+      for (size_t p = 0; p < n; ++p) {
+        if (!pose[p] || clouds[p].size() < 100) continue;
+        Tried& t = tried[c][p];
+        if (!t.done) {
+          t.done = true;
+          std::vector<RigidTransform> hypotheses;
+          if (start[c]) hypotheses.push_back(pose[p]->inverse() * *start[c]);
+          const size_t from_start = hypotheses.size();
+          for (const RigidTransform& g : global_candidates(clouds[c], clouds[p], o))
+            hypotheses.push_back(g);
+          for (size_t h = 0; h < hypotheses.size(); ++h) {
+            const RigidTransform& g = hypotheses[h];
+            const bool is_start = h < from_start;
+            const PairFit f = icp(levels[c], levels[p], g, o, is_start ? 0 : 1, 2);
+            const double seen_by_p =
+                free_space_violations(sparse[c], f.target_from_source, cameras[p].depth,
+                                      cameras[p].intrinsics, o.free_space_margin_m);
+            const double seen_by_c =
+                free_space_violations(sparse[p], f.target_from_source.inverse(), cameras[c].depth,
+                                      cameras[c].intrinsics, o.free_space_margin_m);
+            const double violations = std::max(seen_by_p, seen_by_c);
+            const bool near = near_start(c, *pose[p] * f.target_from_source);
+            const bool ok = violations <= o.max_free_space_violations && near;
+            note(cam(c) + " against " + cam(p) +
+                 (is_start ? ": its start" : ": features + RANSAC") +
+                 ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
+                 format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
+                 "% in the other's free space" +
+                 (ok     ? ""
+                  : near ? " (rejected)"
+                         : " (rejected: too far from its start)"));
+            if (ok && f.fitness > t.score) {
+              t.score = f.fitness;
+              t.p_from_c = f.target_from_source;
+            }
+          }
+        }
+        if (t.score > best_score) {
+          best_score = t.score;
+          best = c;
+          best_pose = *pose[p] * t.p_from_c;
+        }
+      }
+    }
+    if (best == n || best_score < o.min_overlap) break;
+    pose[best] = best_pose;
+  }
+  for (size_t c = 0; c < n; ++c)
+    if (!pose[c] && clouds[c].size() >= 100)
+      result.problems.push_back(
+          cam(c) +
+          (start[c]
+               ? ": no alignment to the other cameras found near its start or from features (it "
+               : ": no alignment to the other cameras found from features (it ") +
+          "shares too little of the scene with them, or the scene has too "
+          "little shape); give it a rough start (viewer sliders) or a target");
+
+  const auto started = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
+  for (size_t c = 0; c < n; ++c)
+    if (pose[c])
+      note(cam(c) + " before the joint ICP: overlap " + format_fixed(started[c].fraction * 100, 1) +
+           "%, RMS " + format_fixed(started[c].rms_m * 1e3, 1) + " mm");
+  // 2. Joint refinement: each camera in turn, ICP against all the other placed cameras together
+  //    (the reference stays), a few rounds -- every overlap pulls at once, no chain of pairs.
+  for (int round = 0; round < o.joint_rounds; ++round)
+    for (size_t c = 0; c < n; ++c) {
+      if (!pose[c] || c == ref) continue;
+      Levels others;
+      for (int l = 0; l < kLevels; ++l) others.level[l] = std::make_shared<o3g::PointCloud>();
+      for (size_t d = 0; d < n; ++d)
+        if (d != c && pose[d])
+          for (int l = 0; l < kLevels; ++l)
+            *others.level[l] += *transformed(*levels[d].level[l], *pose[d]);
+      // From the coarsest level in the first round (a start may be 20 cm off), down to the
+      // samples in the last.
+      const PairFit f = icp(levels[c], others, *pose[c], o, round == 0 ? 0 : 1,
+                            round + 1 < o.joint_rounds ? 2 : 3);
+      pose[c] = f.target_from_source;
+      if (round == o.joint_rounds - 1)
+        note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
+             "% overlap, RMS " + format_fixed(f.rms_m * 1e3, 1) + " mm");
+    }
+
+  // 3. Verify: every placed camera must overlap and be constrained; otherwise say so, no pose.
+  result.after = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
+  for (size_t c = 0; c < n; ++c) {
+    if (!pose[c]) continue;
+    result.conditioning[c] = result.after[c].conditioning;
+    if (c == ref) {  // the anchor: its pose is the world's definition, not a measurement
+      result.world_from_camera[c] = pose[c];
+      continue;
+    }
+    if (n > 1 && result.after[c].fraction < o.min_overlap) {
+      result.problems.push_back(cam(c) + ": only " +
+                                format_fixed(result.after[c].fraction * 100, 1) +
+                                "% of it overlaps the other cameras after registration (needs " +
+                                format_fixed(o.min_overlap * 100, 0) + "%); its pose is not known");
+      continue;
+    }
+    if (n > 1 && result.conditioning[c] < o.min_conditioning) {
+      result.problems.push_back(
+          cam(c) +
+          ": what it shares with the other cameras is (nearly) one plane or one "
+          "direction (conditioning " +
+          format_fixed(result.conditioning[c], 4) +
+          "), so it can slide along it; its pose is not known -- add shape to the overlap (a box, "
+          "a chair) or use the target");
+      continue;
+    }
+    result.world_from_camera[c] = pose[c];
+  }
+  return result;
+}
+
+}  // namespace volcast

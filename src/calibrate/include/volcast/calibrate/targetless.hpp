@@ -48,7 +48,7 @@ struct TargetlessOptions {
   /// A camera with a start keeps only alignments that end this close to it (metres, degrees).
   double start_tolerance_m = 0.35;
   double start_tolerance_deg = 15;
-  int joint_rounds = 3;               ///< rounds of each camera against all others (ICP)
+  int joint_rounds = 3;  ///< rounds of each camera against all others (ICP)
   /// A camera whose overlap's conditioning is below this is left unplaced (it could slide).
   double min_conditioning = 0.001;
   /// Called with each line of TargetlessResult::log as the step finishes (progress), if set.
@@ -104,10 +104,10 @@ struct TargetlessResult {
 /// one is placed from its start and from the feature hypotheses, keeping only alignments that end
 /// within options.start_tolerance of it; a camera without one from the feature hypotheses alone --
 /// each against the cameras already placed, then all together by ICP. `reference` keeps its start
-/// pose (identity when it has none). Throws Error when `start` and `cameras` differ in length or the reference is out of range; never returns a transform it did not
-/// verify: a camera whose best alignment overlaps less than options.min_overlap, contradicts what
-/// the other camera saw (free space), or is left sliding along a plane, is nullopt, with a problem
-/// naming the camera.
+/// pose (identity when it has none). Throws Error when `start` and `cameras` differ in length or
+/// the reference is out of range; never returns a transform it did not verify: a camera whose best
+/// alignment overlaps less than options.min_overlap, contradicts what the other camera saw (free
+/// space), or is left sliding along a plane, is nullopt, with a problem naming the camera.
 TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
                                      std::span<const std::optional<RigidTransform>> start,
                                      int reference = 0, const TargetlessOptions& options = {});

@@ -90,6 +90,20 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   for (const char* png : {"render_overview.png", "render_overview_mesh.png", "render_camera0.png",
                           "render_camera1.png"})
     EXPECT_GT(std::filesystem::file_size(dir / png), 10'000u) << png;
+  // The virtual-OR session: the four registered cameras, two scripted participants, each one's
+  // eye and figures; each saw the other.
+  EXPECT_NE(out.find("virtual OR session 'OR'"), std::string::npos) << out;
+  EXPECT_TRUE(std::filesystem::exists(dir / "site-4cam.json"));
+  for (const auto& [file, other] : {std::pair{"session_camera_avatar", "Dr. Mesh"},
+                                    {"session_mesh_avatar", "Dr. Hands (camera)"}}) {
+    EXPECT_GT(std::filesystem::file_size(dir / (std::string(file) + ".png")), 10'000u) << file;
+    std::ifstream s(dir / (std::string(file) + ".json"));
+    const auto session = nlohmann::json::parse(s);
+    EXPECT_EQ(session["session"], "OR");
+    ASSERT_EQ(session["participants"].size(), 1u) << session.dump(2);
+    EXPECT_EQ(session["participants"][0], other);
+    EXPECT_GT(session["others"][0]["poses_received"].get<int>(), 0);
+  }
 }
 
 TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {

@@ -11,16 +11,20 @@
 #include <numbers>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "hands_site.hpp"
 #include "test_data.hpp"
 #include "volcast/capture/source.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_client.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
+#include "volcast/session/hub.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
 #include "volcast/viewer/pose_sliders.hpp"
@@ -295,6 +299,78 @@ TEST(DesktopViewer, ShowsTheRealStreamUnderXvfbScreenshotKeyAndCtrlSSave) {
   ASSERT_EQ(poses.size(), 1u);
   ASSERT_TRUE(poses[0].has_value());
   expect_same_pose(*poses[0], RigidTransform::identity(), 1e-12);
+}
+
+// The desktop window as a participant (the paper's mouse-and-keyboard fallback): it publishes
+// its eye as the head pose, draws the room, and T then a click on the floor teleports there.
+TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const fs::path dir = test::temp_dir("desktop_session");
+  SessionHub hub;
+  ServerConfig config;
+  config.session = &hub;
+  test::HandsSite site(15, config);
+  hub.attach(&site.server);
+  const std::string link = site.server.join_link("127.0.0.1");
+  ClientConfig observer_config = client_config_from_link(link);
+  observer_config.decode = false;
+  Client observer_client(observer_config);
+  SessionClientOptions observer_options;
+  observer_options.participant.name = "Observer";
+  SessionClient observer(observer_options);
+  observer.start(observer_client);
+  std::thread observer_rx([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (observer_client.receive(rx)) {
+      }
+    } catch (const std::exception&) {
+    }
+  });
+  SessionClientOptions window_options;
+  window_options.participant.name = "Desk";
+  window_options.drive_poses = false;  // the window publishes its eye
+  SessionClient window(window_options);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(link);
+  opt.seconds = 300;  // a safety net only
+  opt.on_connected = [&](Client& c) { window.start(c); };
+  opt.on_finished = [&](ViewerResult&) { window.stop(); };
+  DesktopOptions desktop;
+  desktop.width = 640;
+  desktop.height = 400;
+  desktop.screenshot = dir / "eye.png";
+  desktop.participant = [&] { return window.participant(); };
+  // T, then a click low in the window (the floor ahead), then a screenshot; 40 frames in all.
+  desktop.script = {{3, GLFW_KEY_T}, {30, GLFW_KEY_F12}};
+  desktop.clicks = {{4, 120, 395}};  // ahead and to the left, clear of the others
+  desktop.max_frames = 40;
+  opt.presenter = desktop_presenter(desktop);
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << r.error;
+  EXPECT_EQ(r.frames_rendered, 40u);
+
+  const SessionSnapshot seen = observer.participant()->snapshot(wall_clock_us());
+  const ParticipantStats stats = observer.participant()->stats();
+  observer.stop();
+  observer_client.close();
+  observer_rx.join();
+  hub.attach(nullptr);
+  uint64_t poses = 0;
+  for (const auto& o : stats.others)
+    if (o.name == "Desk") poses = o.poses_received;
+  EXPECT_GE(poses, 20u) << "a pose per frame drawn";
+  bool teleported = false;
+  for (const auto& t : seen.teleports)
+    teleported |= std::hypot(t.to.x - t.from.x, t.to.z - t.from.z) > 0.5f;
+  EXPECT_TRUE(teleported) << "the click on the floor teleported the window's participant";
+  ASSERT_TRUE(fs::exists(desktop.screenshot));
+  const ColorImage shot = read_color_png(desktop.screenshot);
+  size_t lit = 0;  // the room's floor and walls, not the cleared background
+  for (size_t i = 0; i < shot.bgra.size(); i += 4) lit += shot.bgra[i + 1] > 50;
+  EXPECT_GT(lit, shot.bgra.size() / 4 / 2);
 }
 
 // --- OpenXR --------------------------------------------------------------------------------------

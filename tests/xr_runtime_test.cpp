@@ -13,11 +13,15 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "hands_site.hpp"
 #include "test_data.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/session/hub.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "xvfb.hpp"
 
@@ -210,6 +214,83 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
   EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
   EXPECT_TRUE(log["lost"].get<bool>());
   EXPECT_GE(log["frames_with_content"].get<int>(), 5);
+}
+
+// A participant in a headset: the presenter draws the virtual OR for each eye and publishes the
+// head as the participant's pose; another participant sees it standing at its spot.
+TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
+  const MockRuntime mock("xr_runtime_session", "60");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  SessionHub hub;
+  ServerConfig config;
+  config.session = &hub;
+  test::HandsSite site(15, config);
+  hub.attach(&site.server);
+  const std::string link = site.server.join_link("127.0.0.1");
+  // The observer: a plain participant on its own connection.
+  ClientConfig observer_config = client_config_from_link(link);
+  observer_config.decode = false;
+  Client observer_client(observer_config);
+  SessionClientOptions observer_options;
+  observer_options.participant.name = "Observer";
+  SessionClient observer(observer_options);
+  observer.start(observer_client);
+  std::thread observer_rx([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (observer_client.receive(rx)) {
+      }
+    } catch (const std::exception&) {
+    }
+  });
+  // The headset participant.
+  SessionClientOptions headset_options;
+  headset_options.participant.name = "Headset";
+  headset_options.drive_poses = false;  // the headset publishes
+  SessionClient headset(headset_options);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(link);
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.on_connected = [&](Client& c) {
+    headset.start(c);
+    // Its first frames wait for the join, so that the headset's poses count.
+    for (int i = 0; i < 500 && !headset.participant()->joined(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  };
+  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  XrOptions xr;
+  xr.participant = [&] { return headset.participant(); };
+  opt.presenter = xr_presenter(xr);
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  EXPECT_GE(r.frames_rendered, 30u);
+
+  const SessionSnapshot seen = observer.participant()->snapshot(wall_clock_us());
+  observer.stop();
+  observer_client.close();
+  observer_rx.join();
+  hub.attach(nullptr);
+  const ParticipantStats stats = observer.participant()->stats();
+  uint64_t poses = 0;
+  for (const auto& o : stats.others)
+    if (o.name == "Headset") poses = o.poses_received;
+  EXPECT_GE(poses, 10u) << "the observer saw the headset's head move";
+  const auto departed = seen.departed;
+  // Where it stood: above its spot (the mock's eyes are at the stage's origin height).
+  bool found = false;
+  for (const auto& o : seen.others)
+    if (o.name == "Headset") {
+      found = true;
+      EXPECT_LT(std::hypot(o.newest_pose.head.position.x() - o.spot.x,
+                           o.newest_pose.head.position.z() - o.spot.z),
+                0.3f);
+    }
+  EXPECT_TRUE(found || !departed.empty());
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  const Ppm left = read_ppm(mock.out / "eye0.ppm");
+  ASSERT_EQ(left.width, 256);
+  EXPECT_GT(content(left).first, 0.3) << "the room fills the eye";
 }
 
 }  // namespace

@@ -61,6 +61,11 @@ struct ServeArgs {
   int handshake_timeout_ms = 5000;
   int max_pending = 64;
   int max_pending_per_address = 8;
+  // The virtual OR's sessions (volcast/session/hub.hpp).
+  std::vector<std::string> sessions{"OR"};  ///< sessions made at start (participants make more)
+  std::string room_from_site;               ///< "x,y,z,yaw_deg": the site in the room
+  std::string site_name = "OR site";        ///< the OR site participant's display name
+  int presence_timeout_ms = 3000;
 };
 int run_serve(const ServeArgs& args);
 
@@ -93,6 +98,18 @@ struct ViewArgs {
   bool low_latency = false;         ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
   int handshake_timeout_ms = 5000;  ///< ClientConfig::handshake_timeout_ms
   int receive_timeout_ms = 10000;   ///< ClientConfig::receive_timeout_ms
+  // Joining the virtual OR as a participant (volcast/session/participant.hpp).
+  std::string join;                      ///< session name; empty: a plain viewer
+  std::string name;                      ///< display name in the session
+  std::string camera;                    ///< own RGB-D camera source: a camera avatar
+  std::string camera_pose;               ///< "x,y,z,rx,ry,rz": playarea_from_camera (m, deg)
+  std::string camera_intrinsics;         ///< "fx,fy,cx,cy" for a camera source without any
+  std::string upload_codec = "volcast";  ///< the avatar's depth codec (lossless)
+  std::string upload_color = "jpeg";     ///< the avatar's color codec
+  std::string pose_script;               ///< JSON pose script; default: standing, idle sway
+  double pose_rate = 60;                 ///< poses published per second
+  float avatar_radius = 0.6f;            ///< the others' camera avatars: metres around their head
+  bool no_room = false;                  ///< do not draw the room's furniture
 };
 /// Renders into the desktop window by default (headless when there is no display, with one line
 /// saying so), OpenXR with --xr (the window when no runtime is available), offscreen with
@@ -111,8 +128,15 @@ struct DemoArgs {
   int cameras = 2;
   bool no_render = false;    ///< render only the PNGs at the end, not while streaming
   bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  bool no_session = false;   ///< skip the virtual-OR session part
+  double session_seconds = 8;
 };
 int run_demo(const DemoArgs& args);
+/// The demo's virtual-OR session (demo_session.cpp): the registered four-camera site (registered
+/// once, cached as out/site-4cam.json), two scripted participants (a camera avatar from the hands
+/// sequence, a mesh avatar who teleports), a screenshot from each one's eye and its figures.
+int run_demo_session(const DemoArgs& args, const std::filesystem::path& data,
+                     const std::filesystem::path& out);
 
 struct FilterArgs {
   std::string source;
@@ -163,6 +187,8 @@ struct BenchArgs {
   std::vector<int> viewers;   ///< viewer counts (default 1, 4, 8, 16)
   bool render = false;        ///< the render benchmark instead
   double render_seconds = 1;  ///< drawn per configuration (at least 3 frames)
+  bool session = false;       ///< the session benchmark instead (uses server_seconds)
+  bool low_latency = false;   ///< --session: hold the CPU wake-up latency at 0 (cpu_latency.hpp)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
@@ -179,6 +205,15 @@ int run_server_bench(const BenchArgs& args);
 /// frames_timed, upload_ms, first_draw_after_upload_ms, ms_sum_of_cameras_alone (each camera drawn
 /// alone, summed: the linear baseline), gpu}]} to args.json if set.
 int run_render_bench(const BenchArgs& args);
+/// The virtual OR's sessions on loopback over TLS: 2 participants with the site idle (the session
+/// alone), then with the real two-camera site streaming at 30 fps 2 and 8 participants with mesh
+/// avatars (idle script, poses at 60 Hz) and 4 participants uploading the hands sequence as camera
+/// avatars; prints a table and writes {"session": [{configuration, participants, site_cameras,
+/// site_streaming, camera_avatars, session_round_trip_ms_p50, _p99,
+/// round_trip_samples, pose_rate_hz_min, pose_age_ms_p50, _p99, avatar_fps_min,
+/// avatar_latency_ms_p50, _p99, serving_cpu_percent, serving_cpu_percent_per_participant,
+/// site_encode_cpu_percent}]} to args.json if set.
+int run_session_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;

@@ -140,7 +140,8 @@ int run_demo(const DemoArgs& a) {
   std::printf("\n%s", format_stats_table(result).c_str());
   std::printf("\nwrote %s, %s (splats; _mesh: the grid mesh) and render_camera0..%zu.png there\n",
               (out / "stats.json").c_str(), (out / "render_overview.png").c_str(), cams.size() - 1);
-  return 0;
+  if (a.no_session || g_interrupted) return 0;
+  return run_demo_session(a, *data, out);
 }
 
 namespace {

@@ -114,6 +114,17 @@ int main(int argc, char** argv) {
   s->add_option("--max-pending-per-address", serve.max_pending_per_address,
                 "Handshakes in progress at once from one address")
       ->capture_default_str();
+  s->add_option("--session", serve.sessions,
+                "Virtual-OR sessions to open at start (repeat; participants may open more)")
+      ->capture_default_str();
+  s->add_option("--room-from-site", serve.room_from_site,
+                "Where the site's cameras stand in the virtual OR: x,y,z (metres), yaw (degrees "
+                "about +y); default: the site frame is the room frame");
+  s->add_option("--site-name", serve.site_name, "The OR site's name in the sessions")
+      ->capture_default_str();
+  s->add_option("--presence-timeout", serve.presence_timeout_ms,
+                "A participant silent this long (no pose, no heartbeat) is removed (ms)")
+      ->capture_default_str();
 
   ViewArgs view;
   auto* v =
@@ -194,6 +205,32 @@ int main(int argc, char** argv) {
                 "End the session when no complete message arrives for this long (ms, 0 = never)")
       ->capture_default_str();
   v->add_flag("--low-latency", view.low_latency, kLowLatencyHelp);
+  v->add_option("--join", view.join,
+                "Join this virtual-OR session as a participant (made if there is none)");
+  v->add_option("--name", view.name, "Your display name in the session (with --join)");
+  v->add_option("--camera", view.camera,
+                "Your own RGB-D camera (any source: .mkv, image folder, depth PNG): others see "
+                "you as a live point-cloud avatar; without it, a mesh avatar");
+  v->add_option("--camera-pose", view.camera_pose,
+                "Your camera in your play area: x,y,z (metres), rx,ry,rz (degrees, R = Rz*Ry*Rx); "
+                "default: facing you, 1.3 m high");
+  v->add_option("--camera-intrinsics", view.camera_intrinsics,
+                "fx,fy,cx,cy for a --camera source without intrinsics");
+  v->add_option("--upload-codec", view.upload_codec,
+                "Your camera's depth codec (lossless, not temporal: volcast, rvl, zstd, lz4, raw)")
+      ->capture_default_str();
+  v->add_option("--upload-color", view.upload_color, "Your camera's color codec: jpeg, raw, none")
+      ->capture_default_str();
+  v->add_option("--pose-script", view.pose_script,
+                "Headless participant: JSON key poses and teleports (default: standing, swaying)");
+  v->add_option("--pose-rate", view.pose_rate, "Poses published per second")
+      ->check(CLI::Range(1.0, 1000.0))
+      ->capture_default_str();
+  v->add_option("--avatar-radius", view.avatar_radius,
+                "Others' camera avatars: draw points within this many metres of their head")
+      ->check(CLI::Range(0.05f, 5.0f))
+      ->capture_default_str();
+  v->add_flag("--no-room", view.no_room, "Participant: do not draw the room's furniture");
   v->footer(
       "Exit status: 0 when frame sets arrived and the session ended as asked (--frames, "
       "--seconds, Ctrl-C) or the server closed it; 1 when none arrived or it ended on an error "
@@ -209,6 +246,10 @@ int main(int argc, char** argv) {
   d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + depth_codec_help())
       ->capture_default_str();
   d->add_option("--color-codec", demo.color_codec, "Color codec: " + color_codec_help())
+      ->capture_default_str();
+  d->add_flag("--no-session", demo.no_session,
+              "Skip the virtual-OR session (the registered OR cameras, two scripted participants)");
+  d->add_option("--session-seconds", demo.session_seconds, "How long the session part runs")
       ->capture_default_str();
   d->add_option("--cameras", demo.cameras,
                 "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")
@@ -258,6 +299,10 @@ int main(int argc, char** argv) {
                  "With --server: TCP/TLS pairs run per configuration, interleaved; medians shown")
       ->capture_default_str();
   bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
+  bn->add_flag("--session", bench.session,
+               "Session benchmark instead: pose round trip, pose rates, camera avatars, server CPU "
+               "per participant (--server-seconds each)");
+  bn->add_flag("--low-latency", bench.low_latency, "With --session: " + kLowLatencyHelp);
   bn->add_flag("--render", bench.render,
                "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
   bn->add_option("--render-seconds", bench.render_seconds,
@@ -317,10 +362,12 @@ int main(int argc, char** argv) {
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
     if (*bn) {
-      if (bench.server && bench.render) throw Error("bench: --server and --render are two runs");
-      return bench.server   ? run_server_bench(bench)
-             : bench.render ? run_render_bench(bench)
-                            : run_bench(bench);
+      if (int(bench.server) + int(bench.render) + int(bench.session) > 1)
+        throw Error("bench: --server, --render and --session are separate runs");
+      return bench.server    ? run_server_bench(bench)
+             : bench.render  ? run_render_bench(bench)
+             : bench.session ? run_session_bench(bench)
+                             : run_bench(bench);
     }
   } catch (const std::exception& e) {
     spdlog::error("{}", e.what());

@@ -17,6 +17,9 @@
 #include "volcast/net/tls.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/pipeline/session_scene.hpp"
+#include "volcast/session/hub.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
 
@@ -176,6 +179,77 @@ Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
   return desktop_presenter(desktop);
 }
 
+// A participant of session --join: its SessionClient (pose script, camera upload), joined once
+// connected, and a presenter that draws the virtual OR from its eye: the desktop window (the eye
+// moved by mouse and keyboard is published as the head pose) or, headless or without a display,
+// the scripted eye offscreen.
+std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& opt) {
+  if (a.name.empty()) throw Error("view: --join needs --name (your display name in the session)");
+  std::string why;
+  const bool window = opt.render && !a.headless && desktop_available(&why);
+  if (opt.render && !a.headless && !window)
+    spdlog::warn("no display for a window ({}); rendering the participant's eye headless", why);
+  std::string xr_why;
+  const bool xr = window && a.xr && xr_available(&xr_why);
+  if (window && a.xr && !xr) spdlog::warn("OpenXR: {}; opening the desktop window", xr_why);
+  SessionClientOptions s;
+  s.participant.session = a.join;
+  s.participant.name = a.name;
+  s.pose_rate_hz = a.pose_rate;
+  s.drive_poses = !window;  // the window (or headset) publishes its eye
+  if (!a.pose_script.empty()) s.script = read_pose_script(a.pose_script);
+  s.camera_source = a.camera;
+  s.upload_depth_codec = a.upload_codec;
+  s.upload_color_codec = a.upload_color;
+  if (!a.camera_intrinsics.empty())
+    s.camera_options.intrinsics = parse_pinhole(a.camera_intrinsics);
+  if (!a.camera_pose.empty()) {
+    const auto p = parse_numbers(a.camera_pose, 6, "--camera-pose");
+    RigidTransform t;
+    t.translation = {p[0], p[1], p[2]};
+    t.rotation = rotation_from_degrees({p[3], p[4], p[5]});
+    s.playarea_from_camera = t;
+  }
+  auto session = std::make_unique<SessionClient>(std::move(s));
+  SessionClient* client = session.get();
+  const std::string session_name = a.join;
+  opt.on_connected = [client](Client& c) { client->start(c); };
+  opt.on_finished = [client, session_name](ViewerResult& r) {
+    client->stop();
+    if (Participant* p = client->participant()) {
+      r.session = p->stats();
+      r.session_name = session_name;
+    }
+  };
+  SessionSceneOptions scene;
+  scene.pass = opt.pass;
+  scene.keep_radius_m = a.avatar_radius;
+  scene.room = !a.no_room;
+  const auto participant = [client] { return client->participant(); };
+  if (xr) {
+    XrOptions options;
+    options.pass = opt.pass;
+    options.participant = participant;
+    options.scene = scene;
+    opt.presenter = xr_presenter(options);
+  } else if (window) {
+    DesktopOptions desktop;
+    desktop.width = opt.width;
+    desktop.height = opt.height;
+    desktop.pass = opt.pass;
+    desktop.view = opt.view;
+    desktop.screenshot = a.screenshot;
+    desktop.participant = participant;
+    desktop.scene = scene;
+    desktop.title = "volcast: " + a.name + " in " + a.join;
+    opt.presenter = desktop_presenter(desktop);
+  } else if (opt.render) {
+    opt.presenter = session_presenter(opt, participant, scene,
+                                      opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+  }
+  return session;
+}
+
 }  // namespace
 
 std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on) {
@@ -228,7 +302,19 @@ int run_serve(const ServeArgs& a) {
         "listening on {} beyond this host: anyone who can reach it can try to join; only "
         "holders of the join link get in",
         a.bind);
+  SessionHubConfig hub_config;
+  hub_config.site_name = a.site_name;
+  hub_config.presence_timeout_ms = a.presence_timeout_ms;
+  if (!a.room_from_site.empty()) {
+    const auto r = parse_numbers(a.room_from_site, 4, "--room-from-site");
+    hub_config.site_translation = Eigen::Vector3d(r[0], r[1], r[2]).cast<float>();
+    hub_config.site_yaw = static_cast<float>(r[3] * M_PI / 180);
+  }
+  SessionHub hub(hub_config);
+  for (const auto& name : a.sessions) hub.create_session(name);
+  config.session = &hub;
   Server server(for_viewers, config);
+  hub.attach(&server);
   site.start(server);
   spdlog::info("serving {} camera(s) at {} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
                site.fps(), a.bind, server.port(),
@@ -258,6 +344,13 @@ int run_serve(const ServeArgs& a) {
   }
   site.stop();
   server.stop();
+  hub.attach(nullptr);
+  const SessionHubStats hs = hub.stats();
+  spdlog::info(
+      "sessions: {} joins, {} left, {} timed out, {} dropped; {} poses in, {} out; {} "
+      "avatar frames in, {} out ({:.1f} MB)",
+      hs.joins, hs.leaves, hs.timeouts, hs.dropped, hs.poses_in, hs.pose_messages_out,
+      hs.avatar_frames_in, hs.avatar_frames_out, double(hs.avatar_bytes_out) / 1e6);
   for (const auto& v : server.viewers())
     spdlog::info(
         "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} "
@@ -332,7 +425,9 @@ int run_view(const ViewArgs& a) {
   opt.save_frames_dir = a.save_frames;
   opt.stats_json = a.stats_json;
   opt.stop = &g_interrupted;
-  if (opt.render && !a.headless) opt.presenter = interactive_presenter(a, opt);
+  std::unique_ptr<SessionClient> session;
+  if (!a.join.empty()) session = join_session(a, opt);
+  if (opt.render && !a.headless && !session) opt.presenter = interactive_presenter(a, opt);
   ViewerResult result;
   try {
     result = run_viewer(opt);

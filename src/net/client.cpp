@@ -2,11 +2,15 @@
 
 #include <spdlog/spdlog.h>
 
+#include <sys/eventfd.h>
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
+#include <mutex>
 #include <optional>
 
 #include "volcast/codec/color_codec.hpp"
@@ -55,6 +59,39 @@ struct Client::Impl {
   const ReceivedFrameSet* last_out = nullptr;
   std::vector<std::vector<uint8_t>> last_depth, last_color;
   std::vector<size_t> tasks;
+  // Session channel: the handler, and messages waiting for the receiving thread to send them.
+  SessionHandler session_handler;
+  std::function<uint32_t(uint8_t)> session_max_payload;
+  std::mutex outbox_mutex;
+  std::deque<std::pair<uint64_t, std::vector<uint8_t>>> outbox;
+  int wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  std::vector<std::vector<uint8_t>> sending;
+
+  ~Impl() { ::close(wake_fd); }
+
+  // Writes the queued session messages (on the receiving thread).
+  void flush_outbox() {
+    uint64_t v;
+    [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);
+    sending.clear();
+    {
+      std::lock_guard lock(outbox_mutex);
+      for (auto& m : outbox) sending.push_back(std::move(m.second));
+      outbox.clear();
+    }
+    for (const auto& m : sending) send(m);
+  }
+
+  // Waits until a message starts arriving, sending queued session messages meanwhile. False when
+  // `deadline` passed first (the read that follows then times out).
+  void wait_for_message(std::optional<Clock::time_point> deadline) {
+    while (!closed) {
+      const int left = ms_left(deadline);
+      const Connection::Ready ready = connection->wait(wake_fd, left);
+      if (ready.woken) flush_outbox();
+      if (ready.readable || (!ready.woken && left >= 0)) return;  // data, or time is up
+    }
+  }
 
   std::span<const uint8_t> payload() const { return {buffer.data(), payload_bytes}; }
 
@@ -74,6 +111,7 @@ struct Client::Impl {
                     std::optional<Clock::time_point> deadline, bool handshake) {
     uint8_t bytes[protocol::kHeaderBytes];
     try {
+      if (!handshake) wait_for_message(deadline);
       connection->read_exact(bytes, ms_left(deadline));
     } catch (const Error& e) {
       if (closed || std::string(e.what()) == "peer closed the connection") return false;
@@ -82,12 +120,15 @@ struct Client::Impl {
     }
     try {
       // A SealedFrameSet's payload is its descriptor, whose own limit may exceed a tiny site's.
-      header = protocol::parse_header(
-          bytes,
-          handshake ? max_payload : std::max(max_payload, protocol::kMaxSealedFrameSetBytes));
-      const uint32_t limit = header.type == protocol::MessageType::kSealedFrameSet
-                                 ? protocol::kMaxSealedFrameSetBytes
-                                 : max_payload;
+      header = protocol::parse_header(bytes, handshake ? max_payload : protocol::kMaxPayloadBytes);
+      uint32_t limit = header.type == protocol::MessageType::kSealedFrameSet
+                           ? protocol::kMaxSealedFrameSetBytes
+                           : max_payload;
+      if (!handshake && header.channel == protocol::Channel::kSession) {
+        const uint8_t t = static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff);
+        limit = session_max_payload ? session_max_payload(t) : protocol::kMaxControlBytes;
+        if (limit == 0) throw Error("unknown session message type " + std::to_string(t));
+      }
       if (header.payload_bytes > limit)
         throw Error("malformed header: payload of " + std::to_string(header.payload_bytes) +
                     " bytes exceeds the limit of " + std::to_string(limit));
@@ -336,7 +377,19 @@ bool Client::receive(ReceivedFrameSet& out) {
     protocol::Header header;
     const auto deadline = Impl::deadline_in(m.config.receive_timeout_ms);
     if (!m.read_message(header, m.frame_set_limit, deadline, false)) return false;
-    if (header.channel == protocol::Channel::kSession) continue;  // not for this viewer
+    if (header.channel == protocol::Channel::kSession) {
+      if (m.session_handler) {
+        try {
+          m.session_handler(static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff),
+                            m.payload());
+        } catch (const ClientError&) {
+          throw;
+        } catch (const Error& e) {
+          throw ClientError(Kind::kProtocol, std::string("session message: ") + e.what());
+        }
+      }
+      continue;
+    }
     const bool sealed = header.type == protocol::MessageType::kSealedFrameSet;
     if (sealed) {
       // A receive-only viewer has no use for the body: it acknowledges from the descriptor.
@@ -446,6 +499,30 @@ bool Client::receive(ReceivedFrameSet& out) {
     if (decoded) return true;
     m.send(protocol::message(protocol::MessageType::kKeyFrameRequest, {}));
   }
+}
+
+void Client::set_session_handler(SessionHandler handler,
+                                 std::function<uint32_t(uint8_t)> max_payload) {
+  impl_->session_handler = std::move(handler);
+  impl_->session_max_payload = std::move(max_payload);
+}
+
+void Client::post_session(std::vector<uint8_t> message, uint64_t coalesce_key) {
+  Impl& m = *impl_;
+  {
+    std::lock_guard lock(m.outbox_mutex);
+    bool replaced = false;
+    if (coalesce_key != 0)
+      for (auto& q : m.outbox)
+        if (q.first == coalesce_key) {
+          q.second = std::move(message);
+          replaced = true;
+          break;
+        }
+    if (!replaced) m.outbox.emplace_back(coalesce_key, std::move(message));
+  }
+  const uint64_t one = 1;
+  [[maybe_unused]] const auto n = ::write(m.wake_fd, &one, sizeof one);
 }
 
 void Client::close() {

@@ -1,83 +1,47 @@
 #include "volcast/net/protocol.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <optional>
 
 #include "volcast/core/error.hpp"
+#include "volcast/net/wire.hpp"
 
 namespace volcast::protocol {
-namespace {
 
-class Writer {
- public:
-  explicit Writer(std::vector<uint8_t>& out) : out_(out) {}
-  template <typename T>
-  void put(T v) {
-    append(&v, sizeof(T));  // host is little-endian (x86-64, ARM64 Linux)
-  }
-  void put_string(const std::string& s) {
-    if (s.size() > 0xffff) throw Error("protocol: string too long");
-    put<uint16_t>(static_cast<uint16_t>(s.size()));
-    append(s.data(), s.size());
-  }
-  void put_bytes(std::span<const uint8_t> b) {
-    put<uint32_t>(static_cast<uint32_t>(b.size()));
-    append(b.data(), b.size());
-  }
-  void append(const void* data, size_t n) {
-    if (n == 0) return;
-    const size_t at = out_.size();
-    out_.resize(at + n);
-    std::memcpy(out_.data() + at, data, n);
-  }
+void put_calibration(Writer& w, const CameraCalibration& c) {
+  const Intrinsics& k = c.depth;
+  w.put<uint16_t>(static_cast<uint16_t>(k.width));
+  w.put<uint16_t>(static_cast<uint16_t>(k.height));
+  for (double v : {k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.k3, k.k4, k.k5, k.k6, k.p1, k.p2, k.codx,
+                   k.cody, k.metric_radius})
+    w.put<double>(v);
+  const RigidTransform& t = c.world_from_camera;
+  for (int i = 0; i < 9; ++i) w.put<double>(t.rotation(i / 3, i % 3));
+  for (int i = 0; i < 3; ++i) w.put<double>(t.translation[i]);
+}
 
- private:
-  std::vector<uint8_t>& out_;
-};
-
-class Reader {
- public:
-  Reader(std::span<const uint8_t> in, const char* what) : in_(in), what_(what) {}
-  template <typename T>
-  T get() {
-    need(sizeof(T));
-    T v;
-    std::memcpy(&v, in_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return v;
+CameraCalibration get_calibration(Reader& r) {
+  CameraCalibration c;
+  Intrinsics& k = c.depth;
+  k.width = r.get<uint16_t>();
+  k.height = r.get<uint16_t>();
+  if (k.width == 0 || k.height == 0) r.fail("empty image size");
+  for (double* v : {&k.fx, &k.fy, &k.cx, &k.cy, &k.k1, &k.k2, &k.k3, &k.k4, &k.k5, &k.k6, &k.p1,
+                    &k.p2, &k.codx, &k.cody, &k.metric_radius}) {
+    *v = r.get<double>();
+    if (!std::isfinite(*v)) r.fail("intrinsics must be finite");
   }
-  std::string get_string() {
-    const size_t n = get<uint16_t>();
-    need(n);
-    std::string s(reinterpret_cast<const char*>(in_.data() + pos_), n);
-    pos_ += n;
-    return s;
-  }
-  std::span<const uint8_t> get_span() {
-    const size_t n = get<uint32_t>();
-    need(n);
-    const auto s = in_.subspan(pos_, n);
-    pos_ += n;
-    return s;
-  }
-  void expect_end() const {
-    if (pos_ != in_.size()) fail("trailing bytes");
-  }
-  [[noreturn]] void fail(const std::string& why) const {
-    throw Error(std::string("malformed ") + what_ + ": " + why);
-  }
-
- private:
-  void need(size_t n) const {
-    if (n > in_.size() - pos_) fail("truncated");
-  }
-  std::span<const uint8_t> in_;
-  size_t pos_ = 0;
-  const char* what_;
-};
-
-}  // namespace
+  if (!(k.fx > 0 && k.fy > 0)) r.fail("focal length must be positive");
+  RigidTransform& t = c.world_from_camera;
+  for (int i = 0; i < 9; ++i) t.rotation(i / 3, i % 3) = r.get<double>();
+  for (int i = 0; i < 3; ++i) t.translation[i] = r.get<double>();
+  if (!t.rotation.allFinite() || !t.translation.allFinite() ||
+      !(t.rotation * t.rotation.transpose()).isIdentity(1e-3) || t.rotation.determinant() < 0)
+    r.fail("the camera's pose is not a rigid transform");
+  return c;
+}
 
 void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderBytes]) {
   const uint16_t t = static_cast<uint16_t>(type);
@@ -146,15 +110,7 @@ std::vector<uint8_t> serialize(const Welcome& m) {
   Writer w(out);
   w.put<uint32_t>(static_cast<uint32_t>(m.cameras.size()));
   for (const CameraInfo& cam : m.cameras) {
-    const Intrinsics& k = cam.calibration.depth;
-    w.put<uint16_t>(static_cast<uint16_t>(k.width));
-    w.put<uint16_t>(static_cast<uint16_t>(k.height));
-    for (double v : {k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.k3, k.k4, k.k5, k.k6, k.p1, k.p2, k.codx,
-                     k.cody, k.metric_radius})
-      w.put<double>(v);
-    const RigidTransform& t = cam.calibration.world_from_camera;
-    for (int i = 0; i < 9; ++i) w.put<double>(t.rotation(i / 3, i % 3));
-    for (int i = 0; i < 3; ++i) w.put<double>(t.translation[i]);
+    put_calibration(w, cam.calibration);
     w.put_string(cam.description);
   }
   w.put<int64_t>(m.server_time_us);

@@ -86,7 +86,12 @@ struct Server::Impl {
   std::vector<std::thread> retired;  // threads of tiers told to stop, to be joined without mutex
 
   struct Viewer {
+    uint64_t id = 0;
     std::unique_ptr<Connection> connection;
+    // Session messages waiting for this viewer's thread (guarded by Impl::mutex): coalesce key
+    // (0: none) and the whole message.
+    std::deque<std::pair<uint64_t, std::shared_ptr<const std::vector<uint8_t>>>> outbox;
+    std::string kicked;  // set: disconnect with this reason
     std::shared_ptr<Tier> tier;
     std::thread thread;
     WakeFd wake;
@@ -94,6 +99,7 @@ struct Server::Impl {
     std::atomic<bool> done{false};
   };
   std::list<Viewer> viewers;
+  uint64_t next_viewer_id = 1;
   std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
   static constexpr size_t kEndedReportsKept = 256;
 
@@ -111,6 +117,8 @@ struct Server::Impl {
         throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
       check_offered(hello);
       Viewer& v = viewers.emplace_back();
+      v.id = next_viewer_id++;
+      v.report.id = v.id;
       try {
         v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
       } catch (...) {
@@ -286,19 +294,56 @@ struct Server::Impl {
     }
     unsubscribe(*v.tier, v.wake);
     c.shutdown();
-    update(v, [](ViewerReport& r) { r.connected = false; });
+    std::string why;
+    update(v, [&](ViewerReport& r) {
+      r.connected = false;
+      why = r.error.empty() ? "server stopping" : r.error;
+      v.outbox.clear();
+    });
+    if (config.session) {
+      try {
+        config.session->on_viewer_left(v.id, why);
+      } catch (const std::exception& e) {
+        spdlog::error("session: viewer {} left: {}", v.id, e.what());
+      }
+    }
     v.done = true;
   }
 
-  // Reads one message from the viewer: an Ack or a KeyFrameRequest; session-channel messages are
-  // skipped. Anything else ends the connection.
+  // Writes the session messages queued for `v` (in order); throws Error if it was kicked.
+  void flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch) {
+    batch.clear();
+    {
+      std::lock_guard lock(mutex);
+      if (!v.kicked.empty()) throw Error(v.kicked);
+      for (auto& m : v.outbox) batch.push_back(std::move(m.second));
+      v.outbox.clear();
+    }
+    for (const auto& m : batch) v.connection->write_all(*m, config.stall_timeout_ms);
+  }
+
+  // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
+  // session service, else skipped). Anything else ends the connection.
   void read_control(Viewer& v, Tier& tier, Pacer& pacer, std::vector<uint8_t>& payload) {
     Connection& c = *v.connection;
     uint8_t header_bytes[protocol::kHeaderBytes];
     c.read_exact(header_bytes, config.handshake_timeout_ms);
-    const protocol::Header h = protocol::parse_header(header_bytes, protocol::kMaxControlBytes);
+    const protocol::Header h = protocol::parse_header(header_bytes);
+    const uint8_t session_type = static_cast<uint8_t>(static_cast<uint16_t>(h.type) & 0xff);
+    const bool session = h.channel == protocol::Channel::kSession;
+    const uint32_t limit = session && config.session ? config.session->max_payload(session_type)
+                                                     : protocol::kMaxControlBytes;
+    if (limit == 0)
+      throw Error("viewer sent an unknown session message type " + std::to_string(session_type));
+    if (h.payload_bytes > limit)
+      throw Error("viewer sent a message of " + std::to_string(h.payload_bytes) +
+                  " bytes, over the limit of " + std::to_string(limit));
     payload.resize(h.payload_bytes);
     c.read_exact(payload, config.handshake_timeout_ms);
+    if (session && config.session) {
+      config.session->on_message(v.id, session_type, payload);
+      return;
+    }
     if (h.type == protocol::MessageType::kAck) {
       if (!pacer.on_ack(protocol::parse_ack(payload), steady_us()))
         throw Error("viewer acknowledged a frame set it was not sent");
@@ -320,6 +365,7 @@ struct Server::Impl {
     bool synced = false;
     auto last_progress = std::chrono::steady_clock::now();
     const double cpu_start_ms = thread_cpu_ms();
+    std::vector<std::shared_ptr<const std::vector<uint8_t>>> batch;
     while (!stopping) {
       const Connection::Ready ready = c.wait(v.wake.fd, 100);
       if (ready.woken) v.wake.drain();
@@ -327,6 +373,9 @@ struct Server::Impl {
         read_control(v, tier, pacer, payload);
         last_progress = std::chrono::steady_clock::now();
       }
+      flush_session(v, batch);  // session messages go ahead of frame sets
+      if (!batch.empty())
+        update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });
       if (pacer.frames_in_flight() > 0 && std::chrono::steady_clock::now() - last_progress >
                                               std::chrono::milliseconds(config.stall_timeout_ms))
         throw Error("viewer stalled: acknowledged nothing for " +
@@ -497,6 +546,42 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   impl_->captured_changed.notify_all();
   // The tiers' threads wake to encode it on the pool: wake its workers now too, not after them.
   impl_->pool->prewake(std::chrono::milliseconds(2));
+}
+
+bool Server::send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
+                          uint64_t coalesce_key) {
+  std::lock_guard lock(impl_->mutex);
+  for (auto& v : impl_->viewers) {
+    if (v.id != viewer) continue;
+    if (v.done || !v.kicked.empty()) return false;
+    bool replaced = false;
+    if (coalesce_key != 0)
+      for (auto& m : v.outbox)
+        if (m.first == coalesce_key) {
+          m.second = std::move(message);
+          replaced = true;
+          break;
+        }
+    if (!replaced) {
+      if (v.outbox.size() >= 4096) {
+        v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
+      } else {
+        v.outbox.emplace_back(coalesce_key, std::move(message));
+      }
+    }
+    v.wake.signal();
+    return true;
+  }
+  return false;
+}
+
+void Server::disconnect(uint64_t viewer, const std::string& why) {
+  std::lock_guard lock(impl_->mutex);
+  for (auto& v : impl_->viewers)
+    if (v.id == viewer && !v.done) {
+      if (v.kicked.empty()) v.kicked = why;
+      v.wake.signal();
+    }
 }
 
 std::vector<ViewerReport> Server::viewers() const {

@@ -258,6 +258,16 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   }
   Client& client = *connected;
   const auto& cams = client.welcome().cameras;
+  if (opt.on_connected) {
+    try {
+      opt.on_connected(client);
+    } catch (...) {
+      const std::exception_ptr error = std::current_exception();
+      result.ended = end_of(error);
+      result.error = message_of(error);
+      return finish(opt, std::move(result));
+    }
+  }
 
   FrameFeed::State box;
   for (const auto& c : cams) box.cameras.push_back(c.calibration);
@@ -434,6 +444,13 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     s.latency_ms_p99 = percentile(a.latencies_ms, 0.99);
     result.cameras.push_back(s);
   }
+  if (opt.on_finished) {
+    try {
+      opt.on_finished(result);
+    } catch (const std::exception& e) {
+      spdlog::error("viewer: {}", e.what());
+    }
+  }
   return finish(opt, std::move(result));
 }
 
@@ -468,6 +485,30 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
                             {"latency_ms_p50", s.latency_ms_p50},
                             {"latency_ms_p99", s.latency_ms_p99}});
   }
+  if (r.session) {
+    const ParticipantStats& p = *r.session;
+    j["session"] = r.session_name;
+    j["session_round_trip_ms_p50"] = p.round_trip_ms_p50;
+    j["session_round_trip_ms_p99"] = p.round_trip_ms_p99;
+    j["round_trip_samples"] = p.round_trip_samples;
+    j["poses_sent"] = p.poses_sent;
+    j["avatar_frames_sent"] = p.avatar_frames_sent;
+    j["participants"] = nlohmann::json::array();
+    j["others"] = nlohmann::json::array();
+    for (const RemoteStats& o : p.others) {
+      j["participants"].push_back(o.name);
+      j["others"].push_back({{"id", o.id},
+                             {"name", o.name},
+                             {"poses_received", o.poses_received},
+                             {"pose_rate_hz", o.pose_rate_hz},
+                             {"pose_age_ms_p50", o.pose_age_ms_p50},
+                             {"pose_age_ms_p99", o.pose_age_ms_p99},
+                             {"avatar_frames_received", o.avatar_frames_received},
+                             {"avatar_fps", o.avatar_fps},
+                             {"avatar_latency_ms_p50", o.avatar_latency_ms_p50},
+                             {"avatar_latency_ms_p99", o.avatar_latency_ms_p99}});
+    }
+  }
   if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
   std::ofstream out(path);
   out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
@@ -498,6 +539,20 @@ std::string format_stats_table(const ViewerResult& r) {
     s += "\n                  p99  ";
     for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p99_ms);
     s += "\n";
+  }
+  if (r.session) {
+    const ParticipantStats& p = *r.session;
+    s += fmt::format(
+        "session '{}': round trip p50 {:.2f} ms, p99 {:.2f} ms ({} samples); {} poses "
+        "sent, {} avatar frames sent\n",
+        printable(r.session_name), p.round_trip_ms_p50, p.round_trip_ms_p99, p.round_trip_samples,
+        p.poses_sent, p.avatar_frames_sent);
+    for (const RemoteStats& o : p.others)
+      s += fmt::format(
+          "  {:<20} poses {:>6} at {:>6.1f} Hz, age p50 {:>6.2f} ms p99 {:>6.2f} ms; "
+          "avatar frames {:>5} at {:>5.1f} fps, latency p50 {:>6.1f} ms\n",
+          printable(o.name, 20), o.poses_received, o.pose_rate_hz, o.pose_age_ms_p50,
+          o.pose_age_ms_p99, o.avatar_frames_received, o.avatar_fps, o.avatar_latency_ms_p50);
   }
   s += fmt::format("ended: {} after {} frame sets{}\n", to_string(r.ended), r.frame_sets_received,
                    r.error.empty() ? "" : ": " + r.error);

@@ -32,6 +32,7 @@ struct GpuCamera {
   GLuint mesh_indices = 0, mesh_command = 0;
   bool mesh_current = false;
   float mesh_edge_ratio = 0;
+  AvatarFilter filter;  // this camera's (set_avatar_filter)
 };
 
 // DrawElementsIndirectCommand (OpenGL 4.5 §10.4).
@@ -124,7 +125,7 @@ struct CameraRenderer::Impl {
     glUseProgram(mesh_index_program);
     glUniform2i(index_size, c.width, c.height);
     glUniform1f(index_edge_ratio, max_edge_ratio);
-    index_filter.set(filter, c.world_from_camera);
+    index_filter.set(c.filter, c.world_from_camera);
     glBindTextureUnit(0, c.depth);
     glBindTextureUnit(1, c.rays);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, c.mesh_command);
@@ -170,7 +171,7 @@ struct CameraRenderer::Impl {
       if (!c.uploaded || !look.visible) continue;
       const Eigen::Matrix4f view_from_camera = view_from_world * c.world_from_camera;
       glUniformMatrix4fv(u.view_from_camera, 1, GL_FALSE, view_from_camera.data());
-      u.filter.set(filter, c.world_from_camera);
+      u.filter.set(c.filter, c.world_from_camera);
       glUniform2i(u.size, c.width, c.height);
       glUniform1i(u.has_color, c.has_color ? 1 : 0);
       glUniform4fv(u.tint, 1, look.tint.data());
@@ -265,7 +266,8 @@ void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
     c.rays = gl::make_texture(GL_RG32F, c.width, c.height);
     c.depth = gl::make_texture(GL_R16UI, c.width, c.height);
     c.color = gl::make_texture(GL_RGBA8, c.width, c.height);
-    r.cameras.push_back(c);  // owned from here: deleted with the others on error
+    r.cameras.push_back(c);              // owned from here: deleted with the others on error
+    r.cameras.back().filter = r.filter;  // the filter for every camera, until one gets its own
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTextureSubImage2D(c.rays, 0, 0, 0, c.width, c.height, GL_RG, GL_FLOAT, xy.data());
   }
@@ -371,7 +373,32 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
 
 void CameraRenderer::set_avatar_filter(const AvatarFilter& filter) {
   impl_->filter = filter;
-  for (GpuCamera& c : impl_->cameras) c.mesh_current = false;
+  for (GpuCamera& c : impl_->cameras) {
+    c.filter = filter;
+    c.mesh_current = false;
+  }
+}
+
+void CameraRenderer::set_avatar_filter(size_t camera, const AvatarFilter& filter) {
+  Impl& r = *impl_;
+  if (camera >= r.cameras.size())
+    throw Error(
+        fmt::format("{}: no camera {} (set_cameras gave {})", kPass, camera, r.cameras.size()));
+  GpuCamera& c = r.cameras[camera];
+  const auto same_sphere = [](const std::optional<KeepSphere>& a,
+                              const std::optional<KeepSphere>& b) {
+    return a.has_value() == b.has_value() &&
+           (!a || (a->center == b->center && a->radius_m == b->radius_m));
+  };
+  const auto same_box = [](const std::optional<HideBox>& a, const std::optional<HideBox>& b) {
+    return a.has_value() == b.has_value() &&
+           (!a || (a->world_from_headset.rotation == b->world_from_headset.rotation &&
+                   a->world_from_headset.translation == b->world_from_headset.translation &&
+                   a->half_extent_m == b->half_extent_m));
+  };
+  if (same_sphere(c.filter.keep, filter.keep) && same_box(c.filter.hide, filter.hide)) return;
+  c.filter = filter;
+  c.mesh_current = false;  // the mesh's triangles depend on it
 }
 
 std::string CameraRenderer::gl_description() const {

@@ -13,6 +13,8 @@
 
 #include "panel.hpp"
 #include "screenshot.hpp"
+#include "session_panel.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/viewer/desktop.hpp"
@@ -89,6 +91,8 @@ constexpr int kRedrawFrames = 3;  // frames drawn after an input event (the pane
 struct Input {
   ViewerControls& controls;
   ViewCamera& camera;
+  SessionPanelState* session = nullptr;  // in a session
+  bool click_pending = false;            // teleport mode: a left click to act on
   bool orbiting = false, looking = false;
   double mouse_x = 0, mouse_y = 0;
   int redraw = kRedrawFrames;
@@ -107,6 +111,7 @@ void handle_key(Input& in, int key, int action, int mods) {
   if (key == GLFW_KEY_F12 || key == GLFW_KEY_P) in.controls.screenshot = true;
   if (key == GLFW_KEY_R) in.controls.reset_view = true;
   if (key == GLFW_KEY_H) in.controls.show_panel = !in.controls.show_panel;
+  if (key == GLFW_KEY_T && in.session) in.session->teleport_mode = !in.session->teleport_mode;
 }
 
 void on_key(GLFWwindow* window, int key, int scancode, int action, int mods) {
@@ -123,6 +128,11 @@ void on_mouse_button(GLFWwindow* window, int button, int action, int mods) {
   Input& in = input_of(window);
   in.redraw = kRedrawFrames;
   const bool press = action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse;
+  glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
+  if (press && button == GLFW_MOUSE_BUTTON_LEFT && in.session && in.session->teleport_mode) {
+    in.click_pending = true;  // the loop casts the ray with this frame's view
+    return;
+  }
   if (button == GLFW_MOUSE_BUTTON_LEFT) in.orbiting = press;
   if (button == GLFW_MOUSE_BUTTON_RIGHT) in.looking = press;
   glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
@@ -199,6 +209,54 @@ void apply_requests(ViewerControls& c, CameraRenderer& renderer,
   }
 }
 
+// The eye of a participant as a ViewCamera (room frame, +y up).
+ViewCamera camera_at_eye(const SessionSnapshot& s) {
+  const View eye = participant_eye(s, 1);
+  ViewCamera v;
+  v.eye = eye.world_from_view.translation.cast<float>();
+  v.target = (eye.world_from_view * Eigen::Vector3d(0, 0, -1)).cast<float>();
+  v.up = {0, 1, 0};
+  v.vertical_fov_deg = 70;
+  return v;
+}
+
+// Publishes the window's eye as the participant's head (play area frame), and follows its
+// teleports: when its spot moved, the eye moves with it.
+void sync_participant(Participant& p, const SessionSnapshot& s, ViewCamera& camera,
+                      session::Spot& last_spot) {
+  if (s.spot.x != last_spot.x || s.spot.z != last_spot.z || s.spot.yaw != last_spot.yaw) {
+    const RigidTransform moved =
+        session::room_from_playarea(s.spot) * session::room_from_playarea(last_spot).inverse();
+    camera.eye = (moved * camera.eye.cast<double>()).cast<float>();
+    camera.target = (moved * camera.target.cast<double>()).cast<float>();
+    last_spot = s.spot;
+  }
+  if (!s.joined) return;
+  const RigidTransform room_from_view =
+      look_at(camera.eye.cast<double>(), camera.target.cast<double>(), {0, 1, 0});
+  const RigidTransform playarea_from_view =
+      session::room_from_playarea(s.spot).inverse() * room_from_view;
+  BodyPose body;
+  body.head.position = playarea_from_view.translation.cast<float>();
+  body.head.orientation = Eigen::Quaternionf(playarea_from_view.rotation.cast<float>());
+  p.publish(body);
+}
+
+// Teleport: the floor spot under the window point (x, y) (screen coordinates), if any.
+void teleport_at(Participant& p, const ViewCamera& camera, double x, double y, int width,
+                 int height) {
+  const View view = to_view(camera, float(width) / float(height));
+  const Eigen::Matrix4f world_from_clip = view.clip_from_world().inverse();
+  const float nx = float(2 * x / width - 1), ny = float(1 - 2 * y / height);
+  const Eigen::Vector4f a = world_from_clip * Eigen::Vector4f(nx, ny, -1, 1);
+  const Eigen::Vector4f b = world_from_clip * Eigen::Vector4f(nx, ny, 1, 1);
+  const Eigen::Vector3f from = a.head<3>() / a.w(), to = b.head<3>() / b.w();
+  if (!(from.y() > 0 && to.y() < from.y())) return;  // not looking down at the floor
+  const Eigen::Vector3f hit = from + (to - from) * (from.y() / (from.y() - to.y()));
+  const Eigen::Vector3f sight = camera.target - camera.eye;
+  p.teleport({hit.x(), hit.z(), std::atan2(-sight.x(), -sight.z())});
+}
+
 void take_screenshot(ViewerControls& c, const DesktopOptions& o, const RenderTarget& target) {
   c.screenshot = false;
   const std::filesystem::path path = screenshot_path(o.screenshot);
@@ -216,6 +274,11 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   Glfw glfw;
   Window window(o);
   CameraRenderer renderer;
+  Participant* participant = o.participant ? o.participant() : nullptr;
+  std::unique_ptr<SessionScene> scene;
+  if (participant) scene = std::make_unique<SessionScene>();
+  SessionPanelState session_panel;
+  session::Spot last_spot;
   result.renderer = renderer.gl_description();
   Gui gui(window.window);
   const std::vector<CameraCalibration>& cameras = feed.cameras();
@@ -224,6 +287,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   ViewerControls controls = initial_controls(o.pass, o.avatar_filter, cameras.size());
   ViewCamera camera, start;
   Input input{controls, camera};
+  if (participant) input.session = &session_panel;
   glfwSetWindowUserPointer(window.window, &input);
   glfwSetKeyCallback(window.window, on_key);
   glfwSetMouseButtonCallback(window.window, on_mouse_button);
@@ -237,7 +301,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   std::vector<ScriptedKey> script = o.script;
   std::stable_sort(script.begin(), script.end(),
                    [](const ScriptedKey& a, const ScriptedKey& b) { return a.frame < b.frame; });
-  size_t next_key = 0;
+  size_t next_key = 0, next_click = 0;
   std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
   bool started = false;  // a frame of the stream arrived: the view is set, frames are counted
   uint64_t drawn = 0;    // frames drawn since then
@@ -256,22 +320,54 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
         renderer.upload(i, *frames[i]);
         uploaded[i] = frames[i];
       }
+    SessionSnapshot snapshot;
+    if (participant) snapshot = participant->snapshot(wall_clock_us());
+    if (!started && participant && snapshot.joined) {
+      started = true;
+      last_spot = snapshot.spot;
+      start = o.view ? *o.view : camera_at_eye(snapshot);
+      camera = start;
+    }
     if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
       started = true;
       start = o.view ? *o.view : default_view(cameras, uploaded);
       camera = start;
     }
-    if (!(arrived || flew || input.redraw > 0)) continue;  // nothing new to draw
+    // In a session the others move on their own: draw every frame (vsync paces it).
+    if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
-    if (started)
+    if (started) {
       for (; next_key < script.size() && script[next_key].frame <= drawn + 1; ++next_key)
         handle_key(input, script[next_key].key, GLFW_PRESS, script[next_key].mods);
+      for (; next_click < o.clicks.size() && o.clicks[next_click].frame <= drawn + 1; ++next_click)
+        if (input.session && input.session->teleport_mode) {  // as on_mouse_button does
+          input.mouse_x = o.clicks[next_click].x;
+          input.mouse_y = o.clicks[next_click].y;
+          input.click_pending = true;
+        }
+    }
     apply_requests(controls, renderer, cameras, o, camera, start);
     int width = 0, height = 0;
     glfwGetFramebufferSize(window.window, &width, &height);
     if (width <= 0 || height <= 0) continue;  // minimised
     const RenderTarget target{0, 0, 0, width, height};
-    renderer.draw_cameras(to_view(camera, target.aspect()), target, controls.pass);
+    if (participant) {
+      if (input.click_pending) {
+        input.click_pending = false;
+        session_panel.teleport_mode = false;
+        int window_w = 0, window_h = 0;
+        glfwGetWindowSize(window.window, &window_w, &window_h);
+        if (window_w > 0 && window_h > 0)
+          teleport_at(*participant, camera, input.mouse_x, input.mouse_y, window_w, window_h);
+      }
+      sync_participant(*participant, snapshot, camera, last_spot);
+      SessionSceneOptions so = o.scene;
+      so.pass = controls.pass;
+      scene->draw(to_view(camera, target.aspect()), target, cameras, uploaded, *participant,
+                  wall_clock_us(), so);
+    } else {
+      renderer.draw_cameras(to_view(camera, target.aspect()), target, controls.pass);
+    }
     if (controls.screenshot) take_screenshot(controls, o, target);
     if (now - last_live > std::chrono::milliseconds(250)) {
       live = feed.live();
@@ -280,9 +376,15 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     ImGui_ImplOpenGL3_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
-    if (controls.show_panel)
+    if (controls.show_panel) {
       draw_panel(controls,
                  PanelInfo{live, result.renderer, camera.target, camera.eye, o.site_config});
+      if (participant) {
+        ImGui::Begin("volcast (H hides)");
+        draw_session_panel(session_panel, *participant, snapshot);
+        ImGui::End();
+      }
+    }
     ImGui::Render();
     glViewport(0, 0, width, height);
     ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());

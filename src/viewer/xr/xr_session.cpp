@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
@@ -170,7 +171,7 @@ void make_eye(XrSession session, const XrViewConfigurationView& config, int64_t 
 }
 
 // Draws `view` into the eye's next swapchain image.
-void draw_eye(Eye& eye, CameraRenderer& renderer, const View& view, const CameraPassOptions& pass) {
+void draw_eye(Eye& eye, const std::function<void(const RenderTarget&)>& draw) {
   uint32_t index = 0;
   xr_check_live(xrAcquireSwapchainImage(eye.swapchain.handle, nullptr, &index),
                 "xrAcquireSwapchainImage");
@@ -178,7 +179,7 @@ void draw_eye(Eye& eye, CameraRenderer& renderer, const View& view, const Camera
   wait.timeout = XR_INFINITE_DURATION;
   xr_check_live(xrWaitSwapchainImage(eye.swapchain.handle, &wait), "xrWaitSwapchainImage");
   glNamedFramebufferTexture(eye.framebuffer, GL_COLOR_ATTACHMENT0, eye.images[index].image, 0);
-  renderer.draw_cameras(view, RenderTarget{eye.framebuffer, 0, 0, eye.width, eye.height}, pass);
+  draw(RenderTarget{eye.framebuffer, 0, 0, eye.width, eye.height});
   xr_check_live(xrReleaseSwapchainImage(eye.swapchain.handle, nullptr), "xrReleaseSwapchainImage");
 }
 
@@ -218,6 +219,9 @@ bool poll_events(XrInstance instance, XrSession session, bool& running) {
 void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   HiddenContext context;
   CameraRenderer renderer;
+  Participant* participant = o.participant ? o.participant() : nullptr;
+  std::unique_ptr<SessionScene> scene;
+  if (participant) scene = std::make_unique<SessionScene>();
   result.renderer = renderer.gl_description();
   const std::vector<CameraCalibration>& cameras = feed.cameras();
   renderer.set_cameras(cameras);
@@ -313,11 +317,35 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
             xrLocateViews(session.handle, &locate, &state, view_count, &located, views.data()),
             "xrLocateViews");
         if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) && located == view_count) {
+          const int64_t now = wall_clock_us();
+          if (participant && view_count > 0) {
+            // The stage is the play area; a LOCAL space starts at the head, so it is lifted.
+            const float lift = eye_height > 0 ? 0 : o.eye_height_m;
+            BodyPose body;
+            for (uint32_t i = 0; i < view_count; ++i) {
+              const XrVector3f& p = views[i].pose.position;
+              body.head.position += Eigen::Vector3f(p.x, p.y + lift, p.z) / float(view_count);
+            }
+            const XrQuaternionf& q = views[0].pose.orientation;
+            body.head.orientation = Eigen::Quaternionf(q.w, q.x, q.y, q.z).normalized();
+            participant->publish(body);
+            RigidTransform stage_lift;
+            stage_lift.translation.y() = lift;
+            world_from_stage_now =
+                session::room_from_playarea(participant->snapshot(now).spot) * stage_lift;
+          }
           for (uint32_t i = 0; i < view_count; ++i) {
-            draw_eye(
-                eyes[i], renderer,
-                xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m),
-                o.pass);
+            const View view =
+                xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m);
+            draw_eye(eyes[i], [&](const RenderTarget& target) {
+              if (participant) {
+                SessionSceneOptions so = o.scene;
+                so.pass = o.pass;
+                scene->draw(view, target, cameras, uploaded, *participant, now, so);
+              } else {
+                renderer.draw_cameras(view, target, o.pass);
+              }
+            });
             projected[i] = xr_struct<XrCompositionLayerProjectionView>(
                 XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
             projected[i].pose = views[i].pose;

@@ -2,7 +2,9 @@
 // The viewer's side of the stream protocol: connects, names its tier, receives the calibration,
 // then frame sets, decoding the cameras in parallel, and acknowledges each one.
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -120,6 +122,19 @@ class Client {
   /// breaks.
   bool receive(ReceivedFrameSet& out);
   uint64_t frames_undecodable() const;
+  /// Session channel (protocol.hpp channel 2; src/session). `handler` is called on the thread in
+  /// receive() with each session message's type (the byte after the channel) and payload (valid
+  /// during the call), at most `max_payload(type)` bytes (0: an unknown type, a protocol error);
+  /// an Error it throws ends receive() as kProtocol. Without a handler, session messages of up
+  /// to kMaxControlBytes are skipped. Set it before the first receive().
+  using SessionHandler = std::function<void(uint8_t type, std::span<const uint8_t> payload)>;
+  void set_session_handler(SessionHandler handler, std::function<uint32_t(uint8_t)> max_payload);
+  /// Queues a whole session message (header included) for the server; the thread in receive()
+  /// writes it as soon as it is not reading a message (within about one frame set). A
+  /// `coalesce_key` != 0 replaces a queued message with the same key (only the newest pose is
+  /// sent on). Thread-safe; returns at once. Messages queued while nobody is in receive() wait
+  /// for it.
+  void post_session(std::vector<uint8_t> message, uint64_t coalesce_key = 0);
   /// Closes the connection; a receive() blocked in another thread returns false. Thread-safe.
   void close();
 

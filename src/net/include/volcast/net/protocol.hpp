@@ -66,8 +66,13 @@
 //                    viewer's TLS session; a viewer that left never learns a later key. This is
 //                    the pattern of SFrame (RFC 9605: media encrypted once for a group) and of
 //                    encrypted attachments (key and digest in the secure channel, bulk outside).
-//   2 session        reserved for the shared virtual room (lobby, poses, objects): any type is
-//                    accepted by parse_header; a peer that does not use it skips the payload.
+//   2 session        the shared virtual room: lobby, participants, poses, teleports, camera
+//                    avatars -- every message and its limits in volcast/session/messages.hpp.
+//                    parse_header accepts any type here; the server hands them to its session
+//                    service (ServerConfig::session, which bounds each type's payload before it is
+//                    read), a viewer to its session handler (Client::set_session_handler); a peer
+//                    without one skips payloads of up to kMaxControlBytes. They may come between
+//                    any two messages of the conversation below, in both directions.
 //
 // Conversation: Hello, then Welcome or Reject; then FrameSets (1.1 or 1.2) from the server and
 // Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the

@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,22 @@
 #include "volcast/net/tls.hpp"
 
 namespace volcast {
+
+/// The service behind the session channel (protocol.hpp channel 2; src/session's SessionHub). The
+/// server only carries its bytes: it calls these on the viewer's own thread, never while holding
+/// its own locks, and a viewer's session messages in the order they arrived.
+class SessionPort {
+ public:
+  virtual ~SessionPort() = default;
+  /// The largest payload (bytes) a viewer may send in a session message of `type`; 0 for a type
+  /// that does not exist (the viewer is then dropped). Checked before the payload is read.
+  virtual uint32_t max_payload(uint8_t type) const = 0;
+  /// A session message from viewer `viewer` (ViewerReport::id). Throwing Error drops that viewer
+  /// (a malformed or hostile message), with what() as the reason; nobody else is touched.
+  virtual void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) = 0;
+  /// Viewer `viewer` has gone (closed, dropped, stalled, server stopping); `why` says how.
+  virtual void on_viewer_left(uint64_t viewer, const std::string& why) = 0;
+};
 
 struct ServerConfig {
   std::string bind_address =
@@ -54,6 +71,9 @@ struct ServerConfig {
   int handshake_timeout_ms = 5000;  ///< a viewer must finish TLS and send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
                                     ///< disconnected
+  /// The session service, or null: session messages are then read and skipped (at most
+  /// protocol::kMaxControlBytes each). Must outlive the Server.
+  SessionPort* session = nullptr;
   int max_pending = 64;             ///< handshakes at once (the oldest is dropped for a newcomer)
   int max_pending_per_address = 8;  ///< handshakes at once from one address (more are closed)
   /// Tiers offered, each "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" (e.g. "volcast/jpeg/90"); a viewer
@@ -83,6 +103,7 @@ struct DoorReport {
 
 /// What the server knows about one viewer (for logs, tests and the benchmark).
 struct ViewerReport {
+  uint64_t id = 0;  ///< this server's number for the viewer (1, 2, ...; SessionPort's `viewer`)
   std::string peer;
   std::string depth_codec, color_codec;
   int color_quality = 0;
@@ -138,6 +159,17 @@ class Server {
   std::vector<ViewerReport> viewers() const;
   /// Tiers with at least one viewer.
   std::vector<TierReport> tiers() const;
+  /// Queues a whole session-channel message (protocol.hpp channel 2, header included) for viewer
+  /// `viewer`, written by that viewer's thread ahead of its next frame set. `coalesce_key` != 0:
+  /// replaces a message with the same key still queued for it (only the newest pose or avatar
+  /// frame of a participant is sent on). Never blocks on the network; a viewer that lets more
+  /// than 4096 messages pile up is disconnected. Returns false if there is no such viewer
+  /// (gone). Thread-safe; `message` is shared, not copied, between viewers.
+  bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
+                    uint64_t coalesce_key = 0);
+  /// Ends viewer `viewer`'s connection (its thread logs `why`); SessionPort::on_viewer_left
+  /// follows. Thread-safe; no-op for a viewer that has gone.
+  void disconnect(uint64_t viewer, const std::string& why);
   /// Stops accepting, disconnects every viewer and joins all threads. Idempotent.
   void stop();
 

@@ -19,6 +19,7 @@
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/view.hpp"
+#include "volcast/session/participant.hpp"
 
 namespace volcast {
 
@@ -47,6 +48,12 @@ struct ViewerOptions {
   std::filesystem::path save_frames_dir;    ///< decoded depth/color PNGs per frame, if set
   std::filesystem::path stats_json;         ///< statistics as JSON, if set
   const std::atomic<bool>* stop = nullptr;  ///< optional external stop flag
+  /// Called once connected, before anything is received, on the calling thread (a participant
+  /// joins its session here: SessionClient::start).
+  std::function<void(Client&)> on_connected;
+  /// Called once receiving has ended, before the figures are written, on the calling thread (a
+  /// participant stops and adds its session figures to the result).
+  std::function<void(ViewerResult&)> on_finished;
 };
 
 /// Figures for one camera, over the whole run.
@@ -91,6 +98,10 @@ struct ViewerResult {
   std::string renderer;              ///< GL renderer string, empty when not rendering
   /// The last frame set's decoded images, per camera (null for a camera that sent none).
   std::vector<std::shared_ptr<const CameraFrame>> last_frames;
+  /// A participant's session figures (round trip, the others' pose rates and ages, avatar
+  /// latency) and the session it was in; absent for a plain viewer.
+  std::optional<ParticipantStats> session;
+  std::string session_name;
 };
 
 /// Figures while the session runs, for a viewer's panel: refreshed about twice a second by the
@@ -159,7 +170,11 @@ ViewCamera default_view(std::span<const CameraCalibration> cameras,
 
 /// Writes the figures as JSON ({"ended", "error" (null when none), "frame_sets_received",
 /// "depth_codec", "color_codec", "frames_rendered", "cameras": [...], "stages": [{"stage",
-/// "p50_ms", "p99_ms", "mean_ms"}, ...]}).
+/// "p50_ms", "p99_ms", "mean_ms"}, ...]}; for a participant also "session" (name), "participants"
+/// (the others' names), "session_round_trip_ms_p50" / "_p99", "round_trip_samples", "poses_sent",
+/// "avatar_frames_sent" and per other participant {"id", "name", "poses_received",
+/// "pose_rate_hz", "pose_age_ms_p50", "pose_age_ms_p99", "avatar_frames_received", "avatar_fps",
+/// "avatar_latency_ms_p50", "avatar_latency_ms_p99"} in "others").
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& result);
 /// A short human-readable table of the figures, with the per-stage latencies and how the session
 /// ended.

@@ -121,10 +121,15 @@ class CameraRenderer {
   void draw_cameras(const View& view, const RenderTarget& target,
                     const CameraPassOptions& options = {});
 
-  /// The avatar filter (avatar_filter.hpp) every surface applies from now on, on the GPU: a pixel
-  /// it does not keep is not drawn (a mesh triangle with such a corner is dropped). The default
-  /// keeps every point.
+  /// The avatar filter (avatar_filter.hpp) every surface applies from now on to every camera (and
+  /// to cameras set_cameras gives later), on the GPU: a pixel it does not keep is not drawn (a
+  /// mesh triangle with such a corner is dropped). The default keeps every point.
   void set_avatar_filter(const AvatarFilter& filter);
+  /// The avatar filter for camera `camera` alone, in the world frame (a remote participant's
+  /// camera keeps a sphere around that participant's head; the own camera hides the own
+  /// headset). Replaces what set_avatar_filter(filter) gave it, until that is called again
+  /// (which sets every camera's). Throws Error if `camera` is out of range.
+  void set_avatar_filter(size_t camera, const AvatarFilter& filter);
 
   /// GL_RENDERER and GL_VERSION of the current context.
   std::string gl_description() const;

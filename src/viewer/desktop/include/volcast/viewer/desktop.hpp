@@ -14,6 +14,7 @@
 //   Shift       fly 4x faster               R            back to the starting view
 //   F12 or P    screenshot                  H            hide/show the panel
 //   Ctrl+S      save the camera poses (as the panel's Save)
+//   T           in a session: the next left click on the floor teleports there
 // The panel: surface (splats/mesh), splat size mode, point size or splat scale, mesh edge ratio,
 // blending, per camera visible/tint and registration sliders (pose_sliders.hpp) with Save (writes
 // the poses into DesktopOptions::site_config, site_config.hpp), avatar filters, live figures from
@@ -26,6 +27,7 @@
 #include <vector>
 
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/view.hpp"
@@ -40,6 +42,13 @@ struct ScriptedKey {
   int mods = 0;  ///< GLFW modifier bits, e.g. GLFW_MOD_CONTROL (2) for Ctrl+S
 };
 
+/// A left click injected by a test at window point (x, y) (screen coordinates from the top left),
+/// handled like a real one just before drawing frame `frame`.
+struct ScriptedClick {
+  uint64_t frame = 0;
+  double x = 0, y = 0;
+};
+
 struct DesktopOptions {
   int width = 1280, height = 720;  ///< window size, screen coordinates, 1..8192
   std::string title = "volcast";
@@ -52,10 +61,18 @@ struct DesktopOptions {
   std::filesystem::path screenshot;
   /// Where the panel's Save writes the cameras' world_from_camera (site_config.hpp).
   std::filesystem::path site_config = "volcast-site.json";
-  std::vector<ScriptedKey> script;  ///< key presses for tests
+  std::vector<ScriptedKey> script;    ///< key presses for tests
+  std::vector<ScriptedClick> clicks;  ///< left clicks for tests
   /// Close the window (ending the session) after this many frames drawn, 0 = never. Frames are
   /// counted from the first drawn with images of the stream (earlier ones show nothing).
   uint64_t max_frames = 0;
+  /// A participant of a virtual-OR session (volcast view --join), or empty: a plain viewer. With
+  /// one, the window draws the SessionScene (room, avatars, the site in the room) from an eye
+  /// that starts at the participant's head and publishes the eye as its head pose every frame
+  /// (the paper's mouse-and-keyboard fallback); the panel shows the lobby and who is there, T
+  /// (or the panel's box) then a left click on the floor teleports there.
+  std::function<Participant*()> participant;
+  SessionSceneOptions scene;  ///< with a participant: avatar radius, room
 };
 
 /// Whether a window can be opened: GLFW initialises (an X display is reachable). On false, `why`

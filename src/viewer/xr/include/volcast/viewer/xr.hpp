@@ -7,10 +7,12 @@
 // projection layer in a STAGE reference space (LOCAL where there is no STAGE). It is a Presenter
 // (volcast/pipeline/receiver.hpp). The session's state drives it: READY begins it, STOPPING ends
 // it, EXITING, LOSS_PENDING or a lost instance end the viewer's session (FrameFeed::close()).
+#include <functional>
 #include <optional>
 #include <string>
 
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/view.hpp"
@@ -25,6 +27,13 @@ struct XrOptions {
   std::optional<ViewCamera> view;
   float eye_height_m = 1.6f;  ///< assumed eye height above a STAGE space's floor (0 for LOCAL)
   float near_m = 0.05f, far_m = 100;
+  /// A participant of a virtual-OR session (volcast view --xr --join), or empty: a plain viewer.
+  /// With one, each eye draws the SessionScene; the STAGE space is the participant's play area
+  /// (world_from_stage = room_from_playarea of its spot, following its teleports; a LOCAL space
+  /// is lifted by eye_height_m) and the head (the eyes' midpoint, the first eye's orientation)
+  /// is published as its pose every frame. Controllers are not read yet: no hands are sent.
+  std::function<Participant*()> participant;
+  SessionSceneOptions scene;
 };
 
 /// Whether OpenXR can run here: an instance with XR_KHR_opengl_enable can be made (a runtime is

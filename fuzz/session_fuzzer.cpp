@@ -1,0 +1,66 @@
+// libFuzzer target: every session-channel parser (volcast/session/messages.hpp) and the pose
+// script parser on arbitrary bytes. The first byte picks the parser; a parser may throw Error,
+// nothing else (no crash, no read past the input, no unbounded allocation).
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "volcast/core/error.hpp"
+#include "volcast/session/messages.hpp"
+#include "volcast/session/pose_script.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace volcast;
+  if (size == 0) return 0;
+  const std::span<const uint8_t> p(data + 1, size - 1);
+  CameraCalibration camera;
+  camera.depth.width = 640;
+  camera.depth.height = 360;
+  try {
+    switch (data[0] % 13) {
+      case 0:
+        session::parse_join(p);
+        break;
+      case 1:
+        session::parse_session_list(p);
+        break;
+      case 2:
+        session::parse_joined(p);
+        break;
+      case 3:
+        session::parse_error(p);
+        break;
+      case 4:
+        session::parse_participant(p);
+        break;
+      case 5:
+        session::parse_left(p);
+        break;
+      case 6:
+        session::parse_pose(p);
+        break;
+      case 7:
+        session::parse_echo(p);
+        break;
+      case 8:
+        session::parse_teleport(p);
+        break;
+      case 9:
+        session::parse_teleported(p);
+        break;
+      case 10:
+        session::parse_avatar_camera(p);
+        break;
+      case 11: {
+        const auto [id, rest] = session::split_forwarded(p);
+        session::parse_avatar_frame(rest, camera);
+        break;
+      }
+      case 12:
+        parse_pose_script(std::string(p.begin(), p.end())).at(1.5);
+        break;
+    }
+  } catch (const Error&) {
+  }
+  return 0;
+}

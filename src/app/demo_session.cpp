@@ -1,0 +1,168 @@
+// volcast demo, second part: a virtual-OR session on loopback. The OR site is the four real Azure
+// Kinects of one room, registered from depth alone (volcast calibrate, once; cached), placed in
+// the virtual room; two scripted remote participants join it -- one with a camera avatar (the
+// real hands sequence), one with a mesh avatar who teleports -- and each writes a screenshot from
+// its own eye and its session figures.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <fstream>
+#include <thread>
+
+#include "commands.hpp"
+#include "real_sites.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/io/site_config.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/pipeline/session_scene.hpp"
+#include "volcast/session/hub.hpp"
+
+namespace volcast {
+namespace fs = std::filesystem;
+namespace {
+
+// The registered four-camera site: out/site-4cam.json, made by `volcast calibrate` the first
+// time (about a minute) and reused after.
+fs::path registered_site(const fs::path& data, const fs::path& out) {
+  const fs::path config = out / "site-4cam.json";
+  if (fs::exists(config)) {
+    spdlog::info("demo: the four cameras' registration from {} (delete it to register again)",
+                 config.string());
+    return config;
+  }
+  spdlog::info("demo: registering the four Azure Kinects from depth alone (once; about a minute)");
+  CalibrateArgs c;
+  c.sources = {(data / kFourKinectSet).string()};
+  c.out = config.string();
+  c.preview = (out / "site-4cam-registration.png").string();
+  const int code = run_calibrate(c);
+  if (code != 0 || !fs::exists(config))
+    throw Error("demo: the four cameras could not be registered (volcast calibrate exit " +
+                std::to_string(code) + ")");
+  return config;
+}
+
+// A remote participant's script (play area frame): standing at its spot, looking ahead and a
+// little down, with its head and hands moving; `turn_deg` turns its gaze over the run.
+PoseScript demo_script(float turn_deg, bool teleport) {
+  PoseScript s;
+  for (int i = 0; i <= 4; ++i) {
+    PoseKey k;
+    k.t_s = i * 1.0;
+    const float w = (i % 2 ? 1.0f : -1.0f);
+    k.head = {0.05f * w, 1.65f, 0.03f * w};
+    k.yaw_deg = turn_deg * float(i) / 4.0f;
+    k.pitch_deg = -15;
+    k.hands = true;
+    k.left = {-0.25f, 1.1f + 0.05f * w, -0.35f};
+    k.right = {0.25f, 1.1f - 0.05f * w, -0.35f};
+    s.keys.push_back(k);
+  }
+  s.loop = false;
+  // To the far corner of the table, facing the OR site's cameras (room x = 2.2 m).
+  if (teleport) s.teleports.push_back({2.0, session::Spot{-1.6f, -1.3f, -2.0f}});
+  return s;
+}
+
+}  // namespace
+
+int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& out) {
+  const fs::path config = registered_site(data, out);
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  std::vector<protocol::CameraInfo> cameras;
+  for (const SiteCamera& cam : read_site_config(config)) {
+    SourceOptions o;
+    if (cam.intrinsics) o.intrinsics = *cam.intrinsics;
+    o.world_from_camera = cam.world_from_camera;
+    sources.push_back(open_source(resolve_site_source(cam.source, config), o));
+  }
+  SitePlayer site(std::move(sources), 30);
+  cameras = site.cameras();
+  for (size_t i = 0; i < cameras.size(); ++i) cameras[i].description = fmt::format("OR {}", i);
+  // The registered room (floor at y = 0, the cameras around its middle) beside the virtual
+  // operating table, turned to face it.
+  SessionHubConfig hub_config;
+  hub_config.site_translation = {2.2f, 0, 0};
+  hub_config.site_name = "OR site";
+  SessionHub hub(hub_config);
+  hub.create_session("OR");
+  ServerConfig server_config;
+  server_config.port = 0;
+  server_config.session = &hub;
+  Server server(cameras, server_config);
+  hub.attach(&server);
+  site.start(server);
+  const std::string link = server.join_link("127.0.0.1");
+  spdlog::info("demo: session 'OR' with the OR site's {} cameras on 127.0.0.1:{} (TLS)",
+               cameras.size(), server.port());
+
+  struct Person {
+    std::string name, file;
+    std::unique_ptr<SessionClient> session;
+    ViewerOptions opt;
+    ViewerResult result;
+    std::string error;
+  };
+  std::vector<std::unique_ptr<Person>> people;
+  for (int i = 0; i < 2; ++i) {
+    auto p = std::make_unique<Person>();
+    p->name = i == 0 ? "Dr. Hands (camera)" : "Dr. Mesh";
+    p->file = i == 0 ? "session_camera_avatar" : "session_mesh_avatar";
+    SessionClientOptions o;
+    o.participant.session = "OR";
+    o.participant.name = p->name;
+    o.script = demo_script(i == 0 ? -35 : 10, i == 1);
+    if (i == 0) {
+      o.camera_source = data / kHandsSet;
+      o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+    }
+    p->session = std::make_unique<SessionClient>(std::move(o));
+    SessionClient* client = p->session.get();
+    ViewerOptions& v = p->opt;
+    v.client = client_config_from_link(link);
+    v.seconds = a.session_seconds;
+    v.width = 1280;
+    v.height = 720;
+    v.screenshot = out / (p->file + ".png");
+    v.stats_json = out / (p->file + ".json");
+    v.stop = &g_interrupted;
+    v.on_connected = [client](Client& c) { client->start(c); };
+    Person* raw = p.get();
+    v.on_finished = [raw](ViewerResult& r) {
+      raw->session->stop();
+      if (Participant* part = raw->session->participant()) {
+        r.session = part->stats();
+        r.session_name = "OR";
+      }
+    };
+    v.presenter = session_presenter(
+        v, [client] { return client->participant(); }, {}, 2);
+    people.push_back(std::move(p));
+  }
+  std::vector<std::thread> threads;
+  for (auto& p : people)
+    threads.emplace_back([&p] {
+      try {
+        p->result = run_viewer(p->opt);
+      } catch (const std::exception& e) {
+        p->error = e.what();
+      }
+    });
+  for (auto& t : threads) t.join();
+  site.stop();
+  hub.attach(nullptr);
+  server.stop();
+  std::printf("\nvirtual OR session 'OR': the OR site's %zu registered cameras, 2 participants\n",
+              cameras.size());
+  for (auto& p : people) {
+    if (!p->error.empty()) throw Error("demo participant '" + p->name + "': " + p->error);
+    std::printf("\n%s:\n%s", p->name.c_str(), format_stats_table(p->result).c_str());
+    std::printf("wrote %s (its eye) and %s\n", p->opt.screenshot.c_str(),
+                p->opt.stats_json.c_str());
+  }
+  return 0;
+}
+
+}  // namespace volcast

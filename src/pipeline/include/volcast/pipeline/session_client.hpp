@@ -1,0 +1,64 @@
+#pragma once
+// A participant's moving parts around its connection: a thread that publishes its body pose at
+// the display rate (from a pose script for a headless participant) and performs the script's
+// teleports, and a thread that reads its own RGB-D camera (any source Volcast reads) at the
+// camera's rate and uploads each frame as its avatar stream (session/participant.hpp).
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <thread>
+
+#include "volcast/capture/source.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/session/participant.hpp"
+#include "volcast/session/pose_script.hpp"
+
+namespace volcast {
+
+struct SessionClientOptions {
+  ParticipantConfig participant;  ///< its `camera` is filled in from `camera_source`
+  PoseScript script = idle_pose_script();
+  double pose_rate_hz = 60;  ///< poses published per second (the display rate)
+  /// false: the caller publishes poses (a window from its eye, a test by hand); the thread only
+  /// sends heartbeats (2 Hz) so the participant stays present.
+  bool drive_poses = true;
+  std::filesystem::path camera_source;  ///< the avatar camera; empty: a mesh avatar
+  SourceOptions camera_options;         ///< intrinsics etc. for the camera source
+  /// Where the camera stands in the play area; default: auto_playarea_from_camera.
+  std::optional<RigidTransform> playarea_from_camera;
+  std::string upload_depth_codec = "volcast", upload_color_codec = "jpeg";
+};
+
+/// Where a participant's own camera stands when nobody registered it: facing the participant
+/// (looking along +z of the play area, level), 1.3 m above the floor, so that the median depth
+/// of `first` (its first frame, mm) lands 0.3 m in front of a participant standing at the origin
+/// -- the hands and chest of someone facing it. play area frame, metres.
+RigidTransform auto_playarea_from_camera(const DepthImage& first);
+
+class SessionClient {
+ public:
+  /// Opens the camera source (if any), so that a bad one fails before connecting. Throws Error.
+  explicit SessionClient(SessionClientOptions options);
+  ~SessionClient();
+  SessionClient(const SessionClient&) = delete;
+  SessionClient& operator=(const SessionClient&) = delete;
+  /// Joins the session over `client` (connected, not yet receiving) and starts the threads.
+  void start(Client& client);
+  /// Stops the threads and lets go of the client (Participant::detach; no Leave is sent: call
+  /// participant()->leave() first for that); the Participant stays readable. Idempotent.
+  void stop();
+  /// The participant (null before start()).
+  Participant* participant() { return participant_.get(); }
+
+ private:
+  void run_poses();
+  void run_camera();
+  SessionClientOptions options_;
+  std::unique_ptr<FrameSource> camera_;
+  std::unique_ptr<Participant> participant_;
+  std::atomic<bool> stopping_{false};
+  std::thread poses_, frames_;
+};
+
+}  // namespace volcast

@@ -1,0 +1,75 @@
+#pragma once
+// What a participant sees in the virtual operating room (Fischer et al. 2024, §3.4), drawn into
+// any RenderTarget: the OR site's cameras placed by room_from_site, every other participant with
+// a camera as a live point-cloud avatar (only points within keep_radius_m of that participant's
+// interpolated head), its own camera likewise with its own headset hidden, a mesh avatar (head and
+// hands) for each participant without a camera, the room (floor, walls, table, lamp) and teleport
+// effects. One GL context; every call with it current.
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "volcast/core/calibration.hpp"
+#include "volcast/core/frame.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/render_target.hpp"
+#include "volcast/render/view.hpp"
+#include "volcast/session/participant.hpp"
+
+namespace volcast {
+
+struct SessionSceneOptions {
+  CameraPassOptions pass;      ///< surface, splat size, blending (per-camera looks ignored)
+  float keep_radius_m = 0.6f;  ///< the head-radius filter of the others' camera avatars
+  /// Draw the own camera's points: those within keep_radius_m of the own head, the headset's
+  /// hidden.
+  bool show_own_camera = true;
+  bool room = true;  ///< draw the room's furniture
+  float teleport_effect_s = 0.8f;
+};
+
+/// The filter for another participant's camera avatar: keep the points within `radius_m` of its
+/// (interpolated) head; none before its first pose.
+AvatarFilter remote_avatar_filter(const RemoteParticipant& other, float radius_m);
+/// The filter for the participant's own camera: its points within `radius_m` of its head (its
+/// body, not the room behind it), without those of the headset (HideBox at the head); none
+/// before its first pose.
+AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
+
+/// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
+/// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.
+View participant_eye(const SessionSnapshot& snapshot, float aspect);
+
+class SessionScene {
+ public:
+  /// Throws Error like CameraRenderer (no context, GL < 4.5).
+  SessionScene();
+  ~SessionScene();
+  SessionScene(const SessionScene&) = delete;
+  SessionScene& operator=(const SessionScene&) = delete;
+  /// Draws the scene through `view` at local wall-clock time `now_us`. `site` and `site_frames`:
+  /// the OR site's cameras (site frame, as the Welcome gave them) and their newest frames (null
+  /// until one arrived). Decodes the others' new avatar frames (Participant::avatar_frame).
+  /// Throws Error if a frame does not decode or OpenGL fails.
+  void draw(const View& view, const RenderTarget& target, std::span<const CameraCalibration> site,
+            std::span<const std::shared_ptr<const CameraFrame>> site_frames,
+            Participant& participant, int64_t now_us, const SessionSceneOptions& options = {});
+  /// How many cameras the last draw had: the site's, then the avatars'.
+  size_t cameras_drawn() const;
+  /// GL_RENDERER and GL_VERSION of the current context.
+  std::string gl_description() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The headless presenter of a participant: an EGL target of options.width x height that draws
+/// the SessionScene from the participant's eye about `fps` times a second (the others move even
+/// when the site's frames repeat), and writes options.screenshot (the eye's view) at the end.
+/// `participant` returns the participant once joined (null before).
+Presenter session_presenter(const ViewerOptions& options, std::function<Participant*()> participant,
+                            SessionSceneOptions scene = {}, double fps = 30);
+
+}  // namespace volcast

@@ -1,0 +1,122 @@
+#include "volcast/pipeline/session_client.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+
+RigidTransform auto_playarea_from_camera(const DepthImage& first) {
+  std::vector<uint16_t> valid;
+  for (uint16_t d : first.pixels)
+    if (d) valid.push_back(d);
+  double median_m = 0.8;
+  if (!valid.empty()) {
+    std::nth_element(valid.begin(), valid.begin() + valid.size() / 2, valid.end());
+    median_m = valid[valid.size() / 2] / 1000.0;
+  }
+  RigidTransform t;
+  // Camera axes (x right, y down, z ahead) in the play area (x right, y up, z back): looking
+  // along +z at someone who faces -z.
+  t.rotation << -1, 0, 0, 0, -1, 0, 0, 0, 1;
+  t.translation = {0, 1.3, -0.3 - median_m};
+  return t;
+}
+
+SessionClient::SessionClient(SessionClientOptions options) : options_(std::move(options)) {
+  if (!(options_.pose_rate_hz > 0 && options_.pose_rate_hz <= 1000))
+    throw Error("session: the pose rate must be in (0, 1000] Hz");
+  if (options_.camera_source.empty()) return;
+  camera_ = open_source(options_.camera_source, options_.camera_options);
+  AvatarCameraSetup setup;
+  setup.calibration = camera_->calibration();
+  setup.depth_codec = options_.upload_depth_codec;
+  setup.color_codec = options_.upload_color_codec;
+  if (options_.playarea_from_camera) {
+    setup.calibration.world_from_camera = *options_.playarea_from_camera;
+  } else {
+    CameraFrame first;
+    camera_->next(first);
+    setup.calibration.world_from_camera = auto_playarea_from_camera(first.depth);
+    const auto& t = setup.calibration.world_from_camera.translation;
+    spdlog::info(
+        "avatar camera {}: not registered to the play area; placed facing you at "
+        "({:.2f}, {:.2f}, {:.2f}) m",
+        camera_->description(), t.x(), t.y(), t.z());
+  }
+  options_.participant.camera = setup;
+}
+
+SessionClient::~SessionClient() {
+  stop();
+}
+
+void SessionClient::start(Client& client) {
+  participant_ = std::make_unique<Participant>(client, options_.participant);
+  poses_ = std::thread([this] { run_poses(); });
+  if (camera_) frames_ = std::thread([this] { run_camera(); });
+}
+
+void SessionClient::stop() {
+  if (stopping_.exchange(true)) return;
+  if (poses_.joinable()) poses_.join();
+  if (frames_.joinable()) frames_.join();
+  if (participant_) participant_->detach();
+}
+
+void SessionClient::run_poses() {
+  using clock = std::chrono::steady_clock;
+  const auto period = std::chrono::duration_cast<clock::duration>(
+      std::chrono::duration<double>(1.0 / options_.pose_rate_hz));
+  // The script's clock starts when the session is joined.
+  while (!stopping_ && !participant_->joined())
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  const auto start = clock::now();
+  auto next = start;
+  size_t teleports = 0;
+  while (!stopping_ && !options_.drive_poses) {  // someone else publishes: presence only
+    participant_->heartbeat();
+    for (int i = 0; i < 50 && !stopping_; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  while (!stopping_) {
+    const double t = std::chrono::duration<double>(clock::now() - start).count();
+    while (teleports < options_.script.teleports.size() &&
+           options_.script.teleports[teleports].t_s <= t)
+      participant_->teleport(options_.script.teleports[teleports++].to);
+    participant_->publish(options_.script.at(t));
+    next += period;
+    const auto now = clock::now();
+    if (next < now) next = now;  // fell behind (a loaded machine): no burst to catch up
+    std::this_thread::sleep_until(next);
+  }
+}
+
+void SessionClient::run_camera() {
+  using clock = std::chrono::steady_clock;
+  const double fps = std::clamp(camera_->fps(), 1.0, 120.0);
+  const auto period =
+      std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps));
+  auto next = clock::now();
+  uint64_t failures = 0;
+  while (!stopping_) {
+    auto frame = std::make_shared<CameraFrame>();
+    try {
+      camera_->next(*frame);
+      const int64_t captured = wall_clock_us();
+      participant_->upload(std::move(frame), captured);
+    } catch (const Error& e) {
+      if (failures++ % 30 == 0) spdlog::warn("avatar camera: frame skipped: {}", e.what());
+    }
+    next += period;
+    const auto now = clock::now();
+    if (next < now) next = now;
+    std::this_thread::sleep_until(next);
+  }
+}
+
+}  // namespace volcast

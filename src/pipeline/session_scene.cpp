@@ -1,0 +1,213 @@
+#include "volcast/pipeline/session_scene.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+#include "volcast/core/clock.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/render/headless_target.hpp"
+#include "volcast/render/primitive_renderer.hpp"
+#include "volcast/render/room_scene.hpp"
+
+namespace volcast {
+namespace {
+
+// A camera slot of the renderer: what it shows, to tell when the set changes.
+struct Slot {
+  uint32_t participant = 0;  // 0: a site camera
+  int width = 0, height = 0;
+  bool operator==(const Slot&) const = default;
+};
+
+// A color per participant id, for mesh avatars and effects.
+Eigen::Vector3f participant_color(uint32_t id) {
+  static const Eigen::Vector3f palette[] = {{0.95f, 0.55f, 0.2f}, {0.3f, 0.7f, 0.95f},
+                                            {0.6f, 0.85f, 0.3f},  {0.9f, 0.35f, 0.6f},
+                                            {0.95f, 0.85f, 0.3f}, {0.55f, 0.45f, 0.95f}};
+  return palette[id % 6];
+}
+
+RigidTransform to_rigid(const Pose& p) {
+  RigidTransform t;
+  t.rotation = p.orientation.normalized().toRotationMatrix().cast<double>();
+  t.translation = p.position.cast<double>();
+  return t;
+}
+
+}  // namespace
+
+AvatarFilter remote_avatar_filter(const RemoteParticipant& other, float radius_m) {
+  AvatarFilter f;
+  if (other.has_pose) f.keep = KeepSphere{other.pose.head.position, radius_m};
+  return f;
+}
+
+AvatarFilter own_camera_filter(const SessionSnapshot& s, float radius_m) {
+  // You see your own body from your camera (not the room it stands in), without the headset
+  // right in front of your eyes.
+  AvatarFilter f;
+  if (s.has_own_body) {
+    f.keep = KeepSphere{s.own_body.head.position, radius_m};
+    f.hide = HideBox{to_rigid(s.own_body.head)};
+  }
+  return f;
+}
+
+View participant_eye(const SessionSnapshot& s, float aspect) {
+  View v;
+  if (s.has_own_body) {
+    v.world_from_view = to_rigid(s.own_body.head);
+  } else {
+    v.world_from_view = session::room_from_playarea(s.spot);
+    v.world_from_view.translation.y() = 1.6;
+  }
+  v.clip_from_view = perspective(90, aspect, 0.05f, 50);
+  return v;
+}
+
+struct SessionScene::Impl {
+  CameraRenderer cameras;
+  PrimitiveRenderer primitives;
+  std::vector<Slot> slots;
+  std::vector<std::shared_ptr<const CameraFrame>> uploaded;
+  std::vector<CameraCalibration> calibrations;
+  std::vector<Primitive> room, scene;
+  bool room_made = false;
+};
+
+SessionScene::SessionScene() : impl_(std::make_unique<Impl>()) {}
+SessionScene::~SessionScene() = default;
+
+std::string SessionScene::gl_description() const {
+  return impl_->cameras.gl_description();
+}
+
+size_t SessionScene::cameras_drawn() const {
+  return impl_->slots.size();
+}
+
+void SessionScene::draw(const View& view, const RenderTarget& target,
+                        std::span<const CameraCalibration> site,
+                        std::span<const std::shared_ptr<const CameraFrame>> site_frames,
+                        Participant& participant, int64_t now_us,
+                        const SessionSceneOptions& options) {
+  Impl& r = *impl_;
+  const SessionSnapshot s = participant.snapshot(now_us);
+  // This frame's cameras: the site's (in the room), the others' avatars, the own camera.
+  std::vector<Slot> slots;
+  std::vector<CameraCalibration> calibrations;
+  std::vector<std::shared_ptr<const CameraFrame>> frames;
+  std::vector<AvatarFilter> filters;
+  for (size_t i = 0; i < site.size(); ++i) {
+    CameraCalibration c = site[i];
+    c.world_from_camera = s.room_from_site * c.world_from_camera;
+    slots.push_back({0, c.depth.width, c.depth.height});
+    calibrations.push_back(c);
+    frames.push_back(i < site_frames.size() ? site_frames[i] : nullptr);
+    filters.push_back({});
+  }
+  r.scene.clear();
+  for (const RemoteParticipant& p : s.others) {
+    if (p.role == session::Role::kOrSite) continue;  // its cameras are the site's
+    const auto frame = p.avatar_camera ? participant.avatar_frame(p.id) : nullptr;
+    if (frame) {
+      slots.push_back({p.id, p.avatar_camera->depth.width, p.avatar_camera->depth.height});
+      calibrations.push_back(*p.avatar_camera);
+      frames.push_back(frame);
+      filters.push_back(remote_avatar_filter(p, options.keep_radius_m));
+    } else if (p.has_pose) {
+      const auto mesh = mesh_avatar_primitives(p.pose, participant_color(p.id));
+      r.scene.insert(r.scene.end(), mesh.begin(), mesh.end());
+    }
+  }
+  if (options.show_own_camera)
+    if (const auto own = participant.own_camera()) {
+      if (const auto frame = participant.own_frame()) {
+        slots.push_back({s.id, own->depth.width, own->depth.height});
+        calibrations.push_back(*own);
+        frames.push_back(frame);
+        filters.push_back(own_camera_filter(s, options.keep_radius_m));
+      }
+    }
+  if (slots != r.slots) {
+    r.cameras.set_cameras(calibrations);
+    r.slots = slots;
+    r.uploaded.assign(slots.size(), nullptr);
+  } else {
+    for (size_t i = 0; i < calibrations.size(); ++i)
+      r.cameras.set_world_from_camera(i, calibrations[i].world_from_camera);
+  }
+  for (size_t i = 0; i < frames.size(); ++i) {
+    if (frames[i] && frames[i] != r.uploaded[i]) {
+      r.cameras.upload(i, *frames[i]);
+      r.uploaded[i] = frames[i];
+    }
+    r.cameras.set_avatar_filter(i, filters[i]);
+  }
+  CameraPassOptions pass = options.pass;
+  pass.cameras.clear();
+  r.cameras.draw_cameras(view, target, pass);
+
+  if (options.room) {
+    if (!r.room_made) {
+      r.room = room_primitives(default_operating_room());
+      r.room_made = true;
+    }
+    r.scene.insert(r.scene.end(), r.room.begin(), r.room.end());
+  }
+  const int64_t now_server = now_us + participant.clock_offset_us();
+  for (const TeleportSeen& t : s.teleports) {
+    const float age = float(now_server - t.time_us) / 1e6f;
+    for (const session::Spot& spot : {t.from, t.to}) {
+      const auto fx = teleport_effect_primitives(
+          {spot.x, 0, spot.z}, age, options.teleport_effect_s, participant_color(t.participant));
+      r.scene.insert(r.scene.end(), fx.begin(), fx.end());
+    }
+  }
+  Lighting light;
+  light.point_position = default_operating_room().lamp_position;
+  r.primitives.draw(view, target, r.scene, light);
+}
+
+}  // namespace volcast
+
+namespace volcast {
+
+Presenter session_presenter(const ViewerOptions& opt, std::function<Participant*()> participant,
+                            SessionSceneOptions scene_options, double fps) {
+  return [opt, participant, scene_options, fps](FrameFeed& feed, ViewerResult& result) {
+    HeadlessTarget target(opt.width, opt.height);  // before the renderers: it owns the context
+    SessionScene scene;
+    result.renderer = scene.gl_description();
+    const std::vector<CameraCalibration>& site = feed.cameras();
+    std::vector<std::shared_ptr<const CameraFrame>> frames(site.size());
+    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(1.0 / std::max(fps, 0.5)));
+    auto next = std::chrono::steady_clock::now();
+    while (!feed.finished()) {
+      // Take new site frames (waiting at most until the next frame time: the others move on
+      // their own). Always taken, so the feed knows the end was seen (finished()).
+      const auto now = std::chrono::steady_clock::now();
+      feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
+                            std::max(next - now, std::chrono::steady_clock::duration::zero())));
+      if (std::chrono::steady_clock::now() < next) continue;
+      next += period;
+      if (next < std::chrono::steady_clock::now()) next = std::chrono::steady_clock::now() + period;
+      Participant* p = participant();
+      if (!p) continue;
+      const int64_t t = wall_clock_us();
+      const View eye = participant_eye(p->snapshot(t), target.target().aspect());
+      scene.draw(eye, target.target(), site, frames, *p, t, scene_options);
+      ++result.frames_rendered;
+    }
+    if (!opt.screenshot.empty() && result.frames_rendered > 0) {
+      ColorImage image;
+      target.read_image(image);
+      write_color_png(opt.screenshot, image);
+      spdlog::info("wrote {} (the participant's eye)", opt.screenshot.string());
+    }
+  };
+}
+
+}  // namespace volcast

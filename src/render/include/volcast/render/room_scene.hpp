@@ -1,0 +1,29 @@
+#pragma once
+// What the virtual operating room looks like (room.hpp gives its shape): furniture, the mesh
+// avatar of a participant without a camera, and the effect others see where someone teleports,
+// as primitives for PrimitiveRenderer. Room frame, metres, y up, floor y = 0.
+#include <vector>
+
+#include "volcast/render/primitive_renderer.hpp"
+#include "volcast/session/room.hpp"
+
+namespace volcast {
+
+/// Floor (just below y = 0, so points on the floor stay visible), four walls (outside the room's
+/// bounds), the operating table (base column, top slab, mattress), the surgical lamp (arm from the
+/// ceiling, head with a glowing face below), a wall monitor and an instrument trolley. No
+/// ceiling, so a view from above shows the room.
+std::vector<Primitive> room_primitives(const RoomLayout& room);
+
+/// A participant without a camera: head (sphere, with a dark visor on its -z side, so its facing
+/// shows), a torso below the head (upright, turned with the head's yaw only), and when
+/// `body.hands_tracked` a box per hand. `rgb`: the participant's colour.
+std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen::Vector3f& rgb);
+
+/// Where someone teleported from or to, `age_s` seconds ago: three rings spreading on the floor
+/// and a column of small rising particles, fading out over `duration_s`. Empty when age_s < 0 or
+/// age_s >= duration_s.
+std::vector<Primitive> teleport_effect_primitives(const Eigen::Vector3f& spot, float age_s,
+                                                  float duration_s, const Eigen::Vector3f& rgb);
+
+}  // namespace volcast

@@ -1,0 +1,382 @@
+#include "volcast/session/hub.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <condition_variable>
+
+#include "volcast/codec/registry.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
+
+namespace volcast {
+
+using session::Type;
+using Clock = std::chrono::steady_clock;
+using Shared = std::shared_ptr<const std::vector<uint8_t>>;
+
+namespace {
+
+constexpr uint32_t kSiteParticipant = 1;
+
+// Coalescing keys: the newest pose / avatar frame of a participant replaces a queued one.
+uint64_t pose_key(uint32_t id) {
+  return (uint64_t{1} << 32) | id;
+}
+uint64_t avatar_key(uint32_t id) {
+  return (uint64_t{2} << 32) | id;
+}
+
+Shared share(std::vector<uint8_t> m) {
+  return std::make_shared<const std::vector<uint8_t>>(std::move(m));
+}
+
+}  // namespace
+
+struct SessionHub::Member {
+  SessionMember info;
+  Session* session = nullptr;
+  Clock::time_point last_seen = Clock::now();
+  bool dropping = false;  // its last message was malformed: it leaves as kDropped
+  std::optional<session::AvatarCamera> camera;
+  Shared camera_message, last_pose;  // forwarded forms, for participants who join later
+};
+
+struct SessionHub::Session {
+  uint32_t id = 0;
+  std::string name;
+  std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
+};
+
+SessionHub::SessionHub(SessionHubConfig config) : config_(std::move(config)) {
+  if (config_.presence_timeout_ms < 100)
+    throw Error("session: presence timeout must be at least 100 ms");
+  if (config_.max_sessions < 1 || config_.max_participants < 2)
+    throw Error("session: need at least 1 session and 2 participants per session");
+  presence_ = std::thread([this] { watch_presence(); });
+}
+
+SessionHub::~SessionHub() {
+  stopping_ = true;
+  presence_.join();
+}
+
+void SessionHub::attach(Server* server) {
+  std::lock_guard lock(mutex_);
+  server_ = server;
+}
+
+uint32_t SessionHub::max_payload(uint8_t type) const {
+  // A known type the server sends (0x41..) is read and refused by handle(), which counts it.
+  return session::max_payload(type);
+}
+
+SessionHub::Session& SessionHub::make_session(const std::string& name) {
+  for (auto& [id, s] : sessions_)
+    if (s->name == name) return *s;
+  if (static_cast<int>(sessions_.size()) >= config_.max_sessions)
+    throw Error("the server has " + std::to_string(config_.max_sessions) + " sessions already");
+  auto s = std::make_unique<Session>();
+  s->id = next_session_++;
+  s->name = name;
+  auto site = std::make_unique<Member>();
+  site->info.id = kSiteParticipant;
+  site->info.name = config_.site_name;
+  site->info.role = session::Role::kOrSite;
+  site->info.has_camera = true;
+  site->session = s.get();
+  s->members.emplace(kSiteParticipant, std::move(site));
+  Session& ref = *s;
+  sessions_.emplace(ref.id, std::move(s));
+  spdlog::info("session '{}' created", printable(name));
+  return ref;
+}
+
+void SessionHub::create_session(const std::string& name) {
+  // The same checks a Join's name gets.
+  session::Join j;
+  j.session = name;
+  j.name = "x";
+  session::parse_join(session::serialize(j));
+  std::lock_guard lock(mutex_);
+  make_session(name);
+}
+
+std::vector<session::SessionSummary> SessionHub::sessions() const {
+  std::lock_guard lock(mutex_);
+  std::vector<session::SessionSummary> out;
+  for (const auto& [id, s] : sessions_)
+    out.push_back({id, s->name, static_cast<uint32_t>(s->members.size())});
+  return out;
+}
+
+std::vector<SessionMember> SessionHub::members(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  std::vector<SessionMember> out;
+  for (const auto& [id, s] : sessions_)
+    if (s->name == name)
+      for (const auto& [pid, m] : s->members) out.push_back(m->info);
+  return out;
+}
+
+SessionHubStats SessionHub::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+void SessionHub::send_shared(uint64_t viewer, const Shared& message, uint64_t coalesce_key) {
+  if (server_ && viewer != 0) server_->send_session(viewer, message, coalesce_key);
+}
+
+void SessionHub::send(uint64_t viewer, std::vector<uint8_t> message, uint64_t coalesce_key) {
+  send_shared(viewer, share(std::move(message)), coalesce_key);
+}
+
+void SessionHub::error(uint64_t viewer, const std::string& reason) {
+  send(viewer, session::message(Type::kSessionError, session::serialize_error(reason)));
+}
+
+void SessionHub::on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
+  std::lock_guard lock(mutex_);
+  ++stats_.messages_in;
+  try {
+    handle(viewer, type, payload);
+  } catch (const Error&) {
+    // A malformed or hostile message: its sender is dropped (the server ends its connection and
+    // calls on_viewer_left, which tells the others why).
+    if (auto it = by_viewer_.find(viewer); it != by_viewer_.end()) it->second->dropping = true;
+    ++stats_.dropped;
+    throw;
+  }
+}
+
+void SessionHub::on_viewer_left(uint64_t viewer, const std::string& why) {
+  std::lock_guard lock(mutex_);
+  const auto it = by_viewer_.find(viewer);
+  if (it == by_viewer_.end()) return;
+  const bool dropped = it->second->dropping;
+  spdlog::info("session: '{}' {}: {}", printable(it->second->info.name),
+               dropped ? "dropped" : "disconnected", printable(why, 200));
+  remove(viewer, dropped ? session::LeftReason::kDropped : session::LeftReason::kDisconnected);
+}
+
+void SessionHub::remove(uint64_t viewer, session::LeftReason reason) {
+  const auto it = by_viewer_.find(viewer);
+  if (it == by_viewer_.end()) return;
+  Member* m = it->second;
+  Session* s = m->session;
+  const uint32_t id = m->info.id;
+  by_viewer_.erase(it);
+  s->members.erase(id);  // m is gone from here
+  const Shared left =
+      share(session::message(Type::kParticipantLeft, session::serialize_left(id, reason)));
+  for (const auto& [pid, other] : s->members) send_shared(other->info.viewer, left);
+  ++stats_.leaves;
+}
+
+void SessionHub::join(uint64_t viewer, const session::Join& j) {
+  if (const auto it = by_viewer_.find(viewer); it != by_viewer_.end())
+    return error(viewer, "already in session '" + it->second->session->name + "': leave it first");
+  Session* s = nullptr;
+  for (auto& [id, candidate] : sessions_)
+    if (candidate->name == j.session) s = candidate.get();
+  if (!s) {
+    if (!j.create) return error(viewer, "no session named '" + j.session + "'");
+    try {
+      s = &make_session(j.session);
+    } catch (const Error& e) {
+      return error(viewer, e.what());
+    }
+  }
+  if (static_cast<int>(s->members.size()) >= config_.max_participants)
+    return error(viewer, "session '" + s->name + "' is full (" +
+                             std::to_string(config_.max_participants) + " participants)");
+  for (const auto& [pid, other] : s->members)
+    if (other->info.name == j.name)
+      return error(viewer, "the name '" + j.name + "' is taken in session '" + s->name + "'");
+  // A free spawn spot: free floor, away from the other play areas.
+  session::Spot spot;
+  const float clearance = 4 * config_.room.person_radius_m;
+  bool found = false;
+  for (const Eigen::Vector2f& p : config_.room.spawn_spots) {
+    if (!is_free_floor_spot(config_.room, p)) continue;
+    bool taken = false;
+    for (const auto& [pid, other] : s->members)
+      if (other->info.role == session::Role::kRemote &&
+          Eigen::Vector2f(other->info.spot.x - p.x(), other->info.spot.z - p.y()).norm() <
+              clearance)
+        taken = true;
+    if (taken) continue;
+    // Face the table's centre.
+    spot = {
+        p.x(), p.y(),
+        std::atan2(p.x() - config_.room.table.center.x(), p.y() - config_.room.table.center.z())};
+    found = true;
+    break;
+  }
+  if (!found && !config_.room.spawn_spots.empty()) {  // all taken: share the first
+    const Eigen::Vector2f& p = config_.room.spawn_spots.front();
+    spot = {p.x(), p.y(), 0};
+  }
+  auto member = std::make_unique<Member>();
+  Member& m = *member;
+  m.info.id = next_participant_++;
+  m.info.viewer = viewer;
+  m.info.name = j.name;
+  m.info.role = j.role;
+  m.info.has_camera = j.has_camera;
+  m.info.spot = spot;
+  m.session = s;
+  session::Joined joined;
+  joined.participant = m.info.id;
+  joined.session = s->id;
+  joined.session_name = s->name;
+  joined.spot = spot;
+  joined.site_translation = config_.site_translation;
+  joined.site_yaw = config_.site_yaw;
+  send(viewer, session::message(Type::kJoined, session::serialize(joined)));
+  for (const auto& [pid, other] : s->members) {
+    session::ParticipantInfo info{other->info.id, other->info.name, other->info.role,
+                                  other->info.has_camera, other->info.spot};
+    send(viewer, session::message(Type::kParticipantJoined, session::serialize(info)));
+    if (other->camera_message) send_shared(viewer, other->camera_message);
+    if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
+  }
+  const Shared announce = share(
+      session::message(Type::kParticipantJoined,
+                       session::serialize(session::ParticipantInfo{
+                           m.info.id, m.info.name, m.info.role, m.info.has_camera, m.info.spot})));
+  for (const auto& [pid, other] : s->members) send_shared(other->info.viewer, announce);
+  s->members.emplace(m.info.id, std::move(member));
+  by_viewer_[viewer] = &m;
+  ++stats_.joins;
+  spdlog::info("session '{}': '{}' joined as participant {} ({}{})", printable(s->name),
+               printable(j.name), m.info.id, session::to_string(j.role),
+               j.has_camera ? ", with a camera" : "");
+}
+
+void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
+  const auto it = by_viewer_.find(viewer);
+  Member* m = it == by_viewer_.end() ? nullptr : it->second;
+  if (m) m->last_seen = Clock::now();
+  const auto in_session = [&](const char* what) {
+    if (!m) error(viewer, std::string(what) + ": not in a session (join one first)");
+    return m != nullptr;
+  };
+  switch (static_cast<Type>(type)) {
+    case Type::kListSessions: {
+      if (!payload.empty()) throw Error("malformed list sessions: not empty");
+      std::vector<session::SessionSummary> list;
+      for (const auto& [id, s] : sessions_)
+        list.push_back({id, s->name, static_cast<uint32_t>(s->members.size())});
+      send(viewer, session::message(Type::kSessionList, session::serialize(list)));
+      return;
+    }
+    case Type::kJoin:
+      return join(viewer, session::parse_join(payload));
+    case Type::kLeave:
+      if (!payload.empty()) throw Error("malformed leave: not empty");
+      if (m) remove(viewer, session::LeftReason::kLeft);
+      return;
+    case Type::kHeartbeat:
+      if (!payload.empty()) throw Error("malformed heartbeat: not empty");
+      return;
+    case Type::kPose: {
+      session::parse_pose(payload);  // checks every field before anyone else sees it
+      if (!in_session("pose")) return;
+      ++stats_.poses_in;
+      ++m->info.poses;
+      m->last_pose = share(session::forward(Type::kPoseFrom, m->info.id, payload));
+      for (const auto& [pid, other] : m->session->members)
+        if (other.get() != m && other->info.viewer != 0) {
+          send_shared(other->info.viewer, m->last_pose, pose_key(m->info.id));
+          ++stats_.pose_messages_out;
+        }
+      return;
+    }
+    case Type::kPoseEcho: {
+      const auto [origin, sequence] = session::parse_echo(payload);
+      if (!in_session("pose echo")) return;
+      const auto o = m->session->members.find(origin);
+      if (o == m->session->members.end()) return;  // left meanwhile
+      send(o->second->info.viewer,
+           session::message(Type::kPoseEchoFrom, session::serialize_echo(m->info.id, sequence)));
+      return;
+    }
+    case Type::kTeleport: {
+      const session::Spot to = session::parse_teleport(payload);
+      if (!in_session("teleport")) return;
+      std::string why;
+      if (!is_free_floor_spot(config_.room, {to.x, to.z}, &why))
+        return error(viewer, "teleport to (" + std::to_string(to.x) + ", " + std::to_string(to.z) +
+                                 ") refused: " + why);
+      session::Teleported t{m->info.id, m->info.spot, to, wall_clock_us()};
+      m->info.spot = to;
+      const Shared msg = share(session::message(Type::kTeleported, session::serialize(t)));
+      for (const auto& [pid, other] : m->session->members) send_shared(other->info.viewer, msg);
+      return;
+    }
+    case Type::kAvatarCamera: {
+      session::AvatarCamera cam = session::parse_avatar_camera(payload);
+      if (!in_session("avatar camera")) return;
+      if (m->camera) throw Error("avatar camera announced twice");
+      m->camera = std::move(cam);
+      m->info.has_camera = true;
+      m->camera_message = share(session::forward(Type::kAvatarCameraFrom, m->info.id, payload));
+      for (const auto& [pid, other] : m->session->members)
+        if (other.get() != m) send_shared(other->info.viewer, m->camera_message);
+      return;
+    }
+    case Type::kAvatarFrame: {
+      if (!m) return error(viewer, "avatar frame: not in a session (join one first)");
+      if (!m->camera) throw Error("avatar frame before its camera was announced");
+      const session::AvatarFrameView f =
+          session::parse_avatar_frame(payload, m->camera->calibration);
+      const Intrinsics& k = m->camera->calibration.depth;
+      const auto d = declared_depth_size(f.depth);
+      if (!d || d->width != k.width || d->height != k.height)
+        throw Error("malformed avatar frame: its depth stream is not a " + std::to_string(k.width) +
+                    "x" + std::to_string(k.height) + " frame of the announced codec");
+      if (!f.color.empty())
+        if (const auto c = declared_color_size(f.color);
+            c && (c->width != k.width || c->height != k.height))
+          throw Error("malformed avatar frame: its color stream has another size than its camera");
+      ++stats_.avatar_frames_in;
+      ++m->info.avatar_frames;
+      const Shared msg = share(session::forward(Type::kAvatarFrameFrom, m->info.id, payload));
+      for (const auto& [pid, other] : m->session->members)
+        if (other.get() != m && other->info.viewer != 0) {
+          send_shared(other->info.viewer, msg, avatar_key(m->info.id));
+          ++stats_.avatar_frames_out;
+          stats_.avatar_bytes_out += msg->size();
+        }
+      return;
+    }
+    default:
+      throw Error("a participant may not send session message type " + std::to_string(type));
+  }
+}
+
+void SessionHub::watch_presence() {
+  while (!stopping_) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::lock_guard lock(mutex_);
+    const auto now = Clock::now();
+    std::vector<uint64_t> silent;
+    for (const auto& [viewer, m] : by_viewer_)
+      if (now - m->last_seen > std::chrono::milliseconds(config_.presence_timeout_ms))
+        silent.push_back(viewer);
+    for (uint64_t viewer : silent) {
+      spdlog::info("session: '{}' timed out (nothing for {} ms)",
+                   printable(by_viewer_[viewer]->info.name), config_.presence_timeout_ms);
+      remove(viewer, session::LeftReason::kTimedOut);
+      ++stats_.timeouts;
+      if (server_)
+        server_->disconnect(viewer, "session presence timeout: nothing for " +
+                                        std::to_string(config_.presence_timeout_ms) + " ms");
+    }
+  }
+}
+
+}  // namespace volcast

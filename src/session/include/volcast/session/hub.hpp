@@ -1,0 +1,105 @@
+#pragma once
+// The session service of the OR server (Fischer et al. 2024, §3.4: the OR server hosts the virtual
+// room and relays its traffic): the lobby, sessions of participants, presence with a timeout,
+// poses (only the newest per participant is sent on to each receiver), pose echoes for the round
+// trip, server-checked teleports, and camera avatars whose frames, encoded once by their sender,
+// are forwarded to every other participant unchanged. Messages: messages.hpp.
+//
+// The OR site is a participant of every session (id 1, role OR site): its cameras are the
+// stream every participant receives, placed in the room by room_from_site.
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "volcast/net/server.hpp"
+#include "volcast/session/messages.hpp"
+#include "volcast/session/room.hpp"
+
+namespace volcast {
+
+struct SessionHubConfig {
+  RoomLayout room = default_operating_room();
+  /// room_from_site: where the site's world frame (its cameras' world_from_camera) sits in the
+  /// room: a shift (metres) and a turn about +y (radians).
+  Eigen::Vector3f site_translation = Eigen::Vector3f::Zero();
+  float site_yaw = 0;
+  std::string site_name = "OR site";  ///< the OR site participant's display name
+  /// A participant from whom no session message came for this long is removed ("timed out") and
+  /// disconnected. Participants send poses at the display rate, or heartbeats.
+  int presence_timeout_ms = 3000;
+  int max_sessions = 16;
+  int max_participants = 16;  ///< per session, the OR site included
+};
+
+/// What the hub has handled, since it started.
+struct SessionHubStats {
+  uint64_t messages_in = 0, poses_in = 0, pose_messages_out = 0;
+  uint64_t avatar_frames_in = 0, avatar_frames_out = 0, avatar_bytes_out = 0;
+  uint64_t joins = 0, leaves = 0, timeouts = 0, dropped = 0;
+};
+
+/// One participant as the hub sees it.
+struct SessionMember {
+  uint32_t id = 0;
+  uint64_t viewer = 0;  ///< the server's viewer id (0: the OR site itself)
+  std::string name;
+  session::Role role = session::Role::kRemote;
+  bool has_camera = false;
+  session::Spot spot;
+  uint64_t poses = 0, avatar_frames = 0;
+};
+
+class SessionHub final : public SessionPort {
+ public:
+  /// Starts the presence thread. Throws Error on a config out of range.
+  explicit SessionHub(SessionHubConfig config = {});
+  ~SessionHub() override;
+  SessionHub(const SessionHub&) = delete;
+  SessionHub& operator=(const SessionHub&) = delete;
+
+  /// The server whose viewers are the participants (its ServerConfig::session must be this hub);
+  /// null detaches (before the server is destroyed).
+  void attach(Server* server);
+  /// Makes a session with no one but the OR site in it (a session a demo starts); no-op if it
+  /// exists. Throws Error on a bad name or too many sessions.
+  void create_session(const std::string& name);
+  std::vector<session::SessionSummary> sessions() const;
+  /// The members of session `name` (empty if there is none), the OR site first.
+  std::vector<SessionMember> members(const std::string& name) const;
+  SessionHubStats stats() const;
+
+  // SessionPort (called by the server on viewers' threads).
+  uint32_t max_payload(uint8_t type) const override;
+  void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) override;
+  void on_viewer_left(uint64_t viewer, const std::string& why) override;
+
+ private:
+  struct Member;
+  struct Session;
+  void handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload);
+  void join(uint64_t viewer, const session::Join& join);
+  void remove(uint64_t viewer, session::LeftReason reason);
+  Session& make_session(const std::string& name);
+  void send(uint64_t viewer, std::vector<uint8_t> message, uint64_t coalesce_key = 0);
+  void send_shared(uint64_t viewer, const std::shared_ptr<const std::vector<uint8_t>>& message,
+                   uint64_t coalesce_key = 0);
+  void error(uint64_t viewer, const std::string& reason);
+  void watch_presence();
+
+  SessionHubConfig config_;
+  mutable std::mutex mutex_;
+  Server* server_ = nullptr;
+  std::map<uint32_t, std::unique_ptr<Session>> sessions_;  // by session id
+  std::map<uint64_t, Member*> by_viewer_;                  // participants in a session
+  uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site
+  SessionHubStats stats_;
+  std::atomic<bool> stopping_{false};
+  std::thread presence_;
+};
+
+}  // namespace volcast

@@ -1,0 +1,158 @@
+#pragma once
+// A participant's side of the session channel (messages.hpp), on the connection of its Client:
+// joins a session through the lobby, publishes its body pose at the display rate (only the newest
+// unsent one goes out), receives the others' poses and interpolates them, answers pose echoes,
+// teleports, uploads its own RGB-D camera as an avatar stream (encoded once, in a lossless codec)
+// and receives the others' avatar frames, decoding them only when someone asks for them. Measures
+// the session round trip (own pose -> seen by another -> echoed back), pose rates and ages, and
+// avatar latency, all on the server's clock (Client::clock_offset_us).
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "volcast/core/calibration.hpp"
+#include "volcast/core/frame.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/session/messages.hpp"
+#include "volcast/session/room.hpp"
+
+namespace volcast {
+
+/// A participant's own RGB-D camera: calibration with world_from_camera = playarea_from_camera
+/// (metres; the camera registered to the participant's play area) and its upload codecs (depth
+/// lossless and not temporal: volcast, rvl, zstd, lz4, raw; color not temporal: jpeg, raw, none).
+struct AvatarCameraSetup {
+  CameraCalibration calibration;
+  std::string depth_codec = "volcast";
+  std::string color_codec = "jpeg";
+};
+
+struct ParticipantConfig {
+  std::string session = "OR";  ///< the session to join (1..64 printable bytes)
+  bool create = true;          ///< make it if there is none of that name
+  std::string name;            ///< display name, unique in the session (1..64 printable bytes)
+  session::Role role = session::Role::kRemote;
+  std::optional<AvatarCameraSetup> camera;
+  /// Others' poses are shown this far in the past, interpolated between the two received poses
+  /// around that time (two pose intervals at 60 Hz plus jitter; 0 shows the newest).
+  int64_t interpolation_delay_us = 40'000;
+  int echo_every = 6;  ///< every Nth pose asks its receivers for an echo (round trip samples)
+};
+
+/// Another participant as this one sees it now.
+struct RemoteParticipant {
+  uint32_t id = 0;
+  std::string name;
+  session::Role role = session::Role::kRemote;
+  bool has_camera = false;
+  session::Spot spot;               ///< where its play area stands
+  bool has_pose = false;            ///< a pose has arrived
+  BodyPose pose;                    ///< room frame, interpolated (see interpolation_delay_us)
+  BodyPose newest_pose;             ///< room frame, the newest received
+  int64_t newest_pose_time_us = 0;  ///< its time stamp, server clock
+  uint32_t newest_pose_sequence = 0;
+  /// Its avatar camera in the room: world_from_camera = room_from_playarea(spot) *
+  /// playarea_from_camera; absent without a camera.
+  std::optional<CameraCalibration> avatar_camera;
+  uint64_t avatar_sequence = 0;  ///< newest avatar frame received (0: none)
+};
+
+/// A teleport seen in the session (anyone's, one's own included).
+struct TeleportSeen {
+  uint32_t participant = 0;
+  session::Spot from, to;
+  int64_t time_us = 0;  ///< server clock
+};
+
+struct SessionSnapshot {
+  bool joined = false;
+  uint32_t id = 0;  ///< this participant's id once joined
+  std::string session_name;
+  session::Spot spot;                     ///< this participant's play area
+  bool has_own_body = false;              ///< publish() was called since joining
+  BodyPose own_body;                      ///< room frame, the last published (the eye is its head)
+  RigidTransform room_from_site;          ///< where the OR site's cameras sit in the room
+  std::vector<RemoteParticipant> others;  ///< by id; the OR site included
+  std::vector<TeleportSeen> teleports;    ///< the last 16
+  std::vector<session::SessionSummary> lobby;  ///< the last SessionList
+  std::string last_error;                      ///< the server's last SessionError, if any
+  /// (id, name, reason) of the participants that left, oldest first (the last 64).
+  std::vector<std::tuple<uint32_t, std::string, session::LeftReason>> departed;
+};
+
+/// Figures about the others (the session's receivers' side) and the round trip.
+struct RemoteStats {
+  uint32_t id = 0;
+  std::string name;
+  uint64_t poses_received = 0;
+  double pose_rate_hz = 0;  ///< over the time between its first and newest pose received
+  double pose_age_ms_p50 = 0, pose_age_ms_p99 = 0;  ///< server-clock age when received
+  uint64_t avatar_frames_received = 0;
+  double avatar_fps = 0;
+  double avatar_latency_ms_p50 = 0, avatar_latency_ms_p99 = 0;  ///< capture -> received
+};
+
+struct ParticipantStats {
+  uint64_t poses_sent = 0, avatar_frames_sent = 0;
+  size_t round_trip_samples = 0;
+  double round_trip_ms_p50 = 0, round_trip_ms_p99 = 0;
+  std::vector<RemoteStats> others;  ///< by id: everyone seen in the session (those who left too),
+                                    ///< but the OR site
+};
+
+class Participant {
+ public:
+  /// Installs the session handler on `client` (not in receive() yet; it must outlive this object
+  /// or detach() be called first) and sends ListSessions and Join. Throws Error on a bad name or
+  /// camera setup.
+  Participant(Client& client, ParticipantConfig config);
+  ~Participant();
+  /// Lets go of the client (removes the handler); later sends are ignored, the state stays
+  /// readable. Call before the Client goes (leave() first to leave gracefully; else the server
+  /// notices the closed connection or the silence).
+  void detach();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  /// Publishes this participant's body in its play area frame (playarea_from_head etc.); sent in
+  /// the room frame, time-stamped now on the server clock. Ignored until joined. Thread-safe.
+  void publish(const BodyPose& playarea_pose);
+  /// Asks to move the play area's origin to `to` (the server checks it; the others see an
+  /// effect). Thread-safe.
+  void teleport(const session::Spot& to);
+  /// Encodes and uploads one frame of the own camera, captured at `capture_us` (local wall
+  /// clock); kept as own_frame(). Sizes as its calibration, else Error; without a camera in the
+  /// config, Error. Ignored until joined. Thread-safe.
+  void upload(std::shared_ptr<const CameraFrame> frame, int64_t capture_us);
+  /// Sends a Heartbeat (presence while no pose is published).
+  void heartbeat();
+  void list_sessions();
+  /// Leaves the session (stays connected, back in the lobby).
+  void leave();
+  /// Joins `session` (after leave(), or when the first join failed).
+  void join(const std::string& session, bool create);
+
+  bool joined() const;
+  /// The state now; remote poses interpolated for `now_us` (local wall clock).
+  SessionSnapshot snapshot(int64_t now_us) const;
+  /// Participant `id`'s newest avatar frame, decoded (once per frame); null when there is none.
+  /// Throws Error if it does not decode.
+  std::shared_ptr<const CameraFrame> avatar_frame(uint32_t id);
+  /// The own camera's last uploaded frame (null before any).
+  std::shared_ptr<const CameraFrame> own_frame() const;
+  /// The own camera's calibration placed in the room (room_from_playarea(spot) *
+  /// playarea_from_camera); absent without a camera.
+  std::optional<CameraCalibration> own_camera() const;
+  ParticipantStats stats() const;
+  /// Server clock minus local clock, microseconds.
+  int64_t clock_offset_us() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace volcast

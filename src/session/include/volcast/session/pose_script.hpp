@@ -1,0 +1,54 @@
+#pragma once
+// Scripted motion for a headless participant (tests, recorded demos): key poses in the
+// participant's play area frame, linearly interpolated, and teleports at given times.
+//
+// A script is JSON:
+//   {"loop": true,                      // start again after the last key (default true)
+//    "keys": [                          // at least one, times increasing
+//      {"t": 0.0,                       // seconds from the start
+//       "head": [0, 1.6, 0],            // metres, play area frame (y up, floor y = 0)
+//       "yaw_deg": 0, "pitch_deg": 0,   // the head's turn about +y, then about its x (optional)
+//       "left": [-0.2, 1.1, -0.3], "right": [0.2, 1.1, -0.3]},   // hands (optional, both or none)
+//      ...],
+//    "teleports": [{"t": 2.0, "to": [1.5, 1.0], "yaw_deg": 90}]}  // room floor spot x, z
+//    (optional)
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "volcast/session/messages.hpp"
+#include "volcast/session/room.hpp"
+
+namespace volcast {
+
+struct PoseKey {
+  double t_s = 0;
+  Eigen::Vector3f head{0, 1.6f, 0};
+  float yaw_deg = 0, pitch_deg = 0;
+  bool hands = false;
+  Eigen::Vector3f left{-0.2f, 1.1f, -0.3f}, right{0.2f, 1.1f, -0.3f};
+};
+
+struct ScriptedTeleport {
+  double t_s = 0;
+  session::Spot to;
+};
+
+struct PoseScript {
+  bool loop = true;
+  std::vector<PoseKey> keys;
+  std::vector<ScriptedTeleport> teleports;  ///< in time order; never repeated by `loop`
+  /// The body (play area frame) at `t_s` seconds: keys interpolated linearly (yaw and pitch
+  /// too), held before the first and (without loop) after the last.
+  BodyPose at(double t_s) const;
+};
+
+/// A standing participant looking ahead who sways slightly (a few cm, 0.5 Hz) and moves its
+/// hands, so that its pose changes every frame.
+PoseScript idle_pose_script();
+/// Parses a script (format above). Throws Error naming the field that is missing or wrong.
+PoseScript parse_pose_script(const std::string& json_text);
+/// Reads and parses a script file. Throws Error naming the file.
+PoseScript read_pose_script(const std::filesystem::path& path);
+
+}  // namespace volcast

@@ -7,7 +7,7 @@
 #include <fstream>
 #include <thread>
 
-#include "hands_site.hpp"
+#include "session_site.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/client.hpp"
@@ -42,33 +42,6 @@ size_t covered(const ColorImage& image) {
          12;
   return n;
 }
-
-struct Person {
-  std::unique_ptr<Client> client;
-  std::unique_ptr<SessionClient> session;
-  std::thread receiver;
-  Person(const std::string& link, SessionClientOptions o) {
-    ClientConfig c = client_config_from_link(link);
-    c.decode = false;
-    client = std::make_unique<Client>(c);
-    session = std::make_unique<SessionClient>(std::move(o));
-    session->start(*client);
-    receiver = std::thread([this] {
-      ReceivedFrameSet rx;
-      try {
-        while (client->receive(rx)) {
-        }
-      } catch (const std::exception&) {
-      }
-    });
-  }
-  ~Person() {
-    session->stop();
-    client->close();
-    receiver.join();
-  }
-  Participant& p() { return *session->participant(); }
-};
 
 TEST(SessionFilters, HeadRadiusAndOwnHeadset) {
   RemoteParticipant other;
@@ -140,20 +113,12 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
 TEST(SessionScene, SiteAndRemoteAvatarFromTheEye) {
   SessionHubConfig config;
   config.site_translation = {0, 1.5f, 0.5f};  // the site camera's points float above the floor
-  SessionHub hub(config);
-  ServerConfig server_config;
-  server_config.session = &hub;
-  test::HandsSite site(10, server_config);
-  hub.attach(&site.server);
-  const std::string link = site.server.join_link("127.0.0.1");
-  SessionClientOptions with_camera;
-  with_camera.participant.name = "Surgeon";
+  test::SessionSite s(config, 10);
+  SessionClientOptions with_camera = test::named("Surgeon");
   with_camera.camera_source = test::hands_dir();
   with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
-  SessionClientOptions viewer;
-  viewer.participant.name = "Viewer";
-  auto a = std::make_unique<Person>(link, with_camera);
-  auto b = std::make_unique<Person>(link, viewer);
+  auto a = std::make_unique<test::TestParticipant>(s, with_camera);
+  auto b = std::make_unique<test::TestParticipant>(s, test::named("Viewer"));
   ASSERT_TRUE(eventually([&] {
     for (const auto& o : b->p().snapshot(wall_clock_us()).others)
       if (o.name == "Surgeon" && o.has_pose && o.avatar_sequence > 0) return true;
@@ -163,7 +128,7 @@ TEST(SessionScene, SiteAndRemoteAvatarFromTheEye) {
   a->session->stop();
   std::this_thread::sleep_for(200ms);
   // The site's frame, as a receiver of the stream has it.
-  const std::vector<CameraCalibration> site_cameras = {site.player.cameras()[0].calibration};
+  const std::vector<CameraCalibration> site_cameras = {s.site.player.cameras()[0].calibration};
   CameraFrame site_frame;
   test::HandsSite::sources()[0]->next(site_frame);
   const std::vector<std::shared_ptr<const CameraFrame>> frames = {
@@ -200,7 +165,6 @@ TEST(SessionScene, SiteAndRemoteAvatarFromTheEye) {
   EXPECT_LT(nothing, 20u) << "a ~zero radius drops every point";
   b.reset();
   a.reset();
-  hub.attach(nullptr);
 }
 
 // The CLI: a server, a participant with a camera avatar, and a headless participant who writes

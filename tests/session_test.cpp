@@ -7,7 +7,7 @@
 #include <set>
 #include <thread>
 
-#include "hands_site.hpp"
+#include "session_site.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
@@ -30,82 +30,12 @@ bool eventually(const std::function<bool()>& done, std::chrono::milliseconds lim
   return done();
 }
 
-// A server on the real hands site with the session hub.
-struct SessionSite {
-  SessionHub hub;
-  test::HandsSite site;
-  explicit SessionSite(SessionHubConfig config = {}, double fps = 15)
-      : hub(config), site(fps, with_hub(hub)) {
-    hub.attach(&site.server);
-    hub.create_session("OR");
-  }
-  ~SessionSite() { hub.attach(nullptr); }
-  static ServerConfig with_hub(SessionHub& hub) {
-    ServerConfig c;
-    c.session = &hub;
-    return c;
-  }
-  ClientConfig client_config() const {
-    ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
-    c.decode = false;  // the site's frames are read and acknowledged: the session is under test
-    c.receive_timeout_ms = 20000;
-    return c;
-  }
-};
-
-// A participant: its connection, a thread receiving on it (session messages arrive there), and
-// a SessionClient publishing its pose script (and camera).
-struct TestParticipant {
-  std::unique_ptr<Client> client;
-  std::unique_ptr<SessionClient> session;
-  std::thread receiver;
-  std::atomic<bool> ended{false};
-  std::string error;
-
-  TestParticipant(const SessionSite& s, SessionClientOptions options) {
-    client = std::make_unique<Client>(s.client_config());
-    session = std::make_unique<SessionClient>(std::move(options));
-    session->start(*client);
-    receiver = std::thread([this] {
-      ReceivedFrameSet rx;
-      try {
-        while (client->receive(rx)) {
-        }
-      } catch (const std::exception& e) {
-        error = e.what();
-      }
-      ended = true;
-    });
-  }
-  ~TestParticipant() { end(); }
-  // Leaves as a closed application does: threads stopped, connection closed.
-  void end() {
-    if (!client) return;
-    session->stop();
-    client->close();
-    receiver.join();
-    client.reset();
-  }
-  Participant& p() { return *session->participant(); }
-  SessionSnapshot now() const { return session->participant()->snapshot(wall_clock_us()); }
-  const RemoteParticipant* other(const std::string& name) const {
-    static thread_local SessionSnapshot s;
-    s = now();
-    for (const auto& o : s.others)
-      if (o.name == name) return &o;
-    return nullptr;
-  }
-};
-
-SessionClientOptions named(const std::string& name, const std::string& session = "OR") {
-  SessionClientOptions o;
-  o.participant.name = name;
-  o.participant.session = session;
-  return o;
-}
+using test::named;
+using test::SessionSite;
+using test::TestParticipant;
 
 bool sees(const TestParticipant& p, const std::string& name) {
-  return p.other(name) != nullptr;
+  return p.other(name).has_value();
 }
 
 TEST(SessionMessages, RoundTripAndRefuseBadFields) {
@@ -211,7 +141,7 @@ TEST(Session, TwoParticipantsSeeEachOtherAndLeave) {
   const RigidTransform room_from_a = session::room_from_playarea(as.spot);
   const Eigen::Vector3f last = (room_from_a * Eigen::Vector3d(1.2, 1.6, 0)).cast<float>();
   ASSERT_TRUE(eventually([&] {
-    const auto* o = b.other("Dr. A");
+    const auto o = b.other("Dr. A");
     return o && o->has_pose && o->newest_pose_sequence >= 120;
   }));
   const RemoteParticipant seen = *b.other("Dr. A");
@@ -300,7 +230,7 @@ TEST(Session, CameraAvatarReachesEveryoneBitExact) {
   for (const DepthImage& d : hands) depths.insert(d.pixels);
   for (TestParticipant* receiver : {&b, &c}) {
     ASSERT_TRUE(eventually([&] {
-      const auto* o = receiver->other("Surgeon");
+      const auto o = receiver->other("Surgeon");
       return o && o->avatar_camera && o->avatar_sequence >= 3;
     }));
     const RemoteParticipant o = *receiver->other("Surgeon");
@@ -337,7 +267,7 @@ TEST(Session, TeleportMovesAndOthersSeeIt) {
   EXPECT_FLOAT_EQ(seen.back().to.z, -1.5f);
   // A's next poses are at the new spot: the idle script's head stays within 10 cm of the origin.
   ASSERT_TRUE(eventually([&] {
-    const auto* o = b.other("A");
+    const auto o = b.other("A");
     return o && (o->newest_pose.head.position - Eigen::Vector3f(2.0f, 1.6f, -1.5f)).norm() < 0.1f;
   }));
   a.p().teleport({0, 0, 0});  // onto the operating table

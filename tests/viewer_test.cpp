@@ -13,7 +13,7 @@
 #include <set>
 #include <thread>
 
-#include "hands_site.hpp"
+#include "session_site.hpp"
 #include "test_data.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/clock.hpp"
@@ -308,27 +308,9 @@ TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
   ASSERT_TRUE(xvfb.running()) << xvfb.error();
   const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
   const fs::path dir = test::temp_dir("desktop_session");
-  SessionHub hub;
-  ServerConfig config;
-  config.session = &hub;
-  test::HandsSite site(15, config);
-  hub.attach(&site.server);
-  const std::string link = site.server.join_link("127.0.0.1");
-  ClientConfig observer_config = client_config_from_link(link);
-  observer_config.decode = false;
-  Client observer_client(observer_config);
-  SessionClientOptions observer_options;
-  observer_options.participant.name = "Observer";
-  SessionClient observer(observer_options);
-  observer.start(observer_client);
-  std::thread observer_rx([&] {
-    ReceivedFrameSet rx;
-    try {
-      while (observer_client.receive(rx)) {
-      }
-    } catch (const std::exception&) {
-    }
-  });
+  test::SessionSite s;
+  const std::string link = s.link();
+  test::TestParticipant observer(s, test::named("Observer"));
   SessionClientOptions window_options;
   window_options.participant.name = "Desk";
   window_options.drive_poses = false;  // the window publishes its eye
@@ -352,12 +334,9 @@ TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << r.error;
   EXPECT_EQ(r.frames_rendered, 40u);
 
-  const SessionSnapshot seen = observer.participant()->snapshot(wall_clock_us());
-  const ParticipantStats stats = observer.participant()->stats();
-  observer.stop();
-  observer_client.close();
-  observer_rx.join();
-  hub.attach(nullptr);
+  const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
+  const ParticipantStats stats = observer.p().stats();
+  observer.end();
   uint64_t poses = 0;
   for (const auto& o : stats.others)
     if (o.name == "Desk") poses = o.poses_received;

@@ -16,12 +16,10 @@
 #include <thread>
 #include <vector>
 
-#include "hands_site.hpp"
+#include "session_site.hpp"
 #include "test_data.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/pipeline/receiver.hpp"
-#include "volcast/pipeline/session_client.hpp"
-#include "volcast/session/hub.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "xvfb.hpp"
 
@@ -221,28 +219,9 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
   const MockRuntime mock("xr_runtime_session", "60");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
-  SessionHub hub;
-  ServerConfig config;
-  config.session = &hub;
-  test::HandsSite site(15, config);
-  hub.attach(&site.server);
-  const std::string link = site.server.join_link("127.0.0.1");
-  // The observer: a plain participant on its own connection.
-  ClientConfig observer_config = client_config_from_link(link);
-  observer_config.decode = false;
-  Client observer_client(observer_config);
-  SessionClientOptions observer_options;
-  observer_options.participant.name = "Observer";
-  SessionClient observer(observer_options);
-  observer.start(observer_client);
-  std::thread observer_rx([&] {
-    ReceivedFrameSet rx;
-    try {
-      while (observer_client.receive(rx)) {
-      }
-    } catch (const std::exception&) {
-    }
-  });
+  test::SessionSite s;
+  const std::string link = s.link();
+  test::TestParticipant observer(s, test::named("Observer"));
   // The headset participant.
   SessionClientOptions headset_options;
   headset_options.participant.name = "Headset";
@@ -265,12 +244,9 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 30u);
 
-  const SessionSnapshot seen = observer.participant()->snapshot(wall_clock_us());
-  observer.stop();
-  observer_client.close();
-  observer_rx.join();
-  hub.attach(nullptr);
-  const ParticipantStats stats = observer.participant()->stats();
+  const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
+  observer.end();
+  const ParticipantStats stats = observer.p().stats();
   uint64_t poses = 0;
   for (const auto& o : stats.others)
     if (o.name == "Headset") poses = o.poses_received;

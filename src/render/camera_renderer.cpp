@@ -191,12 +191,7 @@ struct CameraRenderer::Impl {
 };
 
 CameraRenderer::CameraRenderer() {
-  // glGetString answers null when no context is current (checked with libepoxy and Mesa).
-  if (glGetString(GL_VERSION) == nullptr)
-    throw Error(std::string(kPass) + ": no OpenGL context is current on this thread");
-  if (epoxy_gl_version() < 45 || !epoxy_is_desktop_gl())
-    throw Error(std::string(kPass) + ": OpenGL 4.5 is required, the current context has " +
-                reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+  gl::require_gl45(kPass);
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
   try {

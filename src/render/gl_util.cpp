@@ -77,7 +77,16 @@ GLuint make_texture(GLenum format, int width, int height) {
   return t;
 }
 
-void begin_target(const char* pass, const RenderTarget& target) {
+void require_gl45(const char* pass) {
+  // glGetString answers null when no context is current (checked with libepoxy and Mesa).
+  if (glGetString(GL_VERSION) == nullptr)
+    throw Error(std::string(pass) + ": no OpenGL context is current on this thread");
+  if (epoxy_gl_version() < 45 || !epoxy_is_desktop_gl())
+    throw Error(std::string(pass) + ": OpenGL 4.5 is required, the current context has " +
+                reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+}
+
+void bind_target(const char* pass, const RenderTarget& target) {
   if (target.width <= 0 || target.height <= 0)
     throw Error(fmt::format("{}: empty viewport {}x{} in framebuffer {}", pass, target.width,
                             target.height, target.framebuffer));
@@ -90,6 +99,10 @@ void begin_target(const char* pass, const RenderTarget& target) {
   // The scissor keeps the clear, and splats that straddle the viewport's edge, inside it.
   glEnable(GL_SCISSOR_TEST);
   glScissor(target.x, target.y, target.width, target.height);
+}
+
+void begin_target(const char* pass, const RenderTarget& target) {
+  bind_target(pass, target);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   glDepthMask(GL_TRUE);
   glClearColor(0.08f, 0.09f, 0.11f, 1.0f);

@@ -21,6 +21,15 @@ GLuint link_compute(const char* pass, const char* compute);
 /// A 2D texture with one level of `format`, nearest filtering, clamped to its edges.
 GLuint make_texture(GLenum format, int width, int height);
 
+/// Throws Error starting with `pass` unless an OpenGL 4.5 desktop context is current on this
+/// thread (every pass's constructor calls it).
+void require_gl45(const char* pass);
+
+/// Binds `target` for drawing without clearing it: checks it (Error starting with `pass` if the
+/// viewport is empty or the framebuffer incomplete), binds its framebuffer, sets the viewport and
+/// a scissor to it.
+void bind_target(const char* pass, const RenderTarget& target);
+
 /// Starts a pass in `target`: binds its framebuffer, sets the viewport and a scissor to it, clears
 /// it (colour dark grey-blue, depth far) and sets depth test LESS, no blending, program point
 /// size. Throws Error starting with `pass` if the viewport is empty or the framebuffer incomplete.

@@ -188,11 +188,7 @@ struct PrimitiveRenderer::Impl {
 };
 
 PrimitiveRenderer::PrimitiveRenderer() {
-  if (glGetString(GL_VERSION) == nullptr)
-    throw Error(std::string(kPass) + ": no OpenGL context is current on this thread");
-  if (epoxy_gl_version() < 45 || !epoxy_is_desktop_gl())
-    throw Error(std::string(kPass) + ": OpenGL 4.5 is required, the current context has " +
-                reinterpret_cast<const char*>(glGetString(GL_VERSION)));
+  gl::require_gl45(kPass);
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
   r.program = gl::link_program(kPass, kVertex, nullptr, kFragment);
@@ -225,16 +221,7 @@ PrimitiveRenderer::~PrimitiveRenderer() {
 void PrimitiveRenderer::draw(const View& view, const RenderTarget& target,
                              std::span<const Primitive> primitives, const Lighting& light) {
   Impl& r = *impl_;
-  if (target.width <= 0 || target.height <= 0)
-    throw Error(fmt::format("{}: empty viewport {}x{}", kPass, target.width, target.height));
-  if (const GLenum status = glCheckNamedFramebufferStatus(target.framebuffer, GL_DRAW_FRAMEBUFFER);
-      status != GL_FRAMEBUFFER_COMPLETE)
-    throw Error(fmt::format("{}: framebuffer {} is not complete (status {:#x})", kPass,
-                            target.framebuffer, status));
-  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
-  glViewport(target.x, target.y, target.width, target.height);
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(target.x, target.y, target.width, target.height);
+  gl::bind_target(kPass, target);  // drawn over what is there: no clear
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDepthMask(GL_TRUE);

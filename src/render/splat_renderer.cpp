@@ -54,12 +54,7 @@ struct SplatRenderer::Impl {
 };
 
 SplatRenderer::SplatRenderer() {
-  // glGetString answers null when no context is current (checked with libepoxy and Mesa).
-  if (glGetString(GL_VERSION) == nullptr)
-    throw Error("splat renderer: no OpenGL context is current on this thread");
-  if (epoxy_gl_version() < 45 || !epoxy_is_desktop_gl())
-    throw Error("splat renderer: OpenGL 4.5 is required, the current context has " +
-                std::string(reinterpret_cast<const char*>(glGetString(GL_VERSION))));
+  gl::require_gl45("splat renderer");
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
   r.program = gl::link_program("splat renderer", kVertexShader, nullptr, kFragmentShader);

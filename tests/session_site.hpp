@@ -1,0 +1,94 @@
+#pragma once
+// A virtual-OR session for tests: the real hands site (hands_site.hpp) served with a SessionHub,
+// and participants, each with its own connection, a thread receiving on it (session messages
+// arrive there) and a SessionClient publishing its pose script (and camera).
+#include <atomic>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "hands_site.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/session/hub.hpp"
+
+namespace volcast::test {
+
+struct SessionSite {
+  SessionHub hub;
+  HandsSite site;
+  explicit SessionSite(SessionHubConfig config = {}, double fps = 15)
+      : hub(std::move(config)), site(fps, with_hub(hub)) {
+    hub.attach(&site.server);
+    hub.create_session("OR");
+  }
+  ~SessionSite() { hub.attach(nullptr); }
+  static ServerConfig with_hub(SessionHub& hub) {
+    ServerConfig c;
+    c.session = &hub;
+    return c;
+  }
+  std::string link() const { return site.server.join_link("127.0.0.1"); }
+  /// A receive-only client: the site's frames are read and acknowledged, the session is tested.
+  ClientConfig client_config() const {
+    ClientConfig c = client_config_from_link(link());
+    c.decode = false;
+    c.receive_timeout_ms = 20000;
+    return c;
+  }
+};
+
+struct TestParticipant {
+  std::unique_ptr<Client> client;
+  std::unique_ptr<SessionClient> session;
+  std::thread receiver;
+  std::atomic<bool> ended{false};
+  std::string error;
+
+  TestParticipant(const SessionSite& s, SessionClientOptions options)
+      : TestParticipant(s.client_config(), std::move(options)) {}
+  TestParticipant(const ClientConfig& config, SessionClientOptions options) {
+    client = std::make_unique<Client>(config);
+    session = std::make_unique<SessionClient>(std::move(options));
+    session->start(*client);
+    receiver = std::thread([this] {
+      ReceivedFrameSet rx;
+      try {
+        while (client->receive(rx)) {
+        }
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+      ended = true;
+    });
+  }
+  ~TestParticipant() { end(); }
+  /// Leaves as a closed application does: threads stopped, connection closed.
+  void end() {
+    if (!client) return;
+    session->stop();
+    client->close();
+    receiver.join();
+    client.reset();
+  }
+  Participant& p() { return *session->participant(); }
+  SessionSnapshot now() const { return session->participant()->snapshot(wall_clock_us()); }
+  /// The participant named `name` as this one sees it now, if it does.
+  std::optional<RemoteParticipant> other(const std::string& name) const {
+    for (const auto& o : now().others)
+      if (o.name == name) return o;
+    return std::nullopt;
+  }
+};
+
+/// Options joining session `session` as `name`.
+inline SessionClientOptions named(const std::string& name, const std::string& session = "OR") {
+  SessionClientOptions o;
+  o.participant.name = name;
+  o.participant.session = session;
+  return o;
+}
+
+}  // namespace volcast::test

@@ -11,6 +11,7 @@ packages=(
   libglfw3-dev libxrandr-dev libimgui-dev libopenxr-dev xvfb xauth
   libopen3d-dev
   clang-14 libclang-rt-14-dev
+  libwebsocketpp-dev emscripten chromium nodejs
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -24,4 +25,11 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
 else
   echo "install-deps: all packages present"
+fi
+# npm for the browser tests' packages (web/test): Debian's, unless a Node.js that brings its own
+# npm is installed already.
+if ! command -v npm > /dev/null; then
+  sudo_cmd=()
+  [ "$(id -u)" -eq 0 ] || sudo_cmd=(sudo)
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends npm
 fi

@@ -19,14 +19,14 @@ namespace volcast::test {
 struct SessionSite {
   SessionHub hub;
   HandsSite site;
-  explicit SessionSite(SessionHubConfig config = {}, double fps = 15)
-      : hub(std::move(config)), site(fps, with_hub(hub)) {
+  /// `server`: further server settings (e.g. web_root); its session is set here.
+  explicit SessionSite(SessionHubConfig config = {}, double fps = 15, ServerConfig server = {})
+      : hub(std::move(config)), site(fps, with_hub(hub, std::move(server))) {
     hub.attach(&site.server);
     hub.create_session("OR");
   }
   ~SessionSite() { hub.attach(nullptr); }
-  static ServerConfig with_hub(SessionHub& hub) {
-    ServerConfig c;
+  static ServerConfig with_hub(SessionHub& hub, ServerConfig c = {}) {
     c.session = &hub;
     return c;
   }

@@ -66,8 +66,15 @@ struct ServeArgs {
   std::string room_from_site;               ///< "x,y,z,yaw_deg": the site in the room
   std::string site_name = "OR site";        ///< the OR site participant's display name
   int presence_timeout_ms = 3000;
+  // Browsers (ServerConfig::web_root).
+  bool web = false;      ///< serve the browser viewer and print its https:// link
+  std::string web_root;  ///< its folder; default: web_root_default()
 };
 int run_serve(const ServeArgs& args);
+/// The browser viewer's page as the build or the install put it: share/volcast/web beside the
+/// executable (build/PRESET/share/volcast/web), else ../share/volcast/web from it. Throws Error naming both when neither
+/// holds an index.html.
+std::filesystem::path web_root_default();
 
 struct ViewArgs {
   std::string connect;        ///< join link volcast://... or HOST:PORT

@@ -125,6 +125,11 @@ int main(int argc, char** argv) {
   s->add_option("--presence-timeout", serve.presence_timeout_ms,
                 "A participant silent this long (no pose, no heartbeat) is removed (ms)")
       ->capture_default_str();
+  s->add_flag("--web", serve.web,
+              "Also serve the browser viewer (any headset's or laptop's browser, WebXR) on the "
+              "same port, and print its https:// link");
+  s->add_option("--web-root", serve.web_root,
+                "The browser viewer's folder (default: the one built or installed with volcast)");
 
   ViewArgs view;
   auto* v =

@@ -112,6 +112,8 @@ void apply_security(const ServeArgs& a, ServerConfig& config) {
   config.handshake_timeout_ms = a.handshake_timeout_ms;
   config.max_pending = a.max_pending;
   config.max_pending_per_address = a.max_pending_per_address;
+  if (a.web || !a.web_root.empty())
+    config.web_root = a.web_root.empty() ? web_root_default() : std::filesystem::path(a.web_root);
 }
 
 // The host for the join link: --link-host, else the bind address, else (bound to all addresses)
@@ -252,6 +254,21 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
 
 }  // namespace
 
+std::filesystem::path web_root_default() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe_dir = fs::read_symlink("/proc/self/exe", ec).parent_path();
+  // The build tree (build/PRESET/volcast), then an install (bin/volcast).
+  const fs::path built = exe_dir / "share/volcast/web",
+                 installed = exe_dir / "../share/volcast/web";
+  for (const fs::path& p : {built, installed})
+    if (!ec && fs::exists(p / "index.html", ec)) return fs::weakly_canonical(p);
+  throw Error("the browser viewer is not built: no index.html in " + built.string() + " or " +
+              installed.string() +
+              " (it needs Debian's emscripten: bash scripts/install-deps.sh, then build again; or "
+              "pass --web-root)");
+}
+
 std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on) {
   if (!on) return nullptr;
   auto request = std::make_unique<CpuLatencyRequest>(0);
@@ -322,6 +339,9 @@ int run_serve(const ServeArgs& a) {
   if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
   std::printf("join link (give it only to the viewers of this session):\n  %s\n",
               server.join_link(link_host(a)).c_str());
+  if (!config.web_root.empty())
+    std::printf("browser link (any headset's or laptop's browser; accept the certificate):\n  %s\n",
+                server.web_link(link_host(a)).c_str());
   std::fflush(stdout);
   const auto start = std::chrono::steady_clock::now();
   auto last_report = start;

@@ -7,11 +7,14 @@
 #include <algorithm>
 #include <chrono>
 #include <list>
+#include <mutex>
+#include <thread>
 #include <unordered_map>
 #include <vector>
 
 #include "volcast/core/error.hpp"
 #include "volcast/net/server.hpp"
+#include "websocket.hpp"
 
 namespace volcast::detail {
 namespace {
@@ -27,6 +30,56 @@ struct Pending {
   std::vector<uint8_t> bytes;  // header, then header + payload
   size_t have = 0;
   bool tls_done = false;
+  WebSocketConnection* web = nullptr;  // `connection`, once it spoke HTTP instead of a Hello
+  bool web_open = false;               // its WebSocket is open: the Hello comes through it
+};
+
+// Writes answered HTTP requests (page assets) on their own threads, so that a peer that reads
+// slowly never holds the door; at most kMax at once (more are closed: the browser retries). The
+// door's end shuts down and joins the rest.
+class Responders {
+ public:
+  ~Responders() {
+    std::vector<std::shared_ptr<Job>> jobs;
+    {
+      std::lock_guard lock(mutex_);
+      jobs.swap(jobs_);
+    }
+    for (auto& j : jobs) j->connection->shutdown();
+    for (auto& j : jobs) j->thread.join();
+  }
+
+  void start(std::unique_ptr<Connection> c, std::string bytes) {
+    std::lock_guard lock(mutex_);
+    std::erase_if(jobs_, [](const std::shared_ptr<Job>& j) {
+      if (!j->done) return false;
+      j->thread.join();
+      return true;
+    });
+    if (jobs_.size() >= kMax) return;
+    auto job = std::make_shared<Job>();
+    job->connection = std::move(c);
+    job->thread = std::thread([j = job.get(), bytes = std::move(bytes)] {
+      try {
+        j->connection->write_all(
+            std::span(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()), 5000);
+      } catch (const Error&) {
+      }
+      j->connection->shutdown();  // the answer is complete: the peer sees the end now
+      j->done = true;
+    });
+    jobs_.push_back(std::move(job));
+  }
+
+ private:
+  static constexpr size_t kMax = 16;
+  struct Job {
+    std::unique_ptr<Connection> connection;
+    std::thread thread;
+    std::atomic<bool> done{false};
+  };
+  std::mutex mutex_;
+  std::vector<std::shared_ptr<Job>> jobs_;
 };
 
 // Wrong-token history of one address.
@@ -150,9 +203,33 @@ class Door {
         p.tls_done = true;
         p.events = POLLIN;
       }
+      if (p.web && !p.web_open) {
+        if (p.web->handshake_step() != 0) return;
+        if (p.web->http() == WebSocketConnection::Http::kAnswered) {
+          ++counters_.web_files;
+          std::string response = p.web->take_response();
+          responders_.start(p.web->release_inner(), std::move(response));
+          pending_.erase(it);
+          return;
+        }
+        p.web_open = true;  // the Hello follows inside the WebSocket
+        p.have = 0;
+        p.bytes.assign(protocol::kHeaderBytes, 0);
+      }
       while (true) {
         const size_t n = p.connection->read_available(std::span(p.bytes).subspan(p.have));
         p.have += n;
+        if (config_.web && !p.web && p.have >= 4 && !protocol::starts_with_magic(p.bytes)) {
+          // Not a Volcast viewer: a browser's HTTP request (for the page, or the WebSocket).
+          auto web = std::make_unique<WebSocketConnection>(
+              std::move(p.connection), std::span(p.bytes).first(p.have), config_.web,
+              protocol::kHeaderBytes + protocol::kMaxHelloBytes);
+          p.web = web.get();
+          p.connection = std::move(web);
+          p.have = 0;
+          step(it);
+          return;
+        }
         if (p.have == protocol::kHeaderBytes && p.bytes.size() == protocol::kHeaderBytes) {
           const protocol::Header h = protocol::parse_header(p.bytes, protocol::kMaxHelloBytes);
           if (h.type != protocol::MessageType::kHello)
@@ -216,6 +293,11 @@ class Door {
     }
     offences_.erase(p.address);
     ++counters_.admitted;
+    if (p.web) {
+      // Authenticated: its messages may now be as long as a session's avatar frames.
+      p.web->set_max_message_bytes(kMaxWebMessageBytes);
+      ++counters_.web_viewers;
+    }
     a.connection = std::move(p.connection);
     try {
       admit_(a);
@@ -261,6 +343,7 @@ class Door {
   std::list<Pending> pending_;
   std::unordered_map<std::string, Offences> offences_;
   FailureLog log_;
+  Responders responders_;
 };
 
 }  // namespace

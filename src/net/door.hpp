@@ -20,11 +20,19 @@
 #include "volcast/net/join.hpp"
 #include "volcast/net/protocol.hpp"
 #include "volcast/net/tls.hpp"
+#include "ws_engine.hpp"
 
 namespace volcast::detail {
 
+/// An authenticated browser's incoming WebSocket messages are bounded by this (bytes): a session
+/// avatar frame (session/messages.hpp, 8 MiB) with its headers. Before its Hello, a Hello's size.
+inline constexpr size_t kMaxWebMessageBytes = (8u << 20) + (64u << 10);
+
 struct DoorConfig {
   std::shared_ptr<const TlsContext> tls;  ///< null: plain TCP (loopback only, checked by Server)
+  /// Page assets for browsers (websocket.hpp): with them, a peer that speaks HTTP after TLS gets
+  /// its file, or a WebSocket (on /stream) that carries the protocol. Null: Volcast peers only.
+  std::shared_ptr<const WebAssets> web;
   JoinToken token{};
   int handshake_timeout_ms = 5000;
   int max_pending = 64;
@@ -38,6 +46,8 @@ struct DoorCounters {
   std::atomic<uint64_t> backed_off{0};   ///< refused during their address's back-off
   std::atomic<uint64_t> failed{0};       ///< TLS or protocol errors, handshake timeouts
   std::atomic<uint64_t> over_limit{0};   ///< closed at once: too many pending handshakes
+  std::atomic<uint64_t> web_files{0};    ///< page assets answered (browsers)
+  std::atomic<uint64_t> web_viewers{0};  ///< authenticated over WebSocket (also in `admitted`)
 };
 
 /// An authenticated viewer: its connection (handshake done) and its Hello.

@@ -22,6 +22,7 @@
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/pacing.hpp"
+#include "websocket.hpp"
 
 namespace volcast {
 namespace {
@@ -401,7 +402,7 @@ struct Server::Impl {
         continue;
       }
       size_t bytes = 0;
-      if (c.encrypted() && !frames->sealed.empty()) {
+      if (c.encrypted() && c.carries_raw() && !frames->sealed.empty()) {
         // Key, tags and digests inside this viewer's TLS session; the sealed body after them,
         // outside TLS: the same bytes for every viewer of the tier (protocol.hpp, 1.2).
         const auto prefix = protocol::sealed_frame_set_prefix(frames->seal_rest.size(), now_wall);
@@ -489,6 +490,9 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
     impl_->door.tls = TlsContext::server(config.identity.certificate_pem.empty()
                                              ? make_self_signed_identity("volcast server")
                                              : config.identity);
+  if (!config.web_root.empty())
+    impl_->door.web =
+        std::make_shared<const detail::WebAssets>(detail::load_web_assets(config.web_root));
   impl_->door.handshake_timeout_ms = config.handshake_timeout_ms;
   impl_->door.max_pending = config.max_pending;
   impl_->door.max_pending_per_address = config.max_pending_per_address;
@@ -529,9 +533,17 @@ std::string Server::join_link(const std::string& host) const {
   return format_join_link(link);
 }
 
+std::string Server::web_link(const std::string& host) const {
+  if (!impl_->door.web) return {};
+  const bool v6 = host.find(':') != std::string::npos;
+  return std::string(impl_->door.tls ? "https://" : "http://") + (v6 ? "[" : "") + host +
+         (v6 ? "]" : "") + ":" + std::to_string(port()) + "/#token=" + to_hex(token());
+}
+
 DoorReport Server::door() const {
   const auto& c = impl_->door_counters;
-  return {c.admitted, c.wrong_token, c.backed_off, c.failed, c.over_limit};
+  return {c.admitted,   c.wrong_token, c.backed_off, c.failed,
+          c.over_limit, c.web_files,   c.web_viewers};
 }
 
 void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {

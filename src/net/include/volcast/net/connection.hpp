@@ -1,6 +1,7 @@
 #pragma once
 // Connection: a byte stream to one peer with deadlines, the seam between the protocol and its
-// transports: plain TCP (here; loopback only outside tests) and TLS 1.3 (tls.hpp); WebSocket next.
+// transports: plain TCP (here; loopback only outside tests), TLS 1.3 (tls.hpp) and WebSocket over
+// TLS for browsers (src/net/websocket.hpp).
 // A silent or stalled peer can never hold a thread forever: every blocking call has a deadline and
 // shutdown() from any thread ends it. One thread at a time reads and writes a connection.
 #include <atomic>
@@ -39,6 +40,9 @@ class Connection {
   virtual void read_raw(std::span<uint8_t> data, int timeout_ms) = 0;
   /// True if the transport encrypts and authenticates what write_all writes (TLS).
   virtual bool encrypted() const = 0;
+  /// True if write_with_raw's `raw` bytes reach the peer as a plain byte stream (TCP, TLS); false
+  /// for a message transport (WebSocket), which the server never sends sealed frame sets.
+  virtual bool carries_raw() const { return true; }
 
   struct Ready {
     bool readable = false;  ///< bytes (or the peer's close) can be read without blocking

@@ -1,7 +1,8 @@
 #pragma once
 // Volcast stream protocol, version 5: versioned messages on channels, over one connection per
-// viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; WebSocket will carry the same
-// bytes). Little-endian throughout.
+// viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; for browsers, a WebSocket on
+// /stream over the same TLS port carries the same bytes in binary messages, which a reader treats
+// as one byte stream, and is never sent SealedFrameSet 1.2). Little-endian throughout.
 //
 // Every message: a 12-byte header
 //   magic "VCST" (4 bytes) | protocol version u16 (= 5) | channel u8 | type u8 | payload length u32
@@ -164,6 +165,12 @@ void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderB
 /// the control and frames channels) a known type, and a payload no larger than `max_payload`.
 /// Throws Error naming the first bad field.
 Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload = kMaxPayloadBytes);
+/// True if `bytes` begin with the magic "VCST" (at least 4 bytes): a Volcast peer, not a browser's
+/// HTTP request.
+inline bool starts_with_magic(std::span<const uint8_t> bytes) {
+  return bytes.size() >= 4 && bytes[0] == 'V' && bytes[1] == 'C' && bytes[2] == 'S' &&
+         bytes[3] == 'T';
+}
 
 struct Hello {
   std::array<uint8_t, kTokenBytes> token{};  ///< the session's join token (join.hpp)

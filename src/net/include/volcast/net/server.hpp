@@ -28,6 +28,7 @@
 // never one captured more than `latency_budget_ms` ago, so a slow viewer or path skips whole frame
 // sets instead of building latency, and never slows the publisher or another viewer.
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <span>
@@ -87,6 +88,11 @@ struct ServerConfig {
   int seal_from_viewers = 3;
   TlsIdentity identity;  ///< certificate and key; empty: a new self-signed one for this server
   std::optional<JoinToken> token;  ///< the session's join token; empty: a random one
+  /// The browser viewer's page (index.html, its scripts and the WebAssembly decoder, as the build
+  /// puts them in build/PRESET/web), served on the same port: a peer that speaks HTTP after TLS
+  /// gets the page, and a WebSocket on /stream carries this protocol unchanged (web_link()).
+  /// Empty: Volcast peers only. Throws Error at start if it holds no index.html.
+  std::filesystem::path web_root;
 };
 
 /// Wrong join tokens an address may send before it is backed off (1 s, doubling up to 60 s).
@@ -99,6 +105,8 @@ struct DoorReport {
   uint64_t backed_off = 0;   ///< refused during their address's back-off after wrong tokens
   uint64_t failed = 0;       ///< TLS or protocol errors and handshake timeouts
   uint64_t over_limit = 0;   ///< closed at once: too many pending handshakes
+  uint64_t web_files = 0;    ///< page files answered to browsers (ServerConfig::web_root)
+  uint64_t web_viewers = 0;  ///< viewers admitted over WebSocket (counted in `admitted` too)
 };
 
 /// What the server knows about one viewer (for logs, tests and the benchmark).
@@ -149,6 +157,10 @@ class Server {
   std::string fingerprint() const;
   /// The join link for viewers reaching this server at `host` (join.hpp).
   std::string join_link(const std::string& host) const;
+  /// The browser viewer's link for `host`: https://HOST:PORT/#token=TOKEN (http:// when
+  /// insecure). The token is in the fragment, which a browser never sends: the page reads it and
+  /// sends it in its Hello. Empty without ServerConfig::web_root.
+  std::string web_link(const std::string& host) const;
   /// What came to the door so far.
   DoorReport door() const;
   /// Makes `frames` the newest frame set (one frame per camera, in camera order). Never blocks on

@@ -1,0 +1,375 @@
+// The browser viewer's page: opened from the link `volcast serve --web` prints
+// (https://HOST:PORT/#token=...), it streams the site over a WebSocket (worker.js), draws it with
+// WebGL2 (renderer.js) in the virtual OR, and joins the session as a participant (session.js):
+// on a desktop with the mouse (drag to look, W/A/S/D to walk, double-click the floor to teleport),
+// in a headset through WebXR immersive-vr (head and controllers published; the trigger teleports
+// where the controller points on the floor).
+//
+// Fragment parameters: token (required, 32 hex digits), name, session (default OR), depth
+// (default volcast; raw, rvl, trvl and volcast* decode here), color (default jpeg; none),
+// quality, check=1 (hash every decoded depth image, for tests), room=0 (the site's points alone,
+// without the room and the others).
+// window.volcast holds what the page measured, for people (the overlay) and tests.
+import * as M from './math.js';
+import {Renderer, poseBox, roomBox} from './renderer.js';
+import {Session} from './session.js';
+
+const params = new URLSearchParams(location.hash.slice(1));
+const EYE_HEIGHT = 1.6;
+// The room as src/session/room.cpp's default_operating_room() lays it out (metres, room frame).
+const ROOM = {width: 7, depth: 6, height: 3, table: {centre: [0, 0.45, 0], half: [1.0, 0.45, 0.3]},
+              lamp: [0, 2.2, 0]};
+
+const state = {
+  phase: 'connecting', error: '', cameras: 0, framesReceived: 0, framesDrawn: 0,
+  firstFrameMs: null, decodeMs: [], depthDecodeMs: [], hashes: [], latencyMs: [],
+  session: null, xr: {frames: 0, views: 0, active: false}, tier: '',
+  avatarFrames: {}, avatarErrors: {},  // by participant id: camera avatar frames decoded, errors
+};
+window.volcast = state;
+// Tests: time the WebAssembly decoder on the newest frame (worker.js bench); the result lands in
+// window.volcast.bench.
+window.volcastBench = (runs) => worker.postMessage({type: 'bench', runs});
+
+const canvas = document.getElementById('view');
+const overlay = document.getElementById('overlay');
+const gl = canvas.getContext('webgl2', {antialias: false, xrCompatible: true,
+                                         preserveDrawingBuffer: true});
+if (!gl) fail('this browser has no WebGL2');
+const renderer = gl ? new Renderer(gl) : null;
+let worker = null;
+let clockOffsetUs = 0;
+let latest = null;  // the newest decoded frame set not yet uploaded
+const latestAvatars = new Map();  // participant id -> its newest decoded avatar frame
+const AVATAR_RADIUS_M = 0.6;  // the others' camera avatars: their points this near their head
+const nowServerUs = () => (performance.timeOrigin + performance.now()) * 1000 + clockOffsetUs;
+
+function fail(what) {
+  state.error = what;
+  state.phase = 'error';
+  overlay.textContent = 'Error: ' + what;
+  overlay.className = 'error';
+}
+
+const session = new Session((bytes) => worker.postMessage({type: 'send', bytes}, [bytes]),
+                            nowServerUs);
+state.session = {joined: false, id: 0, others: [], posesSent: 0, roundTripsMs: []};
+session.onchange = () => {
+  state.session.joined = !!session.joined;
+  state.session.id = session.joined ? session.joined.id : 0;
+  state.session.error = session.error;
+  state.session.others = [...session.others.values()].map((p) => ({
+    id: p.id, name: p.name, role: p.role, poses: p.poses, hasBody: !!p.body}));
+  state.session.teleports = session.teleports.length;
+};
+
+// Desktop navigation inside the play area: position offset, yaw, pitch.
+const nav = {x: 0, z: 0, yaw: 0, pitch: -0.1, keys: new Set(), dragging: false};
+
+function roomFromPlayarea() {
+  return session.joined ? M.spotMatrix(session.joined.spot) : M.translation(0, 0, 2);
+}
+
+function roomFromSite() {
+  if (!session.joined) return M.identity();
+  const r = session.joined.roomFromSite;
+  return M.multiply(M.translation(...r.t), M.rotationY(r.yaw));
+}
+
+function desktopRoomFromHead() {
+  return M.multiply(roomFromPlayarea(), M.multiply(M.translation(nav.x, EYE_HEIGHT, nav.z),
+                    M.multiply(M.rotationY(nav.yaw), M.rotationX(nav.pitch))));
+}
+
+function participantColor(id) {
+  const hues = [[0.9, 0.4, 0.3], [0.3, 0.6, 0.9], [0.4, 0.8, 0.4], [0.9, 0.75, 0.3],
+                [0.7, 0.45, 0.9], [0.3, 0.8, 0.8]];
+  return [...hues[id % hues.length], 1];
+}
+
+function sceneBoxes() {
+  if (params.get('room') === '0') return [];
+  const boxes = [
+    roomBox([0, -0.01, 0], [ROOM.width / 2, 0.01, ROOM.depth / 2], [0.55, 0.58, 0.6, 1], true),
+    roomBox(ROOM.table.centre, ROOM.table.half, [0.35, 0.45, 0.5, 1]),
+    roomBox(ROOM.lamp, [0.25, 0.05, 0.25], [0.9, 0.9, 0.8, 1]),
+    roomBox([0, ROOM.height / 2, -ROOM.depth / 2], [ROOM.width / 2, ROOM.height / 2, 0.01],
+            [0.42, 0.5, 0.52, 1]),
+    roomBox([0, ROOM.height / 2, ROOM.depth / 2], [ROOM.width / 2, ROOM.height / 2, 0.01],
+            [0.42, 0.5, 0.52, 1]),
+    roomBox([-ROOM.width / 2, ROOM.height / 2, 0], [0.01, ROOM.height / 2, ROOM.depth / 2],
+            [0.45, 0.52, 0.55, 1]),
+    roomBox([ROOM.width / 2, ROOM.height / 2, 0], [0.01, ROOM.height / 2, ROOM.depth / 2],
+            [0.45, 0.52, 0.55, 1]),
+  ];
+  for (const p of session.others.values()) {
+    if (!p.body || p.role === 1) continue;
+    const avatar = renderer.avatars.get(p.id);
+    if (avatar && avatar.hasDepth) continue;  // seen as its camera's points
+    const c = participantColor(p.id);
+    boxes.push(poseBox(p.body.head, [0, 0, 0], [0.09, 0.11, 0.1], c));
+    boxes.push(poseBox(p.body.head, [0, 0, -0.1], [0.08, 0.04, 0.02], [0.1, 0.1, 0.1, 1]));
+    boxes.push(poseBox(p.body.head, [0, -0.45, 0.05], [0.18, 0.3, 0.1], c));
+    if (p.body.handsTracked)
+      for (const h of [p.body.left, p.body.right]) boxes.push(poseBox(h, [0, 0, 0], [0.04, 0.02, 0.08], c));
+  }
+  return boxes;
+}
+
+function uploadLatest() {
+  for (const [id, frame] of latestAvatars) renderer.uploadAvatar(id, frame);
+  latestAvatars.clear();
+  if (!latest) return;
+  renderer.upload(latest);
+  latest = null;
+}
+
+// The others' camera avatars: each camera where its owner's play area stands, its points kept
+// within AVATAR_RADIUS_M of the owner's head (as the native remote_avatar_filter).
+function avatarDraws() {
+  const out = [];
+  for (const [id, c] of renderer.avatars) {
+    const p = session.others.get(id);
+    if (!p || !p.body) continue;
+    out.push({id, roomFromCamera: M.multiply(M.spotMatrix(p.spot), c.siteFromCamera),
+              keep: [...p.body.head.position, AVATAR_RADIUS_M]});
+  }
+  return out;
+}
+
+function scene() {
+  return {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
+          lamp: ROOM.lamp};
+}
+
+function noteDrawn() {
+  if (renderer.cameras.some((c) => c.hasDepth)) {
+    ++state.framesDrawn;
+    if (state.firstFrameMs === null) state.firstFrameMs = performance.now();
+  }
+}
+
+// Desktop frames; the headset's come from its own loop (enterXr).
+function desktopFrame() {
+  if (state.xr.active) return;
+  requestAnimationFrame(desktopFrame);
+  const step = 0.03;
+  const f = [Math.sin(nav.yaw), Math.cos(nav.yaw)];
+  if (nav.keys.has('w')) { nav.x -= f[0] * step; nav.z -= f[1] * step; }
+  if (nav.keys.has('s')) { nav.x += f[0] * step; nav.z += f[1] * step; }
+  if (nav.keys.has('a')) { nav.x -= f[1] * step; nav.z += f[0] * step; }
+  if (nav.keys.has('d')) { nav.x += f[1] * step; nav.z -= f[0] * step; }
+  const w = canvas.clientWidth, h = canvas.clientHeight;
+  if (canvas.width !== w || canvas.height !== h) {
+    canvas.width = w;
+    canvas.height = h;
+  }
+  uploadLatest();
+  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  gl.clearColor(0.08, 0.09, 0.11, 1);
+  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+  const roomFromHead = desktopRoomFromHead();
+  const clipFromRoom = M.multiply(M.perspective(70, w / Math.max(h, 1), 0.05, 50),
+                                  M.invertRigid(roomFromHead));
+  renderer.draw(clipFromRoom, [0, 0, w, h], scene());
+  noteDrawn();
+  const head = M.toPose(roomFromHead);
+  session.publish({handsTracked: false, head, left: head, right: head});
+  state.session.posesSent = session.posesSent;
+  state.session.roundTripsMs = session.roundTripsMs;
+  updateOverlay();
+}
+
+let overlayAt = 0;
+function updateOverlay() {
+  const now = performance.now();
+  if (now - overlayAt < 500 || state.phase === 'error') return;
+  overlayAt = now;
+  const median = (a) => (a.length ? [...a].sort((x, y) => x - y)[a.length >> 1] : 0);
+  const names = [...session.others.values()].map((p) => p.name).join(', ') || 'nobody yet';
+  overlay.textContent =
+      `${state.cameras} camera(s), tier ${state.tier} · ${state.framesReceived} frame sets · ` +
+      `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
+      (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
+      (session.error ? ` · ${session.error}` : '');
+}
+
+function floorHit(roomFromRay) {
+  // The ray's origin and its -z direction, in the room; where it meets y = 0.
+  const o = [roomFromRay[12], roomFromRay[13], roomFromRay[14]];
+  const d = [-roomFromRay[8], -roomFromRay[9], -roomFromRay[10]];
+  if (d[1] > -1e-3) return null;
+  const t = -o[1] / d[1];
+  return [o[0] + t * d[0], o[2] + t * d[2]];
+}
+
+function teleportTo(hit, yaw) {
+  if (!hit || !session.joined) return;
+  session.teleport({x: hit[0], z: hit[1], yaw});
+  nav.x = nav.z = 0;
+}
+
+async function enterXr() {
+  const xr = await navigator.xr.requestSession('immersive-vr', {optionalFeatures: ['local-floor']});
+  await gl.makeXRCompatible();
+  const layer = new XRWebGLLayer(xr, gl);
+  xr.updateRenderState({baseLayer: layer});
+  let space;
+  try {
+    space = await xr.requestReferenceSpace('local-floor');
+  } catch {
+    space = await xr.requestReferenceSpace('local');
+  }
+  state.xr.active = true;
+  xr.addEventListener('select', (ev) => {
+    if (!ev.inputSource.targetRaySpace) return;
+    const p = ev.frame.getPose(ev.inputSource.targetRaySpace, space);
+    if (!p) return;
+    const roomFromRay = M.multiply(roomFromPlayarea(), new Float32Array(p.transform.matrix));
+    teleportTo(floorHit(roomFromRay), session.joined ? session.joined.spot.yaw : 0);
+  });
+  xr.addEventListener('end', () => {
+    state.xr.active = false;
+    requestAnimationFrame(desktopFrame);
+  });
+  const onFrame = (t, frame) => {
+    xr.requestAnimationFrame(onFrame);
+    const pose = frame.getViewerPose(space);
+    if (!pose) return;
+    uploadLatest();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
+    gl.clearColor(0.08, 0.09, 0.11, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    const playarea = roomFromPlayarea();
+    const s = scene();
+    for (const view of pose.views) {
+      const vp = layer.getViewport(view);
+      const roomFromView = M.multiply(playarea, new Float32Array(view.transform.matrix));
+      const clipFromRoom = M.multiply(new Float32Array(view.projectionMatrix),
+                                      M.invertRigid(roomFromView));
+      renderer.draw(clipFromRoom, [vp.x, vp.y, vp.width, vp.height], s);
+    }
+    ++state.xr.frames;
+    state.xr.views = pose.views.length;
+    noteDrawn();
+    const head = M.toPose(M.multiply(playarea, new Float32Array(pose.transform.matrix)));
+    const hands = {left: head, right: head};
+    let tracked = 0;
+    for (const source of frame.session.inputSources) {
+      if (!source.gripSpace || (source.handedness !== 'left' && source.handedness !== 'right'))
+        continue;
+      const g = frame.getPose(source.gripSpace, space);
+      if (!g) continue;
+      hands[source.handedness] = M.toPose(M.multiply(playarea, new Float32Array(g.transform.matrix)));
+      ++tracked;
+    }
+    session.publish({handsTracked: tracked === 2, head, left: hands.left, right: hands.right});
+    state.session.posesSent = session.posesSent;
+    state.session.roundTripsMs = session.roundTripsMs;
+  };
+  xr.requestAnimationFrame(onFrame);
+}
+
+function setupInput() {
+  canvas.addEventListener('mousedown', () => { nav.dragging = true; });
+  window.addEventListener('mouseup', () => { nav.dragging = false; });
+  window.addEventListener('mousemove', (e) => {
+    if (!nav.dragging) return;
+    nav.yaw -= e.movementX * 0.004;
+    nav.pitch = Math.max(-1.4, Math.min(1.4, nav.pitch - e.movementY * 0.004));
+  });
+  window.addEventListener('keydown', (e) => nav.keys.add(e.key.toLowerCase()));
+  window.addEventListener('keyup', (e) => nav.keys.delete(e.key.toLowerCase()));
+  canvas.addEventListener('dblclick', (e) => {
+    // The ray through the clicked pixel, from the eye.
+    const w = canvas.clientWidth, h = canvas.clientHeight;
+    const t = Math.tan((70 * Math.PI) / 360);
+    const dir = [((2 * e.offsetX) / w - 1) * t * (w / h), (1 - (2 * e.offsetY) / h) * t, -1];
+    const roomFromHead = desktopRoomFromHead();
+    const d = [0, 1, 2].map((r) => roomFromHead[r] * dir[0] + roomFromHead[4 + r] * dir[1] +
+                                   roomFromHead[8 + r] * dir[2]);
+    if (d[1] >= -1e-3) return;
+    const k = -roomFromHead[13] / d[1];
+    const spotYaw = session.joined ? session.joined.spot.yaw + nav.yaw : nav.yaw;
+    teleportTo([roomFromHead[12] + k * d[0], roomFromHead[14] + k * d[2]], spotYaw);
+    nav.yaw = 0;
+  });
+  const button = document.getElementById('enter-vr');
+  if (navigator.xr)
+    navigator.xr.isSessionSupported('immersive-vr').then((ok) => {
+      if (!ok) return;
+      button.hidden = false;
+      button.onclick = () => enterXr().catch((e) => fail('cannot enter VR: ' + e.message));
+    });
+}
+
+function start() {
+  const token = params.get('token') || '';
+  if (!/^[0-9a-fA-F]{32}$/.test(token)) {
+    fail('the link has no join token: open the browser link the server printed');
+    return;
+  }
+  const depth = params.get('depth') || 'volcast';
+  const color = params.get('color') || 'jpeg';
+  const quality = Number(params.get('quality') || 0);
+  state.tier = `${depth}/${color}`;
+  worker = new Worker('worker.js');
+  worker.onerror = (e) => fail(`the stream worker failed: ${e.message || 'could not load'}`);
+  worker.onmessage = (e) => {
+    const m = e.data;
+    if (m.type === 'welcome') {
+      clockOffsetUs = m.clockOffsetUs;
+      state.cameras = m.cameras.length;
+      state.phase = 'streaming';
+      renderer.setCameras(m.cameras.map((c) => ({...c, siteFromCamera: M.rigid(c.rotation, c.translation)})));
+      session.list();
+      session.join(params.get('session') || 'OR',
+                   params.get('name') || `Browser ${Math.floor(Math.random() * 9000 + 1000)}`);
+    } else if (m.type === 'frames') {
+      ++state.framesReceived;
+      state.decodeMs.push(m.decodeMs);
+      state.depthDecodeMs.push(m.depthDecodeMs);
+      state.latencyMs.push((nowServerUs() - m.captureUs) / 1000);
+      for (const a of [state.decodeMs, state.depthDecodeMs, state.latencyMs])
+        if (a.length > 2000) a.shift();
+      if (params.get('check') === '1') {
+        state.hashes.push({sequence: m.sequence, hashes: m.cameras.map((c) => c.hash)});
+        if (state.hashes.length > 2000) state.hashes.shift();
+      }
+      if (latest) latest.cameras.forEach((c) => c.color && c.color.close());
+      latest = m;
+    } else if (m.type === 'avatar-camera') {
+      renderer.setAvatarCamera(m.id, {...m.camera, siteFromCamera: M.rigid(m.camera.rotation,
+                                                                           m.camera.translation)});
+    } else if (m.type === 'avatar') {
+      const old = latestAvatars.get(m.id);
+      if (old && old.color) old.color.close();
+      latestAvatars.set(m.id, m);
+      state.avatarFrames[m.id] = (state.avatarFrames[m.id] || 0) + 1;
+    } else if (m.type === 'avatar-error') {
+      state.avatarErrors[m.id] = m.what;
+    } else if (m.type === 'bench') {
+      state.bench = m.result;
+    } else if (m.type === 'session') {
+      try {
+        session.receive(m.bytes);
+      } catch (err) {
+        fail(err.message);
+      }
+      for (const id of renderer.avatars.keys())
+        if (!session.others.has(id)) renderer.removeAvatar(id);
+    } else if (m.type === 'error') {
+      fail(m.what);
+    } else if (m.type === 'closed') {
+      if (state.phase !== 'error') fail('the server closed the stream: ' + m.why);
+    }
+  };
+  const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
+  worker.postMessage({type: 'start', url: `${scheme}//${location.host}/stream`, token, depth,
+                      color, quality, check: params.get('check') === '1'});
+  setInterval(() => session.joined && session.heartbeat(), 1000);
+  setupInput();
+  requestAnimationFrame(desktopFrame);
+}
+
+if (renderer) start();

@@ -1,0 +1,293 @@
+// WebGL2 renderer of the browser viewer: the site's cameras as splats (each depth pixel one
+// point, unprojected in the vertex shader through the camera's ray table, as the native
+// CameraRenderer does: src/render/camera_renderer.cpp), and the room's furniture and the other
+// participants as lit boxes (as room_scene.hpp draws them natively).
+import {multiply, fromPose, scale, translation} from './math.js';
+
+const SPLAT_VS = `#version 300 es
+precision highp float;
+precision highp int;
+uniform highp usampler2D depth_mm;
+uniform highp sampler2D rays;
+uniform mat4 clip_from_camera;
+uniform mat4 room_from_camera;
+uniform vec4 keep;  // a camera avatar's points near its sender's head: centre (room), radius m
+uniform ivec2 size;
+uniform float splat_px;  // pixels per metre at 1 m of view depth, times the splat's footprint
+uniform float inv_fx;
+out vec2 uv;
+void main() {
+  ivec2 p = ivec2(gl_VertexID % size.x, gl_VertexID / size.x);
+  uint d = texelFetch(depth_mm, p, 0).r;
+  vec2 r = texelFetch(rays, p, 0).rg;
+  if (d == 0u || isnan(r.x)) {
+    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: dropped
+    gl_PointSize = 1.0;
+    return;
+  }
+  float z = float(d) * 0.001;
+  vec4 p_camera = vec4(r * z, z, 1.0);
+  if (keep.w > 0.0 && distance((room_from_camera * p_camera).xyz, keep.xyz) > keep.w) {
+    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+    gl_PointSize = 1.0;
+    return;
+  }
+  gl_Position = clip_from_camera * p_camera;
+  gl_PointSize = clamp(splat_px * z * inv_fx / gl_Position.w, 1.0, 48.0);
+  uv = (vec2(p) + 0.5) / vec2(size);
+}`;
+
+const SPLAT_FS = `#version 300 es
+precision mediump float;
+uniform sampler2D color;
+uniform bool has_color;
+in vec2 uv;
+out vec4 out_color;
+void main() {
+  vec2 c = gl_PointCoord * 2.0 - 1.0;
+  if (dot(c, c) > 1.0) discard;
+  out_color = has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
+}`;
+
+const BOX_VS = `#version 300 es
+precision highp float;
+layout(location = 0) in vec3 position;
+layout(location = 1) in vec3 normal;
+uniform mat4 clip_from_model;
+uniform mat4 room_from_model;
+out vec3 n_room;
+out vec3 p_room;
+void main() {
+  gl_Position = clip_from_model * vec4(position, 1.0);
+  n_room = mat3(room_from_model) * normal;
+  p_room = (room_from_model * vec4(position, 1.0)).xyz;
+}`;
+
+const BOX_FS = `#version 300 es
+precision mediump float;
+uniform vec4 base;
+uniform vec3 lamp;
+uniform bool grid;
+in vec3 n_room;
+in vec3 p_room;
+out vec4 out_color;
+void main() {
+  vec3 n = normalize(n_room);
+  vec3 l = normalize(lamp - p_room);
+  float light = 0.45 + 0.55 * max(dot(n, l), 0.0);
+  vec3 c = base.rgb * light;
+  if (grid) {
+    vec2 f = abs(fract(p_room.xz) - 0.5);
+    if (max(f.x, f.y) > 0.49) c *= 0.8;
+  }
+  out_color = vec4(c, base.a);
+}`;
+
+function compile(gl, vs, fs) {
+  const program = gl.createProgram();
+  for (const [type, src] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
+    const s = gl.createShader(type);
+    gl.shaderSource(s, src);
+    gl.compileShader(s);
+    if (!gl.getShaderParameter(s, gl.COMPILE_STATUS))
+      throw new Error('shader: ' + gl.getShaderInfoLog(s));
+    gl.attachShader(program, s);
+  }
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS))
+    throw new Error('program: ' + gl.getProgramInfoLog(program));
+  const uniforms = {};
+  const n = gl.getProgramParameter(program, gl.ACTIVE_UNIFORMS);
+  for (let i = 0; i < n; ++i) {
+    const name = gl.getActiveUniform(program, i).name;
+    uniforms[name] = gl.getUniformLocation(program, name);
+  }
+  return {program, uniforms};
+}
+
+// A unit cube (-1..1) with face normals: 36 vertices of position + normal.
+function cube() {
+  const faces = [
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]], [[-1, 0, 0], [0, 0, 1], [0, 1, 0]],
+    [[0, 1, 0], [0, 0, 1], [1, 0, 0]], [[0, -1, 0], [1, 0, 0], [0, 0, 1]],
+    [[0, 0, 1], [1, 0, 0], [0, 1, 0]], [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+  ];
+  const out = [];
+  for (const [n, u, v] of faces) {
+    const corner = (a, b) => n.map((x, i) => x + a * u[i] + b * v[i]);
+    for (const [a, b] of [[-1, -1], [1, -1], [1, 1], [-1, -1], [1, 1], [-1, 1]])
+      out.push(...corner(a, b), ...n);
+  }
+  return new Float32Array(out);
+}
+
+export class Renderer {
+  constructor(gl) {
+    this.gl = gl;
+    this.splat = compile(gl, SPLAT_VS, SPLAT_FS);
+    this.box = compile(gl, BOX_VS, BOX_FS);
+    this.cameras = [];
+    this.avatars = new Map();  // participant id -> its camera avatar
+    this.empty = gl.createVertexArray();
+    this.cubeVao = gl.createVertexArray();
+    gl.bindVertexArray(this.cubeVao);
+    const buffer = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+    gl.bufferData(gl.ARRAY_BUFFER, cube(), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(0);
+    gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
+    gl.enableVertexAttribArray(1);
+    gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+    gl.bindVertexArray(null);
+  }
+
+  // `cameras`: the Welcome's (site_from_camera = world_from_camera, ray tables).
+  setCameras(cameras) {
+    for (const c of this.cameras) this.deleteCamera(c);
+    this.cameras = cameras.map((cam) => this.makeCamera(cam));
+  }
+
+  // Another participant's camera avatar (worker.js 'avatar-camera'), replacing its last one.
+  setAvatarCamera(id, cam) {
+    if (this.avatars.has(id)) this.deleteCamera(this.avatars.get(id));
+    this.avatars.set(id, this.makeCamera(cam));
+  }
+
+  removeAvatar(id) {
+    if (!this.avatars.has(id)) return;
+    this.deleteCamera(this.avatars.get(id));
+    this.avatars.delete(id);
+  }
+
+  uploadAvatar(id, frame) {
+    const c = this.avatars.get(id);
+    if (c) this.uploadCamera(c, frame);
+    else if (frame.color) frame.color.close();
+  }
+
+  deleteCamera(c) {
+    const gl = this.gl;
+    gl.deleteTexture(c.depth);
+    gl.deleteTexture(c.rays);
+    gl.deleteTexture(c.color);
+  }
+
+  makeCamera(cam) {
+    const gl = this.gl;
+    const texture = (internal, format, type, data) => {
+      const t = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, t);
+      gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, cam.width, cam.height, 0, format, type, data);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+      return t;
+    };
+    return {
+      width: cam.width,
+      height: cam.height,
+      fx: cam.intrinsics[0],
+      siteFromCamera: cam.siteFromCamera,
+      depth: texture(gl.R16UI, gl.RED_INTEGER, gl.UNSIGNED_SHORT,
+                     new Uint16Array(cam.width * cam.height)),
+      rays: texture(gl.RG32F, gl.RG, gl.FLOAT, cam.rays),
+      color: texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, null),
+      hasDepth: false,
+      hasColor: false,
+    };
+  }
+
+  // One camera's decoded depth (Uint16Array) and color (ImageBitmap, closed here) or nulls.
+  uploadCamera(c, f) {
+    const gl = this.gl;
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    if (f.depth) {
+      gl.bindTexture(gl.TEXTURE_2D, c.depth);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, c.width, c.height, gl.RED_INTEGER,
+                       gl.UNSIGNED_SHORT, f.depth);
+      c.hasDepth = true;
+    }
+    if (f.color) {
+      gl.bindTexture(gl.TEXTURE_2D, c.color);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, f.color);
+      f.color.close();
+      c.hasColor = true;
+    } else {
+      c.hasColor = false;
+    }
+  }
+
+  // One decoded frame set of the site (worker.js 'frames').
+  upload(frames) {
+    frames.cameras.forEach((f, i) => {
+      if (this.cameras[i]) this.uploadCamera(this.cameras[i], f);
+      else if (f.color) f.color.close();
+    });
+  }
+
+  // Draws the scene into the bound framebuffer's `viewport` [x, y, w, h] through
+  // `clipFromRoom`. `scene`: {roomFromSite, avatars: [{id, roomFromCamera, keep: [x, y, z,
+  // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale}.
+  draw(clipFromRoom, viewport, scene) {
+    const gl = this.gl;
+    gl.viewport(...viewport);
+    gl.enable(gl.DEPTH_TEST);
+    const pxPerM = clipFromRoom[5] * viewport[3] * 0.5 || viewport[3];
+    const s = this.splat;
+    gl.useProgram(s.program);
+    gl.bindVertexArray(this.empty);
+    gl.uniform1i(s.uniforms.depth_mm, 0);
+    gl.uniform1i(s.uniforms.rays, 1);
+    gl.uniform1i(s.uniforms.color, 2);
+    const draws = this.cameras.map((c) => ({c, roomFromCamera: multiply(scene.roomFromSite, c.siteFromCamera),
+                                            keep: [0, 0, 0, 0]}));
+    for (const a of scene.avatars || []) {
+      const c = this.avatars.get(a.id);
+      if (c) draws.push({c, roomFromCamera: a.roomFromCamera, keep: a.keep});
+    }
+    for (const {c, roomFromCamera, keep} of draws) {
+      if (!c.hasDepth) continue;
+      gl.uniformMatrix4fv(s.uniforms.clip_from_camera, false, multiply(clipFromRoom, roomFromCamera));
+      gl.uniformMatrix4fv(s.uniforms.room_from_camera, false, roomFromCamera);
+      gl.uniform4fv(s.uniforms.keep, keep);
+      gl.uniform2i(s.uniforms.size, c.width, c.height);
+      // The splat covers its pixel's footprint (z / fx metres) with some overlap.
+      gl.uniform1f(s.uniforms.splat_px, (scene.splatScale || 1.5) * Math.abs(pxPerM));
+      gl.uniform1f(s.uniforms.inv_fx, 1 / c.fx);
+      gl.uniform1i(s.uniforms.has_color, c.hasColor ? 1 : 0);
+      gl.activeTexture(gl.TEXTURE0);
+      gl.bindTexture(gl.TEXTURE_2D, c.depth);
+      gl.activeTexture(gl.TEXTURE1);
+      gl.bindTexture(gl.TEXTURE_2D, c.rays);
+      gl.activeTexture(gl.TEXTURE2);
+      gl.bindTexture(gl.TEXTURE_2D, c.color);
+      gl.drawArrays(gl.POINTS, 0, c.width * c.height);
+    }
+    const b = this.box;
+    gl.useProgram(b.program);
+    gl.bindVertexArray(this.cubeVao);
+    gl.uniform3fv(b.uniforms.lamp, scene.lamp || [0, 2.2, 0]);
+    for (const box of scene.boxes || []) {
+      gl.uniformMatrix4fv(b.uniforms.clip_from_model, false, multiply(clipFromRoom, box.roomFromBox));
+      gl.uniformMatrix4fv(b.uniforms.room_from_model, false, box.roomFromBox);
+      gl.uniform4fv(b.uniforms.base, box.color);
+      gl.uniform1i(b.uniforms.grid, box.grid ? 1 : 0);
+      gl.drawArrays(gl.TRIANGLES, 0, 36);
+    }
+    gl.bindVertexArray(null);
+  }
+}
+
+// An axis-aligned box: centre and half sizes (metres), room frame.
+export function roomBox(centre, half, color, grid = false) {
+  return {roomFromBox: multiply(translation(...centre), scale(...half)), color, grid};
+}
+
+// A box fixed to a pose (room_from_frame): offset and half sizes in the frame.
+export function poseBox(pose, offset, half, color) {
+  const roomFromFrame = fromPose(pose.position, pose.orientation);
+  return {roomFromBox: multiply(roomFromFrame, multiply(translation(...offset), scale(...half))),
+          color, grid: false};
+}

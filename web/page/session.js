@@ -1,0 +1,173 @@
+// The browser participant's side of the session channel (protocol.hpp channel 2; every message,
+// field and limit in src/session/include/volcast/session/messages.hpp): the lobby, joining,
+// publishing the head and hands, answering pose echoes, teleports, and the others' poses. The
+// others' camera avatars (0x49, 0x4a) never come here: worker.js decodes them.
+const MAGIC = 0x54534356;
+const VERSION = 5;
+
+class Writer {
+  constructor() { this.parts = []; }
+  u8(x) { this.parts.push(new Uint8Array([x])); return this; }
+  u32(x) { const a = new Uint8Array(4); new DataView(a.buffer).setUint32(0, x, true); this.parts.push(a); return this; }
+  i64(x) { const a = new Uint8Array(8); new DataView(a.buffer).setBigInt64(0, BigInt(Math.round(x)), true); this.parts.push(a); return this; }
+  f32(x) { const a = new Uint8Array(4); new DataView(a.buffer).setFloat32(0, x, true); this.parts.push(a); return this; }
+  string(s) {
+    const b = new TextEncoder().encode(s);
+    const a = new Uint8Array(2);
+    new DataView(a.buffer).setUint16(0, b.length, true);
+    this.parts.push(a, b);
+    return this;
+  }
+  pose(p) { p.position.forEach((x) => this.f32(x)); p.orientation.forEach((x) => this.f32(x)); return this; }
+  spot(s) { return this.f32(s.x).f32(s.z).f32(s.yaw); }
+  message(type) {
+    const length = this.parts.reduce((n, p) => n + p.length, 0);
+    const out = new Uint8Array(12 + length);
+    const v = new DataView(out.buffer);
+    v.setUint32(0, MAGIC, true);
+    v.setUint16(4, VERSION, true);
+    v.setUint8(6, 2);
+    v.setUint8(7, type);
+    v.setUint32(8, length, true);
+    let at = 12;
+    for (const p of this.parts) {
+      out.set(p, at);
+      at += p.length;
+    }
+    return out.buffer;
+  }
+}
+
+class Reader {
+  constructor(buffer) {
+    this.v = new DataView(buffer);
+    this.b = new Uint8Array(buffer);
+    this.at = 12;
+  }
+  need(n) { if (this.at + n > this.b.length) throw new Error('malformed session message: truncated'); }
+  u8() { this.need(1); return this.v.getUint8(this.at++); }
+  u16() { this.need(2); const x = this.v.getUint16(this.at, true); this.at += 2; return x; }
+  u32() { this.need(4); const x = this.v.getUint32(this.at, true); this.at += 4; return x; }
+  i64() { this.need(8); const x = Number(this.v.getBigInt64(this.at, true)); this.at += 8; return x; }
+  f32() { this.need(4); const x = this.v.getFloat32(this.at, true); this.at += 4; return x; }
+  string() { const n = this.u16(); this.need(n); const s = new TextDecoder().decode(this.b.subarray(this.at, this.at + n)); this.at += n; return s; }
+  spot() { return {x: this.f32(), z: this.f32(), yaw: this.f32()}; }
+  pose() {
+    const position = [this.f32(), this.f32(), this.f32()];
+    return {position, orientation: [this.f32(), this.f32(), this.f32(), this.f32()]};
+  }
+  body() {
+    const flags = this.u8();
+    return {handsTracked: (flags & 1) === 1, head: this.pose(), left: this.pose(), right: this.pose()};
+  }
+}
+
+// One participant in one session. `send(ArrayBuffer)` writes a whole message; `nowServerUs()`
+// is the server's clock as this page estimates it.
+export class Session {
+  constructor(send, nowServerUs) {
+    this.send = send;
+    this.nowServerUs = nowServerUs;
+    this.joined = null;   // {id, sessionId, name, spot, roomFromSite: {t, yaw}}
+    this.others = new Map();  // id -> {id, name, role, hasCamera, spot, body, poses}
+    this.sessions = [];
+    this.error = '';
+    this.sequence = 0;
+    this.sentAt = new Map();  // pose sequence -> send time (ms), for echoed round trips
+    this.roundTripsMs = [];
+    this.posesSent = 0;
+    this.teleports = [];
+    this.onchange = () => {};
+  }
+
+  list() { this.send(new Writer().message(0x01)); }
+  join(session, name) {
+    this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).message(0x02));
+  }
+  leave() { this.send(new Writer().message(0x03)); }
+  heartbeat() { this.send(new Writer().message(0x09)); }
+  teleport(spot) { this.send(new Writer().spot(spot).message(0x06)); }
+
+  // Publishes the body (room frame: head, hands); every 4th pose asks for echoes.
+  publish(body) {
+    if (!this.joined) return;
+    const seq = ++this.sequence;
+    const echo = seq % 4 === 0;
+    if (echo) {
+      this.sentAt.set(seq, performance.now());
+      if (this.sentAt.size > 256) this.sentAt.delete(this.sentAt.keys().next().value);
+    }
+    const w = new Writer().u32(seq).i64(this.nowServerUs()).u8(echo ? 1 : 0)
+        .u8(body.handsTracked ? 1 : 0).pose(body.head).pose(body.left).pose(body.right);
+    this.send(w.message(0x04));
+    ++this.posesSent;
+  }
+
+  // One session message from the server (header included).
+  receive(buffer) {
+    const r = new Reader(buffer);
+    const type = r.v.getUint8(7);
+    switch (type) {
+      case 0x41: {
+        const n = r.u16();
+        this.sessions = [];
+        for (let i = 0; i < n; ++i)
+          this.sessions.push({id: r.u32(), name: r.string(), participants: r.u16()});
+        break;
+      }
+      case 0x42:
+        this.joined = {id: r.u32(), sessionId: r.u32(), name: r.string(), spot: r.spot(),
+                       roomFromSite: {t: [r.f32(), r.f32(), r.f32()], yaw: r.f32()}};
+        this.others.clear();
+        this.error = '';
+        break;
+      case 0x43: this.error = r.string(); break;
+      case 0x44: {
+        const p = {id: r.u32(), name: r.string(), role: r.u8(), hasCamera: r.u8() === 1,
+                   spot: r.spot(), body: null, poses: 0};
+        this.others.set(p.id, p);
+        break;
+      }
+      case 0x45: this.others.delete(r.u32()); break;
+      case 0x46: {
+        const id = r.u32();
+        const seq = r.u32();
+        const time = r.i64();
+        const echo = r.u8() === 1;
+        const body = r.body();
+        const p = this.others.get(id);
+        if (p) {
+          p.body = body;
+          p.time = time;
+          ++p.poses;
+        }
+        if (echo) this.send(new Writer().u32(id).u32(seq).message(0x05));
+        break;
+      }
+      case 0x47: {
+        r.u32();
+        const seq = r.u32();
+        const t = this.sentAt.get(seq);
+        if (t !== undefined) {
+          this.roundTripsMs.push(performance.now() - t);
+          if (this.roundTripsMs.length > 1000) this.roundTripsMs.shift();
+        }
+        break;
+      }
+      case 0x48: {
+        const id = r.u32();
+        const from = r.spot();
+        const to = r.spot();
+        r.i64();
+        if (this.joined && id === this.joined.id) this.joined.spot = to;
+        const p = this.others.get(id);
+        if (p) p.spot = to;
+        this.teleports.push({id, from, to, at: performance.now()});
+        if (this.teleports.length > 16) this.teleports.shift();
+        break;
+      }
+      default: throw new Error(`unknown session message 0x${type.toString(16)}`);
+    }
+    this.onchange(type);
+  }
+}

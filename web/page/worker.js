@@ -1,0 +1,434 @@
+// The browser viewer's stream worker: the WebSocket to `volcast serve --web`, the Volcast
+// protocol (src/net/include/volcast/net/protocol.hpp, version 5: the same bytes as a native
+// viewer's TLS stream, each message one binary WebSocket message or split across several), and
+// decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
+// JPEG by the browser's decoder (createImageBitmap). Session messages (channel 2) pass through to
+// the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here.
+//
+// Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
+//   ({check: true}: each decoded depth image's FNV-1a 32 hash is reported, for tests);
+//   {type: 'send', bytes (ArrayBuffer: a whole message, header included)}; {type: 'bench', runs}.
+// Messages to the page: {type: 'welcome', cameras: [{width, height, intrinsics (15 numbers),
+//   rotation (9, row-major), translation (3), name, rays (Float32Array, 2 per pixel)}],
+//   clockOffsetUs}; {type: 'frames', sequence, key, captureUs, cameras: [{depth (Uint16Array) |
+//   null, width, height, color (ImageBitmap) | null, hash}], decodeMs, depthDecodeMs,
+//   receivedUs}; {type: 'session', bytes (ArrayBuffer: header + payload)}; {type: 'error', what};
+//   {type: 'closed', why}; {type: 'bench', result: {runs, medianMs, minMs, stream (base64)}};
+//   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
+//   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
+//   id, what}.
+'use strict';
+
+importScripts('volcast_decoder.js');
+
+const MAGIC = 0x54534356;  // "VCST" little-endian
+const VERSION = 5;
+const HEADER = 12;
+const MAX_WELCOME = 256 << 10;
+const MAX_PAYLOAD = 256 << 20;
+const MAX_CAMERAS = 64;
+const MAX_SIDE = 4096;
+const MAX_SITE_PIXELS = 16 << 20;
+const MAX_CONTROL = 4096;
+const FRAME_BYTES_PER_PIXEL = 8;
+const FRAME_CAMERA_OVERHEAD = 64 << 10;
+const MAX_SESSION_MESSAGE = (8 << 20) + 4 + (64 << 10);
+
+let wasm = null;
+let socket = null;
+let cameras = null;
+let frameLimit = 0;
+let check = false;
+let inbox = [];  // received chunks (Uint8Array), consumed from the front
+let inboxBytes = 0;
+let decoding = false;
+let clockOffsetUs = 0;
+
+const wallUs = () => (performance.timeOrigin + performance.now()) * 1000;
+
+function fail(what) {
+  postMessage({type: 'error', what});
+  if (socket) socket.close();
+}
+
+function header(channel, type, length) {
+  const h = new DataView(new ArrayBuffer(HEADER));
+  h.setUint32(0, MAGIC, true);
+  h.setUint16(4, VERSION, true);
+  h.setUint8(6, channel);
+  h.setUint8(7, type);
+  h.setUint32(8, length, true);
+  return new Uint8Array(h.buffer);
+}
+
+function message(channel, type, payload) {
+  const out = new Uint8Array(HEADER + payload.length);
+  out.set(header(channel, type, payload.length));
+  out.set(payload, HEADER);
+  return out;
+}
+
+function putString(parts, text) {
+  const bytes = new TextEncoder().encode(text);
+  const len = new Uint8Array(2);
+  new DataView(len.buffer).setUint16(0, bytes.length, true);
+  parts.push(len, bytes);
+}
+
+function concat(parts) {
+  const out = new Uint8Array(parts.reduce((n, p) => n + p.length, 0));
+  let at = 0;
+  for (const p of parts) {
+    out.set(p, at);
+    at += p.length;
+  }
+  return out;
+}
+
+function hello(token, depth, color, quality) {
+  const parts = [new Uint8Array(token.match(/../g).map((h) => parseInt(h, 16)))];
+  putString(parts, depth);
+  putString(parts, color);
+  parts.push(new Uint8Array([quality]));
+  return message(0, 1, concat(parts));
+}
+
+// A bounds-checked little-endian reader over one payload; throws naming the message.
+class Reader {
+  constructor(bytes, what) {
+    this.b = bytes;
+    this.v = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+    this.at = 0;
+    this.what = what;
+  }
+  need(n) {
+    if (this.at + n > this.b.length) throw new Error(`malformed ${this.what}: truncated`);
+  }
+  u8() { this.need(1); return this.v.getUint8(this.at++); }
+  u16() { this.need(2); const x = this.v.getUint16(this.at, true); this.at += 2; return x; }
+  u32() { this.need(4); const x = this.v.getUint32(this.at, true); this.at += 4; return x; }
+  i64() {
+    this.need(8);
+    const x = Number(this.v.getBigInt64(this.at, true));
+    this.at += 8;
+    return x;
+  }
+  u64() {
+    this.need(8);
+    const x = Number(this.v.getBigUint64(this.at, true));
+    this.at += 8;
+    return x;
+  }
+  f64() { this.need(8); const x = this.v.getFloat64(this.at, true); this.at += 8; return x; }
+  bytes(n) { this.need(n); const x = this.b.subarray(this.at, this.at + n); this.at += n; return x; }
+  string() { return new TextDecoder().decode(this.bytes(this.u16())); }
+}
+
+// One camera's calibration (wire.hpp put_calibration): size, 15 intrinsics, world_from_camera.
+function readCalibration(r, what) {
+  const width = r.u16(), height = r.u16();
+  if (!width || !height || width > MAX_SIDE || height > MAX_SIDE)
+    throw new Error(`malformed ${what}: size ${width}x${height}`);
+  const intrinsics = [];
+  for (let i = 0; i < 15; ++i) intrinsics.push(r.f64());
+  const rotation = [], translation = [];
+  for (let i = 0; i < 9; ++i) rotation.push(r.f64());
+  for (let i = 0; i < 3; ++i) translation.push(r.f64());
+  if (![...intrinsics, ...rotation, ...translation].every(Number.isFinite))
+    throw new Error(`malformed ${what}: a number that is not finite`);
+  if (!(intrinsics[0] > 0 && intrinsics[1] > 0))
+    throw new Error(`malformed ${what}: focal length must be positive`);
+  return {width, height, intrinsics, rotation, translation};
+}
+
+function parseWelcome(payload) {
+  const r = new Reader(payload, 'welcome');
+  const n = r.u32();
+  if (n === 0 || n > MAX_CAMERAS) throw new Error(`malformed welcome: camera count ${n}`);
+  const list = [];
+  let pixels = 0;
+  for (let c = 0; c < n; ++c) {
+    const cam = readCalibration(r, `welcome, camera ${c}`);
+    pixels += cam.width * cam.height;
+    if (pixels > MAX_SITE_PIXELS) throw new Error('malformed welcome: too many pixels');
+    cam.name = r.string();
+    list.push(cam);
+  }
+  const serverUs = r.i64();
+  // protocol::frame_set_payload_limit
+  frameLimit = Math.min(MAX_PAYLOAD, 45 + list.reduce(
+      (s, k) => s + 16 + FRAME_CAMERA_OVERHEAD + FRAME_BYTES_PER_PIXEL * k.width * k.height, 0));
+  return {cameras: list, serverUs};
+}
+
+function rayTable(cam) {
+  const k = wasm._malloc(17 * 8);
+  const n = cam.width * cam.height;
+  const out = wasm._malloc(n * 8);
+  wasm.HEAPF64.set([cam.width, cam.height, ...cam.intrinsics], k / 8);
+  const rc = wasm._vc_ray_table(k, out);
+  const rays = rc === 0 ? wasm.HEAPF32.slice(out / 4, out / 4 + 2 * n) : null;
+  wasm._free(k);
+  wasm._free(out);
+  if (!rays) throw new Error('ray table: ' + wasm.UTF8ToString(wasm._vc_last_error()));
+  return rays;
+}
+
+// FNV-1a 32 over the depth image's bytes (little-endian uint16), for the bit-exact check.
+function fnv1a(depth) {
+  let h = 0x811c9dc5;
+  for (let i = 0; i < depth.length; ++i) {
+    const v = depth[i];
+    h = Math.imul(h ^ (v & 0xff), 0x01000193);
+    h = Math.imul(h ^ (v >>> 8), 0x01000193);
+  }
+  return h >>> 0;
+}
+
+let lastStream = null;  // camera 0's newest depth stream (for bench)
+let input = null;  // scratch in the module's memory for one depth stream
+let inputBytes = 0;
+
+function decodeDepth(camera, stream, cam = cameras[camera], slot = camera) {
+  if (stream.length > inputBytes) {
+    if (input) wasm._free(input);
+    inputBytes = Math.max(stream.length, 1 << 20);
+    input = wasm._malloc(inputBytes);
+  }
+  wasm.HEAPU8.set(stream, input);
+  const n = wasm._vc_decode_depth(slot, input, stream.length);
+  if (n < 0) throw new Error(`camera ${camera}: ` + wasm.UTF8ToString(wasm._vc_last_error()));
+  const w = wasm._vc_last_width(), h = wasm._vc_last_height();
+  if (w !== cam.width || h !== cam.height)
+    throw new Error(`camera ${camera}: depth ${w}x${h}, calibrated ${cam.width}x${cam.height}`);
+  const p = wasm._vc_last_pixels() / 2;
+  return wasm.HEAPU16.slice(p, p + n);
+}
+
+async function onFrameSet(payload, receivedUs) {
+  const r = new Reader(payload, 'frame set');
+  r.i64();  // the server's send time
+  const sequence = r.u64();
+  const key = (r.u8() & 1) === 1;
+  const captureUs = r.i64();
+  r.i64();
+  r.i64();
+  const n = r.u32();
+  if (n !== cameras.length) throw new Error(`frame set: ${n} cameras, the site has ${cameras.length}`);
+  const streams = [];
+  for (let c = 0; c < n; ++c) {
+    r.i64();  // device timestamp
+    const depth = r.bytes(r.u32());
+    const color = r.bytes(r.u32());
+    streams.push({depth, color});
+  }
+  const t0 = performance.now();
+  const colors = streams.map((s) => s.color.length
+      ? createImageBitmap(new Blob([s.color], {type: 'image/jpeg'}), {imageOrientation: 'none'})
+      : Promise.resolve(null));
+  if (streams[0].depth.length) lastStream = streams[0].depth.slice();
+  const out = [];
+  for (let c = 0; c < n; ++c) {
+    const depth = streams[c].depth.length ? decodeDepth(c, streams[c].depth) : null;
+    out.push({depth, width: cameras[c].width, height: cameras[c].height, color: null,
+              hash: check && depth ? fnv1a(depth) : 0});
+  }
+  const depthDecodeMs = performance.now() - t0;
+  const bitmaps = await Promise.all(colors);
+  bitmaps.forEach((b, c) => { out[c].color = b; });
+  const decodeMs = performance.now() - t0;
+  socket.send(message(0, 4, (() => {
+    const a = new Uint8Array(8);
+    new DataView(a.buffer).setBigUint64(0, BigInt(sequence), true);
+    return a;
+  })()));
+  const transfer = [];
+  for (const c of out) {
+    if (c.depth) transfer.push(c.depth.buffer);
+    if (c.color) transfer.push(c.color);
+  }
+  postMessage({type: 'frames', sequence, key, captureUs, cameras: out, decodeMs, depthDecodeMs,
+               receivedUs}, transfer);
+}
+
+// The others' camera avatars (messages.hpp 0x49, 0x4a): calibrations by participant, and the
+// newest frame of each waiting to be decoded (older ones are dropped, as the server does).
+const avatarCameras = new Map();
+const avatarWaiting = new Map();
+let avatarBusy = false;
+const AVATAR_SLOTS = 31;  // decoders 32..62 (63 is the benchmark's)
+
+function onAvatarCamera(payload) {
+  const r = new Reader(payload, 'avatar camera');
+  const id = r.u32();
+  const cam = readCalibration(r, 'avatar camera');
+  if (cam.width > 2048 || cam.height > 2048) throw new Error('avatar camera larger than 2048 px');
+  cam.depthCodec = r.string();
+  cam.colorCodec = r.string();
+  cam.rays = rayTable(cam);
+  cam.slot = 32 + (avatarCameras.size % AVATAR_SLOTS);
+  wasm._vc_reset(cam.slot);
+  avatarCameras.set(id, cam);
+  postMessage({type: 'avatar-camera', id, camera: cam});
+}
+
+async function decodeAvatars() {
+  if (avatarBusy) return;
+  avatarBusy = true;
+  try {
+    while (avatarWaiting.size) {
+      const [id, payload] = avatarWaiting.entries().next().value;
+      avatarWaiting.delete(id);
+      const cam = avatarCameras.get(id);
+      if (!cam) continue;
+      const r = new Reader(payload, 'avatar frame');
+      r.u32();
+      const sequence = r.u64();
+      const captureUs = r.i64();
+      const depthBytes = r.bytes(r.u32());
+      const colorBytes = r.bytes(r.u32());
+      let depth = null;
+      try {
+        depth = decodeDepth(id, depthBytes, cam, cam.slot);
+      } catch (e) {
+        postMessage({type: 'avatar-error', id, what: e.message});
+        continue;
+      }
+      const color = colorBytes.length && cam.colorCodec === 'jpeg'
+          ? await createImageBitmap(new Blob([colorBytes], {type: 'image/jpeg'}))
+          : null;
+      postMessage({type: 'avatar', id, sequence, captureUs, depth, color},
+                  color ? [depth.buffer, color] : [depth.buffer]);
+    }
+  } finally {
+    avatarBusy = false;
+  }
+}
+
+function take(n) {
+  const out = new Uint8Array(n);
+  let at = 0;
+  while (at < n) {
+    const head = inbox[0];
+    const k = Math.min(head.length, n - at);
+    out.set(head.subarray(0, k), at);
+    at += k;
+    if (k === head.length) inbox.shift();
+    else inbox[0] = head.subarray(k);
+  }
+  inboxBytes -= n;
+  return out;
+}
+
+function peekHeader() {
+  const h = inbox[0].length >= HEADER ? inbox[0].subarray(0, HEADER) : (() => {
+    const t = take(HEADER);
+    inbox.unshift(t);
+    inboxBytes += HEADER;
+    return t;
+  })();
+  const v = new DataView(h.buffer, h.byteOffset, HEADER);
+  if (v.getUint32(0, true) !== MAGIC) throw new Error('bad magic: not a Volcast server');
+  if (v.getUint16(4, true) !== VERSION)
+    throw new Error(`protocol version ${v.getUint16(4, true)}, this page speaks ${VERSION}`);
+  return {channel: v.getUint8(6), type: v.getUint8(7), length: v.getUint32(8, true)};
+}
+
+// Parses every whole message in the inbox, in order; frame sets are decoded one at a time (the
+// server paces by Acks, so few wait).
+async function drain() {
+  if (decoding) return;
+  decoding = true;
+  try {
+    while (inboxBytes >= HEADER) {
+      const h = peekHeader();
+      const limit = h.channel === 2 ? MAX_SESSION_MESSAGE
+                  : h.channel === 1 ? (cameras ? frameLimit : 0)
+                  : h.type === 2 ? MAX_WELCOME : MAX_CONTROL;
+      if (h.length > limit)
+        throw new Error(`message ${h.channel}.${h.type} of ${h.length} bytes exceeds ${limit}`);
+      if (inboxBytes < HEADER + h.length) break;
+      const receivedUs = wallUs();
+      const whole = take(HEADER + h.length);
+      const payload = whole.subarray(HEADER);
+      if (h.channel === 0 && h.type === 2) {
+        const w = parseWelcome(payload);
+        cameras = w.cameras;
+        clockOffsetUs = w.serverUs - receivedUs;
+        for (const c of cameras) c.rays = rayTable(c);
+        postMessage({type: 'welcome', cameras, clockOffsetUs});
+      } else if (h.channel === 0 && h.type === 3) {
+        throw new Error('the server refused: ' + new Reader(payload, 'reject').string());
+      } else if (h.channel === 1 && h.type === 1 && cameras) {
+        await onFrameSet(payload, receivedUs);
+      } else if (h.channel === 2 && h.type === 0x49) {
+        onAvatarCamera(payload);
+      } else if (h.channel === 2 && h.type === 0x4a) {
+        if (payload.length < 4) throw new Error('malformed avatar frame: truncated');
+        const id = new DataView(payload.buffer, payload.byteOffset, 4).getUint32(0, true);
+        avatarWaiting.set(id, payload);
+        decodeAvatars();
+      } else if (h.channel === 2) {
+        postMessage({type: 'session', bytes: whole.buffer}, [whole.buffer]);
+      } else {
+        throw new Error(`unexpected message ${h.channel}.${h.type}`);
+      }
+    }
+  } catch (e) {
+    fail(e.message);
+  } finally {
+    decoding = false;
+  }
+  if (inboxBytes >= HEADER && socket && socket.readyState === WebSocket.OPEN) drain();
+}
+
+// Decodes camera 0's newest depth stream `runs` times (the same bytes, a key frame of a
+// non-temporal codec) and reports the median time per decode, with the bytes, so that a native
+// decode of the same frame can be timed beside it (tests/web_test.cpp).
+function bench(runs) {
+  if (!lastStream) return {error: 'no frame yet'};
+  const times = [];
+  for (let i = 0; i < runs; ++i) {
+    const t0 = performance.now();
+    wasm.HEAPU8.set(lastStream, input);
+    const n = wasm._vc_decode_depth(63, input, lastStream.length);
+    times.push(performance.now() - t0);
+    if (n < 0) return {error: wasm.UTF8ToString(wasm._vc_last_error())};
+  }
+  times.sort((a, b) => a - b);
+  let binary = '';
+  for (const b of lastStream) binary += String.fromCharCode(b);
+  return {runs, medianMs: times[times.length >> 1], minMs: times[0], stream: btoa(binary)};
+}
+
+onmessage = async (e) => {
+  const m = e.data;
+  if (m.type === 'bench') {
+    postMessage({type: 'bench', result: bench(m.runs)});
+    return;
+  }
+  if (m.type === 'send') {
+    if (socket && socket.readyState === WebSocket.OPEN) socket.send(m.bytes);
+    return;
+  }
+  if (m.type !== 'start') return;
+  check = !!m.check;
+  try {
+    wasm = await VolcastDecoder();
+  } catch (err) {
+    fail('cannot load the WebAssembly decoder: ' + err);
+    return;
+  }
+  socket = new WebSocket(m.url);
+  socket.binaryType = 'arraybuffer';
+  socket.onopen = () => socket.send(hello(m.token, m.depth, m.color, m.quality));
+  socket.onmessage = (ev) => {
+    const chunk = new Uint8Array(ev.data);
+    inbox.push(chunk);
+    inboxBytes += chunk.length;
+    drain();
+  };
+  socket.onclose = (ev) => postMessage({type: 'closed', why: ev.reason || `code ${ev.code}`});
+  socket.onerror = () => postMessage({type: 'error', what: 'WebSocket error (is the server up, '
+                                                         + 'and its certificate accepted?)'});
+};

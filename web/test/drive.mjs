@@ -1,0 +1,106 @@
+// Drives Debian's Chromium (headless, SwiftShader WebGL2) through the Volcast web viewer for the
+// browser tests (tests/web_test.cpp): opens the link, waits for decoded frames, and writes what
+// the page measured (window.volcast) and a screenshot. With --xr, IWER (npm `iwer`) stands in
+// for a Meta Quest 3: the page enters immersive-vr, renders both eyes, and publishes the
+// emulated head and controllers; the emulated right trigger teleports.
+//
+//   node drive.mjs --link URL --out DIR [--frames N] [--seconds S] [--xr] [--bench]
+//                  [--chromium PATH]
+// --bench: then times the WebAssembly decoder on the newest frame (page.json's bench).
+// Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
+// frame sets and drew without an error, else 1 with the reason on stderr.
+import {chromium} from 'playwright-core';
+import {writeFileSync} from 'node:fs';
+import {createRequire} from 'node:module';
+
+const args = process.argv.slice(2);
+const flag = (name, fallback) => {
+  const i = args.indexOf(name);
+  return i >= 0 ? args[i + 1] : fallback;
+};
+const link = flag('--link');
+const out = flag('--out', '.');
+const frames = Number(flag('--frames', '30'));
+const seconds = Number(flag('--seconds', '60'));
+const xr = args.includes('--xr');
+const executablePath = flag('--chromium', '/usr/bin/chromium');
+if (!link) {
+  console.error('usage: node drive.mjs --link URL --out DIR [--frames N] [--xr]');
+  process.exit(2);
+}
+
+const browser = await chromium.launch({
+  executablePath,
+  headless: true,
+  args: ['--no-sandbox', '--ignore-certificate-errors', '--disable-background-networking',
+         '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
+         '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+let code = 1;
+try {
+  const page = await browser.newPage({viewport: {width: 800, height: 450}});
+  const console_ = [];
+  page.on('console', (m) => console_.push(`${m.type()}: ${m.text()}`));
+  page.on('pageerror', (e) => console_.push(`pageerror: ${e.message}`));
+  page.on('worker', (w) => w.on('console', (m) => console_.push(`worker ${m.type()}: ${m.text()}`)));
+  if (xr) {
+    const require = createRequire(import.meta.url);
+    await page.addInitScript({path: require.resolve('iwer/build/iwer.min.js')});
+    await page.addInitScript(() => {
+      const device = new IWER.XRDevice(IWER.metaQuest3);
+      device.installRuntime({forceInstall: true});
+      device.position.set(0, 1.6, 0);
+      window.iwerDevice = device;
+    });
+  }
+  const started = Date.now();
+  await page.goto(link);
+  const deadline = started + seconds * 1000;
+  const state = () => page.evaluate(() => JSON.parse(JSON.stringify(window.volcast || {})));
+  let s = await state();
+  while (Date.now() < deadline && s.phase !== 'error' &&
+         (s.framesReceived < frames || s.framesDrawn < 1)) {
+    await page.waitForTimeout(100);
+    s = await state();
+  }
+  if (xr && s.phase !== 'error') {
+    await page.click('#enter-vr', {timeout: 10000});
+    const xrDeadline = Date.now() + 20000;
+    while (Date.now() < xrDeadline && (s.xr.frames < 30 || s.session.posesSent < 60)) {
+      await page.waitForTimeout(100);
+      s = await state();
+    }
+    // Move the emulated head and pull the right trigger pointing 1.2 rad down at the floor
+    // about 0.7 m ahead (free floor from every spawn spot): a teleport.
+    await page.evaluate(() => {
+      const d = window.iwerDevice;
+      d.position.set(0.2, 1.5, -0.1);
+      const right = d.controllers.right;
+      right.position.set(0.2, 1.0, -0.3);
+      right.quaternion.set(-Math.sin(0.6), 0, 0, Math.cos(0.6));
+      right.updateButtonValue('trigger', 1);
+    });
+    await page.waitForTimeout(300);
+    await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('trigger', 0));
+    await page.waitForTimeout(1500);
+    s = await state();
+  }
+  if (args.includes('--bench') && s.phase !== 'error') {
+    await page.evaluate(() => window.volcastBench(200));
+    await page.waitForFunction(() => window.volcast.bench, null, {timeout: 30000});
+    s = await state();
+  }
+  const shot = `${out}/${xr ? 'xr' : 'desktop'}.png`;
+  await page.screenshot({path: shot});
+  s.loadToFirstFrameMs = s.firstFrameMs;
+  s.console = console_;
+  writeFileSync(`${out}/page.json`, JSON.stringify(s, null, 1));
+  if (s.phase === 'error') console.error('page error: ' + s.error);
+  else if (s.framesReceived < frames || s.framesDrawn < 1)
+    console.error(`only ${s.framesReceived} frame sets received, ${s.framesDrawn} pictures drawn`);
+  else code = 0;
+  if (code !== 0) console.error(console_.join('\n'));
+} finally {
+  await browser.close();
+}
+process.exit(code);

@@ -273,6 +273,13 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   const ColorImage shot = read_color_png(out / "desktop.png");
   const size_t points = covered(shot);
   EXPECT_GT(points, shot.bgra.size() / 4 / 50) << "at least 2 % of the picture";
+  // The grid-mesh surface covers the picture at least as the splats do, give or take the edges.
+  const auto mesh_out = test::temp_dir("web_desktop_mesh");
+  const nlohmann::json mesh_page = drive(
+      s.server.web_link("127.0.0.1") + "&room=0&surface=mesh&name=Mesh", mesh_out, "--frames 10");
+  ASSERT_FALSE(mesh_page.is_null());
+  EXPECT_EQ(mesh_page["phase"], "streaming") << mesh_page["error"];
+  EXPECT_GT(covered(read_color_png(mesh_out / "desktop.png")), points / 2);
   // The WebAssembly decoder beside the native one, on the same frame (figures, no assertion).
   ASSERT_TRUE(page.contains("bench")) << page.dump();
   const std::string b64 = page["bench"]["stream"];

@@ -7,8 +7,8 @@
 //
 // Fragment parameters: token (required, 32 hex digits), name, session (default OR), depth
 // (default volcast; raw, rvl, trvl and volcast* decode here), color (default jpeg; none),
-// quality, check=1 (hash every decoded depth image, for tests), room=0 (the site's points alone,
-// without the room and the others).
+// quality, surface (splats, the default, or mesh), check=1 (hash every decoded depth image, for
+// tests), room=0 (the site's points alone, without the room and the others).
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
@@ -77,8 +77,16 @@ function roomFromSite() {
 }
 
 function desktopRoomFromHead() {
-  return M.multiply(roomFromPlayarea(), M.multiply(M.translation(nav.x, EYE_HEIGHT, nav.z),
-                    M.multiply(M.rotationY(nav.yaw), M.rotationX(nav.pitch))));
+  const local = M.multiply(M.rotationY(nav.yaw), M.rotationX(nav.pitch));
+  if (!session.joined && renderer.cameras.length) {
+    // Outside a session: from the first camera, looking where it looks (its +z, y down, is the
+    // view's -z, y up), as the native viewer starts.
+    const viewFromCamera = M.scale(1, -1, -1);
+    const roomFromEye = M.multiply(M.multiply(roomFromSite(), renderer.cameras[0].siteFromCamera),
+                                   M.invertRigid(viewFromCamera));
+    return M.multiply(roomFromEye, M.multiply(M.translation(nav.x, 0, nav.z), local));
+  }
+  return M.multiply(roomFromPlayarea(), M.multiply(M.translation(nav.x, EYE_HEIGHT, nav.z), local));
 }
 
 function participantColor(id) {
@@ -139,7 +147,7 @@ function avatarDraws() {
 
 function scene() {
   return {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
-          lamp: ROOM.lamp};
+          lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats'};
 }
 
 function noteDrawn() {

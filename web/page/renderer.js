@@ -1,7 +1,8 @@
-// WebGL2 renderer of the browser viewer: the site's cameras as splats (each depth pixel one
-// point, unprojected in the vertex shader through the camera's ray table, as the native
-// CameraRenderer does: src/render/camera_renderer.cpp), and the room's furniture and the other
-// participants as lit boxes (as room_scene.hpp draws them natively).
+// WebGL2 renderer of the browser viewer: the site's cameras and the others' camera avatars as
+// splats (each depth pixel one point, unprojected in the vertex shader through the camera's ray
+// table, as the native CameraRenderer does: src/render/camera_renderer.cpp) or as a grid mesh,
+// and the room's furniture and the other participants as lit boxes (as room_scene.hpp draws them
+// natively).
 import {multiply, fromPose, scale, translation} from './math.js';
 
 const SPLAT_VS = `#version 300 es
@@ -46,6 +47,58 @@ out vec4 out_color;
 void main() {
   vec2 c = gl_PointCoord * 2.0 - 1.0;
   if (dot(c, c) > 1.0) discard;
+  out_color = has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
+}`;
+
+// The grid-mesh pass (as the native CameraRenderer's mesh surface): each 2x2 block of depth
+// pixels is two triangles, six vertices drawn without buffers (the vertex's number says which
+// block and corner); a vertex is invalid without depth, or
+// where depth jumps by more than edge_ratio of itself to its right or lower neighbour (an
+// occlusion edge, not a surface); a triangle touching an invalid vertex is discarded.
+const MESH_VS = `#version 300 es
+precision highp float;
+precision highp int;
+uniform highp usampler2D depth_mm;
+uniform highp sampler2D rays;
+uniform mat4 clip_from_camera;
+uniform mat4 room_from_camera;
+uniform vec4 keep;
+uniform ivec2 size;
+uniform float edge_ratio;
+out vec2 uv;
+out float valid;
+float depth_at(ivec2 p) {
+  return float(texelFetch(depth_mm, clamp(p, ivec2(0), size - 1), 0).r);
+}
+const ivec2 corners[6] = ivec2[6](ivec2(0, 0), ivec2(1, 0), ivec2(0, 1), ivec2(1, 0), ivec2(1, 1),
+                                  ivec2(0, 1));
+void main() {
+  int block = gl_VertexID / 6;
+  ivec2 p = ivec2(block % (size.x - 1), block / (size.x - 1)) + corners[gl_VertexID % 6];
+  float d = depth_at(p);
+  vec2 r = texelFetch(rays, p, 0).rg;
+  float right = depth_at(p + ivec2(1, 0)), down = depth_at(p + ivec2(0, 1));
+  bool ok = d > 0.0 && !isnan(r.x) &&
+            (right == 0.0 || abs(right - d) <= edge_ratio * d) &&
+            (down == 0.0 || abs(down - d) <= edge_ratio * d);
+  float z = d * 0.001;
+  vec4 p_camera = vec4(r * z, z, 1.0);
+  if (ok && keep.w > 0.0 && distance((room_from_camera * p_camera).xyz, keep.xyz) > keep.w)
+    ok = false;
+  valid = ok ? 1.0 : 0.0;
+  gl_Position = ok ? clip_from_camera * p_camera : vec4(2.0, 2.0, 2.0, 1.0);
+  uv = (vec2(p) + 0.5) / vec2(size);
+}`;
+
+const MESH_FS = `#version 300 es
+precision mediump float;
+uniform sampler2D color;
+uniform bool has_color;
+in vec2 uv;
+in float valid;
+out vec4 out_color;
+void main() {
+  if (valid < 0.999) discard;
   out_color = has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
 }`;
 
@@ -125,6 +178,7 @@ export class Renderer {
   constructor(gl) {
     this.gl = gl;
     this.splat = compile(gl, SPLAT_VS, SPLAT_FS);
+    this.mesh = compile(gl, MESH_VS, MESH_FS);
     this.box = compile(gl, BOX_VS, BOX_FS);
     this.cameras = [];
     this.avatars = new Map();  // participant id -> its camera avatar
@@ -229,13 +283,16 @@ export class Renderer {
 
   // Draws the scene into the bound framebuffer's `viewport` [x, y, w, h] through
   // `clipFromRoom`. `scene`: {roomFromSite, avatars: [{id, roomFromCamera, keep: [x, y, z,
-  // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale}.
+  // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale,
+  // surface ('splats' or 'mesh'), edgeRatio (mesh: a depth jump over this share of the depth is
+  // an edge, default 0.05)}.
   draw(clipFromRoom, viewport, scene) {
     const gl = this.gl;
     gl.viewport(...viewport);
     gl.enable(gl.DEPTH_TEST);
     const pxPerM = clipFromRoom[5] * viewport[3] * 0.5 || viewport[3];
-    const s = this.splat;
+    const mesh = scene.surface === 'mesh';
+    const s = mesh ? this.mesh : this.splat;
     gl.useProgram(s.program);
     gl.bindVertexArray(this.empty);
     gl.uniform1i(s.uniforms.depth_mm, 0);
@@ -263,7 +320,12 @@ export class Renderer {
       gl.bindTexture(gl.TEXTURE_2D, c.rays);
       gl.activeTexture(gl.TEXTURE2);
       gl.bindTexture(gl.TEXTURE_2D, c.color);
-      gl.drawArrays(gl.POINTS, 0, c.width * c.height);
+      if (mesh) {
+        gl.uniform1f(s.uniforms.edge_ratio, scene.edgeRatio || 0.05);
+        gl.drawArrays(gl.TRIANGLES, 0, (c.width - 1) * (c.height - 1) * 6);
+      } else {
+        gl.drawArrays(gl.POINTS, 0, c.width * c.height);
+      }
     }
     const b = this.box;
     gl.useProgram(b.program);

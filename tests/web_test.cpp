@@ -331,7 +331,7 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
     }
   });
   const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + "&name=Web", out, "--frames 20 --xr");
+      drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3", out, "--frames 20 --xr");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());

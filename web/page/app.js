@@ -7,8 +7,9 @@
 //
 // Fragment parameters: token (required, 32 hex digits), name, session (default OR), depth
 // (default volcast; raw, rvl, trvl and volcast* decode here), color (default jpeg; none),
-// quality, surface (splats, the default, or mesh), check=1 (hash every decoded depth image, for
-// tests), room=0 (the site's points alone, without the room and the others).
+// quality, surface (splats, the default, or mesh), xrscale (the headset's framebuffer scale, 0.1
+// to 2, default 1: lower for a slow device), check=1 (hash every decoded depth image, for tests),
+// room=0 (the site's points alone, without the room and the others).
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
@@ -220,7 +221,8 @@ function teleportTo(hit, yaw) {
 async function enterXr() {
   const xr = await navigator.xr.requestSession('immersive-vr', {optionalFeatures: ['local-floor']});
   await gl.makeXRCompatible();
-  const layer = new XRWebGLLayer(xr, gl);
+  const scale = Math.min(2, Math.max(0.1, Number(params.get('xrscale') || 1)));
+  const layer = new XRWebGLLayer(xr, gl, {framebufferScaleFactor: scale, antialias: false});
   xr.updateRenderState({baseLayer: layer});
   let space;
   try {

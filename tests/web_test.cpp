@@ -16,6 +16,7 @@
 
 #include "session_site.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/protocol.hpp"
@@ -248,7 +249,18 @@ size_t covered(const ColorImage& image) {
   return n;
 }
 
+// Pixels with a clear hue (not grey): points drawn with their camera's color.
+size_t colored(const ColorImage& image) {
+  size_t n = 0;
+  for (size_t i = 0; i < image.bgra.size(); i += 4) {
+    const int b = image.bgra[i], g = image.bgra[i + 1], r = image.bgra[i + 2];
+    n += std::max({r, g, b}) - std::min({r, g, b}) > 40;
+  }
+  return n;
+}
+
 TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
+  register_video_codecs();  // the h264 color tier, as the volcast CLI offers it
   test::HandsSite s(15, web_config(false));
   const auto out = test::temp_dir("web_desktop");
   const nlohmann::json page = drive(s.server.web_link("127.0.0.1") + "&check=1&room=0&name=Desk",
@@ -256,7 +268,8 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   ASSERT_FALSE(page.is_null());
   EXPECT_EQ(page["phase"], "streaming") << page["error"];
   EXPECT_EQ(page["cameras"], 1);
-  EXPECT_GE(page["framesDrawn"].get<int>(), 40);
+  EXPECT_GE(page["framesReceived"].get<int>(), 40);
+  EXPECT_GE(page["framesDrawn"].get<int>(), 1);
   // Every decoded depth image is the recording's frame of that frame set, bit for bit.
   size_t checked = 0;
   std::set<uint32_t> distinct;
@@ -273,6 +286,7 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   const ColorImage shot = read_color_png(out / "desktop.png");
   const size_t points = covered(shot);
   EXPECT_GT(points, shot.bgra.size() / 4 / 50) << "at least 2 % of the picture";
+  EXPECT_GT(colored(shot), points / 4) << "with the camera's JPEG colors";
   // The grid-mesh surface covers the picture at least as the splats do, give or take the edges.
   const auto mesh_out = test::temp_dir("web_desktop_mesh");
   const nlohmann::json mesh_page = drive(
@@ -280,6 +294,15 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   ASSERT_FALSE(mesh_page.is_null());
   EXPECT_EQ(mesh_page["phase"], "streaming") << mesh_page["error"];
   EXPECT_GT(covered(read_color_png(mesh_out / "desktop.png")), points / 2);
+  // H.264 color through WebCodecs: colored points (not the grey of a camera without color).
+  const auto h264_out = test::temp_dir("web_desktop_h264");
+  const nlohmann::json h264_page = drive(
+      s.server.web_link("127.0.0.1") + "&room=0&color=h264&name=Video", h264_out, "--frames 20");
+  ASSERT_FALSE(h264_page.is_null());
+  EXPECT_EQ(h264_page["phase"], "streaming") << h264_page["error"];
+  EXPECT_GE(h264_page["colorFrames"].get<int>(), 15) << h264_page["warnings"].dump();
+  const ColorImage video = read_color_png(h264_out / "desktop.png");
+  EXPECT_GT(colored(video), colored(shot) / 2) << "as colored as with JPEG, give or take";
   // The WebAssembly decoder beside the native one, on the same frame (figures, no assertion).
   ASSERT_TRUE(page.contains("bench")) << page.dump();
   const std::string b64 = page["bench"]["stream"];

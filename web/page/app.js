@@ -26,6 +26,7 @@ const state = {
   firstFrameMs: null, decodeMs: [], depthDecodeMs: [], hashes: [], latencyMs: [],
   session: null, xr: {frames: 0, views: 0, active: false}, tier: '',
   avatarFrames: {}, avatarErrors: {},  // by participant id: camera avatar frames decoded, errors
+  warnings: [], colorFrames: 0,  // decoder warnings (recovered); frame sets with color decoded
 };
 window.volcast = state;
 // Tests: time the WebAssembly decoder on the newest frame (worker.js bench); the result lands in
@@ -337,6 +338,7 @@ function start() {
                    params.get('name') || `Browser ${Math.floor(Math.random() * 9000 + 1000)}`);
     } else if (m.type === 'frames') {
       ++state.framesReceived;
+      if (m.cameras.some((c) => c.color)) ++state.colorFrames;
       state.decodeMs.push(m.decodeMs);
       state.depthDecodeMs.push(m.depthDecodeMs);
       state.latencyMs.push((nowServerUs() - m.captureUs) / 1000);
@@ -368,6 +370,9 @@ function start() {
       }
       for (const id of renderer.avatars.keys())
         if (!session.others.has(id)) renderer.removeAvatar(id);
+    } else if (m.type === 'warning') {
+      state.warnings.push(m.what);
+      if (state.warnings.length > 20) state.warnings.shift();
     } else if (m.type === 'error') {
       fail(m.what);
     } else if (m.type === 'closed') {

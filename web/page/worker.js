@@ -2,7 +2,8 @@
 // protocol (src/net/include/volcast/net/protocol.hpp, version 5: the same bytes as a native
 // viewer's TLS stream, each message one binary WebSocket message or split across several), and
 // decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
-// JPEG by the browser's decoder (createImageBitmap). Session messages (channel 2) pass through to
+// JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,
+// a KeyFrameRequest when it has no key frame to start from or fails), raw color by hand. Session messages (channel 2) pass through to
 // the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here.
 //
 // Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
@@ -16,7 +17,7 @@
 //   {type: 'closed', why}; {type: 'bench', result: {runs, medianMs, minMs, stream (base64)}};
 //   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
 //   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
-//   id, what}.
+//   id, what}; {type: 'warning', what}.
 'use strict';
 
 importScripts('volcast_decoder.js');
@@ -185,6 +186,88 @@ function fnv1a(depth) {
   return h >>> 0;
 }
 
+let colorCodec = 'jpeg';  // the tier's, from the page
+const videoDecoders = [];  // h264 color: per camera {decoder, waiting: {resolve, reject}}
+let videoTimestamp = 0;
+
+// The H.264 codec string (RFC 6381 avc1.PPCCLL) from the stream's sequence parameter set (NAL
+// type 7, Annex B start codes), or null when the frame has none.
+function avcCodecString(annexB) {
+  for (let i = 0; i + 6 < annexB.length; ++i) {
+    if (annexB[i] === 0 && annexB[i + 1] === 0 && annexB[i + 2] === 1 &&
+        (annexB[i + 3] & 0x1f) === 7) {
+      const hex = (x) => x.toString(16).padStart(2, '0');
+      return 'avc1.' + hex(annexB[i + 4]) + hex(annexB[i + 5]) + hex(annexB[i + 6]);
+    }
+  }
+  return null;
+}
+
+function requestKeyFrame() {
+  if (socket && socket.readyState === WebSocket.OPEN) socket.send(message(0, 5, new Uint8Array(0)));
+}
+
+// One camera's h264 color frame (the 12-byte 'V' 'C' header, then Annex B; color_codec.hpp)
+// through WebCodecs: resolves to an ImageBitmap, or null while waiting for a key frame.
+async function decodeH264(camera, stream) {
+  if (stream.length < 12 || stream[0] !== 0x56 || stream[1] !== 0x43 || stream[3] !== 2)
+    throw new Error(`camera ${camera}: not an h264 color stream`);
+  const key = (stream[4] & 1) === 1;
+  const data = stream.subarray(12);
+  let d = videoDecoders[camera];
+  if (!d || d.decoder.state === 'closed') {
+    const codec = key ? avcCodecString(data) : null;
+    if (!codec) {
+      requestKeyFrame();
+      return null;
+    }
+    d = {waiting: null};
+    d.decoder = new VideoDecoder({
+      output: (frame) => {
+        const w = d.waiting;
+        d.waiting = null;
+        createImageBitmap(frame).then((b) => { frame.close(); if (w) w.resolve(b); else b.close(); },
+                                      (e) => { frame.close(); if (w) w.reject(e); });
+      },
+      error: (e) => {
+        if (d.waiting) d.waiting.resolve(null);
+        d.waiting = null;
+        postMessage({type: 'warning', what: `camera ${camera}: h264 decoder: ${e.message}`});
+        requestKeyFrame();
+      },
+    });
+    d.decoder.configure({codec, optimizeForLatency: true});
+    videoDecoders[camera] = d;
+  }
+  return new Promise((resolve, reject) => {
+    d.waiting = {resolve, reject};
+    d.decoder.decode(new EncodedVideoChunk({type: key ? 'key' : 'delta',
+                                            timestamp: ++videoTimestamp, data}));
+    setTimeout(() => { if (d.waiting && d.waiting.resolve === resolve) { d.waiting = null; resolve(null); } }, 1000);
+  });
+}
+
+// One camera's color stream of the tier's codec: an ImageBitmap, or null for no color.
+function decodeColor(camera, stream) {
+  if (!stream.length) return Promise.resolve(null);
+  if (colorCodec === 'jpeg')
+    return createImageBitmap(new Blob([stream], {type: 'image/jpeg'}), {imageOrientation: 'none'});
+  if (colorCodec === 'h264') return decodeH264(camera, stream);
+  if (colorCodec === 'raw') {
+    const w = stream[8] | (stream[9] << 8), h = stream[10] | (stream[11] << 8);
+    if (stream.length !== 12 + w * h * 4) throw new Error(`camera ${camera}: raw color of the wrong size`);
+    const rgba = new Uint8ClampedArray(w * h * 4);
+    for (let i = 0; i < w * h * 4; i += 4) {
+      rgba[i] = stream[12 + i + 2];
+      rgba[i + 1] = stream[12 + i + 1];
+      rgba[i + 2] = stream[12 + i];
+      rgba[i + 3] = 255;
+    }
+    return createImageBitmap(new ImageData(rgba, w, h));
+  }
+  return Promise.resolve(null);  // none
+}
+
 let lastStream = null;  // camera 0's newest depth stream (for bench)
 let input = null;  // scratch in the module's memory for one depth stream
 let inputBytes = 0;
@@ -223,9 +306,7 @@ async function onFrameSet(payload, receivedUs) {
     streams.push({depth, color});
   }
   const t0 = performance.now();
-  const colors = streams.map((s) => s.color.length
-      ? createImageBitmap(new Blob([s.color], {type: 'image/jpeg'}), {imageOrientation: 'none'})
-      : Promise.resolve(null));
+  const colors = streams.map((s, c) => decodeColor(c, s.color));
   if (streams[0].depth.length) lastStream = streams[0].depth.slice();
   const out = [];
   for (let c = 0; c < n; ++c) {
@@ -413,6 +494,11 @@ onmessage = async (e) => {
   }
   if (m.type !== 'start') return;
   check = !!m.check;
+  colorCodec = m.color;
+  if (colorCodec === 'h264' && typeof VideoDecoder === 'undefined') {
+    fail('this browser has no WebCodecs for h264 color: open the link with &color=jpeg');
+    return;
+  }
   try {
     wasm = await VolcastDecoder();
   } catch (err) {

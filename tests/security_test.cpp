@@ -56,11 +56,7 @@ int threads_in_process() {
 
 // Waits (bounded) until `done` holds.
 bool eventually(const std::function<bool()>& done) {
-  for (int i = 0; i < 200; ++i) {
-    if (done()) return true;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  return done();
+  return test::eventually(done, std::chrono::seconds(10));
 }
 
 TEST(JoinLink, RoundTripsAndRefusesMalformedLinksWithoutEchoingTheToken) {

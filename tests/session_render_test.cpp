@@ -24,13 +24,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-bool eventually(const std::function<bool()>& done, std::chrono::milliseconds limit = 30s) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return done();
+bool eventually(const std::function<bool()>& done) {
+  return test::eventually(done, 30s);
 }
 
 // Pixels that are not the clear colour (the room is not drawn in these renders).

@@ -21,14 +21,7 @@ using namespace std::chrono_literals;
 using session::Type;
 
 // Polls `done` every 10 ms for up to `limit` (generous: a loaded 2-core machine under ASan).
-bool eventually(const std::function<bool()>& done, std::chrono::milliseconds limit = 20s) {
-  const auto end = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < end) {
-    if (done()) return true;
-    std::this_thread::sleep_for(10ms);
-  }
-  return done();
-}
+using test::eventually;
 
 using test::named;
 using test::SessionSite;

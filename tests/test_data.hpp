@@ -1,5 +1,6 @@
 #pragma once
 // Access to the shared real RGB-D recordings (../shared/data) for tests.
+#include <chrono>
 #include <filesystem>
 #include <functional>
 #include <string>
@@ -20,6 +21,10 @@ std::vector<DepthImage> real_depth_frames(const std::string& set);
 std::filesystem::path temp_dir(const std::string& name);
 /// Runs a shell command, returns its exit code; its stdout+stderr are stored in `output`.
 int run_command(const std::string& command, std::string& output);
+/// Polls `done` every 10 ms until it holds or `limit` has passed; returns its last answer. For
+/// what another thread updates right after the event a test saw (a server's counters).
+bool eventually(const std::function<bool()>& done,
+                std::chrono::milliseconds limit = std::chrono::seconds(20));
 /// Runs `f`; returns the message of the volcast::Error it threw, or "" if it threw none.
 std::string error_of(const std::function<void()>& f);
 

@@ -72,8 +72,8 @@ struct ServeArgs {
 };
 int run_serve(const ServeArgs& args);
 /// The browser viewer's page as the build or the install put it: share/volcast/web beside the
-/// executable (build/PRESET/share/volcast/web), else ../share/volcast/web from it. Throws Error naming both when neither
-/// holds an index.html.
+/// executable (build/PRESET/share/volcast/web), else ../share/volcast/web from it. Throws Error
+/// naming both when neither holds an index.html.
 std::filesystem::path web_root_default();
 
 struct ViewArgs {

@@ -5,57 +5,10 @@
 // natively).
 import {multiply, fromPose, scale, translation} from './math.js';
 
-const SPLAT_VS = `#version 300 es
-precision highp float;
-precision highp int;
-uniform highp usampler2D depth_mm;
-uniform highp sampler2D rays;
-uniform mat4 clip_from_camera;
-uniform mat4 room_from_camera;
-uniform vec4 keep;  // a camera avatar's points near its sender's head: centre (room), radius m
-uniform ivec2 size;
-uniform float splat_px;  // pixels per metre at 1 m of view depth, times the splat's footprint
-uniform float inv_fx;
-out vec2 uv;
-void main() {
-  ivec2 p = ivec2(gl_VertexID % size.x, gl_VertexID / size.x);
-  uint d = texelFetch(depth_mm, p, 0).r;
-  vec2 r = texelFetch(rays, p, 0).rg;
-  if (d == 0u || isnan(r.x)) {
-    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: dropped
-    gl_PointSize = 1.0;
-    return;
-  }
-  float z = float(d) * 0.001;
-  vec4 p_camera = vec4(r * z, z, 1.0);
-  if (keep.w > 0.0 && distance((room_from_camera * p_camera).xyz, keep.xyz) > keep.w) {
-    gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
-    gl_PointSize = 1.0;
-    return;
-  }
-  gl_Position = clip_from_camera * p_camera;
-  gl_PointSize = clamp(splat_px * z * inv_fx / gl_Position.w, 1.0, 48.0);
-  uv = (vec2(p) + 0.5) / vec2(size);
-}`;
-
-const SPLAT_FS = `#version 300 es
-precision mediump float;
-uniform sampler2D color;
-uniform bool has_color;
-in vec2 uv;
-out vec4 out_color;
-void main() {
-  vec2 c = gl_PointCoord * 2.0 - 1.0;
-  if (dot(c, c) > 1.0) discard;
-  out_color = has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
-}`;
-
-// The grid-mesh pass (as the native CameraRenderer's mesh surface): each 2x2 block of depth
-// pixels is two triangles, six vertices drawn without buffers (the vertex's number says which
-// block and corner); a vertex is invalid without depth, or
-// where depth jumps by more than edge_ratio of itself to its right or lower neighbour (an
-// occlusion edge, not a surface); a triangle touching an invalid vertex is discarded.
-const MESH_VS = `#version 300 es
+// What both camera passes share: the camera's depth and ray table, and unprojection of one
+// pixel into the camera frame (false without depth, outside the lens model, or -- for a camera
+// avatar -- farther than keep.w metres from its sender's head keep.xyz, room frame).
+const CAMERA_VS_COMMON = `#version 300 es
 precision highp float;
 precision highp int;
 uniform highp usampler2D depth_mm;
@@ -64,42 +17,83 @@ uniform mat4 clip_from_camera;
 uniform mat4 room_from_camera;
 uniform vec4 keep;
 uniform ivec2 size;
-uniform float edge_ratio;
 out vec2 uv;
-out float valid;
 float depth_at(ivec2 p) {
   return float(texelFetch(depth_mm, clamp(p, ivec2(0), size - 1), 0).r);
 }
+bool unproject(ivec2 p, out vec4 p_camera) {
+  float z = depth_at(p) * 0.001;
+  vec2 r = texelFetch(rays, p, 0).rg;
+  p_camera = vec4(r * z, z, 1.0);
+  uv = (vec2(p) + 0.5) / vec2(size);
+  return z > 0.0 && !isnan(r.x) &&
+         (keep.w <= 0.0 || distance((room_from_camera * p_camera).xyz, keep.xyz) <= keep.w);
+}
+const vec4 kDropped = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume
+`;
+
+// Both passes colour a fragment from the camera's registered color, grey without one.
+const CAMERA_FS_COMMON = `#version 300 es
+precision mediump float;
+uniform sampler2D color;
+uniform bool has_color;
+in vec2 uv;
+out vec4 out_color;
+vec4 camera_color() {
+  return has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
+}
+`;
+
+// Splats: one point per depth pixel, sized by its footprint (z / fx metres).
+const SPLAT_VS = CAMERA_VS_COMMON + `
+uniform float splat_px;  // pixels per metre at 1 m of view depth, times the splat's footprint
+uniform float inv_fx;
+void main() {
+  ivec2 p = ivec2(gl_VertexID % size.x, gl_VertexID / size.x);
+  vec4 p_camera;
+  gl_PointSize = 1.0;
+  if (!unproject(p, p_camera)) {
+    gl_Position = kDropped;
+    return;
+  }
+  gl_Position = clip_from_camera * p_camera;
+  gl_PointSize = clamp(splat_px * p_camera.z * inv_fx / gl_Position.w, 1.0, 48.0);
+}`;
+
+const SPLAT_FS = CAMERA_FS_COMMON + `
+void main() {
+  vec2 c = gl_PointCoord * 2.0 - 1.0;
+  if (dot(c, c) > 1.0) discard;
+  out_color = camera_color();
+}`;
+
+// The grid-mesh pass (as the native CameraRenderer's mesh surface): each 2x2 block of depth
+// pixels is two triangles, six vertices drawn without buffers (the vertex's number says which
+// block and corner); a vertex is invalid where unproject fails or where depth jumps by more than
+// edge_ratio of itself to its right or lower neighbour (an occlusion edge, not a surface); a
+// triangle touching an invalid vertex is discarded.
+const MESH_VS = CAMERA_VS_COMMON + `
+uniform float edge_ratio;
+out float valid;
 const ivec2 corners[6] = ivec2[6](ivec2(0, 0), ivec2(1, 0), ivec2(0, 1), ivec2(1, 0), ivec2(1, 1),
                                   ivec2(0, 1));
 void main() {
   int block = gl_VertexID / 6;
   ivec2 p = ivec2(block % (size.x - 1), block / (size.x - 1)) + corners[gl_VertexID % 6];
-  float d = depth_at(p);
-  vec2 r = texelFetch(rays, p, 0).rg;
-  float right = depth_at(p + ivec2(1, 0)), down = depth_at(p + ivec2(0, 1));
-  bool ok = d > 0.0 && !isnan(r.x) &&
+  vec4 p_camera;
+  float d = depth_at(p), right = depth_at(p + ivec2(1, 0)), down = depth_at(p + ivec2(0, 1));
+  bool ok = unproject(p, p_camera) &&
             (right == 0.0 || abs(right - d) <= edge_ratio * d) &&
             (down == 0.0 || abs(down - d) <= edge_ratio * d);
-  float z = d * 0.001;
-  vec4 p_camera = vec4(r * z, z, 1.0);
-  if (ok && keep.w > 0.0 && distance((room_from_camera * p_camera).xyz, keep.xyz) > keep.w)
-    ok = false;
   valid = ok ? 1.0 : 0.0;
-  gl_Position = ok ? clip_from_camera * p_camera : vec4(2.0, 2.0, 2.0, 1.0);
-  uv = (vec2(p) + 0.5) / vec2(size);
+  gl_Position = ok ? clip_from_camera * p_camera : kDropped;
 }`;
 
-const MESH_FS = `#version 300 es
-precision mediump float;
-uniform sampler2D color;
-uniform bool has_color;
-in vec2 uv;
+const MESH_FS = CAMERA_FS_COMMON + `
 in float valid;
-out vec4 out_color;
 void main() {
   if (valid < 0.999) discard;
-  out_color = has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
+  out_color = camera_color();
 }`;
 
 const BOX_VS = `#version 300 es

@@ -97,9 +97,12 @@ function participantColor(id) {
   return [...hues[id % hues.length], 1];
 }
 
+// The furniture does not move: its boxes are made once.
+let roomBoxes = null;
+
 function sceneBoxes() {
   if (params.get('room') === '0') return [];
-  const boxes = [
+  roomBoxes = roomBoxes || [
     roomBox([0, -0.01, 0], [ROOM.width / 2, 0.01, ROOM.depth / 2], [0.55, 0.58, 0.6, 1], true),
     roomBox(ROOM.table.centre, ROOM.table.half, [0.35, 0.45, 0.5, 1]),
     roomBox(ROOM.lamp, [0.25, 0.05, 0.25], [0.9, 0.9, 0.8, 1]),
@@ -112,6 +115,7 @@ function sceneBoxes() {
     roomBox([ROOM.width / 2, ROOM.height / 2, 0], [0.01, ROOM.height / 2, ROOM.depth / 2],
             [0.45, 0.52, 0.55, 1]),
   ];
+  const boxes = [...roomBoxes];
   for (const p of session.others.values()) {
     if (!p.body || p.role === 1) continue;
     const avatar = renderer.avatars.get(p.id);

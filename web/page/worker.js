@@ -307,7 +307,8 @@ async function onFrameSet(payload, receivedUs) {
   }
   const t0 = performance.now();
   const colors = streams.map((s, c) => decodeColor(c, s.color));
-  if (streams[0].depth.length) lastStream = streams[0].depth.slice();
+  // Kept by reference (the payload is this message's own buffer, never reused): no copy.
+  if (streams[0].depth.length) lastStream = streams[0].depth;
   const out = [];
   for (let c = 0; c < n; ++c) {
     const depth = streams[c].depth.length ? decodeDepth(c, streams[c].depth) : null;

@@ -1,12 +1,13 @@
-// libFuzzer target: every session-channel parser (volcast/session/messages.hpp) and the pose
-// script parser on arbitrary bytes. The first byte picks the parser; a parser may throw Error,
-// nothing else (no crash, no read past the input, no unbounded allocation).
+// libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp) and
+// the pose script parser on arbitrary bytes. The first byte picks the parser; a parser may throw
+// Error, nothing else (no crash, no read past the input, no unbounded allocation).
 #include <cstdint>
 #include <span>
 #include <string>
 
 #include "volcast/core/error.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/objects.hpp"
 #include "volcast/session/pose_script.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -17,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   camera.depth.width = 640;
   camera.depth.height = 360;
   try {
-    switch (data[0] % 13) {
+    switch (data[0] % 18) {
       case 0:
         session::parse_join(p);
         break;
@@ -58,6 +59,27 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       }
       case 12:
         parse_pose_script(std::string(p.begin(), p.end())).at(1.5);
+        break;
+      case 13: {  // a case, and the monitor drawn from it at its last slice
+        const session::SharedCase c = session::parse_case(p);
+        if (c.monitor) {
+          session::MonitorState m;
+          m.slice = static_cast<uint16_t>(c.monitor->slices - 1);
+          session::monitor_image(*c.monitor, m);
+        }
+        break;
+      }
+      case 14:
+        session::parse_object_state(p);
+        break;
+      case 15:
+        session::parse_monitor_state(p);
+        break;
+      case 16:
+        session::parse_set_monitor(p);
+        break;
+      case 17:
+        session::parse_object_request(p, p.size() % 2 == 0);
         break;
     }
   } catch (const Error&) {

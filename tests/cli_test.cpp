@@ -104,6 +104,59 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
     EXPECT_EQ(session["participants"][0], other);
     EXPECT_GT(session["others"][0]["poses_received"].get<int>(), 0);
   }
+  // The patient case: the liver's meshes from the real label volume, grabbed and turned by one
+  // participant, let go where both see it; the monitor set by the other, seen by both.
+  std::ifstream case_in(dir / "session_case.json");
+  const auto c = nlohmann::json::parse(case_in);
+  EXPECT_GE(c["parts"].size(), 4u);
+  for (const auto& p : c["parts"]) EXPECT_TRUE(p["closed"]) << p.dump();
+  EXPECT_EQ(c["hub"]["grabs"], 1);
+  EXPECT_EQ(c["hub"]["releases"], 1);
+  EXPECT_GT(c["hub"]["object_moves"].get<int>(), 5);
+  EXPECT_EQ(c["liver"]["owner"], 0);
+  EXPECT_NEAR(c["liver"]["turned_deg"].get<double>(), 150, 1);
+  EXPECT_EQ(c["monitor"]["slice"], 2);
+  EXPECT_EQ(c["monitor"]["width"], 150);
+  ASSERT_EQ(c["participants"].size(), 2u);
+  for (const auto& p : c["participants"]) {
+    EXPECT_TRUE(p["sees_the_hubs_liver_pose"]) << p.dump();
+    EXPECT_EQ(p["monitor_slice"], 2) << p.dump();
+  }
+}
+
+TEST(Cli, CasePrintsPartsAndSeriesAndRenders) {
+  const auto dir = test::temp_dir("cli_case");
+  std::string out;
+  const auto medical = test::data_dir() / "medical";
+  ASSERT_EQ(
+      test::run_command(kVolcast + " case --json " + (medical / "ircad11-organs").string(), out), 0)
+      << out;
+  const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+  ASSERT_EQ(j["parts"].size(), 11u);
+  for (const auto& p : j["parts"]) {
+    EXPECT_GT(p["triangles"].get<int>(), 0);
+    EXPECT_EQ(p["bbox_mm"].size(), 2u);
+    if (p["name"] == "liver") {
+      EXPECT_NEAR(p["volume_ml"].get<double>(), 1400, 200);
+    }
+  }
+  ASSERT_EQ(test::run_command(
+                kVolcast + " case " + (medical / "ct-liver-3slices").string() + " --json", out),
+            0)
+      << out;
+  const auto d = nlohmann::json::parse(out.substr(out.find('{')));
+  EXPECT_EQ(d["dicom"]["slices"], 3);
+  EXPECT_NEAR(d["dicom"]["spacing_mm"][2].get<double>(), 1.0, 1e-3);
+  EXPECT_EQ(d["dicom"]["overlay"], "Liver");
+  ASSERT_EQ(test::run_command(kVolcast + " case " + (medical / "ircad11-organs").string() +
+                                  " --render " + (dir / "case.png").string(),
+                              out),
+            0)
+      << out;
+  EXPECT_NE(out.find("liver"), std::string::npos) << out;
+  EXPECT_GT(std::filesystem::file_size(dir / "case.png"), 20'000u);
+  EXPECT_EQ(test::run_command(kVolcast + " case " + dir.string() + "/nope", out), 1);
+  EXPECT_NE(out.find("not a folder"), std::string::npos) << out;
 }
 
 TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {

@@ -14,6 +14,7 @@
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
+#include "volcast/render/case_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/room_scene.hpp"
@@ -106,6 +107,75 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
   const size_t without_hands = mesh_avatar_primitives(body, {1, 0, 0}).size();
   body.hands_tracked = true;
   EXPECT_EQ(mesh_avatar_primitives(body, {1, 0, 0}).size(), without_hands + 2);
+}
+
+// The case's organs and the monitor. Synthetic (exact behaviour): a quad-shaped "organ" 1 m ahead,
+// opaque red or a half-transparent green shell in front of it; the monitor quad showing a
+// 2 x 1 slice with a known window.
+TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
+  HeadlessTarget target(160, 120);
+  CaseRenderer renderer;
+  View view;
+  view.world_from_view = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0});
+  view.clip_from_view = perspective(60, target.target().aspect(), 0.05f, 10);
+  session::SharedCase c;
+  c.generation = 1;
+  const auto square = [](const char* name, Eigen::Vector4f rgba, float z) {
+    session::SharedPart p;  // two triangles facing +z (the eye), 0.6 m wide, at depth z
+    p.name = name;
+    p.rgba = rgba;
+    p.positions = {{-0.3f, -0.3f, z}, {0.3f, -0.3f, z}, {0.3f, 0.3f, z}, {-0.3f, 0.3f, z}};
+    p.normals.assign(4, Eigen::Vector3f::UnitZ());
+    p.indices = {0, 1, 2, 0, 2, 3};
+    return p;
+  };
+  session::SharedObject o;
+  o.name = "organ";
+  o.parts = {square("inside", {1, 0, 0, 1}, 0), square("shell", {0, 1, 0, 0.5f}, 0.2f)};
+  c.objects = {o};
+  std::vector<PlacedObject> placed{{}};
+  placed[0].pose.position = {0, 0, -1};
+  Lighting light;
+  light.to_key_light = {0, 0, 1};
+  light.point_light = false;
+  ColorImage image;
+  renderer.clear(target.target());
+  renderer.draw(view, target.target(), c, placed, light);
+  target.read_image(image);
+  const uint8_t* mid = image.pixel(80, 60);
+  // BGRA: red seen through a half-transparent green: both channels, neither full.
+  EXPECT_GT(mid[2], 60);
+  EXPECT_GT(mid[1], 60);
+  EXPECT_LT(mid[2], 230);
+  const uint8_t* outside = image.pixel(5, 5);
+  EXPECT_LT(outside[1] + outside[2], 80) << "the background stays";
+  // The shell alone, opaque: it hides the inside.
+  c.objects[0].parts[1].rgba.w() = 1;
+  c.generation = 2;  // uploaded again
+  renderer.clear(target.target());
+  renderer.draw(view, target.target(), c, placed, light);
+  target.read_image(image);
+  EXPECT_LT(image.pixel(80, 60)[2], 40);
+  EXPECT_GT(image.pixel(80, 60)[1], 100);
+  // The monitor: a 2 x 1 slice, HU 90 (the liver window's centre: mid grey) and 1000 (white).
+  session::MonitorSeries series;
+  series.width = 2, series.height = 1, series.slices = 1;
+  series.hu = {90, 1000};
+  session::MonitorState state{2, 0, 90, 150, false, 0};
+  Eigen::Matrix4f quad = Eigen::Matrix4f::Identity();
+  quad.diagonal() << 1.0f, 1.0f, 1, 1;
+  quad(2, 3) = -1;
+  renderer.clear(target.target());
+  renderer.draw_monitor(view, target.target(), series, state, quad);
+  target.read_image(image);
+  // The quad is 104 px wide from x = 28: the texel centres (linear filtering) at x = 54 and 106.
+  const int left = image.pixel(54, 60)[1], right = image.pixel(106, 60)[1];
+  EXPECT_NEAR(left, session::window_gray(90, 90, 150), 3);
+  EXPECT_EQ(right, 255);
+  state.center = 1000, state.width = 10;  // another window: the left pixel goes black
+  renderer.draw_monitor(view, target.target(), series, state, quad);
+  target.read_image(image);
+  EXPECT_LT(image.pixel(54, 60)[1], 4);
 }
 
 // The OR site (the real hands sequence, lifted into the room) and a remote participant's camera

@@ -15,6 +15,8 @@
 #include <openssl/evp.h>
 
 #include "session_site.hpp"
+#include "volcast/assets/case.hpp"
+#include "volcast/assets/shared_case.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/image_io.hpp"
@@ -393,6 +395,73 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   EXPECT_TRUE(counted);
   const ColorImage shot = read_color_png(out / "xr.png");
   EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10) << "the headset's picture is not blank";
+}
+
+// The patient case in the browser: the real organs (3D-IRCADb patient 11) and CT (dcmqi) reach the
+// page; a person at the keyboard grabs the liver, turns it and lets it go, and scrolls the
+// monitor; a native participant sees each of it.
+TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
+  test::SessionSite s({}, 15, web_config(false));
+  const auto folder = test::temp_dir("web_case");
+  const auto medical = test::data_dir() / "medical";
+  std::ofstream(folder / "case.json")
+      << R"({"name": "web", "parts": [
+      {"name": "liver", "mesh": ")"
+      << (medical / "ircad11-organs/liver.obj").string() << R"("},
+      {"name": "porta", "mesh": ")"
+      << (medical / "ircad11-organs/porta.obj").string() << R"(", "group": "liver"}],
+      "dicom": {"series": ")"
+      << (medical / "ct-liver-3slices").string() << R"(", "seg": ")"
+      << (medical / "ct-liver-3slices/liver_seg.dcm").string() << R"("}})";
+  s.hub.set_case(to_shared_case(load_case(folder)));
+  SessionClientOptions watcher = test::named("Native");
+  watcher.drive_poses = false;
+  test::TestParticipant native(s, watcher);
+  std::atomic<bool> done{false}, saw_web_hold{false};
+  std::thread watch([&] {
+    while (!done) {
+      const SessionSnapshot n = native.now();
+      if (!n.objects.empty() && n.objects[0].owner != 0) saw_web_hold = true;
+      std::this_thread::sleep_for(20ms);
+    }
+  });
+  const auto out = test::temp_dir("web_case_out");
+  const nlohmann::json page =
+      drive(s.site.server.web_link("127.0.0.1") + "&name=Web", out, "--frames 10 --case");
+  done = true;
+  watch.join();
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_EQ(page["case"]["name"], "web");
+  EXPECT_EQ(page["case"]["objects"][0], "liver");
+  EXPECT_EQ(page["case"]["slices"], 3);
+  EXPECT_TRUE(saw_web_hold) << "the native participant saw the browser hold the liver";
+  const SessionHubStats st = s.hub.stats();
+  EXPECT_EQ(st.grabs, 1u);
+  EXPECT_EQ(st.releases, 1u);
+  EXPECT_GE(st.object_moves, 5u) << "moved while held";
+  // Let go turned: not at rest any more, and the native participant sees it where the hub has it.
+  const session::ObjectState o = s.hub.objects("OR")[0];
+  EXPECT_EQ(o.owner, 0u);
+  const Pose rest = native.p().shared_case()->objects[0].rest;
+  EXPECT_GT(o.pose.orientation.angularDistance(rest.orientation), 0.2f);
+  ASSERT_TRUE(test::eventually([&] {
+    const SessionSnapshot n = native.now();
+    return n.objects[0].owner == 0 &&
+           n.objects[0].pose.orientation.angularDistance(o.pose.orientation) < 1e-4f;
+  }));
+  // The monitor: one slice on (the middle one was 1), the liver window, the overlay off.
+  const auto m = s.hub.monitor("OR");
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->slice, 2);
+  EXPECT_EQ(m->center, 90);
+  EXPECT_EQ(m->width, 150);
+  EXPECT_FALSE(m->overlay);
+  EXPECT_EQ(page["session"]["monitor"]["slice"], 2);
+  ASSERT_TRUE(
+      test::eventually([&] { return native.now().monitor && native.now().monitor->slice == 2; }));
+  const ColorImage shot = read_color_png(out / "desktop.png");
+  EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10);
 }
 
 }  // namespace

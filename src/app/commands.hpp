@@ -66,6 +66,8 @@ struct ServeArgs {
   std::string room_from_site;               ///< "x,y,z,yaw_deg": the site in the room
   std::string site_name = "OR site";        ///< the OR site participant's display name
   int presence_timeout_ms = 3000;
+  std::string case_folder;  ///< the patient case shown in every session (reloaded on change)
+  size_t case_max_triangles = 60000;
   // Browsers (ServerConfig::web_root).
   bool web = false;      ///< serve the browser viewer and print its https:// link
   std::string web_root;  ///< its folder; default: web_root_default()
@@ -182,6 +184,16 @@ struct CalibrateArgs {
 /// writes the site config (and a preview). Exit code 0 when every camera was placed, 3 when some
 /// were not (the file is written with the others; each problem is printed naming its camera).
 int run_calibrate(const CalibrateArgs& args);
+
+struct CaseArgs {
+  std::string folder;            ///< the case folder (volcast/assets/case.hpp)
+  bool json = false;             ///< print JSON instead of a table
+  std::string render;            ///< PNG: the case's parts from the front and from above
+  size_t max_triangles = 60000;  ///< per part made from labels
+};
+/// Loads a case and prints its parts (name, triangles, volume, bounding box; one per connected
+/// tumour) and DICOM series (slices, spacing), with the load time; renders it with --render.
+int run_case(const CaseArgs& args);
 
 struct BenchArgs {
   std::vector<std::string> datasets;  ///< extra recordings or folders

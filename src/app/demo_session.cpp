@@ -2,15 +2,22 @@
 // Kinects of one room, registered from depth alone (volcast calibrate, once; cached), placed in
 // the virtual room; two scripted remote participants join it -- one with a camera avatar (the
 // real hands sequence), one with a mesh avatar who teleports -- and each writes a screenshot from
-// its own eye and its session figures.
+// its own eye and its session figures. The patient case is over the table: the liver of
+// 3D-IRCADb patient 1 with its tumours and vessels (meshes made from its label volume) and a CT
+// with its liver SEG on the wall monitor; Dr. Hands grabs the liver and turns it, Dr. Mesh sets
+// the monitor (slice, liver window); session_case.json has what the hub and each saw.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "commands.hpp"
 #include "real_sites.hpp"
+#include "volcast/assets/case.hpp"
+#include "volcast/assets/shared_case.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/receiver.hpp"
@@ -61,9 +68,38 @@ PoseScript demo_script(float turn_deg, bool teleport) {
     s.keys.push_back(k);
   }
   s.loop = false;
-  // To the far corner of the table, facing the OR site's cameras (room x = 2.2 m).
-  if (teleport) s.teleports.push_back({2.0, session::Spot{-1.6f, -1.3f, -2.0f}});
+  // Across the table, between the liver over it and the wall monitor (both in view).
+  if (teleport) s.teleports.push_back({2.0, session::Spot{0.9f, -1.8f, 1.9f}});
   return s;
+}
+
+// The liver's rest pose as the hub shares it (to_shared_case places it).
+Pose hub_rest_pose(const Case& c) {
+  const session::SharedCase shared = to_shared_case(c);
+  return shared.objects.empty() ? Pose{} : shared.objects[0].rest;
+}
+
+// The demo's case folder: a case.json naming the shared data's files (never copied).
+fs::path demo_case(const fs::path& data, const fs::path& out) {
+  const fs::path folder = out / "case";
+  fs::create_directories(folder);
+  const fs::path labels = fs::absolute(data / "medical/ircad01-labelmap/3Dircadb0101Labeled.vti");
+  const fs::path ct = fs::absolute(data / "medical/ct-liver-3slices");
+  const auto part = [&](const char* name, int mask, bool components) {
+    return fmt::format(
+        R"(    {{"name": "{}", "labels": "{}", "mask": {}, "value": {}, "components": {}, "group": "liver"}})",
+        name, labels.string(), mask, mask, components ? "true" : "false");
+  };
+  std::ofstream(folder / "case.json")
+      << "{\"name\": \"3D-IRCADb patient 1 (liver) + dcmqi CT\",\n \"parts\": [\n"
+      << part("liver", 448, false) << ",\n"
+      << part("tumour", 2, true) << ",\n"
+      << part("portal vein", 16, false) << ",\n"
+      << part("hepatic veins", 32, false) << "],\n"
+      << fmt::format(R"( "dicom": {{"series": "{}", "seg": "{}"}}}})", ct.string(),
+                     (ct / "liver_seg.dcm").string())
+      << "\n";
+  return folder;
 }
 
 }  // namespace
@@ -88,6 +124,9 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   hub_config.site_name = "OR site";
   SessionHub hub(hub_config);
   hub.create_session("OR");
+  spdlog::info("demo: loading the patient case (meshes from the liver's label volume, the CT)");
+  const Case patient = load_case(demo_case(data, out));
+  hub.set_case(to_shared_case(patient));
   ServerConfig server_config;
   server_config.port = 0;
   server_config.session = &hub;
@@ -114,6 +153,11 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     o.participant.session = "OR";
     o.participant.name = p->name;
     o.script = demo_script(i == 0 ? -35 : 10, i == 1);
+    if (i == 0)  // takes the liver and turns it 150 degrees
+      o.script.grabs.push_back({1.0, 2.5, "liver", 60});
+    else  // the next slice in the liver window, the overlay on
+      o.script.monitor.push_back({0.8, 2, session::window_preset("liver").center,
+                                  session::window_preset("liver").width, true});
     if (i == 0) {
       o.camera_source = data / kHandsSet;
       o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
@@ -151,11 +195,55 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
       }
     });
   for (auto& t : threads) t.join();
+  {  // What the hub and each participant ended with: one pose for the liver, one monitor state.
+    nlohmann::json r;
+    r["case"] = patient.name;
+    r["load_ms"] = patient.load_ms;
+    for (const CasePart& p : patient.parts)
+      r["parts"].push_back({{"name", p.name},
+                            {"triangles", p.mesh.triangles()},
+                            {"volume_ml", p.volume_ml},
+                            {"voxel_volume_ml", p.voxel_volume_ml},
+                            {"closed", p.closed}});
+    const SessionHubStats hs = hub.stats();
+    r["hub"] = {{"grabs", hs.grabs},
+                {"releases", hs.releases},
+                {"object_moves", hs.object_moves},
+                {"monitor_changes", hs.monitor_changes}};
+    const auto objects = hub.objects("OR");
+    const Pose rest = hub_rest_pose(patient);
+    if (!objects.empty())
+      r["liver"] = {{"owner", objects[0].owner},
+                    {"turned_deg",
+                     objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
+    if (const auto m = hub.monitor("OR"))
+      r["monitor"] = {
+          {"slice", m->slice}, {"center", m->center}, {"width", m->width}, {"overlay", m->overlay}};
+    for (auto& p : people) {
+      const Participant* part = p->session->participant();
+      if (!part || objects.empty()) continue;
+      const SessionSnapshot snap = part->snapshot(wall_clock_us());
+      const bool same =
+          !snap.objects.empty() &&
+          snap.objects[0].pose.orientation.angularDistance(objects[0].pose.orientation) < 1e-4f &&
+          snap.objects[0].pose.position.isApprox(objects[0].pose.position, 1e-5f);
+      r["participants"].push_back(
+          {{"name", p->name},
+           {"sees_the_hubs_liver_pose", same},
+           {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
+    }
+    std::ofstream(out / "session_case.json") << r.dump(2) << "\n";
+  }
   site.stop();
   hub.attach(nullptr);
   server.stop();
   std::printf("\nvirtual OR session 'OR': the OR site's %zu registered cameras, 2 participants\n",
               cameras.size());
+  std::printf(
+      "case '%s': %zu parts, loaded in %.0f ms; the liver grabbed, turned and released; "
+      "the monitor set (%s)\n",
+      patient.name.c_str(), patient.parts.size(), patient.load_ms,
+      (out / "session_case.json").c_str());
   for (auto& p : people) {
     if (!p->error.empty()) throw Error("demo participant '" + p->name + "': " + p->error);
     std::printf("\n%s:\n%s", p->name.c_str(), format_stats_table(p->result).c_str());

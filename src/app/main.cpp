@@ -125,6 +125,13 @@ int main(int argc, char** argv) {
   s->add_option("--presence-timeout", serve.presence_timeout_ms,
                 "A participant silent this long (no pose, no heartbeat) is removed (ms)")
       ->capture_default_str();
+  s->add_option("--case", serve.case_folder,
+                "Patient case folder (organ meshes, label volumes, DICOM; see `volcast case`) "
+                "shown in every session; changes to it are loaded and swapped for everyone");
+  s->add_option("--case-max-triangles", serve.case_max_triangles,
+                "Triangle budget per case part made from a label volume")
+      ->check(CLI::Range(1000, 5000000))
+      ->capture_default_str();
   s->add_flag("--web", serve.web,
               "Also serve the browser viewer (any headset's or laptop's browser, WebXR) on the "
               "same port, and print its https:// link");
@@ -356,6 +363,19 @@ int main(int argc, char** argv) {
   i->add_option("file", info.file, "Azure Kinect .mkv or image-sequence folder")->required();
   i->add_flag("--json", info.json, "Print JSON");
 
+  CaseArgs case_args;
+  auto* ca = app.add_subcommand(
+      "case",
+      "Load a patient case (organ meshes, label volumes made into meshes, a DICOM series) and "
+      "print its parts and series; the folder serve --case shows in the virtual OR");
+  ca->add_option("folder", case_args.folder, "Case folder (case.json optional)")->required();
+  ca->add_flag("--json", case_args.json, "Print JSON");
+  ca->add_option("--render", case_args.render, "PNG of the case: front and top views");
+  ca->add_option("--max-triangles", case_args.max_triangles,
+                 "Triangle budget per part made from a label volume")
+      ->check(CLI::Range(1000, 5000000))
+      ->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   if (verbose) spdlog::set_level(spdlog::level::debug);
   try {
@@ -364,6 +384,7 @@ int main(int argc, char** argv) {
     if (*d) return run_demo(demo);
     if (*i) return run_info(info);
     if (*c) return run_calibrate(calibrate);
+    if (*ca) return run_case(case_args);
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
     if (*bn) {

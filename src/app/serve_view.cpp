@@ -8,6 +8,7 @@
 #include <chrono>
 #include <thread>
 
+#include "case_watch.hpp"
 #include "commands.hpp"
 #include "options.hpp"
 #include "volcast/core/error.hpp"
@@ -329,6 +330,8 @@ int run_serve(const ServeArgs& a) {
   }
   SessionHub hub(hub_config);
   for (const auto& name : a.sessions) hub.create_session(name);
+  std::optional<CaseWatch> case_watch;
+  if (!a.case_folder.empty()) case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
   Server server(for_viewers, config);
   hub.attach(&server);

@@ -27,6 +27,50 @@ RigidTransform auto_playarea_from_camera(const DepthImage& first) {
   return t;
 }
 
+void ScriptedObjects::step(Participant& p, double t_s) {
+  const auto c = p.shared_case();
+  if (!c) return;  // the script's object events wait for the case
+  const SessionSnapshot s = p.snapshot(wall_clock_us());
+  while (next_monitor_ < script_.monitor.size() && script_.monitor[next_monitor_].t_s <= t_s) {
+    const ScriptedMonitor& m = script_.monitor[next_monitor_++];
+    if (!s.monitor || !c->monitor) continue;
+    session::MonitorState want = *s.monitor;
+    if (m.slice >= 0) want.slice = static_cast<uint16_t>(std::min(m.slice, c->monitor->slices - 1));
+    if (m.center) want.center = *m.center;
+    if (m.width) want.width = *m.width;
+    if (m.overlay) want.overlay = *m.overlay;
+    p.set_monitor(want);
+  }
+  if (!holding_ && next_grab_ < script_.grabs.size() && script_.grabs[next_grab_].t_s <= t_s) {
+    const ScriptedGrab& g = script_.grabs[next_grab_++];
+    for (size_t i = 0; i < c->objects.size() && !holding_; ++i)
+      if (c->objects[i].name == g.object && i < s.objects.size()) {
+        object_ = static_cast<uint16_t>(i);
+        start_pose_ = s.objects[i].pose;
+        grab_ = g;
+        holding_ = true;
+        p.grab(object_);
+      }
+    if (!holding_) spdlog::warn("pose script: no object '{}' in the case to grab", g.object);
+    return;
+  }
+  if (!holding_) return;
+  const auto held = static_cast<float>(std::min(t_s - grab_.t_s, grab_.for_s));
+  Pose pose = start_pose_;
+  pose.orientation = (Eigen::Quaternionf(Eigen::AngleAxisf(
+                          held * grab_.turn_deg_per_s * static_cast<float>(M_PI / 180),
+                          Eigen::Vector3f::UnitY())) *
+                      start_pose_.orientation)
+                         .normalized();
+  const bool mine = object_ < s.objects.size() && s.objects[object_].owner == s.id;
+  if (t_s - grab_.t_s >= grab_.for_s) {
+    if (mine) p.release(object_, pose);
+    holding_ = false;
+    return;
+  }
+  if (mine) p.move_object(object_, pose);
+}
+
 SessionClient::SessionClient(SessionClientOptions options) : options_(std::move(options)) {
   if (!(options_.pose_rate_hz > 0 && options_.pose_rate_hz <= 1000))
     throw Error("session: the pose rate must be in (0, 1000] Hz");
@@ -83,11 +127,13 @@ void SessionClient::run_poses() {
     for (int i = 0; i < 50 && !stopping_; ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
+  ScriptedObjects objects(options_.script);
   while (!stopping_) {
     const double t = std::chrono::duration<double>(clock::now() - start).count();
     while (teleports < options_.script.teleports.size() &&
            options_.script.teleports[teleports].t_s <= t)
       participant_->teleport(options_.script.teleports[teleports++].to);
+    objects.step(*participant_, t);
     participant_->publish(options_.script.at(t));
     next += period;
     const auto now = clock::now();

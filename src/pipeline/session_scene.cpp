@@ -6,6 +6,7 @@
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/render/case_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/room_scene.hpp"
@@ -69,6 +70,8 @@ View participant_eye(const SessionSnapshot& s, float aspect) {
 struct SessionScene::Impl {
   CameraRenderer cameras;
   PrimitiveRenderer primitives;
+  CaseRenderer case_objects;
+  std::vector<PlacedObject> placed;
   std::vector<Slot> slots;
   std::vector<std::shared_ptr<const CameraFrame>> uploaded;
   std::vector<CameraCalibration> calibrations;
@@ -165,9 +168,24 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
       r.scene.insert(r.scene.end(), fx.begin(), fx.end());
     }
   }
+  const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
+  const RoomLayout& room = default_operating_room();
+  if (shared_case && s.monitor && shared_case->monitor) {
+    const auto status = monitor_status_primitives(room, s.monitor->slice,
+                                                  shared_case->monitor->slices, s.monitor->overlay);
+    r.scene.insert(r.scene.end(), status.begin(), status.end());
+  }
   Lighting light;
-  light.point_position = default_operating_room().lamp_position;
+  light.point_position = room.lamp_position;
   r.primitives.draw(view, target, r.scene, light);
+  if (shared_case && s.case_generation == shared_case->generation) {
+    r.placed.clear();
+    for (const ObjectView& o : s.objects) r.placed.push_back({o.pose, o.owner ? 0.12f : 0.0f});
+    r.case_objects.draw(view, target, *shared_case, r.placed, light);
+    if (s.monitor && shared_case->monitor)
+      r.case_objects.draw_monitor(view, target, *shared_case->monitor, *s.monitor,
+                                  monitor_image_quad(room));
+  }
 }
 
 }  // namespace volcast

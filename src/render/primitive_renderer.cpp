@@ -9,54 +9,13 @@
 #include <vector>
 
 #include "gl_util.hpp"
+#include "lit_shaders.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
 namespace {
 
 constexpr const char* kPass = "primitive renderer";
-
-constexpr const char* kVertex = R"(#version 450 core
-layout(location = 0) in vec3 position;
-layout(location = 1) in vec3 normal;
-uniform mat4 clip_from_world;
-uniform mat4 world_from_shape;
-out vec3 world_position;
-out vec3 world_normal;
-void main() {
-  vec4 p = world_from_shape * vec4(position, 1.0);
-  world_position = p.xyz;
-  world_normal = transpose(inverse(mat3(world_from_shape))) * normal;
-  gl_Position = clip_from_world * p;
-}
-)";
-
-constexpr const char* kFragment = R"(#version 450 core
-in vec3 world_position;
-in vec3 world_normal;
-uniform vec4 color;
-uniform float emissive;
-uniform vec3 to_key_light, key_color, ambient;
-uniform vec4 point_light;  // position, range (<= 0: off)
-uniform vec3 point_color;
-uniform vec3 eye;
-out vec4 out_color;
-void main() {
-  vec3 n = normalize(world_normal);
-  if (!gl_FrontFacing) n = -n;  // rings and the insides of walls
-  vec3 light = ambient + key_color * max(dot(n, to_key_light), 0.0);
-  if (point_light.w > 0.0) {
-    vec3 d = point_light.xyz - world_position;
-    float r = length(d);
-    float falloff = clamp(1.0 - r / point_light.w, 0.0, 1.0);
-    light += point_color * max(dot(n, d / max(r, 1e-4)), 0.0) * falloff * falloff;
-  }
-  // A faint rim toward the eye keeps shapes readable against the dark background.
-  float rim = pow(1.0 - max(dot(n, normalize(eye - world_position)), 0.0), 3.0) * 0.15;
-  vec3 lit = color.rgb * light + rim;
-  out_color = vec4(mix(lit, color.rgb, emissive), color.a);
-}
-)";
 
 struct Mesh {
   GLuint vao = 0, vbo = 0;
@@ -154,14 +113,7 @@ Mesh upload(const Triangles& t) {
   m.vertices = static_cast<GLsizei>(t.size() / 6);
   glCreateBuffers(1, &m.vbo);
   glNamedBufferStorage(m.vbo, static_cast<GLsizeiptr>(t.size() * sizeof(float)), t.data(), 0);
-  glCreateVertexArrays(1, &m.vao);
-  glVertexArrayVertexBuffer(m.vao, 0, m.vbo, 0, 6 * sizeof(float));
-  glEnableVertexArrayAttrib(m.vao, 0);
-  glEnableVertexArrayAttrib(m.vao, 1);
-  glVertexArrayAttribFormat(m.vao, 0, 3, GL_FLOAT, GL_FALSE, 0);
-  glVertexArrayAttribFormat(m.vao, 1, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float));
-  glVertexArrayAttribBinding(m.vao, 0, 0);
-  glVertexArrayAttribBinding(m.vao, 1, 0);
+  m.vao = gl::lit_vertex_array(m.vbo);
   return m;
 }
 
@@ -182,8 +134,7 @@ Primitive box(const Eigen::Vector3f& center, const Eigen::Vector3f& size,
 struct PrimitiveRenderer::Impl {
   GLuint program = 0;
   Mesh meshes[4];
-  GLint clip_from_world = -1, world_from_shape = -1, color = -1, emissive = -1, to_key_light = -1,
-        key_color = -1, ambient = -1, point_light = -1, point_color = -1, eye = -1;
+  gl::LitUniforms u;
   std::vector<size_t> order;
 };
 
@@ -191,22 +142,12 @@ PrimitiveRenderer::PrimitiveRenderer() {
   gl::require_gl45(kPass);
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
-  r.program = gl::link_program(kPass, kVertex, nullptr, kFragment);
+  r.program = gl::link_program(kPass, gl::kLitVertex, nullptr, gl::kLitFragment);
   r.meshes[0] = upload(unit_box());
   r.meshes[1] = upload(unit_sphere());
   r.meshes[2] = upload(unit_cylinder());
   r.meshes[3] = upload(unit_ring());
-  const auto loc = [&](const char* name) { return glGetUniformLocation(r.program, name); };
-  r.clip_from_world = loc("clip_from_world");
-  r.world_from_shape = loc("world_from_shape");
-  r.color = loc("color");
-  r.emissive = loc("emissive");
-  r.to_key_light = loc("to_key_light");
-  r.key_color = loc("key_color");
-  r.ambient = loc("ambient");
-  r.point_light = loc("point_light");
-  r.point_color = loc("point_color");
-  r.eye = loc("eye");
+  r.u = gl::LitUniforms(r.program);
   gl::check(kPass, "making the unit shapes");
 }
 
@@ -227,19 +168,8 @@ void PrimitiveRenderer::draw(const View& view, const RenderTarget& target,
   glDepthMask(GL_TRUE);
   glDisable(GL_CULL_FACE);
   glUseProgram(r.program);
-  const Eigen::Matrix4f clip_from_world = view.clip_from_world();
-  glUniformMatrix4fv(r.clip_from_world, 1, GL_FALSE, clip_from_world.data());
-  const Eigen::Vector3f key = light.to_key_light.normalized();
-  glUniform3fv(r.to_key_light, 1, key.data());
-  glUniform3fv(r.key_color, 1, light.key_color.data());
-  glUniform3fv(r.ambient, 1, light.ambient.data());
-  const Eigen::Vector4f point(light.point_position.x(), light.point_position.y(),
-                              light.point_position.z(),
-                              light.point_light ? light.point_range_m : 0);
-  glUniform4fv(r.point_light, 1, point.data());
-  glUniform3fv(r.point_color, 1, light.point_color.data());
+  r.u.set_view(view, light);
   const Eigen::Vector3f eye = view.world_from_view.translation.cast<float>();
-  glUniform3fv(r.eye, 1, eye.data());
   // Opaque first, then the transparent ones from far to near.
   r.order.clear();
   for (size_t i = 0; i < primitives.size(); ++i)
@@ -260,9 +190,9 @@ void PrimitiveRenderer::draw(const View& view, const RenderTarget& target,
     }
     const Primitive& p = primitives[r.order[k]];
     const Mesh& m = r.meshes[static_cast<int>(p.shape) & 3];
-    glUniformMatrix4fv(r.world_from_shape, 1, GL_FALSE, p.world_from_shape.data());
-    glUniform4fv(r.color, 1, p.color.data());
-    glUniform1f(r.emissive, std::clamp(p.emissive, 0.0f, 1.0f));
+    glUniformMatrix4fv(r.u.world_from_shape, 1, GL_FALSE, p.world_from_shape.data());
+    glUniform4fv(r.u.color, 1, p.color.data());
+    glUniform1f(r.u.emissive, std::clamp(p.emissive, 0.0f, 1.0f));
     glBindVertexArray(m.vao);
     glDrawArrays(GL_TRIANGLES, 0, m.vertices);
   }

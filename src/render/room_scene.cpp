@@ -79,6 +79,28 @@ std::vector<Primitive> room_primitives(const RoomLayout& room) {
   return p;
 }
 
+Eigen::Matrix4f monitor_image_quad(const RoomLayout& room) {
+  // The screen (room_primitives): centre (-1.2, 1.6), 1.1 x 0.6 m, its face at z = -d/2 + 0.095.
+  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
+  m.diagonal() << 0.56f, 0.56f, 1, 1;
+  m.topRightCorner<3, 1>() << -1.2f - 0.25f, 1.6f, -room.depth_m / 2 + 0.1f;
+  return m;
+}
+
+std::vector<Primitive> monitor_status_primitives(const RoomLayout& room, int slice, int slices,
+                                                 bool overlay) {
+  std::vector<Primitive> p;
+  const float z = -room.depth_m / 2 + 0.1f, x = -0.95f;
+  const auto rgba = [](float r, float g, float b) { return Eigen::Vector4f(r, g, b, 1); };
+  p.push_back(box({x, 1.6f, z}, {0.02f, 0.5f, 0.005f}, rgba(0.25f, 0.27f, 0.3f), 0, 0.6f));
+  const float f = slices > 1 ? float(slice) / float(slices - 1) : 0.5f;
+  p.push_back(box({x, 1.85f - 0.5f * f, z + 0.004f}, {0.06f, 0.02f, 0.005f},
+                  rgba(0.9f, 0.9f, 0.95f), 0, 0.9f));
+  if (overlay)
+    p.push_back(box({-0.8f, 1.82f, z}, {0.06f, 0.06f, 0.005f}, rgba(1.0f, 0.55f, 0.1f), 0, 0.9f));
+  return p;
+}
+
 std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen::Vector3f& rgb) {
   std::vector<Primitive> p;
   const Eigen::Vector4f skin(rgb.x(), rgb.y(), rgb.z(), 1);

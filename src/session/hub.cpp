@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
@@ -27,6 +28,10 @@ uint64_t pose_key(uint32_t id) {
 uint64_t avatar_key(uint32_t id) {
   return (uint64_t{2} << 32) | id;
 }
+uint64_t object_key(uint16_t object) {
+  return (uint64_t{3} << 32) | object;
+}
+constexpr uint64_t kMonitorKey = uint64_t{4} << 32;
 
 Shared share(std::vector<uint8_t> m) {
   return std::make_shared<const std::vector<uint8_t>>(std::move(m));
@@ -47,6 +52,8 @@ struct SessionHub::Session {
   uint32_t id = 0;
   std::string name;
   std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
+  std::vector<session::ObjectState> objects;            // the case's, by object index
+  std::optional<session::MonitorState> monitor;         // when the case has a series
 };
 
 SessionHub::SessionHub(SessionHubConfig config) : config_(std::move(config)) {
@@ -87,6 +94,7 @@ SessionHub::Session& SessionHub::make_session(const std::string& name) {
   site->info.has_camera = true;
   site->session = s.get();
   s->members.emplace(kSiteParticipant, std::move(site));
+  reset_case_state(*s);
   Session& ref = *s;
   sessions_.emplace(ref.id, std::move(s));
   spdlog::info("session '{}' created", printable(name));
@@ -169,6 +177,13 @@ void SessionHub::remove(uint64_t viewer, session::LeftReason reason) {
   const uint32_t id = m->info.id;
   by_viewer_.erase(it);
   s->members.erase(id);  // m is gone from here
+  for (session::ObjectState& o : s->objects)
+    if (o.owner == id) {  // let go where it was
+      o.owner = 0;
+      ++o.sequence;
+      o.time_us = wall_clock_us();
+      broadcast_object(*s, o.object, nullptr);
+    }
   const Shared left =
       share(session::message(Type::kParticipantLeft, session::serialize_left(id, reason)));
   for (const auto& [pid, other] : s->members) send_shared(other->info.viewer, left);
@@ -243,6 +258,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& j) {
     if (other->camera_message) send_shared(viewer, other->camera_message);
     if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
   }
+  send_case_state(*s, viewer);
   const Shared announce = share(
       session::message(Type::kParticipantJoined,
                        session::serialize(session::ParticipantInfo{
@@ -353,9 +369,153 @@ void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> 
         }
       return;
     }
+    case Type::kGrab:
+    case Type::kObjectMove:
+    case Type::kRelease:
+    case Type::kSetMonitor:
+      if (!m) return error(viewer, "object or monitor: not in a session (join one first)");
+      return handle_object(*m, static_cast<Type>(type), payload);
     default:
       throw Error("a participant may not send session message type " + std::to_string(type));
   }
+}
+
+void SessionHub::reset_case_state(Session& s) {
+  s.objects.clear();
+  s.monitor.reset();
+  if (!case_) return;
+  for (size_t i = 0; i < case_->objects.size(); ++i) {
+    session::ObjectState o;
+    o.generation = case_generation_;
+    o.object = static_cast<uint16_t>(i);
+    o.time_us = wall_clock_us();
+    o.pose = case_->objects[i].rest;
+    s.objects.push_back(o);
+  }
+  if (case_->monitor) {
+    session::MonitorState m;
+    m.generation = case_generation_;
+    m.slice = static_cast<uint16_t>(case_->monitor->slices / 2);
+    m.center = 40, m.width = 400;  // abdomen (dicom.hpp's presets)
+    m.overlay = !case_->monitor->overlay.empty();
+    s.monitor = m;
+  }
+}
+
+void SessionHub::send_case_state(const Session& s, uint64_t viewer) {
+  if (!case_message_) return;
+  send_shared(viewer, case_message_);
+  for (const session::ObjectState& o : s.objects)
+    send(viewer, session::message(Type::kObjectState, session::serialize(o)), object_key(o.object));
+  if (s.monitor)
+    send(viewer, session::message(Type::kMonitorState, session::serialize(*s.monitor)),
+         kMonitorKey);
+}
+
+void SessionHub::set_case(session::SharedCase c) {
+  // Serialised before taking the lock (megabytes): poses keep flowing meanwhile. The generation,
+  // the payload's first field, is filled in under the lock.
+  std::vector<uint8_t> payload = session::serialize(c);
+  std::lock_guard lock(mutex_);
+  c.generation = case_generation_ + 1;
+  std::memcpy(payload.data(), &c.generation, sizeof c.generation);
+  auto message = share(session::message(Type::kCase, payload));
+  case_generation_ = c.generation;
+  case_ = std::make_shared<const session::SharedCase>(std::move(c));
+  case_message_ = std::move(message);
+  ++stats_.case_swaps;
+  for (auto& [id, s] : sessions_) {
+    reset_case_state(*s);
+    for (const auto& [pid, member] : s->members) send_case_state(*s, member->info.viewer);
+  }
+  spdlog::info("session: case '{}' (generation {}) shared: {} objects{}", printable(case_->name),
+               case_generation_, case_->objects.size(), case_->monitor ? ", a CT series" : "");
+}
+
+uint32_t SessionHub::case_generation() const {
+  std::lock_guard lock(mutex_);
+  return case_generation_;
+}
+
+std::vector<session::ObjectState> SessionHub::objects(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  for (const auto& [id, s] : sessions_)
+    if (s->name == name) return s->objects;
+  return {};
+}
+
+std::optional<session::MonitorState> SessionHub::monitor(const std::string& name) const {
+  std::lock_guard lock(mutex_);
+  for (const auto& [id, s] : sessions_)
+    if (s->name == name) return s->monitor;
+  return std::nullopt;
+}
+
+void SessionHub::broadcast_object(const Session& s, uint16_t object, const Member* except) {
+  const Shared msg =
+      share(session::message(Type::kObjectState, session::serialize(s.objects.at(object))));
+  for (const auto& [pid, other] : s.members)
+    if (other.get() != except) send_shared(other->info.viewer, msg, object_key(object));
+}
+
+void SessionHub::handle_object(Member& m, Type type, std::span<const uint8_t> payload) {
+  Session& s = *m.session;
+  if (type == Type::kSetMonitor) {
+    session::MonitorState want = session::parse_set_monitor(payload);
+    if (want.generation != case_generation_ || !s.monitor) return;  // about another case
+    if (want.slice >= case_->monitor->slices)
+      return error(m.info.viewer, "monitor: slice " + std::to_string(want.slice) + " of " +
+                                      std::to_string(case_->monitor->slices));
+    want.by = m.info.id;
+    s.monitor = want;
+    ++stats_.monitor_changes;
+    const Shared msg = share(session::message(Type::kMonitorState, session::serialize(want)));
+    for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg, kMonitorKey);
+    return;
+  }
+  const session::ObjectRequest q = session::parse_object_request(payload, type != Type::kGrab);
+  if (q.generation != case_generation_) return;  // sent before a swap
+  if (q.object >= s.objects.size())
+    throw Error("object " + std::to_string(q.object) + " does not exist (the case has " +
+                std::to_string(s.objects.size()) + ")");
+  session::ObjectState& o = s.objects[q.object];
+  const std::string& name = case_->objects[q.object].name;
+  switch (type) {
+    case Type::kGrab:
+      if (o.owner != 0 && o.owner != m.info.id) {
+        ++stats_.grabs_refused;
+        std::string holder = "participant " + std::to_string(o.owner);
+        if (const auto h = s.members.find(o.owner); h != s.members.end())
+          holder = h->second->info.name;
+        return error(m.info.viewer, "'" + name + "' is held by '" + holder + "'");
+      }
+      o.owner = m.info.id;
+      ++stats_.grabs;
+      break;
+    case Type::kObjectMove:
+      if (o.owner != m.info.id) {
+        ++stats_.moves_ignored;
+        return;
+      }
+      o.pose = q.pose;
+      ++stats_.object_moves;
+      break;
+    case Type::kRelease:
+      if (o.owner != m.info.id) {
+        ++stats_.moves_ignored;
+        return;
+      }
+      o.pose = q.pose;
+      o.owner = 0;
+      ++stats_.releases;
+      break;
+    default:
+      return;
+  }
+  ++o.sequence;
+  o.time_us = wall_clock_us();
+  // A move goes to the others (the owner knows where it put it); grab and release to everyone.
+  broadcast_object(s, q.object, type == Type::kObjectMove ? &m : nullptr);
 }
 
 void SessionHub::watch_presence() {

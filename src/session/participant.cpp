@@ -57,6 +57,20 @@ BodyPose to_room(const RigidTransform& room_from_playarea, const BodyPose& b) {
   return {one(b.head), one(b.left_hand), one(b.right_hand), b.hands_tracked};
 }
 
+// The pose at `at` (server clock) from time-stamped poses, oldest first: interpolated between
+// the two around it; before the first or after the newest, that one (no guessing).
+template <typename T>
+T pose_at(const std::deque<std::pair<int64_t, T>>& q, int64_t at) {
+  T p = q.back().second;
+  if (at <= q.front().first) p = q.front().second;
+  for (size_t i = 1; i < q.size(); ++i)
+    if (q[i - 1].first <= at && at < q[i].first) {
+      const float t = float(at - q[i - 1].first) / float(q[i].first - q[i - 1].first);
+      return interpolate(q[i - 1].second, q[i].second, t);
+    }
+  return p;
+}
+
 }  // namespace
 
 struct Participant::Impl {
@@ -93,6 +107,14 @@ struct Participant::Impl {
     uint64_t decoded_sequence = 0;
     std::shared_ptr<const CameraFrame> decoded;
   };
+  std::shared_ptr<const session::SharedCase> shared_case;
+  struct Track {
+    session::ObjectState newest;
+    std::deque<std::pair<int64_t, Pose>> poses;  // (server time, room_from_object), oldest first
+    Pose own;                                    // where this participant last moved it
+  };
+  std::vector<Track> objects;
+  std::optional<session::MonitorState> monitor;
   std::map<uint32_t, std::shared_ptr<Remote>> remotes;
   std::map<uint32_t, std::shared_ptr<Remote>> gone;  // those who left, for stats()
   std::mutex decode_mutex;
@@ -226,10 +248,58 @@ struct Participant::Impl {
         add_sample(r.avatar_latencies_ms, double(now_server - f.capture_us) / 1000.0);
         return;
       }
+      case Type::kCase: {
+        auto c = std::make_shared<session::SharedCase>(session::parse_case(p));
+        objects.assign(c->objects.size(), Track{});
+        for (size_t i = 0; i < c->objects.size(); ++i) {
+          objects[i].newest.generation = c->generation;
+          objects[i].newest.object = static_cast<uint16_t>(i);
+          objects[i].newest.pose = objects[i].own = c->objects[i].rest;
+        }
+        monitor.reset();
+        spdlog::info("session: case '{}' received: {} objects{}", printable(c->name),
+                     c->objects.size(), c->monitor ? ", a CT series" : "");
+        shared_case = std::move(c);
+        return;
+      }
+      case Type::kObjectState: {
+        const session::ObjectState o = session::parse_object_state(p);
+        if (!shared_case || o.generation != shared_case->generation || o.object >= objects.size())
+          return;  // about another case
+        Track& t = objects[o.object];
+        if (o.sequence < t.newest.sequence) return;  // older
+        if (o.owner == state.id && t.newest.owner == state.id) {
+          t.newest.sequence = o.sequence;  // our own hold confirmed again: keep our pose
+          return;
+        }
+        if (o.owner == state.id) t.own = t.newest.pose;  // just granted: starts where it is
+        t.newest = o;
+        t.poses.emplace_back(o.time_us, o.pose);
+        if (t.poses.size() > kPoseHistory) t.poses.pop_front();
+        return;
+      }
+      case Type::kMonitorState: {
+        const session::MonitorState m = session::parse_monitor_state(p);
+        if (!shared_case || m.generation != shared_case->generation) return;
+        monitor = m;
+        return;
+      }
       default:
         throw Error("the server sent session message type " + std::to_string(type) +
                     ", which a participant does not take");
     }
+  }
+
+  // A move or release of `object` at `pose` (shown here at once), coalesced per object.
+  void post_object(Type type, uint16_t object, const Pose& pose) {
+    session::ObjectRequest q{0, object, pose};
+    {
+      std::lock_guard lock(mutex);
+      if (!shared_case || object >= objects.size()) return;
+      q.generation = shared_case->generation;
+      objects[object].own = pose;
+    }
+    post(type, session::serialize(q, true), (uint64_t{3} << 32) | object);
   }
 
   void send_join(const std::string& name, bool create) {
@@ -368,18 +438,7 @@ SessionSnapshot Participant::snapshot(int64_t now_us) const {
   SessionSnapshot s = m.state;
   for (const auto& [id, r] : m.remotes) {
     RemoteParticipant p = r->info;
-    if (!r->poses.empty()) {
-      // The two poses around `at`; before the first or after the newest, that one (no guessing).
-      const auto& q = r->poses;
-      p.pose = q.back().second;
-      if (at <= q.front().first) p.pose = q.front().second;
-      for (size_t i = 1; i < q.size(); ++i)
-        if (q[i - 1].first <= at && at < q[i].first) {
-          const float t = float(at - q[i - 1].first) / float(q[i].first - q[i - 1].first);
-          p.pose = interpolate(q[i - 1].second, q[i].second, t);
-          break;
-        }
-    }
+    if (!r->poses.empty()) p.pose = pose_at(r->poses, at);
     if (r->camera) {
       CameraCalibration c = r->camera->calibration;
       c.world_from_camera = session::room_from_playarea(p.spot) * c.world_from_camera;
@@ -387,7 +446,56 @@ SessionSnapshot Participant::snapshot(int64_t now_us) const {
     }
     s.others.push_back(std::move(p));
   }
+  if (m.shared_case) {
+    s.case_generation = m.shared_case->generation;
+    for (const Impl::Track& t : m.objects) {
+      ObjectView v{t.newest.object, t.newest.owner, t.newest.pose, t.newest.sequence};
+      if (t.newest.owner != 0 && t.newest.owner == m.state.id)
+        v.pose = t.own;
+      else if (t.newest.owner != 0 && !t.poses.empty())
+        v.pose = pose_at(t.poses, at);
+      s.objects.push_back(v);
+    }
+    s.monitor = m.monitor;
+  }
   return s;
+}
+
+std::shared_ptr<const session::SharedCase> Participant::shared_case() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->shared_case;
+}
+
+void Participant::grab(uint16_t object) {
+  Impl& m = *impl_;
+  session::ObjectRequest q;
+  {
+    std::lock_guard lock(m.mutex);
+    if (!m.shared_case || object >= m.objects.size()) return;
+    q.generation = m.shared_case->generation;
+  }
+  q.object = object;
+  m.post(Type::kGrab, session::serialize(q, false));
+}
+
+void Participant::move_object(uint16_t object, const Pose& room_from_object) {
+  impl_->post_object(Type::kObjectMove, object, room_from_object);
+}
+
+void Participant::release(uint16_t object, const Pose& room_from_object) {
+  // Coalesced with any queued move of it: the release replaces it and is never overtaken.
+  impl_->post_object(Type::kRelease, object, room_from_object);
+}
+
+void Participant::set_monitor(const session::MonitorState& state) {
+  Impl& m = *impl_;
+  session::MonitorState s = state;
+  {
+    std::lock_guard lock(m.mutex);
+    if (!m.shared_case) return;
+    s.generation = m.shared_case->generation;
+  }
+  m.post(Type::kSetMonitor, session::serialize_set_monitor(s), uint64_t{4} << 32);
 }
 
 std::shared_ptr<const CameraFrame> Participant::avatar_frame(uint32_t id) {

@@ -3,7 +3,9 @@
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
+
 #include <sstream>
+#include "volcast/session/objects.hpp"
 
 #include "volcast/core/error.hpp"
 
@@ -147,6 +149,53 @@ PoseScript parse_pose_script(const std::string& text) {
         throw Error("pose script: teleports must be in time order");
       s.teleports.push_back(st);
     }
+  }
+  const auto list = [&](const char* key) {
+    if (j.contains(key) && !j[key].is_array())
+      throw Error(std::string("pose script: \"") + key + "\" must be a list");
+    return j.contains(key) ? j[key] : nlohmann::json::array();
+  };
+  const nlohmann::json grabs = list("grabs");
+  for (size_t i = 0; i < grabs.size(); ++i) {
+    const auto& g = grabs[i];
+    const std::string where = "grabs[" + std::to_string(i) + "]";
+    if (!g.is_object() || !g.contains("object") || !g["object"].is_string())
+      throw Error("pose script: " + where + " needs \"object\": a name");
+    ScriptedGrab sg;
+    sg.object = g["object"].get<std::string>();
+    sg.t_s = number(g, "t", -1, where);
+    sg.for_s = number(g, "for_s", 1, where);
+    sg.turn_deg_per_s = number(g, "turn_deg_per_s", 0, where);
+    if (sg.t_s < 0 || sg.for_s <= 0)
+      throw Error("pose script: " + where + " needs t >= 0 and for_s > 0 seconds");
+    if (!s.grabs.empty() && sg.t_s < s.grabs.back().t_s)
+      throw Error("pose script: grabs must be in time order");
+    s.grabs.push_back(sg);
+  }
+  const nlohmann::json monitor = list("monitor");
+  for (size_t i = 0; i < monitor.size(); ++i) {
+    const auto& m = monitor[i];
+    const std::string where = "monitor[" + std::to_string(i) + "]";
+    if (!m.is_object()) throw Error("pose script: " + where + " must be an object");
+    ScriptedMonitor sm;
+    sm.t_s = number(m, "t", -1, where);
+    if (sm.t_s < 0) throw Error("pose script: " + where + ".t must be given, >= 0 seconds");
+    sm.slice = static_cast<int>(number(m, "slice", -1, where));
+    if (m.contains("preset")) {
+      if (!m["preset"].is_string()) throw Error("pose script: " + where + ".preset must be a name");
+      const session::WindowPreset p = session::window_preset(m["preset"].get<std::string>());
+      sm.center = p.center, sm.width = p.width;
+    }
+    if (m.contains("center")) sm.center = number(m, "center", 0, where);
+    if (m.contains("width")) sm.width = std::max(1.0f, number(m, "width", 1, where));
+    if (m.contains("overlay")) {
+      if (!m["overlay"].is_boolean())
+        throw Error("pose script: " + where + ".overlay must be true or false");
+      sm.overlay = m["overlay"].get<bool>();
+    }
+    if (!s.monitor.empty() && sm.t_s < s.monitor.back().t_s)
+      throw Error("pose script: monitor changes must be in time order");
+    s.monitor.push_back(sm);
   }
   return s;
 }

@@ -10,6 +10,11 @@
 // quality, surface (splats, the default, or mesh), xrscale (the headset's framebuffer scale, 0.1
 // to 2, default 1: lower for a slow device), check=1 (hash every decoded depth image, for tests),
 // room=0 (the site's points alone, without the room and the others).
+// The patient case (serve --case): its organs over the table and the CT on the wall monitor. In a
+// headset, squeeze a controller's grip near an organ to hold it (it follows the hand; let go to
+// release); on a desktop, G grabs the organ you look at (it follows your view) and G again lets
+// it go, Z/X turn it. The monitor, for everyone: [ and ] scroll slices, 1/2/3 the abdomen, liver
+// and bone windows, O the overlay.
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
@@ -20,6 +25,9 @@ const EYE_HEIGHT = 1.6;
 // The room as src/session/room.cpp's default_operating_room() lays it out (metres, room frame).
 const ROOM = {width: 7, depth: 6, height: 3, table: {centre: [0, 0.45, 0], half: [1.0, 0.45, 0.3]},
               lamp: [0, 2.2, 0]};
+// The wall monitor and where its image goes (room_scene.cpp monitor_image_quad).
+const MONITOR_QUAD = M.multiply(M.translation(-1.45, 1.6, -ROOM.depth / 2 + 0.1), M.scale(0.56, 0.56, 1));
+const PRESETS = [['abdomen', 40, 400], ['liver', 90, 150], ['bone', 480, 2500]];  // objects.hpp
 
 const state = {
   phase: 'connecting', error: '', cameras: 0, framesReceived: 0, framesDrawn: 0,
@@ -32,6 +40,18 @@ window.volcast = state;
 // Tests: time the WebAssembly decoder on the newest frame (worker.js bench); the result lands in
 // window.volcast.bench.
 window.volcastBench = (runs) => worker.postMessage({type: 'bench', runs});
+// Tests: turn the desktop view towards the case's object `i` (as a person would with the mouse).
+window.volcastAim = (i) => {
+  const c = session.objectPose(i).position;
+  const eye = desktopRoomFromHead();
+  const roomFromPlayarea_ = roomFromPlayarea();
+  const d = [c[0] - eye[12], c[1] - eye[13], c[2] - eye[14]];
+  // Into the play area's axes (the transpose of its rotation).
+  const p = [0, 1, 2].map((k) => roomFromPlayarea_[4 * k] * d[0] + roomFromPlayarea_[4 * k + 1] * d[1] +
+                                 roomFromPlayarea_[4 * k + 2] * d[2]);
+  nav.yaw = Math.atan2(-p[0], -p[2]);
+  nav.pitch = Math.atan2(p[1], Math.hypot(p[0], p[2]));
+};
 
 const canvas = document.getElementById('view');
 const overlay = document.getElementById('overlay');
@@ -63,7 +83,74 @@ session.onchange = () => {
   state.session.others = [...session.others.values()].map((p) => ({
     id: p.id, name: p.name, role: p.role, poses: p.poses, hasBody: !!p.body}));
   state.session.teleports = session.teleports.length;
+  state.session.objects = session.objects.map((o) => ({owner: o.owner, sequence: o.sequence,
+                                                       position: o.pose.position}));
+  state.session.monitor = session.monitor;
 };
+
+// The case: as the worker parsed it, and what this page holds (object index, the frame it follows:
+// 'head' or an XR input source, and hand_from_object when it was grabbed).
+let currentCase = null;
+let holding = null;
+
+function objectMatrix(i) {
+  const p = session.objectPose(i);
+  return M.fromPose(p.position, p.orientation);
+}
+
+// Grabs the object nearest `roomFromHand`'s origin within reach (radius + 0.15 m), or with
+// `alongRay` the one the hand's -z ray passes through, nearest first.
+function grabNear(roomFromHand, follow, alongRay) {
+  if (!currentCase || !session.joined || holding) return;
+  const o = [roomFromHand[12], roomFromHand[13], roomFromHand[14]];
+  const d = [-roomFromHand[8], -roomFromHand[9], -roomFromHand[10]];
+  let best = -1, bestDistance = Infinity;
+  currentCase.objects.forEach((obj, i) => {
+    const c = session.objectPose(i).position;
+    const v = [c[0] - o[0], c[1] - o[1], c[2] - o[2]];
+    let distance;
+    if (alongRay) {
+      const t = v[0] * d[0] + v[1] * d[1] + v[2] * d[2];
+      const miss = Math.hypot(v[0] - t * d[0], v[1] - t * d[1], v[2] - t * d[2]);
+      distance = t > 0 && miss <= obj.radius + 0.05 ? t : Infinity;
+    } else {
+      distance = Math.hypot(...v) <= obj.radius + 0.15 ? Math.hypot(...v) : Infinity;
+    }
+    if (distance < bestDistance) best = i, bestDistance = distance;
+  });
+  if (best < 0) return;
+  session.grab(best);
+  holding = {object: best, follow, handFromObject: M.multiply(M.invertRigid(roomFromHand), objectMatrix(best))};
+}
+
+// Moves the held object with its hand (once the server made us its owner).
+function moveHeld(roomFromHand, turn = 0) {
+  if (!holding) return;
+  const o = session.objects[holding.object];
+  if (!o || !session.joined || o.owner !== session.joined.id) return;
+  if (turn) holding.handFromObject = M.multiply(holding.handFromObject, M.rotationY(turn));
+  session.move(holding.object, M.toPose(M.multiply(roomFromHand, holding.handFromObject)));
+}
+
+function releaseHeld() {
+  if (!holding) return;
+  const o = session.objects[holding.object];
+  if (o && session.joined && o.owner === session.joined.id) session.release(holding.object, o.pose);
+  holding = null;
+}
+
+function monitorKey(key) {
+  if (!currentCase || !currentCase.monitor || !session.monitor) return false;
+  const m = {...session.monitor};
+  const slices = currentCase.monitor.slices;
+  if (key === '[') m.slice = Math.max(0, m.slice - 1);
+  else if (key === ']') m.slice = Math.min(slices - 1, m.slice + 1);
+  else if (key === 'o') m.overlay = !m.overlay;
+  else if (['1', '2', '3'].includes(key)) [, m.center, m.width] = PRESETS[Number(key) - 1];
+  else return false;
+  session.setMonitor(m);
+  return true;
+}
 
 // Desktop navigation inside the play area: position offset, yaw, pitch.
 const nav = {x: 0, z: 0, yaw: 0, pitch: -0.1, keys: new Set(), dragging: false};
@@ -114,6 +201,7 @@ function sceneBoxes() {
             [0.45, 0.52, 0.55, 1]),
     roomBox([ROOM.width / 2, ROOM.height / 2, 0], [0.01, ROOM.height / 2, ROOM.depth / 2],
             [0.45, 0.52, 0.55, 1]),
+    roomBox([-1.2, 1.6, -ROOM.depth / 2 + 0.06], [0.6, 0.35, 0.025], [0.08, 0.09, 0.1, 1]),
   ];
   const boxes = [...roomBoxes];
   for (const p of session.others.values()) {
@@ -151,9 +239,17 @@ function avatarDraws() {
   return out;
 }
 
-function scene() {
-  return {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
-          lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats'};
+function scene(eye) {
+  const s = {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
+             lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats', eye};
+  if (currentCase && session.generation === currentCase.generation && params.get('room') !== '0') {
+    s.objects = currentCase.objects.map((o, i) => ({roomFromObject: objectMatrix(i)}));
+    if (currentCase.monitor && session.monitor) {
+      renderer.setMonitor(currentCase.monitor, session.monitor, currentCase.generation);
+      s.monitorQuad = MONITOR_QUAD;
+    }
+  }
+  return s;
 }
 
 function noteDrawn() {
@@ -183,9 +279,11 @@ function desktopFrame() {
   gl.clearColor(0.08, 0.09, 0.11, 1);
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   const roomFromHead = desktopRoomFromHead();
+  if (holding && holding.follow === 'head')
+    moveHeld(roomFromHead, (nav.keys.has('x') ? 0.04 : 0) - (nav.keys.has('z') ? 0.04 : 0));
   const clipFromRoom = M.multiply(M.perspective(70, w / Math.max(h, 1), 0.05, 50),
                                   M.invertRigid(roomFromHead));
-  renderer.draw(clipFromRoom, [0, 0, w, h], scene());
+  renderer.draw(clipFromRoom, [0, 0, w, h], scene([roomFromHead[12], roomFromHead[13], roomFromHead[14]]));
   noteDrawn();
   const head = M.toPose(roomFromHead);
   session.publish({handsTracked: false, head, left: head, right: head});
@@ -243,6 +341,18 @@ async function enterXr() {
     const roomFromRay = M.multiply(roomFromPlayarea(), new Float32Array(p.transform.matrix));
     teleportTo(floorHit(roomFromRay), session.joined ? session.joined.spot.yaw : 0);
   });
+  const gripOf = (ev) => {
+    if (!ev.inputSource.gripSpace) return null;
+    const p = ev.frame.getPose(ev.inputSource.gripSpace, space);
+    return p ? M.multiply(roomFromPlayarea(), new Float32Array(p.transform.matrix)) : null;
+  };
+  xr.addEventListener('squeezestart', (ev) => {
+    const hand = gripOf(ev);
+    if (hand) grabNear(hand, ev.inputSource, false);
+  });
+  xr.addEventListener('squeezeend', (ev) => {
+    if (holding && holding.follow === ev.inputSource) releaseHeld();
+  });
   xr.addEventListener('end', () => {
     state.xr.active = false;
     requestAnimationFrame(desktopFrame);
@@ -256,7 +366,12 @@ async function enterXr() {
     gl.clearColor(0.08, 0.09, 0.11, 1);
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     const playarea = roomFromPlayarea();
-    const s = scene();
+    if (holding && holding.follow !== 'head' && holding.follow.gripSpace) {
+      const g = frame.getPose(holding.follow.gripSpace, space);
+      if (g) moveHeld(M.multiply(playarea, new Float32Array(g.transform.matrix)));
+    }
+    const eye = M.multiply(playarea, new Float32Array(pose.transform.matrix));
+    const s = scene([eye[12], eye[13], eye[14]]);
     for (const view of pose.views) {
       const vp = layer.getViewport(view);
       const roomFromView = M.multiply(playarea, new Float32Array(view.transform.matrix));
@@ -293,7 +408,17 @@ function setupInput() {
     nav.yaw -= e.movementX * 0.004;
     nav.pitch = Math.max(-1.4, Math.min(1.4, nav.pitch - e.movementY * 0.004));
   });
-  window.addEventListener('keydown', (e) => nav.keys.add(e.key.toLowerCase()));
+  window.addEventListener('keydown', (e) => {
+    const key = e.key.toLowerCase();
+    if (e.repeat) return;
+    if (key === 'g') {
+      if (holding) releaseHeld();
+      else grabNear(desktopRoomFromHead(), 'head', true);
+      return;
+    }
+    if (monitorKey(key)) return;
+    nav.keys.add(key);
+  });
   window.addEventListener('keyup', (e) => nav.keys.delete(e.key.toLowerCase()));
   canvas.addEventListener('dblclick', (e) => {
     // The ray through the clicked pixel, from the eye.
@@ -364,6 +489,15 @@ function start() {
       state.avatarFrames[m.id] = (state.avatarFrames[m.id] || 0) + 1;
     } else if (m.type === 'avatar-error') {
       state.avatarErrors[m.id] = m.what;
+    } else if (m.type === 'case') {
+      currentCase = m.case;
+      holding = null;
+      session.setCase(m.case);
+      renderer.setCase(m.case);
+      state.case = {name: m.case.name, generation: m.case.generation,
+                    objects: m.case.objects.map((o) => o.name),
+                    slices: m.case.monitor ? m.case.monitor.slices : 0};
+      session.onchange();
     } else if (m.type === 'bench') {
       state.bench = m.result;
     } else if (m.type === 'session') {

@@ -130,6 +130,49 @@ void main() {
   out_color = vec4(c, base.a);
 }`;
 
+const QUAD_VS = `#version 300 es
+uniform mat4 clip_from_quad;
+out vec2 uv;
+void main() {
+  vec2 corner = vec2(float(gl_VertexID & 1), float((gl_VertexID >> 1) & 1));
+  uv = vec2(corner.x, 1.0 - corner.y);  // image row 0 at the top
+  gl_Position = clip_from_quad * vec4(corner - 0.5, 0.0, 1.0);
+}`;
+
+const QUAD_FS = `#version 300 es
+precision mediump float;
+uniform sampler2D image;
+in vec2 uv;
+out vec4 out_color;
+void main() { out_color = vec4(texture(image, uv).rgb, 1.0); }`;
+
+// DICOM's linear VOI function (PS3.3 C.11.2.1.2.1) to 0..255, as session::window_gray.
+export function windowGray(hu, center, width) {
+  const w = Math.max(1, width);
+  if (hu <= center - 0.5 - (w - 1) / 2) return 0;
+  if (hu > center - 0.5 + (w - 1) / 2 || w <= 1) return 255;
+  return Math.round(((hu - (center - 0.5)) / (w - 1) + 0.5) * 255);
+}
+
+// The monitor's picture of `state.slice` (RGBA, row 0 at the top), as session::monitor_image.
+export function monitorImage(series, state) {
+  const n = series.width * series.height, base = state.slice * n;
+  const out = new Uint8Array(n * 4);
+  for (let i = 0; i < n; ++i) {
+    const g = windowGray(series.hu[base + i], state.center, state.width);
+    const o = i * 4;
+    if (state.overlay && series.overlay && series.overlay[base + i]) {
+      out[o] = Math.floor((g * 3 + 255 * 2) / 5);
+      out[o + 1] = Math.floor((g * 3 + 140 * 2) / 5);
+      out[o + 2] = Math.floor((g * 3 + 25 * 2) / 5);
+    } else {
+      out[o] = out[o + 1] = out[o + 2] = g;
+    }
+    out[o + 3] = 255;
+  }
+  return out;
+}
+
 function compile(gl, vs, fs) {
   const program = gl.createProgram();
   for (const [type, src] of [[gl.VERTEX_SHADER, vs], [gl.FRAGMENT_SHADER, fs]]) {
@@ -174,6 +217,10 @@ export class Renderer {
     this.splat = compile(gl, SPLAT_VS, SPLAT_FS);
     this.mesh = compile(gl, MESH_VS, MESH_FS);
     this.box = compile(gl, BOX_VS, BOX_FS);
+    this.quad = compile(gl, QUAD_VS, QUAD_FS);
+    this.caseParts = [];  // by object: [{vao, buffers, count, rgba}]
+    this.monitorTexture = null;
+    this.monitorKey = '';
     this.cameras = [];
     this.avatars = new Map();  // participant id -> its camera avatar
     this.empty = gl.createVertexArray();
@@ -275,6 +322,113 @@ export class Renderer {
     });
   }
 
+  // The patient case (case_wire.js parseCase): its parts' meshes, replacing the last case's.
+  setCase(c) {
+    const gl = this.gl;
+    for (const parts of this.caseParts)
+      for (const p of parts) {
+        gl.deleteVertexArray(p.vao);
+        p.buffers.forEach((b) => gl.deleteBuffer(b));
+      }
+    this.caseParts = c.objects.map((o) => o.parts.filter((p) => p.indices.length).map((p) => {
+      const vao = gl.createVertexArray();
+      gl.bindVertexArray(vao);
+      const buffer = (target, data) => {
+        const b = gl.createBuffer();
+        gl.bindBuffer(target, b);
+        gl.bufferData(target, data, gl.STATIC_DRAW);
+        return b;
+      };
+      const positions = buffer(gl.ARRAY_BUFFER, p.positions);
+      gl.enableVertexAttribArray(0);
+      gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 12, 0);
+      const normals = buffer(gl.ARRAY_BUFFER, p.normals);
+      gl.enableVertexAttribArray(1);
+      gl.vertexAttribPointer(1, 3, gl.BYTE, true, 3, 0);
+      const indices = buffer(gl.ELEMENT_ARRAY_BUFFER, p.indices);
+      gl.bindVertexArray(null);
+      let cx = 0, cy = 0, cz = 0;  // the part's centre, for sorting the transparent ones
+      for (let i = 0; i < p.positions.length; i += 3)
+        cx += p.positions[i], cy += p.positions[i + 1], cz += p.positions[i + 2];
+      const k = 3 / Math.max(3, p.positions.length);
+      return {vao, buffers: [positions, normals, indices], count: p.indices.length, rgba: p.rgba,
+              centre: [cx * k, cy * k, cz * k]};
+    }));
+    this.monitorKey = '';
+  }
+
+  // The monitor's texture from `series` at `state` (made again only when either changes).
+  setMonitor(series, state, generation) {
+    const gl = this.gl;
+    const key = `${generation}:${state.slice}:${state.center}:${state.width}:${state.overlay}`;
+    if (key === this.monitorKey) return;
+    this.monitorKey = key;
+    if (!this.monitorTexture) this.monitorTexture = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, this.monitorTexture);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, series.width, series.height, 0, gl.RGBA,
+                  gl.UNSIGNED_BYTE, monitorImage(series, state));
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+  }
+
+  // The case's objects (scene.objects: [{roomFromObject}], by object index) -- opaque parts, then
+  // the half-transparent ones far to near, back faces then front faces, blended -- and the
+  // monitor's quad (scene.monitorQuad: room_from_quad of the unit quad) when it has a texture.
+  drawCase(clipFromRoom, scene) {
+    const gl = this.gl;
+    const b = this.box;
+    gl.useProgram(b.program);
+    gl.uniform3fv(b.uniforms.lamp, scene.lamp || [0, 2.2, 0]);
+    gl.uniform1i(b.uniforms.grid, 0);
+    const eye = scene.eye || [0, 0, 0];
+    const opaque = [], blended = [];
+    (scene.objects || []).forEach((o, i) => {
+      for (const p of this.caseParts[i] || []) {
+        const m = o.roomFromObject;
+        const c = [0, 1, 2].map((r) => m[r] * p.centre[0] + m[4 + r] * p.centre[1] + m[8 + r] * p.centre[2] + m[12 + r]);
+        const item = {p, m, d: Math.hypot(c[0] - eye[0], c[1] - eye[1], c[2] - eye[2])};
+        (p.rgba[3] >= 1 ? opaque : blended).push(item);
+      }
+    });
+    blended.sort((x, y) => y.d - x.d);
+    const drawPart = ({p, m}) => {
+      gl.uniformMatrix4fv(b.uniforms.clip_from_model, false, multiply(clipFromRoom, m));
+      gl.uniformMatrix4fv(b.uniforms.room_from_model, false, m);
+      gl.uniform4fv(b.uniforms.base, p.rgba);
+      gl.bindVertexArray(p.vao);
+      gl.drawElements(gl.TRIANGLES, p.count, gl.UNSIGNED_INT, 0);
+    };
+    opaque.forEach(drawPart);
+    if (blended.length) {
+      gl.enable(gl.BLEND);
+      gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
+      gl.depthMask(false);
+      gl.enable(gl.CULL_FACE);
+      for (const item of blended)
+        for (const face of [gl.FRONT, gl.BACK]) {
+          gl.cullFace(face);
+          drawPart(item);
+        }
+      gl.disable(gl.CULL_FACE);
+      gl.depthMask(true);
+      gl.disable(gl.BLEND);
+    }
+    if (scene.monitorQuad && this.monitorTexture) {
+      gl.useProgram(this.quad.program);
+      gl.uniformMatrix4fv(this.quad.uniforms.clip_from_quad, false,
+                          multiply(clipFromRoom, scene.monitorQuad));
+      gl.activeTexture(gl.TEXTURE0);
+      gl.bindTexture(gl.TEXTURE_2D, this.monitorTexture);
+      gl.uniform1i(this.quad.uniforms.image, 0);
+      gl.bindVertexArray(this.empty);
+      gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+    }
+    gl.bindVertexArray(null);
+  }
+
   // Draws the scene into the bound framebuffer's `viewport` [x, y, w, h] through
   // `clipFromRoom`. `scene`: {roomFromSite, avatars: [{id, roomFromCamera, keep: [x, y, z,
   // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale,
@@ -333,6 +487,7 @@ export class Renderer {
       gl.drawArrays(gl.TRIANGLES, 0, 36);
     }
     gl.bindVertexArray(null);
+    this.drawCase(clipFromRoom, scene);
   }
 }
 

@@ -1,12 +1,24 @@
 // The browser participant's side of the session channel (protocol.hpp channel 2; every message,
 // field and limit in src/session/include/volcast/session/messages.hpp): the lobby, joining,
 // publishing the head and hands, answering pose echoes, teleports, and the others' poses. The
-// others' camera avatars (0x49, 0x4a) never come here: worker.js decodes them.
+// others' camera avatars (0x49, 0x4a) never come here: worker.js decodes them. The patient case
+// (objects.hpp): its objects' owners and poses (0x4c), grab / move / release (0x0a..0x0c), the
+// monitor's shared state (0x4d, 0x0d); the case itself (0x4b) is parsed by the worker
+// (case_wire.js) and handed over with setCase().
 const MAGIC = 0x54534356;
 const VERSION = 5;
 
+// Normalised linear interpolation of unit quaternions (x, y, z, w), the shorter way.
+function nlerp(a, b, t) {
+  const sign = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] < 0 ? -1 : 1;
+  const q = a.map((x, i) => x + t * (sign * b[i] - x));
+  const n = Math.hypot(...q);
+  return q.map((x) => x / n);
+}
+
 class Writer {
   constructor() { this.parts = []; }
+  u16(x) { const a = new Uint8Array(2); new DataView(a.buffer).setUint16(0, x, true); this.parts.push(a); return this; }
   u8(x) { this.parts.push(new Uint8Array([x])); return this; }
   u32(x) { const a = new Uint8Array(4); new DataView(a.buffer).setUint32(0, x, true); this.parts.push(a); return this; }
   i64(x) { const a = new Uint8Array(8); new DataView(a.buffer).setBigInt64(0, BigInt(Math.round(x)), true); this.parts.push(a); return this; }
@@ -77,7 +89,48 @@ export class Session {
     this.roundTripsMs = [];
     this.posesSent = 0;
     this.teleports = [];
+    this.generation = 0;     // the case's (0: none)
+    this.objects = [];       // by object index: {owner, sequence, pose, poses: [[timeUs, pose]]}
+    this.monitor = null;     // {slice, center, width, overlay, by}
     this.onchange = () => {};
+  }
+
+  // The case arrived (worker 'case'): every object at rest, held by nobody, no monitor state yet.
+  setCase(c) {
+    this.generation = c.generation;
+    this.objects = c.objects.map((o) => ({owner: 0, sequence: 0, pose: o.rest, poses: []}));
+    this.monitor = null;
+  }
+  grab(object) { this.send(new Writer().u32(this.generation).u16(object).message(0x0a)); }
+  move(object, pose) {
+    const o = this.objects[object];
+    if (o && this.joined && o.owner === this.joined.id) o.pose = pose;  // shown at once
+    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(0x0b));
+  }
+  release(object, pose) {
+    const o = this.objects[object];
+    if (o) o.pose = pose;
+    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(0x0c));
+  }
+  setMonitor(m) {
+    this.send(new Writer().u32(this.generation).u16(m.slice).f32(m.center).f32(m.width)
+        .u8(m.overlay ? 1 : 0).message(0x0d));
+  }
+  // Object `i`'s pose now: held by another, interpolated `delayUs` in the past between the
+  // states received (as the native participant shows others' moves); else its newest.
+  objectPose(i, delayUs = 40000) {
+    const o = this.objects[i];
+    if (!o.owner || (this.joined && o.owner === this.joined.id) || o.poses.length < 2) return o.pose;
+    const at = this.nowServerUs() - delayUs, q = o.poses;
+    if (at <= q[0][0]) return q[0][1];
+    for (let k = 1; k < q.length; ++k)
+      if (q[k - 1][0] <= at && at < q[k][0]) {
+        const t = (at - q[k - 1][0]) / (q[k][0] - q[k - 1][0]);
+        const a = q[k - 1][1], b = q[k][1];
+        return {position: a.position.map((x, j) => x + t * (b.position[j] - x)),
+                orientation: nlerp(a.orientation, b.orientation, t)};
+      }
+    return o.pose;
   }
 
   list() { this.send(new Writer().message(0x01)); }
@@ -164,6 +217,25 @@ export class Session {
         if (p) p.spot = to;
         this.teleports.push({id, from, to, at: performance.now()});
         if (this.teleports.length > 16) this.teleports.shift();
+        break;
+      }
+      case 0x4c: {
+        const generation = r.u32(), object = r.u16(), owner = r.u32(), sequence = r.u32();
+        const time = r.i64(), pose = r.pose();
+        const o = this.objects[object];
+        if (generation !== this.generation || !o || sequence < o.sequence) break;
+        const mine = this.joined && owner === this.joined.id;
+        if (!(mine && o.owner === owner)) o.pose = pose;  // our own hold: keep our pose
+        o.owner = owner;
+        o.sequence = sequence;
+        o.poses.push([time, pose]);
+        if (o.poses.length > 32) o.poses.shift();
+        break;
+      }
+      case 0x4d: {
+        const generation = r.u32();
+        const m = {slice: r.u16(), center: r.f32(), width: r.f32(), overlay: r.u8() === 1, by: r.u32()};
+        if (generation === this.generation) this.monitor = m;
         break;
       }
       default: throw new Error(`unknown session message 0x${type.toString(16)}`);

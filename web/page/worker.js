@@ -4,7 +4,8 @@
 // decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
 // JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,
 // a KeyFrameRequest when it has no key frame to start from or fails), raw color by hand. Session messages (channel 2) pass through to
-// the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here.
+// the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here, and
+// the patient case (0x4b, case_wire.js), parsed here.
 //
 // Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
 //   ({check: true}: each decoded depth image's FNV-1a 32 hash is reported, for tests);
@@ -17,10 +18,10 @@
 //   {type: 'closed', why}; {type: 'bench', result: {runs, medianMs, minMs, stream (base64)}};
 //   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
 //   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
-//   id, what}; {type: 'warning', what}.
+//   id, what}; {type: 'warning', what}; {type: 'case', case (case_wire.js parseCase)}.
 'use strict';
 
-importScripts('volcast_decoder.js');
+importScripts('volcast_decoder.js', 'case_wire.js');
 
 const MAGIC = 0x54534356;  // "VCST" little-endian
 const VERSION = 5;
@@ -424,7 +425,7 @@ async function drain() {
   try {
     while (inboxBytes >= HEADER) {
       const h = peekHeader();
-      const limit = h.channel === 2 ? MAX_SESSION_MESSAGE
+      const limit = h.channel === 2 ? (h.type === 0x4b ? MAX_CASE_BYTES : MAX_SESSION_MESSAGE)
                   : h.channel === 1 ? (cameras ? frameLimit : 0)
                   : h.type === 2 ? MAX_WELCOME : MAX_CONTROL;
       if (h.length > limit)
@@ -443,6 +444,9 @@ async function drain() {
         throw new Error('the server refused: ' + new Reader(payload, 'reject').string());
       } else if (h.channel === 1 && h.type === 1 && cameras) {
         await onFrameSet(payload, receivedUs);
+      } else if (h.channel === 2 && h.type === 0x4b) {
+        const c = parseCase(payload);
+        postMessage({type: 'case', case: c}, caseBuffers(c));
       } else if (h.channel === 2 && h.type === 0x49) {
         onAvatarCamera(payload);
       } else if (h.channel === 2 && h.type === 0x4a) {

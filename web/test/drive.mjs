@@ -7,6 +7,9 @@
 //   node drive.mjs --link URL --out DIR [--frames N] [--seconds S] [--xr] [--bench]
 //                  [--chromium PATH]
 // --bench: then times the WebAssembly decoder on the newest frame (page.json's bench).
+// --case: then waits for the patient case, aims at object 0 and presses G (grab), holds X for a
+// second (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
+// overlay toggled), as a person at the keyboard would.
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -83,6 +86,26 @@ try {
     await page.waitForTimeout(300);
     await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('trigger', 0));
     await page.waitForTimeout(1500);
+    s = await state();
+  }
+  if (args.includes('--case') && s.phase !== 'error') {
+    await page.waitForFunction(() => window.volcast.case && window.volcast.session.joined &&
+                                     window.volcast.session.monitor, null, {timeout: 30000});
+    await page.evaluate(() => window.volcastAim(0));
+    await page.waitForTimeout(200);
+    await page.keyboard.press('g');
+    await page.waitForFunction(() => window.volcast.session.objects[0].owner === window.volcast.session.id,
+                               null, {timeout: 20000});
+    await page.keyboard.down('x');
+    await page.waitForTimeout(1000);
+    await page.keyboard.up('x');
+    await page.keyboard.press('g');
+    await page.waitForFunction(() => window.volcast.session.objects[0].owner === 0, null, {timeout: 20000});
+    for (const key of [']', '2', 'o']) {
+      await page.keyboard.press(key);
+      await page.waitForTimeout(300);
+    }
+    await page.waitForTimeout(1000);
     s = await state();
   }
   if (args.includes('--bench') && s.phase !== 'error') {

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 
+#include "case_panel.hpp"
 #include "panel.hpp"
 #include "screenshot.hpp"
 #include "session_panel.hpp"
@@ -278,6 +279,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   std::unique_ptr<SessionScene> scene;
   if (participant) scene = std::make_unique<SessionScene>();
   SessionPanelState session_panel;
+  CasePanelState case_panel;
   session::Spot last_spot;
   result.renderer = renderer.gl_description();
   Gui gui(window.window);
@@ -382,6 +384,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
       if (participant) {
         ImGui::Begin("volcast (H hides)");
         draw_session_panel(session_panel, *participant, snapshot);
+        draw_case_panel(case_panel, *participant, snapshot);
         ImGui::End();
       }
     }

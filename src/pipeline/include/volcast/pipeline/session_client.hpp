@@ -36,6 +36,25 @@ struct SessionClientOptions {
 /// -- the hands and chest of someone facing it. play area frame, metres.
 RigidTransform auto_playarea_from_camera(const DepthImage& first);
 
+/// The object and monitor events of a pose script, performed by a participant as time goes: at a
+/// grab's time it asks to hold the object; once it holds it, it turns it (about +y, room frame,
+/// from where it was) at the scripted rate and releases it after for_s; monitor changes are set
+/// at their times. Events wait until the case has arrived.
+class ScriptedObjects {
+ public:
+  explicit ScriptedObjects(PoseScript script) : script_(std::move(script)) {}
+  /// Performs the events due by `t_s` seconds into the script.
+  void step(Participant& participant, double t_s);
+
+ private:
+  PoseScript script_;
+  size_t next_grab_ = 0, next_monitor_ = 0;
+  bool holding_ = false;
+  uint16_t object_ = 0;
+  ScriptedGrab grab_;
+  Pose start_pose_;
+};
+
 class SessionClient {
  public:
   /// Opens the camera source (if any), so that a bad one fails before connecting. Throws Error.

@@ -3,8 +3,9 @@
 // any RenderTarget: the OR site's cameras placed by room_from_site, every other participant with
 // a camera as a live point-cloud avatar (only points within keep_radius_m of that participant's
 // interpolated head), its own camera likewise with its own headset hidden, a mesh avatar (head and
-// hands) for each participant without a camera, the room (floor, walls, table, lamp) and teleport
-// effects. One GL context; every call with it current.
+// hands) for each participant without a camera, the room (floor, walls, table, lamp), teleport
+// effects, the patient case's objects where the session has them (held ones brightened) and the
+// wall monitor's CT slice. One GL context; every call with it current.
 #include <memory>
 #include <span>
 #include <vector>
@@ -25,7 +26,8 @@ struct SessionSceneOptions {
   /// Draw the own camera's points: those within keep_radius_m of the own head, the headset's
   /// hidden.
   bool show_own_camera = true;
-  bool room = true;  ///< draw the room's furniture
+  bool room = true;       ///< draw the room's furniture
+  bool show_case = true;  ///< draw the case's objects and the monitor's CT slice
   float teleport_effect_s = 0.8f;
 };
 

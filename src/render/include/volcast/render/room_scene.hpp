@@ -15,6 +15,14 @@ namespace volcast {
 /// ceiling, so a view from above shows the room.
 std::vector<Primitive> room_primitives(const RoomLayout& room);
 
+/// Where the wall monitor shows its image: the unit quad [-0.5, 0.5]^2 (z = 0, facing +z) placed
+/// on the left of the monitor's screen, square, 0.56 m a side (room frame).
+Eigen::Matrix4f monitor_image_quad(const RoomLayout& room);
+/// The monitor's status beside the image: a slice track with a marker at `slice` of `slices`, and
+/// an orange square while the overlay is shown.
+std::vector<Primitive> monitor_status_primitives(const RoomLayout& room, int slice, int slices,
+                                                 bool overlay);
+
 /// A participant without a camera: head (sphere, with a dark visor on its -z side, so its facing
 /// shows), a torso below the head (upright, turned with the head's yaw only), and when
 /// `body.hands_tracked` a box per hand. `rgb`: the participant's colour.

@@ -18,6 +18,7 @@
 
 #include "volcast/net/server.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"
 
 namespace volcast {
@@ -41,6 +42,8 @@ struct SessionHubStats {
   uint64_t messages_in = 0, poses_in = 0, pose_messages_out = 0;
   uint64_t avatar_frames_in = 0, avatar_frames_out = 0, avatar_bytes_out = 0;
   uint64_t joins = 0, leaves = 0, timeouts = 0, dropped = 0;
+  uint64_t grabs = 0, grabs_refused = 0, object_moves = 0, moves_ignored = 0, releases = 0;
+  uint64_t monitor_changes = 0, case_swaps = 0;
 };
 
 /// One participant as the hub sees it.
@@ -72,6 +75,16 @@ class SessionHub final : public SessionPort {
   /// The members of session `name` (empty if there is none), the OR site first.
   std::vector<SessionMember> members(const std::string& name) const;
   SessionHubStats stats() const;
+  /// Shares `c` with every session (objects at their rest poses, nobody holding them; the monitor
+  /// at its middle slice, the abdomen window, the overlay on) and sends it to every participant,
+  /// now and on joining. Its generation is set here (one more than the last). Throws Error if it
+  /// does not serialise (over kMaxCaseBytes). One caller at a time (serve's case watcher).
+  void set_case(session::SharedCase c);
+  /// The case's generation (0: none yet).
+  uint32_t case_generation() const;
+  /// The objects' states in session `name` (empty if there is none or no case).
+  std::vector<session::ObjectState> objects(const std::string& name) const;
+  std::optional<session::MonitorState> monitor(const std::string& name) const;
 
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;
@@ -90,6 +103,10 @@ class SessionHub final : public SessionPort {
                    uint64_t coalesce_key = 0);
   void error(uint64_t viewer, const std::string& reason);
   void watch_presence();
+  void reset_case_state(Session& s);
+  void send_case_state(const Session& s, uint64_t viewer);
+  void handle_object(Member& m, session::Type type, std::span<const uint8_t> payload);
+  void broadcast_object(const Session& s, uint16_t object, const Member* except);
 
   SessionHubConfig config_;
   mutable std::mutex mutex_;
@@ -98,6 +115,9 @@ class SessionHub final : public SessionPort {
   std::map<uint64_t, Member*> by_viewer_;                  // participants in a session
   uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site
   SessionHubStats stats_;
+  std::shared_ptr<const session::SharedCase> case_;
+  std::shared_ptr<const std::vector<uint8_t>> case_message_;
+  uint32_t case_generation_ = 0;
   std::atomic<bool> stopping_{false};
   std::thread presence_;
 };

@@ -57,6 +57,7 @@
 //   0x48 Teleported     participant u32 | from spot | to spot | time i64
 //   0x49 AvatarCamera   participant u32 | the 0x07 payload
 //   0x4a AvatarFrame    participant u32 | the 0x08 payload
+// The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp.
 //
 // Limits (a message over its limit, with a bad field, or of an unknown type is malformed: the
 // server drops its sender, a participant ends its connection): 0x08 and 0x4a at most
@@ -91,6 +92,10 @@ enum class Type : uint8_t {
   kAvatarCamera = 0x07,
   kAvatarFrame = 0x08,
   kHeartbeat = 0x09,
+  kGrab = 0x0a,        // objects.hpp
+  kObjectMove = 0x0b,  // objects.hpp
+  kRelease = 0x0c,     // objects.hpp
+  kSetMonitor = 0x0d,  // objects.hpp
   kSessionList = 0x41,
   kJoined = 0x42,
   kSessionError = 0x43,
@@ -101,6 +106,9 @@ enum class Type : uint8_t {
   kTeleported = 0x48,
   kAvatarCameraFrom = 0x49,
   kAvatarFrameFrom = 0x4a,
+  kCase = 0x4b,          // objects.hpp
+  kObjectState = 0x4c,   // objects.hpp
+  kMonitorState = 0x4d,  // objects.hpp
 };
 
 /// The largest payload (bytes) a message of `type` may have; 0 for a type that does not exist.

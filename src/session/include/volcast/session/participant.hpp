@@ -17,6 +17,7 @@
 #include "volcast/core/frame.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"
 
 namespace volcast {
@@ -67,6 +68,16 @@ struct TeleportSeen {
   int64_t time_us = 0;  ///< server clock
 };
 
+/// One of the case's objects as this participant sees it now.
+struct ObjectView {
+  uint16_t object = 0;
+  uint32_t owner = 0;  ///< participant id holding it, 0: nobody
+  /// room_from_object: held by another, interpolated like their poses; held by this participant,
+  /// where it last moved it; else where it was let go.
+  Pose pose;
+  uint32_t sequence = 0;
+};
+
 struct SessionSnapshot {
   bool joined = false;
   uint32_t id = 0;  ///< this participant's id once joined
@@ -81,6 +92,9 @@ struct SessionSnapshot {
   std::string last_error;                      ///< the server's last SessionError, if any
   /// (id, name, reason) of the participants that left, oldest first (the last 64).
   std::vector<std::tuple<uint32_t, std::string, session::LeftReason>> departed;
+  uint32_t case_generation = 0;                  ///< 0: no case received
+  std::vector<ObjectView> objects;               ///< by object index of shared_case()
+  std::optional<session::MonitorState> monitor;  ///< when the case has a series
 };
 
 /// Figures about the others (the session's receivers' side) and the round trip.
@@ -134,6 +148,18 @@ class Participant {
   void leave();
   /// Joins `session` (after leave(), or when the first join failed).
   void join(const std::string& session, bool create);
+
+  /// The case shared in the session (null before one arrived).
+  std::shared_ptr<const session::SharedCase> shared_case() const;
+  /// Asks to hold object `object` (the server decides; snapshot().objects shows the owner).
+  void grab(uint16_t object);
+  /// Moves the held object (ignored by the server unless this participant holds it); shown here
+  /// at once. room_from_object, metres.
+  void move_object(uint16_t object, const Pose& room_from_object);
+  /// Lets go of the held object at `room_from_object`.
+  void release(uint16_t object, const Pose& room_from_object);
+  /// Sets the monitor for everyone (slice, window, overlay; the generation is filled in).
+  void set_monitor(const session::MonitorState& state);
 
   bool joined() const;
   /// The state now; remote poses interpolated for `now_us` (local wall clock).

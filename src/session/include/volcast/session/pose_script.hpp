@@ -10,9 +10,16 @@
 //       "yaw_deg": 0, "pitch_deg": 0,   // the head's turn about +y, then about its x (optional)
 //       "left": [-0.2, 1.1, -0.3], "right": [0.2, 1.1, -0.3]},   // hands (optional, both or none)
 //      ...],
-//    "teleports": [{"t": 2.0, "to": [1.5, 1.0], "yaw_deg": 90}]}  // room floor spot x, z
-//    (optional)
+//    "teleports": [{"t": 2.0, "to": [1.5, 1.0], "yaw_deg": 90}],  // room floor spot x, z
+//    "grabs": [{"t": 1.0, "object": "liver",       // the case's object (objects.hpp) by name
+//               "for_s": 3.0,                      // held this long, then released
+//               "turn_deg_per_s": 60}],            // turned about the room's +y while held
+//    "monitor": [{"t": 0.5, "slice": 1,            // the CT slice (optional)
+//                 "preset": "liver",               // or "center"/"width" in HU (optional)
+//                 "overlay": true}]}               // (optional)
+//    (teleports, grabs, monitor: optional, in time order, never repeated by "loop")
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -34,10 +41,25 @@ struct ScriptedTeleport {
   session::Spot to;
 };
 
+struct ScriptedGrab {
+  double t_s = 0, for_s = 1;
+  std::string object;
+  float turn_deg_per_s = 0;
+};
+
+struct ScriptedMonitor {
+  double t_s = 0;
+  int slice = -1;  ///< -1: unchanged
+  std::optional<float> center, width;
+  std::optional<bool> overlay;
+};
+
 struct PoseScript {
   bool loop = true;
   std::vector<PoseKey> keys;
   std::vector<ScriptedTeleport> teleports;  ///< in time order; never repeated by `loop`
+  std::vector<ScriptedGrab> grabs;          ///< likewise
+  std::vector<ScriptedMonitor> monitor;     ///< likewise
   /// The body (play area frame) at `t_s` seconds: keys interpolated linearly (yaw and pitch
   /// too), held before the first and (without loop) after the last.
   BodyPose at(double t_s) const;

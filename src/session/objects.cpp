@@ -1,0 +1,294 @@
+#include "volcast/session/objects.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "volcast/core/error.hpp"
+#include "wire_fields.hpp"
+
+namespace volcast::session {
+
+using namespace fields;
+
+namespace {
+
+int8_t snorm8(float v) {
+  return static_cast<int8_t>(std::lround(std::clamp(v, -1.0f, 1.0f) * 127.0f));
+}
+
+// Checks that `count` items of `bytes` each fit in what is left, before anything is allocated.
+void need_items(const Reader& r, uint64_t count, uint64_t bytes, const char* what) {
+  if (count * bytes > r.remaining())
+    r.fail(std::string(what) + ": " + std::to_string(count) +
+           " declared, more than the message holds");
+}
+
+}  // namespace
+
+std::vector<uint8_t> serialize(const SharedCase& c) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  w.put<uint32_t>(c.generation);
+  w.put_string(c.name);
+  if (c.objects.size() > kMaxCaseObjects) throw Error("case: too many objects");
+  w.put<uint16_t>(static_cast<uint16_t>(c.objects.size()));
+  for (const SharedObject& o : c.objects) {
+    w.put_string(o.name);
+    put_pose(w, o.rest);
+    if (o.parts.size() > kMaxObjectParts) throw Error("case: too many parts in " + o.name);
+    w.put<uint16_t>(static_cast<uint16_t>(o.parts.size()));
+    for (const SharedPart& p : o.parts) {
+      w.put_string(p.name);
+      for (int i = 0; i < 4; ++i)
+        w.put<uint8_t>(static_cast<uint8_t>(std::lround(std::clamp(p.rgba[i], 0.0f, 1.0f) * 255)));
+      w.put<uint32_t>(static_cast<uint32_t>(p.positions.size()));
+      w.put<uint32_t>(static_cast<uint32_t>(p.indices.size() / 3));
+      for (const Eigen::Vector3f& v : p.positions) w.append(v.data(), 12);
+      for (size_t i = 0; i < p.positions.size(); ++i) {
+        const Eigen::Vector3f n = i < p.normals.size() ? p.normals[i] : Eigen::Vector3f::UnitY();
+        for (int k = 0; k < 3; ++k) w.put<int8_t>(snorm8(n[k]));
+      }
+      w.append(p.indices.data(), (p.indices.size() / 3) * 12);
+    }
+  }
+  w.put<uint8_t>(c.monitor ? 1 : 0);
+  if (c.monitor) {
+    const MonitorSeries& m = *c.monitor;
+    w.put<uint16_t>(static_cast<uint16_t>(m.width));
+    w.put<uint16_t>(static_cast<uint16_t>(m.height));
+    w.put<uint16_t>(static_cast<uint16_t>(m.slices));
+    for (int i = 0; i < 3; ++i) w.put<float>(m.spacing_mm[i]);
+    w.append(m.hu.data(), m.hu.size() * 2);
+    w.put<uint8_t>(m.overlay.empty() ? 0 : 1);
+    if (!m.overlay.empty()) {
+      w.put_string(m.overlay_label);
+      std::vector<uint8_t> bits((m.overlay.size() + 7) / 8, 0);
+      for (size_t i = 0; i < m.overlay.size(); ++i)
+        if (m.overlay[i]) bits[i / 8] = static_cast<uint8_t>(bits[i / 8] | (1u << (i % 8)));
+      w.append(bits.data(), bits.size());
+    }
+  }
+  if (out.size() > kMaxCaseBytes)
+    throw Error("case: " + std::to_string(out.size() >> 20) + " MiB is over the limit of " +
+                std::to_string(kMaxCaseBytes >> 20) + " MiB");
+  return out;
+}
+
+SharedCase parse_case(std::span<const uint8_t> p) {
+  Reader r(p, "case");
+  SharedCase c;
+  c.generation = r.get<uint32_t>();
+  c.name = r.get_string();
+  const uint16_t objects = r.get<uint16_t>();
+  if (objects > kMaxCaseObjects)
+    r.fail("more than " + std::to_string(kMaxCaseObjects) + " objects");
+  uint64_t triangles_total = 0;
+  c.objects.resize(objects);
+  for (SharedObject& o : c.objects) {
+    o.name = get_name(r, "object name");
+    o.rest = get_pose(r);
+    const uint16_t parts = r.get<uint16_t>();
+    if (parts > kMaxObjectParts) r.fail("more than " + std::to_string(kMaxObjectParts) + " parts");
+    o.parts.resize(parts);
+    for (SharedPart& part : o.parts) {
+      part.name = get_name(r, "part name");
+      for (int i = 0; i < 4; ++i) part.rgba[i] = r.get<uint8_t>() / 255.0f;
+      const uint32_t vertices = r.get<uint32_t>(), triangles = r.get<uint32_t>();
+      triangles_total += triangles;
+      if (triangles_total > kMaxCaseTriangles)
+        r.fail("more than " + std::to_string(kMaxCaseTriangles) + " triangles");
+      need_items(r, vertices, 15, "vertices");
+      part.positions.resize(vertices);
+      for (Eigen::Vector3f& v : part.positions) {
+        for (int i = 0; i < 3; ++i) v[i] = get_finite(r);
+        o.radius_m = std::max(o.radius_m, v.norm());
+      }
+      part.normals.resize(vertices);
+      for (Eigen::Vector3f& n : part.normals) {
+        for (int i = 0; i < 3; ++i) n[i] = r.get<int8_t>() / 127.0f;
+        n = n.norm() > 0 ? Eigen::Vector3f(n.normalized()) : Eigen::Vector3f::UnitY();
+      }
+      need_items(r, triangles, 12, "triangles");
+      part.indices.resize(static_cast<size_t>(triangles) * 3);
+      for (uint32_t& index : part.indices) {
+        index = r.get<uint32_t>();
+        if (index >= vertices) r.fail("an index is out of range");
+      }
+    }
+  }
+  if (get_flag(r)) {
+    MonitorSeries m;
+    m.width = r.get<uint16_t>();
+    m.height = r.get<uint16_t>();
+    m.slices = r.get<uint16_t>();
+    if (m.width < 1 || m.height < 1 || m.slices < 1) r.fail("an empty monitor series");
+    for (int i = 0; i < 3; ++i) {
+      m.spacing_mm[i] = get_finite(r);
+      if (m.spacing_mm[i] <= 0) r.fail("a spacing is not positive");
+    }
+    const uint64_t pixels = static_cast<uint64_t>(m.width) * m.height * m.slices;
+    need_items(r, pixels, 2, "monitor pixels");
+    m.hu.resize(pixels);
+    for (int16_t& v : m.hu) v = r.get<int16_t>();
+    if (get_flag(r)) {
+      m.overlay_label = r.get_string();
+      need_items(r, (pixels + 7) / 8, 1, "overlay bytes");
+      m.overlay.resize(pixels);
+      uint8_t byte = 0;
+      for (uint64_t i = 0; i < pixels; ++i) {
+        if (i % 8 == 0) byte = r.get<uint8_t>();
+        m.overlay[i] = (byte >> (i % 8)) & 1;
+      }
+    }
+    c.monitor = std::move(m);
+  }
+  r.expect_end();
+  return c;
+}
+
+std::vector<uint8_t> serialize(const ObjectState& s) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  w.put<uint32_t>(s.generation);
+  w.put<uint16_t>(s.object);
+  w.put<uint32_t>(s.owner);
+  w.put<uint32_t>(s.sequence);
+  w.put<int64_t>(s.time_us);
+  put_pose(w, s.pose);
+  return out;
+}
+
+ObjectState parse_object_state(std::span<const uint8_t> p) {
+  Reader r(p, "object state");
+  ObjectState s;
+  s.generation = r.get<uint32_t>();
+  s.object = r.get<uint16_t>();
+  s.owner = r.get<uint32_t>();
+  s.sequence = r.get<uint32_t>();
+  s.time_us = r.get<int64_t>();
+  s.pose = get_pose(r);
+  r.expect_end();
+  return s;
+}
+
+namespace {
+
+void put_monitor(Writer& w, const MonitorState& s) {
+  w.put<uint32_t>(s.generation);
+  w.put<uint16_t>(s.slice);
+  w.put<float>(s.center);
+  w.put<float>(s.width);
+  w.put<uint8_t>(s.overlay ? 1 : 0);
+}
+
+MonitorState get_monitor(Reader& r) {
+  MonitorState s;
+  s.generation = r.get<uint32_t>();
+  s.slice = r.get<uint16_t>();
+  s.center = get_finite(r);
+  s.width = get_finite(r);
+  if (s.width < 1) r.fail("window width below 1 HU");
+  s.overlay = get_flag(r);
+  return s;
+}
+
+}  // namespace
+
+std::vector<uint8_t> serialize(const MonitorState& s) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  put_monitor(w, s);
+  w.put<uint32_t>(s.by);
+  return out;
+}
+
+MonitorState parse_monitor_state(std::span<const uint8_t> p) {
+  Reader r(p, "monitor state");
+  MonitorState s = get_monitor(r);
+  s.by = r.get<uint32_t>();
+  r.expect_end();
+  return s;
+}
+
+std::vector<uint8_t> serialize_set_monitor(const MonitorState& s) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  put_monitor(w, s);
+  return out;
+}
+
+MonitorState parse_set_monitor(std::span<const uint8_t> p) {
+  Reader r(p, "set monitor");
+  MonitorState s = get_monitor(r);
+  r.expect_end();
+  return s;
+}
+
+std::vector<uint8_t> serialize(const ObjectRequest& q, bool with_pose) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  w.put<uint32_t>(q.generation);
+  w.put<uint16_t>(q.object);
+  if (with_pose) put_pose(w, q.pose);
+  return out;
+}
+
+ObjectRequest parse_object_request(std::span<const uint8_t> p, bool with_pose) {
+  Reader r(p, "object request");
+  ObjectRequest q;
+  q.generation = r.get<uint32_t>();
+  q.object = r.get<uint16_t>();
+  if (with_pose) q.pose = get_pose(r);
+  r.expect_end();
+  return q;
+}
+
+const std::vector<WindowPreset>& window_presets() {
+  static const std::vector<WindowPreset> presets{
+      {"abdomen", 40, 400}, {"liver", 90, 150}, {"bone", 480, 2500}};
+  return presets;
+}
+
+WindowPreset window_preset(const std::string& name) {
+  std::string names;
+  for (const WindowPreset& p : window_presets()) {
+    if (name == p.name) return p;
+    names += std::string(names.empty() ? "" : ", ") + p.name;
+  }
+  throw Error("no window preset '" + name + "' (there are " + names + ")");
+}
+
+uint8_t window_gray(float hu, float center, float width) {
+  const double c = center, w = std::max(1.0f, width);
+  if (hu <= c - 0.5 - (w - 1) / 2) return 0;
+  if (hu > c - 0.5 + (w - 1) / 2 || w <= 1) return 255;
+  return static_cast<uint8_t>(
+      std::clamp(std::lround(((hu - (c - 0.5)) / (w - 1) + 0.5) * 255), 0L, 255L));
+}
+
+std::vector<uint8_t> monitor_image(const MonitorSeries& series, const MonitorState& state) {
+  if (state.slice >= series.slices)
+    throw Error("monitor: slice " + std::to_string(state.slice) + " of " +
+                std::to_string(series.slices));
+  const size_t pixels = static_cast<size_t>(series.width) * series.height;
+  const int16_t* hu = series.hu.data() + pixels * state.slice;
+  const uint8_t* mask = state.overlay && !series.overlay.empty()
+                            ? series.overlay.data() + pixels * state.slice
+                            : nullptr;
+  std::vector<uint8_t> rgba(pixels * 4);
+  for (size_t i = 0; i < pixels; ++i) {
+    const uint8_t g = window_gray(hu[i], state.center, state.width);
+    uint8_t* px = &rgba[i * 4];
+    if (mask && mask[i]) {
+      px[0] = static_cast<uint8_t>((g * 3 + 255 * 2) / 5);
+      px[1] = static_cast<uint8_t>((g * 3 + 140 * 2) / 5);
+      px[2] = static_cast<uint8_t>((g * 3 + 25 * 2) / 5);
+    } else {
+      px[0] = px[1] = px[2] = g;
+    }
+    px[3] = 255;
+  }
+  return rgba;
+}
+
+}  // namespace volcast::session

@@ -6,6 +6,7 @@
 // lost instance ends the viewer's session as closed.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -267,6 +268,87 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
   const Ppm left = read_ppm(mock.out / "eye0.ppm");
   ASSERT_EQ(left.width, 256);
   EXPECT_GT(content(left).first, 0.3) << "the room fills the eye";
+}
+
+// A headset participant grabs an organ with its controller: the mock's right grip, within reach
+// of the (synthetic, exact) object, squeezes for 12 syncs while turning 0.03 rad per sync; the
+// object follows the hand, is let go turned 0.36 rad, and an observer sees who held it and the
+// headset's two tracked hands.
+TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
+  const MockRuntime mock("xr_runtime_grab", "40");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const test::ScopedEnv grip("VOLCAST_MOCK_XR_RIGHT_GRIP", "0.2,1.2,-0.3");
+  const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "8,20");
+  test::SessionSite s;
+  // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
+  // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
+  session::SharedCase c;
+  c.name = "synthetic";
+  session::SharedObject o;
+  o.name = "organ";
+  o.rest.position = {0.2f, 1.25f, 1.05f};
+  session::SharedPart part;
+  part.name = "shell";
+  part.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  part.normals = {{0, 0, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  part.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  o.parts.push_back(part);
+  c.objects.push_back(o);
+  s.hub.set_case(c);
+  SessionClientOptions headset_options;
+  headset_options.participant.name = "Headset";
+  headset_options.drive_poses = false;
+  SessionClient headset(headset_options);
+  std::unique_ptr<test::TestParticipant> observer;
+  std::atomic<bool> done{false}, saw_held{false}, saw_hands{false};
+  std::thread watch;
+  ViewerOptions opt;
+  opt.client = client_config_from_link(s.link());
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.on_connected = [&](Client& client) {
+    headset.start(client);
+    for (int i = 0;
+         i < 500 && !(headset.participant()->joined() && headset.participant()->shared_case()); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+    watch = std::thread([&] {
+      while (!done) {
+        const SessionSnapshot n = observer->now();
+        for (const auto& other : n.others)
+          if (other.name == "Headset" && other.has_pose && other.newest_pose.hands_tracked)
+            saw_hands = true;
+        if (!n.objects.empty() && n.objects[0].owner != 0) saw_held = true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    });
+  };
+  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  XrOptions xr;
+  xr.participant = [&] { return headset.participant(); };
+  opt.presenter = xr_presenter(xr);
+  const ViewerResult r = run_viewer(opt);
+  done = true;
+  if (watch.joinable()) watch.join();
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  const SessionHubStats st = s.hub.stats();
+  EXPECT_EQ(st.grabs, 1u);
+  EXPECT_EQ(st.releases, 1u);
+  EXPECT_GE(st.object_moves, 5u) << "it followed the hand";
+  const session::ObjectState final_state = s.hub.objects("OR")[0];
+  EXPECT_EQ(final_state.owner, 0u);
+  EXPECT_NEAR(final_state.pose.orientation.angularDistance(o.rest.orientation), 0.36f, 0.01f);
+  // Turned about the hand's vertical axis through the grip: still within reach of it.
+  EXPECT_LT((final_state.pose.position - Eigen::Vector3f(0.2f, 1.2f, 1.1f)).norm(), 0.1f);
+  EXPECT_TRUE(saw_held) << "the observer saw the headset hold it";
+  EXPECT_TRUE(saw_hands) << "the observer received both tracked controllers as hands";
+  ASSERT_TRUE(observer);
+  ASSERT_TRUE(test::eventually([&] {
+    const auto n = observer->now();
+    return !n.objects.empty() &&
+           n.objects[0].pose.orientation.angularDistance(final_state.pose.orientation) < 1e-4f;
+  }));
 }
 
 }  // namespace

@@ -14,6 +14,14 @@
 // folder VOLCAST_MOCK_XR_OUT names, and it writes log.json there (frame counts, errors) whenever a
 // session or instance is destroyed. With VOLCAST_MOCK_XR_END=lost it loses the instance instead of
 // asking to exit: every later call but a destroy returns XR_ERROR_INSTANCE_LOST.
+//
+// Controllers: the runtime is a pair of Oculus Touch controllers (or, if only those bindings are
+// suggested, KHR simple controllers). Actions, action sets, suggested bindings, attaching, action
+// spaces, xrSyncActions, float / boolean / pose action states and xrLocateSpace are implemented.
+// The grips: left at (-0.2, 1.1, -0.3), right at VOLCAST_MOCK_XR_RIGHT_GRIP ("x,y,z", default
+// (0.2, 1.1, -0.3)), stage frame, metres, level. VOLCAST_MOCK_XR_SQUEEZE ("first,last", counted
+// in xrSyncActions calls) squeezes the right grip fully for those syncs, turning the right hand
+// about +y by 0.03 rad per sync while it squeezes (it stays turned after).
 #include <openxr/openxr.h>
 
 #include <epoxy/gl.h>
@@ -122,6 +130,18 @@ struct Runtime {
   std::vector<std::string> errors;
   std::array<XrView, 2> located{};
   bool have_located = false;
+  // Actions.
+  std::map<std::string, XrPath> paths;   // interned path strings
+  std::map<uint64_t, bool> action_sets;  // handle -> attached
+  struct Action {
+    XrActionType type;
+    std::vector<XrPath> subactions;
+    std::vector<std::string> inputs;  // bound input paths, for the chosen profile
+  };
+  std::map<uint64_t, Action> actions;
+  std::string profile;  // the interaction profile whose bindings are used
+  std::map<uint64_t, std::pair<uint64_t, XrPath>> action_spaces;  // space -> (action, subaction)
+  uint64_t syncs = 0;
 
   XrResult fail(XrResult result, const std::string& what) {
     if (errors.size() < 200) errors.push_back(what);
@@ -478,6 +498,7 @@ XrResult XRAPI_CALL DestroySpace(XrSpace space) {
   LOCK;
   if (!rt().spaces.erase(handle_value(space)))
     return rt().fail(XR_ERROR_HANDLE_INVALID, "xrDestroySpace: invalid space");
+  rt().action_spaces.erase(handle_value(space));
   return XR_SUCCESS;
 }
 
@@ -810,6 +831,258 @@ XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo* info) {
   return XR_SUCCESS;
 }
 
+// --- Actions (controllers) -----------------------------------------------------------------------
+
+XrPath intern(const std::string& path) {
+  auto [it, added] = rt().paths.try_emplace(path, XrPath(rt().paths.size() + 1));
+  return it->second;
+}
+
+std::string path_string(XrPath path) {
+  for (const auto& [s, p] : rt().paths)
+    if (p == path) return s;
+  return "";
+}
+
+XrResult XRAPI_CALL StringToPath(XrInstance instance, const char* path, XrPath* out) {
+  LOCK;
+  CHECK(check_instance(instance, "xrStringToPath"));
+  if (!path || !out || path[0] != '/')
+    return rt().fail(XR_ERROR_PATH_FORMAT_INVALID, "xrStringToPath: bad path");
+  *out = intern(path);
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL CreateActionSet(XrInstance instance, const XrActionSetCreateInfo* info,
+                                    XrActionSet* set) {
+  LOCK;
+  CHECK(check_instance(instance, "xrCreateActionSet"));
+  CHECK(check_type(info, XR_TYPE_ACTION_SET_CREATE_INFO, "xrCreateActionSet", "create info"));
+  if (!set) return rt().fail(XR_ERROR_VALIDATION_FAILURE, "xrCreateActionSet: null output");
+  const uint64_t handle = rt().next_handle++;
+  rt().action_sets[handle] = false;
+  *set = make_handle<XrActionSet>(handle);
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL DestroyActionSet(XrActionSet set) {
+  LOCK;
+  if (!rt().action_sets.erase(handle_value(set)))
+    return rt().fail(XR_ERROR_HANDLE_INVALID, "xrDestroyActionSet: invalid action set");
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL CreateAction(XrActionSet set, const XrActionCreateInfo* info,
+                                 XrAction* action) {
+  LOCK;
+  const auto s = rt().action_sets.find(handle_value(set));
+  if (s == rt().action_sets.end())
+    return rt().fail(XR_ERROR_HANDLE_INVALID, "xrCreateAction: invalid action set");
+  if (s->second) return rt().fail(XR_ERROR_ACTIONSETS_ALREADY_ATTACHED, "xrCreateAction: attached");
+  CHECK(check_type(info, XR_TYPE_ACTION_CREATE_INFO, "xrCreateAction", "create info"));
+  if (!action) return rt().fail(XR_ERROR_VALIDATION_FAILURE, "xrCreateAction: null output");
+  Runtime::Action a;
+  a.type = info->actionType;
+  a.subactions.assign(info->subactionPaths, info->subactionPaths + info->countSubactionPaths);
+  const uint64_t handle = rt().next_handle++;
+  rt().actions[handle] = a;
+  *action = make_handle<XrAction>(handle);
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL DestroyAction(XrAction action) {
+  LOCK;
+  if (!rt().actions.erase(handle_value(action)))
+    return rt().fail(XR_ERROR_HANDLE_INVALID, "xrDestroyAction: invalid action");
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL SuggestInteractionProfileBindings(
+    XrInstance instance, const XrInteractionProfileSuggestedBinding* suggested) {
+  LOCK;
+  CHECK(check_instance(instance, "xrSuggestInteractionProfileBindings"));
+  CHECK(check_type(suggested, XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING,
+                   "xrSuggestInteractionProfileBindings", "suggested binding"));
+  const std::string profile = path_string(suggested->interactionProfile);
+  if (profile != "/interaction_profiles/oculus/touch_controller" &&
+      profile != "/interaction_profiles/khr/simple_controller")
+    return XR_SUCCESS;  // a profile this device is not: accepted, unused
+  // Touch wins over simple: the device is a Touch.
+  if (!rt().profile.empty() && profile != rt().profile &&
+      rt().profile == "/interaction_profiles/oculus/touch_controller")
+    return XR_SUCCESS;
+  rt().profile = profile;
+  for (auto& [handle, a] : rt().actions) a.inputs.clear();
+  for (uint32_t i = 0; i < suggested->countSuggestedBindings; ++i) {
+    const auto a = rt().actions.find(handle_value(suggested->suggestedBindings[i].action));
+    if (a == rt().actions.end())
+      return rt().fail(XR_ERROR_HANDLE_INVALID, "xrSuggestInteractionProfileBindings: action");
+    const std::string input = path_string(suggested->suggestedBindings[i].binding);
+    if (input.empty())
+      return rt().fail(XR_ERROR_PATH_INVALID, "xrSuggestInteractionProfileBindings: path");
+    a->second.inputs.push_back(input);
+  }
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL AttachSessionActionSets(XrSession session,
+                                            const XrSessionActionSetsAttachInfo* info) {
+  LOCK;
+  CHECK(check_session(session, "xrAttachSessionActionSets"));
+  CHECK(check_type(info, XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO, "xrAttachSessionActionSets",
+                   "attach info"));
+  for (uint32_t i = 0; i < info->countActionSets; ++i) {
+    const auto s = rt().action_sets.find(handle_value(info->actionSets[i]));
+    if (s == rt().action_sets.end())
+      return rt().fail(XR_ERROR_HANDLE_INVALID, "xrAttachSessionActionSets: action set");
+    if (s->second) return XR_ERROR_ACTIONSETS_ALREADY_ATTACHED;
+    s->second = true;
+  }
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL CreateActionSpace(XrSession session, const XrActionSpaceCreateInfo* info,
+                                      XrSpace* space) {
+  LOCK;
+  CHECK(check_session(session, "xrCreateActionSpace"));
+  CHECK(check_type(info, XR_TYPE_ACTION_SPACE_CREATE_INFO, "xrCreateActionSpace", "create info"));
+  const auto a = rt().actions.find(handle_value(info->action));
+  if (a == rt().actions.end() || a->second.type != XR_ACTION_TYPE_POSE_INPUT)
+    return rt().fail(XR_ERROR_HANDLE_INVALID, "xrCreateActionSpace: not a pose action");
+  if (!space) return rt().fail(XR_ERROR_VALIDATION_FAILURE, "xrCreateActionSpace: null output");
+  const uint64_t handle = rt().next_handle++;
+  rt().spaces[handle] = XR_REFERENCE_SPACE_TYPE_MAX_ENUM;  // an action space
+  rt().action_spaces[handle] = {handle_value(info->action), info->subactionPath};
+  *space = make_handle<XrSpace>(handle);
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyncInfo* info) {
+  LOCK;
+  CHECK(check_session(session, "xrSyncActions"));
+  CHECK(check_type(info, XR_TYPE_ACTIONS_SYNC_INFO, "xrSyncActions", "sync info"));
+  for (uint32_t i = 0; i < info->countActiveActionSets; ++i) {
+    const auto s = rt().action_sets.find(handle_value(info->activeActionSets[i].actionSet));
+    if (s == rt().action_sets.end() || !s->second)
+      return rt().fail(XR_ERROR_ACTIONSET_NOT_ATTACHED, "xrSyncActions: not attached");
+  }
+  ++rt().syncs;
+  return rt().state == XR_SESSION_STATE_FOCUSED ? XR_SUCCESS : XR_SESSION_NOT_FOCUSED;
+}
+
+std::pair<uint64_t, uint64_t> squeeze_syncs() {
+  const char* v = std::getenv("VOLCAST_MOCK_XR_SQUEEZE");
+  unsigned long long first = 0, last = 0;
+  if (!v || std::sscanf(v, "%llu,%llu", &first, &last) != 2) return {0, 0};
+  return {first, last};
+}
+
+// The right hand's state now: whether it squeezes, and its turn about +y (radians).
+std::pair<bool, float> right_hand() {
+  const auto [first, last] = squeeze_syncs();
+  const uint64_t n = rt().syncs;
+  const bool squeezing = first > 0 && n >= first && n <= last;
+  const uint64_t turned = first == 0 || n < first ? 0 : std::min(n, last) - first;
+  return {squeezing, 0.03f * static_cast<float>(turned)};
+}
+
+// The input `a` is bound to for `subaction` (0: any hand), or null.
+const std::string* bound_input(const Runtime::Action& a, XrPath subaction) {
+  const std::string hand = subaction ? path_string(subaction) : "";
+  for (const std::string& input : a.inputs)
+    if (hand.empty() || input.rfind(hand + "/", 0) == 0) return &input;
+  return nullptr;
+}
+
+XrResult get_action(XrSession session, const XrActionStateGetInfo* info, const char* call,
+                    XrActionType type, const Runtime::Action** out) {
+  CHECK(check_session(session, call));
+  CHECK(check_type(info, XR_TYPE_ACTION_STATE_GET_INFO, call, "get info"));
+  const auto a = rt().actions.find(handle_value(info->action));
+  if (a == rt().actions.end())
+    return rt().fail(XR_ERROR_HANDLE_INVALID, std::string(call) + ": action");
+  if (a->second.type != type)
+    return rt().fail(XR_ERROR_ACTION_TYPE_MISMATCH, std::string(call) + ": type");
+  *out = &a->second;
+  return XR_SUCCESS;
+}
+
+float input_value(const std::string& input) {
+  if (input.rfind("/user/hand/right/", 0) != 0) return 0;
+  const bool pressed = right_hand().first;
+  return input.find("/squeeze/") != std::string::npos || input.find("/select/") != std::string::npos
+             ? (pressed ? 1.0f : 0.0f)
+             : 0.0f;
+}
+
+XrResult XRAPI_CALL GetActionStateFloat(XrSession session, const XrActionStateGetInfo* info,
+                                        XrActionStateFloat* state) {
+  LOCK;
+  const Runtime::Action* a = nullptr;
+  CHECK(get_action(session, info, "xrGetActionStateFloat", XR_ACTION_TYPE_FLOAT_INPUT, &a));
+  CHECK(check_type(state, XR_TYPE_ACTION_STATE_FLOAT, "xrGetActionStateFloat", "state"));
+  const std::string* input = bound_input(*a, info->subactionPath);
+  state->isActive = input ? XR_TRUE : XR_FALSE;
+  state->currentState = input ? input_value(*input) : 0;
+  state->changedSinceLastSync = XR_FALSE;
+  state->lastChangeTime = 0;
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL GetActionStateBoolean(XrSession session, const XrActionStateGetInfo* info,
+                                          XrActionStateBoolean* state) {
+  LOCK;
+  const Runtime::Action* a = nullptr;
+  CHECK(get_action(session, info, "xrGetActionStateBoolean", XR_ACTION_TYPE_BOOLEAN_INPUT, &a));
+  CHECK(check_type(state, XR_TYPE_ACTION_STATE_BOOLEAN, "xrGetActionStateBoolean", "state"));
+  const std::string* input = bound_input(*a, info->subactionPath);
+  state->isActive = input ? XR_TRUE : XR_FALSE;
+  state->currentState = input && input_value(*input) > 0.5f ? XR_TRUE : XR_FALSE;
+  state->changedSinceLastSync = XR_FALSE;
+  state->lastChangeTime = 0;
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL GetActionStatePose(XrSession session, const XrActionStateGetInfo* info,
+                                       XrActionStatePose* state) {
+  LOCK;
+  const Runtime::Action* a = nullptr;
+  CHECK(get_action(session, info, "xrGetActionStatePose", XR_ACTION_TYPE_POSE_INPUT, &a));
+  CHECK(check_type(state, XR_TYPE_ACTION_STATE_POSE, "xrGetActionStatePose", "state"));
+  state->isActive = bound_input(*a, info->subactionPath) ? XR_TRUE : XR_FALSE;
+  return XR_SUCCESS;
+}
+
+XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace base, XrTime time,
+                                XrSpaceLocation* location) {
+  LOCK;
+  CHECK(check_type(location, XR_TYPE_SPACE_LOCATION, "xrLocateSpace", "location"));
+  const auto hand = rt().action_spaces.find(handle_value(space));
+  const auto base_space = rt().spaces.find(handle_value(base));
+  if (hand == rt().action_spaces.end() || base_space == rt().spaces.end() ||
+      base_space->second == XR_REFERENCE_SPACE_TYPE_MAX_ENUM)
+    return rt().fail(XR_ERROR_HANDLE_INVALID,
+                     "xrLocateSpace: only an action space in a reference space");
+  if (time <= 0) return rt().fail(XR_ERROR_TIME_INVALID, "xrLocateSpace: bad time");
+  location->locationFlags = 0;
+  const auto a = rt().actions.find(hand->second.first);
+  if (a == rt().actions.end() || !bound_input(a->second, hand->second.second)) return XR_SUCCESS;
+  const bool right = path_string(hand->second.second) == "/user/hand/right";
+  float x = right ? 0.2f : -0.2f, y = 1.1f, z = -0.3f, turn = 0;
+  if (right) {
+    if (const char* v = std::getenv("VOLCAST_MOCK_XR_RIGHT_GRIP"))
+      std::sscanf(v, "%f,%f,%f", &x, &y, &z);
+    turn = right_hand().second;
+  }
+  if (base_space->second != XR_REFERENCE_SPACE_TYPE_STAGE) y -= kHeadHeight;
+  location->pose.position = {x, y, z};
+  location->pose.orientation = {0, std::sin(turn / 2), 0, std::cos(turn / 2)};
+  location->locationFlags =
+      XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT |
+      XR_SPACE_LOCATION_POSITION_TRACKED_BIT | XR_SPACE_LOCATION_ORIENTATION_TRACKED_BIT;
+  return XR_SUCCESS;
+}
+
 // --- Dispatch ------------------------------------------------------------------------------------
 
 XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name,
@@ -854,6 +1127,19 @@ XrResult XRAPI_CALL GetInstanceProcAddr(XrInstance instance, const char* name,
   if (n == "xrWaitFrame") return fn(&WaitFrame);
   if (n == "xrBeginFrame") return fn(&BeginFrame);
   if (n == "xrEndFrame") return fn(&EndFrame);
+  if (n == "xrStringToPath") return fn(&StringToPath);
+  if (n == "xrCreateActionSet") return fn(&CreateActionSet);
+  if (n == "xrDestroyActionSet") return fn(&DestroyActionSet);
+  if (n == "xrCreateAction") return fn(&CreateAction);
+  if (n == "xrDestroyAction") return fn(&DestroyAction);
+  if (n == "xrSuggestInteractionProfileBindings") return fn(&SuggestInteractionProfileBindings);
+  if (n == "xrAttachSessionActionSets") return fn(&AttachSessionActionSets);
+  if (n == "xrCreateActionSpace") return fn(&CreateActionSpace);
+  if (n == "xrSyncActions") return fn(&SyncActions);
+  if (n == "xrGetActionStateFloat") return fn(&GetActionStateFloat);
+  if (n == "xrGetActionStateBoolean") return fn(&GetActionStateBoolean);
+  if (n == "xrGetActionStatePose") return fn(&GetActionStatePose);
+  if (n == "xrLocateSpace") return fn(&LocateSpace);
   return XR_ERROR_FUNCTION_UNSUPPORTED;
 }
 

@@ -10,9 +10,11 @@
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/pipeline/hand_grab.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
 #include "xr_common.hpp"
+#include "xr_controllers.hpp"
 
 // Platform headers last: Xlib's macros (None, Success, Status, ...) would break Eigen above.
 #include <X11/Xlib.h>
@@ -276,6 +278,8 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
                view_count ? eyes[0].height : 0, eye_height > 0 ? "STAGE" : "LOCAL",
                result.renderer);
 
+  XrControllers controllers(instance.handle, session.handle);
+  HandGrab hand_grab;
   std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
   std::vector<XrView> views(view_count, xr_struct<XrView>(XR_TYPE_VIEW));
   std::vector<XrCompositionLayerProjectionView> projected(view_count);
@@ -328,11 +332,32 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
             }
             const XrQuaternionf& q = views[0].pose.orientation;
             body.head.orientation = Eigen::Quaternionf(q.w, q.x, q.y, q.z).normalized();
+            // The controllers: published as the hands; a squeeze near an organ grabs it.
+            const auto hands = controllers.sync(space.handle, frame.predictedDisplayTime);
+            Pose* grips[2] = {&body.left_hand, &body.right_hand};
+            for (int h = 0; h < 2; ++h)
+              if (hands[h].tracked) {
+                *grips[h] = hands[h].pose;
+                grips[h]->position.y() += lift;
+              }
+            body.hands_tracked = hands[0].tracked && hands[1].tracked;
             participant->publish(body);
+            const SessionSnapshot snapshot = participant->snapshot(now);
             RigidTransform stage_lift;
             stage_lift.translation.y() = lift;
-            world_from_stage_now =
-                session::room_from_playarea(participant->snapshot(now).spot) * stage_lift;
+            const RigidTransform room_from_playarea = session::room_from_playarea(snapshot.spot);
+            world_from_stage_now = room_from_playarea * stage_lift;
+            std::array<HandInput, 2> grab_input;
+            const Eigen::Quaternionf turn(room_from_playarea.rotation.cast<float>());
+            for (int h = 0; h < 2; ++h) {
+              grab_input[h].tracked = hands[h].tracked;
+              grab_input[h].squeeze = hands[h].squeeze;
+              grab_input[h].room_from_hand.position =
+                  (room_from_playarea * grips[h]->position.cast<double>()).cast<float>();
+              grab_input[h].room_from_hand.orientation =
+                  (turn * grips[h]->orientation).normalized();
+            }
+            hand_grab.update(*participant, snapshot, grab_input);
           }
           for (uint32_t i = 0; i < view_count; ++i) {
             const View view =

@@ -31,7 +31,9 @@ struct XrOptions {
   /// With one, each eye draws the SessionScene; the STAGE space is the participant's play area
   /// (world_from_stage = room_from_playarea of its spot, following its teleports; a LOCAL space
   /// is lifted by eye_height_m) and the head (the eyes' midpoint, the first eye's orientation)
-  /// is published as its pose every frame. Controllers are not read yet: no hands are sent.
+  /// is published as its pose every frame, both controllers' grips as its hands (OpenXR actions:
+  /// Touch, Index, Vive or the KHR simple controller); squeezing a grip within reach of one of
+  /// the case's objects grabs it, and it follows the hand until the grip is let go (hand_grab.hpp).
   std::function<Participant*()> participant;
   SessionSceneOptions scene;
 };

@@ -1,0 +1,117 @@
+#include "xr_controllers.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "volcast/core/error.hpp"
+#include "xr_common.hpp"
+
+namespace volcast {
+
+XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(session) {
+  try {
+    const auto path = [&](const char* s) {
+      XrPath p = XR_NULL_PATH;
+      xr_check(xrStringToPath(instance, s, &p), "xrStringToPath");
+      return p;
+    };
+    hands_ = {path("/user/hand/left"), path("/user/hand/right")};
+    auto set_info = xr_struct<XrActionSetCreateInfo>(XR_TYPE_ACTION_SET_CREATE_INFO);
+    std::strcpy(set_info.actionSetName, "volcast");
+    std::strcpy(set_info.localizedActionSetName, "Volcast");
+    xr_check(xrCreateActionSet(instance, &set_info, &set_), "xrCreateActionSet");
+    const auto action = [&](const char* name, const char* label, XrActionType type) {
+      auto info = xr_struct<XrActionCreateInfo>(XR_TYPE_ACTION_CREATE_INFO);
+      std::strcpy(info.actionName, name);
+      std::strcpy(info.localizedActionName, label);
+      info.actionType = type;
+      info.countSubactionPaths = 2;
+      info.subactionPaths = hands_.data();
+      XrAction a = XR_NULL_HANDLE;
+      xr_check(xrCreateAction(set_, &info, &a), "xrCreateAction");
+      return a;
+    };
+    grip_ = action("grip", "Hand pose", XR_ACTION_TYPE_POSE_INPUT);
+    squeeze_ = action("squeeze", "Grab", XR_ACTION_TYPE_FLOAT_INPUT);
+    const struct {
+      const char* profile;
+      const char* squeeze;
+    } profiles[] = {{"/interaction_profiles/khr/simple_controller", "select/click"},
+                    {"/interaction_profiles/htc/vive_controller", "squeeze/click"},
+                    {"/interaction_profiles/valve/index_controller", "squeeze/value"},
+                    {"/interaction_profiles/oculus/touch_controller", "squeeze/value"}};
+    for (const auto& p : profiles) {
+      std::vector<XrActionSuggestedBinding> bindings;
+      for (const char* hand : {"left", "right"}) {
+        bindings.push_back(
+            {grip_, path(("/user/hand/" + std::string(hand) + "/input/grip/pose").c_str())});
+        bindings.push_back(
+            {squeeze_, path(("/user/hand/" + std::string(hand) + "/input/" + p.squeeze).c_str())});
+      }
+      auto suggested = xr_struct<XrInteractionProfileSuggestedBinding>(
+          XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
+      suggested.interactionProfile = path(p.profile);
+      suggested.countSuggestedBindings = static_cast<uint32_t>(bindings.size());
+      suggested.suggestedBindings = bindings.data();
+      xr_check(xrSuggestInteractionProfileBindings(instance, &suggested),
+               "xrSuggestInteractionProfileBindings");
+    }
+    auto attach = xr_struct<XrSessionActionSetsAttachInfo>(XR_TYPE_SESSION_ACTION_SETS_ATTACH_INFO);
+    attach.countActionSets = 1;
+    attach.actionSets = &set_;
+    xr_check(xrAttachSessionActionSets(session, &attach), "xrAttachSessionActionSets");
+    for (int h = 0; h < 2; ++h) {
+      auto info = xr_struct<XrActionSpaceCreateInfo>(XR_TYPE_ACTION_SPACE_CREATE_INFO);
+      info.action = grip_;
+      info.subactionPath = hands_[h];
+      info.poseInActionSpace.orientation.w = 1;
+      xr_check(xrCreateActionSpace(session, &info, &spaces_[h]), "xrCreateActionSpace");
+    }
+    enabled_ = true;
+  } catch (const Error& e) {
+    spdlog::warn("OpenXR: no controllers ({}); grab organs from the desktop panel or a browser",
+                 e.what());
+  }
+}
+
+XrControllers::~XrControllers() {
+  for (XrSpace s : spaces_)
+    if (s != XR_NULL_HANDLE) xrDestroySpace(s);
+  if (set_ != XR_NULL_HANDLE) xrDestroyActionSet(set_);  // its actions with it
+}
+
+std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
+  std::array<ControllerState, 2> out;
+  if (!enabled_) return out;
+  XrActiveActionSet active{set_, XR_NULL_PATH};
+  auto sync = xr_struct<XrActionsSyncInfo>(XR_TYPE_ACTIONS_SYNC_INFO);
+  sync.countActiveActionSets = 1;
+  sync.activeActionSets = &active;
+  const XrResult r = xrSyncActions(session_, &sync);
+  if (XR_FAILED(r) || r == XR_SESSION_NOT_FOCUSED) return out;  // no input while not focused
+  for (int h = 0; h < 2; ++h) {
+    auto location = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
+    if (XR_FAILED(xrLocateSpace(spaces_[h], space, time, &location))) continue;
+    const XrSpaceLocationFlags valid =
+        XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
+    if ((location.locationFlags & valid) != valid) continue;
+    const XrPosef& p = location.pose;
+    out[h].tracked = true;
+    out[h].pose.position = {p.position.x, p.position.y, p.position.z};
+    out[h].pose.orientation =
+        Eigen::Quaternionf(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
+            .normalized();
+    auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
+    get.action = squeeze_;
+    get.subactionPath = hands_[h];
+    auto state = xr_struct<XrActionStateFloat>(XR_TYPE_ACTION_STATE_FLOAT);
+    if (XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive)
+      out[h].squeeze = state.currentState;
+  }
+  return out;
+}
+
+}  // namespace volcast

@@ -138,11 +138,11 @@ TEST(CaseLabels, Ircad01MeshesAreClosedAndMatchTheirVoxels) {
   for (size_t start = 0; start < seen.size(); ++start) {
     if (seen[start] || !(volume.labels[start] & 2)) continue;
     size_t n = 0;
-    std::vector<size_t> todo{start};
+    std::vector<size_t> stack{start};
     seen[start] = 1;
-    while (!todo.empty()) {
-      const size_t at = todo.back();
-      todo.pop_back();
+    while (!stack.empty()) {
+      const size_t at = stack.back();
+      stack.pop_back();
       ++n;
       const int i = int(at % nx), j = int(at / nx % ny), k = int(at / (size_t(nx) * ny));
       const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
@@ -150,7 +150,7 @@ TEST(CaseLabels, Ircad01MeshesAreClosedAndMatchTheirVoxels) {
         const int a = i + o[0], b = j + o[1], cc = k + o[2];
         if (a < 0 || b < 0 || cc < 0 || a >= nx || b >= ny || cc >= nz) continue;
         const size_t q = volume.index(a, b, cc);
-        if (!seen[q] && (volume.labels[q] & 2)) seen[q] = 1, todo.push_back(q);
+        if (!seen[q] && (volume.labels[q] & 2)) seen[q] = 1, stack.push_back(q);
       }
     }
     if (n >= 10) sizes.push_back(n);

@@ -129,7 +129,24 @@ struct Participant::Impl {
     if (!detached) client.post_session(session::message(type, payload), key);
   }
 
+  // A case: megabytes, parsed before taking the lock, so that snapshots (every frame) do not wait.
+  void handle_case(std::span<const uint8_t> p) {
+    auto c = std::make_shared<session::SharedCase>(session::parse_case(p));
+    std::lock_guard lock(mutex);
+    objects.assign(c->objects.size(), Track{});
+    for (size_t i = 0; i < c->objects.size(); ++i) {
+      objects[i].newest.generation = c->generation;
+      objects[i].newest.object = static_cast<uint16_t>(i);
+      objects[i].newest.pose = objects[i].own = c->objects[i].rest;
+    }
+    monitor.reset();
+    spdlog::info("session: case '{}' received: {} objects{}", printable(c->name), c->objects.size(),
+                 c->monitor ? ", a CT series" : "");
+    shared_case = std::move(c);
+  }
+
   void handle(uint8_t type, std::span<const uint8_t> p) {
+    if (static_cast<Type>(type) == Type::kCase) return handle_case(p);
     const int64_t now_server = server_now();
     std::lock_guard lock(mutex);
     switch (static_cast<Type>(type)) {
@@ -248,20 +265,8 @@ struct Participant::Impl {
         add_sample(r.avatar_latencies_ms, double(now_server - f.capture_us) / 1000.0);
         return;
       }
-      case Type::kCase: {
-        auto c = std::make_shared<session::SharedCase>(session::parse_case(p));
-        objects.assign(c->objects.size(), Track{});
-        for (size_t i = 0; i < c->objects.size(); ++i) {
-          objects[i].newest.generation = c->generation;
-          objects[i].newest.object = static_cast<uint16_t>(i);
-          objects[i].newest.pose = objects[i].own = c->objects[i].rest;
-        }
-        monitor.reset();
-        spdlog::info("session: case '{}' received: {} objects{}", printable(c->name),
-                     c->objects.size(), c->monitor ? ", a CT series" : "");
-        shared_case = std::move(c);
-        return;
-      }
+      case Type::kCase:
+        return;  // parsed before the lock (handle_case)
       case Type::kObjectState: {
         const session::ObjectState o = session::parse_object_state(p);
         if (!shared_case || o.generation != shared_case->generation || o.object >= objects.size())

@@ -6,7 +6,10 @@
 #include <set>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "test_data.hpp"
+#include "volcast/core/image_io.hpp"
 #include "xvfb.hpp"
 
 namespace volcast {
@@ -432,6 +435,106 @@ TEST(Cli, ServePlacesCamerasWhereTheSiteConfigSaysAndNamesAMalformedPose) {
   EXPECT_NE(out.find(site), std::string::npos) << out;
   EXPECT_NE(out.find("camera 0"), std::string::npos) << out;
   EXPECT_NE(out.find("rotation_deg"), std::string::npos) << out;
+}
+
+// Reads the PLY header's vertex count (Open3D writes "element vertex N").
+long ply_vertices(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  for (std::string line; std::getline(in, line) && line != "end_header";)
+    if (line.rfind("element vertex ", 0) == 0) return std::stol(line.substr(15));
+  return -1;
+}
+
+TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
+  const auto dir = test::temp_dir("cli_record");
+  std::string out;
+  for (const char* cmd : {"record", "replay", "export"})
+    EXPECT_EQ(test::run_command(kVolcast + " " + cmd + " --help", out), 0) << cmd;
+  const auto [pid, link] = start_hands_server(dir);
+  ASSERT_FALSE(link.empty());
+  const std::string killed = (dir / "killed.vcr").string();
+  // A recorder pulled out mid-stream: SIGKILL, no chance to write its index.
+  ASSERT_EQ(test::run_command(kVolcast + " record --connect '" + link + "' --out " + killed +
+                                  " --tier volcast/jpeg > " + (dir / "record.log").string() +
+                                  " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string recorder = out.substr(0, out.find('\n'));
+  ASSERT_TRUE(test::eventually([&] {
+    return std::filesystem::exists(killed) && std::filesystem::file_size(killed) > 2'000'000;
+  }));
+  test::run_command("kill -9 " + recorder, out);
+  // A recorder that stops on time closes its file.
+  const std::string closed = (dir / "closed.vcr").string();
+  ASSERT_EQ(test::run_command(kVolcast + " record --connect '" + link + "' --out " + closed +
+                                  " --seconds 2 --tier rvl/none",
+                              out),
+            0)
+      << out;
+  EXPECT_NE(out.find("recorded "), std::string::npos) << out;
+  EXPECT_NE(
+      test::run_command(
+          kVolcast + " record --connect '" + link + "' --out " + closed + " --seconds 1", out),
+      0);
+  EXPECT_NE(out.find("exists already"), std::string::npos) << out;
+  test::run_command("kill " + pid, out);
+
+  ASSERT_EQ(test::run_command(kVolcast + " info " + killed + " --json 2>/dev/null", out), 0) << out;
+  const auto info = nlohmann::json::parse(out);
+  EXPECT_EQ(info["closed"], false);
+  EXPECT_EQ(info["verified"], true);
+  EXPECT_EQ(info["depth_codec"], "volcast");
+  EXPECT_EQ(info["cameras"].size(), 1u);
+  EXPECT_EQ(info["cameras"][0]["width"], 640);
+  const int frame_sets = info["frame_sets"];
+  EXPECT_GT(frame_sets, 3);
+  ASSERT_EQ(test::run_command(kVolcast + " info " + closed, out), 0) << out;
+  EXPECT_NE(out.find("closed by its recorder"), std::string::npos) << out;
+  EXPECT_NE(out.find("rvl/none"), std::string::npos) << out;
+
+  // Export: a PLY per frame set (one camera) with a point per valid depth pixel, and PNGs.
+  ASSERT_EQ(test::run_command(kVolcast + " export " + killed + " --ply " + (dir / "ply").string() +
+                                  " --png " + (dir / "png").string(),
+                              out),
+            0)
+      << out;
+  int plys = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir / "ply"))
+    plys += e.path().extension() == ".ply";
+  EXPECT_EQ(plys, frame_sets);
+  for (int k : {0, frame_sets - 1}) {
+    const auto depth =
+        volcast::read_depth_png(dir / "png" / "camera-0" / "depth" / fmt::format("{:06d}.png", k));
+    long valid = 0;
+    for (uint16_t d : depth.pixels) valid += d != 0;
+    EXPECT_GT(valid, 10000);
+    EXPECT_EQ(ply_vertices(dir / "ply" / fmt::format("frame-{:06d}-camera-0.ply", k)), valid) << k;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "png" / "camera-0" / "intrinsics.json"));
+
+  // Replay the killed recording to a viewer; a recording takes no filters.
+  EXPECT_NE(
+      test::run_command(kVolcast + " serve --source " + killed + " --crop nfov --seconds 1", out),
+      0);
+  EXPECT_NE(out.find("replayed as recorded"), std::string::npos) << out;
+  test::run_command(kVolcast + " replay " + killed + " --insecure --port 0 --seconds 60 > " +
+                        (dir / "replay.log").string() + " 2>&1 & echo $!",
+                    out);
+  const std::string replayer = out.substr(0, out.find('\n'));
+  std::string replay_link;
+  ASSERT_TRUE(test::eventually([&] {
+    std::ifstream log(dir / "replay.log");
+    for (std::string line; std::getline(log, line);)
+      if (line.find("volcast://") != std::string::npos)
+        replay_link = line.substr(line.find("volcast://"));
+    return !replay_link.empty();
+  }));
+  EXPECT_EQ(test::run_command(kVolcast + " view --connect '" + replay_link +
+                                  "' --headless --no-render --frames 10",
+                              out),
+            0)
+      << out;
+  test::run_command("kill " + replayer, out);
 }
 
 }  // namespace

@@ -184,6 +184,9 @@ TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
 TEST(SessionScene, SiteAndRemoteAvatarFromTheEye) {
   SessionHubConfig config;
   config.site_translation = {0, 1.5f, 0.5f};  // the site camera's points float above the floor
+  // The surgeon is frozen below while the renders run (seconds under a sanitizer on a loaded
+  // machine): it must not time out meanwhile.
+  config.presence_timeout_ms = 120000;
   test::SessionSite s(config, 10);
   SessionClientOptions with_camera = test::named("Surgeon");
   with_camera.camera_source = test::hands_dir();

@@ -6,10 +6,12 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
+#include "volcast/net/client.hpp"
 
 namespace volcast {
 
@@ -71,6 +73,11 @@ struct ServeArgs {
   // Browsers (ServerConfig::web_root).
   bool web = false;      ///< serve the browser viewer and print its https:// link
   std::string web_root;  ///< its folder; default: web_root_default()
+
+  std::string record;                        ///< also record this tier to this .vcr file
+  std::string record_tier = "volcast/jpeg";  ///< DEPTH/COLOR[/QUALITY]
+  double from_s = 0, to_s = -1;              ///< a .vcr source: the part replayed (seconds in)
+  bool no_loop = false;                      ///< a .vcr source: play it once, then stop
 };
 int run_serve(const ServeArgs& args);
 /// The browser viewer's page as the build or the install put it: share/volcast/web beside the
@@ -207,6 +214,7 @@ struct BenchArgs {
   bool render = false;        ///< the render benchmark instead
   double render_seconds = 1;  ///< drawn per configuration (at least 3 frames)
   bool session = false;       ///< the session benchmark instead (uses server_seconds)
+  bool record = false;        ///< the recording benchmark instead (server_seconds, server_repeats)
   bool low_latency = false;   ///< --session: hold the CPU wake-up latency at 0 (cpu_latency.hpp)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
@@ -233,11 +241,61 @@ int run_render_bench(const BenchArgs& args);
 /// avatar_latency_ms_p50, _p99, serving_cpu_percent, serving_cpu_percent_per_participant,
 /// site_encode_cpu_percent}]} to args.json if set.
 int run_session_bench(const BenchArgs& args);
+/// What recording costs a live server: the real two-camera site at 30 fps with one TLS viewer,
+/// without a recorder, recording the viewer's tier (shared encoding: only the disk write is new)
+/// and recording another tier (one more encoding), `server_repeats` times interleaved; prints
+/// viewer latency p50/p99, server CPU, the latency and CPU added against the run without (median
+/// of per-repeat differences), MB per minute per camera and frame sets dropped; writes {"record":
+/// [{configuration, latency_ms_p50, latency_ms_p99, server_cpu_percent, added_latency_ms_p50,
+/// added_server_cpu_percent, recorded_mb_per_minute_per_camera, recorded_frame_sets,
+/// recorder_dropped, *_runs}]} to args.json if set.
+int run_record_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;
   bool json = false;
 };
+/// Describes an Azure Kinect recording, an image sequence or a Volcast recording (.vcr: cameras,
+/// tier, frame sets, key frame sets, duration, size, whether it was closed or where its
+/// incomplete tail begins; every record's CRC checked).
 int run_info(const InfoArgs& args);
+/// The .vcr half of run_info (record_commands.cpp).
+int run_recording_info(const InfoArgs& args);
+
+/// The client settings for reaching a server from --connect (a join link, or HOST:PORT with
+/// --token and maybe --fingerprint), --insecure and --known-servers. Throws Error naming the
+/// command and the flag at fault.
+ClientConfig connect_client_config(const std::string& command, const std::string& connect,
+                                   const std::string& token, const std::string& fingerprint,
+                                   bool insecure, const std::string& known_servers);
+
+struct RecordArgs {
+  std::string connect, token, fingerprint, known_servers;
+  bool insecure = false;
+  std::string out;
+  std::string tier = "volcast/jpeg";  ///< DEPTH/COLOR[/QUALITY]
+  double seconds = 0;                 ///< 0 = until interrupted or the server ends
+  bool overwrite = false;
+  int sync_interval_ms = 1000;
+};
+/// Connects as a receive-only viewer of one tier and appends every frame set it is sent to a
+/// recording (volcast/record/recording.hpp), showing frame sets, size and rate on the terminal.
+/// Returns 0 when it stopped on time, on Ctrl-C or when the server ended; throws Error (what was
+/// written stays and replays) on a full disk or a broken stream.
+int run_record(const RecordArgs& args);
+
+struct ExportArgs {
+  std::string file;
+  std::string ply, png;  ///< output folders (at least one)
+  double from_s = 0, to_s = -1;
+};
+/// Decodes a recording and writes, per frame set and camera, a binary PLY (valid depth pixels as
+/// points in the world frame, metres, with color) and/or depth and color PNGs.
+int run_export(const ExportArgs& args);
+
+/// "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" -> its parts (quality 0 when absent). Throws Error naming
+/// `flag` if it is not of that form or a codec is unknown.
+std::tuple<std::string, std::string, int> parse_tier(const std::string& text,
+                                                     const std::string& flag);
 
 }  // namespace volcast

@@ -186,6 +186,7 @@ void print_check(const FrameCheck& c) {
 // bad_frame_count) for the reader to act on; 1 if the source cannot be opened at all.
 int run_info(const InfoArgs& a) {
   const fs::path path = a.file;
+  if (path.extension() == ".vcr") return run_recording_info(a);
   nlohmann::json j;
   if (fs::is_directory(path)) {
     auto src = open_source(path, {});

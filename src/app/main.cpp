@@ -33,32 +33,9 @@ void add_filter_flags(CLI::App* app, volcast::FilterFlags& f, bool with_backgrou
   app->add_flag("--kalman", f.kalman, "Per-pixel Kalman denoising with an innovation gate");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace volcast;
-  std::signal(SIGINT, [](int) { g_interrupted = true; });
-  std::signal(SIGTERM, [](int) { g_interrupted = true; });
-  std::signal(SIGPIPE, SIG_IGN);
-  // Logs go to stderr: stdout carries results (info's text and --json, the viewer's table).
-  spdlog::set_default_logger(std::make_shared<spdlog::logger>(
-      "", std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
-  register_video_codecs();  // h264 and hevc join the codec table before anything looks one up
-
-  CLI::App app{"volcast: stream RGB-D cameras to remote viewers as live point clouds"};
-  app.require_subcommand(1);
-  bool verbose = false;
-  app.add_flag("-v,--verbose", verbose, "Log debug messages");
-
-  const std::string kLowLatencyHelp =
-      "Keep idle cores awake while streaming (Linux PM QoS: /dev/cpu_dma_latency = 0, needs "
-      "root). Lower latency where waking a core is slow, e.g. virtual machines; costs power";
-
-  ServeArgs serve;
-  auto* s = app.add_subcommand("serve", "Stream one site (several cameras) to viewers over TCP");
-  s->add_option("--source", serve.sources,
-                "Camera source: Azure Kinect .mkv or image-sequence folder (repeat per camera)")
-      ->required();
+// The flags serve and replay share (replay has no cameras to filter: it takes them too and
+// refuses them when given).
+void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& kLowLatencyHelp) {
   s->add_option("--port", serve.port, "TCP port")->capture_default_str();
   s->add_option("--bind", serve.bind, "Address to listen on (0.0.0.0 for remote viewers)")
       ->capture_default_str();
@@ -88,7 +65,6 @@ int main(int argc, char** argv) {
   s->add_option("--config", serve.config,
                 "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
   add_filter_flags(s, serve.filters, true);
-  s->get_option("--source")->required(false);
   s->add_flag("--low-latency", serve.low_latency, kLowLatencyHelp);
   s->add_flag("--insecure", serve.insecure,
               "Plain TCP instead of TLS 1.3 (allowed only with a loopback --bind)");
@@ -137,6 +113,54 @@ int main(int argc, char** argv) {
               "same port, and print its https:// link");
   s->add_option("--web-root", serve.web_root,
                 "The browser viewer's folder (default: the one built or installed with volcast)");
+  s->add_option("--record", serve.record,
+                "Also record one tier of the stream to this file (.vcr, append-only, survives "
+                "a kill; see `volcast record`)");
+  s->add_option("--record-tier", serve.record_tier,
+                "The tier --record keeps: DEPTH/COLOR[/QUALITY]")
+      ->capture_default_str();
+  s->add_option("--from", serve.from_s, "A recording (.vcr) source: start this many seconds in")
+      ->capture_default_str();
+  s->add_option("--to", serve.to_s,
+                "A recording (.vcr) source: end this many seconds in (default: its end)");
+  s->add_flag("--no-loop", serve.no_loop,
+              "A recording (.vcr) source: play it once, then stop (default: loop)");
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace volcast;
+  std::signal(SIGINT, [](int) { g_interrupted = true; });
+  std::signal(SIGTERM, [](int) { g_interrupted = true; });
+  std::signal(SIGPIPE, SIG_IGN);
+  // Logs go to stderr: stdout carries results (info's text and --json, the viewer's table).
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>(
+      "", std::make_shared<spdlog::sinks::stderr_color_sink_mt>()));
+  register_video_codecs();  // h264 and hevc join the codec table before anything looks one up
+
+  CLI::App app{"volcast: stream RGB-D cameras to remote viewers as live point clouds"};
+  app.require_subcommand(1);
+  bool verbose = false;
+  app.add_flag("-v,--verbose", verbose, "Log debug messages");
+
+  const std::string kLowLatencyHelp =
+      "Keep idle cores awake while streaming (Linux PM QoS: /dev/cpu_dma_latency = 0, needs "
+      "root). Lower latency where waking a core is slow, e.g. virtual machines; costs power";
+
+  ServeArgs serve;
+  auto* s = app.add_subcommand("serve", "Stream one site (several cameras) to viewers over TCP");
+  s->add_option(
+       "--source", serve.sources,
+       "Camera source: Azure Kinect .mkv, image-sequence folder (repeat per camera), or one "
+       "Volcast recording .vcr")
+      ->required();
+  s->get_option("--source")->required(false);
+  add_serve_flags(s, serve, kLowLatencyHelp);
+  ServeArgs replay;
+  auto* rp = app.add_subcommand(
+      "replay", "Serve a recording (.vcr) to viewers, paced as recorded, looping (serve's flags)");
+  rp->add_option("file", replay.sources, "Volcast recording (.vcr)")->required()->expected(1);
+  add_serve_flags(rp, replay, kLowLatencyHelp);
 
   ViewArgs view;
   auto* v =
@@ -315,6 +339,9 @@ int main(int argc, char** argv) {
                "Session benchmark instead: pose round trip, pose rates, camera avatars, server CPU "
                "per participant (--server-seconds each)");
   bn->add_flag("--low-latency", bench.low_latency, "With --session: " + kLowLatencyHelp);
+  bn->add_flag("--record", bench.record,
+               "Recording benchmark instead: latency and CPU a server-side recorder adds to a "
+               "live viewer, MB per minute per camera (--server-seconds, --server-repeats)");
   bn->add_flag("--render", bench.render,
                "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
   bn->add_option("--render-seconds", bench.render_seconds,
@@ -360,8 +387,43 @@ int main(int argc, char** argv) {
       "info",
       "Describe a recording: streams, frames, derived intrinsics; reads every frame and lists "
       "those that cannot be read (exit code 0 whenever the source opens)");
-  i->add_option("file", info.file, "Azure Kinect .mkv or image-sequence folder")->required();
+  i->add_option("file", info.file,
+                "Azure Kinect .mkv, image-sequence folder, or Volcast recording .vcr")
+      ->required();
   i->add_flag("--json", info.json, "Print JSON");
+
+  RecordArgs record;
+  auto* rc = app.add_subcommand(
+      "record",
+      "Record a server's stream, one tier as sent, to an append-only .vcr that survives a kill "
+      "(replay it with `volcast replay`, export it with `volcast export`)");
+  rc->add_option("--connect", record.connect, "Join link (volcast://...) or HOST:PORT")->required();
+  rc->add_option("--token", record.token, "With HOST:PORT: the join token (32 hex digits)");
+  rc->add_option("--fingerprint", record.fingerprint,
+                 "With HOST:PORT: the server certificate's SHA-256 (64 hex digits)");
+  rc->add_option("--known-servers", record.known_servers,
+                 "Pinned server certificates (default: $XDG_CONFIG_HOME/volcast/known_servers)");
+  rc->add_flag("--insecure", record.insecure, "Plain TCP (loopback only)");
+  rc->add_option("--out", record.out, "The recording to write (.vcr)")->required();
+  rc->add_option("--tier", record.tier, "The tier to record: DEPTH/COLOR[/QUALITY]")
+      ->capture_default_str();
+  rc->add_option("--seconds", record.seconds, "Stop after this many seconds (default: Ctrl-C)");
+  rc->add_flag("--overwrite", record.overwrite, "Replace --out if it exists");
+  rc->add_option("--sync-interval", record.sync_interval_ms,
+                 "Flush to disk at least this often (ms): what a power cut can lose")
+      ->capture_default_str();
+
+  ExportArgs export_args;
+  auto* ex = app.add_subcommand(
+      "export", "Export a recording (.vcr): binary PLY point clouds or 16-bit depth + color PNGs");
+  ex->add_option("file", export_args.file, "Volcast recording (.vcr)")->required();
+  ex->add_option("--ply", export_args.ply,
+                 "Folder for one binary PLY per camera and frame set (world frame, metres, "
+                 "with color)");
+  ex->add_option("--png", export_args.png,
+                 "Folder for depth (16-bit PNG, mm) and color (PNG) per camera and frame set");
+  ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
+  ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
 
   CaseArgs case_args;
   auto* ca = app.add_subcommand(
@@ -383,16 +445,20 @@ int main(int argc, char** argv) {
     if (*v) return run_view(view);
     if (*d) return run_demo(demo);
     if (*i) return run_info(info);
+    if (*rp) return run_serve(replay);
+    if (*rc) return run_record(record);
+    if (*ex) return run_export(export_args);
     if (*c) return run_calibrate(calibrate);
     if (*ca) return run_case(case_args);
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
     if (*bn) {
-      if (int(bench.server) + int(bench.render) + int(bench.session) > 1)
-        throw Error("bench: --server, --render and --session are separate runs");
+      if (int(bench.server) + int(bench.render) + int(bench.session) + int(bench.record) > 1)
+        throw Error("bench: --server, --render, --session and --record are separate runs");
       return bench.server    ? run_server_bench(bench)
              : bench.render  ? run_render_bench(bench)
              : bench.session ? run_session_bench(bench)
+             : bench.record  ? run_record_bench(bench)
                              : run_bench(bench);
     }
   } catch (const std::exception& e) {

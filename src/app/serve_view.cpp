@@ -11,15 +11,18 @@
 #include "case_watch.hpp"
 #include "commands.hpp"
 #include "options.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/join.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/replay.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"
+#include "volcast/record/recorder.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
@@ -280,23 +283,56 @@ std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on) {
   return request;
 }
 
+// Whether serve's sources are one Volcast recording (replayed as recorded). Throws Error when a
+// recording is mixed with cameras or given filters.
+bool replaying(const ServeArgs& a) {
+  bool any = false;
+  for (const auto& s : a.sources) any = any || std::filesystem::path(s).extension() == ".vcr";
+  if (!any) return false;
+  if (a.sources.size() != 1 || !a.config.empty())
+    throw Error(
+        "serve: a recording (.vcr) is a whole site: give it alone, without other "
+        "--source or --config");
+  if (a.filters.to_config(0).any())
+    throw Error("serve: a recording (.vcr) is replayed as recorded: drop the filter flags");
+  return true;
+}
+
 int run_serve(const ServeArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   std::vector<std::unique_ptr<FrameSource>> sources;
   std::vector<FilterConfig> filters;
   std::vector<std::string> names;
-  load_site(a, sources, filters, names);
-  if (sources.empty()) throw Error("serve: give at least one --source or a --config with cameras");
-  std::vector<std::string> color_notes;  // per camera: ", no color" etc.
-  for (const auto& src : sources) {
-    const int color = src->color_frame_count(), frames = src->frame_count();
-    color_notes.push_back(color == 0 ? ", NO COLOR (depth only)"
-                          : color < frames
-                              ? fmt::format(", no color in {} of {} frames", frames - color, frames)
-                              : "");
+  std::optional<ReplayPlayer> replay;
+  std::optional<SitePlayer> site;
+  if (replaying(a)) {
+    replay.emplace(a.sources[0], ReplayOptions{a.from_s, a.to_s, !a.no_loop});
+    const RecordingInfo& info = replay->info();
+    spdlog::info(
+        "replaying {}: {} frame sets, {:.1f} s, tier {}/{} (passed through as "
+        "recorded to viewers of that tier){}",
+        a.sources[0], info.frame_sets.size(), static_cast<double>(info.duration_us()) / 1e6,
+        info.stream.depth_codec, info.stream.color_codec,
+        info.closed ? "" : "; not closed by its recorder, indexed by scanning");
+    for (const auto& c : replay->cameras()) {
+      names.push_back(c.description);
+      filters.emplace_back();
+    }
+  } else {
+    load_site(a, sources, filters, names);
+    if (sources.empty())
+      throw Error("serve: give at least one --source or a --config with cameras");
   }
-  SitePlayer site(std::move(sources), a.fps, filters, SiteOptions{a.max_read_failures});
-  auto cameras = site.cameras();
+  std::vector<std::string> color_notes(names.size());  // per camera: ", no color" etc.
+  for (size_t i = 0; i < sources.size(); ++i) {
+    const int color = sources[i]->color_frame_count(), frames = sources[i]->frame_count();
+    color_notes[i] = color == 0 ? ", NO COLOR (depth only)"
+                     : color < frames
+                         ? fmt::format(", no color in {} of {} frames", frames - color, frames)
+                         : "";
+  }
+  if (!replay) site.emplace(std::move(sources), a.fps, filters, SiteOptions{a.max_read_failures});
+  auto cameras = replay ? replay->cameras() : site->cameras();
   for (size_t i = 0; i < cameras.size(); ++i) {
     const auto& k = cameras[i].calibration.depth;
     spdlog::info("camera {}: {} (sent as {}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f}{}{}{})", i,
@@ -333,11 +369,27 @@ int run_serve(const ServeArgs& a) {
   std::optional<CaseWatch> case_watch;
   if (!a.case_folder.empty()) case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
+  std::optional<BackgroundRecorder> recorder;  // outlives the server, whose tier feeds it
   Server server(for_viewers, config);
   hub.attach(&server);
-  site.start(server);
-  spdlog::info("serving {} camera(s) at {} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
-               site.fps(), a.bind, server.port(),
+  if (!a.record.empty()) {
+    RecordingStream stream;
+    std::tie(stream.depth_codec, stream.color_codec, stream.color_quality) =
+        parse_tier(a.record_tier, "--record-tier");
+    stream.started_us = wall_clock_us();
+    stream.origin = "volcast serve --record";
+    stream.welcome = {for_viewers, wall_clock_us()};
+    recorder.emplace(a.record, stream);
+    server.add_tier_tap(stream.depth_codec, stream.color_codec, stream.color_quality,
+                        [&recorder](const TierFrameSet& f) { recorder->push(f); });
+    spdlog::info("recording tier {} to {}", a.record_tier, a.record);
+  }
+  if (replay)
+    replay->start(server);
+  else
+    site->start(server);
+  spdlog::info("serving {} camera(s) at {:.1f} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
+               replay ? replay->fps() : site->fps(), a.bind, server.port(),
                a.insecure ? "plain TCP, loopback only" : "TLS 1.3");
   if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
   std::printf("join link (give it only to the viewers of this session):\n  %s\n",
@@ -352,21 +404,42 @@ int run_serve(const ServeArgs& a) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const auto now = std::chrono::steady_clock::now();
     if (a.seconds > 0 && now - start > std::chrono::duration<double>(a.seconds)) break;
+    if (replay && replay->finished()) {
+      spdlog::info("the recording has played to its end (--no-loop)");
+      break;
+    }
     if (now - last_report > std::chrono::seconds(5)) {
       last_report = now;
       int connected = 0;
       for (const auto& v : server.viewers()) connected += v.connected;
       std::string failed;  // cameras that cannot be read now
-      const auto status = site.camera_status();
+      const auto status = site ? site->camera_status() : std::vector<CameraStatus>{};
       for (size_t i = 0; i < status.size(); ++i)
         if (status[i].failed) failed += fmt::format("{}{}", failed.empty() ? "" : ", ", i);
-      spdlog::info("{} frame sets published, {} viewer(s) connected{}", site.frame_sets_published(),
-                   connected,
-                   failed.empty() ? "" : "; FAILED camera(s) " + failed + " (last good frame)");
+      std::string recording;
+      if (recorder) {
+        const RecorderStats r = recorder->stats();
+        recording = fmt::format("; recorded {} frame sets, {:.1f} MB{}{}", r.frame_sets,
+                                static_cast<double>(r.bytes) / 1e6,
+                                r.dropped ? fmt::format(", {} dropped", r.dropped) : "",
+                                r.error.empty() ? "" : " -- STOPPED: " + r.error);
+      }
+      spdlog::info(
+          "{} frame sets published, {} viewer(s) connected{}{}",
+          replay ? replay->frame_sets_published() : site->frame_sets_published(), connected,
+          failed.empty() ? "" : "; FAILED camera(s) " + failed + " (last good frame)", recording);
     }
   }
-  site.stop();
+  if (site) site->stop();
+  if (replay) replay->stop();
   server.stop();
+  if (recorder) {
+    recorder->stop();
+    const RecorderStats r = recorder->stats();
+    std::printf("recorded %llu frame sets, %.1f MB, to %s%s\n",
+                static_cast<unsigned long long>(r.frame_sets), static_cast<double>(r.bytes) / 1e6,
+                recorder->path().c_str(), r.error.empty() ? "" : (" -- " + r.error).c_str());
+  }
   hub.attach(nullptr);
   const SessionHubStats hs = hub.stats();
   spdlog::info(
@@ -384,26 +457,35 @@ int run_serve(const ServeArgs& a) {
   return 0;
 }
 
+ClientConfig connect_client_config(const std::string& command, const std::string& connect,
+                                   const std::string& token, const std::string& fingerprint,
+                                   bool insecure, const std::string& known_servers) {
+  ClientConfig c;
+  if (is_join_link(connect)) {
+    if (!token.empty() || !fingerprint.empty())
+      throw Error(command +
+                  ": the join link holds the token and fingerprint; drop --token/--fingerprint");
+    c = client_config_from_link(connect);
+  } else {
+    std::tie(c.host, c.port) = parse_host_port(connect);
+    if (token.empty())
+      throw Error(command + ": --connect HOST:PORT needs --token (or give the join link instead)");
+    c.token = parse_join_token(token);
+    if (!fingerprint.empty()) c.fingerprint = parse_fingerprint(fingerprint);
+    c.insecure = insecure;
+  }
+  if (insecure && !c.insecure)
+    throw Error(command + ": --insecure conflicts with a TLS join link (it has fp=)");
+  c.known_servers =
+      known_servers.empty() ? (user_config_dir() / "known_servers").string() : known_servers;
+  return c;
+}
+
 int run_view(const ViewArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   ViewerOptions opt;
-  if (is_join_link(a.connect)) {
-    if (!a.token.empty() || !a.fingerprint.empty())
-      throw Error(
-          "view: the join link holds the token and fingerprint; drop --token/--fingerprint");
-    opt.client = client_config_from_link(a.connect);
-  } else {
-    std::tie(opt.client.host, opt.client.port) = parse_host_port(a.connect);
-    if (a.token.empty())
-      throw Error("view: --connect HOST:PORT needs --token (or give the join link instead)");
-    opt.client.token = parse_join_token(a.token);
-    if (!a.fingerprint.empty()) opt.client.fingerprint = parse_fingerprint(a.fingerprint);
-    opt.client.insecure = a.insecure;
-  }
-  if (a.insecure && !opt.client.insecure)
-    throw Error("view: --insecure conflicts with a TLS join link (it has fp=)");
-  opt.client.known_servers =
-      a.known_servers.empty() ? (user_config_dir() / "known_servers").string() : a.known_servers;
+  opt.client =
+      connect_client_config("view", a.connect, a.token, a.fingerprint, a.insecure, a.known_servers);
   opt.client.connect_timeout_ms = a.connect_timeout_ms;
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;

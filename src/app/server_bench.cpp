@@ -17,6 +17,7 @@
 #include "volcast/net/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
+#include "volcast/record/recorder.hpp"
 
 namespace volcast {
 namespace {
@@ -43,6 +44,15 @@ struct Row {
   bool tls = true;
   double fps_min = 0, latency_ms_p50 = 0, latency_ms_p99 = 0, server_cpu_percent = 0;
   double send_cpu_percent = 0;  ///< the threads serving the viewers (ViewerReport::send_cpu_ms)
+  // With a recorder: what it wrote while measured.
+  double recorded_mb_per_minute_per_camera = 0;
+  uint64_t recorded_frame_sets = 0, recorder_dropped = 0;
+};
+
+// A recorder for measure(): tier "DEPTH/COLOR" into `path` (replaced).
+struct RecordTap {
+  std::string depth, color;
+  fs::path path;
 };
 
 // The CPU (ms) the server's viewer threads have spent so far, over all viewers.
@@ -55,7 +65,8 @@ double send_cpu_ms(const Server& server) {
 // One configuration: a site of the given sources, `viewers` receive-only viewers on one tier.
 // With `tls`, over TLS 1.3 (the default transport); else plain TCP on loopback (--insecure).
 Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
-            const std::string& depth, const std::string& color, double seconds, bool tls) {
+            const std::string& depth, const std::string& color, double seconds, bool tls,
+            const RecordTap* record = nullptr) {
   const int cameras = static_cast<int>(sources.size());
   SitePlayer site(std::move(sources), 30);
   ServerConfig config;
@@ -65,6 +76,16 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   config.max_pending_per_address = 64;  // every bench viewer joins at once from 127.0.0.1
   Server server(site.cameras(), config);
   const std::string link = server.join_link("127.0.0.1");
+  std::optional<BackgroundRecorder> recorder;
+  if (record) {
+    RecordingStream stream;
+    stream.depth_codec = record->depth;
+    stream.color_codec = record->color;
+    stream.welcome = {site.cameras(), wall_clock_us()};
+    recorder.emplace(record->path, stream, RecordingWriterOptions{.overwrite = true});
+    server.add_tier_tap(record->depth, record->color, 0,
+                        [&recorder](const TierFrameSet& f) { recorder->push(f); });
+  }
   site.start(server);
   std::vector<ViewerFigures> figures(static_cast<size_t>(viewers));
   std::atomic<bool> measuring{false}, done{false};
@@ -99,15 +120,21 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
     });
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // join, key frames, warm-up
   const double cpu0 = cpu_seconds(RUSAGE_SELF), send0 = send_cpu_ms(server);
+  const RecorderStats rec0 = recorder ? recorder->stats() : RecorderStats{};
   const auto t0 = std::chrono::steady_clock::now();
   measuring = true;
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   done = true;
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu1 = cpu_seconds(RUSAGE_SELF), send1 = send_cpu_ms(server);
+  const RecorderStats rec1 = recorder ? recorder->stats() : RecorderStats{};
   site.stop();
   server.stop();  // ends the viewers' connections
   for (auto& t : threads) t.join();
+  if (recorder) {
+    recorder->stop();
+    if (!recorder->stats().error.empty()) throw Error(recorder->stats().error);
+  }
 
   Row row;
   row.cameras = cameras;
@@ -128,6 +155,12 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   // The process's CPU less the viewers' own threads: site reading, tier encoding, sending.
   row.server_cpu_percent = 100 * std::max(0.0, cpu1 - cpu0 - viewer_cpu) / wall;
   row.send_cpu_percent = 0.1 * (send1 - send0) / wall;
+  if (recorder) {
+    row.recorded_frame_sets = rec1.frame_sets - rec0.frame_sets;
+    row.recorder_dropped = rec1.dropped - rec0.dropped;
+    row.recorded_mb_per_minute_per_camera =
+        static_cast<double>(rec1.bytes - rec0.bytes) / 1e6 * 60 / wall / cameras;
+  }
   return row;
 }
 
@@ -223,6 +256,88 @@ int run_server_bench(const BenchArgs& a) {
   if (!a.json.empty()) {
     nlohmann::json j;
     j["server"] = rows;
+    const fs::path path = a.json;
+    if (path.has_parent_path()) fs::create_directories(path.parent_path());
+    std::ofstream(path) << j.dump(2) << "\n";
+    std::printf("wrote %s\n", path.c_str());
+  }
+  return 0;
+}
+
+}  // namespace volcast
+
+namespace volcast {
+
+int run_record_bench(const BenchArgs& a) {
+  const auto data = find_data(a.data);
+  if (!data) throw Error("bench --record: the real recordings were not found (--data DIR)");
+  if (!(a.server_seconds > 0)) throw Error("--server-seconds must be positive");
+  if (a.server_repeats < 1 || a.server_repeats > 20) throw Error("--server-repeats must be 1..20");
+  spdlog::set_level(spdlog::level::warn);
+  const fs::path dir = fs::temp_directory_path() / fmt::format("volcast-bench-record-{}", getpid());
+  fs::create_directories(dir);
+  // Configurations run in turn within each repeat, so each recording run has a baseline run of
+  // the same moment: the added latency and CPU are the medians of those pairs' differences.
+  struct Config {
+    std::string name;
+    std::optional<RecordTap> tap;
+  };
+  const std::vector<Config> configs = {
+      {"no recorder", std::nullopt},
+      {"record the viewers' tier (volcast/jpeg)", RecordTap{"volcast", "jpeg", dir / "same.vcr"}},
+      {"record another tier (volcast-t/jpeg)", RecordTap{"volcast-t", "jpeg", dir / "other.vcr"}}};
+  std::vector<std::vector<Row>> runs(configs.size());
+  for (int r = 0; r < a.server_repeats; ++r)
+    for (size_t c = 0; c < configs.size(); ++c) {
+      if (isatty(STDERR_FILENO))
+        std::fprintf(stderr, "[%zu/%zu] %s, run %d...\r", r * configs.size() + c + 1,
+                     configs.size() * a.server_repeats, configs[c].name.c_str(), r + 1);
+      runs[c].push_back(measure(two_camera_site(*data), 1, "volcast", "jpeg", a.server_seconds,
+                                true, configs[c].tap ? &*configs[c].tap : nullptr));
+    }
+  std::printf("2 real cameras at 30 fps, 1 TLS viewer on volcast/jpeg, %d runs of %.0f s each\n",
+              a.server_repeats, a.server_seconds);
+  std::printf("%-42s %9s %9s %11s %12s %12s %14s %9s\n", "configuration", "lat p50", "lat p99",
+              "server CPU", "added p50", "added CPU", "MB/min/camera", "dropped");
+  nlohmann::json rows = nlohmann::json::array();
+  for (size_t c = 0; c < configs.size(); ++c) {
+    std::vector<double> p50, p99, cpu, added, added_cpu, mb;
+    uint64_t dropped = 0, frames = 0;
+    for (size_t r = 0; r < runs[c].size(); ++r) {
+      const Row& x = runs[c][r];
+      p50.push_back(x.latency_ms_p50);
+      p99.push_back(x.latency_ms_p99);
+      cpu.push_back(x.server_cpu_percent);
+      added.push_back(x.latency_ms_p50 - runs[0][r].latency_ms_p50);
+      added_cpu.push_back(x.server_cpu_percent - runs[0][r].server_cpu_percent);
+      mb.push_back(x.recorded_mb_per_minute_per_camera);
+      dropped += x.recorder_dropped;
+      frames += x.recorded_frame_sets;
+    }
+    const bool rec = configs[c].tap.has_value();
+    std::printf("%-42s %7.2fms %7.2fms %10.0f%% %10s %11s %14s %9s\n", configs[c].name.c_str(),
+                median(p50), median(p99), median(cpu),
+                rec ? fmt::format("{:+.2f}ms", median(added)).c_str() : "",
+                rec ? fmt::format("{:+.0f}%", median(added_cpu)).c_str() : "",
+                rec ? fmt::format("{:.1f}", median(mb)).c_str() : "",
+                rec ? std::to_string(dropped).c_str() : "");
+    nlohmann::json row = {{"configuration", configs[c].name}, {"latency_ms_p50", median(p50)},
+                          {"latency_ms_p99", median(p99)},    {"server_cpu_percent", median(cpu)},
+                          {"latency_ms_p50_runs", p50},       {"server_cpu_percent_runs", cpu}};
+    if (rec) {
+      row["added_latency_ms_p50"] = median(added);
+      row["added_latency_ms_p50_runs"] = added;
+      row["added_server_cpu_percent"] = median(added_cpu);
+      row["recorded_mb_per_minute_per_camera"] = median(mb);
+      row["recorded_frame_sets"] = frames;
+      row["recorder_dropped"] = dropped;
+    }
+    rows.push_back(row);
+  }
+  fs::remove_all(dir);
+  if (!a.json.empty()) {
+    nlohmann::json j;
+    j["record"] = rows;
     const fs::path path = a.json;
     if (path.has_parent_path()) fs::create_directories(path.parent_path());
     std::ofstream(path) << j.dump(2) << "\n";

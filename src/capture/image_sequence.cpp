@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "volcast/capture/camera_folder.hpp"
+#include "volcast/capture/k4a_device.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -252,6 +253,7 @@ std::unique_ptr<FrameSource> open_image_sequence(const fs::path& dir,
 }
 
 std::unique_ptr<FrameSource> open_source(const fs::path& path, const SourceOptions& options) {
+  if (is_k4a_device_url(path.string())) return open_k4a_device(path.string(), options);
   if (fs::is_directory(path)) {
     // A camera folder (depth.<serial>-<n>.png side by side) is several cameras, not one.
     const auto cameras = list_folder_cameras(path);

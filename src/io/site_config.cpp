@@ -269,6 +269,7 @@ std::filesystem::path resolve_site_source(const std::string& source,
                                           const std::filesystem::path& config_file) {
   const std::filesystem::path path(source);
   std::error_code ec;
+  if (source.find("://") != std::string::npos) return path;  // a device URL (k4a://...)
   if (path.is_absolute() || std::filesystem::exists(path, ec)) return path;
   return config_file.parent_path() / path;
 }

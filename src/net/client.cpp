@@ -393,12 +393,12 @@ bool Client::receive(ReceivedFrameSet& out) {
     const bool sealed = header.type == protocol::MessageType::kSealedFrameSet;
     if (sealed) {
       // A receive-only viewer has no use for the body: it acknowledges from the descriptor.
-      if (!m.read_sealed_body(deadline, m.config.decode)) return false;
+      if (!m.read_sealed_body(deadline, m.config.decode || m.config.keep_encoded)) return false;
     } else if (header.type != protocol::MessageType::kFrameSet) {
       throw ClientError(Kind::kProtocol, "expected a FrameSet message");
     }
     const int64_t received_us = wall_clock_us();
-    if (sealed && !m.config.decode) {
+    if (sealed && !m.config.decode && !m.config.keep_encoded) {
       m.view.sequence = m.seal.sequence;
       m.view.key = m.seal.key_frame_set;
       m.view.times = m.seal.times;
@@ -440,7 +440,13 @@ bool Client::receive(ReceivedFrameSet& out) {
       out.depth_bytes[i] = m.view.cameras[i].depth.size();
       out.color_bytes[i] = m.view.cameras[i].color.size();
     }
-    if (m.config.decode) m.check_declared_sizes();
+    if (m.config.decode || m.config.keep_encoded) m.check_declared_sizes();
+    if (m.config.keep_encoded) {
+      const auto body = m.payload().subspan(8);
+      out.encoded_body.assign(body.begin(), body.end());
+    } else {
+      out.encoded_body.clear();
+    }
     bool decoded = true;
     out.repeated.assign(n, 0);
     if (m.config.decode) {

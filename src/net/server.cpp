@@ -78,6 +78,9 @@ struct Server::Impl {
     // Guarded by Impl::mutex:
     std::shared_ptr<const detail::EncodedFrames> latest;
     std::vector<const WakeFd*> subscribers;
+    // Consumers that take every frame set (add_tier_tap), each with whether it has begun (at a
+    // key frame set).
+    std::vector<std::pair<std::shared_ptr<std::function<void(const TierFrameSet&)>>, bool>> taps;
     bool key_wanted = true;
     bool stop = false;
     TierReport report;
@@ -121,7 +124,7 @@ struct Server::Impl {
       v.id = next_viewer_id++;
       v.report.id = v.id;
       try {
-        v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, v.wake);
+        v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, &v.wake);
       } catch (...) {
         viewers.pop_back();
         throw;
@@ -174,7 +177,7 @@ struct Server::Impl {
       it = viewers.erase(it);
     }
     for (auto it = tiers.begin(); it != tiers.end();) {
-      if (!(*it)->subscribers.empty()) {
+      if (!(*it)->subscribers.empty() || !(*it)->taps.empty()) {
         ++it;
         continue;
       }
@@ -213,7 +216,8 @@ struct Server::Impl {
           return stopping || tier->stop || (captured && captured->sequence > last_sequence);
         });
         if (stopping || tier->stop) break;
-        if (tier->subscribers.empty()) {  // everyone left: encode nothing until reaped or rejoined
+        if (tier->subscribers.empty() &&
+            tier->taps.empty()) {  // nobody: encode nothing until reaped or rejoined
           last_sequence = captured->sequence;
           continue;
         }
@@ -222,10 +226,18 @@ struct Server::Impl {
         seal = !config.insecure &&
                static_cast<int>(tier->subscribers.size()) >= config.seal_from_viewers;
         const auto now = std::chrono::steady_clock::now();
-        key = tier->report.frames_encoded == 0 ||
-              since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval) ||
-              (tier->key_wanted &&
-               now - last_key >= std::chrono::milliseconds(config.min_key_interval_ms));
+        // A replayed frame set recorded on this tier brings its own key frame sets: passing its
+        // deltas through beats making keys on schedule.
+        const EncodedFrameSetBody* pre = frames->encoded.get();
+        const detail::TierKey& tk = tier->encoder.key();
+        const bool recorded_tier = pre && pre->depth_codec == tk.depth_codec &&
+                                   pre->color_codec == tk.color_codec &&
+                                   pre->color_quality == tk.color_quality;
+        key =
+            tier->report.frames_encoded == 0 ||
+            (!recorded_tier && since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval)) ||
+            (tier->key_wanted &&
+             now - last_key >= std::chrono::milliseconds(config.min_key_interval_ms));
       }
       last_sequence = frames->sequence;
       const auto start = std::chrono::steady_clock::now();
@@ -238,7 +250,7 @@ struct Server::Impl {
         continue;
       }
       const auto end = std::chrono::steady_clock::now();
-      std::lock_guard lock(mutex);
+      std::unique_lock lock(mutex);
       if (encoded->key) {
         since_key = 0;
         last_key = end;
@@ -249,13 +261,24 @@ struct Server::Impl {
       }
       ++tier->report.frames_encoded;
       tier->encode_ms_total += std::chrono::duration<double, std::milli>(end - start).count();
-      tier->latest = std::move(encoded);
+      tier->latest = encoded;
       for (const WakeFd* w : tier->subscribers) w->signal();
+      if (tier->taps.empty()) continue;
+      std::vector<std::shared_ptr<std::function<void(const TierFrameSet&)>>> taps;
+      for (auto& [tap, begun] : tier->taps) {
+        begun = begun || encoded->key;
+        if (begun) taps.push_back(tap);
+      }
+      lock.unlock();
+      const TierFrameSet f{encoded->sequence, encoded->key, encoded->capture_us, encoded->body,
+                           encoded};
+      for (const auto& tap : taps) (*tap)(f);
     }
   }
 
-  // Finds or makes the tier and subscribes `wake` to it. Caller holds mutex. Throws Error.
-  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd& wake) {
+  // Finds or makes the tier and subscribes `wake` (if not null) to it. Caller holds mutex. Throws
+  // Error.
+  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd* wake) {
     std::shared_ptr<Tier> tier;
     for (const auto& t : tiers)
       if (t->encoder.key() == key && !t->stop) tier = t;
@@ -270,7 +293,7 @@ struct Server::Impl {
       tiers.push_back(tier);
       tier->thread = std::thread([this, tier] { run_tier(tier); });
     }
-    tier->subscribers.push_back(&wake);
+    if (wake) tier->subscribers.push_back(wake);
     tier->key_wanted = true;  // the newcomer needs a key frame (a no-op for non-temporal tiers)
     return tier;
   }
@@ -505,6 +528,15 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
     detail::run_door(*impl_->listener, impl_->door, impl_->stopping, impl_->admit_fn,
                      impl_->door_counters);
   });
+}
+
+void Server::add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
+                          int color_quality, std::function<void(const TierFrameSet&)> tap) {
+  std::lock_guard lock(impl_->mutex);
+  if (impl_->stopping) throw Error("server: stopped");
+  auto tier = impl_->subscribe({depth_codec, color_codec, color_quality}, nullptr);
+  tier->taps.emplace_back(
+      std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false);
 }
 
 Server::~Server() {

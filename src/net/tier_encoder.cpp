@@ -1,5 +1,8 @@
 #include "tier_encoder.hpp"
 
+#include <algorithm>
+#include <cstring>
+
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -26,6 +29,47 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
                                                          WorkerPool& pool, bool seal) {
   const size_t n = depth_.size();
   if (frames.cameras.size() != n) throw Error("tier: frame set has the wrong number of cameras");
+  // A buffer no viewer still holds (only this list does) is reused; else a new one joins the list.
+  std::shared_ptr<EncodedFrames> out;
+  for (auto& b : buffers_)
+    if (b.use_count() == 1) {
+      out = b;
+      break;
+    }
+  if (!out) {
+    out = std::make_shared<EncodedFrames>();
+    if (buffers_.size() < 64) buffers_.push_back(out);
+  }
+  protocol::SenderTimes times;
+  times.capture_us = frames.capture_time_us;
+  times.filter_done_us = frames.filter_done_us;
+  const EncodedFrameSetBody* pre = frames.encoded.get();
+  const bool same_tier =
+      pre && pre->depth_codec == key_.depth_codec && pre->color_codec == key_.color_codec &&
+      pre->color_quality == key_.color_quality && pre->body.size() >= protocol::kFrameSetHeadBytes;
+  if (same_tier && (pre->key || (!key && passing_ && pre->position == passed_position_ + 1))) {
+    // The recorded bytes as they are; only the head (sequence, flags, times) is this server's.
+    out->body.assign(pre->body.begin(), pre->body.end());
+    out->key = pre->key;
+    out->encode_done_us = wall_clock_us();
+    times.encode_done_us = out->encode_done_us;
+    uint8_t* h = out->body.data();
+    const uint8_t flags = pre->key ? 1 : 0;
+    std::memcpy(h, &frames.sequence, 8);
+    std::memcpy(h + 8, &flags, 1);
+    std::memcpy(h + 9, &times.capture_us, 8);
+    std::memcpy(h + 17, &times.filter_done_us, 8);
+    std::memcpy(h + 25, &times.encode_done_us, 8);
+    passing_ = true;
+    passed_position_ = pre->position;
+    encoders_stale_ = true;
+    std::fill(last_.begin(), last_.end(), nullptr);
+    finish(frames.sequence, out, times, pool, seal);
+    return out;
+  }
+  passing_ = false;
+  if (encoders_stale_) key = true;  // the encoders' references are older than the viewers'
+  encoders_stale_ = false;
   // Tasks 0..n-1 encode depth, n..2n-1 color: the slowest of the 2n sets the time. A repeated
   // frame of a stateless tier keeps last time's bytes (and key flags: always key).
   tasks_.clear();
@@ -54,30 +98,22 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
     encoded_[i].device_timestamp_us = frames.cameras[i]->device_timestamp_us;
     all_key = all_key && key_flags_[i] && key_flags_[n + i];
   }
-  // A buffer no viewer still holds (only this list does) is reused; else a new one joins the list.
-  std::shared_ptr<EncodedFrames> out;
-  for (auto& b : buffers_)
-    if (b.use_count() == 1) {
-      out = b;
-      break;
-    }
-  if (!out) {
-    out = std::make_shared<EncodedFrames>();
-    if (buffers_.size() < 64) buffers_.push_back(out);
-  }
-  out->sequence = frames.sequence;
-  out->index = ++index_;
   out->key = all_key;
-  out->capture_us = frames.capture_time_us;
   out->encode_done_us = wall_clock_us();
-  protocol::SenderTimes times;
-  times.capture_us = frames.capture_time_us;
-  times.filter_done_us = frames.filter_done_us;
   times.encode_done_us = out->encode_done_us;
   protocol::serialize_frame_set_body(frames.sequence, all_key, times, encoded_, out->body);
+  finish(frames.sequence, out, times, pool, seal);
+  return out;
+}
+
+void TierEncoder::finish(uint64_t sequence, const std::shared_ptr<EncodedFrames>& out,
+                         const protocol::SenderTimes& times, WorkerPool& pool, bool seal) {
+  out->sequence = sequence;
+  out->index = ++index_;
+  out->capture_us = times.capture_us;
   if (seal) {  // a recycled buffer of the same size is not cleared or zero-filled again
-    seal_scratch_.sequence = frames.sequence;
-    seal_scratch_.key_frame_set = all_key;
+    seal_scratch_.sequence = sequence;
+    seal_scratch_.key_frame_set = out->key;
     seal_scratch_.times = times;
     seal_body(out->body, kSealChunkBytes, seal_scratch_, out->sealed, &pool);
     protocol::serialize_sealed_frame_set_rest(seal_scratch_, out->seal_rest);
@@ -85,7 +121,6 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
     out->sealed.clear();
     out->seal_rest.clear();
   }
-  return out;
 }
 
 }  // namespace volcast::detail

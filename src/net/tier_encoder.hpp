@@ -47,10 +47,18 @@ class TierEncoder {
   /// are non-temporal (the same frame encodes to the same bytes). With `seal` it then seals the
   /// body under a fresh key, its chunks in parallel on `pool` (else `sealed` stays empty). Not
   /// thread-safe: one caller at a time.
+  ///
+  /// Pass-through: if `frames.encoded` was encoded for this tier's codecs and quality, its body is
+  /// sent as it is (sequence, key flag and times rewritten) when it is a key frame set, or a delta
+  /// that follows the one this tier passed through last (and no key is forced). Otherwise the
+  /// frames are encoded (a key frame set after a pass-through: the encoders did not see it).
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
                                               WorkerPool& pool, bool seal);
 
  private:
+  // Numbers `out` as the tier's next frame set and seals it if asked.
+  void finish(uint64_t sequence, const std::shared_ptr<EncodedFrames>& out,
+              const protocol::SenderTimes& times, WorkerPool& pool, bool seal);
   TierKey key_;
   std::vector<std::unique_ptr<DepthEncoder>> depth_;
   std::vector<std::unique_ptr<ColorEncoder>> color_;
@@ -64,6 +72,9 @@ class TierEncoder {
   protocol::SealedFrameSet seal_scratch_;                // chunk list reused
   std::vector<std::shared_ptr<EncodedFrames>> buffers_;  // recycled once no viewer holds them
   uint64_t index_ = 0;
+  bool passing_ = false;          // the last frame set was passed through
+  uint64_t passed_position_ = 0;  // its EncodedFrameSetBody::position
+  bool encoders_stale_ = false;   // frames were passed through since the encoders last ran
 };
 
 }  // namespace volcast::detail

@@ -2,6 +2,7 @@
 // Frame sets: one capture of every camera of a site.
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "volcast/core/image.hpp"
@@ -25,6 +26,18 @@ struct FrameSet {
   std::vector<CameraFrame> cameras;
 };
 
+/// A frame set that arrives already encoded for one tier -- a recording being replayed: its
+/// FrameSet body (volcast/net/protocol.hpp 1.1) as recorded. A server tier of the same codecs and
+/// quality sends these bytes, with the head's sequence and times rewritten, instead of encoding
+/// the frames again (volcast/net/server.hpp).
+struct EncodedFrameSetBody {
+  std::string depth_codec, color_codec;  ///< the tier it was encoded for
+  int color_quality = 0;
+  uint64_t position = 0;  ///< its place in its stream: a delta decodes after position - 1's
+  bool key = false;       ///< every camera decodes on its own
+  std::vector<uint8_t> body;
+};
+
 /// What a site publishes: one capture of every camera, in camera order, with the cameras' frames
 /// shared and immutable. A frame repeated in several sets (a camera slower than the site) and every
 /// tier's encoder read the same pixels; nothing is copied on the way out.
@@ -34,6 +47,8 @@ struct CapturedFrameSet {
   int64_t capture_time_us = 0;  ///< when the frames were read from their sources
   int64_t filter_done_us = 0;   ///< when every camera's filter chain had run
   std::vector<std::shared_ptr<const CameraFrame>> cameras;
+  /// The same frames as encoded for one tier (a replay), or null.
+  std::shared_ptr<const EncodedFrameSetBody> encoded;
 };
 
 }  // namespace volcast

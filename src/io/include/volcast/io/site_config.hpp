@@ -12,7 +12,8 @@
 //      "filters": {...}},                                  // optional, serve's per-camera filters
 //     ...]}
 //
-// "source": an Azure Kinect recording (.mkv), an image-sequence folder or a depth PNG
+// "source": an Azure Kinect recording (.mkv), an image-sequence folder, a depth PNG or a live
+// camera URL k4a://INDEX-or-SERIAL?... (volcast/capture/k4a_device.hpp; kept as it is)
 // (volcast/capture/source.hpp open_source). It is kept as written. A relative path is resolved by
 // resolve_site_source: against the working directory if it exists there, else against the config
 // file's folder (calibrate writes paths relative to that folder, so a config and its data can be

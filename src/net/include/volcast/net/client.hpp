@@ -34,6 +34,9 @@ struct ClientConfig {
   /// opened: its sequence, key flag and times come from the descriptor, and its per-camera sizes
   /// and device times are reported as 0.
   bool decode = true;
+  /// Also hand over each frame set's encoded body (ReceivedFrameSet::encoded_body; a sealed one
+  /// is opened for it): a recorder keeps the bytes the tier sent, with or without decoding.
+  bool keep_encoded = false;
   int decode_threads = 0;  ///< worker threads for decoding (0 = cores - 1)
   /// The server's Welcome (or Reject) must arrive within this many milliseconds of the
   /// connection being made, or the constructor throws ClientError kTimedOut (<= 0: no limit).
@@ -85,6 +88,9 @@ struct ReceivedFrameSet {
   std::vector<size_t> depth_bytes;  ///< encoded depth size per camera
   std::vector<size_t> color_bytes;  ///< encoded color size per camera
   size_t message_bytes = 0;         ///< whole message including headers
+  /// With ClientConfig::keep_encoded: the FrameSet body (protocol.hpp 1.1, everything after the
+  /// send time) exactly as the server's tier encoded it; else empty. Capacity reused.
+  std::vector<uint8_t> encoded_body;
 };
 
 /// A config joining the session of `link` (join.hpp); codecs and the rest stay at their defaults.

@@ -29,6 +29,7 @@
 // sets instead of building latency, and never slows the publisher or another viewer.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -140,6 +141,16 @@ struct TierReport {
   double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set (and seal it)
 };
 
+/// One frame set of a tier as encoded, for a consumer other than a viewer (a recorder): the
+/// FrameSet body (protocol.hpp 1.1) every viewer of the tier was sent, byte for byte.
+struct TierFrameSet {
+  uint64_t sequence = 0;
+  bool key = false;                  ///< every camera decodes on its own
+  int64_t capture_us = 0;            ///< the server's wall clock (us)
+  std::span<const uint8_t> body;     ///< valid while `keep` is held
+  std::shared_ptr<const void> keep;  ///< holds the body's buffer (the tier reuses it once freed)
+};
+
 class Server {
  public:
   /// Binds and starts accepting. Throws Error if the address or port cannot be bound or the
@@ -182,6 +193,14 @@ class Server {
   /// Ends viewer `viewer`'s connection (its thread logs `why`); SessionPort::on_viewer_left
   /// follows. Thread-safe; no-op for a viewer that has gone.
   void disconnect(uint64_t viewer, const std::string& why);
+  /// Consumes tier DEPTH/COLOR/QUALITY like one more viewer that never falls behind: `tap` is
+  /// called on the tier's thread with every frame set the tier encodes from its next key frame
+  /// set on, in order, until stop(); the tier keeps encoding while the tap is there, viewers or
+  /// none. `tap` must return quickly (queue the frame set and write it elsewhere: it holds up the
+  /// tier's viewers while it runs); it must not throw. Throws Error for an unknown codec or when
+  /// the server has max_tiers tiers already. Thread-safe.
+  void add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
+                    int color_quality, std::function<void(const TierFrameSet&)> tap);
   /// Stops accepting, disconnects every viewer and joins all threads. Idempotent.
   void stop();
 

@@ -1,0 +1,225 @@
+// volcast record, export and info FILE.vcr: recordings of the encoded stream.
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/pipeline/export.hpp"
+#include "volcast/record/recording.hpp"
+
+namespace volcast {
+namespace {
+
+std::string mb(uint64_t bytes) {
+  return fmt::format("{:.1f} MB", static_cast<double>(bytes) / 1e6);
+}
+
+// A progress line on stderr, redrawn in place on a terminal (a line per call otherwise).
+void progress_line(const std::string& text) {
+  if (isatty(STDERR_FILENO))
+    std::fprintf(stderr, "\r\033[K%s", text.c_str());
+  else
+    std::fprintf(stderr, "%s\n", text.c_str());
+}
+void end_progress() {
+  if (isatty(STDERR_FILENO)) std::fprintf(stderr, "\n");
+}
+
+}  // namespace
+
+std::tuple<std::string, std::string, int> parse_tier(const std::string& text,
+                                                     const std::string& flag) {
+  const size_t a = text.find('/');
+  const size_t b = a == std::string::npos ? a : text.find('/', a + 1);
+  const auto bad = [&] {
+    return Error(flag + " '" + text +
+                 "' must be DEPTH/COLOR or DEPTH/COLOR/QUALITY (1..100) with codecs this build "
+                 "has (volcast view --help lists them)");
+  };
+  if (a == std::string::npos) throw bad();
+  const std::string depth = text.substr(0, a);
+  const std::string color = text.substr(a + 1, b == std::string::npos ? b : b - a - 1);
+  int quality = 0;
+  if (b != std::string::npos) {
+    const std::string q = text.substr(b + 1);
+    if (q.empty() || q.size() > 3 || q.find_first_not_of("0123456789") != std::string::npos)
+      throw bad();
+    quality = std::stoi(q);
+    if (quality < 1 || quality > 100) throw bad();
+  }
+  try {
+    make_depth_decoder(depth);
+    make_color_decoder(color);
+  } catch (const Error&) {
+    throw bad();
+  }
+  return {depth, color, quality};
+}
+
+int run_record(const RecordArgs& a) {
+  ClientConfig c = connect_client_config("record", a.connect, a.token, a.fingerprint, a.insecure,
+                                         a.known_servers);
+  std::tie(c.depth_codec, c.color_codec, c.color_quality) = parse_tier(a.tier, "--tier");
+  c.decode = false;  // the bytes are kept as sent; replay and export decode them
+  c.keep_encoded = true;
+  Client client(c);
+  RecordingStream stream;
+  stream.depth_codec = c.depth_codec;
+  stream.color_codec = c.color_codec;
+  stream.color_quality = c.color_quality;
+  stream.started_us = wall_clock_us();
+  stream.origin = fmt::format("volcast record {}:{}", c.host, c.port);
+  stream.welcome = client.welcome();
+  RecordingWriterOptions wo;
+  wo.overwrite = a.overwrite;
+  wo.sync_interval_ms = std::max(0, a.sync_interval_ms);
+  RecordingWriter writer(a.out, stream, wo);
+  spdlog::info(
+      "recording {} camera(s), tier {}/{}{} to {} (Ctrl-C stops; the file replays "
+      "whenever it stops)",
+      stream.welcome.cameras.size(), c.depth_codec, c.color_codec,
+      c.color_quality ? fmt::format("/{}", c.color_quality) : "", a.out);
+  ReceivedFrameSet f;
+  const auto start = std::chrono::steady_clock::now();
+  auto shown = start;
+  std::string ended = "interrupted";
+  while (!g_interrupted) {
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (a.seconds > 0 && elapsed >= a.seconds) {
+      ended = "time";
+      break;
+    }
+    if (!client.receive(f)) {
+      ended = "the server closed the stream";
+      break;
+    }
+    writer.append(f.encoded_body);  // throws on a full disk; what was written stays
+    const auto now = std::chrono::steady_clock::now();
+    if (now - shown >= std::chrono::milliseconds(500)) {
+      shown = now;
+      progress_line(
+          fmt::format("recording: {:.1f} s, {} frame sets, {} ({:.1f} Mbit/s)", elapsed,
+                      writer.frame_sets(), mb(writer.bytes()),
+                      static_cast<double>(writer.bytes()) * 8 / 1e6 / std::max(elapsed, 1e-3)));
+    }
+  }
+  end_progress();
+  client.close();
+  writer.close();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::printf("recorded %llu frame sets in %.1f s, %s, to %s (stopped: %s)\n",
+              static_cast<unsigned long long>(writer.frame_sets()), seconds,
+              mb(writer.bytes()).c_str(), a.out.c_str(), ended.c_str());
+  if (writer.frame_sets() == 0) throw Error("record: no frame set arrived");
+  return 0;
+}
+
+int run_recording_info(const InfoArgs& a) {
+  RecordingReader reader(a.file);
+  const RecordingInfo& info = reader.info();
+  size_t keys = 0;
+  for (const auto& f : info.frame_sets) keys += f.key;
+  const bool tty = isatty(STDERR_FILENO) && !a.json;
+  std::string bad;
+  try {
+    reader.verify([&](size_t done, size_t total) {
+      if (tty && (done % 30 == 0 || done == total))
+        std::fprintf(stderr, "\rchecking every frame set: %zu/%zu", done, total);
+    });
+  } catch (const Error& e) {
+    bad = e.what();
+  }
+  if (tty) std::fprintf(stderr, "\r\033[K");
+  const double seconds = static_cast<double>(info.duration_us()) / 1e6;
+  const RecordingStream& s = info.stream;
+  nlohmann::json cams = nlohmann::json::array();
+  for (const auto& c : s.welcome.cameras) {
+    const Intrinsics& k = c.calibration.depth;
+    const auto& t = c.calibration.world_from_camera.translation;
+    cams.push_back({{"name", c.description},
+                    {"width", k.width},
+                    {"height", k.height},
+                    {"fx", k.fx},
+                    {"fy", k.fy},
+                    {"cx", k.cx},
+                    {"cy", k.cy},
+                    {"world_from_camera_translation_m", {t.x(), t.y(), t.z()}}});
+  }
+  nlohmann::json j = {
+      {"kind", "Volcast recording"},
+      {"path", a.file},
+      {"depth_codec", s.depth_codec},
+      {"color_codec", s.color_codec},
+      {"color_quality", s.color_quality},
+      {"origin", s.origin},
+      {"cameras", cams},
+      {"frame_sets", info.frame_sets.size()},
+      {"key_frame_sets", keys},
+      {"duration_s", seconds},
+      {"fps", seconds > 0 ? static_cast<double>(info.frame_sets.size() - 1) / seconds : 0.0},
+      {"file_bytes", info.file_bytes},
+      {"closed", info.closed},
+      {"incomplete_tail_at", info.incomplete_tail_at ? nlohmann::json(*info.incomplete_tail_at)
+                                                     : nlohmann::json(nullptr)},
+      {"verified", bad.empty()},
+      {"error", bad}};
+  if (a.json) {
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    std::printf("%s: Volcast recording, tier %s/%s%s, from %s\n", a.file.c_str(),
+                s.depth_codec.c_str(), s.color_codec.c_str(),
+                s.color_quality ? fmt::format("/{}", s.color_quality).c_str() : "",
+                s.origin.c_str());
+    std::printf("  %zu frame sets (%zu key) over %.2f s, %s\n", info.frame_sets.size(), keys,
+                seconds, mb(info.file_bytes).c_str());
+    for (size_t i = 0; i < s.welcome.cameras.size(); ++i) {
+      const Intrinsics& k = s.welcome.cameras[i].calibration.depth;
+      std::printf("  camera %zu: %s, %dx%d, fx %.1f fy %.1f cx %.1f cy %.1f\n", i,
+                  s.welcome.cameras[i].description.c_str(), k.width, k.height, k.fx, k.fy, k.cx,
+                  k.cy);
+    }
+    if (info.closed)
+      std::printf("  closed by its recorder (indexed)\n");
+    else if (info.incomplete_tail_at)
+      std::printf(
+          "  not closed: the recorder stopped; incomplete tail at offset %llu (%s), the "
+          "frame sets before it replay\n",
+          static_cast<unsigned long long>(*info.incomplete_tail_at), info.tail_reason.c_str());
+    else
+      std::printf("  not closed (no index): indexed by scanning, every record complete\n");
+    std::printf("  %s\n", bad.empty() ? "every frame set checked (CRC)" : bad.c_str());
+  }
+  if (!bad.empty()) throw Error(bad);
+  return 0;
+}
+
+int run_export(const ExportArgs& a) {
+  ExportOptions o;
+  o.ply_dir = a.ply;
+  o.png_dir = a.png;
+  o.from_s = a.from_s;
+  o.to_s = a.to_s;
+  o.progress = [](size_t done, size_t total) {
+    if (done % 10 == 0 || done == total)
+      progress_line(fmt::format("export: {}/{} frame sets", done, total));
+  };
+  const ExportReport r = export_recording(a.file, o);
+  end_progress();
+  std::printf(
+      "exported %zu frame sets: %zu files, %llu points (%llu valid depth pixels)%s\n", r.frame_sets,
+      r.files, static_cast<unsigned long long>(r.points),
+      static_cast<unsigned long long>(r.valid_pixels),
+      r.skipped ? fmt::format(", {} frame sets skipped (see warnings)", r.skipped).c_str() : "");
+  return 0;
+}
+
+}  // namespace volcast

@@ -1,0 +1,125 @@
+#include "volcast/pipeline/export.hpp"
+
+#include <fmt/format.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/io/PointCloudIO.h>
+#include <spdlog/spdlog.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/reconstruct/point_cloud.hpp"
+#include "volcast/record/decode.hpp"
+#include "volcast/record/recording.hpp"
+
+namespace volcast {
+namespace fs = std::filesystem;
+namespace {
+
+// intrinsics.json as an image-sequence folder reads it (volcast/capture/image_sequence.hpp).
+void write_intrinsics_json(const fs::path& file, const CameraCalibration& c, double fps) {
+  const Intrinsics& k = c.depth;
+  nlohmann::json j = {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"k1", k.k1},
+                      {"k2", k.k2}, {"k3", k.k3}, {"k4", k.k4}, {"k5", k.k5}, {"k6", k.k6},
+                      {"p1", k.p1}, {"p2", k.p2}, {"fps", fps}};
+  std::vector<double> r(9), t(3);
+  for (int i = 0; i < 9; ++i) r[i] = c.world_from_camera.rotation(i / 3, i % 3);
+  for (int i = 0; i < 3; ++i) t[i] = c.world_from_camera.translation(i);
+  j["world_from_camera"] = {{"rotation", r}, {"translation", t}};
+  std::ofstream out(file);
+  out << j.dump(2) << "\n";
+  if (!out) throw Error("export: cannot write " + file.string());
+}
+
+void write_ply(const fs::path& file, const PointCloud& cloud, open3d::geometry::PointCloud& o3d) {
+  o3d.points_.resize(cloud.points.size());
+  o3d.colors_.resize(cloud.points.size());
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    const SplatPoint& p = cloud.points[i];
+    o3d.points_[i] = Eigen::Vector3d(p.position[0], p.position[1], p.position[2]);
+    o3d.colors_[i] = Eigen::Vector3d((p.rgba & 0xff) / 255.0, ((p.rgba >> 8) & 0xff) / 255.0,
+                                     ((p.rgba >> 16) & 0xff) / 255.0);
+  }
+  open3d::io::WritePointCloudOption opt;
+  opt.write_ascii = open3d::io::WritePointCloudOption::IsAscii::Binary;
+  if (!open3d::io::WritePointCloudToPLY(file.string(), o3d, opt))
+    throw Error("export: cannot write " + file.string());
+}
+
+}  // namespace
+
+ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
+  if (o.ply_dir.empty() && o.png_dir.empty())
+    throw Error("export: say what to write (--ply DIR and/or --png DIR)");
+  RecordingReader reader(path);
+  RecordingDecoder decoder(reader);
+  const auto& sets = reader.info().frame_sets;
+  const auto& cams = reader.info().stream.welcome.cameras;
+  if (sets.empty()) throw Error("export: " + path.string() + " holds no frame sets");
+  const int64_t t0 = sets.front().capture_us;
+  std::vector<size_t> picked;
+  for (size_t k = 0; k < sets.size(); ++k) {
+    const double t = static_cast<double>(sets[k].capture_us - t0) / 1e6;
+    if (t >= o.from_s - 1e-6 && (o.to_s < 0 || t <= o.to_s + 1e-6)) picked.push_back(k);
+  }
+  if (picked.empty()) throw Error("export: no frame sets in the range given");
+  const double fps =
+      picked.size() > 1 && sets[picked.back()].capture_us > sets[picked[0]].capture_us
+          ? static_cast<double>(picked.size() - 1) * 1e6 /
+                static_cast<double>(sets[picked.back()].capture_us - sets[picked[0]].capture_us)
+          : 30.0;
+  std::vector<CloudBuilder> builders;
+  for (const auto& c : cams) builders.emplace_back(c.calibration);
+  std::error_code ec;
+  for (const fs::path& dir : {o.ply_dir, o.png_dir})
+    if (!dir.empty() && (fs::create_directories(dir, ec), ec))
+      throw Error("export: cannot make " + dir.string() + ": " + ec.message());
+  ExportReport report;
+  if (!o.png_dir.empty())
+    for (size_t c = 0; c < cams.size(); ++c) {
+      const fs::path cam = o.png_dir / fmt::format("camera-{}", c);
+      fs::create_directories(cam / "depth", ec);
+      fs::create_directories(cam / "color", ec);
+      if (ec) throw Error("export: cannot make " + cam.string() + ": " + ec.message());
+      write_intrinsics_json(cam / "intrinsics.json", cams[c].calibration, fps);
+      ++report.files;
+    }
+  FrameSet frames;
+  PointCloud cloud;
+  open3d::geometry::PointCloud o3d;
+  for (size_t n = 0; n < picked.size(); ++n) {
+    try {
+      decoder.decode(picked[n], frames);
+    } catch (const Error& e) {
+      spdlog::warn("export: frame set {} skipped: {}", picked[n], e.what());
+      ++report.skipped;
+      continue;
+    }
+    for (size_t c = 0; c < cams.size(); ++c) {
+      const CameraFrame& f = frames.cameras[c];
+      for (uint16_t d : f.depth.pixels) report.valid_pixels += d != 0;
+      if (!o.ply_dir.empty()) {
+        builders[c].build(f.depth, f.color, cloud);
+        write_ply(o.ply_dir / fmt::format("frame-{:06d}-camera-{}.ply", n, c), cloud, o3d);
+        report.points += cloud.points.size();
+        ++report.files;
+      }
+      if (!o.png_dir.empty()) {
+        const fs::path cam = o.png_dir / fmt::format("camera-{}", c);
+        write_depth_png(cam / "depth" / fmt::format("{:06d}.png", n), f.depth);
+        ++report.files;
+        if (!f.color.empty()) {
+          write_color_png(cam / "color" / fmt::format("{:06d}.png", n), f.color);
+          ++report.files;
+        }
+      }
+    }
+    ++report.frame_sets;
+    if (o.progress) o.progress(n + 1, picked.size());
+  }
+  return report;
+}
+
+}  // namespace volcast

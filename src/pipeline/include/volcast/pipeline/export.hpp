@@ -1,0 +1,41 @@
+#pragma once
+// Exporting a recording (volcast/record/recording.hpp) for other tools: point clouds as binary PLY
+// (Open3D's writer) and images as PNG.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+namespace volcast {
+
+struct ExportOptions {
+  std::filesystem::path ply_dir;  ///< one binary PLY per frame set and camera; empty: none
+  std::filesystem::path png_dir;  ///< depth (16-bit, mm) and color PNGs; empty: none
+  double from_s = 0, to_s = -1;   ///< the part exported: seconds after the first frame set
+  /// Called after each frame set with (done, total).
+  std::function<void(size_t, size_t)> progress;
+};
+
+struct ExportReport {
+  size_t frame_sets = 0;      ///< exported
+  size_t files = 0;           ///< written
+  uint64_t points = 0;        ///< in all PLY files
+  uint64_t valid_pixels = 0;  ///< depth pixels != 0 in the exported frames
+  uint64_t skipped = 0;       ///< frame sets that could not be decoded (named in warnings)
+};
+
+/// Decodes the recording at `path` and writes, for frame set k (0-based within the range) and
+/// camera c:
+///   PLY: ply_dir/frame-KKKKKK-camera-C.ply -- binary little-endian, x y z (double, metres, the
+///     site's world frame: world_from_camera of the recording's calibration) and red green blue
+///     (uchar; gray 160 where the pixel had no color), one vertex per valid depth pixel that has a
+///     lens ray (CloudBuilder).
+///   PNG: png_dir/camera-C/depth/KKKKKK.png (16-bit gray, mm, 0 = invalid) and
+///     png_dir/camera-C/color/KKKKKK.png (RGB, registered to depth; absent where the frame had no
+///     color), plus png_dir/camera-C/intrinsics.json: an image-sequence folder `volcast serve
+///     --source` reads back.
+/// Throws Error if the recording cannot be opened, the range holds no frame sets or a file cannot
+/// be written (naming it); a frame set that cannot be decoded is skipped with a warning.
+ExportReport export_recording(const std::filesystem::path& path, const ExportOptions& options);
+
+}  // namespace volcast

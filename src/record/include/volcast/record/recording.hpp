@@ -1,0 +1,166 @@
+#pragma once
+// Recordings of the encoded stream (.vcr): one tier's frame sets exactly as the server sent them,
+// in an append-only file that survives the recorder being killed or the disk filling up.
+//
+// File format, version 1 (little-endian throughout):
+//   File header, 16 bytes: magic "VCRECORD" (8 bytes) | format version u16 (= 1) | reserved u16
+//     (= 0) | CRC-32 (zlib's, ISO-HDLC) of the 12 bytes before it.
+//   Records, back to back, each a 16-byte record header then its payload:
+//     type u8 | reserved 3 bytes (= 0) | payload length u32 | CRC-32 of the payload | CRC-32 of
+//     the header's first 12 bytes. The header's own CRC is checked before its length is trusted.
+//   Record types:
+//     1 Stream, exactly once, first: depth codec string | color codec string | color quality u8 |
+//       recorder's wall clock when recording began i64 (us) | origin string (who recorded what, for
+//       people) | the Welcome payload as the server sent it (protocol.hpp 0.2, byte string).
+//       Strings are u16 length + UTF-8, a byte string u32 length + bytes (net/wire.hpp).
+//     2 FrameSet: the FrameSet body (protocol.hpp 1.1: everything after the send time: sequence,
+//       flags, capture/filter/encode times, per camera device time, depth and color streams),
+//       byte-identical to what the tier's viewers were sent. Written with one write() each.
+//     3 Index, written when the recording is closed: count u32, then per frame set its record's
+//       file offset u64 | sequence u64 | capture time i64 (us, the sender's clock) | flags u8.
+//     4 End, last, directly after the Index: the Index record's file offset u64.
+//   A file that does not end in an End record pointing at a valid Index (the recorder was killed,
+//   the machine lost power, the disk filled) is indexed by scanning its records: the frame sets up
+//   to the last complete one replay; an incomplete last record (one that runs past the end of the
+//   file or whose payload fails its CRC with nothing after it), or zeros where a record should
+//   begin, is the tail a stopped recorder leaves and is reported, not refused.
+//   Anything else -- a bad file header, a record header that fails its CRC with data after it, a
+//   payload that fails its CRC with records after it, an unknown type, a Stream that is missing,
+//   repeated or malformed, an Index that does not match the records -- is corruption: an Error
+//   naming the file and the byte offset.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "volcast/net/protocol.hpp"
+
+namespace volcast {
+
+inline constexpr uint16_t kRecordingVersion = 1;
+inline constexpr size_t kRecordingFileHeaderBytes = 16;
+inline constexpr size_t kRecordHeaderBytes = 16;
+/// The largest record payload a reader accepts (bytes): a frame set within the protocol's limit.
+inline constexpr uint32_t kMaxRecordBytes = protocol::kMaxPayloadBytes;
+
+enum class RecordType : uint8_t { kStream = 1, kFrameSet = 2, kIndex = 3, kEnd = 4 };
+
+/// What a recording is of (its Stream record).
+struct RecordingStream {
+  std::string depth_codec, color_codec;  ///< the tier
+  int color_quality = 0;                 ///< 0..100 (0: the codec's default)
+  int64_t started_us = 0;                ///< recorder's wall clock when it began (us)
+  std::string origin;                    ///< e.g. "volcast record 10.0.0.2:7300"
+  protocol::Welcome welcome;             ///< the cameras as the server announced them
+};
+
+/// One frame set's place in the file.
+struct RecordedFrameSet {
+  uint64_t offset = 0;  ///< file offset of its record header
+  uint32_t bytes = 0;   ///< its body's length
+  uint64_t sequence = 0;
+  int64_t capture_us = 0;  ///< sender's wall clock (us)
+  bool key = false;        ///< every camera decodes on its own (protocol.hpp flags bit 0)
+};
+
+struct RecordingWriterOptions {
+  /// fdatasync at most this often (ms) while appending, so a power cut loses at most this much;
+  /// 0: after every frame set. close() always syncs.
+  int sync_interval_ms = 1000;
+  bool overwrite = false;  ///< replace an existing file (else an existing path is an Error)
+};
+
+/// Appends frame sets to a new recording. Not thread-safe: one caller at a time.
+class RecordingWriter {
+ public:
+  /// Creates `path` and writes the file header and the Stream record. Throws Error if the file
+  /// exists (without options.overwrite), cannot be created, or the disk is full.
+  RecordingWriter(const std::filesystem::path& path, const RecordingStream& stream,
+                  RecordingWriterOptions options = {});
+  /// Closes (index and End written) if close() was not called; never throws.
+  ~RecordingWriter();
+  RecordingWriter(const RecordingWriter&) = delete;
+  RecordingWriter& operator=(const RecordingWriter&) = delete;
+
+  /// Appends one FrameSet body (protocol.hpp 1.1, as serialize_frame_set_body writes it) as one
+  /// record, with a single write(). Throws Error if the body's head is malformed, or the write
+  /// fails; a write that fails for want of space (ENOSPC, EDQUOT, EFBIG) says the disk is full,
+  /// and the file is cut back to its last complete frame set and synced, so everything before it
+  /// stays and replays. After a throw the writer accepts no more frame sets.
+  void append(std::span<const uint8_t> body);
+  /// Writes the Index and End records and syncs. Idempotent. Throws Error if that fails (the frame
+  /// sets stay: a reader indexes them by scanning).
+  void close();
+
+  const std::filesystem::path& path() const { return path_; }
+  uint64_t frame_sets() const { return index_.size(); }
+  uint64_t bytes() const { return end_; }  ///< file size so far
+
+ private:
+  void write_record(RecordType type, std::span<const uint8_t> head, std::span<const uint8_t> body);
+  [[noreturn]] void fail_write(int error_number, const char* what);
+  std::filesystem::path path_;
+  RecordingWriterOptions options_;
+  int fd_ = -1;
+  uint64_t end_ = 0;  // bytes written and complete
+  int64_t last_sync_us_ = 0;
+  bool failed_ = false, closed_ = false;
+  std::vector<RecordedFrameSet> index_;
+};
+
+/// What a reader found in a recording.
+struct RecordingInfo {
+  RecordingStream stream;
+  std::vector<RecordedFrameSet> frame_sets;  ///< in file order
+  uint64_t file_bytes = 0;
+  bool closed = false;  ///< ends in a valid Index and End (the recorder closed it)
+  /// Where an incomplete tail begins (a stopped recorder's last, partial write), if there is one;
+  /// frame sets before it replay.
+  std::optional<uint64_t> incomplete_tail_at;
+  std::string tail_reason;  ///< what was incomplete there
+  /// Capture time of the last frame set minus the first's (us; 0 for fewer than two).
+  int64_t duration_us() const {
+    return frame_sets.size() < 2 ? 0 : frame_sets.back().capture_us - frame_sets.front().capture_us;
+  }
+};
+
+/// Reads a recording. Not thread-safe: one caller at a time.
+class RecordingReader {
+ public:
+  /// Opens `path`, reads its Stream record and its index (the Index record of a closed file, else
+  /// by scanning every record). Throws Error naming the file and the offset of what is corrupt
+  /// (see the format above), or that it is not a Volcast recording.
+  explicit RecordingReader(const std::filesystem::path& path);
+  ~RecordingReader();
+  RecordingReader(const RecordingReader&) = delete;
+  RecordingReader& operator=(const RecordingReader&) = delete;
+
+  const RecordingInfo& info() const { return info_; }
+  /// Reads frame set `k` (0-based, < info().frame_sets.size()) into `body` from byte `at` on
+  /// (resized to at + its length, capacity reused; the first `at` bytes are left as they are:
+  /// room for a message's header or send time), checking its record's CRCs. Throws Error naming
+  /// the file and offset if they fail or the file changed under it.
+  void read(size_t k, std::vector<uint8_t>& body, size_t at = 0);
+  /// Reads every record and checks its CRCs; `progress(done, total)` after each frame set. Throws
+  /// like read() at the first bad one.
+  void verify(const std::function<void(size_t, size_t)>& progress = {});
+
+ private:
+  void scan();
+  bool read_index();
+  std::filesystem::path path_;
+  int fd_ = -1;
+  RecordingInfo info_;
+};
+
+/// The sequence, key flag and capture time at the head of a FrameSet body. Throws Error
+/// ("malformed frame set: ...") if the body is shorter than its head.
+RecordedFrameSet frame_set_head(std::span<const uint8_t> body);
+
+/// CRC-32 (ISO-HDLC, as zlib and PNG compute it) of `bytes`.
+uint32_t crc32_of(std::span<const uint8_t> bytes);
+
+}  // namespace volcast

@@ -1,0 +1,117 @@
+#include <unistd.h>
+#include <zlib.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "record_format.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/wire.hpp"
+
+namespace volcast {
+
+namespace {
+
+// zlib's crc32_z returns its initial value for a null buffer, whatever `crc` was: skip empties.
+uLong crc_update(uLong crc, std::span<const uint8_t> bytes) {
+  return bytes.empty() ? crc : crc32_z(crc, bytes.data(), bytes.size());
+}
+
+}  // namespace
+
+uint32_t crc32_of(std::span<const uint8_t> bytes) {
+  return static_cast<uint32_t>(crc_update(crc32_z(0, nullptr, 0), bytes));
+}
+
+RecordedFrameSet frame_set_head(std::span<const uint8_t> body) {
+  protocol::Reader r(body, "frame set");
+  RecordedFrameSet h;
+  h.bytes = static_cast<uint32_t>(body.size());
+  h.sequence = r.get<uint64_t>();
+  h.key = (r.get<uint8_t>() & 1) != 0;
+  h.capture_us = r.get<int64_t>();
+  r.get<int64_t>();  // filter done
+  r.get<int64_t>();  // encode done
+  return h;
+}
+
+namespace detail {
+
+std::array<uint8_t, kRecordingFileHeaderBytes> file_header() {
+  std::array<uint8_t, kRecordingFileHeaderBytes> h{};
+  std::memcpy(h.data(), kRecordingMagic.data(), 8);
+  std::memcpy(h.data() + 8, &kRecordingVersion, 2);
+  const uint32_t crc = crc32_of(std::span(h).first(12));
+  std::memcpy(h.data() + 12, &crc, 4);
+  return h;
+}
+
+std::array<uint8_t, kRecordHeaderBytes> record_header(RecordType type,
+                                                      std::span<const uint8_t> head,
+                                                      std::span<const uint8_t> body) {
+  std::array<uint8_t, kRecordHeaderBytes> h{};
+  h[0] = static_cast<uint8_t>(type);
+  const uint32_t n = static_cast<uint32_t>(head.size() + body.size());
+  const uLong crc = crc_update(crc_update(crc32_z(0, nullptr, 0), head), body);
+  const uint32_t payload_crc = static_cast<uint32_t>(crc);
+  std::memcpy(h.data() + 4, &n, 4);
+  std::memcpy(h.data() + 8, &payload_crc, 4);
+  const uint32_t header_crc = crc32_of(std::span(h).first(12));
+  std::memcpy(h.data() + 12, &header_crc, 4);
+  return h;
+}
+
+bool parse_record_header(std::span<const uint8_t, kRecordHeaderBytes> b, RecordHeader& out) {
+  uint32_t header_crc = 0;
+  std::memcpy(&header_crc, b.data() + 12, 4);
+  if (header_crc != crc32_of(b.first(12)) || b[1] != 0 || b[2] != 0 || b[3] != 0) return false;
+  out.type = static_cast<RecordType>(b[0]);
+  std::memcpy(&out.payload_bytes, b.data() + 4, 4);
+  std::memcpy(&out.payload_crc, b.data() + 8, 4);
+  return true;
+}
+
+std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
+  std::vector<uint8_t> out;
+  protocol::Writer w(out);
+  w.put_string(s.depth_codec);
+  w.put_string(s.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(s.color_quality));
+  w.put<int64_t>(s.started_us);
+  w.put_string(s.origin);
+  w.put_bytes(protocol::serialize(s.welcome));
+  return out;
+}
+
+RecordingStream parse_stream(std::span<const uint8_t> payload) {
+  protocol::Reader r(payload, "recording stream");
+  RecordingStream s;
+  s.depth_codec = r.get_string();
+  s.color_codec = r.get_string();
+  s.color_quality = r.get<uint8_t>();
+  if (s.color_quality > 100) r.fail("color quality above 100");
+  s.started_us = r.get<int64_t>();
+  s.origin = r.get_string();
+  s.welcome = protocol::parse_welcome(r.get_span());
+  r.expect_end();
+  if (s.depth_codec.empty() || s.color_codec.empty()) r.fail("no codec named");
+  return s;
+}
+
+bool read_at(int fd, uint64_t offset, std::span<uint8_t> out) {
+  size_t done = 0;
+  while (done < out.size()) {
+    const ssize_t n =
+        ::pread(fd, out.data() + done, out.size() - done, static_cast<off_t>(offset + done));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw Error(std::string("read failed: ") + std::strerror(errno));
+    }
+    if (n == 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+}  // namespace detail
+}  // namespace volcast

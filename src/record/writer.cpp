@@ -1,0 +1,145 @@
+#include <fcntl.h>
+#include <sys/uio.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "record_format.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/wire.hpp"
+
+namespace volcast {
+namespace {
+
+bool out_of_space(int e) {
+  return e == ENOSPC || e == EDQUOT || e == EFBIG;
+}
+
+// Writes every byte of `iov` (a short write continues where it stopped). Returns 0 or errno.
+int write_fully(int fd, iovec* iov, int count) {
+  while (count > 0) {
+    const ssize_t n = ::writev(fd, iov, count);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return errno;
+    }
+    size_t left = static_cast<size_t>(n);
+    while (count > 0 && left >= iov->iov_len) {
+      left -= iov->iov_len;
+      ++iov;
+      --count;
+    }
+    if (count > 0) {
+      iov->iov_base = static_cast<uint8_t*>(iov->iov_base) + left;
+      iov->iov_len -= left;
+    }
+  }
+  return 0;
+}
+
+std::string megabytes(uint64_t bytes) {
+  char s[32];
+  std::snprintf(s, sizeof s, "%.1f MB", static_cast<double>(bytes) / 1e6);
+  return s;
+}
+
+}  // namespace
+
+RecordingWriter::RecordingWriter(const std::filesystem::path& path, const RecordingStream& stream,
+                                 RecordingWriterOptions options)
+    : path_(path), options_(options) {
+  const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options.overwrite ? O_TRUNC : O_EXCL);
+  fd_ = ::open(path.c_str(), flags, 0644);
+  if (fd_ < 0) {
+    if (errno == EEXIST)
+      throw Error("recording " + path.string() + ": exists already (choose another name)");
+    throw Error("recording " + path.string() + ": cannot create: " + std::strerror(errno));
+  }
+  const auto header = detail::file_header();
+  iovec iov{const_cast<uint8_t*>(header.data()), header.size()};
+  if (const int e = write_fully(fd_, &iov, 1)) fail_write(e, "the file header");
+  end_ = header.size();
+  const std::vector<uint8_t> s = detail::serialize_stream(stream);
+  write_record(RecordType::kStream, s, {});
+  if (::fdatasync(fd_) != 0) fail_write(errno, "the stream description");
+  last_sync_us_ = wall_clock_us();
+}
+
+RecordingWriter::~RecordingWriter() {
+  try {
+    close();
+  } catch (const Error&) {
+  }
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void RecordingWriter::fail_write(int error_number, const char* what) {
+  failed_ = true;
+  // Cut back a partial record so the file ends in a complete one, and keep what came before.
+  if (fd_ >= 0) {
+    [[maybe_unused]] const int t = ::ftruncate(fd_, static_cast<off_t>(end_));
+    ::fdatasync(fd_);
+  }
+  const std::string kept = std::to_string(index_.size()) + " frame sets (" + megabytes(end_) +
+                           ") written before it are kept and replay";
+  if (out_of_space(error_number))
+    throw Error("recording " + path_.string() + ": disk full (" + std::strerror(error_number) +
+                ") while writing " + what + "; " + kept);
+  throw Error("recording " + path_.string() + ": cannot write " + what + ": " +
+              std::strerror(error_number) + "; " + kept);
+}
+
+void RecordingWriter::write_record(RecordType type, std::span<const uint8_t> head,
+                                   std::span<const uint8_t> body) {
+  const auto header = detail::record_header(type, head, body);
+  iovec iov[3] = {{const_cast<uint8_t*>(header.data()), header.size()},
+                  {const_cast<uint8_t*>(head.data()), head.size()},
+                  {const_cast<uint8_t*>(body.data()), body.size()}};
+  if (const int e = write_fully(fd_, iov, 3))
+    fail_write(e, type == RecordType::kFrameSet ? "a frame set" : "the index");
+  end_ += header.size() + head.size() + body.size();
+}
+
+void RecordingWriter::append(std::span<const uint8_t> body) {
+  if (failed_ || closed_)
+    throw Error("recording " + path_.string() + ": " +
+                (closed_ ? "closed" : "stopped by an error"));
+  if (body.size() > kMaxRecordBytes)
+    throw Error("recording " + path_.string() + ": frame set of " + std::to_string(body.size()) +
+                " bytes is over the limit");
+  RecordedFrameSet entry = frame_set_head(body);
+  entry.offset = end_;
+  write_record(RecordType::kFrameSet, {}, body);
+  index_.push_back(entry);
+  const int64_t now = wall_clock_us();
+  if (now - last_sync_us_ >= int64_t{options_.sync_interval_ms} * 1000) {
+    if (::fdatasync(fd_) != 0) fail_write(errno, "a frame set (sync)");
+    last_sync_us_ = now;
+  }
+}
+
+void RecordingWriter::close() {
+  if (closed_ || fd_ < 0) return;
+  closed_ = true;
+  if (failed_) return;  // what was written stays; a reader indexes it by scanning
+  std::vector<uint8_t> index;
+  protocol::Writer w(index);
+  w.put<uint32_t>(static_cast<uint32_t>(index_.size()));
+  for (const RecordedFrameSet& e : index_) {
+    w.put<uint64_t>(e.offset);
+    w.put<uint64_t>(e.sequence);
+    w.put<int64_t>(e.capture_us);
+    w.put<uint8_t>(e.key ? 1 : 0);
+  }
+  const uint64_t index_at = end_;
+  write_record(RecordType::kIndex, index, {});
+  const std::span<const uint8_t> end_payload(reinterpret_cast<const uint8_t*>(&index_at), 8);
+  write_record(RecordType::kEnd, end_payload, {});
+  if (::fsync(fd_) != 0) fail_write(errno, "the index (sync)");
+  ::close(fd_);
+  fd_ = -1;
+}
+
+}  // namespace volcast

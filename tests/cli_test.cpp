@@ -511,6 +511,11 @@ TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
     EXPECT_EQ(ply_vertices(dir / "ply" / fmt::format("frame-{:06d}-camera-0.ply", k)), valid) << k;
   }
   EXPECT_TRUE(std::filesystem::exists(dir / "png" / "camera-0" / "intrinsics.json"));
+  // The hands camera (640x360) is no Azure Kinect depth mode: --mkv says so.
+  EXPECT_NE(
+      test::run_command(kVolcast + " export " + killed + " --mkv " + (dir / "x.mkv").string(), out),
+      0);
+  EXPECT_NE(out.find("not an Azure Kinect depth mode"), std::string::npos) << out;
 
   // Replay the killed recording to a viewer; a recording takes no filters.
   EXPECT_NE(

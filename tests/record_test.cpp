@@ -14,9 +14,11 @@
 #include "hands_site.hpp"
 #include "real_sites.hpp"
 #include "test_data.hpp"
+#include "volcast/capture/k4a_recording.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/net/client.hpp"
+#include "volcast/pipeline/export.hpp"
 #include "volcast/pipeline/replay.hpp"
 #include "volcast/record/decode.hpp"
 #include "volcast/record/recorder.hpp"
@@ -437,8 +439,9 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
       reader.read(in_range[i], body);
       EXPECT_EQ(times[i], view_of(message, body).cameras[0].device_timestamp_us) << i;
     }
-    EXPECT_NE(test::error_of([&] { ReplayPlayer none(hands.spatial, {.from_s = 50}); })
-                  .find("no frame sets between"),
+    EXPECT_NE(test::error_of([&] {
+                ReplayPlayer none(hands.spatial, {.from_s = 50});
+              }).find("no frame sets between"),
               std::string::npos);
   }
   {  // The recorded tier: the recorded depth and color bytes, every frame set.
@@ -474,6 +477,50 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
     }
     EXPECT_EQ(viewer.client.frames_undecodable(), 0u);
   }
+}
+
+TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsicsAndDepth) {
+  const auto dir = test::temp_dir("record_mkv");
+  // The genuine Azure Kinect recording (NFOV unbinned, Brown-Conrady lens) served and recorded.
+  std::vector<std::unique_ptr<FrameSource>> sources;
+  sources.push_back(open_source(test::kinect_mkv()));
+  const CameraCalibration original = sources[0]->calibration();
+  const RecordedSite site = record_site(dir, std::move(sources), 20);
+  ExportOptions o;
+  o.mkv = dir / "kinect.mkv";
+  const ExportReport r = export_recording(site.spatial, o);
+  EXPECT_EQ(r.files, 1u);
+  // Read back as any Azure Kinect recording: the same lens model and the same depth.
+  auto back = open_source(o.mkv);
+  const Intrinsics& a = back->calibration().depth;
+  const Intrinsics& b = original.depth;
+  EXPECT_EQ(a.width, 640);
+  EXPECT_EQ(a.height, 576);
+  for (auto [x, y] : {std::pair{a.fx, b.fx},
+                      {a.fy, b.fy},
+                      {a.cx, b.cx},
+                      {a.cy, b.cy},
+                      {a.k1, b.k1},
+                      {a.k6, b.k6},
+                      {a.p1, b.p1},
+                      {a.p2, b.p2}})
+    EXPECT_NEAR(x, y, 1e-9);
+  EXPECT_NEAR(back->fps(), 5, 0.01);  // the camera's own rate, not the site's 30
+  const K4aRecordingInfo info = probe_k4a_recording(o.mkv);
+  EXPECT_EQ(info.depth_mode, "NFOV_UNBINNED");
+  // The source repeats its one capture (5 fps in a 30 fps site): the file holds each capture once.
+  EXPECT_GE(info.depth_frames, 3);
+  EXPECT_LE(info.depth_frames, 10);
+  const auto expected = depth_by_device_time(site.spatial);
+  EXPECT_EQ(back->next().depth.pixels, expected.begin()->second.pixels);
+  // A camera that is no Azure Kinect depth mode is refused by name.
+  fs::create_directories(dir / "hands");
+  const RecordedSite hands = record_site(dir / "hands", hands_sources(), 3);
+  o.mkv = dir / "hands.mkv";
+  EXPECT_NE(test::error_of([&] {
+              export_recording(hands.spatial, o);
+            }).find("640x360, not an Azure Kinect depth mode"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -286,11 +286,13 @@ int run_record(const RecordArgs& args);
 
 struct ExportArgs {
   std::string file;
-  std::string ply, png;  ///< output folders (at least one)
+  std::string ply, png;  ///< output folders
+  std::string mkv;       ///< Azure Kinect-style Matroska (volcast/pipeline/export.hpp)
   double from_s = 0, to_s = -1;
 };
 /// Decodes a recording and writes, per frame set and camera, a binary PLY (valid depth pixels as
-/// points in the world frame, metres, with color) and/or depth and color PNGs.
+/// points in the world frame, metres, with color), depth and color PNGs, and/or a Matroska file
+/// per camera in the Azure Kinect recording layout (at least one of them).
 int run_export(const ExportArgs& args);
 
 /// "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" -> its parts (quality 0 when absent). Throws Error naming

@@ -415,13 +415,19 @@ int main(int argc, char** argv) {
 
   ExportArgs export_args;
   auto* ex = app.add_subcommand(
-      "export", "Export a recording (.vcr): binary PLY point clouds or 16-bit depth + color PNGs");
+      "export",
+      "Export a recording (.vcr): binary PLY point clouds, 16-bit depth + color PNGs, or Azure "
+      "Kinect-style Matroska");
   ex->add_option("file", export_args.file, "Volcast recording (.vcr)")->required();
   ex->add_option("--ply", export_args.ply,
                  "Folder for one binary PLY per camera and frame set (world frame, metres, "
                  "with color)");
   ex->add_option("--png", export_args.png,
                  "Folder for depth (16-bit PNG, mm) and color (PNG) per camera and frame set");
+  ex->add_option("--mkv", export_args.mkv,
+                 "Azure Kinect-style Matroska: DEPTH track (b16g), calibration.json, color "
+                 "registered to depth as a COLOR_ON_DEPTH track; one file per camera "
+                 "(FILE-camera-C.mkv) for several; `volcast info` reads it back");
   ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
   ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
 

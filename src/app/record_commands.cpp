@@ -206,6 +206,7 @@ int run_export(const ExportArgs& a) {
   ExportOptions o;
   o.ply_dir = a.ply;
   o.png_dir = a.png;
+  o.mkv = a.mkv;
   o.from_s = a.from_s;
   o.to_s = a.to_s;
   o.progress = [](size_t done, size_t total) {

@@ -114,4 +114,87 @@ Intrinsics k4a_color_mode_intrinsics(const K4aSensorCalibration& color, int widt
                          height);
 }
 
+std::optional<K4aDepthMode> k4a_depth_mode_of_size(int width, int height) {
+  if (width == 640 && height == 576) return K4aDepthMode::kNfovUnbinned;
+  if (width == 320 && height == 288) return K4aDepthMode::kNfov2x2Binned;
+  if (width == 512 && height == 512) return K4aDepthMode::kWfov2x2Binned;
+  if (width == 1024 && height == 1024) return K4aDepthMode::kWfovUnbinned;
+  return std::nullopt;
+}
+
+std::string k4a_depth_mode_name(K4aDepthMode mode) {
+  switch (mode) {
+    case K4aDepthMode::kNfov2x2Binned:
+      return "NFOV_2X2BINNED";
+    case K4aDepthMode::kNfovUnbinned:
+      return "NFOV_UNBINNED";
+    case K4aDepthMode::kWfov2x2Binned:
+      return "WFOV_2X2BINNED";
+    case K4aDepthMode::kWfovUnbinned:
+      return "WFOV_UNBINNED";
+    case K4aDepthMode::kPassiveIr:
+      return "PASSIVE_IR";
+  }
+  return "OFF";
+}
+
+std::string k4a_calibration_json(const Intrinsics& depth, K4aDepthMode mode) {
+  // The mode's binned size and crop (k4a_depth_mode_intrinsics), undone.
+  int binned = 1024, crop_x = 0, crop_y = 0;
+  switch (mode) {
+    case K4aDepthMode::kNfov2x2Binned:
+      binned = 512, crop_x = 96, crop_y = 90;
+      break;
+    case K4aDepthMode::kNfovUnbinned:
+      binned = 1024, crop_x = 192, crop_y = 180;
+      break;
+    case K4aDepthMode::kWfov2x2Binned:
+      binned = 512;
+      break;
+    case K4aDepthMode::kWfovUnbinned:
+    case K4aDepthMode::kPassiveIr:
+      binned = 1024;
+      break;
+  }
+  const auto size = k4a_depth_mode_of_size(depth.width, depth.height);
+  if (!size || (*size != mode && mode != K4aDepthMode::kPassiveIr))
+    throw Error("k4a calibration: " + std::to_string(depth.width) + "x" +
+                std::to_string(depth.height) + " is not the size of depth mode " +
+                k4a_depth_mode_name(mode));
+  const double b = binned;
+  const json params = {(depth.cx + crop_x + 0.5) / b,
+                       (depth.cy + crop_y + 0.5) / b,
+                       depth.fx / b,
+                       depth.fy / b,
+                       depth.k1,
+                       depth.k2,
+                       depth.k3,
+                       depth.k4,
+                       depth.k5,
+                       depth.k6,
+                       depth.codx,
+                       depth.cody,
+                       depth.p2,
+                       depth.p1};
+  const auto camera = [&](const char* purpose, const char* location, int w, int h) {
+    return json{{"Location", location},
+                {"Purpose", purpose},
+                {"MetricRadius", depth.metric_radius},
+                {"SensorWidth", w},
+                {"SensorHeight", h},
+                {"Intrinsics",
+                 {{"ModelType", "CALIBRATION_LensDistortionModelBrownConrady"},
+                  {"ModelParameterCount", 14},
+                  {"ModelParameters", params}}},
+                {"Rt", {{"Rotation", {1, 0, 0, 0, 1, 0, 0, 0, 1}}, {"Translation", {0, 0, 0}}}}};
+  };
+  const json doc = {
+      {"CalibrationInformation",
+       {{"Cameras",
+         {camera("CALIBRATION_CameraPurposeDepth", "CALIBRATION_CameraLocationD0", 1024, 1024),
+          camera("CALIBRATION_CameraPurposePhotoVideo", "CALIBRATION_CameraLocationPV0", 4096,
+                 3072)}}}}};
+  return doc.dump(2);
+}
+
 }  // namespace volcast

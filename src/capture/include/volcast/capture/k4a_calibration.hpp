@@ -2,6 +2,7 @@
 // Azure Kinect factory calibration (the `calibration.json` that k4arecorder attaches) and the
 // derivation of a mode's intrinsics exactly as the Azure Kinect SDK does
 // (transformation_get_mode_specific_camera_calibration in the SDK's transformation.c).
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -49,5 +50,19 @@ Intrinsics k4a_depth_mode_intrinsics(const K4aSensorCalibration& depth, K4aDepth
 /// native model is scaled to width x width*3/4 and cropped vertically to height, centred.
 /// Throws Error for a resolution that is not an Azure Kinect color mode.
 Intrinsics k4a_color_mode_intrinsics(const K4aSensorCalibration& color, int width, int height);
+
+/// The depth mode whose images are `width` x `height` (640x576 NFOV unbinned, 320x288 NFOV
+/// binned, 512x512 WFOV binned, 1024x1024 WFOV unbinned), or nullopt.
+std::optional<K4aDepthMode> k4a_depth_mode_of_size(int width, int height);
+
+/// The name k4arecorder's K4A_DEPTH_MODE tag gives `mode` ("NFOV_UNBINNED", ...).
+std::string k4a_depth_mode_name(K4aDepthMode mode);
+
+/// A factory calibration JSON (the layout parse_k4a_calibration reads) whose depth camera yields
+/// `depth` (pixel intrinsics of `mode`, as k4a_depth_mode_intrinsics derives them) in `mode`: the
+/// inverse of that derivation. The color camera is written as a copy of the depth camera (identity
+/// Rt) -- for exports of streams whose color is already registered to depth, which keep no color
+/// camera calibration. Throws Error if `depth` is not of `mode`'s size.
+std::string k4a_calibration_json(const Intrinsics& depth, K4aDepthMode mode);
 
 }  // namespace volcast

@@ -11,7 +11,9 @@ namespace volcast {
 struct ExportOptions {
   std::filesystem::path ply_dir;  ///< one binary PLY per frame set and camera; empty: none
   std::filesystem::path png_dir;  ///< depth (16-bit, mm) and color PNGs; empty: none
-  double from_s = 0, to_s = -1;   ///< the part exported: seconds after the first frame set
+  /// Azure Kinect-style Matroska (below); several cameras: FILE's stem + "-camera-C.mkv" each.
+  std::filesystem::path mkv;
+  double from_s = 0, to_s = -1;  ///< the part exported: seconds after the first frame set
   /// Called after each frame set with (done, total).
   std::function<void(size_t, size_t)> progress;
 };
@@ -34,6 +36,16 @@ struct ExportReport {
 ///     png_dir/camera-C/color/KKKKKK.png (RGB, registered to depth; absent where the frame had no
 ///     color), plus png_dir/camera-C/intrinsics.json: an image-sequence folder `volcast serve
 ///     --source` reads back.
+///   MKV (cameras whose depth is the size of an Azure Kinect depth mode): k4arecorder's layout as
+///     FFmpeg writes it -- a "DEPTH" track of 16-bit big-endian depth (V_UNCOMPRESSED, fourcc
+///     b16g, in libavformat's experimental mode; k4arecorder writes V_MS/VFW/FOURCC, whose fourcc
+///     libavformat writes as 0 for raw video), tags K4A_DEPTH_MODE
+///     and K4A_COLOR_MODE (OFF), a calibration.json attachment made from the camera's intrinsics
+///     (k4a_calibration_json), and the color registered to depth as a "COLOR_ON_DEPTH" track (JPEG
+///     quality 95, depth size; Matroska keeps raw RGB only in VFW mode) that Azure Kinect readers
+///     skip: a k4arecorder COLOR track holds the color
+///     camera's own image, which a stream does not carry. Timestamps are the frames' device times
+///     (ms precision: Matroska's default scale). `volcast info` and `serve --source` read it back.
 /// Throws Error if the recording cannot be opened, the range holds no frame sets or a file cannot
 /// be written (naming it); a frame set that cannot be decoded is skipped with a warning.
 ExportReport export_recording(const std::filesystem::path& path, const ExportOptions& options);

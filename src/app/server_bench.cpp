@@ -176,6 +176,17 @@ std::string runs_text(const std::vector<double>& v, const char* format) {
   return out;
 }
 
+// Writes {key: rows} to `path` (its folder made), unless `path` is empty.
+void write_rows_json(const std::string& path, const char* key, const nlohmann::json& rows) {
+  if (path.empty()) return;
+  nlohmann::json j;
+  j[key] = rows;
+  const fs::path p = path;
+  if (p.has_parent_path()) fs::create_directories(p.parent_path());
+  std::ofstream(p) << j.dump(2) << "\n";
+  std::printf("wrote %s\n", p.c_str());
+}
+
 }  // namespace
 
 int run_server_bench(const BenchArgs& a) {
@@ -253,20 +264,9 @@ int run_server_bench(const BenchArgs& a) {
       }
       std::fflush(stdout);
     }
-  if (!a.json.empty()) {
-    nlohmann::json j;
-    j["server"] = rows;
-    const fs::path path = a.json;
-    if (path.has_parent_path()) fs::create_directories(path.parent_path());
-    std::ofstream(path) << j.dump(2) << "\n";
-    std::printf("wrote %s\n", path.c_str());
-  }
+  write_rows_json(a.json, "server", rows);
   return 0;
 }
-
-}  // namespace volcast
-
-namespace volcast {
 
 int run_record_bench(const BenchArgs& a) {
   const auto data = find_data(a.data);
@@ -335,14 +335,7 @@ int run_record_bench(const BenchArgs& a) {
     rows.push_back(row);
   }
   fs::remove_all(dir);
-  if (!a.json.empty()) {
-    nlohmann::json j;
-    j["record"] = rows;
-    const fs::path path = a.json;
-    if (path.has_parent_path()) fs::create_directories(path.parent_path());
-    std::ofstream(path) << j.dump(2) << "\n";
-    std::printf("wrote %s\n", path.c_str());
-  }
+  write_rows_json(a.json, "record", rows);
   return 0;
 }
 

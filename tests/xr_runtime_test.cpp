@@ -300,18 +300,20 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
   headset_options.drive_poses = false;
   SessionClient headset(headset_options);
   std::unique_ptr<test::TestParticipant> observer;
-  std::atomic<bool> done{false}, saw_held{false}, saw_hands{false};
+  std::atomic<bool> done{false}, saw_held{false}, saw_hands{false}, ready{false};
   std::thread watch;
   ViewerOptions opt;
   opt.client = client_config_from_link(s.link());
   opt.seconds = 300;  // a safety net only: the runtime ends the session
   opt.on_connected = [&](Client& client) {
     headset.start(client);
-    for (int i = 0;
-         i < 500 && !(headset.participant()->joined() && headset.participant()->shared_case()); ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+    // The headset's join goes out once the viewer reads, after this returns: the observer joins
+    // only after it, so that the headset has the first spawn spot (the grip's place above).
     watch = std::thread([&] {
+      ready = test::eventually([&] {
+        return headset.participant()->joined() && headset.participant()->shared_case() != nullptr;
+      });
+      observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
       while (!done) {
         const SessionSnapshot n = observer->now();
         for (const auto& other : n.others)
@@ -332,6 +334,7 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
   EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_TRUE(ready) << "the headset joined and received the case";
   const SessionHubStats st = s.hub.stats();
   EXPECT_EQ(st.grabs, 1u);
   EXPECT_EQ(st.releases, 1u);

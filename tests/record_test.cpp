@@ -508,10 +508,11 @@ TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsics
   EXPECT_NEAR(back->fps(), 5, 0.01);  // the camera's own rate, not the site's 30
   const K4aRecordingInfo info = probe_k4a_recording(o.mkv);
   EXPECT_EQ(info.depth_mode, "NFOV_UNBINNED");
-  // The source repeats its one capture (5 fps in a 30 fps site): the file holds each capture once.
-  EXPECT_GE(info.depth_frames, 3);
-  EXPECT_LE(info.depth_frames, 10);
+  // The camera runs at 5 fps in a 30 fps site, so frame sets repeat its captures (how often depends
+  // on the machine's load): the file holds each distinct capture once.
   const auto expected = depth_by_device_time(site.spatial);
+  EXPECT_GE(expected.size(), 2u);
+  EXPECT_EQ(info.depth_frames, static_cast<int>(expected.size()));
   EXPECT_EQ(back->next().depth.pixels, expected.begin()->second.pixels);
   // A camera that is no Azure Kinect depth mode is refused by name.
   fs::create_directories(dir / "hands");

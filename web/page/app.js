@@ -152,8 +152,32 @@ function monitorKey(key) {
   return true;
 }
 
-// Desktop navigation inside the play area: position offset, yaw, pitch.
-const nav = {x: 0, z: 0, yaw: 0, pitch: -0.1, keys: new Set(), dragging: false};
+// Desktop navigation inside the play area: position offset, yaw, pitch. Walking and turning go by
+// the time a key is held, not by frames, so a slow frame rate walks and turns as far: `keys` maps a
+// held key to the time (performance.now(), ms) up to which its hold has been applied, `pending` a
+// released key to the held milliseconds not applied yet.
+const nav = {x: 0, z: 0, yaw: 0, pitch: -0.1, keys: new Map(), pending: new Map(), dragging: false};
+const WALK_M_PER_S = 1.8;
+const TURN_RAD_PER_S = 2.4;
+
+// Seconds `key` was held since the last call (and consumes them).
+function heldSeconds(key, now) {
+  let ms = nav.pending.get(key) || 0;
+  nav.pending.delete(key);
+  const since = nav.keys.get(key);
+  if (since !== undefined) {
+    ms += Math.max(0, now - since);
+    nav.keys.set(key, now);
+  }
+  return ms / 1000;
+}
+
+function keyUp(key) {
+  const since = nav.keys.get(key);
+  if (since === undefined) return;
+  nav.pending.set(key, (nav.pending.get(key) || 0) + Math.max(0, performance.now() - since));
+  nav.keys.delete(key);
+}
 
 function roomFromPlayarea() {
   return session.joined ? M.spotMatrix(session.joined.spot) : M.translation(0, 0, 2);
@@ -263,12 +287,13 @@ function noteDrawn() {
 function desktopFrame() {
   if (state.xr.active) return;
   requestAnimationFrame(desktopFrame);
-  const step = 0.03;
+  const now = performance.now();
   const f = [Math.sin(nav.yaw), Math.cos(nav.yaw)];
-  if (nav.keys.has('w')) { nav.x -= f[0] * step; nav.z -= f[1] * step; }
-  if (nav.keys.has('s')) { nav.x += f[0] * step; nav.z += f[1] * step; }
-  if (nav.keys.has('a')) { nav.x -= f[1] * step; nav.z += f[0] * step; }
-  if (nav.keys.has('d')) { nav.x += f[1] * step; nav.z -= f[0] * step; }
+  const back = (heldSeconds('s', now) - heldSeconds('w', now)) * WALK_M_PER_S;
+  const right = (heldSeconds('d', now) - heldSeconds('a', now)) * WALK_M_PER_S;
+  nav.x += f[0] * back + f[1] * right;
+  nav.z += f[1] * back - f[0] * right;
+  const turn = (heldSeconds('x', now) - heldSeconds('z', now)) * TURN_RAD_PER_S;
   const w = canvas.clientWidth, h = canvas.clientHeight;
   if (canvas.width !== w || canvas.height !== h) {
     canvas.width = w;
@@ -280,7 +305,7 @@ function desktopFrame() {
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   const roomFromHead = desktopRoomFromHead();
   if (holding && holding.follow === 'head')
-    moveHeld(roomFromHead, (nav.keys.has('x') ? 0.04 : 0) - (nav.keys.has('z') ? 0.04 : 0));
+    moveHeld(roomFromHead, turn);
   const clipFromRoom = M.multiply(M.perspective(70, w / Math.max(h, 1), 0.05, 50),
                                   M.invertRigid(roomFromHead));
   renderer.draw(clipFromRoom, [0, 0, w, h], scene([roomFromHead[12], roomFromHead[13], roomFromHead[14]]));
@@ -417,9 +442,11 @@ function setupInput() {
       return;
     }
     if (monitorKey(key)) return;
-    nav.keys.add(key);
+    if (!nav.keys.has(key)) nav.keys.set(key, performance.now());
   });
-  window.addEventListener('keyup', (e) => nav.keys.delete(e.key.toLowerCase()));
+  window.addEventListener('keyup', (e) => keyUp(e.key.toLowerCase()));
+  // A key held while the page loses focus never sees its keyup.
+  window.addEventListener('blur', () => [...nav.keys.keys()].forEach(keyUp));
   canvas.addEventListener('dblclick', (e) => {
     // The ray through the clicked pixel, from the eye.
     const w = canvas.clientWidth, h = canvas.clientHeight;

@@ -42,6 +42,7 @@ const browser = await chromium.launch({
 let code = 1;
 try {
   const page = await browser.newPage({viewport: {width: 800, height: 450}});
+  page.setDefaultTimeout(60000);  // a loaded 2-core machine renders SwiftShader slowly
   const console_ = [];
   page.on('console', (m) => console_.push(`${m.type()}: ${m.text()}`));
   page.on('pageerror', (e) => console_.push(`pageerror: ${e.message}`));
@@ -67,8 +68,9 @@ try {
     s = await state();
   }
   if (xr && s.phase !== 'error') {
-    await page.click('#enter-vr', {timeout: 10000});
-    const xrDeadline = Date.now() + 20000;
+    await page.click('#enter-vr', {timeout: 60000});
+    // Deadlines only bound a broken page: a loaded machine may draw few frames a second.
+    const xrDeadline = Date.now() + 60000;
     while (Date.now() < xrDeadline && (s.xr.frames < 30 || s.session.posesSent < 60)) {
       await page.waitForTimeout(100);
       s = await state();
@@ -83,8 +85,13 @@ try {
       right.quaternion.set(-Math.sin(0.6), 0, 0, Math.cos(0.6));
       right.updateButtonValue('trigger', 1);
     });
-    await page.waitForTimeout(300);
+    // Held for a few headset frames (the runtime samples the trigger once a frame), then let go:
+    // WebXR's select, which teleports.
+    const pressedAt = s.xr.frames;
+    await page.waitForFunction((f) => window.volcast.xr.frames >= f + 3, pressedAt, {timeout: 30000});
     await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('trigger', 0));
+    await page.waitForFunction(() => window.volcast.session.teleports >= 1, null, {timeout: 30000})
+        .catch(() => {});
     await page.waitForTimeout(1500);
     s = await state();
   }

@@ -12,7 +12,7 @@ packages=(
   libopen3d-dev
   clang-14 libclang-rt-14-dev
   libwebsocketpp-dev emscripten chromium nodejs
-  libassimp-dev libvtk9-dev libdcmtk-dev
+  libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -479,6 +479,28 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
   }
 }
 
+// The 40-byte BITMAPINFOHEADER (CodecPrivate) of `file`'s track whose fourcc is `fourcc`.
+std::string codec_private(const fs::path& file, const std::string& fourcc) {
+  std::ifstream in(file, std::ios::binary);
+  std::string head(16384, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  const size_t at = head.find(fourcc);
+  return at == std::string::npos || at < 16 ? "" : head.substr(at - 16, 40);
+}
+
+// The recording's frames per distinct device time of its camera 0 (both depth and color).
+std::map<int64_t, CameraFrame> frames_by_device_time(const fs::path& path) {
+  RecordingReader reader(path);
+  RecordingDecoder decoder(reader);
+  FrameSet f;
+  std::map<int64_t, CameraFrame> out;
+  for (size_t k = 0; k < reader.info().frame_sets.size(); ++k) {
+    decoder.decode(k, f);
+    out[f.cameras[0].device_timestamp_us] = f.cameras[0];
+  }
+  return out;
+}
+
 TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsicsAndDepth) {
   const auto dir = test::temp_dir("record_mkv");
   // The genuine Azure Kinect recording (NFOV unbinned, Brown-Conrady lens) served and recorded.
@@ -490,6 +512,20 @@ TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsics
   o.mkv = dir / "kinect.mkv";
   const ExportReport r = export_recording(site.spatial, o);
   EXPECT_EQ(r.files, 1u);
+  // k4arecorder's own layout: the DEPTH track's codec private data is byte for byte the genuine
+  // recording's (V_MS/VFW/FOURCC, 640x576, 16 bits, b16g), and so are the K4A tags read below.
+  const std::string genuine = codec_private(test::kinect_mkv(), "b16g");
+  ASSERT_EQ(genuine.size(), 40u);
+  EXPECT_EQ(codec_private(o.mkv, "b16g"), genuine);
+  {
+    std::ifstream in(o.mkv, std::ios::binary);
+    std::string head(16384, '\0');
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    for (const char* s :
+         {"V_MS/VFW/FOURCC", "K4A_DEPTH_TRACK", "K4A_DEPTH_MODE", "K4A_CALIBRATION_FILE",
+          "K4A_START_OFFSET_NS", "K4A_CUSTOM_TRACK_COLOR_ON_DEPTH", "calibration.json"})
+      EXPECT_NE(head.find(s), std::string::npos) << s;
+  }
   // Read back as any Azure Kinect recording: the same lens model and the same depth.
   auto back = open_source(o.mkv);
   const Intrinsics& a = back->calibration().depth;
@@ -508,12 +544,28 @@ TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsics
   EXPECT_NEAR(back->fps(), 5, 0.01);  // the camera's own rate, not the site's 30
   const K4aRecordingInfo info = probe_k4a_recording(o.mkv);
   EXPECT_EQ(info.depth_mode, "NFOV_UNBINNED");
+  EXPECT_EQ(info.color_mode, "COLOR_ON_DEPTH");
   // The camera runs at 5 fps in a 30 fps site, so frame sets repeat its captures (how often depends
-  // on the machine's load): the file holds each distinct capture once.
-  const auto expected = depth_by_device_time(site.spatial);
+  // on the machine's load): the file holds each distinct capture once, with its color.
+  const auto expected = frames_by_device_time(site.spatial);
   EXPECT_GE(expected.size(), 2u);
   EXPECT_EQ(info.depth_frames, static_cast<int>(expected.size()));
-  EXPECT_EQ(back->next().depth.pixels, expected.begin()->second.pixels);
+  EXPECT_EQ(info.color_frames, info.depth_frames);
+  // Every capture at its device time (K4A_START_OFFSET_NS + block time), depth bit-exact, color
+  // the recorded JPEG's within one more JPEG pass.
+  for (const auto& [t, want] : expected) {
+    SCOPED_TRACE(t);
+    CameraFrame got;
+    back->next(got);
+    EXPECT_EQ(got.device_timestamp_us, t);
+    EXPECT_EQ(got.depth.pixels, want.depth.pixels);
+    ASSERT_EQ(got.color.width, want.color.width);
+    ASSERT_EQ(got.color.bgra.size(), want.color.bgra.size());
+    double diff = 0;
+    for (size_t i = 0; i < got.color.bgra.size(); ++i)
+      diff += std::abs(int(got.color.bgra[i]) - int(want.color.bgra[i]));
+    EXPECT_LT(diff / static_cast<double>(got.color.bgra.size()), 2.0);
+  }
   // A camera that is no Azure Kinect depth mode is refused by name.
   fs::create_directories(dir / "hands");
   const RecordedSite hands = record_site(dir / "hands", hands_sources(), 3);
@@ -522,6 +574,12 @@ TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsics
               export_recording(hands.spatial, o);
             }).find("640x360, not an Azure Kinect depth mode"),
             std::string::npos);
+  // A full disk is an error naming the file, not a silently short file.
+  if (fs::exists("/dev/full")) {
+    o.mkv = "/dev/full";
+    EXPECT_NE(test::error_of([&] { export_recording(site.spatial, o); }).find("/dev/full"),
+              std::string::npos);
+  }
 }
 
 }  // namespace

@@ -9,7 +9,9 @@ extern "C" {
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <optional>
 #include <span>
 
@@ -42,6 +44,9 @@ struct PacketFreer {
 struct Demuxer {
   std::unique_ptr<AVFormatContext, FormatCloser> fmt;
   int depth = -1, color = -1;
+  /// The color track is a COLOR_ON_DEPTH custom track (volcast export): JPEG already registered
+  /// to depth, at depth size; used only where there is no COLOR track.
+  bool color_on_depth = false;
   std::string calibration_json;
   std::string path;
 
@@ -55,6 +60,7 @@ struct Demuxer {
     fmt.reset(raw);
     if (std::string(fmt->iformat->name).find("matroska") == std::string::npos)
       throw Error("'" + path + "' is not a Matroska (.mkv) recording");
+    int on_depth = -1;
     for (unsigned i = 0; i < fmt->nb_streams; ++i) {
       AVStream* st = fmt->streams[i];
       const std::string title = tag(st->metadata, "title");
@@ -66,7 +72,22 @@ struct Demuxer {
         depth = static_cast<int>(i);
       } else if (title == "COLOR") {
         color = static_cast<int>(i);
+      } else if (title == "COLOR_ON_DEPTH") {
+        on_depth = static_cast<int>(i);
       }
+    }
+    // k4arecorder writes block times after the first capture's device time, kept in this tag.
+    const std::string offset = tag(fmt->metadata, "K4A_START_OFFSET_NS");
+    if (!offset.empty()) {
+      char* end = nullptr;
+      const long long ns = std::strtoll(offset.c_str(), &end, 10);
+      if (end != offset.c_str() + offset.size() || ns < 0 || ns > INT64_MAX / 2)
+        throw Error("recording '" + path + "': K4A_START_OFFSET_NS is not a time: " + offset);
+      start_offset_us = ns / 1000;
+    }
+    if (color < 0 && on_depth >= 0) {
+      color = on_depth;
+      color_on_depth = true;
     }
     if (depth < 0) throw Error("recording '" + path + "' has no DEPTH track");
     const AVCodecParameters* d = fmt->streams[depth]->codecpar;
@@ -82,10 +103,14 @@ struct Demuxer {
   }
 
   AVStream* stream(int i) const { return fmt->streams[i]; }
+  /// The packet's device time: its block time plus K4A_START_OFFSET_NS, as the SDK's playback
+  /// reports it.
   int64_t to_us(const AVPacket& p) const {
     const int64_t ts = p.pts != AV_NOPTS_VALUE ? p.pts : p.dts;
-    return av_rescale_q(ts, stream(p.stream_index)->time_base, AVRational{1, 1000000});
+    return av_rescale_q(ts, stream(p.stream_index)->time_base, AVRational{1, 1000000}) +
+           start_offset_us;
   }
+  int64_t start_offset_us = 0;
 };
 
 std::string depth_mode_name(const Demuxer& dm) {
@@ -205,7 +230,14 @@ class K4aRecordingSource final : public FrameSource {
     const AVCodecParameters* d = dm.stream(dm.depth)->codecpar;
     if (d->width != calibration_.depth.width || d->height != calibration_.depth.height)
       throw Error("recording '" + dm.path + "': DEPTH track size does not match its depth mode");
-    if (dm.color >= 0) {
+    if (dm.color >= 0 && dm.color_on_depth) {
+      const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
+      if (c->codec_id != AV_CODEC_ID_MJPEG || c->width != d->width || c->height != d->height)
+        spdlog::warn("{}: COLOR_ON_DEPTH track is not MJPG of the depth size; streaming depth only",
+                     dm.path);
+      else
+        color_is_jpeg_ = color_on_depth_ = true;
+    } else if (dm.color >= 0) {
       const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
       color_is_jpeg_ = c->codec_id == AV_CODEC_ID_MJPEG;
       color_is_bgra_ = c->codec_id == AV_CODEC_ID_RAWVIDEO && c->format == AV_PIX_FMT_BGRA;
@@ -226,7 +258,7 @@ class K4aRecordingSource final : public FrameSource {
     while (auto cap = counter.next()) {
       if (frame_count_ == 0) decode(*cap, first_);
       ++frame_count_;
-      color_frame_count_ += registration_ && !cap->color_bytes().empty();
+      color_frame_count_ += (registration_ || color_on_depth_) && !cap->color_bytes().empty();
     }
     if (frame_count_ == 0) throw Error("recording '" + dm.path + "' holds no depth frames");
   }
@@ -271,8 +303,19 @@ class K4aRecordingSource final : public FrameSource {
     for (size_t i = 0; i < n; ++i)  // b16g: big-endian
       out.depth.pixels[i] = static_cast<uint16_t>((depth[2 * i] << 8) | depth[2 * i + 1]);
     out.device_timestamp_us = cap.timestamp_us;
-    if (!registration_ || color.empty()) {  // no color track we read, or none at this moment
+    if ((!registration_ && !color_on_depth_) || color.empty()) {  // none we read, or none now
       out.color = ColorImage();
+      return;
+    }
+    if (color_on_depth_) {  // already registered to depth
+      try {
+        decode_jpeg(color, out.color);
+      } catch (const Error& e) {
+        throw Error("recording '" + path_.string() + "': color frame at " +
+                    std::to_string(cap.timestamp_us) + " us: " + e.what());
+      }
+      if (out.color.width != k.width || out.color.height != k.height)
+        throw Error("recording '" + path_.string() + "': color frame size differs from its track");
       return;
     }
     if (color_is_jpeg_) {
@@ -301,7 +344,7 @@ class K4aRecordingSource final : public FrameSource {
   CameraCalibration calibration_;
   Intrinsics color_intrinsics_;
   std::optional<ColorToDepthRegistration> registration_;
-  bool color_is_jpeg_ = false, color_is_bgra_ = false;
+  bool color_is_jpeg_ = false, color_is_bgra_ = false, color_on_depth_ = false;
   double fps_ = 30;
   int frame_count_ = 0, color_frame_count_ = 0;
   int64_t loops_ = 0, loop_offset_us_ = 0, last_timestamp_us_ = 0;
@@ -341,7 +384,11 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path) {
   info.depth_intrinsics =
       k4a_depth_mode_intrinsics(cal.depth, parse_k4a_depth_mode(info.depth_mode));
   info.color_from_depth = cal.color.camera_from_depth;
-  if (dm.color >= 0) {
+  if (dm.color >= 0 && dm.color_on_depth) {
+    info.color_mode = "COLOR_ON_DEPTH";
+    info.color_intrinsics = info.depth_intrinsics;
+    info.color_from_depth = RigidTransform::identity();
+  } else if (dm.color >= 0) {
     const AVCodecParameters* c = dm.stream(dm.color)->codecpar;
     info.color_mode = tag(dm.stream(dm.color)->metadata, "K4A_COLOR_MODE");
     info.color_intrinsics = k4a_color_mode_intrinsics(cal.color, c->width, c->height);

@@ -1,11 +1,5 @@
 #include "volcast/pipeline/export.hpp"
 
-extern "C" {
-#include <libavcodec/avcodec.h>
-#include <libavformat/avformat.h>
-#include <libavutil/error.h>
-}
-
 #include <fmt/format.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/io/PointCloudIO.h>
@@ -17,6 +11,7 @@ extern "C" {
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "k4a_mkv_writer.hpp"
 #include "volcast/capture/k4a_calibration.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -59,121 +54,6 @@ void write_ply(const fs::path& file, const PointCloud& cloud, open3d::geometry::
     throw Error("export: cannot write " + file.string());
 }
 
-std::string av_text(int code) {
-  char b[AV_ERROR_MAX_STRING_SIZE] = {};
-  av_strerror(code, b, sizeof b);
-  return b;
-}
-
-// One camera's Matroska file (export.hpp: k4arecorder's layout as libavformat writes it).
-class MkvWriter {
- public:
-  MkvWriter(const fs::path& path, const CameraCalibration& calibration, K4aDepthMode mode,
-            int64_t frame_us)
-      : path_(path) {
-    const auto fail = [&](const std::string& what, int rc) {
-      throw Error("export: " + path.string() + ": " + what + ": " + av_text(rc));
-    };
-    int rc = avformat_alloc_output_context2(&f_, nullptr, "matroska", path.c_str());
-    if (rc < 0) fail("no Matroska muxer", rc);
-    const Intrinsics& k = calibration.depth;
-    depth_ = avformat_new_stream(f_, nullptr);
-    color_ = avformat_new_stream(f_, nullptr);
-    AVStream* cal = avformat_new_stream(f_, nullptr);
-    if (!depth_ || !color_ || !cal) throw Error("export: out of memory");
-    const auto video = [&](AVStream* s, uint32_t tag, AVPixelFormat format, const char* title) {
-      s->codecpar->codec_type = AVMEDIA_TYPE_VIDEO;
-      s->codecpar->codec_id = AV_CODEC_ID_RAWVIDEO;
-      s->codecpar->codec_tag = tag;
-      s->codecpar->format = format;
-      s->codecpar->width = k.width;
-      s->codecpar->height = k.height;
-      s->time_base = AVRational{1, 1000000};
-      s->avg_frame_rate = AVRational{1000000, static_cast<int>(std::max<int64_t>(frame_us, 1))};
-      av_dict_set(&s->metadata, "title", title, 0);
-    };
-    video(depth_, MKTAG('b', '1', '6', 'g'), AV_PIX_FMT_GRAY16BE, "DEPTH");
-    // Matroska stores raw RGB only in VFW mode, where libavformat would also write the depth
-    // track's fourcc as 0: the registered color goes as JPEG (V_MJPEG), quality 95.
-    video(color_, 0, AV_PIX_FMT_YUVJ420P, "COLOR_ON_DEPTH");
-    color_->codecpar->codec_id = AV_CODEC_ID_MJPEG;
-    av_dict_set(&depth_->metadata, "K4A_DEPTH_MODE", k4a_depth_mode_name(mode).c_str(), 0);
-    av_dict_set(&f_->metadata, "K4A_DEPTH_MODE", k4a_depth_mode_name(mode).c_str(), 0);
-    av_dict_set(&f_->metadata, "K4A_COLOR_MODE", "OFF", 0);
-    av_dict_set(&f_->metadata, "K4A_IR_MODE", "OFF", 0);
-    av_dict_set(&f_->metadata, "ENCODER", "volcast export", 0);
-    const std::string json = k4a_calibration_json(k, mode);
-    cal->codecpar->codec_type = AVMEDIA_TYPE_ATTACHMENT;
-    cal->codecpar->codec_id = AV_CODEC_ID_BIN_DATA;
-    cal->codecpar->extradata =
-        static_cast<uint8_t*>(av_mallocz(json.size() + AV_INPUT_BUFFER_PADDING_SIZE));
-    if (!cal->codecpar->extradata) throw Error("export: out of memory");
-    std::memcpy(cal->codecpar->extradata, json.data(), json.size());
-    cal->codecpar->extradata_size = static_cast<int>(json.size());
-    av_dict_set(&cal->metadata, "filename", "calibration.json", 0);
-    av_dict_set(&cal->metadata, "mimetype", "application/octet-stream", 0);
-    av_dict_set(&cal->metadata, "K4A_ATTACHMENT_TYPE", "CALIBRATION", 0);
-    // libavformat 59 writes raw video as V_UNCOMPRESSED (with its fourcc) only when allowed to
-    // be experimental.
-    f_->strict_std_compliance = FF_COMPLIANCE_EXPERIMENTAL;
-    if ((rc = avio_open(&f_->pb, path.c_str(), AVIO_FLAG_WRITE)) < 0) fail("cannot create", rc);
-    if ((rc = avformat_write_header(f_, nullptr)) < 0) fail("cannot write the header", rc);
-    packet_ = av_packet_alloc();
-    if (!packet_) throw Error("export: out of memory");
-  }
-  ~MkvWriter() {
-    av_packet_free(&packet_);
-    if (f_ && f_->pb) avio_closep(&f_->pb);
-    avformat_free_context(f_);
-  }
-  MkvWriter(const MkvWriter&) = delete;
-  MkvWriter& operator=(const MkvWriter&) = delete;
-
-  /// Writes `frame` unless it is the one written last (a camera slower than the site repeats it
-  /// in several frame sets: same device time).
-  void write(const CameraFrame& frame, int64_t duration_us) {
-    if (frame.device_timestamp_us == last_device_us_ && first_us_ >= 0) return;
-    last_device_us_ = frame.device_timestamp_us;
-    if (first_us_ < 0) first_us_ = frame.device_timestamp_us;
-    const int64_t t = std::max(frame.device_timestamp_us - first_us_, last_us_ + 1);
-    last_us_ = t;
-    depth_bytes_.resize(frame.depth.pixels.size() * 2);
-    for (size_t i = 0; i < frame.depth.pixels.size(); ++i) {  // b16g: big-endian
-      depth_bytes_[2 * i] = static_cast<uint8_t>(frame.depth.pixels[i] >> 8);
-      depth_bytes_[2 * i + 1] = static_cast<uint8_t>(frame.depth.pixels[i] & 0xff);
-    }
-    put(depth_, depth_bytes_, t, duration_us);
-    if (!frame.color.empty()) {
-      encode_jpeg(frame.color, 95, jpeg_);
-      put(color_, jpeg_, t, duration_us);
-    }
-  }
-  void close() {
-    if (const int rc = av_write_trailer(f_); rc < 0)
-      throw Error("export: " + path_.string() + ": cannot finish: " + av_text(rc));
-    avio_closep(&f_->pb);
-  }
-
- private:
-  void put(AVStream* s, const std::vector<uint8_t>& bytes, int64_t t, int64_t duration_us) {
-    av_packet_unref(packet_);
-    packet_->data = const_cast<uint8_t*>(bytes.data());  // written before the call returns
-    packet_->size = static_cast<int>(bytes.size());
-    packet_->stream_index = s->index;
-    packet_->pts = packet_->dts = av_rescale_q(t, AVRational{1, 1000000}, s->time_base);
-    packet_->duration = av_rescale_q(duration_us, AVRational{1, 1000000}, s->time_base);
-    packet_->flags = AV_PKT_FLAG_KEY;
-    if (const int rc = av_interleaved_write_frame(f_, packet_); rc < 0)
-      throw Error("export: " + path_.string() + ": cannot write a frame: " + av_text(rc));
-  }
-  fs::path path_;
-  AVFormatContext* f_ = nullptr;
-  AVStream *depth_ = nullptr, *color_ = nullptr;
-  AVPacket* packet_ = nullptr;
-  std::vector<uint8_t> depth_bytes_, jpeg_;
-  int64_t first_us_ = -1, last_us_ = -1, last_device_us_ = 0;
-};
-
 }  // namespace
 
 ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
@@ -215,6 +95,7 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
   // Each camera's own frame interval (a camera slower than the site repeats its frames): the
   // median step between its distinct device times, read from the frame sets' heads.
   std::vector<int64_t> frame_duration_us(cams.size(), static_cast<int64_t>(1e6 / fps));
+  std::vector<char> has_color(cams.size(), 0);  // any color in the range: a COLOR_ON_DEPTH track
   if (!o.mkv.empty()) {
     std::vector<std::vector<int64_t>> steps(cams.size());
     std::vector<int64_t> last(cams.size(), INT64_MIN);
@@ -231,6 +112,7 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
         const int64_t t = view.cameras[c].device_timestamp_us;
         if (last[c] != INT64_MIN && t > last[c]) steps[c].push_back(t - last[c]);
         if (t != last[c]) last[c] = t;
+        has_color[c] = has_color[c] || !view.cameras[c].color.empty();
       }
     }
     for (size_t c = 0; c < cams.size(); ++c)
@@ -239,7 +121,7 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
         frame_duration_us[c] = steps[c][steps[c].size() / 2];
       }
   }
-  std::vector<std::unique_ptr<MkvWriter>> mkvs;
+  std::vector<std::unique_ptr<K4aMkvWriter>> mkvs;
   if (!o.mkv.empty()) {
     for (size_t c = 0; c < cams.size(); ++c) {
       const Intrinsics& k = cams[c].calibration.depth;
@@ -254,7 +136,7 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
               ? o.mkv
               : o.mkv.parent_path() / fmt::format("{}-camera-{}.mkv", o.mkv.stem().string(), c);
       mkvs.push_back(
-          std::make_unique<MkvWriter>(file, cams[c].calibration, *mode, frame_duration_us[c]));
+          std::make_unique<K4aMkvWriter>(file, k, *mode, frame_duration_us[c], has_color[c] != 0));
       ++report.files;
     }
   }
@@ -278,7 +160,7 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
         report.points += cloud.points.size();
         ++report.files;
       }
-      if (!mkvs.empty()) mkvs[c]->write(f, frame_duration_us[c]);
+      if (!mkvs.empty()) mkvs[c]->write(f);
       if (!o.png_dir.empty()) {
         const fs::path cam = o.png_dir / fmt::format("camera-{}", c);
         write_depth_png(cam / "depth" / fmt::format("{:06d}.png", n), f.depth);

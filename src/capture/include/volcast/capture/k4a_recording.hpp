@@ -22,8 +22,10 @@ struct K4aRecordingInfo {
   };
   std::vector<Stream> streams;
   std::string depth_mode;  ///< e.g. NFOV_UNBINNED
-  std::string color_mode;  ///< e.g. MJPG_720P, or empty without color
-  int depth_frames = 0;    ///< depth frames in the file (counted by reading every packet)
+  /// e.g. MJPG_720P; COLOR_ON_DEPTH for a file whose only color is that custom track (JPEG
+  /// registered to depth, depth size: volcast export); empty without color.
+  std::string color_mode;
+  int depth_frames = 0;  ///< depth frames in the file (counted by reading every packet)
   int color_frames = 0;
   double duration_s = 0;
   double fps = 0;               ///< the recording's frame rate
@@ -41,9 +43,10 @@ K4aRecordingInfo probe_k4a_recording(const std::filesystem::path& path);
 /// A looping FrameSource over a recording: depth as written, color decoded (libjpeg-turbo) and
 /// registered to depth, so each frame is depth WxH plus BGRA WxH of the depth mode -- or empty
 /// color (0 x 0) where the recording has no color track of a supported format (MJPG, BGRA) or a
-/// capture has no color frame. next() throws Error naming the recording and the frame's time for
-/// a depth frame of the wrong size or a color frame that does not decode, and moves on to the
-/// next capture.
+/// capture has no color frame. Without a COLOR track, a COLOR_ON_DEPTH custom track (MJPG at
+/// the depth size, already registered: what volcast export writes) is decoded as is. next() throws
+/// Error naming the recording and the frame's time for a depth frame of the wrong size or a color
+/// frame that does not decode, and moves on to the next capture.
 std::unique_ptr<FrameSource> open_k4a_recording(const std::filesystem::path& path,
                                                 const SourceOptions& options);
 

@@ -1,6 +1,6 @@
 #pragma once
 // Exporting a recording (volcast/record/recording.hpp) for other tools: point clouds as binary PLY
-// (Open3D's writer) and images as PNG.
+// (Open3D's writer), images as PNG, and Azure Kinect recordings (.mkv, libmatroska).
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -36,16 +36,15 @@ struct ExportReport {
 ///     png_dir/camera-C/color/KKKKKK.png (RGB, registered to depth; absent where the frame had no
 ///     color), plus png_dir/camera-C/intrinsics.json: an image-sequence folder `volcast serve
 ///     --source` reads back.
-///   MKV (cameras whose depth is the size of an Azure Kinect depth mode): k4arecorder's layout as
-///     FFmpeg writes it -- a "DEPTH" track of 16-bit big-endian depth (V_UNCOMPRESSED, fourcc
-///     b16g, in libavformat's experimental mode; k4arecorder writes V_MS/VFW/FOURCC, whose fourcc
-///     libavformat writes as 0 for raw video), tags K4A_DEPTH_MODE
-///     and K4A_COLOR_MODE (OFF), a calibration.json attachment made from the camera's intrinsics
-///     (k4a_calibration_json), and the color registered to depth as a "COLOR_ON_DEPTH" track (JPEG
-///     quality 95, depth size; Matroska keeps raw RGB only in VFW mode) that Azure Kinect readers
-///     skip: a k4arecorder COLOR track holds the color
-///     camera's own image, which a stream does not carry. Timestamps are the frames' device times
-///     (ms precision: Matroska's default scale). `volcast info` and `serve --source` read it back.
+///   MKV (cameras whose depth is the size of an Azure Kinect depth mode): k4arecorder's Matroska
+///     layout written with libmatroska (k4a_mkv_writer.hpp, which spells out the file): a "DEPTH"
+///     track of b16g depth (V_MS/VFW/FOURCC), the K4A tags, a calibration.json attachment made
+///     from the camera's intrinsics (k4a_calibration_json), and the color registered to depth as a
+///     k4arecord custom track "COLOR_ON_DEPTH" (MJPG, depth size): a k4arecorder COLOR track holds
+///     the color camera's own image, which a stream does not carry. Timestamps are the frames'
+///     device times in microseconds. `volcast info`, `serve --source` and FFmpeg read it back; the
+///     layout is the one the Azure Kinect SDK's playback reads (that SDK is not in Debian:
+///     untested).
 /// Throws Error if the recording cannot be opened, the range holds no frame sets or a file cannot
 /// be written (naming it); a frame set that cannot be decoded is skipped with a warning.
 ExportReport export_recording(const std::filesystem::path& path, const ExportOptions& options);

@@ -317,15 +317,16 @@ std::vector<std::unique_ptr<FrameSource>> hands_sources() {
   return test::HandsSite::sources();
 }
 
-// Depth of each recorded frame set by its camera's device timestamp (which replay keeps).
-std::map<int64_t, DepthImage> depth_by_device_time(const fs::path& path) {
+// Camera 0's frame (depth and color) of each recorded frame set by its device timestamp (which
+// replay keeps).
+std::map<int64_t, CameraFrame> frames_by_device_time(const fs::path& path) {
   RecordingReader reader(path);
   RecordingDecoder decoder(reader);
   FrameSet f;
-  std::map<int64_t, DepthImage> out;
+  std::map<int64_t, CameraFrame> out;
   for (size_t k = 0; k < reader.info().frame_sets.size(); ++k) {
     decoder.decode(k, f);
-    out[f.cameras[0].device_timestamp_us] = f.cameras[0].depth;
+    out[f.cameras[0].device_timestamp_us] = f.cameras[0];
   }
   return out;
 }
@@ -407,7 +408,7 @@ TEST(Recording, TenSecondsOfTheDemoSiteRecordedOnTheServerDecodeBitExactToWhatWa
 TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTiersAfresh) {
   const auto dir = test::temp_dir("record_replay");
   const RecordedSite hands = record_site(dir, hands_sources(), 60);
-  const auto expected = depth_by_device_time(hands.spatial);
+  const auto expected = frames_by_device_time(hands.spatial);
   RecordingReader reader(hands.spatial);
   std::map<int64_t, std::pair<std::vector<uint8_t>, std::vector<uint8_t>>> streams;
   std::vector<uint8_t> body, message;
@@ -454,7 +455,7 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
       ASSERT_TRUE(std::ranges::equal(depth, v.cameras[0].depth)) << n;
       ASSERT_TRUE(std::ranges::equal(color, v.cameras[0].color)) << n;
       ASSERT_EQ(f.frames.cameras[0].depth.pixels,
-                expected.at(f.frames.cameras[0].device_timestamp_us).pixels);
+                expected.at(f.frames.cameras[0].device_timestamp_us).depth.pixels);
     }
   }
   {  // Another tier: decoded and encoded again, the same depth (both lossless).
@@ -463,17 +464,17 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
     for (int n = 0; n < 30; ++n) {
       ASSERT_TRUE(viewer.client.receive(f));
       ASSERT_EQ(f.frames.cameras[0].depth.pixels,
-                expected.at(f.frames.cameras[0].device_timestamp_us).pixels);
+                expected.at(f.frames.cameras[0].device_timestamp_us).depth.pixels);
     }
   }
   {  // A temporal recording: its deltas pass through after the viewer's first key frame set.
-    const auto expected_t = depth_by_device_time(hands.temporal);
+    const auto expected_t = frames_by_device_time(hands.temporal);
     ReplayViewer viewer(hands.temporal, "volcast-t", "jpeg");
     ReceivedFrameSet f;
     for (int n = 0; n < 40; ++n) {
       ASSERT_TRUE(viewer.client.receive(f));
       ASSERT_EQ(f.frames.cameras[0].depth.pixels,
-                expected_t.at(f.frames.cameras[0].device_timestamp_us).pixels);
+                expected_t.at(f.frames.cameras[0].device_timestamp_us).depth.pixels);
     }
     EXPECT_EQ(viewer.client.frames_undecodable(), 0u);
   }
@@ -486,19 +487,6 @@ std::string codec_private(const fs::path& file, const std::string& fourcc) {
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   const size_t at = head.find(fourcc);
   return at == std::string::npos || at < 16 ? "" : head.substr(at - 16, 40);
-}
-
-// The recording's frames per distinct device time of its camera 0 (both depth and color).
-std::map<int64_t, CameraFrame> frames_by_device_time(const fs::path& path) {
-  RecordingReader reader(path);
-  RecordingDecoder decoder(reader);
-  FrameSet f;
-  std::map<int64_t, CameraFrame> out;
-  for (size_t k = 0; k < reader.info().frame_sets.size(); ++k) {
-    decoder.decode(k, f);
-    out[f.cameras[0].device_timestamp_us] = f.cameras[0];
-  }
-  return out;
 }
 
 TEST(Recording, ExportedToMatroskaTheAzureKinectCameraReadsBackWithItsIntrinsicsAndDepth) {

@@ -266,7 +266,7 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   test::HandsSite s(15, web_config(false));
   const auto out = test::temp_dir("web_desktop");
   const nlohmann::json page = drive(s.server.web_link("127.0.0.1") + "&check=1&room=0&name=Desk",
-                                    out, "--frames 40 --seconds 90 --bench");
+                                    out, "--frames 40 --seconds 200 --bench");
   ASSERT_FALSE(page.is_null());
   EXPECT_EQ(page["phase"], "streaming") << page["error"];
   EXPECT_EQ(page["cameras"], 1);

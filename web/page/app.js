@@ -32,7 +32,7 @@ const PRESETS = [['abdomen', 40, 400], ['liver', 90, 150], ['bone', 480, 2500]];
 const state = {
   phase: 'connecting', error: '', cameras: 0, framesReceived: 0, framesDrawn: 0,
   firstFrameMs: null, decodeMs: [], depthDecodeMs: [], hashes: [], latencyMs: [],
-  session: null, xr: {frames: 0, views: 0, active: false}, tier: '',
+  session: null, xr: {frames: 0, views: 0, active: false}, tier: '', desktopFrames: 0,
   avatarFrames: {}, avatarErrors: {},  // by participant id: camera avatar frames decoded, errors
   warnings: [], colorFrames: 0,  // decoder warnings (recovered); frame sets with color decoded
 };
@@ -287,6 +287,7 @@ function noteDrawn() {
 function desktopFrame() {
   if (state.xr.active) return;
   requestAnimationFrame(desktopFrame);
+  ++state.desktopFrames;
   const now = performance.now();
   const f = [Math.sin(nav.yaw), Math.cos(nav.yaw)];
   const back = (heldSeconds('s', now) - heldSeconds('w', now)) * WALK_M_PER_S;

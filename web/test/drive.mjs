@@ -8,7 +8,7 @@
 //                  [--chromium PATH]
 // --bench: then times the WebAssembly decoder on the newest frame (page.json's bench).
 // --case: then waits for the patient case, aims at object 0 and presses G (grab), holds X for a
-// second (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
+// second and 10 frames at least (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
 // overlay toggled), as a person at the keyboard would.
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
@@ -24,7 +24,7 @@ const flag = (name, fallback) => {
 const link = flag('--link');
 const out = flag('--out', '.');
 const frames = Number(flag('--frames', '30'));
-const seconds = Number(flag('--seconds', '60'));
+const seconds = Number(flag('--seconds', '120'));  // bounds a broken page; a loaded box is slow
 const xr = args.includes('--xr');
 const executablePath = flag('--chromium', '/usr/bin/chromium');
 if (!link) {
@@ -103,8 +103,12 @@ try {
     await page.keyboard.press('g');
     await page.waitForFunction(() => window.volcast.session.objects[0].owner === window.volcast.session.id,
                                null, {timeout: 20000});
+    // X held a second and for at least 10 page frames (each moves the held liver once): a loaded
+    // machine may draw only a few frames a second.
+    const pressedAt = await page.evaluate(() => window.volcast.desktopFrames);
     await page.keyboard.down('x');
     await page.waitForTimeout(1000);
+    await page.waitForFunction((f) => window.volcast.desktopFrames >= f + 10, pressedAt);
     await page.keyboard.up('x');
     await page.keyboard.press('g');
     await page.waitForFunction(() => window.volcast.session.objects[0].owner === 0, null, {timeout: 20000});

@@ -13,6 +13,7 @@ packages=(
   clang-14 libclang-rt-14-dev
   libwebsocketpp-dev emscripten chromium nodejs
   libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev
+  libnats-dev nats-server
 )
 missing=()
 for p in "${packages[@]}"; do

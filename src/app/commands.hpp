@@ -76,8 +76,13 @@ struct ServeArgs {
 
   std::string record;                        ///< also record this tier to this .vcr file
   std::string record_tier = "volcast/jpeg";  ///< DEPTH/COLOR[/QUALITY]
-  double from_s = 0, to_s = -1;              ///< a .vcr source: the part replayed (seconds in)
-  bool no_loop = false;                      ///< a .vcr source: play it once, then stop
+  // The stream on a NATS cluster (volcast/cluster/tier_publisher.hpp).
+  std::string nats;                                     ///< URL[,URL...]; empty: none
+  std::vector<std::string> nats_tiers{"volcast/jpeg"};  ///< DEPTH/COLOR[/QUALITY] each
+  std::string nats_site = "or";                         ///< the site's subject token
+  std::string nats_user, nats_password_file;            ///< NATS user/password authentication
+  double from_s = 0, to_s = -1;  ///< a .vcr source: the part replayed (seconds in)
+  bool no_loop = false;          ///< a .vcr source: play it once, then stop
 };
 int run_serve(const ServeArgs& args);
 /// The browser viewer's page as the build or the install put it: share/volcast/web beside the

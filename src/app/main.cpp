@@ -119,6 +119,18 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
   s->add_option("--record-tier", serve.record_tier,
                 "The tier --record keeps: DEPTH/COLOR[/QUALITY]")
       ->capture_default_str();
+  s->add_option("--nats", serve.nats,
+                "Also publish the site's Welcome and --nats-tier's frame sets on this NATS "
+                "cluster: URL[,URL...] (e.g. nats://127.0.0.1:4222)");
+  s->add_option("--nats-tier", serve.nats_tiers,
+                "A tier --nats publishes: DEPTH/COLOR[/QUALITY] (repeat for several)")
+      ->capture_default_str();
+  s->add_option("--nats-site", serve.nats_site,
+                "The site's name in NATS subjects (volcast.SITE.tier...; A-Z a-z 0-9 _ -)")
+      ->capture_default_str();
+  s->add_option("--nats-user", serve.nats_user, "NATS user name (with --nats-password-file)");
+  s->add_option("--nats-password-file", serve.nats_password_file,
+                "A file whose first line is the NATS user's password");
   s->add_option("--from", serve.from_s, "A recording (.vcr) source: start this many seconds in")
       ->capture_default_str();
   s->add_option("--to", serve.to_s,

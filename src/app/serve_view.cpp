@@ -6,11 +6,13 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <thread>
 
 #include "case_watch.hpp"
 #include "commands.hpp"
 #include "options.hpp"
+#include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
@@ -283,6 +285,16 @@ std::unique_ptr<CpuLatencyRequest> hold_low_latency(bool on) {
   return request;
 }
 
+// The first line of `path` (a password file), without its line end. Throws Error naming `flag`.
+static std::string read_first_line(const std::string& path, const char* flag) {
+  std::ifstream in(path);
+  std::string line;
+  if (path.empty() || !in || !std::getline(in, line) || line.empty())
+    throw Error(std::string(flag) + ": cannot read a first line from '" + path + "'");
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
 // Whether serve's sources are one Volcast recording (replayed as recorded). Throws Error when a
 // recording is mixed with cameras or given filters.
 bool replaying(const ServeArgs& a) {
@@ -369,7 +381,9 @@ int run_serve(const ServeArgs& a) {
   std::optional<CaseWatch> case_watch;
   if (!a.case_folder.empty()) case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
-  std::optional<BackgroundRecorder> recorder;  // outlives the server, whose tier feeds it
+  std::optional<BackgroundRecorder> recorder;   // outlives the server, whose tier feeds it
+  std::optional<cluster::NatsConnection> nats;  // so do these
+  std::optional<cluster::TierPublisher> publisher;
   Server server(for_viewers, config);
   hub.attach(&server);
   if (!a.record.empty()) {
@@ -383,6 +397,24 @@ int run_serve(const ServeArgs& a) {
     server.add_tier_tap(stream.depth_codec, stream.color_codec, stream.color_quality,
                         [&recorder](const TierFrameSet& f) { recorder->push(f); });
     spdlog::info("recording tier {} to {}", a.record_tier, a.record);
+  }
+  // The stream on a NATS cluster: one more consumer of each published tier's encoding.
+  if (!a.nats.empty()) {
+    cluster::NatsOptions o;
+    o.urls = cluster::parse_nats_urls(a.nats);
+    o.name = "volcast serve " + a.nats_site;
+    if (!a.nats_user.empty()) {
+      o.user = a.nats_user;
+      o.password = read_first_line(a.nats_password_file, "--nats-password-file");
+    }
+    nats.emplace(o);
+    publisher.emplace(*nats, a.nats_site, protocol::Welcome{for_viewers, wall_clock_us()});
+    for (const std::string& t : a.nats_tiers) {
+      const auto [depth, color, quality] = parse_tier(t, "--nats-tier");
+      publisher->publish_tier(server, depth, color, quality);
+      spdlog::info("publishing tier {} on NATS as {}", t,
+                   cluster::tier_subject(a.nats_site, depth, color, quality));
+    }
   }
   if (replay)
     replay->start(server);
@@ -423,6 +455,12 @@ int run_serve(const ServeArgs& a) {
                                 static_cast<double>(r.bytes) / 1e6,
                                 r.dropped ? fmt::format(", {} dropped", r.dropped) : "",
                                 r.error.empty() ? "" : " -- STOPPED: " + r.error);
+      }
+      if (publisher) {
+        const cluster::PublisherStats p = publisher->stats();
+        recording += fmt::format(
+            "; NATS {} frame sets, {:.1f} MB{}", p.frame_sets, static_cast<double>(p.bytes) / 1e6,
+            p.errors ? fmt::format(", {} lost ({})", p.errors, p.last_error) : "");
       }
       spdlog::info(
           "{} frame sets published, {} viewer(s) connected{}{}",

@@ -1,0 +1,78 @@
+#pragma once
+// A connection to a NATS cluster (libnats, the NATS C client) and the subjects Volcast uses on
+// it (issue 17).
+//
+// Subjects of a site (each token is checked by nats_subject_token):
+//   volcast.<site>.welcome                              the site's Welcome (protocol::serialize)
+//   volcast.<site>.tier.<depth>.<color>.<quality>       the tier's frame sets, as chunks
+//                                                       (chunks.hpp); quality 0 = codec default
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace volcast::cluster {
+
+/// Throws Error unless `token` is usable as one token of a NATS subject: 1..64 characters of
+/// A-Z a-z 0-9 _ - (no '.', wildcards or spaces). `what` names it in the message.
+void check_subject_token(const std::string& token, const std::string& what);
+
+std::string welcome_subject(const std::string& site);
+/// "volcast.<site>.tier.<depth>.<color>.<quality>"; codec names are tokens ("volcast-t", "jpeg").
+std::string tier_subject(const std::string& site, const std::string& depth_codec,
+                         const std::string& color_codec, int color_quality);
+
+struct NatsOptions {
+  std::vector<std::string> urls;  ///< e.g. nats://127.0.0.1:4222; several: a cluster
+  std::string name = "volcast";   ///< the connection's name in the server's monitoring
+  std::string user, password;     ///< both empty: no authentication
+  int64_t connect_timeout_ms = 2000;
+};
+
+/// Splits "URL[,URL...]" into urls. Throws Error for an empty list or URL.
+std::vector<std::string> parse_nats_urls(const std::string& list);
+
+class NatsConnection {
+ public:
+  /// Connects to one of `o.urls` (reconnecting to any of them, forever, if the link drops).
+  /// Throws Error with libnats' reason (e.g. "No server available for connection") and the URLs.
+  explicit NatsConnection(const NatsOptions& o);
+  ~NatsConnection();
+  NatsConnection(const NatsConnection&) = delete;
+  NatsConnection& operator=(const NatsConnection&) = delete;
+
+  /// The server's max_payload: the largest message it takes, bytes (1 MiB by default).
+  size_t max_payload() const;
+  /// Publishes `data` on `subject` (buffered; flush() waits for the server). Throws Error.
+  void publish(const std::string& subject, std::span<const uint8_t> data);
+  /// Waits until the server has everything published so far (at most `timeout_ms`). Throws Error.
+  void flush(int64_t timeout_ms = 2000);
+
+  /// A subscription; unsubscribes when destroyed. The callback runs on libnats' thread for the
+  /// subscription, one message at a time, in order; the span is valid during the call.
+  class Subscription {
+   public:
+    ~Subscription();
+    Subscription(const Subscription&) = delete;
+    Subscription& operator=(const Subscription&) = delete;
+    /// Messages dropped because the callback fell behind (libnats' pending limits).
+    int64_t dropped() const;
+
+   private:
+    friend class NatsConnection;
+    Subscription() = default;
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+  using Handler = std::function<void(const std::string& subject, std::span<const uint8_t> data)>;
+  /// Subscribes to `subject` (wildcards allowed). Throws Error (e.g. not permitted).
+  std::unique_ptr<Subscription> subscribe(const std::string& subject, Handler handler);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace volcast::cluster

@@ -1,0 +1,169 @@
+#include "volcast/cluster/nats.hpp"
+
+#include <nats/nats.h>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <climits>
+
+#include "volcast/core/error.hpp"
+
+namespace volcast::cluster {
+namespace {
+
+// libnats' reason for `s`, with its last error text where it has one.
+std::string reason(natsStatus s) {
+  std::string text = natsStatus_GetText(s);
+  natsStatus last = NATS_OK;
+  if (const char* detail = nats_GetLastError(&last);
+      detail && *detail && std::string(detail).find(text) == std::string::npos)
+    text += std::string(" (") + detail + ")";
+  return text;
+}
+
+std::string joined(const std::vector<std::string>& urls) {
+  std::string out;
+  for (const auto& u : urls) out += (out.empty() ? "" : ",") + u;
+  return out;
+}
+
+}  // namespace
+
+void check_subject_token(const std::string& token, const std::string& what) {
+  bool ok = !token.empty() && token.size() <= 64;
+  for (char c : token)
+    ok = ok && ((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                c == '_' || c == '-');
+  if (!ok)
+    throw Error(what + " '" + token +
+                "' cannot be a NATS subject token: use 1-64 of A-Z a-z 0-9 _ -");
+}
+
+std::string welcome_subject(const std::string& site) {
+  check_subject_token(site, "site name");
+  return "volcast." + site + ".welcome";
+}
+
+std::string tier_subject(const std::string& site, const std::string& depth_codec,
+                         const std::string& color_codec, int color_quality) {
+  check_subject_token(site, "site name");
+  check_subject_token(depth_codec, "depth codec");
+  check_subject_token(color_codec, "color codec");
+  if (color_quality < 0 || color_quality > 100)
+    throw Error("color quality " + std::to_string(color_quality) + " is not 0..100");
+  return "volcast." + site + ".tier." + depth_codec + "." + color_codec + "." +
+         std::to_string(color_quality);
+}
+
+std::vector<std::string> parse_nats_urls(const std::string& list) {
+  std::vector<std::string> urls;
+  size_t at = 0;
+  while (at <= list.size()) {
+    const size_t comma = std::min(list.find(',', at), list.size());
+    const std::string url = list.substr(at, comma - at);
+    if (url.empty()) throw Error("--nats: an empty URL in '" + list + "'");
+    urls.push_back(url);
+    at = comma + 1;
+  }
+  return urls;
+}
+
+struct NatsConnection::Impl {
+  natsConnection* nc = nullptr;
+};
+
+struct NatsConnection::Subscription::Impl {
+  natsSubscription* sub = nullptr;
+  Handler handler;
+};
+
+NatsConnection::NatsConnection(const NatsOptions& o) : impl_(std::make_unique<Impl>()) {
+  if (o.urls.empty()) throw Error("NATS: no server URL given");
+  natsOptions* opts = nullptr;
+  natsStatus s = natsOptions_Create(&opts);
+  std::vector<const char*> urls;
+  for (const auto& u : o.urls) urls.push_back(u.c_str());
+  if (s == NATS_OK) s = natsOptions_SetServers(opts, urls.data(), static_cast<int>(urls.size()));
+  if (s == NATS_OK) s = natsOptions_SetName(opts, o.name.c_str());
+  if (s == NATS_OK) s = natsOptions_SetTimeout(opts, o.connect_timeout_ms);
+  if (s == NATS_OK) s = natsOptions_SetMaxReconnect(opts, -1);  // keep trying: a node may return
+  if (s == NATS_OK) s = natsOptions_SetReconnectWait(opts, 250);
+  if (s == NATS_OK && (!o.user.empty() || !o.password.empty()))
+    s = natsOptions_SetUserInfo(opts, o.user.c_str(), o.password.c_str());
+  if (s == NATS_OK) s = natsConnection_Connect(&impl_->nc, opts);
+  const std::string why = s == NATS_OK ? "" : reason(s);
+  natsOptions_Destroy(opts);
+  if (s != NATS_OK) throw Error("NATS: cannot connect to " + joined(o.urls) + ": " + why);
+}
+
+NatsConnection::~NatsConnection() {
+  if (impl_->nc) {
+    natsConnection_Close(impl_->nc);
+    natsConnection_Destroy(impl_->nc);
+  }
+}
+
+size_t NatsConnection::max_payload() const {
+  const int64_t m = natsConnection_GetMaxPayload(impl_->nc);
+  return m > 0 ? static_cast<size_t>(m) : 0;
+}
+
+void NatsConnection::publish(const std::string& subject, std::span<const uint8_t> data) {
+  if (data.size() > static_cast<size_t>(INT_MAX))
+    throw Error("NATS: a message of " + std::to_string(data.size()) + " bytes");
+  const natsStatus s = natsConnection_Publish(impl_->nc, subject.c_str(), data.data(),
+                                              static_cast<int>(data.size()));
+  if (s != NATS_OK) throw Error("NATS: cannot publish on " + subject + ": " + reason(s));
+}
+
+void NatsConnection::flush(int64_t timeout_ms) {
+  const natsStatus s = natsConnection_FlushTimeout(impl_->nc, timeout_ms);
+  if (s != NATS_OK) throw Error("NATS: flush: " + reason(s));
+}
+
+NatsConnection::Subscription::~Subscription() {
+  if (impl_ && impl_->sub) {
+    natsSubscription_Unsubscribe(impl_->sub);
+    natsSubscription_Destroy(impl_->sub);
+  }
+}
+
+int64_t NatsConnection::Subscription::dropped() const {
+  int64_t n = 0;
+  natsSubscription_GetDropped(impl_->sub, &n);
+  return n;
+}
+
+std::unique_ptr<NatsConnection::Subscription> NatsConnection::subscribe(const std::string& subject,
+                                                                        Handler handler) {
+  std::unique_ptr<Subscription> out(new Subscription);
+  out->impl_ = std::make_unique<Subscription::Impl>();
+  out->impl_->handler = std::move(handler);
+  const auto on_message = [](natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
+    auto* self = static_cast<Subscription::Impl*>(closure);
+    const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
+    try {  // nothing may escape into libnats' thread
+      self->handler(natsMsg_GetSubject(msg),
+                    {data, static_cast<size_t>(std::max(natsMsg_GetDataLength(msg), 0))});
+    } catch (const std::exception& e) {
+      spdlog::warn("NATS: a message on {} was dropped: {}", natsMsg_GetSubject(msg), e.what());
+    }
+    natsMsg_Destroy(msg);
+  };
+  natsStatus s = natsConnection_Subscribe(&out->impl_->sub, impl_->nc, subject.c_str(), on_message,
+                                          out->impl_.get());
+  // Room for a few seconds of a tier's chunks before libnats drops (counted in dropped()).
+  if (s == NATS_OK) s = natsSubscription_SetPendingLimits(out->impl_->sub, 65536, 512 << 20);
+  // A permissions violation arrives asynchronously: a flush makes it this call's error.
+  if (s == NATS_OK) s = natsConnection_FlushTimeout(impl_->nc, 2000);
+  if (s == NATS_OK) {
+    const char* last = nullptr;
+    if (natsConnection_GetLastError(impl_->nc, &last) != NATS_OK && last && *last)
+      throw Error("NATS: cannot subscribe to " + subject + ": " + last);
+  }
+  if (s != NATS_OK) throw Error("NATS: cannot subscribe to " + subject + ": " + reason(s));
+  return out;
+}
+
+}  // namespace volcast::cluster

@@ -83,21 +83,34 @@ Intrinsics mode_intrinsics(const Intrinsics& n, int binned_w, int binned_h, int 
   return k;
 }
 
+// A depth mode's image: the native 1024x1024 model binned to `binned`, cropped at (crop_x,
+// crop_y) to width x height (the SDK's mode info). One table for the intrinsics, their inverse
+// and the mode of an image size.
+struct DepthModeGeometry {
+  K4aDepthMode mode;
+  int binned, crop_x, crop_y, width, height;
+};
+constexpr DepthModeGeometry kDepthModes[] = {
+    {K4aDepthMode::kNfov2x2Binned, 512, 96, 90, 320, 288},
+    {K4aDepthMode::kNfovUnbinned, 1024, 192, 180, 640, 576},
+    {K4aDepthMode::kWfov2x2Binned, 512, 0, 0, 512, 512},
+    {K4aDepthMode::kWfovUnbinned, 1024, 0, 0, 1024, 1024},
+};
+
+const DepthModeGeometry& geometry_of(K4aDepthMode mode) {
+  // Passive IR images are the full unbinned sensor.
+  const K4aDepthMode m = mode == K4aDepthMode::kPassiveIr ? K4aDepthMode::kWfovUnbinned : mode;
+  for (const DepthModeGeometry& g : kDepthModes)
+    if (g.mode == m) return g;
+  throw Error("unknown Azure Kinect depth mode");
+}
+
 }  // namespace
 
 Intrinsics k4a_depth_mode_intrinsics(const K4aSensorCalibration& depth, K4aDepthMode mode) {
-  switch (mode) {
-    case K4aDepthMode::kNfov2x2Binned:
-      return mode_intrinsics(depth.normalized, 512, 512, 96, 90, 320, 288);
-    case K4aDepthMode::kNfovUnbinned:
-      return mode_intrinsics(depth.normalized, 1024, 1024, 192, 180, 640, 576);
-    case K4aDepthMode::kWfov2x2Binned:
-      return mode_intrinsics(depth.normalized, 512, 512, 0, 0, 512, 512);
-    case K4aDepthMode::kWfovUnbinned:
-    case K4aDepthMode::kPassiveIr:
-      return mode_intrinsics(depth.normalized, 1024, 1024, 0, 0, 1024, 1024);
-  }
-  throw Error("unknown Azure Kinect depth mode");
+  const DepthModeGeometry& g = geometry_of(mode);
+  return mode_intrinsics(depth.normalized, g.binned, g.binned, g.crop_x, g.crop_y, g.width,
+                         g.height);
 }
 
 Intrinsics k4a_color_mode_intrinsics(const K4aSensorCalibration& color, int width, int height) {
@@ -115,10 +128,8 @@ Intrinsics k4a_color_mode_intrinsics(const K4aSensorCalibration& color, int widt
 }
 
 std::optional<K4aDepthMode> k4a_depth_mode_of_size(int width, int height) {
-  if (width == 640 && height == 576) return K4aDepthMode::kNfovUnbinned;
-  if (width == 320 && height == 288) return K4aDepthMode::kNfov2x2Binned;
-  if (width == 512 && height == 512) return K4aDepthMode::kWfov2x2Binned;
-  if (width == 1024 && height == 1024) return K4aDepthMode::kWfovUnbinned;
+  for (const DepthModeGeometry& g : kDepthModes)
+    if (g.width == width && g.height == height) return g.mode;
   return std::nullopt;
 }
 
@@ -140,28 +151,14 @@ std::string k4a_depth_mode_name(K4aDepthMode mode) {
 
 std::string k4a_calibration_json(const Intrinsics& depth, K4aDepthMode mode) {
   // The mode's binned size and crop (k4a_depth_mode_intrinsics), undone.
-  int binned = 1024, crop_x = 0, crop_y = 0;
-  switch (mode) {
-    case K4aDepthMode::kNfov2x2Binned:
-      binned = 512, crop_x = 96, crop_y = 90;
-      break;
-    case K4aDepthMode::kNfovUnbinned:
-      binned = 1024, crop_x = 192, crop_y = 180;
-      break;
-    case K4aDepthMode::kWfov2x2Binned:
-      binned = 512;
-      break;
-    case K4aDepthMode::kWfovUnbinned:
-    case K4aDepthMode::kPassiveIr:
-      binned = 1024;
-      break;
-  }
+  const DepthModeGeometry& g = geometry_of(mode);
+  const int crop_x = g.crop_x, crop_y = g.crop_y;
   const auto size = k4a_depth_mode_of_size(depth.width, depth.height);
   if (!size || (*size != mode && mode != K4aDepthMode::kPassiveIr))
     throw Error("k4a calibration: " + std::to_string(depth.width) + "x" +
                 std::to_string(depth.height) + " is not the size of depth mode " +
                 k4a_depth_mode_name(mode));
-  const double b = binned;
+  const double b = g.binned;
   const json params = {(depth.cx + crop_x + 0.5) / b,
                        (depth.cy + crop_y + 0.5) / b,
                        depth.fx / b,

@@ -117,10 +117,7 @@ std::string depth_mode_name(const Demuxer& dm) {
   std::string mode = tag(dm.stream(dm.depth)->metadata, "K4A_DEPTH_MODE");
   if (!mode.empty()) return mode;
   const AVCodecParameters* d = dm.stream(dm.depth)->codecpar;
-  if (d->width == 640 && d->height == 576) return "NFOV_UNBINNED";
-  if (d->width == 320 && d->height == 288) return "NFOV_2X2BINNED";
-  if (d->width == 512 && d->height == 512) return "WFOV_2X2BINNED";
-  if (d->width == 1024 && d->height == 1024) return "WFOV_UNBINNED";
+  if (const auto m = k4a_depth_mode_of_size(d->width, d->height)) return k4a_depth_mode_name(*m);
   throw Error("recording '" + dm.path + "': cannot tell the depth mode");
 }
 

@@ -66,6 +66,66 @@ bool same_pose(const Pose& a, const Pose& b) {
          a.orientation.angularDistance(b.orientation) < 1e-4f;
 }
 
+// The case arrives before the objects' and the monitor's state (7 MB of organs and CT in the
+// demo, on a loaded machine for a good while): a scripted event due in between waits for them.
+TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
+  PoseScript script = idle_pose_script();
+  script.monitor.push_back({0.8, 2, 90.f, 150.f, true});
+  script.grabs.push_back({1.0, 2.0, "organ", 60});
+  ScriptedObjects scripted(script);
+  const session::SharedCase c = synthetic_case();
+  SessionSnapshot now;
+  now.id = 7;
+  EXPECT_TRUE(scripted.due(nullptr, now, 5).empty()) << "nothing before the case";
+  EXPECT_TRUE(scripted.due(&c, now, 5).empty()) << "the case alone: no monitor or object state";
+
+  session::MonitorState server;
+  server.generation = 3, server.slice = 1, server.center = 40, server.width = 400;
+  now.monitor = server;
+  auto a = scripted.due(&c, now, 5);
+  ASSERT_EQ(a.size(), 1u) << "the monitor's state arrived: its change, the grab still waits";
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMonitor);
+  EXPECT_EQ(a[0].monitor.slice, 2);
+  EXPECT_EQ(a[0].monitor.center, 90.f);
+  EXPECT_EQ(a[0].monitor.width, 150.f);
+  EXPECT_TRUE(a[0].monitor.overlay);
+  EXPECT_EQ(a[0].monitor.generation, 3u);
+
+  ObjectView organ;
+  organ.pose.position = {0, 1.3f, 0};
+  now.objects.push_back(organ);
+  a = scripted.due(&c, now, 5);
+  ASSERT_EQ(a.size(), 1u) << "the objects' state arrived: the grab, once; the monitor not again";
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kGrab);
+  EXPECT_EQ(a[0].object, 0);
+  EXPECT_TRUE(scripted.due(&c, now, 5.5).empty()) << "not its owner yet: no move";
+  now.objects[0].owner = 7;
+  a = scripted.due(&c, now, 6.0);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMove) << "held from when it was asked for (5 s)";
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 60,
+              1e-3);
+  a = scripted.due(&c, now, 7.5);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kRelease) << "held past its 2 s: let go";
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 120,
+              1e-3)
+      << "turned 60 degrees/s for the scripted 2 s, from where it was";
+  EXPECT_TRUE(scripted.due(&c, now, 9).empty());
+}
+
+TEST(SessionCase, AScriptedMonitorChangeForACaseWithoutASeriesIsDropped) {
+  PoseScript script = idle_pose_script();
+  script.monitor.push_back({0.5, 1, std::nullopt, std::nullopt, std::nullopt});
+  ScriptedObjects scripted(script);
+  session::SharedCase c = synthetic_case();
+  c.monitor.reset();
+  SessionSnapshot now;
+  EXPECT_TRUE(scripted.due(&c, now, 1).empty());
+  now.monitor = session::MonitorState{};
+  EXPECT_TRUE(scripted.due(&c, now, 1).empty()) << "dropped, not kept for a later case";
+}
+
 TEST(SessionCase, TwoGrabsAtOnceGiveOneOwnerAndEveryoneSeesTheFinalPose) {
   SessionSite s;
   s.hub.set_case(synthetic_case());

@@ -27,34 +27,53 @@ RigidTransform auto_playarea_from_camera(const DepthImage& first) {
   return t;
 }
 
-void ScriptedObjects::step(Participant& p, double t_s) {
-  const auto c = p.shared_case();
-  if (!c) return;  // the script's object events wait for the case
-  const SessionSnapshot s = p.snapshot(wall_clock_us());
+std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
+                                               const SessionSnapshot& s, double t_s) {
+  std::vector<ScriptAction> out;
+  if (!c) return out;  // every event waits for the case
+  using Kind = ScriptAction::Kind;
+  const auto action = [](Kind kind, uint16_t object = 0, const Pose& pose = {}) {
+    ScriptAction a;
+    a.kind = kind, a.object = object, a.pose = pose;
+    return a;
+  };
   while (next_monitor_ < script_.monitor.size() && script_.monitor[next_monitor_].t_s <= t_s) {
+    if (!c->monitor) {  // no CT series in this case: nothing to set
+      next_monitor_ = script_.monitor.size();
+      break;
+    }
+    if (!s.monitor) break;  // its state follows the case: wait for it, then set
     const ScriptedMonitor& m = script_.monitor[next_monitor_++];
-    if (!s.monitor || !c->monitor) continue;
-    session::MonitorState want = *s.monitor;
-    if (m.slice >= 0) want.slice = static_cast<uint16_t>(std::min(m.slice, c->monitor->slices - 1));
-    if (m.center) want.center = *m.center;
-    if (m.width) want.width = *m.width;
-    if (m.overlay) want.overlay = *m.overlay;
-    p.set_monitor(want);
+    ScriptAction a = action(Kind::kMonitor);
+    a.monitor = *s.monitor;
+    if (m.slice >= 0)
+      a.monitor.slice = static_cast<uint16_t>(std::min(m.slice, c->monitor->slices - 1));
+    if (m.center) a.monitor.center = *m.center;
+    if (m.width) a.monitor.width = *m.width;
+    if (m.overlay) a.monitor.overlay = *m.overlay;
+    out.push_back(a);
   }
   if (!holding_ && next_grab_ < script_.grabs.size() && script_.grabs[next_grab_].t_s <= t_s) {
-    const ScriptedGrab& g = script_.grabs[next_grab_++];
-    for (size_t i = 0; i < c->objects.size() && !holding_; ++i)
-      if (c->objects[i].name == g.object && i < s.objects.size()) {
-        object_ = static_cast<uint16_t>(i);
-        start_pose_ = s.objects[i].pose;
-        grab_ = g;
-        holding_ = true;
-        p.grab(object_);
-      }
-    if (!holding_) spdlog::warn("pose script: no object '{}' in the case to grab", g.object);
-    return;
+    const ScriptedGrab& g = script_.grabs[next_grab_];
+    const auto it = std::find_if(c->objects.begin(), c->objects.end(),
+                                 [&](const auto& o) { return o.name == g.object; });
+    if (it == c->objects.end()) {
+      spdlog::warn("pose script: no object '{}' in the case to grab", g.object);
+      ++next_grab_;
+      return out;
+    }
+    const auto i = static_cast<size_t>(it - c->objects.begin());
+    if (i >= s.objects.size()) return out;  // the objects' state follows the case: wait
+    ++next_grab_;
+    object_ = static_cast<uint16_t>(i);
+    start_pose_ = s.objects[i].pose;
+    grab_ = g;
+    grab_.t_s = t_s;  // held for for_s from when it is asked for, however late that is
+    holding_ = true;
+    out.push_back(action(Kind::kGrab, object_));
+    return out;
   }
-  if (!holding_) return;
+  if (!holding_) return out;
   const auto held = static_cast<float>(std::min(t_s - grab_.t_s, grab_.for_s));
   Pose pose = start_pose_;
   pose.orientation = (Eigen::Quaternionf(Eigen::AngleAxisf(
@@ -64,11 +83,32 @@ void ScriptedObjects::step(Participant& p, double t_s) {
                          .normalized();
   const bool mine = object_ < s.objects.size() && s.objects[object_].owner == s.id;
   if (t_s - grab_.t_s >= grab_.for_s) {
-    if (mine) p.release(object_, pose);
+    if (mine) out.push_back(action(Kind::kRelease, object_, pose));
     holding_ = false;
-    return;
+    return out;
   }
-  if (mine) p.move_object(object_, pose);
+  if (mine) out.push_back(action(Kind::kMove, object_, pose));
+  return out;
+}
+
+void ScriptedObjects::step(Participant& p, double t_s) {
+  const auto c = p.shared_case();
+  for (const ScriptAction& a : due(c.get(), p.snapshot(wall_clock_us()), t_s)) {
+    switch (a.kind) {
+      case ScriptAction::Kind::kGrab:
+        p.grab(a.object);
+        break;
+      case ScriptAction::Kind::kMove:
+        p.move_object(a.object, a.pose);
+        break;
+      case ScriptAction::Kind::kRelease:
+        p.release(a.object, a.pose);
+        break;
+      case ScriptAction::Kind::kMonitor:
+        p.set_monitor(a.monitor);
+        break;
+    }
+  }
 }
 
 SessionClient::SessionClient(SessionClientOptions options) : options_(std::move(options)) {

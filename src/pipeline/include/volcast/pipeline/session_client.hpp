@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <thread>
+#include <vector>
 
 #include "volcast/capture/source.hpp"
 #include "volcast/net/client.hpp"
@@ -36,14 +37,29 @@ struct SessionClientOptions {
 /// -- the hands and chest of someone facing it. play area frame, metres.
 RigidTransform auto_playarea_from_camera(const DepthImage& first);
 
+/// One thing a pose script asks its participant to do now (ScriptedObjects::due).
+struct ScriptAction {
+  enum class Kind { kGrab, kMove, kRelease, kMonitor };
+  Kind kind = Kind::kGrab;
+  uint16_t object = 0;            ///< kGrab, kMove, kRelease: index into the shared case
+  Pose pose;                      ///< kMove, kRelease: room_from_object (room frame, metres)
+  session::MonitorState monitor;  ///< kMonitor: the whole state to set
+};
+
 /// The object and monitor events of a pose script, performed by a participant as time goes: at a
 /// grab's time it asks to hold the object; once it holds it, it turns it (about +y, room frame,
-/// from where it was) at the scripted rate and releases it after for_s; monitor changes are set
-/// at their times. Events wait until the case has arrived.
+/// from where it was) at the scripted rate and releases it for_s after asking; monitor changes are
+/// set at their times. An event waits for what it needs: every event for the case, a grab for the
+/// objects' state and a monitor change for the monitor's state (both follow the case, and on a
+/// loaded machine the case takes a while); a change to a case without a CT series is dropped.
 class ScriptedObjects {
  public:
   explicit ScriptedObjects(PoseScript script) : script_(std::move(script)) {}
-  /// Performs the events due by `t_s` seconds into the script.
+  /// The actions due by `t_s` seconds into the script, given the case and what the participant
+  /// sees now (`shared_case` null: none yet). Advances the script past what it returns.
+  std::vector<ScriptAction> due(const session::SharedCase* shared_case, const SessionSnapshot& now,
+                                double t_s);
+  /// Performs the actions due by `t_s` on `participant`.
   void step(Participant& participant, double t_s);
 
  private:

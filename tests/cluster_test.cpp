@@ -3,17 +3,24 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "hands_site.hpp"
 #include "nats_server.hpp"
 #include "test_data.hpp"
 #include "volcast/cluster/chunks.hpp"
+#include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/nats.hpp"
+#include "volcast/cluster/relay.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/net/client.hpp"
+#include "volcast/net/frame_set_decoder.hpp"
 
 namespace volcast {
 namespace {
@@ -100,6 +107,17 @@ TEST(Chunks, ShuffledRepeatedStaleAndAbandonedFrameSetsAreCountedNotDelivered) {
   EXPECT_EQ(r.stats().incomplete, 1u);
   EXPECT_EQ(r.stats().stale, 3u);
   EXPECT_EQ(r.stats().complete, 2u);
+  // The publisher restarts and counts from 1: a delta below the sequence is stale, the first
+  // chunk of a key frame set starts over.
+  EXPECT_FALSE(r.add(chunks_of({2, 0, false, c}, 536)[0]));
+  EXPECT_EQ(r.stats().stale, 4u);
+  const auto restarted = chunks_of({1, 5, true, c}, 536);
+  EXPECT_FALSE(r.add(restarted[1])) << "not its first chunk: stale";
+  EXPECT_FALSE(r.add(restarted[0]));
+  EXPECT_TRUE(r.add(restarted[1]));
+  EXPECT_EQ(r.done().sequence, 1u);
+  EXPECT_EQ(r.stats().restarts, 1u);
+  EXPECT_TRUE(r.add(chunks_of({2, 6, false, c}, 1000)[0])) << "and goes on from there";
 }
 
 TEST(Chunks, HostileChunksAreRefusedBeforeAnythingIsAllocatedForThem) {
@@ -169,7 +187,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   std::vector<uint8_t> welcome;
   site.server.add_tier_tap("volcast", "jpeg", 0, [&](const TierFrameSet& f) {
     std::lock_guard lock(mutex);
-    sent[f.sequence].assign(f.body.begin(), f.body.end());
+    sent[f.index].assign(f.body.begin(), f.body.end());
   });
   NatsConnection subscriber(nats_at(nats_server.url()));
   Reassembler reassembler(64 << 20);
@@ -240,6 +258,293 @@ TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {
       test::error_of([&] { NatsConnection c(nats_at(nats_server.url(), "student", "guess")); });
   EXPECT_NE(wrong.find("cannot connect"), std::string::npos) << wrong;
   EXPECT_NO_THROW(NatsConnection(nats_at(nats_server.url(), "server", "s3rver-pw")));
+}
+
+// The origin: the real hands site (one camera) publishing a tier on a nats-server (64 KiB
+// messages, so frame sets are chunked), and every frame set the tier encoded, by capture time.
+struct PublishedSite {
+  std::filesystem::path dir;
+  std::optional<test::NatsServer> nats_server;
+  test::HandsSite site;
+  std::optional<NatsConnection> link;
+  std::optional<TierPublisher> publisher;
+  std::mutex mutex;
+  std::map<int64_t, std::vector<uint8_t>> sent;  // by capture time (us)
+
+  PublishedSite(const std::string& name, const std::string& depth, const std::string& color,
+                ServerConfig config = {})
+      : dir(test::temp_dir(name)),
+        nats_server(std::in_place, dir, "max_payload: 65536\n"),
+        site(30, config) {
+    site.server.add_tier_tap(depth, color, 0, [this](const TierFrameSet& f) {
+      std::lock_guard lock(mutex);
+      sent[f.capture_us].assign(f.body.begin(), f.body.end());
+    });
+    link.emplace(nats_at(nats_server->url()));
+    publisher.emplace(*link, "or", protocol::Welcome{site.player.cameras(), 0});
+    publisher->publish_tier(site.server, depth, color, 0);
+  }
+  ~PublishedSite() {
+    site.player.stop();
+    site.server.stop();
+  }
+  std::optional<std::vector<uint8_t>> body_at(int64_t capture_us) {
+    std::lock_guard lock(mutex);
+    const auto it = sent.find(capture_us);
+    if (it == sent.end()) return std::nullopt;
+    return it->second;
+  }
+};
+
+// A relay on a free port. Its latency budget counts from the site's capture; a loaded test box
+// may take longer than the default 150 ms through NATS, and these tests check what arrives.
+RelayOptions relay_options() {
+  RelayOptions o;
+  o.server.port = 0;
+  o.server.latency_budget_ms = 5000;
+  return o;
+}
+
+ClientConfig viewer_of(Relay& relay, const std::string& depth, const std::string& color) {
+  ClientConfig c = client_config_from_link(relay.server().join_link("127.0.0.1"));
+  c.depth_codec = depth;
+  c.color_codec = color;
+  c.keep_encoded = true;
+  c.receive_timeout_ms = 30000;
+  return c;
+}
+
+// The payload parse_frame_set expects: 8 bytes of send time, then the body.
+std::vector<uint8_t> as_message(std::span<const uint8_t> body) {
+  std::vector<uint8_t> m(8, 0);
+  m.insert(m.end(), body.begin(), body.end());
+  return m;
+}
+
+// A viewer of the published tier on a relay is sent the publisher's own bytes for every camera
+// (the relay does not encode again), with the site's capture time; a viewer of another tier
+// (rvl, lossless, encoded by the relay) decodes the same depth, pixel for pixel.
+TEST(Relay, ViewersOfARelayGetThePublishersBytesAndLosslessDepthBitExact) {
+  PublishedSite origin("relay_exact", "volcast", "jpeg");
+  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  RelayOptions o = relay_options();
+  Relay relay(relay_link, o);
+  ASSERT_EQ(relay.cameras().size(), 1u);
+  EXPECT_EQ(relay.cameras()[0].calibration.depth.width, 640);
+  Client same(viewer_of(relay, "volcast", "jpeg"));
+  Client other(viewer_of(relay, "rvl", "none"));
+  FrameSetDecoder reference("volcast", "jpeg", relay.cameras());
+  FrameSet expected;
+  int compared = 0;
+  ReceivedFrameSet rx, rx_other;
+  bool first = true;
+  while (compared < 30) {
+    ASSERT_TRUE(same.receive(rx)) << "the relay's viewer lost its stream";
+    EXPECT_TRUE(!first || rx.key) << "a viewer starts at a key frame set";
+    first = false;
+    const auto body = origin.body_at(rx.times.capture_us);
+    ASSERT_TRUE(body) << "a frame set the site never encoded (capture " << rx.times.capture_us
+                      << ")";
+    protocol::FrameSetView got, want;
+    const auto got_message = as_message(rx.encoded_body), want_message = as_message(*body);
+    protocol::parse_frame_set(got_message, got);
+    protocol::parse_frame_set(want_message, want);
+    ASSERT_EQ(got.cameras.size(), 1u);
+    EXPECT_TRUE(std::ranges::equal(got.cameras[0].depth, want.cameras[0].depth));
+    EXPECT_TRUE(std::ranges::equal(got.cameras[0].color, want.cameras[0].color));
+    EXPECT_EQ(got.cameras[0].device_timestamp_us, want.cameras[0].device_timestamp_us);
+    ++compared;
+  }
+  for (int n = 0; n < 15; ++n) {
+    ASSERT_TRUE(other.receive(rx_other));
+    const auto body = origin.body_at(rx_other.times.capture_us);
+    ASSERT_TRUE(body);
+    reference.decode(as_message(*body), expected);
+    EXPECT_EQ(rx_other.frames.cameras[0].depth.pixels, expected.cameras[0].depth.pixels)
+        << "rvl is lossless: the relay re-encoded what the site sent";
+    EXPECT_TRUE(rx_other.frames.cameras[0].color.bgra.empty());
+  }
+  const RelayStats st = relay.stats();
+  EXPECT_GE(st.frame_sets, 30u);
+  EXPECT_GE(st.decoded, 15u) << "the rvl tier is encoded here, from decoded images";
+  EXPECT_EQ(st.undecodable, 0u) << st.last_error;
+  EXPECT_EQ(st.chunks.malformed, 0u);
+  EXPECT_GT(st.chunks.complete, 0u);
+}
+
+// A temporal tier (tRVL deltas): a viewer that comes to the relay late starts at a key frame set
+// and decodes every frame set after it.
+TEST(Relay, ALateViewerOfATemporalTierStartsAtAKeyFrameSet) {
+  ServerConfig site_config;
+  site_config.key_frame_interval = 20;
+  PublishedSite origin("relay_late", "trvl", "jpeg", site_config);
+  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  RelayOptions o = relay_options();
+  o.depth_codec = "trvl";
+  Relay relay(relay_link, o);
+  // The relay came in mid-stream: deltas before the site's next key frame set are dropped.
+  ASSERT_TRUE(test::eventually([&] { return relay.stats().frame_sets >= 30; }, 60s));
+  const uint64_t waited = relay.stats().undecodable;
+  EXPECT_LE(waited, 20u) << "at most one key frame interval";
+  Client late(viewer_of(relay, "trvl", "jpeg"));
+  ReceivedFrameSet rx;
+  for (int n = 0; n < 30; ++n) {
+    ASSERT_TRUE(late.receive(rx)) << "frame set " << n;
+    if (n == 0) {
+      EXPECT_TRUE(rx.key);
+    }
+    ASSERT_EQ(rx.frames.cameras.size(), 1u);
+    EXPECT_EQ(rx.frames.cameras[0].depth.width, 640);
+    EXPECT_GT(
+        std::ranges::count_if(rx.frames.cameras[0].depth.pixels, [](uint16_t d) { return d; }),
+        1000)
+        << "frame set " << n << " decoded to depth";
+  }
+  EXPECT_EQ(relay.stats().undecodable, waited) << relay.stats().last_error;
+}
+
+// The NATS server goes away for a second and comes back on the same port: the relay's viewer
+// stays connected and the stream resumes (libnats reconnects the site and the relay).
+TEST(Relay, AViewerOfARelayOutlivesANatsRestart) {
+  PublishedSite origin("relay_restart", "volcast", "jpeg");
+  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  RelayOptions o = relay_options();
+  Relay relay(relay_link, o);
+  Client viewer(viewer_of(relay, "volcast", "jpeg"));
+  ReceivedFrameSet rx;
+  for (int n = 0; n < 10; ++n) ASSERT_TRUE(viewer.receive(rx));
+  const int port = origin.nats_server->port();
+  origin.nats_server.reset();  // killed
+  std::this_thread::sleep_for(1s);
+  origin.nats_server.emplace(origin.dir, "max_payload: 65536\n", port);
+  const int64_t back = wall_clock_us();
+  int after = 0;
+  while (after < 10) {
+    ASSERT_TRUE(viewer.receive(rx)) << "the viewer was dropped";
+    if (rx.times.capture_us > back) ++after;
+  }
+  const RelayStats st = relay.stats();
+  EXPECT_EQ(st.undecodable, 0u) << st.last_error;
+  EXPECT_EQ(st.decoded, 1u) << "every viewer takes the published stateless tier: only the first "
+                               "frame set was decoded (images in reserve), of "
+                            << st.frame_sets;
+}
+
+TEST(Relay, WithoutTheSitesWelcomeItSaysWhatItWaitedFor) {
+  const auto dir = test::temp_dir("relay_nobody");
+  test::NatsServer nats_server(dir);
+  NatsConnection link(nats_at(nats_server.url()));
+  RelayOptions o;
+  o.site = "theatre2";
+  o.welcome_timeout_ms = 300;
+  o.server.port = 0;
+  const std::string e = test::error_of([&] { Relay r(link, o); });
+  EXPECT_NE(e.find("volcast.theatre2.welcome"), std::string::npos) << e;
+  EXPECT_NE(e.find("theatre2"), std::string::npos) << e;
+}
+
+// A 3-node cluster (nats-server processes routed to each other): the site publishes on node 0,
+// the relay takes the stream from node 1; node 1 is killed, the relay's link moves to another
+// node and its viewer goes on without being dropped.
+TEST(Relay, ARelayOutlivesTheKillOfItsNatsNodeInAThreeNodeCluster) {
+  const auto dir = test::temp_dir("relay_cluster");
+  LocalNatsCluster nats(dir, 3, "max_payload: 65536");
+  test::HandsSite site(30);
+  NatsOptions site_link;
+  site_link.urls = nats.urls(0);
+  site_link.in_order = true;
+  NatsConnection site_nats(site_link);
+  EXPECT_EQ(site_nats.connected_url(), nats.url(0));
+  TierPublisher publisher(site_nats, "or", {site.player.cameras(), 0});
+  publisher.publish_tier(site.server, "volcast", "jpeg", 0);
+  NatsOptions relay_link;
+  relay_link.urls = nats.urls(1);
+  relay_link.in_order = true;
+  NatsConnection relay_nats(relay_link);
+  ASSERT_EQ(relay_nats.connected_url(), nats.url(1));
+  Relay relay(relay_nats, relay_options());
+  Client viewer(viewer_of(relay, "volcast", "jpeg"));
+  ReceivedFrameSet rx;
+  for (int n = 0; n < 10; ++n) ASSERT_TRUE(viewer.receive(rx)) << "through node 0 to node 1";
+  nats.kill(1);
+  const int64_t killed = wall_clock_us();
+  int after = 0;
+  while (after < 10) {
+    ASSERT_TRUE(viewer.receive(rx)) << "the viewer was dropped";
+    if (rx.times.capture_us > killed) ++after;
+  }
+  const std::string now = relay_nats.connected_url();
+  EXPECT_TRUE(now == nats.url(0) || now == nats.url(2)) << now;
+  EXPECT_EQ(relay.stats().undecodable, 0u) << relay.stats().last_error;
+  site.player.stop();
+  site.server.stop();
+}
+
+TEST(LocalNatsCluster, ANodeThatCannotStartNamesItsLog) {
+  const auto dir = test::temp_dir("cluster_bad");
+  const std::string e = test::error_of([&] { LocalNatsCluster c(dir, 2, "this is { not config"); });
+  EXPECT_NE(e.find("node-0.log"), std::string::npos) << e;
+}
+
+// The link printed in `log` (a volcast:// join link), waiting up to 20 s for it.
+std::string join_link_in(const std::filesystem::path& log) {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);)
+      if (line.find("volcast://") != std::string::npos) return line.substr(line.find("volcast://"));
+    std::this_thread::sleep_for(200ms);
+  }
+  return "";
+}
+
+// What a user runs: `volcast serve --nats`, `volcast relay` on the same cluster, and `volcast
+// view` with the relay's link.
+TEST(RelayCommand, ServeRelayAndViewThroughNats) {
+  const auto dir = test::temp_dir("relay_cli");
+  test::NatsServer nats_server(dir);
+  const std::string volcast =
+      std::string("XDG_CONFIG_HOME=") + (dir / "config").string() + " " + VOLCAST_BINARY;
+  std::string out;
+  ASSERT_EQ(test::run_command(volcast + " serve --source " + test::hands_dir().string() +
+                                  " --intrinsics 460,460,320,180 --fps 15 --seconds 90 --port 0 "
+                                  "--nats " +
+                                  nats_server.url() + " --nats-site theatre1 > " +
+                                  (dir / "serve.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string serve_pid = out.substr(0, out.find('\n'));
+  ASSERT_FALSE(join_link_in(dir / "serve.log").empty());
+  ASSERT_EQ(test::run_command(volcast + " relay --nats " + nats_server.url() +
+                                  " --site theatre1 --seconds 90 --port 0 > " +
+                                  (dir / "relay.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string relay_pid = out.substr(0, out.find('\n'));
+  const std::string link = join_link_in(dir / "relay.log");
+  std::string view_out;
+  const int rc = link.empty() ? -1
+                              : test::run_command(volcast + " view --no-render --connect '" + link +
+                                                      "' --frames 20 --stats-json " +
+                                                      (dir / "view.json").string(),
+                                                  view_out);
+  test::run_command("kill " + relay_pid + " " + serve_pid, out);
+  std::this_thread::sleep_for(500ms);
+  std::ifstream relay_log(dir / "relay.log");
+  const std::string relay_text((std::istreambuf_iterator<char>(relay_log)),
+                               std::istreambuf_iterator<char>());
+  ASSERT_FALSE(link.empty()) << relay_text;
+  ASSERT_EQ(rc, 0) << view_out << relay_text;
+  EXPECT_NE(relay_text.find("site 'theatre1' (1 camera(s))"), std::string::npos) << relay_text;
+  std::ifstream in(dir / "view.json");
+  const auto stats = nlohmann::json::parse(in);
+  EXPECT_EQ(stats["cameras"][0]["frames_received"], 20);
+  EXPECT_EQ(stats["cameras"][0]["description"], "camera 0") << "the site's name for it";
+  // Nobody publishing that site: one line that says what the relay waited for.
+  EXPECT_NE(test::run_command(volcast + " relay --nats " + nats_server.url() +
+                                  " --site theatre9 --welcome-timeout 300 --port 0",
+                              out),
+            0);
+  EXPECT_NE(out.find("volcast.theatre9.welcome"), std::string::npos) << out;
 }
 
 }  // namespace

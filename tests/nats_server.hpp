@@ -35,10 +35,12 @@ inline int free_tcp_port() {
 
 class NatsServer {
  public:
-  /// Starts nats-server on 127.0.0.1 and a free port; `config` (nats-server's configuration
-  /// format) is written to DIR/nats.conf and given with -c. Waits until it accepts connections.
-  explicit NatsServer(const std::filesystem::path& dir, const std::string& config = "")
-      : port_(free_tcp_port()) {
+  /// Starts nats-server on 127.0.0.1 and `port` (0: a free one); `config` (nats-server's
+  /// configuration format) is written to DIR/nats.conf and given with -c. Waits until it accepts
+  /// connections.
+  explicit NatsServer(const std::filesystem::path& dir, const std::string& config = "",
+                      int port = 0)
+      : port_(port ? port : free_tcp_port()) {
     std::vector<std::string> args = {"nats-server",
                                      "-a",
                                      "127.0.0.1",

@@ -9,9 +9,11 @@
 #include <tuple>
 #include <vector>
 
+#include "volcast/cluster/nats.hpp"
 #include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
 #include "volcast/net/client.hpp"
+#include "volcast/net/server.hpp"
 
 namespace volcast {
 
@@ -81,10 +83,24 @@ struct ServeArgs {
   std::vector<std::string> nats_tiers{"volcast/jpeg"};  ///< DEPTH/COLOR[/QUALITY] each
   std::string nats_site = "or";                         ///< the site's subject token
   std::string nats_user, nats_password_file;            ///< NATS user/password authentication
-  double from_s = 0, to_s = -1;  ///< a .vcr source: the part replayed (seconds in)
-  bool no_loop = false;          ///< a .vcr source: play it once, then stop
+  std::string relay_tier = "volcast/jpeg";  ///< relay: the published tier taken from NATS
+  int welcome_timeout_ms = 10000;           ///< relay: wait this long for the site's Welcome
+  double from_s = 0, to_s = -1;             ///< a .vcr source: the part replayed (seconds in)
+  bool no_loop = false;                     ///< a .vcr source: play it once, then stop
 };
 int run_serve(const ServeArgs& args);
+/// `volcast relay`: a site's stream from NATS (--nats, --site, --tier) served to viewers with
+/// serve's server flags (cluster/relay.hpp).
+int run_relay(const ServeArgs& args);
+/// The server's security settings from the flags: TLS identity (made on first run), join token,
+/// policy limits, the browser page. Throws Error for --cert without --key or unreadable files.
+void apply_security(const ServeArgs& a, ServerConfig& config);
+/// The host for the join link: --link-host, else the bind address, else (bound to all
+/// addresses) this host's first non-loopback address.
+std::string link_host(const ServeArgs& a);
+/// The NATS connection of --nats, --nats-user and --nats-password-file, named `name` in the
+/// cluster's monitoring. Throws Error for an empty URL list or an unreadable password file.
+cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name);
 /// The browser viewer's page as the build or the install put it: share/volcast/web beside the
 /// executable (build/PRESET/share/volcast/web), else ../share/volcast/web from it. Throws Error
 /// naming both when neither holds an index.html.
@@ -221,6 +237,8 @@ struct BenchArgs {
   bool session = false;       ///< the session benchmark instead (uses server_seconds)
   bool record = false;        ///< the recording benchmark instead (server_seconds, server_repeats)
   bool low_latency = false;   ///< --session: hold the CPU wake-up latency at 0 (cpu_latency.hpp)
+  bool nats = false;          ///< the NATS cluster benchmark instead (server_seconds, viewers)
+  int relays = 2;             ///< --nats: relays the viewers are spread over
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
@@ -230,6 +248,14 @@ int run_bench(const BenchArgs& args);
 /// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, send_cpu_percent (the threads
 /// serving viewers), send_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs, send_tls_over_tcp,
 /// send_tls_over_tcp_runs}]} to args.json if set (ratios on TLS rows: the median of each pair's).
+/// The stream through a 3-node nats-server cluster (started here, loopback) and `relays` relays to
+/// receive-only TLS viewers (args.viewers, default 50), against the same viewers on the site's
+/// own server: the real two-camera site at 30 fps, tier volcast/jpeg, then one node killed (relay
+/// 0's). Prints a table and writes {"nats": [{viewers, relays, nats_nodes, fps_min,
+/// latency_ms_p50, latency_ms_p99, direct_fps_min, direct_latency_ms_p50, direct_latency_ms_p99,
+/// node_kill_max_gap_ms, node_kill_viewers_lost}]} to args.json if set. Latency: the site's
+/// capture to the viewer's read, one clock.
+int run_nats_bench(const BenchArgs& args);
 int run_server_bench(const BenchArgs& args);
 /// Draws the real four-camera set with CameraRenderer, headless: splats and mesh, blended or not,
 /// 1/2/4 cameras, 1280x720 mono and 2x2160x2160 stereo; prints a table and writes {"render":

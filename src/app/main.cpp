@@ -33,15 +33,12 @@ void add_filter_flags(CLI::App* app, volcast::FilterFlags& f, bool with_backgrou
   app->add_flag("--kalman", f.kalman, "Per-pixel Kalman denoising with an innovation gate");
 }
 
-// The flags serve and replay share (replay has no cameras to filter: it takes them too and
-// refuses them when given).
-void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& kLowLatencyHelp) {
+// The flags of every command that serves viewers (serve, replay, relay): the port, pacing,
+// security, the browser page and the NATS account.
+void add_server_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& kLowLatencyHelp) {
   s->add_option("--port", serve.port, "TCP port")->capture_default_str();
   s->add_option("--bind", serve.bind, "Address to listen on (0.0.0.0 for remote viewers)")
       ->capture_default_str();
-  s->add_option("--fps", serve.fps, "Frame sets per second (default: the recordings' own rate)");
-  s->add_option("--intrinsics", serve.intrinsics,
-                "fx,fy,cx,cy for image sequences without intrinsics.json");
   s->add_option("--key-frame-interval", serve.key_frame_interval,
                 "Frames between temporal-codec key frames")
       ->capture_default_str();
@@ -58,13 +55,6 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
                 "Key frames made on request (joins, skips) at most this often per tier (ms)")
       ->capture_default_str();
   s->add_option("--seconds", serve.seconds, "Stop after this many seconds (default: until Ctrl-C)");
-  s->add_option("--max-read-failures", serve.max_read_failures,
-                "A camera whose frames fail to read this many times in a row is marked failed "
-                "(it repeats its last good frame; the others go on)")
-      ->capture_default_str();
-  s->add_option("--config", serve.config,
-                "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
-  add_filter_flags(s, serve.filters, true);
   s->add_flag("--low-latency", serve.low_latency, kLowLatencyHelp);
   s->add_flag("--insecure", serve.insecure,
               "Plain TCP instead of TLS 1.3 (allowed only with a loopback --bind)");
@@ -90,6 +80,30 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
   s->add_option("--max-pending-per-address", serve.max_pending_per_address,
                 "Handshakes in progress at once from one address")
       ->capture_default_str();
+  s->add_flag("--web", serve.web,
+              "Also serve the browser viewer (any headset's or laptop's browser, WebXR) on the "
+              "same port, and print its https:// link");
+  s->add_option("--web-root", serve.web_root,
+                "The browser viewer's folder (default: the one built or installed with volcast)");
+  s->add_option("--nats-user", serve.nats_user, "NATS user name (with --nats-password-file)");
+  s->add_option("--nats-password-file", serve.nats_password_file,
+                "A file whose first line is the NATS user's password");
+}
+
+// The flags serve and replay share (replay has no cameras to filter: it takes them too and
+// refuses them when given).
+void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& kLowLatencyHelp) {
+  add_server_flags(s, serve, kLowLatencyHelp);
+  s->add_option("--fps", serve.fps, "Frame sets per second (default: the recordings' own rate)");
+  s->add_option("--intrinsics", serve.intrinsics,
+                "fx,fy,cx,cy for image sequences without intrinsics.json");
+  s->add_option("--max-read-failures", serve.max_read_failures,
+                "A camera whose frames fail to read this many times in a row is marked failed "
+                "(it repeats its last good frame; the others go on)")
+      ->capture_default_str();
+  s->add_option("--config", serve.config,
+                "Site config JSON: {\"cameras\": [{\"source\", \"intrinsics\", \"filters\"}]}");
+  add_filter_flags(s, serve.filters, true);
   s->add_option("--session", serve.sessions,
                 "Virtual-OR sessions to open at start (repeat; participants may open more)")
       ->capture_default_str();
@@ -108,11 +122,6 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
                 "Triangle budget per case part made from a label volume")
       ->check(CLI::Range(1000, 5000000))
       ->capture_default_str();
-  s->add_flag("--web", serve.web,
-              "Also serve the browser viewer (any headset's or laptop's browser, WebXR) on the "
-              "same port, and print its https:// link");
-  s->add_option("--web-root", serve.web_root,
-                "The browser viewer's folder (default: the one built or installed with volcast)");
   s->add_option("--record", serve.record,
                 "Also record one tier of the stream to this file (.vcr, append-only, survives "
                 "a kill; see `volcast record`)");
@@ -128,9 +137,6 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
   s->add_option("--nats-site", serve.nats_site,
                 "The site's name in NATS subjects (volcast.SITE.tier...; A-Z a-z 0-9 _ -)")
       ->capture_default_str();
-  s->add_option("--nats-user", serve.nats_user, "NATS user name (with --nats-password-file)");
-  s->add_option("--nats-password-file", serve.nats_password_file,
-                "A file whose first line is the NATS user's password");
   s->add_option("--from", serve.from_s, "A recording (.vcr) source: start this many seconds in")
       ->capture_default_str();
   s->add_option("--to", serve.to_s,
@@ -173,6 +179,23 @@ int main(int argc, char** argv) {
       "replay", "Serve a recording (.vcr) to viewers, paced as recorded, looping (serve's flags)");
   rp->add_option("file", replay.sources, "Volcast recording (.vcr)")->required()->expected(1);
   add_serve_flags(rp, replay, kLowLatencyHelp);
+  ServeArgs relay;
+  auto* rl = app.add_subcommand(
+      "relay",
+      "Serve a site's stream taken from a NATS cluster (serve --nats publishes it): as many "
+      "relays as you like, on any machines; viewers need only a relay's link");
+  rl->add_option("--nats", relay.nats, "The NATS cluster: URL[,URL...] (e.g. nats://HOST:4222)")
+      ->required();
+  rl->add_option("--site", relay.nats_site, "The site to relay (serve's --nats-site)")
+      ->capture_default_str();
+  rl->add_option("--tier", relay.relay_tier,
+                 "The published tier to take (one of serve's --nats-tier): DEPTH/COLOR[/QUALITY]; "
+                 "its viewers get the site's bytes, other tiers are encoded here")
+      ->capture_default_str();
+  rl->add_option("--welcome-timeout", relay.welcome_timeout_ms,
+                 "Give up unless the site's Welcome arrives this soon (ms)")
+      ->capture_default_str();
+  add_server_flags(rl, relay, kLowLatencyHelp);
 
   ViewArgs view;
   auto* v =
@@ -346,7 +369,14 @@ int main(int argc, char** argv) {
   bn->add_option("--server-repeats", bench.server_repeats,
                  "With --server: TCP/TLS pairs run per configuration, interleaved; medians shown")
       ->capture_default_str();
-  bn->add_option("--viewers", bench.viewers, "With --server: viewer counts to run (repeat)");
+  bn->add_option("--viewers", bench.viewers,
+                 "With --server or --nats: viewer counts to run (repeat)");
+  bn->add_flag("--nats", bench.nats,
+               "Benchmark the stream through a 3-node NATS cluster (nats-server, started here) "
+               "and relays to --viewers viewers (default 50), against the site's own server "
+               "(--server-seconds each)");
+  bn->add_option("--relays", bench.relays, "With --nats: relays the viewers are spread over")
+      ->capture_default_str();
   bn->add_flag("--session", bench.session,
                "Session benchmark instead: pose round trip, pose rates, camera avatars, server CPU "
                "per participant (--server-seconds each)");
@@ -464,6 +494,7 @@ int main(int argc, char** argv) {
     if (*d) return run_demo(demo);
     if (*i) return run_info(info);
     if (*rp) return run_serve(replay);
+    if (*rl) return run_relay(relay);
     if (*rc) return run_record(record);
     if (*ex) return run_export(export_args);
     if (*c) return run_calibrate(calibrate);
@@ -471,9 +502,12 @@ int main(int argc, char** argv) {
     if (*f) return run_filter(filter);
     if (*b) return run_background(background);
     if (*bn) {
-      if (int(bench.server) + int(bench.render) + int(bench.session) + int(bench.record) > 1)
-        throw Error("bench: --server, --render, --session and --record are separate runs");
-      return bench.server    ? run_server_bench(bench)
+      if (int(bench.server) + int(bench.render) + int(bench.session) + int(bench.record) +
+              int(bench.nats) >
+          1)
+        throw Error("bench: --server, --render, --session, --record and --nats are separate runs");
+      return bench.nats      ? run_nats_bench(bench)
+             : bench.server  ? run_server_bench(bench)
              : bench.render  ? run_render_bench(bench)
              : bench.session ? run_session_bench(bench)
              : bench.record  ? run_record_bench(bench)

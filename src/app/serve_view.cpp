@@ -96,56 +96,6 @@ void load_site(const ServeArgs& a, std::vector<std::unique_ptr<FrameSource>>& so
   }
 }
 
-// The server's security settings from the flags: TLS identity (made on first run), join token,
-// policy limits. Logs where the identity comes from.
-void apply_security(const ServeArgs& a, ServerConfig& config) {
-  config.insecure = a.insecure;
-  if (!a.insecure) {
-    if (a.cert.empty() != a.key.empty()) throw Error("serve: --cert and --key go together");
-    if (!a.cert.empty()) {
-      config.identity = load_identity(a.cert, a.key);
-    } else {
-      const auto dir = user_config_dir() / "server";
-      bool created = false;
-      config.identity = load_or_create_identity(dir, &created);
-      if (created)
-        spdlog::info("made a self-signed TLS certificate in {} (kept for later runs)",
-                     dir.string());
-    }
-  }
-  if (!a.token_file.empty()) config.token = read_token_file(a.token_file);
-  config.offered_tiers = a.tiers;
-  config.handshake_timeout_ms = a.handshake_timeout_ms;
-  config.max_pending = a.max_pending;
-  config.max_pending_per_address = a.max_pending_per_address;
-  if (a.web || !a.web_root.empty())
-    config.web_root = a.web_root.empty() ? web_root_default() : std::filesystem::path(a.web_root);
-}
-
-// The host for the join link: --link-host, else the bind address, else (bound to all addresses)
-// this host's first non-loopback address.
-std::string link_host(const ServeArgs& a) {
-  if (!a.link_host.empty()) return a.link_host;
-  const std::string bound = resolve_bind_address(a.bind);
-  if (bound != "0.0.0.0" && bound != "::") return a.bind;
-  ifaddrs* list = nullptr;
-  std::string found = "HOST";
-  if (::getifaddrs(&list) == 0) {
-    for (ifaddrs* i = list; i; i = i->ifa_next) {
-      if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET) continue;
-      char text[INET_ADDRSTRLEN];
-      const auto* in = reinterpret_cast<const sockaddr_in*>(i->ifa_addr);
-      if (!inet_ntop(AF_INET, &in->sin_addr, text, sizeof text)) continue;
-      if (std::string(text).starts_with("127.")) continue;
-      found = text;
-      break;
-    }
-    ::freeifaddrs(list);
-  }
-  return found;
-}
-
-// The draw pass settings the view flags give, shared by the window, the headset and headless.
 CameraPassOptions pass_options(const ViewArgs& a) {
   CameraPassOptions pass;
   pass.surface = parse_surface(a.surface);
@@ -260,6 +210,57 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
 
 }  // namespace
 
+// The server's security settings from the flags: TLS identity (made on first run), join token,
+// policy limits. Logs where the identity comes from.
+void apply_security(const ServeArgs& a, ServerConfig& config) {
+  config.insecure = a.insecure;
+  if (!a.insecure) {
+    if (a.cert.empty() != a.key.empty()) throw Error("serve: --cert and --key go together");
+    if (!a.cert.empty()) {
+      config.identity = load_identity(a.cert, a.key);
+    } else {
+      const auto dir = user_config_dir() / "server";
+      bool created = false;
+      config.identity = load_or_create_identity(dir, &created);
+      if (created)
+        spdlog::info("made a self-signed TLS certificate in {} (kept for later runs)",
+                     dir.string());
+    }
+  }
+  if (!a.token_file.empty()) config.token = read_token_file(a.token_file);
+  config.offered_tiers = a.tiers;
+  config.handshake_timeout_ms = a.handshake_timeout_ms;
+  config.max_pending = a.max_pending;
+  config.max_pending_per_address = a.max_pending_per_address;
+  if (a.web || !a.web_root.empty())
+    config.web_root = a.web_root.empty() ? web_root_default() : std::filesystem::path(a.web_root);
+}
+
+// The host for the join link: --link-host, else the bind address, else (bound to all addresses)
+// this host's first non-loopback address.
+std::string link_host(const ServeArgs& a) {
+  if (!a.link_host.empty()) return a.link_host;
+  const std::string bound = resolve_bind_address(a.bind);
+  if (bound != "0.0.0.0" && bound != "::") return a.bind;
+  ifaddrs* list = nullptr;
+  std::string found = "HOST";
+  if (::getifaddrs(&list) == 0) {
+    for (ifaddrs* i = list; i; i = i->ifa_next) {
+      if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET) continue;
+      char text[INET_ADDRSTRLEN];
+      const auto* in = reinterpret_cast<const sockaddr_in*>(i->ifa_addr);
+      if (!inet_ntop(AF_INET, &in->sin_addr, text, sizeof text)) continue;
+      if (std::string(text).starts_with("127.")) continue;
+      found = text;
+      break;
+    }
+    ::freeifaddrs(list);
+  }
+  return found;
+}
+
+// The draw pass settings the view flags give, shared by the window, the headset and headless.
+
 std::filesystem::path web_root_default() {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -293,6 +294,19 @@ static std::string read_first_line(const std::string& path, const char* flag) {
     throw Error(std::string(flag) + ": cannot read a first line from '" + path + "'");
   if (!line.empty() && line.back() == '\r') line.pop_back();
   return line;
+}
+
+cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name) {
+  cluster::NatsOptions o;
+  o.urls = cluster::parse_nats_urls(a.nats);
+  o.name = name;
+  if (!a.nats_user.empty()) {
+    o.user = a.nats_user;
+    o.password = read_first_line(a.nats_password_file, "--nats-password-file");
+  } else if (!a.nats_password_file.empty()) {
+    throw Error("--nats-password-file goes with --nats-user");
+  }
+  return o;
 }
 
 // Whether serve's sources are one Volcast recording (replayed as recorded). Throws Error when a
@@ -400,14 +414,7 @@ int run_serve(const ServeArgs& a) {
   }
   // The stream on a NATS cluster: one more consumer of each published tier's encoding.
   if (!a.nats.empty()) {
-    cluster::NatsOptions o;
-    o.urls = cluster::parse_nats_urls(a.nats);
-    o.name = "volcast serve " + a.nats_site;
-    if (!a.nats_user.empty()) {
-      o.user = a.nats_user;
-      o.password = read_first_line(a.nats_password_file, "--nats-password-file");
-    }
-    nats.emplace(o);
+    nats.emplace(nats_options(a, "volcast serve " + a.nats_site));
     publisher.emplace(*nats, a.nats_site, protocol::Welcome{for_viewers, wall_clock_us()});
     for (const std::string& t : a.nats_tiers) {
       const auto [depth, color, quality] = parse_tier(t, "--nats-tier");

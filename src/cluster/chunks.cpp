@@ -93,11 +93,16 @@ bool Reassembler::add(std::span<const uint8_t> m) {
     }
   }
   if (per == 0 || static_cast<uint64_t>(index) * per != offset) return refuse();
-  if (started_ && (sequence < sequence_ || (sequence == sequence_ && !active_))) {
+  // A publisher that restarted counts from 1 again: the first chunk of a key frame set below
+  // the current sequence starts over (NATS keeps one publisher's order, so nothing else is).
+  const bool restart = started_ && sequence < sequence_ && (flags & 1) != 0 && index == 0;
+  if (restart) {
+    ++stats_.restarts;
+  } else if (started_ && (sequence < sequence_ || (sequence == sequence_ && !active_))) {
     ++stats_.stale;  // older, or of the frame set already delivered
     return false;
   }
-  if (!active_ || sequence > sequence_) {
+  if (restart || !active_ || sequence > sequence_) {
     if (active_) ++stats_.incomplete;
     started_ = active_ = true;
     sequence_ = sequence;

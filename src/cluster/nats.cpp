@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <mutex>
 
 #include "volcast/core/error.hpp"
 
@@ -69,13 +70,20 @@ std::vector<std::string> parse_nats_urls(const std::string& list) {
   return urls;
 }
 
-struct NatsConnection::Impl {
-  natsConnection* nc = nullptr;
-};
-
 struct NatsConnection::Subscription::Impl {
   natsSubscription* sub = nullptr;
   Handler handler;
+  std::mutex calling;   // held while the handler runs
+  bool closed = false;  // under `calling`: the handler is never called again
+};
+
+struct NatsConnection::Impl {
+  natsConnection* nc = nullptr;
+  std::mutex mutex;
+  // Subscriptions unsubscribed but not destroyed: libnats 3.4 (Debian 12) may still be handing
+  // one an inbound message on its read loop when another thread destroys it (nats.c#637, fixed
+  // in 3.6), so they are destroyed with the connection, after its read loop has stopped.
+  std::vector<std::shared_ptr<Subscription::Impl>> retired;
 };
 
 NatsConnection::NatsConnection(const NatsOptions& o) : impl_(std::make_unique<Impl>()) {
@@ -89,6 +97,7 @@ NatsConnection::NatsConnection(const NatsOptions& o) : impl_(std::make_unique<Im
   if (s == NATS_OK) s = natsOptions_SetTimeout(opts, o.connect_timeout_ms);
   if (s == NATS_OK) s = natsOptions_SetMaxReconnect(opts, -1);  // keep trying: a node may return
   if (s == NATS_OK) s = natsOptions_SetReconnectWait(opts, 250);
+  if (s == NATS_OK && o.in_order) s = natsOptions_SetNoRandomize(opts, true);
   if (s == NATS_OK && (!o.user.empty() || !o.password.empty()))
     s = natsOptions_SetUserInfo(opts, o.user.c_str(), o.password.c_str());
   if (s == NATS_OK) s = natsConnection_Connect(&impl_->nc, opts);
@@ -98,10 +107,10 @@ NatsConnection::NatsConnection(const NatsOptions& o) : impl_(std::make_unique<Im
 }
 
 NatsConnection::~NatsConnection() {
-  if (impl_->nc) {
-    natsConnection_Close(impl_->nc);
-    natsConnection_Destroy(impl_->nc);
-  }
+  if (!impl_->nc) return;
+  natsConnection_Close(impl_->nc);
+  for (const auto& r : impl_->retired) natsSubscription_Destroy(r->sub);
+  natsConnection_Destroy(impl_->nc);
 }
 
 size_t NatsConnection::max_payload() const {
@@ -117,16 +126,26 @@ void NatsConnection::publish(const std::string& subject, std::span<const uint8_t
   if (s != NATS_OK) throw Error("NATS: cannot publish on " + subject + ": " + reason(s));
 }
 
+std::string NatsConnection::connected_url() const {
+  char url[512] = {0};
+  if (natsConnection_GetConnectedUrl(impl_->nc, url, sizeof url) != NATS_OK) return "";
+  return url;
+}
+
 void NatsConnection::flush(int64_t timeout_ms) {
   const natsStatus s = natsConnection_FlushTimeout(impl_->nc, timeout_ms);
   if (s != NATS_OK) throw Error("NATS: flush: " + reason(s));
 }
 
 NatsConnection::Subscription::~Subscription() {
-  if (impl_ && impl_->sub) {
-    natsSubscription_Unsubscribe(impl_->sub);
-    natsSubscription_Destroy(impl_->sub);
+  if (!impl_ || !impl_->sub) return;
+  natsSubscription_Unsubscribe(impl_->sub);
+  {
+    std::lock_guard lock(impl_->calling);  // waits for a handler call in progress
+    impl_->closed = true;
   }
+  std::lock_guard lock(owner_->mutex);
+  owner_->retired.push_back(std::move(impl_));
 }
 
 int64_t NatsConnection::Subscription::dropped() const {
@@ -138,14 +157,17 @@ int64_t NatsConnection::Subscription::dropped() const {
 std::unique_ptr<NatsConnection::Subscription> NatsConnection::subscribe(const std::string& subject,
                                                                         Handler handler) {
   std::unique_ptr<Subscription> out(new Subscription);
-  out->impl_ = std::make_unique<Subscription::Impl>();
+  out->impl_ = std::make_shared<Subscription::Impl>();
+  out->owner_ = impl_.get();
   out->impl_->handler = std::move(handler);
   const auto on_message = [](natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
     auto* self = static_cast<Subscription::Impl*>(closure);
     const auto* data = reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg));
     try {  // nothing may escape into libnats' thread
-      self->handler(natsMsg_GetSubject(msg),
-                    {data, static_cast<size_t>(std::max(natsMsg_GetDataLength(msg), 0))});
+      std::lock_guard lock(self->calling);
+      if (!self->closed)
+        self->handler(natsMsg_GetSubject(msg),
+                      {data, static_cast<size_t>(std::max(natsMsg_GetDataLength(msg), 0))});
     } catch (const std::exception& e) {
       spdlog::warn("NATS: a message on {} was dropped: {}", natsMsg_GetSubject(msg), e.what());
     }

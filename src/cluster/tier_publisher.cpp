@@ -53,7 +53,7 @@ void TierPublisher::publish_tier(Server& server, const std::string& depth_codec,
         std::lock_guard lock(mutex_);
         try {
           uint64_t chunks = 0;
-          chunk_frame_set({f.sequence, f.capture_us, f.key, f.body}, max_message, scratch_,
+          chunk_frame_set({f.index, f.capture_us, f.key, f.body}, max_message, scratch_,
                           [&](std::span<const uint8_t> m) {
                             nats_.publish(subject, m);
                             ++chunks;

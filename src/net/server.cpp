@@ -271,7 +271,7 @@ struct Server::Impl {
       }
       lock.unlock();
       const TierFrameSet f{encoded->sequence, encoded->key, encoded->capture_us, encoded->body,
-                           encoded};
+                           encoded, encoded->index};
       for (const auto& tap : taps) (*tap)(f);
     }
   }

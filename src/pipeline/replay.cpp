@@ -10,7 +10,10 @@
 namespace volcast {
 
 ReplayPlayer::ReplayPlayer(const std::filesystem::path& path, ReplayOptions options)
-    : reader_(path), decoder_(reader_), options_(options) {
+    : reader_(path),
+      decoder_(reader_),
+      options_(options),
+      buffers_(reader_.info().stream.welcome.cameras.size()) {
   const auto& sets = reader_.info().frame_sets;
   if (sets.empty()) throw Error("replay " + path.string() + ": the recording holds no frame sets");
   const int64_t t0 = sets.front().capture_us;
@@ -30,7 +33,6 @@ ReplayPlayer::ReplayPlayer(const std::filesystem::path& path, ReplayOptions opti
                 std::to_string(options.from_s) + " s and " +
                 (options.to_s < 0 ? std::string("the end") : std::to_string(options.to_s) + " s") +
                 " (the recording lasts " + std::to_string(at(sets.size() - 1)) + " s)");
-  buffers_.resize(reader_.info().stream.welcome.cameras.size());
 }
 
 ReplayPlayer::~ReplayPlayer() {
@@ -97,16 +99,7 @@ void ReplayPlayer::run(const Publish& publish) {
       // Each camera's images go to a recycled frame no published frame set holds any more, whose
       // old buffers the next decode reuses (decoders keep their own references).
       for (size_t i = 0; i < n; ++i) {
-        std::shared_ptr<CameraFrame> f;
-        for (auto& b : buffers_[i])
-          if (b.use_count() == 1) {
-            f = b;
-            break;
-          }
-        if (!f) {
-          f = std::make_shared<CameraFrame>();
-          if (buffers_[i].size() < 16) buffers_[i].push_back(f);
-        }
+        std::shared_ptr<CameraFrame> f = buffers_.take(i);
         std::swap(decoded.cameras[i], *f);
         frames->cameras.push_back(std::move(f));
       }

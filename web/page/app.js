@@ -128,7 +128,10 @@ function moveHeld(roomFromHand, turn = 0) {
   if (!holding) return;
   const o = session.objects[holding.object];
   if (!o || !session.joined || o.owner !== session.joined.id) return;
-  if (turn) holding.handFromObject = M.multiply(holding.handFromObject, M.rotationY(turn));
+  if (turn) {
+    holding.handFromObject = M.multiply(holding.handFromObject, M.rotationY(turn));
+    if (state.case) state.case.turnedRad = (state.case.turnedRad || 0) + turn;  // for tests
+  }
   session.move(holding.object, M.toPose(M.multiply(roomFromHand, holding.handFromObject)));
 }
 

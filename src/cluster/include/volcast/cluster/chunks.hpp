@@ -5,7 +5,8 @@
 // Wire format of one chunk (all integers little-endian), as published:
 //   offset size
 //        0    4  magic "VCK1"
-//        4    8  sequence: the tier's frame set sequence (uint64)
+//        4    8  sequence: the tier's frame set number (uint64; 1, 2, ... from the publisher's
+//                start: a delta decodes after sequence - 1)
 //       12    8  capture_us: the sender's wall clock at capture (int64, µs since the Unix epoch)
 //       20    4  total: the frame set body's size in bytes (uint32, 1..max_body_bytes)
 //       24    4  offset: where this chunk's bytes go in the body (uint32)
@@ -48,11 +49,13 @@ struct ReassemblyStats {
   uint64_t incomplete = 0;  ///< frame sets abandoned for a newer one before all chunks came
   uint64_t stale = 0;       ///< chunks of a frame set older than the one being assembled
   uint64_t malformed = 0;   ///< chunks refused: bad magic, sizes or fields that disagree
+  uint64_t restarts = 0;    ///< the publisher started over (a key frame set below the sequence)
 };
 
 /// Puts chunks back together, one frame set at a time (NATS delivers a publisher's messages in
 /// order; a chunk of a newer frame set abandons the one in progress; chunks of older or already
-/// delivered frame sets are stale). A chunk must sit where its index says (index x the chunk
+/// delivered frame sets are stale, except the first chunk of a key frame set: the publisher
+/// restarted and counts from 1 again). A chunk must sit where its index says (index x the chunk
 /// size, every chunk but the last full), so a completed body is covered exactly once. Every
 /// peer-supplied size is checked against `max_body_bytes` before anything is allocated; a malformed
 /// chunk is counted and dropped, never thrown.

@@ -29,12 +29,17 @@ struct NatsOptions {
   std::string name = "volcast";   ///< the connection's name in the server's monitoring
   std::string user, password;     ///< both empty: no authentication
   int64_t connect_timeout_ms = 2000;
+  /// Try `urls` in the order given (a relay placed on one node), else in random order (libnats'
+  /// default: clients spread over the cluster).
+  bool in_order = false;
 };
 
 /// Splits "URL[,URL...]" into urls. Throws Error for an empty list or URL.
 std::vector<std::string> parse_nats_urls(const std::string& list);
 
 class NatsConnection {
+  struct Impl;
+
  public:
   /// Connects to one of `o.urls` (reconnecting to any of them, forever, if the link drops).
   /// Throws Error with libnats' reason (e.g. "No server available for connection") and the URLs.
@@ -47,11 +52,15 @@ class NatsConnection {
   size_t max_payload() const;
   /// Publishes `data` on `subject` (buffered; flush() waits for the server). Throws Error.
   void publish(const std::string& subject, std::span<const uint8_t> data);
+  /// The URL of the server this connection uses now; empty while reconnecting.
+  std::string connected_url() const;
   /// Waits until the server has everything published so far (at most `timeout_ms`). Throws Error.
   void flush(int64_t timeout_ms = 2000);
 
-  /// A subscription; unsubscribes when destroyed. The callback runs on libnats' thread for the
-  /// subscription, one message at a time, in order; the span is valid during the call.
+  /// A subscription. The callback runs on libnats' thread for the subscription, one message at a
+  /// time, in order; the span is valid during the call. Destroying it unsubscribes and waits for
+  /// a callback in progress: the callback is never called after. Destroy it before its
+  /// connection (whose destructor frees what libnats still holds of it).
   class Subscription {
    public:
     ~Subscription();
@@ -64,14 +73,14 @@ class NatsConnection {
     friend class NatsConnection;
     Subscription() = default;
     struct Impl;
-    std::unique_ptr<Impl> impl_;
+    std::shared_ptr<Impl> impl_;
+    NatsConnection::Impl* owner_ = nullptr;
   };
   using Handler = std::function<void(const std::string& subject, std::span<const uint8_t> data)>;
   /// Subscribes to `subject` (wildcards allowed). Throws Error (e.g. not permitted).
   std::unique_ptr<Subscription> subscribe(const std::string& subject, Handler handler);
 
  private:
-  struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 

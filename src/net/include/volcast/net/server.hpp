@@ -144,11 +144,14 @@ struct TierReport {
 /// One frame set of a tier as encoded, for a consumer other than a viewer (a recorder): the
 /// FrameSet body (protocol.hpp 1.1) every viewer of the tier was sent, byte for byte.
 struct TierFrameSet {
-  uint64_t sequence = 0;
+  uint64_t sequence = 0;             ///< the site's frame-set sequence
   bool key = false;                  ///< every camera decodes on its own
   int64_t capture_us = 0;            ///< the server's wall clock (us)
   std::span<const uint8_t> body;     ///< valid while `keep` is held
   std::shared_ptr<const void> keep;  ///< holds the body's buffer (the tier reuses it once freed)
+  /// The tier's own count, 1, 2, ...: a delta decodes after the frame set index - 1 (the tier
+  /// skips site frame sets when it falls behind, so sequences may jump where indices do not).
+  uint64_t index = 0;
 };
 
 class Server {

@@ -9,6 +9,7 @@
 #include <thread>
 #include <vector>
 
+#include "volcast/core/frame_pool.hpp"
 #include "volcast/net/server.hpp"
 #include "volcast/record/decode.hpp"
 #include "volcast/record/recording.hpp"
@@ -56,7 +57,7 @@ class ReplayPlayer {
   RecordingDecoder decoder_;
   ReplayOptions options_;
   size_t first_ = 0, last_ = 0;  // the selected frame sets [first_, last_]
-  std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers_;  // per camera, recycled
+  FramePool buffers_;            // per camera, recycled
   std::thread thread_;
   std::atomic<bool> stop_{false}, finished_{false};
   std::atomic<uint64_t> published_{0}, skipped_{0};

@@ -6,9 +6,8 @@
 #include <span>
 #include <vector>
 
-#include "volcast/codec/color_codec.hpp"
-#include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/frame.hpp"
+#include "volcast/net/frame_set_decoder.hpp"
 #include "volcast/net/protocol.hpp"
 #include "volcast/record/recording.hpp"
 
@@ -32,19 +31,16 @@ class RecordingDecoder {
   /// The encoded body of the frame set decode() last read (protocol.hpp FrameSet 1.1 body).
   std::span<const uint8_t> body() const { return std::span(message_).subspan(8); }
   /// The parsed view of body(): per camera depth and color streams.
-  const protocol::FrameSetView& view() const { return view_; }
+  const protocol::FrameSetView& view() const { return frames_.view(); }
   /// True if both codecs are temporal-free: every frame set decodes on its own.
-  bool stateless() const { return stateless_; }
+  bool stateless() const { return frames_.stateless(); }
 
  private:
   void decode_one(size_t k, FrameSet& out);
   RecordingReader& reader_;
-  std::vector<std::unique_ptr<DepthDecoder>> depth_;
-  std::vector<std::unique_ptr<ColorDecoder>> color_;
+  FrameSetDecoder frames_;
   std::vector<uint8_t> message_;  // 8 bytes (a FrameSet's send time, 0) then the body
-  protocol::FrameSetView view_;
   FrameSet scratch_;
-  bool stateless_ = false;
   size_t last_ = static_cast<size_t>(-1);  // the frame set the decoders hold state for
 };
 

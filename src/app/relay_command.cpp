@@ -1,0 +1,83 @@
+// volcast relay: a site's stream taken from a NATS cluster and served to viewers (issue 17).
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include "commands.hpp"
+#include "volcast/cluster/relay.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+
+int run_relay(const ServeArgs& a) {
+  const auto low_latency = hold_low_latency(a.low_latency);
+  cluster::RelayOptions o;
+  o.site = a.nats_site;
+  std::tie(o.depth_codec, o.color_codec, o.color_quality) = parse_tier(a.relay_tier, "--tier");
+  o.welcome_timeout_ms = a.welcome_timeout_ms;
+  apply_security(a, o.server);
+  o.server.bind_address = a.bind;
+  o.server.port = a.port;
+  o.server.key_frame_interval = a.key_frame_interval;
+  o.server.max_viewers = a.max_viewers;
+  o.server.max_window = a.max_window;
+  o.server.latency_budget_ms = a.latency_budget_ms;
+  o.server.min_key_interval_ms = a.min_key_interval_ms;
+  cluster::NatsConnection nats(nats_options(a, "volcast relay " + a.nats_site));
+  spdlog::info("relay: waiting for site '{}' on {}", a.nats_site, a.nats);
+  cluster::Relay relay(nats, o);
+  Server& server = relay.server();
+  for (size_t i = 0; i < relay.cameras().size(); ++i) {
+    const auto& k = relay.cameras()[i].calibration.depth;
+    spdlog::info("camera {}: {} ({}x{})", i, relay.cameras()[i].description, k.width, k.height);
+  }
+  spdlog::info("relaying on {}:{} ({}; Ctrl-C stops); viewers of {} get the site's own bytes",
+               a.bind, server.port(), a.insecure ? "plain TCP, loopback only" : "TLS 1.3",
+               a.relay_tier);
+  if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
+  std::printf("join link (give it only to the viewers of this session):\n  %s\n",
+              server.join_link(link_host(a)).c_str());
+  if (!o.server.web_root.empty())
+    std::printf("browser link (any headset's or laptop's browser; accept the certificate):\n  %s\n",
+                server.web_link(link_host(a)).c_str());
+  std::fflush(stdout);
+  const auto start = std::chrono::steady_clock::now();
+  auto last_report = start;
+  uint64_t last_frames = 0;
+  while (!g_interrupted) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const auto now = std::chrono::steady_clock::now();
+    if (a.seconds > 0 && now - start > std::chrono::duration<double>(a.seconds)) break;
+    if (now - last_report < std::chrono::seconds(5)) continue;
+    const double dt = std::chrono::duration<double>(now - last_report).count();
+    last_report = now;
+    int connected = 0;
+    for (const auto& v : server.viewers()) connected += v.connected;
+    const cluster::RelayStats st = relay.stats();
+    spdlog::info(
+        "{} frame sets relayed ({:.1f} fps), {} viewer(s) connected{}{}", st.frame_sets,
+        static_cast<double>(st.frame_sets - last_frames) / dt, connected,
+        st.undecodable ? fmt::format("; {} dropped ({})", st.undecodable, st.last_error) : "",
+        st.nats_dropped ? fmt::format("; NATS dropped {} (too slow)", st.nats_dropped) : "");
+    last_frames = st.frame_sets;
+  }
+  const cluster::RelayStats st = relay.stats();
+  std::printf(
+      "relayed %llu frame sets of site '%s' (%llu chunks malformed, %llu frame sets incomplete, "
+      "%llu dropped)\n",
+      static_cast<unsigned long long>(st.frame_sets), a.nats_site.c_str(),
+      static_cast<unsigned long long>(st.chunks.malformed),
+      static_cast<unsigned long long>(st.chunks.incomplete),
+      static_cast<unsigned long long>(st.undecodable));
+  for (const auto& v : server.viewers())
+    spdlog::info(
+        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} MB",
+        v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
+        static_cast<double>(v.bytes_sent) / 1e6);
+  return 0;
+}
+
+}  // namespace volcast

@@ -10,7 +10,6 @@
 #include <random>
 
 #include "hands_site.hpp"
-#include "nats_server.hpp"
 #include "test_data.hpp"
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/local_cluster.hpp"
@@ -180,7 +179,7 @@ TEST(NatsSubjects, SiteAndCodecNamesMustBeSubjectTokens) {
 // sent its viewers, and the Welcome names the camera.
 TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   const auto dir = test::temp_dir("nats_stream");
-  test::NatsServer nats_server(dir, "max_payload: 65536\n");
+  LocalNatsCluster nats_server(dir, 1, "max_payload: 65536");
   test::HandsSite site(30);
   std::mutex mutex;
   std::map<uint64_t, std::vector<uint8_t>> sent, received;
@@ -189,7 +188,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
     std::lock_guard lock(mutex);
     sent[f.index].assign(f.body.begin(), f.body.end());
   });
-  NatsConnection subscriber(nats_at(nats_server.url()));
+  NatsConnection subscriber(nats_at(nats_server.url(0)));
   Reassembler reassembler(64 << 20);
   bool first_key = false;
   auto tier = subscriber.subscribe(tier_subject("or", "volcast", "jpeg", 0),
@@ -204,7 +203,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
     std::lock_guard lock(mutex);
     welcome.assign(data.begin(), data.end());
   });
-  NatsConnection publisher_link(nats_at(nats_server.url()));
+  NatsConnection publisher_link(nats_at(nats_server.url(0)));
   EXPECT_EQ(publisher_link.max_payload(), 65536u);
   {
     TierPublisher publisher(publisher_link, "or", {site.player.cameras(), 0});
@@ -239,14 +238,14 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
 // password does not connect; each is an error that names what was refused.
 TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {
   const auto dir = test::temp_dir("nats_auth");
-  test::NatsServer nats_server(dir, R"(authorization {
+  LocalNatsCluster nats_server(dir, 1, R"(authorization {
   users = [
     {user: "server", password: "s3rver-pw", permissions: {publish: "volcast.>", subscribe: "_INBOX.>"}}
     {user: "student", password: "stud-pw", permissions: {publish: "_INBOX.>", subscribe: "volcast.lecture.>"}}
   ]
 }
 )");
-  NatsConnection student(nats_at(nats_server.url(), "student", "stud-pw"));
+  NatsConnection student(nats_at(nats_server.url(0), "student", "stud-pw"));
   EXPECT_NO_THROW(student.subscribe(tier_subject("lecture", "volcast", "jpeg", 0),
                                     [](const std::string&, auto) {}));
   const std::string refused = test::error_of([&] {
@@ -255,16 +254,16 @@ TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {
   EXPECT_NE(refused.find("volcast.or.tier.volcast.jpeg.0"), std::string::npos) << refused;
   EXPECT_NE(refused.find("ermission"), std::string::npos) << refused;
   const std::string wrong =
-      test::error_of([&] { NatsConnection c(nats_at(nats_server.url(), "student", "guess")); });
+      test::error_of([&] { NatsConnection c(nats_at(nats_server.url(0), "student", "guess")); });
   EXPECT_NE(wrong.find("cannot connect"), std::string::npos) << wrong;
-  EXPECT_NO_THROW(NatsConnection(nats_at(nats_server.url(), "server", "s3rver-pw")));
+  EXPECT_NO_THROW(NatsConnection(nats_at(nats_server.url(0), "server", "s3rver-pw")));
 }
 
 // The origin: the real hands site (one camera) publishing a tier on a nats-server (64 KiB
 // messages, so frame sets are chunked), and every frame set the tier encoded, by capture time.
 struct PublishedSite {
   std::filesystem::path dir;
-  std::optional<test::NatsServer> nats_server;
+  LocalNatsCluster nats_server;
   test::HandsSite site;
   std::optional<NatsConnection> link;
   std::optional<TierPublisher> publisher;
@@ -273,14 +272,12 @@ struct PublishedSite {
 
   PublishedSite(const std::string& name, const std::string& depth, const std::string& color,
                 ServerConfig config = {})
-      : dir(test::temp_dir(name)),
-        nats_server(std::in_place, dir, "max_payload: 65536\n"),
-        site(30, config) {
+      : dir(test::temp_dir(name)), nats_server(dir, 1, "max_payload: 65536"), site(30, config) {
     site.server.add_tier_tap(depth, color, 0, [this](const TierFrameSet& f) {
       std::lock_guard lock(mutex);
       sent[f.capture_us].assign(f.body.begin(), f.body.end());
     });
-    link.emplace(nats_at(nats_server->url()));
+    link.emplace(nats_at(nats_server.url(0)));
     publisher.emplace(*link, "or", protocol::Welcome{site.player.cameras(), 0});
     publisher->publish_tier(site.server, depth, color, 0);
   }
@@ -326,7 +323,7 @@ std::vector<uint8_t> as_message(std::span<const uint8_t> body) {
 // (rvl, lossless, encoded by the relay) decodes the same depth, pixel for pixel.
 TEST(Relay, ViewersOfARelayGetThePublishersBytesAndLosslessDepthBitExact) {
   PublishedSite origin("relay_exact", "volcast", "jpeg");
-  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  NatsConnection relay_link(nats_at(origin.nats_server.url(0)));
   RelayOptions o = relay_options();
   Relay relay(relay_link, o);
   ASSERT_EQ(relay.cameras().size(), 1u);
@@ -378,7 +375,7 @@ TEST(Relay, ALateViewerOfATemporalTierStartsAtAKeyFrameSet) {
   ServerConfig site_config;
   site_config.key_frame_interval = 20;
   PublishedSite origin("relay_late", "trvl", "jpeg", site_config);
-  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  NatsConnection relay_link(nats_at(origin.nats_server.url(0)));
   RelayOptions o = relay_options();
   o.depth_codec = "trvl";
   Relay relay(relay_link, o);
@@ -407,16 +404,15 @@ TEST(Relay, ALateViewerOfATemporalTierStartsAtAKeyFrameSet) {
 // stays connected and the stream resumes (libnats reconnects the site and the relay).
 TEST(Relay, AViewerOfARelayOutlivesANatsRestart) {
   PublishedSite origin("relay_restart", "volcast", "jpeg");
-  NatsConnection relay_link(nats_at(origin.nats_server->url()));
+  NatsConnection relay_link(nats_at(origin.nats_server.url(0)));
   RelayOptions o = relay_options();
   Relay relay(relay_link, o);
   Client viewer(viewer_of(relay, "volcast", "jpeg"));
   ReceivedFrameSet rx;
   for (int n = 0; n < 10; ++n) ASSERT_TRUE(viewer.receive(rx));
-  const int port = origin.nats_server->port();
-  origin.nats_server.reset();  // killed
+  origin.nats_server.kill(0);
   std::this_thread::sleep_for(1s);
-  origin.nats_server.emplace(origin.dir, "max_payload: 65536\n", port);
+  origin.nats_server.restart(0);
   const int64_t back = wall_clock_us();
   int after = 0;
   while (after < 10) {
@@ -432,8 +428,8 @@ TEST(Relay, AViewerOfARelayOutlivesANatsRestart) {
 
 TEST(Relay, WithoutTheSitesWelcomeItSaysWhatItWaitedFor) {
   const auto dir = test::temp_dir("relay_nobody");
-  test::NatsServer nats_server(dir);
-  NatsConnection link(nats_at(nats_server.url()));
+  LocalNatsCluster nats_server(dir, 1);
+  NatsConnection link(nats_at(nats_server.url(0)));
   RelayOptions o;
   o.site = "theatre2";
   o.welcome_timeout_ms = 300;
@@ -501,20 +497,20 @@ std::string join_link_in(const std::filesystem::path& log) {
 // view` with the relay's link.
 TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   const auto dir = test::temp_dir("relay_cli");
-  test::NatsServer nats_server(dir);
+  LocalNatsCluster nats_server(dir, 1);
   const std::string volcast =
       std::string("XDG_CONFIG_HOME=") + (dir / "config").string() + " " + VOLCAST_BINARY;
   std::string out;
   ASSERT_EQ(test::run_command(volcast + " serve --source " + test::hands_dir().string() +
                                   " --intrinsics 460,460,320,180 --fps 15 --seconds 90 --port 0 "
                                   "--nats " +
-                                  nats_server.url() + " --nats-site theatre1 > " +
+                                  nats_server.url(0) + " --nats-site theatre1 > " +
                                   (dir / "serve.log").string() + " 2>&1 & echo $!",
                               out),
             0);
   const std::string serve_pid = out.substr(0, out.find('\n'));
   ASSERT_FALSE(join_link_in(dir / "serve.log").empty());
-  ASSERT_EQ(test::run_command(volcast + " relay --nats " + nats_server.url() +
+  ASSERT_EQ(test::run_command(volcast + " relay --nats " + nats_server.url(0) +
                                   " --site theatre1 --seconds 90 --port 0 > " +
                                   (dir / "relay.log").string() + " 2>&1 & echo $!",
                               out),
@@ -540,7 +536,7 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   EXPECT_EQ(stats["cameras"][0]["frames_received"], 20);
   EXPECT_EQ(stats["cameras"][0]["description"], "camera 0") << "the site's name for it";
   // Nobody publishing that site: one line that says what the relay waited for.
-  EXPECT_NE(test::run_command(volcast + " relay --nats " + nats_server.url() +
+  EXPECT_NE(test::run_command(volcast + " relay --nats " + nats_server.url(0) +
                                   " --site theatre9 --welcome-timeout 300 --port 0",
                               out),
             0);

@@ -103,13 +103,11 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   a = scripted.due(&c, now, 6.0);
   ASSERT_EQ(a.size(), 1u);
   EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMove) << "held from when it was asked for (5 s)";
-  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 60,
-              1e-3);
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 60, 1e-3);
   a = scripted.due(&c, now, 7.5);
   ASSERT_EQ(a.size(), 1u);
   EXPECT_EQ(a[0].kind, ScriptAction::Kind::kRelease) << "held past its 2 s: let go";
-  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 120,
-              1e-3)
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 120, 1e-3)
       << "turned 60 degrees/s for the scripted 2 s, from where it was";
   EXPECT_TRUE(scripted.due(&c, now, 9).empty());
 }

@@ -92,9 +92,10 @@ int run_serve(const ServeArgs& args);
 /// `volcast relay`: a site's stream from NATS (--nats, --site, --tier) served to viewers with
 /// serve's server flags (cluster/relay.hpp).
 int run_relay(const ServeArgs& args);
-/// The server's security settings from the flags: TLS identity (made on first run), join token,
-/// policy limits, the browser page. Throws Error for --cert without --key or unreadable files.
-void apply_security(const ServeArgs& a, ServerConfig& config);
+/// The server's configuration from the flags serve, replay and relay share: address, pacing,
+/// TLS identity (made on first run), join token, policy limits, the browser page; warns when
+/// bound beyond loopback. Throws Error for --cert without --key or unreadable files.
+ServerConfig server_config(const ServeArgs& a);
 /// The host for the join link: --link-host, else the bind address, else (bound to all
 /// addresses) this host's first non-loopback address.
 std::string link_host(const ServeArgs& a);

@@ -18,14 +18,7 @@ int run_relay(const ServeArgs& a) {
   o.site = a.nats_site;
   std::tie(o.depth_codec, o.color_codec, o.color_quality) = parse_tier(a.relay_tier, "--tier");
   o.welcome_timeout_ms = a.welcome_timeout_ms;
-  apply_security(a, o.server);
-  o.server.bind_address = a.bind;
-  o.server.port = a.port;
-  o.server.key_frame_interval = a.key_frame_interval;
-  o.server.max_viewers = a.max_viewers;
-  o.server.max_window = a.max_window;
-  o.server.latency_budget_ms = a.latency_budget_ms;
-  o.server.min_key_interval_ms = a.min_key_interval_ms;
+  o.server = server_config(a);
   cluster::NatsConnection nats(nats_options(a, "volcast relay " + a.nats_site));
   spdlog::info("relay: waiting for site '{}' on {}", a.nats_site, a.nats);
   cluster::Relay relay(nats, o);

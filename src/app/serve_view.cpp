@@ -212,7 +212,7 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
 
 // The server's security settings from the flags: TLS identity (made on first run), join token,
 // policy limits. Logs where the identity comes from.
-void apply_security(const ServeArgs& a, ServerConfig& config) {
+static void apply_security(const ServeArgs& a, ServerConfig& config) {
   config.insecure = a.insecure;
   if (!a.insecure) {
     if (a.cert.empty() != a.key.empty()) throw Error("serve: --cert and --key go together");
@@ -260,6 +260,24 @@ std::string link_host(const ServeArgs& a) {
 }
 
 // The draw pass settings the view flags give, shared by the window, the headset and headless.
+
+ServerConfig server_config(const ServeArgs& a) {
+  ServerConfig config;
+  apply_security(a, config);
+  config.bind_address = a.bind;
+  config.port = a.port;
+  config.key_frame_interval = a.key_frame_interval;
+  config.max_viewers = a.max_viewers;
+  config.max_window = a.max_window;
+  config.latency_budget_ms = a.latency_budget_ms;
+  config.min_key_interval_ms = a.min_key_interval_ms;
+  if (!is_loopback_address(a.bind))
+    spdlog::warn(
+        "listening on {} beyond this host: anyone who can reach it can try to join; only "
+        "holders of the join link get in",
+        a.bind);
+  return config;
+}
 
 std::filesystem::path web_root_default() {
   namespace fs = std::filesystem;
@@ -368,20 +386,7 @@ int run_serve(const ServeArgs& a) {
   }
   std::vector<protocol::CameraInfo> for_viewers = cameras;  // names, never file paths
   for (size_t i = 0; i < cameras.size(); ++i) for_viewers[i].description = names[i];
-  ServerConfig config;
-  apply_security(a, config);
-  config.bind_address = a.bind;
-  config.port = a.port;
-  config.key_frame_interval = a.key_frame_interval;
-  config.max_viewers = a.max_viewers;
-  config.max_window = a.max_window;
-  config.latency_budget_ms = a.latency_budget_ms;
-  config.min_key_interval_ms = a.min_key_interval_ms;
-  if (!is_loopback_address(a.bind))
-    spdlog::warn(
-        "listening on {} beyond this host: anyone who can reach it can try to join; only "
-        "holders of the join link get in",
-        a.bind);
+  ServerConfig config = server_config(a);
   SessionHubConfig hub_config;
   hub_config.site_name = a.site_name;
   hub_config.presence_timeout_ms = a.presence_timeout_ms;

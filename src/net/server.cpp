@@ -270,8 +270,8 @@ struct Server::Impl {
         if (begun) taps.push_back(tap);
       }
       lock.unlock();
-      const TierFrameSet f{encoded->sequence, encoded->key, encoded->capture_us, encoded->body,
-                           encoded, encoded->index};
+      const TierFrameSet f{encoded->sequence, encoded->key, encoded->capture_us,
+                           encoded->body,     encoded,      encoded->index};
       for (const auto& tap : taps) (*tap)(f);
     }
   }

@@ -357,8 +357,8 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
       std::this_thread::sleep_for(20ms);
     }
   });
-  const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3", out, "--frames 20 --xr");
+  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3",
+                                    out, "--frames 20 --stall 4.5 --xr");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());
@@ -367,6 +367,9 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   EXPECT_EQ(page["xr"]["views"], 2) << "both eyes";
   EXPECT_GE(page["xr"]["frames"].get<int>(), 30);
   EXPECT_TRUE(page["session"]["joined"]);
+  // Its main thread was blocked for longer than the hub's 3 s presence timeout, and it stayed.
+  EXPECT_GE(page["stalledMs"].get<double>(), 4500.0);
+  EXPECT_EQ(s.hub.stats().timeouts, 0u);
   bool sees_native = false;
   int native_id = 0;
   for (const auto& o : page["session"]["others"])

@@ -551,7 +551,6 @@ function start() {
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
   worker.postMessage({type: 'start', url: `${scheme}//${location.host}/stream`, token, depth,
                       color, quality, check: params.get('check') === '1'});
-  setInterval(() => session.joined && session.heartbeat(), 1000);
   setupInput();
   requestAnimationFrame(desktopFrame);
 }

@@ -138,7 +138,6 @@ export class Session {
     this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).message(0x02));
   }
   leave() { this.send(new Writer().message(0x03)); }
-  heartbeat() { this.send(new Writer().message(0x09)); }
   teleport(spot) { this.send(new Writer().spot(spot).message(0x06)); }
 
   // Publishes the body (room frame: head, hands); every 4th pose asks for echoes.

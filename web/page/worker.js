@@ -10,6 +10,7 @@
 // Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
 //   ({check: true}: each decoded depth image's FNV-1a 32 hash is reported, for tests);
 //   {type: 'send', bytes (ArrayBuffer: a whole message, header included)}; {type: 'bench', runs}.
+//   Once the page sends a join, the worker sends the session heartbeat itself (presence below).
 // Messages to the page: {type: 'welcome', cameras: [{width, height, intrinsics (15 numbers),
 //   rotation (9, row-major), translation (3), name, rays (Float32Array, 2 per pixel)}],
 //   clockOffsetUs}; {type: 'frames', sequence, key, captureUs, cameras: [{depth (Uint16Array) |
@@ -47,6 +48,30 @@ let decoding = false;
 let clockOffsetUs = 0;
 
 const wallUs = () => (performance.timeOrigin + performance.now()) * 1000;
+
+// The session heartbeat (0x09, empty) goes from here once a second between the page's join (0x02)
+// and its leave (0x03), not from the page: a page whose main thread stalls for longer than the
+// server's presence timeout (3 s by default: a loaded headset, a big upload to the GPU) stays in
+// its session while its connection lives. The hub ignores a heartbeat outside a session.
+let heartbeat = 0;
+function presence(bytes) {
+  if (bytes.length < HEADER || bytes[6] !== 2) return;
+  if (bytes[7] === 0x02 && !heartbeat) {
+    heartbeat = setInterval(() => {
+      if (!socket || socket.readyState !== WebSocket.OPEN) return;
+      const beat = new Uint8Array(HEADER);
+      const v = new DataView(beat.buffer);
+      v.setUint32(0, MAGIC, true);
+      v.setUint16(4, VERSION, true);
+      v.setUint8(6, 2);
+      v.setUint8(7, 0x09);
+      socket.send(beat);
+    }, 1000);
+  } else if (bytes[7] === 0x03 && heartbeat) {
+    clearInterval(heartbeat);
+    heartbeat = 0;
+  }
+}
 
 function fail(what) {
   postMessage({type: 'error', what});
@@ -494,7 +519,10 @@ onmessage = async (e) => {
     return;
   }
   if (m.type === 'send') {
-    if (socket && socket.readyState === WebSocket.OPEN) socket.send(m.bytes);
+    if (socket && socket.readyState === WebSocket.OPEN) {
+      presence(new Uint8Array(m.bytes));
+      socket.send(m.bytes);
+    }
     return;
   }
   if (m.type !== 'start') return;

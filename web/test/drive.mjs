@@ -5,7 +5,9 @@
 // emulated head and controllers; the emulated right trigger teleports.
 //
 //   node drive.mjs --link URL --out DIR [--frames N] [--seconds S] [--xr] [--bench]
-//                  [--chromium PATH]
+//                  [--stall S] [--chromium PATH]
+// --stall: once the page has joined its session, blocks the page's main thread for S seconds
+// (page.json's stalledMs), then goes on.
 // --bench: then times the WebAssembly decoder on the newest frame (page.json's bench).
 // --case: then waits for the patient case, aims at object 0 and presses G (grab), holds X for a
 // second and 10 frames at least (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
@@ -65,6 +67,20 @@ try {
   while (Date.now() < deadline && s.phase !== 'error' &&
          (s.framesReceived < frames || s.framesDrawn < 1)) {
     await page.waitForTimeout(100);
+    s = await state();
+  }
+  const stall = Number(flag('--stall', '0'));
+  let stalledMs = 0;
+  if (stall > 0 && s.phase !== 'error') {
+    // The page's main thread blocked for S seconds once it is in a session, as a loaded headset
+    // or a long upload to the GPU might: it must stay in the session (the worker's heartbeat).
+    await page.waitForFunction(() => window.volcast.session.joined, null, {timeout: 60000});
+    stalledMs = await page.evaluate((ms) => {
+      const t0 = performance.now();
+      while (performance.now() - t0 < ms) {}
+      return performance.now() - t0;
+    }, stall * 1000);
+    await page.waitForTimeout(1500);
     s = await state();
   }
   if (xr && s.phase !== 'error') {
@@ -131,6 +147,7 @@ try {
   const shot = `${out}/${xr ? 'xr' : 'desktop'}.png`;
   await page.screenshot({path: shot});
   s.loadToFirstFrameMs = s.firstFrameMs;
+  s.stalledMs = stalledMs;
   s.console = console_;
   writeFileSync(`${out}/page.json`, JSON.stringify(s, null, 1));
   if (s.phase === 'error') console.error('page error: ' + s.error);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -208,6 +209,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   {
     TierPublisher publisher(publisher_link, "or", {site.player.cameras(), 0});
     publisher.publish_tier(site.server, "volcast", "jpeg", 0);
+    TierInterest want(subscriber, "or", "volcast", "jpeg", 0);  // published while wanted
     ASSERT_TRUE(test::eventually(
         [&] {
           std::lock_guard lock(mutex);
@@ -232,6 +234,52 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   ASSERT_EQ(w.cameras.size(), 1u);
   EXPECT_EQ(w.cameras[0].calibration.depth.width, 640);
   EXPECT_EQ(w.cameras[0].calibration.depth.height, 360);
+}
+
+// Publishing on demand: a tier nobody wants is not encoded at all; a subscriber's want starts it
+// (from a key frame set), and when the wants stop, so does the tier.
+TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
+  const auto dir = test::temp_dir("nats_demand");
+  LocalNatsCluster nats_server(dir, 1, "max_payload: 65536");
+  test::HandsSite site(30);
+  NatsConnection link(nats_at(nats_server.url(0)));
+  TierPublisher publisher(link, "or", {site.player.cameras(), 0}, 1000, 1000);
+  publisher.publish_tier(site.server, "trvl", "jpeg", 0);
+  std::this_thread::sleep_for(1500ms);
+  EXPECT_TRUE(site.server.tiers().empty()) << "nobody wants it: nothing is encoded";
+  EXPECT_EQ(publisher.stats().frame_sets, 0u);
+  NatsConnection subscriber(nats_at(nats_server.url(0)));
+  Reassembler reassembler(64 << 20);
+  std::atomic<int> complete{0};
+  std::atomic<bool> first_key{false};
+  auto tier = subscriber.subscribe(tier_subject("or", "trvl", "jpeg", 0),
+                                   [&](const std::string&, auto data) {
+                                     if (!reassembler.add(data)) return;
+                                     if (complete++ == 0) first_key = reassembler.done().key;
+                                   });
+  {
+    TierInterest want(subscriber, "or", "trvl", "jpeg", 0, 200);
+    ASSERT_TRUE(test::eventually([&] { return complete >= 20; }, 60s));
+    EXPECT_TRUE(first_key) << "a subscriber starts at a key frame set";
+    ASSERT_EQ(site.server.tiers().size(), 1u);
+    EXPECT_EQ(site.server.tiers()[0].depth_codec, "trvl");
+    const uint64_t keys = site.server.tiers()[0].key_frames;
+    want.request_key();  // a relay that lost a delta
+    EXPECT_TRUE(test::eventually(
+        [&] {
+          const auto t = site.server.tiers();
+          return !t.empty() && t[0].key_frames > keys;
+        },
+        60s))
+        << "a key frame set on request, before the interval's (60)";
+  }
+  EXPECT_TRUE(test::eventually([&] { return site.server.tiers().empty(); }, 60s))
+      << "nobody wants it any more: the tier stopped";
+  const PublisherStats st = publisher.stats();
+  EXPECT_EQ(st.starts, 1u);
+  EXPECT_EQ(st.stops, 1u);
+  EXPECT_GE(st.key_requests, 1u);
+  EXPECT_EQ(st.errors, 0u) << st.last_error;
 }
 
 // NATS authorization: a student's account may not subscribe to the OR's subjects, and a wrong

@@ -424,8 +424,8 @@ int run_serve(const ServeArgs& a) {
     for (const std::string& t : a.nats_tiers) {
       const auto [depth, color, quality] = parse_tier(t, "--nats-tier");
       publisher->publish_tier(server, depth, color, quality);
-      spdlog::info("publishing tier {} on NATS as {}", t,
-                   cluster::tier_subject(a.nats_site, depth, color, quality));
+      spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)",
+                   t, cluster::tier_subject(a.nats_site, depth, color, quality));
     }
   }
   if (replay)

@@ -57,6 +57,12 @@ std::string tier_subject(const std::string& site, const std::string& depth_codec
          std::to_string(color_quality);
 }
 
+std::string want_subject(const std::string& site, const std::string& depth_codec,
+                         const std::string& color_codec, int color_quality) {
+  std::string s = tier_subject(site, depth_codec, color_codec, color_quality);
+  return s.replace(s.find(".tier."), 6, ".want.");
+}
+
 std::vector<std::string> parse_nats_urls(const std::string& list) {
   std::vector<std::string> urls;
   size_t at = 0;

@@ -33,10 +33,13 @@ Relay::Relay(NatsConnection& nats, RelayOptions options)
   server_ = std::make_unique<Server>(cameras_, options_.server);
   tier_sub_ = nats_.subscribe(
       tier, [this](const std::string&, std::span<const uint8_t> data) { on_chunk(data); });
+  interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.depth_codec,
+                                             options_.color_codec, options_.color_quality);
   spdlog::info("relay: site '{}' ({} camera(s)) from {}", options_.site, cameras_.size(), tier);
 }
 
 Relay::~Relay() {
+  interest_.reset();
   tier_sub_.reset();  // no more frame sets (waits for a callback in progress)
   welcome_sub_.reset();
   if (server_) server_->stop();
@@ -101,6 +104,7 @@ void Relay::relay(const ChunkedFrameSet& f) {
   const bool follows = have_previous_ && f.sequence == previous_ + 1;
   if (!decoder_->stateless() && !f.key && !follows) {
     have_previous_ = false;
+    interest_->request_key();
     return drop("a delta without the frame set before it (waiting for a key frame set)");
   }
   auto frames = std::make_shared<CapturedFrameSet>();

@@ -80,7 +80,12 @@ struct Server::Impl {
     std::vector<const WakeFd*> subscribers;
     // Consumers that take every frame set (add_tier_tap), each with whether it has begun (at a
     // key frame set).
-    std::vector<std::pair<std::shared_ptr<std::function<void(const TierFrameSet&)>>, bool>> taps;
+    struct Tap {
+      uint64_t id = 0;
+      std::shared_ptr<std::function<void(const TierFrameSet&)>> fn;
+      bool begun = false;
+    };
+    std::vector<Tap> taps;
     bool key_wanted = true;
     bool stop = false;
     TierReport report;
@@ -104,6 +109,7 @@ struct Server::Impl {
   };
   std::list<Viewer> viewers;
   uint64_t next_viewer_id = 1;
+  uint64_t next_tap_id = 1;
   std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
   static constexpr size_t kEndedReportsKept = 256;
 
@@ -265,9 +271,9 @@ struct Server::Impl {
       for (const WakeFd* w : tier->subscribers) w->signal();
       if (tier->taps.empty()) continue;
       std::vector<std::shared_ptr<std::function<void(const TierFrameSet&)>>> taps;
-      for (auto& [tap, begun] : tier->taps) {
-        begun = begun || encoded->key;
-        if (begun) taps.push_back(tap);
+      for (auto& tap : tier->taps) {
+        tap.begun = tap.begun || encoded->key;
+        if (tap.begun) taps.push_back(tap.fn);
       }
       lock.unlock();
       const TierFrameSet f{encoded->sequence, encoded->key, encoded->capture_us,
@@ -530,13 +536,33 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   });
 }
 
-void Server::add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
-                          int color_quality, std::function<void(const TierFrameSet&)> tap) {
+uint64_t Server::add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
+                              int color_quality, std::function<void(const TierFrameSet&)> tap) {
   std::lock_guard lock(impl_->mutex);
   if (impl_->stopping) throw Error("server: stopped");
   auto tier = impl_->subscribe({depth_codec, color_codec, color_quality}, nullptr);
-  tier->taps.emplace_back(
-      std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false);
+  const uint64_t id = impl_->next_tap_id++;
+  tier->taps.push_back(
+      {id, std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false});
+  return id;
+}
+
+void Server::remove_tier_tap(uint64_t id) {
+  {
+    std::lock_guard lock(impl_->mutex);
+    for (const auto& tier : impl_->tiers)
+      std::erase_if(tier->taps, [id](const Impl::Tier::Tap& t) { return t.id == id; });
+    impl_->reap_finished();  // a tier nobody watches or taps any more stops encoding
+  }
+  impl_->join_retired();
+}
+
+void Server::request_key_frame(const std::string& depth_codec, const std::string& color_codec,
+                               int color_quality) {
+  std::lock_guard lock(impl_->mutex);
+  const detail::TierKey key{depth_codec, color_codec, color_quality};
+  for (const auto& tier : impl_->tiers)
+    if (tier->encoder.key() == key && !tier->stop) tier->key_wanted = true;
 }
 
 Server::~Server() {

@@ -6,6 +6,9 @@
 //   volcast.<site>.welcome                              the site's Welcome (protocol::serialize)
 //   volcast.<site>.tier.<depth>.<color>.<quality>       the tier's frame sets, as chunks
 //                                                       (chunks.hpp); quality 0 = codec default
+//   volcast.<site>.want.<depth>.<color>.<quality>       a subscriber wants the tier: 1 byte,
+//                                                       bit 0 = a key frame set, please; sent
+//                                                       every second while it does
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -22,6 +25,9 @@ void check_subject_token(const std::string& token, const std::string& what);
 std::string welcome_subject(const std::string& site);
 /// "volcast.<site>.tier.<depth>.<color>.<quality>"; codec names are tokens ("volcast-t", "jpeg").
 std::string tier_subject(const std::string& site, const std::string& depth_codec,
+                         const std::string& color_codec, int color_quality);
+/// "volcast.<site>.want.<depth>.<color>.<quality>" (tier_subject's tokens).
+std::string want_subject(const std::string& site, const std::string& depth_codec,
                          const std::string& color_codec, int color_quality);
 
 struct NatsOptions {

@@ -12,7 +12,9 @@
 // A frame set is decoded only when images are needed: a temporal tier (its decoders follow every
 // frame set, and a joining viewer's key frame set is made here from them), or a viewer on another
 // tier, which the relay encodes itself. While every viewer takes the published stateless tier
-// nothing is decoded, and the last decoded images stand in for a tier that begins meanwhile. A
+// nothing is decoded, and the last decoded images stand in for a tier that begins meanwhile. The
+// relay says it wants the tier (TierInterest) for as long as it runs, so the site publishes it,
+// and asks for a key frame set when it starts and whenever it lost a delta. A
 // relay whose NATS link drops keeps its viewers (libnats reconnects); the stream resumes with the
 // next frame set a viewer can decode (any frame set of a stateless tier, else the next key frame
 // set).
@@ -25,6 +27,7 @@
 
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/nats.hpp"
+#include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/frame_pool.hpp"
 #include "volcast/net/frame_set_decoder.hpp"
 #include "volcast/net/protocol.hpp"
@@ -96,6 +99,7 @@ class Relay {
   std::vector<std::shared_ptr<const CameraFrame>> last_images_;  // the last frame set decoded
   std::unique_ptr<Server> server_;
   std::unique_ptr<NatsConnection::Subscription> welcome_sub_, tier_sub_;
+  std::unique_ptr<TierInterest> interest_;  // tells the site the tier is wanted
 };
 
 }  // namespace volcast::cluster

@@ -200,10 +200,19 @@ class Server {
   /// called on the tier's thread with every frame set the tier encodes from its next key frame
   /// set on, in order, until stop(); the tier keeps encoding while the tap is there, viewers or
   /// none. `tap` must return quickly (queue the frame set and write it elsewhere: it holds up the
-  /// tier's viewers while it runs); it must not throw. Throws Error for an unknown codec or when
-  /// the server has max_tiers tiers already. Thread-safe.
-  void add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
-                    int color_quality, std::function<void(const TierFrameSet&)> tap);
+  /// tier's viewers while it runs); it must not throw. Returns the tap's id for remove_tier_tap.
+  /// Throws Error for an unknown codec or when the server has max_tiers tiers already.
+  /// Thread-safe.
+  uint64_t add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
+                        int color_quality, std::function<void(const TierFrameSet&)> tap);
+  /// Removes tap `id` (no-op for one removed already); a tier left with no viewer and no tap
+  /// stops encoding. A frame set the tier is handing out as this runs may still reach the tap,
+  /// none after. Thread-safe.
+  void remove_tier_tap(uint64_t id);
+  /// Asks tier DEPTH/COLOR/QUALITY for a key frame set, as a viewer's KeyFrameRequest does (made
+  /// at most every min_key_interval_ms); no-op for a tier that does not run. Thread-safe.
+  void request_key_frame(const std::string& depth_codec, const std::string& color_codec,
+                         int color_quality);
   /// Stops accepting, disconnects every viewer and joins all threads. Idempotent.
   void stop();
 

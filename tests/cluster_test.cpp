@@ -21,6 +21,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/net/frame_set_decoder.hpp"
+#include "volcast/net/tls.hpp"
 
 namespace volcast {
 namespace {
@@ -305,6 +306,62 @@ TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {
       test::error_of([&] { NatsConnection c(nats_at(nats_server.url(0), "student", "guess")); });
   EXPECT_NE(wrong.find("cannot connect"), std::string::npos) << wrong;
   EXPECT_NO_THROW(NatsConnection(nats_at(nats_server.url(0), "server", "s3rver-pw")));
+}
+
+// TLS to the cluster: a node that presents a certificate named "localhost" and verifies its
+// clients' certificates. The certificates are self-signed, each its own CA.
+TEST(NatsStream, TlsToTheClusterChecksTheNodesCertificateAndTheClients) {
+  const auto dir = test::temp_dir("nats_tls");
+  const auto write = [&](const std::string& name, const TlsIdentity& id) {
+    std::ofstream(dir / (name + ".pem")) << id.certificate_pem;
+    std::ofstream(dir / (name + ".key")) << id.private_key_pem;
+    return (dir / name).string();
+  };
+  const std::string node = write("node", make_self_signed_identity("localhost"));
+  const std::string relay = write("relay", make_self_signed_identity("volcast-relay"));
+  const std::string stranger = write("stranger", make_self_signed_identity("localhost"));
+  LocalNatsCluster nats_server(dir, 1,
+                               "tls {\n  cert_file: \"" + node + ".pem\"\n  key_file: \"" + node +
+                                   ".key\"\n  ca_file: \"" + relay +
+                                   ".pem\"\n  verify: true\n  timeout: 5\n}\n");
+  const auto tls = [&](const std::string& ca, const std::string& name, bool client_cert) {
+    NatsOptions o = nats_at(nats_server.url(0));
+    o.ca_file = ca + ".pem";
+    o.tls_name = name;
+    if (client_cert) o.cert_file = relay + ".pem", o.key_file = relay + ".key";
+    return o;
+  };
+  // Everything right: a message goes through.
+  NatsConnection a(tls(node, "localhost", true)), b(tls(node, "localhost", true));
+  std::atomic<int> got{0};
+  auto sub = b.subscribe(welcome_subject("or"), [&](const std::string&, auto data) {
+    if (data.size() == 3 && data[2] == 7) ++got;
+  });
+  const std::vector<uint8_t> message{1, 2, 7};
+  for (int i = 0; i < 200 && got == 0; ++i) {
+    a.publish(welcome_subject("or"), message);
+    a.flush();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_GT(got.load(), 0);
+  // Each wrong thing is refused, with a reason.
+  const std::string plain = test::error_of([&] { NatsConnection c(nats_at(nats_server.url(0))); });
+  EXPECT_NE(plain.find("cannot connect"), std::string::npos) << plain;
+  const std::string other_ca =
+      test::error_of([&] { NatsConnection c(tls(stranger, "localhost", true)); });
+  EXPECT_NE(other_ca.find("SSL"), std::string::npos) << other_ca;
+  const std::string other_name =
+      test::error_of([&] { NatsConnection c(tls(node, "nats.elsewhere", true)); });
+  EXPECT_NE(other_name.find("hostname mismatch"), std::string::npos) << other_name;
+  const std::string no_cert =
+      test::error_of([&] { NatsConnection c(tls(node, "localhost", false)); });
+  EXPECT_NE(no_cert.find("--nats-cert"), std::string::npos) << no_cert;
+  const std::string missing =
+      test::error_of([&] { NatsConnection c(tls((dir / "absent").string(), "", false)); });
+  EXPECT_NE(missing.find("absent.pem"), std::string::npos) << missing;
+  NatsOptions tls_url = nats_at("tls://127.0.0.1:4222");
+  const std::string no_ca = test::error_of([&] { NatsConnection c(tls_url); });
+  EXPECT_NE(no_ca.find("--nats-ca"), std::string::npos) << no_ca;
 }
 
 // The origin: the real hands site (one camera) publishing a tier on a nats-server (64 KiB

@@ -79,10 +79,11 @@ struct ServeArgs {
   std::string record;                        ///< also record this tier to this .vcr file
   std::string record_tier = "volcast/jpeg";  ///< DEPTH/COLOR[/QUALITY]
   // The stream on a NATS cluster (volcast/cluster/tier_publisher.hpp).
-  std::string nats;                                     ///< URL[,URL...]; empty: none
-  std::vector<std::string> nats_tiers{"volcast/jpeg"};  ///< DEPTH/COLOR[/QUALITY] each
-  std::string nats_site = "or";                         ///< the site's subject token
-  std::string nats_user, nats_password_file;            ///< NATS user/password authentication
+  std::string nats;                                         ///< URL[,URL...]; empty: none
+  std::vector<std::string> nats_tiers{"volcast/jpeg"};      ///< DEPTH/COLOR[/QUALITY] each
+  std::string nats_site = "or";                             ///< the site's subject token
+  std::string nats_user, nats_password_file;                ///< NATS user/password authentication
+  std::string nats_ca, nats_tls_name, nats_cert, nats_key;  ///< TLS to the cluster (NatsOptions)
   std::string relay_tier = "volcast/jpeg";  ///< relay: the published tier taken from NATS
   int welcome_timeout_ms = 10000;           ///< relay: wait this long for the site's Welcome
   double from_s = 0, to_s = -1;             ///< a .vcr source: the part replayed (seconds in)
@@ -240,6 +241,7 @@ struct BenchArgs {
   bool low_latency = false;   ///< --session: hold the CPU wake-up latency at 0 (cpu_latency.hpp)
   bool nats = false;          ///< the NATS cluster benchmark instead (server_seconds, viewers)
   int relays = 2;             ///< --nats: relays the viewers are spread over
+  bool nats_tls = false;      ///< --nats: TLS on the links to the nodes (self-signed, verified)
 };
 /// Times each filter on real frames (one thread), prints a table and optionally JSON.
 int run_bench(const BenchArgs& args);
@@ -252,7 +254,9 @@ int run_bench(const BenchArgs& args);
 /// The stream through a 3-node nats-server cluster (started here, loopback) and `relays` relays to
 /// receive-only TLS viewers (args.viewers, default 50), against the same viewers on the site's
 /// own server: the real two-camera site at 30 fps, tier volcast/jpeg, then one node killed (relay
-/// 0's). Prints a table and writes {"nats": [{viewers, relays, nats_nodes, fps_min,
+/// 0's); with args.nats_tls the site and relays reach the nodes over TLS (a self-signed node
+/// certificate, checked by CA and name). Prints a table and writes {"nats": [{viewers, relays,
+/// nats_nodes, nats_tls, fps_min,
 /// latency_ms_p50, latency_ms_p99, direct_fps_min, direct_latency_ms_p50, direct_latency_ms_p99,
 /// node_kill_max_gap_ms, node_kill_viewers_lost}]} to args.json if set. Latency: the site's
 /// capture to the viewer's read, one clock.

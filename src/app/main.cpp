@@ -88,6 +88,15 @@ void add_server_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string&
   s->add_option("--nats-user", serve.nats_user, "NATS user name (with --nats-password-file)");
   s->add_option("--nats-password-file", serve.nats_password_file,
                 "A file whose first line is the NATS user's password");
+  s->add_option("--nats-ca", serve.nats_ca,
+                "TLS to the NATS cluster: the CA (PEM) its nodes' certificates must chain to");
+  s->add_option("--nats-tls-name", serve.nats_tls_name,
+                "With --nats-ca: the name every node's certificate must carry (else any "
+                "certificate of the CA is taken)");
+  s->add_option("--nats-cert", serve.nats_cert,
+                "With --nats-ca: this process's client certificate (PEM), for nodes that verify "
+                "clients");
+  s->add_option("--nats-key", serve.nats_key, "The private key (PEM) of --nats-cert");
 }
 
 // The flags serve and replay share (replay has no cameras to filter: it takes them too and
@@ -375,6 +384,8 @@ int main(int argc, char** argv) {
                "Benchmark the stream through a 3-node NATS cluster (nats-server, started here) "
                "and relays to --viewers viewers (default 50), against the site's own server "
                "(--server-seconds each)");
+  bn->add_flag("--nats-tls", bench.nats_tls,
+               "With --nats: TLS on the links to the cluster's nodes (self-signed, verified)");
   bn->add_option("--relays", bench.relays, "With --nats: relays the viewers are spread over")
       ->capture_default_str();
   bn->add_flag("--session", bench.session,

@@ -19,6 +19,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/client.hpp"
+#include "volcast/net/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 
@@ -131,8 +132,8 @@ int run_nats_bench(const BenchArgs& a) {
   const fs::path dir = fs::temp_directory_path() / fmt::format("volcast-nats-bench-{}", getpid());
   std::printf(
       "the real two-camera site at 30 fps, tier volcast/jpeg, TLS, receive-only viewers; "
-      "%d relays on a 3-node nats-server cluster (loopback), %.0f s per figure\n",
-      a.relays, a.server_seconds);
+      "%d relays on a 3-node nats-server cluster (loopback, %s links), %.0f s per figure\n",
+      a.relays, a.nats_tls ? "TLS" : "plain", a.server_seconds);
   std::printf("%8s %7s | %13s %13s | %10s %10s %10s | %12s %6s\n", "viewers", "relays",
               "direct fps", "direct p50", "relay fps", "relay p50", "relay p99", "node kill gap",
               "lost");
@@ -152,10 +153,23 @@ int run_nats_bench(const BenchArgs& a) {
       for (auto& v : viewers) v->stop();
     }
     // Relayed: the site publishes on node 0; relay k takes the stream from node k + 1.
-    cluster::LocalNatsCluster nats(dir, 3);
+    cluster::NatsOptions tls;  // with --nats-tls: the node certificate, checked by CA and name
+    std::string tls_config;
+    if (a.nats_tls) {
+      fs::create_directories(dir);
+      const TlsIdentity node = make_self_signed_identity("localhost");
+      std::ofstream(dir / "node.pem") << node.certificate_pem;
+      std::ofstream(dir / "node.key") << node.private_key_pem;
+      fs::permissions(dir / "node.key", fs::perms::owner_read | fs::perms::owner_write);
+      tls.ca_file = (dir / "node.pem").string();
+      tls.tls_name = "localhost";
+      tls_config = fmt::format("tls {{\n  cert_file: \"{}\"\n  key_file: \"{}\"\n}}\n",
+                               (dir / "node.pem").string(), (dir / "node.key").string());
+    }
+    cluster::LocalNatsCluster nats(dir, 3, tls_config, tls);
     SitePlayer site(two_camera_site(*data), 30);
     Server server(site.cameras(), bench_server(4));
-    cluster::NatsOptions site_link;
+    cluster::NatsOptions site_link = tls;
     site_link.urls = nats.urls(0);
     site_link.in_order = true;
     cluster::NatsConnection site_nats(site_link);
@@ -166,7 +180,7 @@ int run_nats_bench(const BenchArgs& a) {
     std::vector<std::unique_ptr<cluster::Relay>> relays;
     std::vector<std::string> relay_links;
     for (int k = 0; k < a.relays; ++k) {
-      cluster::NatsOptions o;
+      cluster::NatsOptions o = tls;
       o.urls = nats.urls((k + 1) % nats.nodes());
       o.in_order = true;
       links.push_back(std::make_unique<cluster::NatsConnection>(o));
@@ -203,6 +217,7 @@ int run_nats_bench(const BenchArgs& a) {
     rows.push_back({{"viewers", n},
                     {"relays", a.relays},
                     {"nats_nodes", nats.nodes()},
+                    {"nats_tls", a.nats_tls},
                     {"fps_min", relayed.fps_min},
                     {"latency_ms_p50", relayed.p50},
                     {"latency_ms_p99", relayed.p99},

@@ -324,6 +324,22 @@ cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name) {
   } else if (!a.nats_password_file.empty()) {
     throw Error("--nats-password-file goes with --nats-user");
   }
+  if (a.nats_ca.empty() && !(a.nats_tls_name.empty() && a.nats_cert.empty() && a.nats_key.empty()))
+    throw Error("--nats-tls-name, --nats-cert and --nats-key go with --nats-ca");
+  o.ca_file = a.nats_ca;
+  o.tls_name = a.nats_tls_name;
+  o.cert_file = a.nats_cert;
+  o.key_file = a.nats_key;
+  if (!o.ca_file.empty() && o.tls_name.empty())
+    spdlog::warn(
+        "NATS TLS: node certificates are checked against {} but not by name: give "
+        "--nats-tls-name to require the name they carry",
+        o.ca_file);
+  if (o.ca_file.empty() && !o.user.empty())
+    spdlog::warn(
+        "NATS: the password of '{}' goes to the cluster in clear text: give --nats-ca "
+        "for TLS",
+        o.user);
   return o;
 }
 

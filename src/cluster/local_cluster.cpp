@@ -63,7 +63,7 @@ std::string nats_server_binary() {
 }  // namespace
 
 LocalNatsCluster::LocalNatsCluster(const std::filesystem::path& dir, int nodes,
-                                   const std::string& extra_config) {
+                                   const std::string& extra_config, const NatsOptions& client) {
   if (nodes < 1 || nodes > 9) throw Error("NATS cluster: 1..9 nodes");
   std::filesystem::create_directories(dir);
   nodes_.resize(static_cast<size_t>(nodes));
@@ -86,7 +86,7 @@ LocalNatsCluster::LocalNatsCluster(const std::filesystem::path& dir, int nodes,
   try {
     for (auto& n : nodes_) start(n);
     if (nodes > 1) {  // routed: the first node's message reaches the last node's subscriber
-      NatsOptions first, last;
+      NatsOptions first = client, last = client;
       first.urls = {url(0)};
       last.urls = {url(nodes - 1)};
       NatsConnection a(first), b(last);

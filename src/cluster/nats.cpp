@@ -106,8 +106,42 @@ NatsConnection::NatsConnection(const NatsOptions& o) : impl_(std::make_unique<Im
   if (s == NATS_OK && o.in_order) s = natsOptions_SetNoRandomize(opts, true);
   if (s == NATS_OK && (!o.user.empty() || !o.password.empty()))
     s = natsOptions_SetUserInfo(opts, o.user.c_str(), o.password.c_str());
+  bool tls = !o.ca_file.empty();
+  for (const auto& u : o.urls)
+    if (u.starts_with("tls://") && !tls) {
+      natsOptions_Destroy(opts);
+      throw Error("NATS: " + u + " is a TLS URL: give the CA that signed the cluster's " +
+                  "certificates (--nats-ca)");
+    }
+  if (tls && (o.cert_file.empty() != o.key_file.empty())) {
+    natsOptions_Destroy(opts);
+    throw Error("NATS: a client certificate needs both its file and its key (--nats-cert, " +
+                std::string("--nats-key)"));
+  }
+  std::string failed;  // the TLS file libnats could not load
+  if (s == NATS_OK && tls) s = natsOptions_SetSecure(opts, true);
+  if (s == NATS_OK && tls) {
+    s = natsOptions_LoadCATrustedCertificates(opts, o.ca_file.c_str());
+    if (s != NATS_OK) failed = "CA file " + o.ca_file;
+  }
+  if (s == NATS_OK && tls && !o.tls_name.empty())
+    s = natsOptions_SetExpectedHostname(opts, o.tls_name.c_str());
+  if (s == NATS_OK && tls && !o.cert_file.empty()) {
+    s = natsOptions_LoadCertificatesChain(opts, o.cert_file.c_str(), o.key_file.c_str());
+    if (s != NATS_OK) failed = "client certificate " + o.cert_file + " / key " + o.key_file;
+  }
+  if (!failed.empty()) {
+    const std::string why = reason(s);
+    natsOptions_Destroy(opts);
+    throw Error("NATS: cannot load the " + failed + ": " + why);
+  }
   if (s == NATS_OK) s = natsConnection_Connect(&impl_->nc, opts);
-  const std::string why = s == NATS_OK ? "" : reason(s);
+  std::string why = s == NATS_OK ? "" : reason(s);
+  // A node that verifies clients closes the link after the handshake without saying why.
+  if (s == NATS_PROTOCOL_ERROR && tls && o.cert_file.empty())
+    why +=
+        " (do the nodes verify clients? give this process's certificate: --nats-cert, "
+        "--nats-key)";
   natsOptions_Destroy(opts);
   if (s != NATS_OK) throw Error("NATS: cannot connect to " + joined(o.urls) + ": " + why);
 }

@@ -8,18 +8,21 @@
 #include <string>
 #include <vector>
 
+#include "volcast/cluster/nats.hpp"
+
 namespace volcast::cluster {
 
 class LocalNatsCluster {
  public:
   /// Starts `nodes` nats-server processes (1..9), their configuration and logs in `dir`
   /// (node-N.conf, node-N.log); `extra_config` (nats-server's format, e.g. "max_payload:
-  /// 65536") goes into each node's configuration. Waits until every node accepts clients and a
-  /// message published on the first node reaches a subscriber on the last. Throws Error if
+  /// 65536"; a tls block) goes into each node's configuration. Waits until every node accepts
+  /// clients and a message published on the first node reaches a subscriber on the last, both
+  /// connected with `client`'s settings but its URLs (e.g. its TLS files). Throws Error if
   /// nats-server is not installed (scripts/install-deps.sh) or a node does not come up within
   /// 20 s (naming its log).
   LocalNatsCluster(const std::filesystem::path& dir, int nodes,
-                   const std::string& extra_config = "");
+                   const std::string& extra_config = "", const NatsOptions& client = {});
   ~LocalNatsCluster();  ///< stops every node (SIGTERM, then waits)
   LocalNatsCluster(const LocalNatsCluster&) = delete;
   LocalNatsCluster& operator=(const LocalNatsCluster&) = delete;

@@ -34,6 +34,12 @@ struct NatsOptions {
   std::vector<std::string> urls;  ///< e.g. nats://127.0.0.1:4222; several: a cluster
   std::string name = "volcast";   ///< the connection's name in the server's monitoring
   std::string user, password;     ///< both empty: no authentication
+  /// TLS to the cluster (nats-server's `tls` block), on when `ca_file` is given: each node's
+  /// certificate must chain to a certificate in `ca_file` (PEM), and carry the name `tls_name`
+  /// (its DNS name or CN) when that is given. libnats checks no name otherwise: any certificate
+  /// of the CA is taken. `cert_file` + `key_file` (PEM): this client's certificate, for nodes
+  /// that verify clients (`verify: true`).
+  std::string ca_file, tls_name, cert_file, key_file;
   int64_t connect_timeout_ms = 2000;
   /// Try `urls` in the order given (a relay placed on one node), else in random order (libnats'
   /// default: clients spread over the cluster).
@@ -48,7 +54,9 @@ class NatsConnection {
 
  public:
   /// Connects to one of `o.urls` (reconnecting to any of them, forever, if the link drops).
-  /// Throws Error with libnats' reason (e.g. "No server available for connection") and the URLs.
+  /// Throws Error with libnats' reason (e.g. "No server available for connection", "SSL
+  /// Error - certificate verify failed", "Secure Connection - TLS Required") and the URLs; a
+  /// TLS file that cannot be loaded is named. tls:// URLs need `ca_file`.
   explicit NatsConnection(const NatsOptions& o);
   ~NatsConnection();
   NatsConnection(const NatsConnection&) = delete;

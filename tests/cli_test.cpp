@@ -9,7 +9,9 @@
 #include <fmt/format.h>
 
 #include "test_data.hpp"
+#include "volcast/cluster/local_cluster.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/net/tls.hpp"
 #include "xvfb.hpp"
 
 namespace volcast {
@@ -200,6 +202,89 @@ TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {
   EXPECT_EQ(stats["cameras"][0]["description"], "camera 0");  // a name, never the server's path
   EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "server" / "key.pem"));
   EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "known_servers"));
+}
+
+// The first volcast:// link `log` shows within 60 s (empty if none).
+std::string link_in(const std::filesystem::path& log) {
+  for (int attempt = 0; attempt < 300; ++attempt) {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);)
+      if (line.find("volcast://") != std::string::npos) return line.substr(line.find("volcast://"));
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return "";
+}
+
+// What an operator types: a nats-server with TLS and accounts, `serve --nats` publishing the real
+// hands sequence, `relay` on it, and a viewer with the relay's link.
+TEST(Cli, ServePublishesOnNatsOverTlsAndARelayServesAViewer) {
+  const auto dir = test::temp_dir("cli_nats");
+  const TlsIdentity node = make_self_signed_identity("localhost");
+  std::ofstream(dir / "node.pem") << node.certificate_pem;
+  std::ofstream(dir / "node.key") << node.private_key_pem;
+  std::ofstream(dir / "site.pw") << "site-secret\n";
+  std::ofstream(dir / "relay.pw") << "relay-secret\n";
+  std::ofstream(dir / "wrong.pw") << "guess\n";
+  cluster::LocalNatsCluster nats(dir, 1,
+                                 fmt::format(R"(tls {{
+  cert_file: "{0}/node.pem"
+  key_file: "{0}/node.key"
+}}
+authorization {{
+  users = [
+    {{user: site, password: site-secret,
+     permissions: {{publish: "volcast.or.>", subscribe: ["_INBOX.>", "volcast.or.want.>"]}}}}
+    {{user: relay, password: relay-secret,
+     permissions: {{publish: ["_INBOX.>", "volcast.or.want.>"], subscribe: "volcast.or.>"}}}}
+  ]
+}}
+)",
+                                             dir.string()));
+  const std::string tls = " --nats " + nats.url(0) + " --nats-ca " + (dir / "node.pem").string() +
+                          " --nats-tls-name localhost --nats-password-file ";
+  std::string out;
+  ASSERT_EQ(test::run_command(kVolcast + " serve --source " + test::hands_dir().string() +
+                                  " --intrinsics 460,460,320,180 --fps 15 --seconds 120 --port 0 "
+                                  "--insecure --nats-site or --nats-user site" +
+                                  tls + (dir / "site.pw").string() + " > " +
+                                  (dir / "serve.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string serve_pid = out.substr(0, out.find('\n'));
+  ASSERT_EQ(test::run_command(kVolcast +
+                                  " relay --site or --port 0 --insecure --seconds 120 "
+                                  "--nats-user relay" +
+                                  tls + (dir / "relay.pw").string() + " > " +
+                                  (dir / "relay.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string relay_pid = out.substr(0, out.find('\n'));
+  const std::string link = link_in(dir / "relay.log");
+  int rc = -1;
+  if (!link.empty())
+    rc = test::run_command(kVolcast + " view --no-render --connect '" + link +
+                               "' --frames 5 --stats-json " + (dir / "s.json").string(),
+                           out);
+  const std::string view_out = out;
+  // A relay with the wrong password is refused at once, saying so.
+  const int wrong = test::run_command(kVolcast +
+                                          " relay --site or --port 0 --insecure --seconds 5 "
+                                          "--nats-user relay" +
+                                          tls + (dir / "wrong.pw").string(),
+                                      out);
+  const std::string wrong_out = out;
+  test::run_command("kill " + relay_pid + " " + serve_pid, out);
+  std::string relay_log, serve_log;
+  std::getline(std::ifstream(dir / "relay.log"), relay_log, '\0');
+  std::getline(std::ifstream(dir / "serve.log"), serve_log, '\0');
+  ASSERT_FALSE(link.empty()) << relay_log << serve_log;
+  ASSERT_EQ(rc, 0) << view_out << relay_log;
+  const auto stats = nlohmann::json::parse(std::ifstream(dir / "s.json"));
+  EXPECT_EQ(stats["cameras"][0]["frames_received"], 5);
+  EXPECT_EQ(relay_log.find("clear text"), std::string::npos) << "TLS to the cluster: no warning";
+  EXPECT_EQ(relay_log.find("not by name"), std::string::npos) << relay_log;
+  EXPECT_NE(wrong, 0);
+  EXPECT_NE(wrong_out.find("uthorization"), std::string::npos) << wrong_out;
 }
 
 TEST(Cli, ServeRefusesPlainTcpBeyondLoopbackAndBindsHostNames) {

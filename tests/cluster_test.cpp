@@ -274,7 +274,9 @@ TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
         60s))
         << "a key frame set on request, before the interval's (60)";
   }
-  EXPECT_TRUE(test::eventually([&] { return site.server.tiers().empty(); }, 60s))
+  // The stop is counted just after the tap is removed: wait for both.
+  EXPECT_TRUE(test::eventually(
+      [&] { return site.server.tiers().empty() && publisher.stats().stops > 0; }, 60s))
       << "nobody wants it any more: the tier stopped";
   const PublisherStats st = publisher.stats();
   EXPECT_EQ(st.starts, 1u);

@@ -287,6 +287,52 @@ authorization {{
   EXPECT_NE(wrong_out.find("uthorization"), std::string::npos) << wrong_out;
 }
 
+// Capture nodes: two `serve --camera-only` processes (the hands sequence each) add their cameras
+// to a site server that has the hands camera itself; a viewer of the site sees three cameras.
+TEST(Cli, CaptureNodesAddTheirCamerasToTheSite) {
+  const auto dir = test::temp_dir("cli_nodes");
+  cluster::LocalNatsCluster nats(dir, 1);
+  const std::string hands =
+      " --source " + test::hands_dir().string() + " --intrinsics 460,460,320,180 --fps 15";
+  std::string out, pids;
+  for (const std::string node : {"node-a", "node-b"}) {
+    ASSERT_EQ(
+        test::run_command(kVolcast + " serve" + hands + " --seconds 120 --camera-only --nats " +
+                              nats.url(0) + " --nats-site " + node + " > " +
+                              (dir / (node + ".log")).string() + " 2>&1 & echo $!",
+                          out),
+        0);
+    pids += " " + out.substr(0, out.find('\n'));
+  }
+  ASSERT_EQ(test::run_command(kVolcast + " serve" + hands +
+                                  " --seconds 120 --port 0 --insecure --nats " + nats.url(0) +
+                                  " --nats-site or --nats-cameras node-a --nats-cameras node-b > " +
+                                  (dir / "site.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  pids += " " + out.substr(0, out.find('\n'));
+  const std::string link = link_in(dir / "site.log");
+  int rc = -1;
+  if (!link.empty())
+    rc = test::run_command(kVolcast + " view --no-render --connect '" + link +
+                               "' --frames 10 --stats-json " + (dir / "s.json").string(),
+                           out);
+  const std::string view_out = out;
+  test::run_command("kill" + pids, out);
+  std::string site_log, node_log;
+  std::getline(std::ifstream(dir / "site.log"), site_log, '\0');
+  std::getline(std::ifstream(dir / "node-a.log"), node_log, '\0');
+  ASSERT_FALSE(link.empty()) << site_log << node_log;
+  ASSERT_EQ(rc, 0) << view_out << site_log;
+  EXPECT_NE(node_log.find("--nats-cameras node-a"), std::string::npos) << node_log;
+  EXPECT_EQ(node_log.find("volcast://"), std::string::npos) << "a capture node has no viewers";
+  const auto stats = nlohmann::json::parse(std::ifstream(dir / "s.json"));
+  ASSERT_EQ(stats["cameras"].size(), 3u) << stats.dump();
+  EXPECT_EQ(stats["cameras"][1]["description"].get<std::string>().rfind("node-a: ", 0), 0u)
+      << stats["cameras"][1].dump();
+  for (const auto& c : stats["cameras"]) EXPECT_EQ(c["frames_received"], 10) << c.dump();
+}
+
 TEST(Cli, ServeRefusesPlainTcpBeyondLoopbackAndBindsHostNames) {
   std::string out;
   EXPECT_EQ(test::run_command(kVolcast + " serve --source " + test::hands_dir().string() +

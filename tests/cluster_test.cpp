@@ -16,6 +16,7 @@
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/nats.hpp"
 #include "volcast/cluster/relay.hpp"
+#include "volcast/cluster/remote_site.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -581,6 +582,64 @@ TEST(Relay, ARelayOutlivesTheKillOfItsNatsNodeInAThreeNodeCluster) {
   EXPECT_EQ(relay.stats().undecodable, 0u) << relay.stats().last_error;
   site.player.stop();
   site.server.stop();
+}
+
+// Capture nodes: the hands camera of a node (its own site, publishing volcast/jpeg on NATS)
+// joined to a site that reads the hands sequence itself: one two-camera site in which the node's
+// depth is the frame it read, exactly. When the node stops sending, its camera is marked failed
+// and the site goes on.
+TEST(CaptureNode, ANodesCameraJoinsTheSiteExactlyAndAStoppedNodeIsMarkedFailed) {
+  PublishedSite node("nats_capture_node", "volcast", "jpeg");
+  NatsConnection link(nats_at(node.nats_server.url(0)));
+  RemoteSiteOptions o;
+  o.site = "or";
+  o.fps = 15;
+  o.stale_ms = 500;
+  RemoteSite remote(link, o);
+  ASSERT_EQ(remote.cameras().size(), 1u);
+  EXPECT_EQ(remote.cameras()[0].calibration.depth.width, 640);
+  auto sources = test::HandsSite::sources();
+  const double hands_fps = sources[0]->fps();
+  for (auto& s : remote.sources()) sources.push_back(std::move(s));
+  EXPECT_NE(sources[1]->description().find("capture node 'or'"), std::string::npos);
+  SiteOptions options;
+  options.max_read_failures = 5;
+  SitePlayer site(std::move(sources), 15, {}, options);
+  std::mutex mutex;
+  std::vector<std::shared_ptr<const CapturedFrameSet>> got;
+  site.start([&](std::shared_ptr<const CapturedFrameSet> f) {
+    std::lock_guard lock(mutex);
+    if (got.size() < 400) got.push_back(std::move(f));
+  });
+  ASSERT_TRUE(test::eventually(
+      [&] { return remote.stats().frame_sets >= 20 && site.frame_sets_published() >= 30; }, 60s));
+  {
+    std::lock_guard lock(mutex);
+    int checked = 0;
+    for (const auto& f : got) {
+      ASSERT_EQ(f->cameras.size(), 2u);
+      const CameraFrame& c = *f->cameras[1];
+      if (std::all_of(c.depth.pixels.begin(), c.depth.pixels.end(), [](uint16_t d) { return !d; }))
+        continue;  // before the node's first frame set: an empty frame
+      if (checked >= 5) break;
+      const auto n = std::llround(static_cast<double>(c.device_timestamp_us) * hands_fps / 1e6);
+      EXPECT_EQ(c.depth, test::hands_source_frame(static_cast<uint64_t>(n % 207) + 1))
+          << "the node's frame " << n << ", lossless";
+      EXPECT_FALSE(c.color.bgra.empty()) << "with its color";
+      ++checked;
+    }
+    EXPECT_EQ(checked, 5);
+  }
+  EXPECT_FALSE(site.camera_status()[1].failed);
+  node.site.player.stop();  // the node stops sending; NATS and the site go on
+  ASSERT_TRUE(test::eventually([&] { return site.camera_status()[1].failed; }, 60s));
+  EXPECT_FALSE(site.camera_status()[0].failed);
+  EXPECT_NE(site.camera_status()[1].last_error.find("nothing from the node"), std::string::npos)
+      << site.camera_status()[1].last_error;
+  const uint64_t at_failure = site.frame_sets_published();
+  EXPECT_TRUE(test::eventually([&] { return site.frame_sets_published() >= at_failure + 10; }, 60s))
+      << "the site goes on without the node";
+  site.stop();
 }
 
 TEST(LocalNatsCluster, ANodeThatCannotStartNamesItsLog) {

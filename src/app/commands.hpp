@@ -84,10 +84,13 @@ struct ServeArgs {
   std::string nats_site = "or";                             ///< the site's subject token
   std::string nats_user, nats_password_file;                ///< NATS user/password authentication
   std::string nats_ca, nats_tls_name, nats_cert, nats_key;  ///< TLS to the cluster (NatsOptions)
-  std::string relay_tier = "volcast/jpeg";  ///< relay: the published tier taken from NATS
-  int welcome_timeout_ms = 10000;           ///< relay: wait this long for the site's Welcome
-  double from_s = 0, to_s = -1;             ///< a .vcr source: the part replayed (seconds in)
-  bool no_loop = false;                     ///< a .vcr source: play it once, then stop
+  std::vector<std::string> nats_cameras;          ///< capture nodes whose cameras join this site
+  std::string nats_camera_tier = "volcast/jpeg";  ///< the tier capture nodes publish
+  bool camera_only = false;                       ///< a capture node: publish on NATS, no viewers
+  std::string relay_tier = "volcast/jpeg";        ///< relay: the published tier taken from NATS
+  int welcome_timeout_ms = 10000;                 ///< relay: wait this long for the site's Welcome
+  double from_s = 0, to_s = -1;                   ///< a .vcr source: the part replayed (seconds in)
+  bool no_loop = false;                           ///< a .vcr source: play it once, then stop
 };
 int run_serve(const ServeArgs& args);
 /// `volcast relay`: a site's stream from NATS (--nats, --site, --tier) served to viewers with

@@ -146,6 +146,16 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
   s->add_option("--nats-site", serve.nats_site,
                 "The site's name in NATS subjects (volcast.SITE.tier...; A-Z a-z 0-9 _ -)")
       ->capture_default_str();
+  s->add_option("--nats-cameras", serve.nats_cameras,
+                "Add the cameras of capture nodes (serve --nats-site NODE --camera-only on other "
+                "machines) to this site: NODE (repeat for several)");
+  s->add_option("--nats-camera-tier", serve.nats_camera_tier,
+                "The tier the capture nodes publish (their --nats-tier; lossless depth keeps it "
+                "exact)")
+      ->capture_default_str();
+  s->add_flag("--camera-only", serve.camera_only,
+              "A capture node: publish the cameras on --nats for a site server's --nats-cameras; "
+              "no viewers (loopback only, no join link)");
   s->add_option("--from", serve.from_s, "A recording (.vcr) source: start this many seconds in")
       ->capture_default_str();
   s->add_option("--to", serve.to_s,

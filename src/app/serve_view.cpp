@@ -12,6 +12,7 @@
 #include "case_watch.hpp"
 #include "commands.hpp"
 #include "options.hpp"
+#include "volcast/cluster/remote_site.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -263,6 +264,16 @@ std::string link_host(const ServeArgs& a) {
 
 ServerConfig server_config(const ServeArgs& a) {
   ServerConfig config;
+  if (a.camera_only) {  // no viewers: the server only feeds the NATS publisher's taps
+    if (a.web || a.insecure || a.port != ServeArgs{}.port || a.bind != ServeArgs{}.bind)
+      throw Error(
+          "serve: a capture node (--camera-only) has no viewers: drop --web, --insecure, "
+          "--port and --bind");
+    config.insecure = true;
+    config.bind_address = "127.0.0.1";
+    config.port = 0;
+    return config;
+  }
   apply_security(a, config);
   config.bind_address = a.bind;
   config.port = a.port;
@@ -364,6 +375,13 @@ int run_serve(const ServeArgs& a) {
   std::vector<FilterConfig> filters;
   std::vector<std::string> names;
   std::optional<ReplayPlayer> replay;
+  // NATS (publishing, capture nodes) outlives the capture nodes' subscriptions, which outlive the
+  // site that reads them.
+  std::optional<cluster::NatsConnection> nats;
+  std::vector<std::unique_ptr<cluster::RemoteSite>> nodes;
+  if ((!a.nats_cameras.empty() || a.camera_only) && a.nats.empty())
+    throw Error("serve: --nats-cameras and --camera-only need --nats");
+  if (!a.nats.empty()) nats.emplace(nats_options(a, "volcast serve " + a.nats_site));
   std::optional<SitePlayer> site;
   if (replaying(a)) {
     replay.emplace(a.sources[0], ReplayOptions{a.from_s, a.to_s, !a.no_loop});
@@ -380,8 +398,22 @@ int run_serve(const ServeArgs& a) {
     }
   } else {
     load_site(a, sources, filters, names);
+    for (const std::string& node : a.nats_cameras) {
+      cluster::RemoteSiteOptions o;
+      o.site = node;
+      std::tie(o.depth_codec, o.color_codec, o.color_quality) =
+          parse_tier(a.nats_camera_tier, "--nats-camera-tier");
+      o.fps = a.fps > 0 ? a.fps : 30;
+      nodes.push_back(std::make_unique<cluster::RemoteSite>(*nats, o));
+      auto node_sources = nodes.back()->sources();
+      for (size_t i = 0; i < node_sources.size(); ++i) {
+        names.push_back(node + ": " + nodes.back()->cameras()[i].description);
+        sources.push_back(std::move(node_sources[i]));
+        filters.emplace_back();  // filtered on the node
+      }
+    }
     if (sources.empty())
-      throw Error("serve: give at least one --source or a --config with cameras");
+      throw Error("serve: give at least one --source, a --config with cameras or --nats-cameras");
   }
   std::vector<std::string> color_notes(names.size());  // per camera: ", no color" etc.
   for (size_t i = 0; i < sources.size(); ++i) {
@@ -416,9 +448,8 @@ int run_serve(const ServeArgs& a) {
   std::optional<CaseWatch> case_watch;
   if (!a.case_folder.empty()) case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
-  std::optional<BackgroundRecorder> recorder;   // outlives the server, whose tier feeds it
-  std::optional<cluster::NatsConnection> nats;  // so do these
-  std::optional<cluster::TierPublisher> publisher;
+  std::optional<BackgroundRecorder> recorder;       // outlives the server, whose tier feeds it
+  std::optional<cluster::TierPublisher> publisher;  // so does this
   Server server(for_viewers, config);
   hub.attach(&server);
   if (!a.record.empty()) {
@@ -434,8 +465,7 @@ int run_serve(const ServeArgs& a) {
     spdlog::info("recording tier {} to {}", a.record_tier, a.record);
   }
   // The stream on a NATS cluster: one more consumer of each published tier's encoding.
-  if (!a.nats.empty()) {
-    nats.emplace(nats_options(a, "volcast serve " + a.nats_site));
+  if (nats) {
     publisher.emplace(*nats, a.nats_site, protocol::Welcome{for_viewers, wall_clock_us()});
     for (const std::string& t : a.nats_tiers) {
       const auto [depth, color, quality] = parse_tier(t, "--nats-tier");
@@ -451,9 +481,16 @@ int run_serve(const ServeArgs& a) {
   spdlog::info("serving {} camera(s) at {:.1f} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
                replay ? replay->fps() : site->fps(), a.bind, server.port(),
                a.insecure ? "plain TCP, loopback only" : "TLS 1.3");
-  if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
-  std::printf("join link (give it only to the viewers of this session):\n  %s\n",
-              server.join_link(link_host(a)).c_str());
+  if (a.camera_only)
+    std::printf(
+        "capture node: %zu camera(s) published on NATS as site '%s' (a site server adds "
+        "them with --nats-cameras %s)\n",
+        cameras.size(), a.nats_site.c_str(), a.nats_site.c_str());
+  else if (!a.insecure)
+    spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
+  if (!a.camera_only)
+    std::printf("join link (give it only to the viewers of this session):\n  %s\n",
+                server.join_link(link_host(a)).c_str());
   if (!config.web_root.empty())
     std::printf("browser link (any headset's or laptop's browser; accept the certificate):\n  %s\n",
                 server.web_link(link_host(a)).c_str());

@@ -683,12 +683,24 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
             0);
   const std::string relay_pid = out.substr(0, out.find('\n'));
   const std::string link = join_link_in(dir / "relay.log");
+  // Two participants of session OR: one through the relay, one on the site's own server (in the
+  // background, a little longer). Each must see the other.
+  const std::string join = " --join OR --name ";
+  ASSERT_EQ(test::run_command(volcast + " view --no-render --connect '" +
+                                  join_link_in(dir / "serve.log") + "' --frames 150" + join +
+                                  "Direct --stats-json " + (dir / "direct.json").string() + " > " +
+                                  (dir / "direct.log").string() + " 2>&1 & echo $!",
+                              out),
+            0);
+  const std::string direct_pid = out.substr(0, out.find('\n'));
   std::string view_out;
-  const int rc = link.empty() ? -1
-                              : test::run_command(volcast + " view --no-render --connect '" + link +
-                                                      "' --frames 20 --stats-json " +
-                                                      (dir / "view.json").string(),
-                                                  view_out);
+  const int rc = link.empty()
+                     ? -1
+                     : test::run_command(volcast + " view --no-render --connect '" + link +
+                                             "' --frames 60" + join + "Relayed" + " --stats-json " +
+                                             (dir / "view.json").string(),
+                                         view_out);
+  test::run_command("while kill -0 " + direct_pid + " 2>/dev/null; do sleep 0.2; done", out);
   test::run_command("kill " + relay_pid + " " + serve_pid, out);
   std::this_thread::sleep_for(500ms);
   std::ifstream relay_log(dir / "relay.log");
@@ -699,8 +711,21 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   EXPECT_NE(relay_text.find("site 'theatre1' (1 camera(s))"), std::string::npos) << relay_text;
   std::ifstream in(dir / "view.json");
   const auto stats = nlohmann::json::parse(in);
-  EXPECT_EQ(stats["cameras"][0]["frames_received"], 20);
+  EXPECT_EQ(stats["cameras"][0]["frames_received"], 60);
   EXPECT_EQ(stats["cameras"][0]["description"], "camera 0") << "the site's name for it";
+  // The relayed participant and the direct one saw each other's poses (the session's hub is the
+  // site's; the relay carried the relayed one's messages over NATS).
+  std::ifstream direct_in(dir / "direct.json");
+  const auto direct = nlohmann::json::parse(direct_in);
+  const auto poses_from = [](const nlohmann::json& j, const std::string& name) {
+    for (const auto& o : j["others"])
+      if (o["name"] == name) return o["poses_received"].get<uint64_t>();
+    return uint64_t{0};
+  };
+  EXPECT_EQ(stats["session"], "OR");
+  EXPECT_GT(poses_from(stats, "Direct"), 0u) << stats.dump();
+  EXPECT_GT(poses_from(direct, "Relayed"), 0u) << direct.dump();
+  EXPECT_NE(relay_text.find("sessions through this relay"), std::string::npos) << relay_text;
   // Nobody publishing that site: one line that says what the relay waited for.
   EXPECT_NE(test::run_command(volcast + " relay --nats " + nats_server.url(0) +
                                   " --site theatre9 --welcome-timeout 300 --port 0",

@@ -31,6 +31,9 @@ int run_relay(const ServeArgs& a) {
                a.bind, server.port(), a.insecure ? "plain TCP, loopback only" : "TLS 1.3",
                a.relay_tier);
   if (!a.insecure) spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
+  if (relay.session())
+    spdlog::info("participants join site '{}''s sessions through this relay (as {})", a.nats_site,
+                 relay.session()->relay());
   std::printf("join link (give it only to the viewers of this session):\n  %s\n",
               server.join_link(link_host(a)).c_str());
   if (!o.server.web_root.empty())

@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "options.hpp"
 #include "volcast/cluster/remote_site.hpp"
+#include "volcast/cluster/session_link.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -450,6 +451,7 @@ int run_serve(const ServeArgs& a) {
   config.session = &hub;
   std::optional<BackgroundRecorder> recorder;       // outlives the server, whose tier feeds it
   std::optional<cluster::TierPublisher> publisher;  // so does this
+  std::optional<cluster::SessionBridge> bridge;     // relays' participants, to the hub
   Server server(for_viewers, config);
   hub.attach(&server);
   if (!a.record.empty()) {
@@ -472,6 +474,10 @@ int run_serve(const ServeArgs& a) {
       publisher->publish_tier(server, depth, color, quality);
       spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)",
                    t, cluster::tier_subject(a.nats_site, depth, color, quality));
+    }
+    if (!a.camera_only) {  // participants of relays join this hub's sessions
+      bridge.emplace(*nats, a.nats_site, hub);
+      hub.attach_remote(&*bridge);
     }
   }
   if (replay)
@@ -544,6 +550,8 @@ int run_serve(const ServeArgs& a) {
                 recorder->path().c_str(), r.error.empty() ? "" : (" -- " + r.error).c_str());
   }
   hub.attach(nullptr);
+  hub.attach_remote(nullptr);
+  bridge.reset();
   const SessionHubStats hs = hub.stats();
   spdlog::info(
       "sessions: {} joins, {} left, {} timed out, {} dropped; {} poses in, {} out; {} "

@@ -30,7 +30,12 @@ Relay::Relay(NatsConnection& nats, RelayOptions options)
   decoder_ = std::make_unique<FrameSetDecoder>(options_.depth_codec, options_.color_codec,
                                                cameras_);  // throws for a codec we lack
   pool_ = std::make_unique<FramePool>(cameras_.size());
+  if (options_.session) {
+    session_ = std::make_unique<SessionForwarder>(nats_, options_.site, options_.relay_name);
+    options_.server.session = session_.get();
+  }
   server_ = std::make_unique<Server>(cameras_, options_.server);
+  if (session_) session_->attach(server_.get());
   tier_sub_ = nats_.subscribe(
       tier, [this](const std::string&, std::span<const uint8_t> data) { on_chunk(data); });
   interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.depth_codec,
@@ -42,7 +47,9 @@ Relay::~Relay() {
   interest_.reset();
   tier_sub_.reset();  // no more frame sets (waits for a callback in progress)
   welcome_sub_.reset();
+  // Stopping the server tells the site's hub each viewer has left (through session_).
   if (server_) server_->stop();
+  if (session_) session_->attach(nullptr);
 }
 
 void Relay::on_welcome(std::span<const uint8_t> data) {

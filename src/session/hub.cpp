@@ -74,6 +74,11 @@ void SessionHub::attach(Server* server) {
   server_ = server;
 }
 
+void SessionHub::attach_remote(SessionOutlet* remote) {
+  std::lock_guard lock(mutex_);
+  remote_ = remote;
+}
+
 uint32_t SessionHub::max_payload(uint8_t type) const {
   // A known type the server sends (0x41..) is read and refused by handle(), which counts it.
   return session::max_payload(type);
@@ -134,7 +139,8 @@ SessionHubStats SessionHub::stats() const {
 }
 
 void SessionHub::send_shared(uint64_t viewer, const Shared& message, uint64_t coalesce_key) {
-  if (server_ && viewer != 0) server_->send_session(viewer, message, coalesce_key);
+  if (SessionOutlet* o = outlet(viewer); o && viewer != 0)
+    o->send_session(viewer, message, coalesce_key);
 }
 
 void SessionHub::send(uint64_t viewer, std::vector<uint8_t> message, uint64_t coalesce_key) {
@@ -532,9 +538,9 @@ void SessionHub::watch_presence() {
                    printable(by_viewer_[viewer]->info.name), config_.presence_timeout_ms);
       remove(viewer, session::LeftReason::kTimedOut);
       ++stats_.timeouts;
-      if (server_)
-        server_->disconnect(viewer, "session presence timeout: nothing for " +
-                                        std::to_string(config_.presence_timeout_ms) + " ms");
+      if (SessionOutlet* o = outlet(viewer))
+        o->disconnect(viewer, "session presence timeout: nothing for " +
+                                  std::to_string(config_.presence_timeout_ms) + " ms");
     }
   }
 }

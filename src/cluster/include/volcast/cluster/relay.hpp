@@ -17,7 +17,8 @@
 // and asks for a key frame set when it starts and whenever it lost a delta. A
 // relay whose NATS link drops keeps its viewers (libnats reconnects); the stream resumes with the
 // next frame set a viewer can decode (any frame set of a stateless tier, else the next key frame
-// set).
+// set). Session messages of the relay's viewers go to the site's hub (session_link.hpp): a
+// participant may join the site's sessions through any relay.
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
@@ -27,6 +28,7 @@
 
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/nats.hpp"
+#include "volcast/cluster/session_link.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/frame_pool.hpp"
 #include "volcast/net/frame_set_decoder.hpp"
@@ -42,7 +44,12 @@ struct RelayOptions {
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int color_quality = 0;
   int welcome_timeout_ms = 10000;  ///< give up unless the site's Welcome arrives this soon
-  ServerConfig server;             ///< the relay's own server (port, TLS, token, web page, ...)
+  /// The virtual OR's session: viewers' session messages go to the site's hub and back
+  /// (session_link.hpp), so they join the site's sessions through this relay. Off: they are
+  /// read and skipped (server.session stays as given).
+  bool session = true;
+  std::string relay_name;  ///< this relay's subject token for the session (empty: a random one)
+  ServerConfig server;     ///< the relay's own server (port, TLS, token, web page, ...)
 };
 
 struct RelayStats {
@@ -70,6 +77,8 @@ class Relay {
   /// The site's cameras as its Welcome named them.
   const std::vector<protocol::CameraInfo>& cameras() const { return cameras_; }
   RelayStats stats() const;
+  /// The session link to the site's hub; null when RelayOptions::session is off.
+  const SessionForwarder* session() const { return session_.get(); }
 
  private:
   void on_welcome(std::span<const uint8_t> data);
@@ -97,6 +106,7 @@ class Relay {
   uint64_t previous_ = 0;         // its number (ChunkedFrameSet::sequence)
   uint64_t published_ = 0;
   std::vector<std::shared_ptr<const CameraFrame>> last_images_;  // the last frame set decoded
+  std::unique_ptr<SessionForwarder> session_;  // outlives server_, whose SessionPort it is
   std::unique_ptr<Server> server_;
   std::unique_ptr<NatsConnection::Subscription> welcome_sub_, tier_sub_;
   std::unique_ptr<TierInterest> interest_;  // tells the site the tier is wanted

@@ -59,6 +59,20 @@ class SessionPort {
   virtual void on_viewer_left(uint64_t viewer, const std::string& why) = 0;
 };
 
+/// Where the session service's messages for viewers go: the Server for its own viewers, a NATS
+/// session bridge (cluster/session_link.hpp) for viewers of relays.
+class SessionOutlet {
+ public:
+  virtual ~SessionOutlet() = default;
+  /// Queues a whole session-channel message (protocol.hpp channel 2, header included) for
+  /// `viewer`; `coalesce_key` != 0 replaces a queued message with the same key. Never blocks on
+  /// the network. Returns false if there is no such viewer (gone). Thread-safe.
+  virtual bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
+                            uint64_t coalesce_key = 0) = 0;
+  /// Ends viewer `viewer`'s connection, saying `why`; on_viewer_left follows. Thread-safe.
+  virtual void disconnect(uint64_t viewer, const std::string& why) = 0;
+};
+
 struct ServerConfig {
   std::string bind_address =
       "127.0.0.1";                ///< an address or host name; "0.0.0.0" for remote viewers
@@ -154,7 +168,7 @@ struct TierFrameSet {
   uint64_t index = 0;
 };
 
-class Server {
+class Server final : public SessionOutlet {
  public:
   /// Binds and starts accepting. Throws Error if the address or port cannot be bound or the
   /// configuration is invalid (e.g. `insecure` on a non-loopback address, an offered tier with an
@@ -192,10 +206,10 @@ class Server {
   /// than 4096 messages pile up is disconnected. Returns false if there is no such viewer
   /// (gone). Thread-safe; `message` is shared, not copied, between viewers.
   bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
-                    uint64_t coalesce_key = 0);
+                    uint64_t coalesce_key = 0) override;
   /// Ends viewer `viewer`'s connection (its thread logs `why`); SessionPort::on_viewer_left
   /// follows. Thread-safe; no-op for a viewer that has gone.
-  void disconnect(uint64_t viewer, const std::string& why);
+  void disconnect(uint64_t viewer, const std::string& why) override;
   /// Consumes tier DEPTH/COLOR/QUALITY like one more viewer that never falls behind: `tap` is
   /// called on the tier's thread with every frame set the tier encodes from its next key frame
   /// set on, in order, until stop(); the tier keeps encoding while the tap is there, viewers or

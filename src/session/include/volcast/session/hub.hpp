@@ -68,6 +68,11 @@ class SessionHub final : public SessionPort {
   /// The server whose viewers are the participants (its ServerConfig::session must be this hub);
   /// null detaches (before the server is destroyed).
   void attach(Server* server);
+  /// Viewer ids with bit 63 set (kRemoteViewer) are viewers of relays: their messages come in
+  /// through on_message like the server's own viewers', and what the hub sends them goes to
+  /// `remote` (cluster/session_link.hpp's SessionBridge); null detaches (before it is destroyed).
+  void attach_remote(SessionOutlet* remote);
+  static constexpr uint64_t kRemoteViewer = uint64_t{1} << 63;
   /// Makes a session with no one but the OR site in it (a session a demo starts); no-op if it
   /// exists. Throws Error on a bad name or too many sessions.
   void create_session(const std::string& name);
@@ -110,7 +115,11 @@ class SessionHub final : public SessionPort {
 
   SessionHubConfig config_;
   mutable std::mutex mutex_;
-  Server* server_ = nullptr;
+  SessionOutlet* outlet(uint64_t viewer) const {
+    return viewer & kRemoteViewer ? remote_ : server_;
+  }
+  SessionOutlet* server_ = nullptr;
+  SessionOutlet* remote_ = nullptr;
   std::map<uint32_t, std::unique_ptr<Session>> sessions_;  // by session id
   std::map<uint64_t, Member*> by_viewer_;                  // participants in a session
   uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site

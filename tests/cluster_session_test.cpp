@@ -1,0 +1,317 @@
+// The virtual OR's session through relays (issue 17, part 4): participants on two relays and on
+// the site itself share one session of the site's hub, over a nats-server the test starts (its
+// max_payload cut to 64 KiB, so avatars and the case travel in pieces). The stream is the real
+// hands site; the case is synthetic (exact behaviour).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <optional>
+#include <set>
+
+#include "session_site.hpp"
+#include "test_data.hpp"
+#include "volcast/cluster/local_cluster.hpp"
+#include "volcast/cluster/relay.hpp"
+#include "volcast/cluster/session_link.hpp"
+#include "volcast/cluster/tier_publisher.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/session/messages.hpp"
+#include "volcast/session/objects.hpp"
+#include "volcast/session/room.hpp"
+
+namespace volcast {
+namespace {
+using namespace cluster;
+using namespace std::chrono_literals;
+using test::eventually;
+using test::named;
+using test::TestParticipant;
+
+NatsOptions nats_at(const std::string& url) {
+  NatsOptions o;
+  o.urls = {url};
+  return o;
+}
+
+// The site (hands, a hub with session "OR") publishing on NATS with a session bridge, and two
+// relays, each on its own NATS connection.
+struct RelayedSession {
+  std::filesystem::path dir = test::temp_dir("relayed-session");
+  LocalNatsCluster nats_server{dir, 1, "max_payload: 65536"};
+  test::SessionSite s;
+  NatsConnection site_link{nats_at(nats_server.url(0))};
+  TierPublisher publisher{site_link, "or", protocol::Welcome{s.site.player.cameras(), 0}};
+  SessionBridge bridge{site_link, "or", s.hub};
+  NatsConnection link_one{nats_at(nats_server.url(0))}, link_two{nats_at(nats_server.url(0))};
+  std::optional<Relay> one, two;
+
+  RelayedSession() {
+    publisher.publish_tier(s.site.server, "volcast", "jpeg", 0);
+    s.hub.attach_remote(&bridge);
+    one.emplace(link_one, options("one"));
+    two.emplace(link_two, options("two"));
+  }
+  ~RelayedSession() {
+    one.reset();
+    two.reset();
+    s.hub.attach_remote(nullptr);
+    s.site.player.stop();
+    s.site.server.stop();
+  }
+  static RelayOptions options(const std::string& name) {
+    RelayOptions o;
+    o.relay_name = name;
+    o.server.port = 0;
+    o.server.latency_budget_ms = 5000;  // counts from the site's capture: a loaded box
+    return o;
+  }
+  static ClientConfig viewer_of(Relay& relay) {
+    ClientConfig c = client_config_from_link(relay.server().join_link("127.0.0.1"));
+    c.decode = false;
+    c.receive_timeout_ms = 20000;
+    return c;
+  }
+};
+
+bool sees(const TestParticipant& p, const std::string& name) {
+  return p.other(name).has_value();
+}
+
+SessionClientOptions hand_driven(const std::string& name) {
+  SessionClientOptions o = named(name);
+  o.drive_poses = false;  // heartbeats only; the test moves by hand
+  return o;
+}
+
+// Synthetic: one object (a tetrahedron, 10 cm) and a 40 x 40 x 30 series (48 kB of HU: the case
+// message is over the 64 KiB max_payload, so it comes down in pieces).
+session::SharedCase synthetic_case() {
+  session::SharedCase c;
+  c.name = "synthetic";
+  session::SharedObject o;
+  o.name = "organ";
+  o.rest.position = {0, 1.3f, 0};
+  session::SharedPart p;
+  p.name = "shell";
+  p.rgba = {0.6f, 0.2f, 0.1f, 1};
+  p.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  p.normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (auto& n : p.normals) n.normalize();
+  p.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  o.parts.push_back(p);
+  c.objects.push_back(o);
+  session::MonitorSeries m;
+  m.width = 40, m.height = 40, m.slices = 30;
+  m.hu.resize(48000);
+  for (size_t i = 0; i < m.hu.size(); ++i) m.hu[i] = static_cast<int16_t>(i % 2000 - 1000);
+  m.overlay.assign(48000, 0);
+  c.monitor = m;
+  return c;
+}
+
+Pose turned(float degrees) {
+  Pose p;
+  p.position = {0.1f, 1.35f, 0.05f};
+  p.orientation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(degrees * float(M_PI) / 180, Eigen::Vector3f::UnitY()));
+  return p;
+}
+
+bool same_pose(const Pose& a, const Pose& b) {
+  return a.position.isApprox(b.position, 1e-6f) &&
+         a.orientation.angularDistance(b.orientation) < 1e-4f;
+}
+
+// A on relay one, B on relay two and C on the site itself: one session. Each sees the others;
+// A's poses reach B exactly; the case comes down in pieces; a grab through one relay makes its
+// participant the owner for everyone, a grab through the other is refused naming the owner; the
+// move and the release reach all. A participant whose connection closes, and a relay stopped,
+// take their participants out of the session for the others.
+TEST(SessionThroughRelays, ParticipantsOnTwoRelaysAndTheSiteShareOneSession) {
+  RelayedSession r;
+  r.s.hub.set_case(synthetic_case());
+  TestParticipant a(RelayedSession::viewer_of(*r.one), hand_driven("Dr. A"));
+  TestParticipant b(RelayedSession::viewer_of(*r.two), hand_driven("Dr. B"));
+  TestParticipant c(r.s, hand_driven("Dr. C"));
+  ASSERT_TRUE(eventually([&] {
+    return sees(a, "Dr. B") && sees(a, "Dr. C") && sees(b, "Dr. A") && sees(b, "Dr. C") &&
+           sees(c, "Dr. A") && sees(c, "Dr. B");
+  })) << a.error
+      << b.error;
+  EXPECT_EQ(r.s.hub.members("OR").size(), 4u);  // the OR site and three
+  EXPECT_EQ(r.bridge.stats().viewers, 2u);
+  // The case (over max_payload) arrived whole through both relays.
+  ASSERT_TRUE(eventually([&] {
+    return a.now().objects.size() == 1 && b.now().objects.size() == 1 &&
+           c.now().objects.size() == 1;
+  }));
+  ASSERT_TRUE(a.p().shared_case());
+  EXPECT_EQ(a.p().shared_case()->monitor->hu, synthetic_case().monitor->hu);
+
+  // A's poses, by hand: head at x = k cm. B ends with the last, exactly where A put it.
+  BodyPose body;
+  for (int k = 1; k <= 60; ++k) {
+    body.head.position = {static_cast<float>(k) * 0.01f, 1.6f, 0};
+    a.p().publish(body);
+    std::this_thread::sleep_for(std::chrono::microseconds(16667));
+  }
+  const RigidTransform room_from_a = session::room_from_playarea(a.now().spot);
+  const Eigen::Vector3f last = (room_from_a * Eigen::Vector3d(0.6, 1.6, 0)).cast<float>();
+  ASSERT_TRUE(eventually([&] {
+    const auto o = b.other("Dr. A");
+    return o && o->has_pose && o->newest_pose_sequence >= 60;
+  }));
+  EXPECT_LT((b.other("Dr. A")->newest_pose.head.position - last).norm(), 1e-4);
+
+  // A grabs through relay one; B's grab through relay two is refused, naming the holder.
+  a.p().grab(0);
+  const uint32_t a_id = a.now().id;
+  ASSERT_TRUE(eventually(
+      [&] { return b.now().objects[0].owner == a_id && c.now().objects[0].owner == a_id; }));
+  b.p().grab(0);
+  ASSERT_TRUE(
+      eventually([&] { return b.now().last_error.find("is held by") != std::string::npos; }));
+  for (int step = 1; step <= 30; ++step) {
+    a.p().move_object(0, turned(3.0f * float(step)));
+    std::this_thread::sleep_for(10ms);
+  }
+  a.p().release(0, turned(90));
+  ASSERT_TRUE(eventually([&] {
+    const auto sb = b.now(), sc = c.now();
+    return sb.objects[0].owner == 0 && sc.objects[0].owner == 0 &&
+           same_pose(sb.objects[0].pose, turned(90)) && same_pose(sc.objects[0].pose, turned(90));
+  }));
+  EXPECT_EQ(r.s.hub.stats().grabs, 1u);
+  EXPECT_EQ(r.s.hub.stats().grabs_refused, 1u);
+  EXPECT_EQ(r.s.hub.stats().releases, 1u);
+
+  // A's application closes: B (another relay) and C see A go, disconnected, not timed out.
+  a.end();
+  ASSERT_TRUE(eventually([&] { return !sees(b, "Dr. A") && !sees(c, "Dr. A"); }));
+  ASSERT_EQ(c.now().departed.size(), 1u);
+  EXPECT_EQ(std::get<2>(c.now().departed[0]), session::LeftReason::kDisconnected);
+  // Relay two stops: its participant leaves the session; C stays.
+  r.two.reset();
+  ASSERT_TRUE(eventually([&] { return !sees(c, "Dr. B"); }));
+  EXPECT_EQ(r.s.hub.members("OR").size(), 2u);
+  EXPECT_EQ(r.s.hub.stats().timeouts, 0u);
+  EXPECT_FALSE(c.ended) << c.error;
+  EXPECT_EQ(r.bridge.stats().malformed, 0u);
+  EXPECT_EQ(r.bridge.stats().refused, 0u);
+}
+
+// A camera avatar (640x360 depth + raw color, ~1.1 MB a frame: 17 pieces) sent through relay one
+// reaches a participant of relay two as one of the hands frames, pixel for pixel.
+TEST(SessionThroughRelays, AnAvatarInPiecesArrivesBitExact) {
+  RelayedSession r;
+  SessionClientOptions with_camera = named("Surgeon");
+  with_camera.camera_source = test::hands_dir();
+  with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+  with_camera.upload_color_codec = "raw";
+  TestParticipant a(RelayedSession::viewer_of(*r.one), with_camera);
+  TestParticipant b(RelayedSession::viewer_of(*r.two), named("B"));
+  std::set<std::vector<uint16_t>> depths;
+  for (const DepthImage& d : test::real_depth_frames("hands")) depths.insert(d.pixels);
+  ASSERT_TRUE(eventually([&] {
+    const auto o = b.other("Surgeon");
+    return o && o->avatar_camera && o->avatar_sequence >= 3;
+  })) << a.error
+      << b.error;
+  const auto frame = b.p().avatar_frame(b.other("Surgeon")->id);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->depth.width, 640);
+  EXPECT_TRUE(depths.count(frame->depth.pixels)) << "decoded depth is no hands frame";
+  EXPECT_EQ(frame->color.width, 640);
+  EXPECT_GE(r.s.hub.stats().avatar_frames_in, 3u);
+}
+
+// A hostile viewer of a relay (a pose with a NaN) is dropped by the site's hub, and its relay
+// ends its connection; the other participant of that relay is not touched.
+TEST(SessionThroughRelays, AMalformedMessageThroughARelayDropsOnlyItsSender) {
+  RelayedSession r;
+  TestParticipant good(RelayedSession::viewer_of(*r.one), named("Good"));
+  TestParticipant bad(RelayedSession::viewer_of(*r.one), named("Bad"));
+  ASSERT_TRUE(eventually([&] { return sees(good, "Bad"); }));
+  session::PoseMessage pose;
+  auto p = session::serialize(pose);
+  const float nan = std::nanf("");
+  std::memcpy(p.data() + 14, &nan, 4);
+  bad.client->post_session(session::message(session::Type::kPose, p));
+  EXPECT_TRUE(eventually([&] { return bad.ended.load(); })) << "the relay did not drop it";
+  EXPECT_TRUE(eventually([&] { return !sees(good, "Bad"); }));
+  EXPECT_EQ(r.s.hub.stats().dropped, 1u);
+  EXPECT_EQ(r.bridge.stats().refused, 1u);
+  const uint64_t before = good.p().stats().poses_sent;
+  EXPECT_TRUE(eventually([&] { return good.p().stats().poses_sent > before + 10; }));
+  EXPECT_FALSE(good.ended) << good.error;
+  EXPECT_TRUE(sees(good, "OR site"));
+}
+
+// Pieces (synthetic bytes, exact behaviour): a message in pieces comes back whole; a total over
+// the limit is refused on its first piece, before anything is allocated for it; a piece that
+// does not follow on drops the message; bad headers are named.
+TEST(SessionPieces, PiecesComeBackWholeAndHostileOnesAreRefused) {
+  std::vector<uint8_t> message(100000);
+  for (size_t i = 0; i < message.size(); ++i) message[i] = static_cast<uint8_t>(i * 7);
+  // What publish_session_message would send with a 4096-byte max_payload.
+  const auto pieces_of = [](std::span<const uint8_t> m, size_t per) {
+    std::vector<std::vector<uint8_t>> out;
+    for (size_t offset = 0; offset < m.size(); offset += per) {
+      const size_t n = std::min(per, m.size() - offset);
+      std::vector<uint8_t> p(kSessionPieceHeader + n, 0);
+      p[0] = 1, p[2] = 0x05, p[4] = 9;  // a message, type 5, viewer 9
+      const uint32_t total = static_cast<uint32_t>(m.size()), at = static_cast<uint32_t>(offset);
+      std::memcpy(&p[20], &total, 4);
+      std::memcpy(&p[24], &at, 4);
+      std::memcpy(&p[28], m.data() + offset, n);
+      out.push_back(std::move(p));
+    }
+    return out;
+  };
+  const auto pieces = pieces_of(message, 4096 - kSessionPieceHeader);
+  ASSERT_EQ(pieces.size(), 25u);
+  PieceAssembler assembler;
+  std::optional<std::vector<uint8_t>> whole;
+  for (const auto& p : pieces) {
+    ASSERT_FALSE(whole);
+    whole = assembler.add("r", parse_session_piece(p), 1 << 20);
+  }
+  ASSERT_TRUE(whole);
+  EXPECT_EQ(*whole, message);
+  // Over the limit: refused on the first piece.
+  EXPECT_THROW(assembler.add("r", parse_session_piece(pieces[0]), 99999), Error);
+  // A piece skipped: the next one does not follow on, and the message is dropped.
+  EXPECT_FALSE(assembler.add("r", parse_session_piece(pieces[0]), 1 << 20));
+  EXPECT_THROW(assembler.add("r", parse_session_piece(pieces[2]), 1 << 20), Error);
+  EXPECT_THROW(assembler.add("r", parse_session_piece(pieces[3]), 1 << 20), Error);
+  EXPECT_EQ(assembler.dropped(), 2u);
+  // Two streams (relays) interleaved are kept apart.
+  for (size_t i = 0; i < pieces.size(); ++i) {
+    const auto x = assembler.add("x", parse_session_piece(pieces[i]), 1 << 20);
+    const auto y = assembler.add("y", parse_session_piece(pieces[i]), 1 << 20);
+    EXPECT_EQ(x.has_value(), i + 1 == pieces.size());
+    if (y) {
+      EXPECT_EQ(*y, message);
+    }
+  }
+  // Headers: short, an unknown kind, bytes past the total, a reason in pieces.
+  EXPECT_THROW(parse_session_piece(std::vector<uint8_t>(27)), Error);
+  std::vector<uint8_t> bad = pieces[0];
+  bad[0] = 3;
+  EXPECT_THROW(parse_session_piece(bad), Error);
+  bad = pieces[24];
+  const uint32_t short_total = 1000;
+  std::memcpy(&bad[20], &short_total, 4);
+  EXPECT_THROW(parse_session_piece(bad), Error);
+  bad = pieces[1];
+  bad[0] = 2;
+  EXPECT_THROW(parse_session_piece(bad), Error);
+  // The subjects name site and relay, each a subject token.
+  EXPECT_EQ(session_up_subject("or", "one"), "volcast.or.session.up.one");
+  EXPECT_EQ(session_down_subject("or", "one"), "volcast.or.session.down.one");
+  EXPECT_THROW(session_up_subject("or", "a.b"), Error);
+}
+
+}  // namespace
+}  // namespace volcast

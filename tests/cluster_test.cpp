@@ -677,7 +677,7 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   const std::string serve_pid = out.substr(0, out.find('\n'));
   ASSERT_FALSE(join_link_in(dir / "serve.log").empty());
   ASSERT_EQ(test::run_command(volcast + " relay --nats " + nats_server.url(0) +
-                                  " --site theatre1 --seconds 90 --port 0 > " +
+                                  " --site theatre1 --relay-name hall-1 --seconds 90 --port 0 > " +
                                   (dir / "relay.log").string() + " 2>&1 & echo $!",
                               out),
             0);
@@ -725,7 +725,8 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   EXPECT_EQ(stats["session"], "OR");
   EXPECT_GT(poses_from(stats, "Direct"), 0u) << stats.dump();
   EXPECT_GT(poses_from(direct, "Relayed"), 0u) << direct.dump();
-  EXPECT_NE(relay_text.find("sessions through this relay"), std::string::npos) << relay_text;
+  EXPECT_NE(relay_text.find("sessions through this relay (as hall-1)"), std::string::npos)
+      << relay_text;
   // Nobody publishing that site: one line that says what the relay waited for.
   EXPECT_NE(test::run_command(volcast + " relay --nats " + nats_server.url(0) +
                                   " --site theatre9 --welcome-timeout 300 --port 0",

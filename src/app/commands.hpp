@@ -89,8 +89,10 @@ struct ServeArgs {
   bool camera_only = false;                       ///< a capture node: publish on NATS, no viewers
   std::string relay_tier = "volcast/jpeg";        ///< relay: the published tier taken from NATS
   int welcome_timeout_ms = 10000;                 ///< relay: wait this long for the site's Welcome
-  double from_s = 0, to_s = -1;                   ///< a .vcr source: the part replayed (seconds in)
-  bool no_loop = false;                           ///< a .vcr source: play it once, then stop
+  std::string relay_name;         ///< relay: its session subject token (empty: a random one)
+  bool relay_no_session = false;  ///< relay: no session forwarding
+  double from_s = 0, to_s = -1;   ///< a .vcr source: the part replayed (seconds in)
+  bool no_loop = false;           ///< a .vcr source: play it once, then stop
 };
 int run_serve(const ServeArgs& args);
 /// `volcast relay`: a site's stream from NATS (--nats, --site, --tier) served to viewers with

@@ -211,6 +211,12 @@ int main(int argc, char** argv) {
                  "The published tier to take (one of serve's --nats-tier): DEPTH/COLOR[/QUALITY]; "
                  "its viewers get the site's bytes, other tiers are encoded here")
       ->capture_default_str();
+  rl->add_option("--relay-name", relay.relay_name,
+                 "This relay's name in the session's NATS subjects (volcast.SITE.session.up.NAME; "
+                 "unique among the site's relays; default: a random one), for per-relay "
+                 "permissions");
+  rl->add_flag("--no-session", relay.relay_no_session,
+               "Stream only: viewers cannot join the site's sessions through this relay");
   rl->add_option("--welcome-timeout", relay.welcome_timeout_ms,
                  "Give up unless the site's Welcome arrives this soon (ms)")
       ->capture_default_str();

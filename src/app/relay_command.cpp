@@ -18,6 +18,8 @@ int run_relay(const ServeArgs& a) {
   o.site = a.nats_site;
   std::tie(o.depth_codec, o.color_codec, o.color_quality) = parse_tier(a.relay_tier, "--tier");
   o.welcome_timeout_ms = a.welcome_timeout_ms;
+  o.relay_name = a.relay_name;
+  o.session = !a.relay_no_session;
   o.server = server_config(a);
   cluster::NatsConnection nats(nats_options(a, "volcast relay " + a.nats_site));
   spdlog::info("relay: waiting for site '{}' on {}", a.nats_site, a.nats);

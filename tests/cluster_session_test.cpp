@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
@@ -14,6 +15,7 @@
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
 #include "volcast/cluster/session_link.hpp"
+#include "volcast/cluster/session_state.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/session/messages.hpp"
@@ -311,6 +313,103 @@ TEST(SessionPieces, PiecesComeBackWholeAndHostileOnesAreRefused) {
   EXPECT_EQ(session_up_subject("or", "one"), "volcast.or.session.up.one");
   EXPECT_EQ(session_down_subject("or", "one"), "volcast.or.session.down.one");
   EXPECT_THROW(session_up_subject("or", "a.b"), Error);
+}
+
+}  // namespace
+}  // namespace volcast
+
+namespace volcast {
+namespace {
+using namespace cluster;
+
+// The site's server restarts (a new hub, the same case): the organ where a participant left it
+// and the monitor as set come back from the JetStream bucket; nobody holds anything. A state of
+// another case is not applied, and a hostile value is refused naming the field, not thrown.
+TEST(SessionState, ARestartedSiteServerPutsTheOrgansAndTheMonitorBack) {
+  const auto dir = test::temp_dir("session-state");
+  LocalNatsCluster nats_server(dir, 1,
+                               "jetstream { store_dir: \"" + (dir / "js").string() + "\" }");
+  NatsConnection link(nats_at(nats_server.url(0)));
+  session::MonitorState set;
+  set.slice = 7, set.center = 90, set.width = 150, set.overlay = false;
+  {
+    test::SessionSite s;
+    s.hub.set_case(synthetic_case());
+    SessionStateMirror mirror(link, "or", s.hub, 1, 50);
+    EXPECT_EQ(mirror.stats().restored, 0);
+    TestParticipant a(s, hand_driven("Dr. A"));
+    ASSERT_TRUE(eventually([&] { return a.now().joined && a.now().objects.size() == 1; }));
+    a.p().grab(0);
+    ASSERT_TRUE(eventually([&] { return s.hub.objects("OR")[0].owner == a.now().id; }));
+    a.p().release(0, turned(120));
+    a.p().set_monitor(set);
+    ASSERT_TRUE(eventually(
+        [&] { return s.hub.objects("OR")[0].owner == 0 && s.hub.monitor("OR")->slice == 7; }));
+    // Still held by nobody, and written (the mirror checks every 50 ms).
+    ASSERT_TRUE(eventually([&] {
+      const auto v = link.key_value(session_state_bucket("or"))->get("OR");
+      if (!v) return false;
+      const auto j = nlohmann::json::parse(v->begin(), v->end());
+      return j["monitor"]["slice"] == 7 && j["objects"][0]["owner"] == 0 &&
+             j["members"].size() == 2u;  // the OR site and Dr. A
+    }));
+  }
+  // The restart: a new hub with the same case.
+  {
+    SessionHub hub;
+    hub.set_case(synthetic_case());
+    SessionStateMirror mirror(link, "or", hub);
+    EXPECT_EQ(mirror.stats().restored, 1);
+    ASSERT_EQ(hub.objects("OR").size(), 1u);
+    EXPECT_TRUE(same_pose(hub.objects("OR")[0].pose, turned(120)));
+    EXPECT_EQ(hub.objects("OR")[0].owner, 0u);
+    const auto m = hub.monitor("OR");
+    ASSERT_TRUE(m);
+    EXPECT_EQ(m->slice, 7);
+    EXPECT_EQ(m->center, 90);
+    EXPECT_EQ(m->width, 150);
+    EXPECT_FALSE(m->overlay);
+  }
+  // Another patient's case: the saved state is not applied.
+  {
+    SessionHub hub;
+    session::SharedCase other = synthetic_case();
+    other.name = "another patient";
+    hub.set_case(other);
+    SessionStateMirror mirror(link, "or", hub);
+    EXPECT_EQ(mirror.stats().restored, 0);
+    EXPECT_TRUE(same_pose(hub.objects("OR")[0].pose, other.objects[0].rest));
+  }
+  // A hostile value: counted and named, the server starts anyway.
+  const std::string bad =
+      R"({"session":"OR","case":"synthetic","objects":[{"object":0,"sequence":1,)"
+      R"("position":[1e300,0,0],"orientation":[1,0,0,0]}]})";
+  link.key_value(session_state_bucket("or"))
+      ->put("OR", {reinterpret_cast<const uint8_t*>(bad.data()), bad.size()});
+  {
+    SessionHub hub;
+    hub.set_case(synthetic_case());
+    SessionStateMirror mirror(link, "or", hub);
+    EXPECT_EQ(mirror.stats().restored, 0);
+    EXPECT_EQ(mirror.stats().errors, 1u);
+    EXPECT_NE(mirror.stats().last_error.find("'position' is out of range"), std::string::npos)
+        << mirror.stats().last_error;
+  }
+  EXPECT_EQ(session_state_key("OR 2/b"), "OR=202=2Fb");
+}
+
+// Without JetStream on the cluster the bucket cannot be opened, and the error says so.
+TEST(SessionState, AClusterWithoutJetStreamIsNamed) {
+  const auto dir = test::temp_dir("session-state-nojs");
+  LocalNatsCluster nats_server(dir, 1);
+  NatsConnection link(nats_at(nats_server.url(0)));
+  SessionHub hub;
+  try {
+    SessionStateMirror mirror(link, "or", hub);
+    FAIL() << "opened a bucket without JetStream";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("JetStream"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

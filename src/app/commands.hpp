@@ -86,9 +86,10 @@ struct ServeArgs {
   std::string nats_ca, nats_tls_name, nats_cert, nats_key;  ///< TLS to the cluster (NatsOptions)
   std::vector<std::string> nats_cameras;          ///< capture nodes whose cameras join this site
   std::string nats_camera_tier = "volcast/jpeg";  ///< the tier capture nodes publish
-  bool camera_only = false;                       ///< a capture node: publish on NATS, no viewers
-  std::string relay_tier = "volcast/jpeg";        ///< relay: the published tier taken from NATS
-  int welcome_timeout_ms = 10000;                 ///< relay: wait this long for the site's Welcome
+  int nats_state_replicas = 1;  ///< serve --nats: JetStream replicas of the session state (0: off)
+  bool camera_only = false;     ///< a capture node: publish on NATS, no viewers
+  std::string relay_tier = "volcast/jpeg";  ///< relay: the published tier taken from NATS
+  int welcome_timeout_ms = 10000;           ///< relay: wait this long for the site's Welcome
   std::string relay_name;         ///< relay: its session subject token (empty: a random one)
   bool relay_no_session = false;  ///< relay: no session forwarding
   double from_s = 0, to_s = -1;   ///< a .vcr source: the part replayed (seconds in)

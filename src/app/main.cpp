@@ -153,6 +153,12 @@ void add_serve_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& 
                 "The tier the capture nodes publish (their --nats-tier; lossless depth keeps it "
                 "exact)")
       ->capture_default_str();
+  s->add_option("--nats-state-replicas", serve.nats_state_replicas,
+                "Keep the sessions' state (organ poses, owners, the monitor) in JetStream bucket "
+                "volcast-SITE-sessions on this many nodes (0: not kept; the cluster needs "
+                "JetStream); a restarted server puts it back")
+      ->check(CLI::Range(0, 5))
+      ->capture_default_str();
   s->add_flag("--camera-only", serve.camera_only,
               "A capture node: publish the cameras on --nats for a site server's --nats-cameras; "
               "no viewers (loopback only, no join link)");

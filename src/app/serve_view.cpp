@@ -14,6 +14,7 @@
 #include "options.hpp"
 #include "volcast/cluster/remote_site.hpp"
 #include "volcast/cluster/session_link.hpp"
+#include "volcast/cluster/session_state.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -449,9 +450,10 @@ int run_serve(const ServeArgs& a) {
   std::optional<CaseWatch> case_watch;
   if (!a.case_folder.empty()) case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
-  std::optional<BackgroundRecorder> recorder;       // outlives the server, whose tier feeds it
-  std::optional<cluster::TierPublisher> publisher;  // so does this
-  std::optional<cluster::SessionBridge> bridge;     // relays' participants, to the hub
+  std::optional<BackgroundRecorder> recorder;        // outlives the server, whose tier feeds it
+  std::optional<cluster::TierPublisher> publisher;   // so does this
+  std::optional<cluster::SessionBridge> bridge;      // relays' participants, to the hub
+  std::optional<cluster::SessionStateMirror> state;  // the hub's state, in a NATS bucket
   Server server(for_viewers, config);
   hub.attach(&server);
   if (!a.record.empty()) {
@@ -478,6 +480,13 @@ int run_serve(const ServeArgs& a) {
     if (!a.camera_only) {  // participants of relays join this hub's sessions
       bridge.emplace(*nats, a.nats_site, hub);
       hub.attach_remote(&*bridge);
+      if (a.nats_state_replicas > 0) try {
+          state.emplace(*nats, a.nats_site, hub, a.nats_state_replicas);
+          spdlog::info("sessions' state kept in NATS bucket {} ({} restored)",
+                       cluster::session_state_bucket(a.nats_site), state->stats().restored);
+        } catch (const Error& e) {
+          spdlog::warn("sessions' state not kept on NATS: {}", e.what());
+        }
     }
   }
   if (replay)
@@ -552,6 +561,7 @@ int run_serve(const ServeArgs& a) {
   hub.attach(nullptr);
   hub.attach_remote(nullptr);
   bridge.reset();
+  state.reset();  // writes the last state
   const SessionHubStats hs = hub.stats();
   spdlog::info(
       "sessions: {} joins, {} left, {} timed out, {} dropped; {} poses in, {} out; {} "

@@ -233,3 +233,77 @@ std::unique_ptr<NatsConnection::Subscription> NatsConnection::subscribe(const st
 }
 
 }  // namespace volcast::cluster
+
+namespace volcast::cluster {
+
+struct NatsConnection::KeyValue::Impl {
+  jsCtx* js = nullptr;
+  kvStore* kv = nullptr;
+  std::string bucket;
+  ~Impl() {
+    if (kv) kvStore_Destroy(kv);
+    if (js) jsCtx_Destroy(js);
+  }
+};
+
+NatsConnection::KeyValue::~KeyValue() = default;
+
+std::unique_ptr<NatsConnection::KeyValue> NatsConnection::key_value(const std::string& bucket,
+                                                                    int replicas) {
+  check_subject_token(bucket, "key-value bucket");
+  if (replicas < 1 || replicas > 5)
+    throw Error("NATS: " + std::to_string(replicas) + " replicas (1..5) for bucket " + bucket);
+  std::unique_ptr<KeyValue> out(new KeyValue());
+  out->impl_ = std::make_unique<KeyValue::Impl>();
+  auto& k = *out->impl_;
+  k.bucket = bucket;
+  natsStatus s = natsConnection_JetStream(&k.js, impl_->nc, nullptr);
+  if (s == NATS_OK) {
+    s = js_KeyValue(&k.kv, k.js, bucket.c_str());
+    if (s == NATS_NOT_FOUND) {
+      kvConfig cfg;
+      kvConfig_Init(&cfg);
+      cfg.Bucket = bucket.c_str();
+      cfg.History = 1;
+      cfg.Replicas = replicas;
+      s = js_CreateKeyValue(&k.kv, k.js, &cfg);
+    }
+  }
+  if (s != NATS_OK)
+    throw Error("NATS: cannot open key-value bucket " + bucket + ": " + reason(s) +
+                " (the nodes need JetStream: a `jetstream { store_dir: ... }` block)");
+  return out;
+}
+
+void NatsConnection::KeyValue::put(const std::string& key, std::span<const uint8_t> value) {
+  uint64_t revision = 0;
+  const natsStatus s =
+      kvStore_Put(&revision, impl_->kv, key.c_str(), value.data(), static_cast<int>(value.size()));
+  if (s != NATS_OK)
+    throw Error("NATS: cannot store " + key + " in bucket " + impl_->bucket + ": " + reason(s));
+}
+
+std::optional<std::vector<uint8_t>> NatsConnection::KeyValue::get(const std::string& key) {
+  kvEntry* e = nullptr;
+  const natsStatus s = kvStore_Get(&e, impl_->kv, key.c_str());
+  if (s == NATS_NOT_FOUND) return std::nullopt;
+  if (s != NATS_OK)
+    throw Error("NATS: cannot read " + key + " from bucket " + impl_->bucket + ": " + reason(s));
+  const auto* data = static_cast<const uint8_t*>(kvEntry_Value(e));
+  std::vector<uint8_t> out(data, data + kvEntry_ValueLen(e));
+  kvEntry_Destroy(e);
+  return out;
+}
+
+std::vector<std::string> NatsConnection::KeyValue::keys() {
+  kvKeysList list{};
+  const natsStatus s = kvStore_Keys(&list, impl_->kv, nullptr);
+  std::vector<std::string> out;
+  if (s == NATS_NOT_FOUND) return out;  // an empty bucket
+  if (s != NATS_OK) throw Error("NATS: cannot list bucket " + impl_->bucket + ": " + reason(s));
+  for (int i = 0; i < list.Count; ++i) out.emplace_back(list.Keys[i]);
+  kvKeysList_Destroy(&list);
+  return out;
+}
+
+}  // namespace volcast::cluster

@@ -450,6 +450,41 @@ std::vector<session::ObjectState> SessionHub::objects(const std::string& name) c
   return {};
 }
 
+std::string SessionHub::case_name() const {
+  std::lock_guard lock(mutex_);
+  return case_ ? case_->name : std::string();
+}
+
+bool SessionHub::restore(const std::string& name, const std::string& case_name,
+                         const std::vector<session::ObjectState>& objects,
+                         const std::optional<session::MonitorState>& monitor) {
+  create_session(name);  // checks the name
+  std::lock_guard lock(mutex_);
+  if (!case_ || case_->name != case_name) return false;
+  Session* s = nullptr;
+  for (auto& [id, x] : sessions_)
+    if (x->name == name) s = x.get();
+  if (!s) return false;
+  for (const session::ObjectState& o : objects) {
+    if (o.object >= s->objects.size()) continue;
+    session::ObjectState& to = s->objects[o.object];
+    to.pose = o.pose;
+    to.owner = 0;
+    to.sequence = o.sequence;
+    to.time_us = wall_clock_us();
+  }
+  if (monitor && s->monitor && case_->monitor) {
+    s->monitor->slice =
+        std::min<uint16_t>(monitor->slice, static_cast<uint16_t>(case_->monitor->slices - 1));
+    s->monitor->center = monitor->center;
+    s->monitor->width = monitor->width;
+    s->monitor->overlay = monitor->overlay && !case_->monitor->overlay.empty();
+  }
+  spdlog::info("session '{}': objects and monitor of case '{}' restored", printable(name),
+               printable(case_name));
+  return true;
+}
+
 std::optional<session::MonitorState> SessionHub::monitor(const std::string& name) const {
   std::lock_guard lock(mutex_);
   for (const auto& [id, s] : sessions_)

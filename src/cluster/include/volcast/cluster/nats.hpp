@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -90,6 +91,31 @@ class NatsConnection {
     std::shared_ptr<Impl> impl_;
     NatsConnection::Impl* owner_ = nullptr;
   };
+  /// A JetStream key-value bucket (the nodes must run JetStream: nats-server's `jetstream {}`
+  /// block). Values at most the server's max_payload; keys of A-Z a-z 0-9 - _ = . / .
+  class KeyValue {
+   public:
+    ~KeyValue();
+    KeyValue(const KeyValue&) = delete;
+    KeyValue& operator=(const KeyValue&) = delete;
+    /// Stores `value` under `key` (a new revision). Throws Error with libnats' reason.
+    void put(const std::string& key, std::span<const uint8_t> value);
+    /// The newest value of `key`; nullopt if there is none (or it was deleted). Throws Error.
+    std::optional<std::vector<uint8_t>> get(const std::string& key);
+    /// Every key with a value now. Throws Error.
+    std::vector<std::string> keys();
+
+   private:
+    friend class NatsConnection;
+    KeyValue() = default;
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+  };
+  /// Opens bucket `bucket` (A-Z a-z 0-9 - _), making it if missing with the newest value per key
+  /// kept, on `replicas` nodes (1..5; at most the cluster's nodes). Throws Error naming JetStream
+  /// when the cluster does not run it.
+  std::unique_ptr<KeyValue> key_value(const std::string& bucket, int replicas = 1);
+
   using Handler = std::function<void(const std::string& subject, std::span<const uint8_t> data)>;
   /// Subscribes to `subject` (wildcards allowed). Throws Error (e.g. not permitted).
   std::unique_ptr<Subscription> subscribe(const std::string& subject, Handler handler);

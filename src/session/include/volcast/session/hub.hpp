@@ -90,6 +90,17 @@ class SessionHub final : public SessionPort {
   /// The objects' states in session `name` (empty if there is none or no case).
   std::vector<session::ObjectState> objects(const std::string& name) const;
   std::optional<session::MonitorState> monitor(const std::string& name) const;
+  /// The case's name (empty: none yet).
+  std::string case_name() const;
+  /// Puts session `name` (made if missing) back as it was saved (cluster/session_state.hpp):
+  /// each object's pose (nobody holds anything after a restart; indices past the case's objects
+  /// are ignored) and the monitor's slice (clamped to the series), window and overlay. Applied
+  /// only when the current case is named `case_name`: false (nothing changed) for another case
+  /// or none. For a hub starting up, before participants join (they get it on joining). Throws
+  /// Error on a bad session name.
+  bool restore(const std::string& name, const std::string& case_name,
+               const std::vector<session::ObjectState>& objects,
+               const std::optional<session::MonitorState>& monitor);
 
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;

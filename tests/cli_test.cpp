@@ -233,9 +233,12 @@ TEST(Cli, ServePublishesOnNatsOverTlsAndARelayServesAViewer) {
 authorization {{
   users = [
     {{user: site, password: site-secret,
-     permissions: {{publish: "volcast.or.>", subscribe: ["_INBOX.>", "volcast.or.want.>"]}}}}
+     permissions: {{publish: ["volcast.or.>", "$JS.API.>", "$KV.volcast-or-sessions.>"],
+                   subscribe: ["_INBOX.>", "volcast.or.want.>", "volcast.or.session.up.>"]}}}}
     {{user: relay, password: relay-secret,
-     permissions: {{publish: ["_INBOX.>", "volcast.or.want.>"], subscribe: "volcast.or.>"}}}}
+     permissions: {{publish: ["_INBOX.>", "volcast.or.want.>", "volcast.or.session.up.hall1"],
+                   subscribe: ["volcast.or.welcome", "volcast.or.tier.>",
+                               "volcast.or.session.down.hall1"]}}}}
   ]
 }}
 )",
@@ -253,7 +256,7 @@ authorization {{
   const std::string serve_pid = out.substr(0, out.find('\n'));
   ASSERT_EQ(test::run_command(kVolcast +
                                   " relay --site or --port 0 --insecure --seconds 120 "
-                                  "--nats-user relay" +
+                                  "--relay-name hall1 --nats-user relay" +
                                   tls + (dir / "relay.pw").string() + " > " +
                                   (dir / "relay.log").string() + " 2>&1 & echo $!",
                               out),
@@ -263,7 +266,8 @@ authorization {{
   int rc = -1;
   if (!link.empty())
     rc = test::run_command(kVolcast + " view --no-render --connect '" + link +
-                               "' --frames 5 --stats-json " + (dir / "s.json").string(),
+                               "' --frames 5 --join OR --name Student --stats-json " +
+                               (dir / "s.json").string(),
                            out);
   const std::string view_out = out;
   // A relay with the wrong password is refused at once, saying so.
@@ -285,6 +289,9 @@ authorization {{
   EXPECT_EQ(relay_log.find("not by name"), std::string::npos) << relay_log;
   EXPECT_NE(wrong, 0);
   EXPECT_NE(wrong_out.find("uthorization"), std::string::npos) << wrong_out;
+  // The accounts of docs/cluster.md let the relay's viewer join the site's session.
+  EXPECT_NE(serve_log.find("'Student' joined"), std::string::npos) << serve_log;
+  EXPECT_EQ(serve_log.find("cannot join"), std::string::npos) << serve_log;
 }
 
 // Capture nodes: two `serve --camera-only` processes (the hands sequence each) add their cameras

@@ -478,8 +478,12 @@ int run_serve(const ServeArgs& a) {
                    t, cluster::tier_subject(a.nats_site, depth, color, quality));
     }
     if (!a.camera_only) {  // participants of relays join this hub's sessions
-      bridge.emplace(*nats, a.nats_site, hub);
-      hub.attach_remote(&*bridge);
+      try {
+        bridge.emplace(*nats, a.nats_site, hub);
+        hub.attach_remote(&*bridge);
+      } catch (const Error& e) {  // e.g. the account may not subscribe: the stream goes on
+        spdlog::warn("viewers of relays cannot join the sessions: {}", e.what());
+      }
       if (a.nats_state_replicas > 0) try {
           state.emplace(*nats, a.nats_site, hub, a.nats_state_replicas);
           spdlog::info("sessions' state kept in NATS bucket {} ({} restored)",

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# First README command: install what is missing, build the release preset, run `volcast demo`.
+# First README command: install what is missing, build the release preset (the `volcast` binary
+# and the browser viewer it serves with --web), run `volcast demo`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh

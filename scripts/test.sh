@@ -1,14 +1,47 @@
 #!/usr/bin/env bash
-# Second README command: install what is missing, build the sanitizer preset, run every test,
-# then fuzz every decoder for a bounded time.
+# Second README command: install what is missing, build the dev preset once (Clang 14, ASan +
+# UBSan: the volcast binary, the browser viewer, the tests and the fuzzers), run every test, then
+# fuzz every decoder and parser for a bounded time. Prints the seconds of each phase at the end.
+#
+#   bash scripts/test.sh            everything (what CI runs)
+#   bash scripts/test.sh --quick    the inner loop: an incremental build, then the unit tests
+#                                   (ctest label `unit`), no fuzzing
+#   bash scripts/test.sh --label L  an incremental build, then the tests labelled L (unit, stream,
+#                                   session, browser, cluster, cli), no fuzzing
 set -euo pipefail
 cd "$(dirname "$0")/.."
+label=""
+case "${1:-}" in
+  "") ;;
+  --quick) label=unit ;;
+  --label) label="${2:?--label needs one of: unit stream session browser cluster cli}" ;;
+  *) echo "usage: bash scripts/test.sh [--quick | --label LABEL]" >&2; exit 2 ;;
+esac
+
+phases=()
+started=$SECONDS
+phase_done() { phases+=("$(printf '%-10s %5d s' "$1" $((SECONDS - started)))"); started=$SECONDS; }
+summary() { echo "test.sh: seconds per phase"; printf '  %s\n' "${phases[@]}"; }
+trap summary EXIT
+
 bash scripts/install-deps.sh
-cmake --preset dev
+phase_done install
+cmake --preset dev >/dev/null
+phase_done configure
 cmake --build --preset dev
+phase_done build
 # The browser tests' npm packages (playwright-core, iwer), exactly as web/test/package-lock.json
 # pins them; Chromium is Debian's (install-deps), never a download.
-npm ci --prefix web/test --no-audit --no-fund --loglevel=error
-ctest --preset dev -j2
-# libFuzzer on every decoder and the protocol parsers, FUZZ_SECONDS (default 30) each.
-bash scripts/fuzz.sh
+[ -n "$label" ] && [ "$label" != browser ] ||
+  npm ci --prefix web/test --no-audit --no-fund --loglevel=error
+phase_done npm
+if [ -n "$label" ]; then
+  ctest --preset dev -L "^${label}\$" -j"$(nproc)"
+  phase_done tests
+  exit 0
+fi
+ctest --preset dev -j"$(nproc)"
+phase_done tests
+# libFuzzer on every decoder and the protocol parsers, FUZZ_SECONDS each, one per core.
+FUZZ_SECONDS="${FUZZ_SECONDS:-15}" bash scripts/fuzz.sh
+phase_done fuzz

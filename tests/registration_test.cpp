@@ -112,6 +112,28 @@ TEST(TargetlessReal, FourKinectsFromARoughStartConvergeAndTheOverlapRmsDrops) {
   }
 }
 
+// With no start at all (as `volcast calibrate` and the demo register): features + RANSAC,
+// checked against free space, then ICP, on the pair that overlaps most (cameras 0 and 3).
+TEST(TargetlessReal, APairWithoutAStartMeetsTheReference) {
+  const FourKinects f = load_four();
+  const std::vector<TargetlessCamera> pair = {f.cameras[0], f.cameras[3]};
+  const std::vector<std::optional<RigidTransform>> start = {f.reference[0], std::nullopt};
+  const TargetlessResult r = register_targetless(pair, start, 0);
+  for (const auto& line : r.log) std::printf("  %s\n", line.c_str());
+  EXPECT_TRUE(r.problems.empty()) << r.problems.front();
+  ASSERT_EQ(r.world_from_camera.size(), 2u);
+  ASSERT_TRUE(r.world_from_camera[1]);
+  const RigidTransform& got = *r.world_from_camera[1];
+  const double dt = (got.translation - f.reference[3].translation).norm();
+  const double dr = angle_deg(got.rotation, f.reference[3].rotation);
+  std::printf("camera 3 from nothing: %.1f mm / %.2f deg from the reference, overlap %.0f%%\n",
+              dt * 1e3, dr, r.after[1].fraction * 100);
+  // The reference is the four-camera joint solution; a pair alone lands near it.
+  EXPECT_LT(dt, 0.03);
+  EXPECT_LT(dr, 1.0);
+  EXPECT_GT(r.after[1].fraction, 0.3);
+}
+
 TEST(TargetlessReal, FloorOfTheFourKinectsIsFoundAndLandsAtYZero) {
   const FourKinects f = load_four();
   std::vector<std::vector<Eigen::Vector3d>> clouds;

@@ -246,6 +246,42 @@ TEST(Door, PendingHandshakesAreLimitedPerAddressAndInTotalAndTimeOut) {
   EXPECT_TRUE(eventually([&] { return site.server.door().failed == 15u; }));
 }
 
+// A viewer the door turns away (its address has the most pending handshakes) retries with
+// back-off, one warning line per retry, and gets in once the idle handshakes time out; with a
+// shorter budget it gives up naming the busy server.
+TEST(Door, AViewerTurnedAwayAsBusyRetriesUntilASlotFrees) {
+  auto stream = std::make_shared<std::ostringstream>();
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(*stream);
+  auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("capture", sink));
+  ServerConfig config;
+  config.max_pending_per_address = 2;
+  config.handshake_timeout_ms = 1500;
+  HandsSite site(30, config);
+  asio::io_context io;
+  std::vector<asio::ip::tcp::socket> idle;
+  // The door accepts in connection order: these two are pending before the viewer arrives.
+  for (int i = 0; i < 2; ++i) idle.push_back(idle_socket(io, "127.0.0.1", site.server.port()));
+  ClientConfig c = joining(site.server);
+  c.connect_timeout_ms = 120'000;  // bounds a broken door; the slot frees after 1.5 s
+  EXPECT_EQ(receive(c, 3), 3);
+  EXPECT_GE(site.server.door().over_limit, 1u);  // it was turned away at least once
+  EXPECT_EQ(site.server.door().failed, 2u);      // the two idle handshakes timed out
+
+  // Idle handshakes that outlive the viewer's budget: it gives up, saying why.
+  for (int i = 0; i < 2; ++i) idle.push_back(idle_socket(io, "127.0.0.1", site.server.port()));
+  c.connect_timeout_ms = 400;
+  const std::string why = error_of([&] { Client{c}; });
+  spdlog::set_default_logger(previous);
+  EXPECT_NE(why.find("may be busy"), std::string::npos) << why;
+  const std::string log = stream->str();
+  size_t retries = 0;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) retries += line.find(": retry ") != line.npos;
+  EXPECT_GE(retries, 2u) << log;  // at least one per attempt
+  EXPECT_NE(log.find("retry 1 in 100 ms"), std::string::npos) << log;
+}
+
 TEST(Door, OnlyOfferedTiersAreServedAndTheRejectNamesThem) {
   ServerConfig config;
   config.offered_tiers = {"volcast/jpeg", "rvl/none/0"};

@@ -270,7 +270,8 @@ TEST(SessionCase, ChangingTheCaseFolderSwapsTheCaseForEveryone) {
   EXPECT_TRUE(eventually([&] { return watch.reloads() == 1; }));  // counted after the send
   std::this_thread::sleep_for(1100ms);
   std::ofstream(folder / "case.json") << "{broken";
-  std::this_thread::sleep_for(3s);  // seen, settled, refused
+  EXPECT_TRUE(eventually([&] { return watch.failed_reloads() == 1; }));  // seen, settled, refused
+  EXPECT_EQ(watch.reloads(), 1u);
   EXPECT_EQ(a.p().shared_case()->name, "second");
   EXPECT_EQ(s.hub.case_generation(), 2u);
 }

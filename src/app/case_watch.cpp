@@ -77,6 +77,7 @@ void CaseWatch::watch() {
       ++reloads_;
     } catch (const std::exception& e) {
       spdlog::error("case: reload failed, the case shown stays: {}", e.what());
+      ++failed_reloads_;
     }
   }
 }

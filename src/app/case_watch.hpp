@@ -20,7 +20,8 @@ class CaseWatch {
   ~CaseWatch();
   CaseWatch(const CaseWatch&) = delete;
   CaseWatch& operator=(const CaseWatch&) = delete;
-  uint64_t reloads() const { return reloads_; }
+  uint64_t reloads() const { return reloads_; }                ///< reloads shared with everyone
+  uint64_t failed_reloads() const { return failed_reloads_; }  ///< refused; the case stayed
 
  private:
   void load();
@@ -30,6 +31,7 @@ class CaseWatch {
   size_t max_triangles_;
   std::atomic<bool> stop_{false};
   std::atomic<uint64_t> reloads_{0};
+  std::atomic<uint64_t> failed_reloads_{0};
   std::thread thread_;
 };
 

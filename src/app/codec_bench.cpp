@@ -89,9 +89,11 @@ DepthRow run_depth(const CodecSet& s, const std::string& label,
   return row;
 }
 
-std::vector<CodecSet> load_sets(const fs::path& data, const std::vector<std::string>& extra) {
+std::vector<CodecSet> load_sets(const fs::path& data, const std::vector<std::string>& extra,
+                                int limit) {
   std::vector<CodecSet> sets;
   auto from_source = [&](const fs::path& path, const std::string& name, int max_frames) {
+    if (limit > 0) max_frames = std::min(max_frames, limit);
     SourceOptions o;
     o.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};  // only used where a folder has none
     auto src = open_source(path, o);
@@ -177,8 +179,8 @@ double bench_color(const std::string& set, const std::string& codec,
 }  // namespace
 
 void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, int repeats,
-                  nlohmann::json& json) {
-  const std::vector<CodecSet> sets = load_sets(data, extra);
+                  int max_frames, nlohmann::json& json) {
+  const std::vector<CodecSet> sets = load_sets(data, extra, max_frames);
   if (sets.empty()) throw Error("bench: no data found in " + data.string());
   json["depth_codecs"] = nlohmann::json::array();
   json["color_codecs"] = nlohmann::json::array();
@@ -223,6 +225,7 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
                   exact.c_str(), mbit, rvl.bytes / r.bytes, r.encode_ms / rvl.encode_ms,
                   r.decode_ms / rvl.decode_ms);
       json["depth_codecs"].push_back({{"dataset", s.name},
+                                      {"frames", s.depth.size()},
                                       {"codec", r.codec},
                                       {"bytes_per_frame", r.bytes},
                                       {"ratio", raw / r.bytes},

@@ -236,6 +236,7 @@ struct BenchArgs {
   std::string json;
   std::string data;
   int repeats = 50;
+  int frames = 0;             ///< frames of each sequence at most (0: all; the filters take 60)
   bool server = false;        ///< the server benchmark instead of the codec/filter tables
   double server_seconds = 4;  ///< measured per configuration
   int server_repeats = 3;     ///< TCP/TLS pairs per configuration, interleaved (medians reported)

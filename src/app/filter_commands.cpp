@@ -223,6 +223,7 @@ int run_bench(const BenchArgs& a) {
     auto src = open_source(path, o);
     const Intrinsics& k = src->calibration().depth;
     BenchSet s{name, k, {}, paper_chain_config(k.width, k.height)};
+    if (a.frames > 0) max_frames = std::min(max_frames, a.frames);
     for (int i = 0; i < std::min(max_frames, src->frame_count()); ++i)
       s.frames.push_back(src->next().depth);
     sets.push_back(std::move(s));
@@ -287,7 +288,7 @@ int run_bench(const BenchArgs& a) {
                             {"total_ms", total / 1000.0}});
   }
   std::printf("(paper, CUDA on an RTX 2070: 1340 us for the chain, 590 us of it hole filling)\n");
-  bench_codecs(data, a.datasets, std::max(1, a.repeats / 10), j);
+  bench_codecs(data, a.datasets, std::max(1, a.repeats / 10), a.frames, j);
   if (!a.json.empty()) {
     std::ofstream(a.json) << j.dump(2) << "\n";
     std::printf("wrote %s\n", a.json.c_str());

@@ -392,6 +392,10 @@ int main(int argc, char** argv) {
   bn->add_option("--json", bench.json, "Write the figures as JSON");
   bn->add_option("--repeats", bench.repeats, "Passes over each set (codecs: a tenth of it)")
       ->capture_default_str();
+  bn->add_option("--frames", bench.frames,
+                 "Frames of each sequence at most, for a quick look (default: all; the filter "
+                 "chain takes 60)")
+      ->check(CLI::NonNegativeNumber);
   bn->add_flag("--server", bench.server,
                "Server benchmark instead: 2 and 4 real cameras, 1/4/8/16 receive-only viewers");
   bn->add_option("--server-seconds", bench.server_seconds,

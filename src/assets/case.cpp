@@ -238,7 +238,9 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
           std::replace(p.name.begin(), p.name.end(), '_', ' ');
           p.group = default_group(p.name);
           p.mesh = read_mesh_file(f);
-          c.parts.push_back(finish(std::move(p), default_part_rgba(p.name)));
+          // The colour before the move: argument order is unspecified (Clang moves p first).
+          const Eigen::Vector4f rgba = default_part_rgba(p.name);
+          c.parts.push_back(finish(std::move(p), rgba));
         } else if (ext == ".vti") {
           const LabelVolume volume = read_label_volume(f);
           for (const LabelPartSpec& s : ircad_structures())

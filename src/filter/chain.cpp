@@ -43,7 +43,8 @@ void apply_filter_json(const std::string& json_text, FilterConfig& c) {
   const json j = json::parse(json_text, nullptr, false);
   if (j.is_discarded() || !j.is_object()) throw Error("filters: not a JSON object");
   try {
-    for (const auto& [key, value] : j.items()) {
+    for (const auto& item : j.items()) {
+      const std::string& key = item.key();  // a name, not a binding: Clang 14 cannot capture one
       static const char* known[] = {"undistort",     "crop",       "near_mm",
                                     "far_mm",        "background", "background_margin_mm",
                                     "flying_pixels", "hole_fill",  "kalman"};

@@ -110,7 +110,10 @@ Intrinsics intrinsics_from_json(const Json& j, const std::string& where) {
   if (!j.is_object())
     throw Error(where + ": \"intrinsics\" must be \"fx,fy,cx,cy\" or an object, got " + j.dump());
   Intrinsics k;
-  for (const auto& [key, value] : j.items()) {
+  for (const auto& item : j.items()) {
+    // Names, not structured bindings: Clang 14 cannot capture a binding in a lambda.
+    const std::string& key = item.key();
+    const Json& value = item.value();
     const std::string what = where + ": \"intrinsics\".\"" + key + "\"";
     if (key == "width" || key == "height") {
       if (!value.is_number_integer() || value.get<int64_t>() < 1 || value.get<int64_t>() > kMaxSide)

@@ -12,6 +12,7 @@
 #include <deque>
 #include <mutex>
 #include <optional>
+#include <thread>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -268,6 +269,31 @@ struct Client::Impl {
   }
 };
 
+namespace {
+
+// A server whose door is full drops handshakes (TlsHandshakeDropped): try again after 100 ms,
+// doubling up to 1.6 s, until connect_timeout_ms has passed since the first try, with one line
+// per retry. Anything else (refused, a TLS alert, a wrong certificate) fails at once.
+TlsClientConnection connect_tls_retrying(const ClientConfig& config) {
+  const int budget_ms = std::max(config.connect_timeout_ms, 1);
+  const auto give_up = Clock::now() + std::chrono::milliseconds(budget_ms);
+  int wait_ms = 100;
+  for (int attempt = 1;; ++attempt) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(give_up - Clock::now());
+    try {
+      return connect_tls(config.host, config.port, TlsContext::client(),
+                         static_cast<int>(std::max<int64_t>(left.count(), 1)));
+    } catch (const TlsHandshakeDropped& e) {
+      if (Clock::now() + std::chrono::milliseconds(wait_ms) >= give_up) throw;
+      spdlog::warn("{}: retry {} in {} ms", e.what(), attempt, wait_ms);
+      std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+      wait_ms = std::min(wait_ms * 2, 1600);
+    }
+  }
+}
+
+}  // namespace
+
 Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
   // Fail early, before connecting, on a codec this build does not have.
@@ -285,8 +311,7 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
     if (config.fingerprint.empty() && config.known_servers.empty())
       throw Error("no certificate fingerprint to check " + where +
                   " against: join with the server's link (volcast://...)");
-    TlsClientConnection tls =
-        connect_tls(config.host, config.port, TlsContext::client(), config.connect_timeout_ms);
+    TlsClientConnection tls = connect_tls_retrying(config);
     const TrustDecision trust = check_server_fingerprint(
         config.known_servers, where, tls.server_fingerprint, config.fingerprint);
     if (trust == TrustDecision::kFirstUse)

@@ -403,7 +403,7 @@ class TlsConnection final : public Connection {
     failed_ = true;
     if (err == SSL_ERROR_SYSCALL || err == SSL_ERROR_ZERO_RETURN) {
       ERR_clear_error();
-      throw Error("TLS handshake failed: the peer closed the connection");
+      throw TlsHandshakeDropped("TLS handshake failed: the peer closed the connection");
     }
     const std::string why = openssl_error();
     if (server_ && BIO_number_written(SSL_get_wbio(ssl_)) == 0) {
@@ -626,17 +626,21 @@ TlsClientConnection connect_tls(const std::string& host, uint16_t port,
   if (fd < 0) throw Error("cannot connect to " + peer + ": " + std::strerror(errno));
   auto tls = std::make_unique<TlsConnection>(fd, peer, std::move(context), false);
   const std::string where = host + ":" + std::to_string(port);
+  const auto explained = [&](const Error& e) {
+    return "cannot connect to " + where + ": " + e.what() +
+           " (the server may be busy with other handshakes -- try again -- or speak plain TCP: "
+           "a server started with --insecure needs view --insecure)";
+  };
   try {
     while (const int want = tls->handshake_step()) {
-      if (Clock::now() >= deadline) throw Error("TLS handshake timed out");
+      if (Clock::now() >= deadline) throw TlsHandshakeDropped("TLS handshake timed out");
       pollfd p{tls->fd(), static_cast<short>(want), 0};
       ::poll(&p, 1, std::min(remaining_ms(deadline), 100));
     }
+  } catch (const TlsHandshakeDropped& e) {
+    throw TlsHandshakeDropped(explained(e));
   } catch (const Error& e) {
-    throw Error(
-        "cannot connect to " + where + ": " + e.what() +
-        " (the server may be busy with other handshakes -- try again -- or speak plain TCP: "
-        "a server started with --insecure needs view --insecure)");
+    throw Error(explained(e));
   }
   TlsClientConnection out;
   out.server_fingerprint = tls->peer_fingerprint();

@@ -24,8 +24,11 @@ struct ClientConfig {
   /// The pin store (trust.hpp): checked, and updated on first use or from the link; empty: none,
   /// so `fingerprint` must be given.
   std::string known_servers;
-  bool insecure = false;          ///< plain TCP: refused unless `host` is a loopback address
-  int connect_timeout_ms = 5000;  ///< TCP connect and TLS handshake
+  bool insecure = false;  ///< plain TCP: refused unless `host` is a loopback address
+  /// TCP connect and TLS handshake, retries included: a handshake the server drops (its door is
+  /// full: tls.hpp TlsHandshakeDropped) is retried after 100 ms, doubling up to 1.6 s, one
+  /// warning line per retry, until this many milliseconds have passed since the first try.
+  int connect_timeout_ms = 5000;
   std::string depth_codec = "volcast";
   std::string color_codec = "jpeg";
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default

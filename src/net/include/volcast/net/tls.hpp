@@ -12,6 +12,7 @@
 #include <memory>
 #include <string>
 
+#include "volcast/core/error.hpp"
 #include "volcast/net/connection.hpp"
 
 namespace volcast {
@@ -68,6 +69,15 @@ class TlsContext {
 std::unique_ptr<Connection> accept_tls(int fd, std::string peer,
                                        std::shared_ptr<const TlsContext> context);
 
+/// Thrown by connect_tls when the TCP connection was made but the server closed it, or did not
+/// answer, before the TLS handshake finished: what a server whose door is full does (it drops the
+/// oldest pending handshake for a newcomer, or refuses one over the per-address limit, and
+/// answers nothing). Worth retrying with back-off, unlike a TLS alert or a refused connection.
+class TlsHandshakeDropped : public Error {
+ public:
+  using Error::Error;
+};
+
 /// A client's TLS connection and what the server proved.
 struct TlsClientConnection {
   std::unique_ptr<Connection> connection;
@@ -75,7 +85,8 @@ struct TlsClientConnection {
 };
 /// Connects over TCP and completes the TLS handshake, both within `timeout_ms`. The caller checks
 /// `server_fingerprint` before sending anything secret. Throws Error("cannot connect to HOST:PORT:
-/// reason"), e.g. "TLS handshake failed (is the server started with --insecure?)".
+/// reason"), e.g. "TLS handshake failed (is the server started with --insecure?)";
+/// TlsHandshakeDropped when the server closed or did not finish the handshake (busy).
 TlsClientConnection connect_tls(const std::string& host, uint16_t port,
                                 std::shared_ptr<const TlsContext> context, int timeout_ms);
 

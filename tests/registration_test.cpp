@@ -86,7 +86,12 @@ TEST(TargetlessReal, FourKinectsFromARoughStartConvergeAndTheOverlapRmsDrops) {
   for (int i = 1; i < 4; ++i)
     start.push_back(
         rough(f.reference[static_cast<size_t>(i)], 0.15 + 0.025 * (i - 1), 8.0 + (i - 1), 100 + i));
-  const TargetlessResult r = register_targetless(f.cameras, start, 0);
+  // Two RANSAC trials per pair (features over the whole cloud, then off its planes) instead of
+  // the default six: from a rough start they reach the reference here, at a third of the cost;
+  // APairWithoutAStartMeetsTheReference runs the defaults on the real room.
+  TargetlessOptions o;
+  o.global_trials = 2;
+  const TargetlessResult r = register_targetless(f.cameras, start, 0, o);
   for (const auto& line : r.log) std::printf("  %s\n", line.c_str());
   EXPECT_TRUE(r.problems.empty()) << r.problems.front();
   ASSERT_EQ(r.before.size(), 4u);

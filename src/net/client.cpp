@@ -283,9 +283,10 @@ TlsClientConnection connect_tls_retrying(const ClientConfig& config) {
     try {
       return connect_tls(config.host, config.port, TlsContext::client(),
                          static_cast<int>(std::max<int64_t>(left.count(), 1)));
-    } catch (const TlsHandshakeDropped& e) {
+    } catch (const TlsHandshakeDropped&) {
       if (Clock::now() + std::chrono::milliseconds(wait_ms) >= give_up) throw;
-      spdlog::warn("{}: retry {} in {} ms", e.what(), attempt, wait_ms);
+      spdlog::warn("{}:{} dropped the TLS handshake (busy with others?): retry {} in {} ms",
+                   config.host, config.port, attempt, wait_ms);
       std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
       wait_ms = std::min(wait_ms * 2, 1600);
     }

@@ -169,6 +169,38 @@ TEST(Tls, AChangedFingerprintIsRefusedBeforeTheTokenIsSent) {
   EXPECT_EQ(site.server.door().wrong_token, 0u);
 }
 
+// Several viewers of one user started at once (as a participant joining a site and its relay)
+// each pin a server: every pin is kept and none of them fails to write the file.
+TEST(Tls, PinsStoredAtOnceAreAllKept) {
+  const fs::path known = test::temp_dir("tls_pins_at_once") / "config" / "known_servers";
+  fs::remove_all(known.parent_path());
+  constexpr int kViewers = 8, kServersEach = 12;
+  std::vector<std::string> errors(kViewers);
+  std::vector<std::thread> viewers;
+  for (int v = 0; v < kViewers; ++v)
+    viewers.emplace_back([&, v] {
+      errors[v] = error_of([&] {
+        for (int s = 0; s < kServersEach; ++s)
+          check_server_fingerprint(known, "10.0." + std::to_string(v) + "." + std::to_string(s) +
+                                              ":7000",
+                                   std::string(64, 'a' + v % 6), "");
+      });
+    });
+  for (auto& t : viewers) t.join();
+  for (const auto& e : errors) EXPECT_EQ(e, "");
+  std::ifstream in(known);
+  int pins = 0;
+  for (std::string line; std::getline(in, line);) pins += line.rfind("10.0.", 0) == 0;
+  EXPECT_EQ(pins, kViewers * kServersEach);
+  // Each is now pinned: the same fingerprint is accepted, another refused.
+  EXPECT_EQ(check_server_fingerprint(known, "10.0.3.5:7000", std::string(64, 'd'), ""),
+            TrustDecision::kPinned);
+  EXPECT_NE(error_of([&] {
+              check_server_fingerprint(known, "10.0.3.5:7000", std::string(64, 'e'), "");
+            }).find("not the one pinned"),
+            std::string::npos);
+}
+
 TEST(Tls, APlainTcpClientGetsNothingButATlsAlert) {
   HandsSite site(30);
   asio::io_context io;

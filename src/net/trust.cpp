@@ -1,6 +1,10 @@
 #include "volcast/net/trust.hpp"
 
+#include <fcntl.h>
+#include <cerrno>
+#include <sys/file.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <sstream>
@@ -34,7 +38,8 @@ void write_pins(const std::filesystem::path& file, const std::vector<Pin>& pins)
   std::error_code ec;
   std::filesystem::create_directories(file.parent_path(), ec);
   if (ec) throw Error("cannot create '" + file.parent_path().string() + "': " + ec.message());
-  const auto temp = std::filesystem::path(file.string() + ".tmp");
+  // A temporary file of this process's own: two viewers of one user may store at the same moment.
+  const auto temp = std::filesystem::path(file.string() + ".tmp." + std::to_string(::getpid()));
   {
     std::ofstream out(temp, std::ios::trunc);
     out << "# Volcast servers this user trusts: HOST:PORT SHA-256 of the server's certificate\n";
@@ -46,8 +51,32 @@ void write_pins(const std::filesystem::path& file, const std::vector<Pin>& pins)
   if (ec) throw Error("cannot write '" + file.string() + "': " + ec.message());
 }
 
+// Holds an exclusive flock(2) on `file`.lock while alive, so that the read-modify-write of the
+// pins by viewers started at once (one user, several viewers) loses no pin. Throws Error naming
+// the lock file if it cannot be created.
+class PinLock {
+ public:
+  explicit PinLock(const std::filesystem::path& file) {
+    std::error_code ec;
+    std::filesystem::create_directories(file.parent_path(), ec);
+    if (ec) throw Error("cannot create '" + file.parent_path().string() + "': " + ec.message());
+    const auto path = file.string() + ".lock";
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0600);
+    if (fd_ < 0) throw Error("cannot open '" + path + "'");
+    while (::flock(fd_, LOCK_EX) != 0)
+      if (errno != EINTR) break;  // no locking on this file system: go on unlocked
+  }
+  ~PinLock() { ::close(fd_); }
+  PinLock(const PinLock&) = delete;
+  PinLock& operator=(const PinLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 void store(const std::filesystem::path& file, const std::string& server, const std::string& fp) {
   if (file.empty()) return;
+  const PinLock lock(file);
   std::vector<Pin> pins;
   for (auto& p : read_pins(file))
     if (p.server != server) pins.push_back(std::move(p));

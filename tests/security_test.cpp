@@ -11,6 +11,7 @@
 
 #include "hands_site.hpp"
 #include "test_data.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/net/join.hpp"
@@ -329,6 +330,51 @@ TEST(Door, OnlyOfferedTiersAreServedAndTheRejectNamesThem) {
 
   config.offered_tiers = {"volcast/bogus"};
   EXPECT_THROW(HandsSite(30, config), Error);
+}
+
+// One token holder asking for the costliest tiers (HEVC depth, H.264 color, at eight qualities)
+// is refused each past the server's tier CPU budget, the reject naming the tier's cost and the
+// budget; the tier already served and its viewer, and a cheap new tier, keep being served. An
+// address also holds at most max_tiers_per_address tiers nobody else watches.
+TEST(Door, CostliestTiersPastTheCpuBudgetAreRefusedAndTheCheapOnesStillServed) {
+  register_video_codecs();  // h264 and hevc, as the volcast CLI offers them
+  ServerConfig config;
+  // Cores. Charged at 30 fps for the hands site: volcast/jpeg ~0.08, raw/none ~0.002, and
+  // hevc/h264 ~1.6 (it fits only below 6 fps).
+  config.tier_cpu_budget = 0.3;
+  config.max_tiers_per_address = 2;
+  HandsSite site(30, config);
+  Client honest(joining(site.server));  // volcast/jpeg
+  ReceivedFrameSet rx;
+  ASSERT_TRUE(honest.receive(rx));
+  ClientConfig greedy = joining(site.server);
+  greedy.depth_codec = "hevc";
+  greedy.color_codec = "h264";
+  for (int quality = 10; quality <= 80; quality += 10) {
+    greedy.color_quality = quality;
+    const std::string why = error_of([&] { Client{greedy}; });
+    EXPECT_NE(why.find("tier hevc/h264/" + std::to_string(quality) + " would cost about"),
+              std::string::npos)
+        << why;
+    EXPECT_NE(why.find("budget is 0.30 cores"), std::string::npos) << why;
+  }
+  greedy.depth_codec = "raw";
+  greedy.color_codec = "none";
+  greedy.color_quality = 0;
+  {
+    Client cheap(greedy);
+    EXPECT_TRUE(cheap.receive(rx));
+    // A third tier held by this address alone (both others are its own, on loopback) is one
+    // too many.
+    greedy.depth_codec = "lz4";
+    const std::string why = error_of([&] { Client{greedy}; });
+    EXPECT_NE(why.find("holds 2 tiers nobody else watches"), std::string::npos) << why;
+    EXPECT_TRUE(cheap.receive(rx));
+  }
+  int frames = 0;
+  while (frames < 5 && honest.receive(rx)) ++frames;
+  EXPECT_EQ(frames, 5);
+  for (const TierReport& t : site.server.tiers()) EXPECT_NE(t.depth_codec, "hevc");
 }
 
 TEST(Door, FailedHandshakesAreLoggedRateLimitedWithACount) {

@@ -62,6 +62,8 @@ struct ServeArgs {
   std::string token_file;          ///< 32 hex digits; default: a random token per session
   std::string link_host;           ///< host written into the join link; default: found
   std::vector<std::string> tiers;  ///< offered tiers DEPTH/COLOR[/QUALITY]; empty: any
+  double tier_cpu_budget = 0;      ///< cores the tiers' encoders may use; 0: half the cores
+  int max_tiers_per_address = 4;   ///< tiers one address's viewers may hold alone
   int handshake_timeout_ms = 5000;
   int max_pending = 64;
   int max_pending_per_address = 8;

@@ -71,6 +71,15 @@ void add_server_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string&
                 "Offered tiers, comma-separated DEPTH/COLOR[/QUALITY], e.g. volcast/jpeg,trvl/none "
                 "(default: any codec)")
       ->delimiter(',');
+  s->add_option("--tier-cpu-budget", serve.tier_cpu_budget,
+                "CPU cores the tiers' encoders may use together (each tier's cost estimated from "
+                "its codecs, the site's pixels and frame rate); a viewer asking for a new tier "
+                "past it is rejected (default 0: half this machine's cores, at least 1)")
+      ->capture_default_str();
+  s->add_option("--max-tiers-per-address", serve.max_tiers_per_address,
+                "Tiers nobody else watches that one address's viewers may hold (together at most "
+                "half the tier CPU budget)")
+      ->capture_default_str();
   s->add_option("--handshake-timeout", serve.handshake_timeout_ms,
                 "A viewer must finish TLS and its Hello within this many ms")
       ->capture_default_str();

@@ -232,6 +232,8 @@ static void apply_security(const ServeArgs& a, ServerConfig& config) {
   }
   if (!a.token_file.empty()) config.token = read_token_file(a.token_file);
   config.offered_tiers = a.tiers;
+  config.tier_cpu_budget = a.tier_cpu_budget;
+  config.max_tiers_per_address = a.max_tiers_per_address;
   config.handshake_timeout_ms = a.handshake_timeout_ms;
   config.max_pending = a.max_pending;
   config.max_pending_per_address = a.max_pending_per_address;
@@ -500,6 +502,9 @@ int run_serve(const ServeArgs& a) {
   spdlog::info("serving {} camera(s) at {:.1f} fps on {}:{} ({}; Ctrl-C stops)", cameras.size(),
                replay ? replay->fps() : site->fps(), a.bind, server.port(),
                a.insecure ? "plain TCP, loopback only" : "TLS 1.3");
+  if (!a.camera_only)
+    spdlog::info("tiers may use {:.1f} CPU cores to encode (--tier-cpu-budget)",
+                 server.tier_cpu_budget());
   if (a.camera_only)
     std::printf(
         "capture node: %zu camera(s) published on NATS as site '%s' (a site server adds "

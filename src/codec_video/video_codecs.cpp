@@ -324,7 +324,8 @@ void register_video_codecs() {
          },
          []() -> std::unique_ptr<DepthDecoder> {
            return std::make_unique<VideoDepthDecoder>(kH264);
-         }});
+         },
+         26});
     register_depth_codec(
         {"hevc", kHevc, false, -1, true,
          "HEVC video (x265, 12-bit): depth mapped over the key frame's range; exact valid mask",
@@ -333,11 +334,13 @@ void register_video_codecs() {
          },
          []() -> std::unique_ptr<DepthDecoder> {
            return std::make_unique<VideoDepthDecoder>(kHevc);
-         }});
+         },
+         200});
     register_color_codec(
         {"h264", false, true, "H.264 video (x264, 8-bit 4:2:0, CRF 23), even sides only",
          []() -> std::unique_ptr<ColorEncoder> { return std::make_unique<H264ColorEncoder>(); },
-         []() -> std::unique_ptr<ColorDecoder> { return std::make_unique<H264ColorDecoder>(); }});
+         []() -> std::unique_ptr<ColorDecoder> { return std::make_unique<H264ColorDecoder>(); },
+         28});
   });
 }
 

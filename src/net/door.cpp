@@ -299,6 +299,7 @@ class Door {
       ++counters_.web_viewers;
     }
     a.connection = std::move(p.connection);
+    a.address = p.address;
     try {
       admit_(a);
     } catch (const Error& e) {

@@ -54,6 +54,7 @@ struct DoorCounters {
 struct Admitted {
   std::unique_ptr<Connection> connection;
   protocol::Hello hello;
+  std::string address;  ///< the peer's IP address (no port), for per-address policy
 };
 
 /// Runs the door on `listener` until `stopping` becomes true; calls `admit` (on this thread) for

@@ -1,10 +1,13 @@
 #include "volcast/net/server.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <sys/eventfd.h>
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -70,6 +73,11 @@ struct Server::Impl {
   mutable std::mutex mutex;  // guards everything below and each Tier's shared fields
   std::condition_variable captured_changed;
   std::shared_ptr<const CapturedFrameSet> captured;  // the newest published frame set
+  std::deque<int64_t> published_us;  // steady times of the last publish() calls (at most 33)
+  double peak_fps = 0;               // see note_published()
+  int64_t peak_us = 0;
+  double budget_cores = 1;   // ServerConfig::tier_cpu_budget, the default worked out
+  uint64_t site_pixels = 0;  // depth pixels of every camera together
 
   struct Tier {
     Tier(detail::TierKey key, size_t cameras) : encoder(std::move(key), cameras) {}
@@ -90,6 +98,8 @@ struct Server::Impl {
     bool stop = false;
     TierReport report;
     double encode_ms_total = 0;
+    double encode_ns = 0;    // estimated CPU per frame set (detail::tier_encode_ns)
+    double cpu_ms_mean = 0;  // measured codec CPU per frame set, moving average
   };
   std::list<std::shared_ptr<Tier>> tiers;
   std::vector<std::thread> retired;  // threads of tiers told to stop, to be joined without mutex
@@ -102,6 +112,7 @@ struct Server::Impl {
     std::deque<std::pair<uint64_t, std::shared_ptr<const std::vector<uint8_t>>>> outbox;
     std::string kicked;  // set: disconnect with this reason
     std::shared_ptr<Tier> tier;
+    std::string address;  // the peer's IP address (per-address tier limits)
     std::thread thread;
     WakeFd wake;
     ViewerReport report;
@@ -129,8 +140,10 @@ struct Server::Impl {
       Viewer& v = viewers.emplace_back();
       v.id = next_viewer_id++;
       v.report.id = v.id;
+      v.address = a.address;
       try {
-        v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, &v.wake);
+        v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, &v.wake,
+                           &v.address);
       } catch (...) {
         viewers.pop_back();
         throw;
@@ -166,6 +179,78 @@ struct Server::Impl {
       list += (list.empty() ? "" : ", ") + t;
     }
     throw Error("this server does not offer that tier; it offers " + list);
+  }
+
+  // The site's frame rate for tier costs; 30 before the first frame sets.
+  double site_fps() const { return peak_fps > 0 ? peak_fps : 30; }
+
+  // Called by publish() with mutex held: notes the time and updates peak_fps, the highest rate
+  // (from the median gap between the last 33 publish() calls) seen in the last 30 s, so that a
+  // publisher slowed for a while by a busy machine does not make the tiers look cheap.
+  void note_published() {
+    const int64_t now = steady_us();
+    published_us.push_back(now);
+    if (published_us.size() > 33) published_us.pop_front();
+    if (published_us.size() < 3) return;
+    std::array<int64_t, 32> gaps;
+    const size_t n = published_us.size() - 1;
+    for (size_t i = 0; i < n; ++i) gaps[i] = published_us[i + 1] - published_us[i];
+    std::nth_element(gaps.begin(), gaps.begin() + n / 2, gaps.begin() + n);
+    const double fps = std::clamp(1e6 / double(std::max<int64_t>(gaps[n / 2], 1)), 1.0, 1000.0);
+    if (fps >= peak_fps || now - peak_us > 30'000'000) {
+      peak_fps = fps;
+      peak_us = now;
+    }
+  }
+
+  // Whether the viewers of `address` are all that watch `tier` (no other address, no tap).
+  bool held_alone_by(const Tier& tier, const std::string& address) const {
+    if (!tier.taps.empty()) return false;
+    bool any = false;
+    for (const auto& v : viewers) {
+      if (v.done || v.tier.get() != &tier) continue;
+      if (v.address != address) return false;
+      any = true;
+    }
+    return any;
+  }
+
+  // Throws Error if a new tier `key` costing `encode_ns` per frame set would take the tiers past
+  // the CPU budget, or the tiers `address` holds alone past its share (the count, half the
+  // budget). The costliest tiers are the first not to fit. Caller holds mutex.
+  void check_tier_budget(const detail::TierKey& key, double encode_ns,
+                         const std::string& address) const {
+    const double fps = site_fps();
+    const double cost = encode_ns * fps / 1e9;
+    double total = 0, alone = 0;
+    int alone_count = 0;
+    for (const auto& t : tiers) {
+      if (t->stop) continue;
+      const double c = t->encode_ns * fps / 1e9;
+      total += c;
+      if (held_alone_by(*t, address)) {
+        alone += c;
+        ++alone_count;
+      }
+    }
+    const std::string name = key.depth_codec + "/" + key.color_codec +
+                             (key.color_quality > 0 ? "/" + std::to_string(key.color_quality) : "");
+    // Each reason fits the 200 characters a viewer shows of a Reject.
+    if (total + cost > budget_cores)
+      throw Error(fmt::format(
+          "tier {} would cost about {:.2f} CPU cores; the tiers' budget is {:.2f} cores "
+          "(--tier-cpu-budget), {:.2f} in use: choose cheaper codecs or a tier already watched",
+          name, cost, budget_cores, total));
+    if (alone_count >= config.max_tiers_per_address)
+      throw Error(
+          fmt::format("your address holds {} tiers nobody else watches, the most per address "
+                      "(--max-tiers-per-address): choose the codecs of a viewer already watching",
+                      alone_count));
+    if (alone + cost > budget_cores / 2)
+      throw Error(fmt::format(
+          "tier {} would cost about {:.2f} CPU cores; your address's own tiers use {:.2f} of its "
+          "share, {:.2f} cores (half the --tier-cpu-budget): choose cheaper codecs",
+          name, cost, alone, budget_cores / 2));
   }
 
   // Joins the threads of viewers that have ended (keeping their reports) and of tiers nobody
@@ -267,6 +352,8 @@ struct Server::Impl {
       }
       ++tier->report.frames_encoded;
       tier->encode_ms_total += std::chrono::duration<double, std::milli>(end - start).count();
+      const double weight = 1.0 / double(std::min<uint64_t>(tier->report.frames_encoded, 30));
+      tier->cpu_ms_mean += (tier->encoder.last_cpu_ms() - tier->cpu_ms_mean) * weight;
       tier->latest = encoded;
       for (const WakeFd* w : tier->subscribers) w->signal();
       if (tier->taps.empty()) continue;
@@ -282,9 +369,11 @@ struct Server::Impl {
     }
   }
 
-  // Finds or makes the tier and subscribes `wake` (if not null) to it. Caller holds mutex. Throws
-  // Error.
-  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd* wake) {
+  // Finds or makes the tier and subscribes `wake` (if not null) to it. A new tier for a viewer
+  // from `address` must fit the CPU budget (check_tier_budget); one for a tap (`address` null)
+  // is made regardless. Caller holds mutex. Throws Error.
+  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd* wake,
+                                  const std::string* address) {
     std::shared_ptr<Tier> tier;
     for (const auto& t : tiers)
       if (t->encoder.key() == key && !t->stop) tier = t;
@@ -292,7 +381,10 @@ struct Server::Impl {
       if (static_cast<int>(tiers.size()) >= config.max_tiers)
         throw Error("server has " + std::to_string(config.max_tiers) +
                     " tiers already; choose the codecs of a viewer already watching");
-      tier = std::make_shared<Tier>(key, cameras.size());  // throws for unknown codecs
+      const double encode_ns = detail::tier_encode_ns(key, site_pixels);  // unknown codecs throw
+      if (address) check_tier_budget(key, encode_ns, *address);
+      tier = std::make_shared<Tier>(key, cameras.size());
+      tier->encode_ns = encode_ns;
       tier->report.depth_codec = key.depth_codec;
       tier->report.color_codec = key.color_codec;
       tier->report.color_quality = key.color_quality;
@@ -469,6 +561,10 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.max_viewers < 1) throw Error("server: --max-viewers must be at least 1");
   if (config.seal_from_viewers < 1) throw Error("server: seal_from_viewers must be at least 1");
   if (config.key_frame_interval < 1) throw Error("server: --key-frame-interval must be at least 1");
+  if (!(config.tier_cpu_budget >= 0) || config.tier_cpu_budget > 1e6)
+    throw Error("server: --tier-cpu-budget must be a number of cores, 0 for the default");
+  if (config.max_tiers_per_address < 1)
+    throw Error("server: --max-tiers-per-address must be at least 1");
   if (cameras.empty() || static_cast<int>(cameras.size()) > protocol::kMaxCameras)
     throw Error("server: a site needs 1 to " + std::to_string(protocol::kMaxCameras) + " cameras");
   // What every viewer would refuse (protocol.hpp's limits) is refused here, at start.
@@ -525,6 +621,10 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   impl_->door.handshake_timeout_ms = config.handshake_timeout_ms;
   impl_->door.max_pending = config.max_pending;
   impl_->door.max_pending_per_address = config.max_pending_per_address;
+  impl_->budget_cores = config.tier_cpu_budget > 0
+                            ? config.tier_cpu_budget
+                            : std::max(1.0, double(std::thread::hardware_concurrency()) / 2);
+  impl_->site_pixels = pixels;
   impl_->config = std::move(config);
   impl_->cameras = std::move(cameras);
   impl_->pool = std::make_unique<WorkerPool>(impl_->config.encode_threads);
@@ -540,7 +640,15 @@ uint64_t Server::add_tier_tap(const std::string& depth_codec, const std::string&
                               int color_quality, std::function<void(const TierFrameSet&)> tap) {
   std::lock_guard lock(impl_->mutex);
   if (impl_->stopping) throw Error("server: stopped");
-  auto tier = impl_->subscribe({depth_codec, color_codec, color_quality}, nullptr);
+  auto tier = impl_->subscribe({depth_codec, color_codec, color_quality}, nullptr, nullptr);
+  double total = 0;
+  for (const auto& t : impl_->tiers) total += t->encode_ns;
+  total *= impl_->site_fps() / 1e9;
+  if (total > impl_->budget_cores)
+    spdlog::warn(
+        "server: with the tap on tier {}/{}, the tiers cost about {:.2f} CPU cores, over the "
+        "budget of {:.2f} (--tier-cpu-budget): viewers asking for a new tier are refused",
+        depth_codec, color_codec, total, impl_->budget_cores);
   const uint64_t id = impl_->next_tap_id++;
   tier->taps.push_back(
       {id, std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false});
@@ -598,6 +706,10 @@ std::string Server::web_link(const std::string& host) const {
          (v6 ? "]" : "") + ":" + std::to_string(port()) + "/#token=" + to_hex(token());
 }
 
+double Server::tier_cpu_budget() const {
+  return impl_->budget_cores;
+}
+
 DoorReport Server::door() const {
   const auto& c = impl_->door_counters;
   return {c.admitted,   c.wrong_token, c.backed_off, c.failed,
@@ -612,6 +724,7 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   {
     std::lock_guard lock(impl_->mutex);
     impl_->captured = std::move(frames);
+    impl_->note_published();
   }
   impl_->captured_changed.notify_all();
   // The tiers' threads wake to encode it on the pool: wake its workers now too, not after them.
@@ -664,10 +777,13 @@ std::vector<ViewerReport> Server::viewers() const {
 std::vector<TierReport> Server::tiers() const {
   std::lock_guard lock(impl_->mutex);
   std::vector<TierReport> out;
+  const double fps = impl_->site_fps();
   for (const auto& t : impl_->tiers) {
     TierReport r = t->report;
     r.viewers = static_cast<int>(t->subscribers.size());
     if (r.frames_encoded > 0) r.encode_ms_mean = t->encode_ms_total / double(r.frames_encoded);
+    r.cpu_ms_mean = t->cpu_ms_mean;
+    r.cost_cores = t->encode_ns * fps / 1e9;
     out.push_back(r);
   }
   return out;

@@ -1,5 +1,7 @@
 #include "tier_encoder.hpp"
 
+#include <time.h>
+
 #include <algorithm>
 #include <cstring>
 
@@ -9,6 +11,31 @@
 #include "volcast/net/seal.hpp"
 
 namespace volcast::detail {
+namespace {
+
+// CPU time of the calling thread, milliseconds.
+double thread_cpu_ms() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+}
+
+// A codec's encode_ns_per_pixel, or the costliest of `all` where it has none.
+template <typename Info>
+double ns_per_pixel(const Info& info, const std::vector<Info>& all) {
+  if (info.encode_ns_per_pixel >= 0) return info.encode_ns_per_pixel;
+  double most = 0;
+  for (const Info& i : all) most = std::max(most, i.encode_ns_per_pixel);
+  return most;
+}
+
+}  // namespace
+
+double tier_encode_ns(const TierKey& key, uint64_t pixels) {
+  const double depth = ns_per_pixel(depth_codec_info(key.depth_codec), all_depth_codecs());
+  const double color = ns_per_pixel(color_codec_info(key.color_codec), all_color_codecs());
+  return (depth + color) * static_cast<double>(pixels);
+}
 
 TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
   for (size_t i = 0; i < cameras; ++i) {
@@ -64,6 +91,7 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
     passed_position_ = pre->position;
     encoders_stale_ = true;
     std::fill(last_.begin(), last_.end(), nullptr);
+    last_cpu_ms_ = 0;
     finish(frames.sequence, out, times, pool, seal);
     return out;
   }
@@ -75,7 +103,9 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   tasks_.clear();
   for (size_t t = 0; t < 2 * n; ++t)
     if (!(stateless_ && last_[t % n] == frames.cameras[t % n])) tasks_.push_back(t);
+  task_cpu_ms_.assign(tasks_.size(), 0);
   pool.parallel_for(tasks_.size(), [&](size_t k) {
+    const double cpu_start = thread_cpu_ms();
     const size_t t = tasks_[k], i = t % n;
     const CameraFrame& f = *frames.cameras[i];
     if (t < n) {
@@ -91,7 +121,10 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
       key_flags_[t] = color_[i]->encode(f.color, key || color_gap_[i], encoded_[i].color);
       color_gap_[i] = 0;
     }
+    task_cpu_ms_[k] = thread_cpu_ms() - cpu_start;
   });
+  last_cpu_ms_ = 0;
+  for (const double ms : task_cpu_ms_) last_cpu_ms_ += ms;
   for (size_t i = 0; i < n; ++i) last_[i] = frames.cameras[i];
   bool all_key = true;
   for (size_t i = 0; i < n; ++i) {

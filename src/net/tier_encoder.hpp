@@ -19,6 +19,12 @@ struct TierKey {
   bool operator==(const TierKey&) const = default;
 };
 
+/// Estimated CPU time (ns, one thread) to encode one frame set of tier `key` for a site of
+/// `pixels` depth pixels in all (each with a registered color pixel): the codecs'
+/// encode_ns_per_pixel (registry.hpp) times `pixels`; a codec without a figure is charged as the
+/// costliest registered one of its kind. Throws Error naming an unknown codec.
+double tier_encode_ns(const TierKey& key, uint64_t pixels);
+
 /// One encoded frame set of a tier: the FrameSet body every viewer of the tier is sent.
 struct EncodedFrames {
   uint64_t sequence = 0;  ///< the site's frame-set sequence
@@ -54,6 +60,9 @@ class TierEncoder {
   /// frames are encoded (a key frame set after a pass-through: the encoders did not see it).
   std::shared_ptr<const EncodedFrames> encode(const CapturedFrameSet& frames, bool key,
                                               WorkerPool& pool, bool seal);
+  /// CPU time (ms, all threads) the last encode() spent in the codecs: 0 for a frame set passed
+  /// through or whose cameras all repeated their frames.
+  double last_cpu_ms() const { return last_cpu_ms_; }
 
  private:
   // Numbers `out` as the tier's next frame set and seals it if asked.
@@ -66,6 +75,8 @@ class TierEncoder {
   std::vector<char> key_flags_;  // per task: emitted a key frame
   std::vector<char> color_gap_;  // per camera: its last frame had no color (next color is a key)
   std::vector<size_t> tasks_;    // the tasks of this call (tasks 0..n-1 depth, n..2n-1 color)
+  std::vector<double> task_cpu_ms_;  // per task of this call: its thread's CPU time
+  double last_cpu_ms_ = 0;
   // The frame each camera encoded last, held so its address cannot be reused by a new frame.
   std::vector<std::shared_ptr<const CameraFrame>> last_;
   bool stateless_ = false;  // both codecs non-temporal: bytes depend on the frame alone

@@ -38,6 +38,11 @@ struct DepthCodecInfo {
   std::string_view summary;  ///< one line for --help and docs
   std::unique_ptr<DepthEncoder> (*make_encoder)() = nullptr;
   std::unique_ptr<DepthDecoder> (*make_decoder)() = nullptr;
+  /// CPU time to encode one pixel (ns, one thread): `volcast bench` on the shared recordings,
+  /// GCC 12 release build, x86-64 (2026), rounded up over the sets. A relative cost: the server
+  /// charges a tier's encoding against its CPU budget by it (ServerConfig::tier_cpu_budget).
+  /// Negative: not measured (the server charges the costliest registered depth codec's figure).
+  double encode_ns_per_pixel = -1;
 };
 
 struct ColorCodecInfo {
@@ -47,6 +52,10 @@ struct ColorCodecInfo {
   std::string_view summary;
   std::unique_ptr<ColorEncoder> (*make_encoder)() = nullptr;
   std::unique_ptr<ColorDecoder> (*make_decoder)() = nullptr;
+  /// As DepthCodecInfo::encode_ns_per_pixel, per color pixel (the color image is registered to
+  /// the depth image: as many pixels). Negative: not measured (charged as the costliest color
+  /// codec's figure).
+  double encode_ns_per_pixel = -1;
 };
 
 /// Adds a codec. `info` must name a new codec, have both factories, and (depth) keep

@@ -6,7 +6,9 @@
 // has one encoder per camera and a thread that encodes the newest published frame set (the
 // cameras in parallel on a shared worker pool) into one immutable FrameSet body. Every viewer of
 // the tier is sent those bytes (a gather write of a 20-byte per-viewer prefix and the shared body),
-// so 16 viewers cost about what one costs. A tier that falls behind skips frame sets.
+// so 16 viewers cost about what one costs. A tier that falls behind skips frame sets. A new tier
+// must fit the server's CPU budget for encoding (ServerConfig::tier_cpu_budget), and the tiers
+// one address holds alone its share (max_tiers_per_address, half the budget).
 //
 // Key frames. Temporal codecs (trvl, volcast-t, h264, hevc) code deltas against the tier's last
 // frame set, so a viewer can only be sent a delta if it was sent the tier's previous frame set. A
@@ -83,6 +85,18 @@ struct ServerConfig {
   int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
   int max_viewers = 16;           ///< further viewers are rejected ("server full")
   int max_tiers = 8;       ///< distinct tiers at once; a viewer asking for another is rejected
+  /// CPU the tiers' encoders may use together (cores: 1.0 is one core kept busy). A tier's cost
+  /// is its codecs' encode_ns_per_pixel (codec/registry.hpp) times the site's pixels times the
+  /// site's frame rate (measured from publish(); 30 fps before the first frame sets), so HEVC
+  /// costs about 30 times volcast/jpeg. A viewer asking for a tier that does not run yet is
+  /// rejected if its cost would take the tiers' total past this, with both figures in the
+  /// reject; tiers that run already, and viewers joining them, are never refused. Taps
+  /// (add_tier_tap) are counted but not refused. 0: half this machine's cores, at least 1.
+  double tier_cpu_budget = 0;
+  /// Tiers that the viewers of one address (IP) may hold alone, i.e. that no other address and
+  /// no tap watches; together those may also cost at most half of tier_cpu_budget. A viewer
+  /// that would go past either is rejected, naming the limit.
+  int max_tiers_per_address = 4;
   int encode_threads = 0;  ///< worker threads for encoding (0 = cores - 1)
   int handshake_timeout_ms = 5000;  ///< a viewer must finish TLS and send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
@@ -153,6 +167,11 @@ struct TierReport {
   int viewers = 0;
   uint64_t frames_encoded = 0, key_frames = 0;
   double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set (and seal it)
+  /// CPU time (ms, all threads) the codecs spent per frame set encoded, a moving average over
+  /// about the last 30 (0 while frame sets are passed through from a recording).
+  double cpu_ms_mean = 0;
+  /// What the tier is charged against ServerConfig::tier_cpu_budget now (cores, estimated).
+  double cost_cores = 0;
 };
 
 /// One frame set of a tier as encoded, for a consumer other than a viewer (a recorder): the
@@ -191,11 +210,13 @@ class Server final : public SessionOutlet {
   std::string web_link(const std::string& host) const;
   /// What came to the door so far.
   DoorReport door() const;
+  /// ServerConfig::tier_cpu_budget as applied (cores; the default worked out).
+  double tier_cpu_budget() const;
   /// Makes `frames` the newest frame set (one frame per camera, in camera order). Never blocks on
   /// encoders or viewers. Throws Error if the camera count differs from the site's.
   void publish(std::shared_ptr<const CapturedFrameSet> frames);
   /// Viewers connected now and the last 256 that left (including authenticated ones rejected for
-  /// policy: server full, a tier not offered).
+  /// policy: server full, a tier not offered or over the CPU budget).
   std::vector<ViewerReport> viewers() const;
   /// Tiers with at least one viewer.
   std::vector<TierReport> tiers() const;

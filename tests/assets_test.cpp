@@ -7,6 +7,8 @@
 #include <dcmtk/dcmimgle/dipixel.h>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <fstream>
 #include <map>
 #include <set>
@@ -294,6 +296,41 @@ TEST(CaseFolder, OnlyMeshesOnlyLabelsOnlyDicomOrACaseJson) {
             std::string::npos);
   std::ofstream(dir / "bad.obj") << "v 1 2\nf 1 2 3\n";
   EXPECT_NE(test::error_of([&] { load_case(dir); }).find("bad.obj"), std::string::npos);
+}
+
+// A case.json declaring 100,000 parts (each a real organ mesh), or 257, is refused before any
+// mesh is read, naming the size or count and the limit; 256 parts still load.
+TEST(CaseFolder, ACaseJsonDeclaringTooManyPartsIsRefusedBeforeAnyFileIsRead) {
+  const fs::path dir = test::temp_dir("case_too_many_parts");
+  std::string mesh = (medical() / "ircad11-organs" / "gallbladder.obj").string();
+  const auto write = [&](size_t parts, size_t max_triangles) {
+    nlohmann::json j{{"parts", nlohmann::json::array()}, {"max_triangles", max_triangles}};
+    for (size_t i = 0; i < parts; ++i)
+      j["parts"].push_back({{"name", "part " + std::to_string(i)}, {"mesh", mesh}});
+    std::ofstream(dir / "case.json") << j.dump();
+  };
+  size_t steps = 0;
+  CaseLoadOptions options;
+  options.progress = [&](const std::string&) { ++steps; };
+  write(100'000, 60000);  // 9 MB of JSON: not even parsed
+  std::string e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("bytes; at most 1048576 are read"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u) << "no file read";
+  write(kMaxCaseParts + 1, 60000);
+  e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("declares 257 parts; a case holds at most 256"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u) << "no file read";
+  write(2, 50'000'000);
+  e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("max_triangles 50000000 is not in 1..1000000"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u);
+  // At the limit, with a tetrahedron (synthetic, for the count only) to keep it quick.
+  std::ofstream(dir / "tetra.obj") << "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\n"
+                                      "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  mesh = (dir / "tetra.obj").string();
+  write(kMaxCaseParts, 60000);
+  EXPECT_EQ(load_case(dir, options).parts.size(), kMaxCaseParts);
+  EXPECT_EQ(steps, kMaxCaseParts);
 }
 
 TEST(CaseWire, RoundTripsAndRefusesHostileCounts) {

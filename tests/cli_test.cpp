@@ -1,5 +1,6 @@
 // The volcast executable as a user runs it.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -196,14 +197,24 @@ TEST(Cli, CasePrintsPartsAndSeriesAndRenders) {
   EXPECT_NE(out.find("not a folder"), std::string::npos) << out;
 }
 
+// The permission bits of `path` (e.g. 0600), or -1 if it does not exist.
+int file_mode(const std::filesystem::path& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 ? static_cast<int>(st.st_mode & 07777) : -1;
+}
+
 TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {
   const auto dir = test::temp_dir("cli_serve");
   std::filesystem::remove_all(dir / "config");
   const std::string env = "XDG_CONFIG_HOME=" + (dir / "config").string() + " ";
   std::string out;
-  const std::string serve = env + kVolcast + " serve --source " + test::hands_dir().string() +
-                            " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port 0 > " +
-                            (dir / "serve.log").string() + " 2>&1 & echo $!";
+  const auto link_file = dir / "link.txt";
+  std::filesystem::remove(link_file);
+  const std::string serve =
+      "umask 022; " + env + kVolcast + " serve --source " + test::hands_dir().string() +
+      " --intrinsics 460,460,320,180 --fps 15 --seconds 60 --port 0 "
+      "--link-file " +
+      link_file.string() + " > " + (dir / "serve.log").string() + " 2>&1 & echo $!";
   ASSERT_EQ(test::run_command(serve, out), 0);
   const std::string pid = out.substr(0, out.find('\n'));
   std::string link;
@@ -215,10 +226,22 @@ TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {
   }
   ASSERT_FALSE(link.empty());
   EXPECT_NE(link.find("&fp="), std::string::npos) << link;  // TLS by default
-  const int rc = test::run_command(env + kVolcast + " view --no-render --connect '" + link +
-                                       "' --frames 5 --depth-codec rvl --stats-json " +
-                                       (dir / "s.json").string(),
-                                   out);
+  // The link is in --link-file too, for the owner only; a viewer reads it from there, so that
+  // its token is not on the viewer's command line (/proc/PID/cmdline).
+  ASSERT_TRUE(std::filesystem::exists(link_file));
+  EXPECT_EQ(file_mode(link_file), 0600);
+  std::ifstream link_in_file(link_file);
+  std::string link_from_file;
+  std::getline(link_in_file, link_from_file);
+  EXPECT_EQ(link_from_file, link);
+  const int rc = test::run_command(
+      env + kVolcast + " view --no-render --connect-file " + link_file.string() +
+          " --frames 5 --depth-codec rvl --stats-json " + (dir / "s.json").string(),
+      out);
+  std::string stdin_out;
+  const int rc_stdin = test::run_command(
+      env + kVolcast + " view --no-render --connect - --frames 2 < " + link_file.string(),
+      stdin_out);
   // The same server again by HOST:PORT and token alone: its certificate was pinned on first use.
   const std::string host_port = link.substr(10, link.find('/', 10) - 10);
   const std::string token = link.substr(link.find("token=") + 6, 32);
@@ -228,12 +251,18 @@ TEST(Cli, ServePrintsAJoinLinkThatViewUsesOverTls) {
   test::run_command("kill " + pid, out);
   ASSERT_EQ(rc, 0) << out;
   EXPECT_EQ(rc_pinned, 0) << out;
+  EXPECT_EQ(rc_stdin, 0) << stdin_out;
+  EXPECT_NE(
+      test::run_command(
+          kVolcast + " view --no-render --connect-file " + (dir / "missing.txt").string(), out),
+      0);
+  EXPECT_NE(out.find("cannot read --connect-file"), std::string::npos) << out;
   std::ifstream in(dir / "s.json");
   const auto stats = nlohmann::json::parse(in);
   EXPECT_EQ(stats["cameras"][0]["frames_received"], 5);
   EXPECT_EQ(stats["cameras"][0]["description"], "camera 0");  // a name, never the server's path
-  EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "server" / "key.pem"));
-  EXPECT_TRUE(std::filesystem::exists(dir / "config" / "volcast" / "known_servers"));
+  EXPECT_EQ(file_mode(dir / "config" / "volcast" / "server" / "key.pem"), 0600);
+  EXPECT_EQ(file_mode(dir / "config" / "volcast" / "known_servers"), 0600);
 }
 
 // The first volcast:// link `log` shows within 60 s (empty if none).
@@ -632,9 +661,9 @@ TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
   ASSERT_FALSE(link.empty());
   const std::string killed = (dir / "killed.vcr").string();
   // A recorder pulled out mid-stream: SIGKILL, no chance to write its index.
-  ASSERT_EQ(test::run_command(kVolcast + " record --connect '" + link + "' --out " + killed +
-                                  " --tier volcast/jpeg > " + (dir / "record.log").string() +
-                                  " 2>&1 & echo $!",
+  ASSERT_EQ(test::run_command("umask 022; " + kVolcast + " record --connect '" + link + "' --out " +
+                                  killed + " --tier volcast/jpeg > " +
+                                  (dir / "record.log").string() + " 2>&1 & echo $!",
                               out),
             0);
   const std::string recorder = out.substr(0, out.find('\n'));
@@ -644,11 +673,14 @@ TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
   test::run_command("kill -9 " + recorder, out);
   // A recorder that stops on time closes its file.
   const std::string closed = (dir / "closed.vcr").string();
-  ASSERT_EQ(test::run_command(kVolcast + " record --connect '" + link + "' --out " + closed +
-                                  " --seconds 2 --tier rvl/none",
+  ASSERT_EQ(test::run_command("umask 022; " + kVolcast + " record --connect '" + link + "' --out " +
+                                  closed + " --seconds 2 --tier rvl/none",
                               out),
             0)
       << out;
+  // Recordings of the OR are their owner's only, whatever the umask.
+  EXPECT_EQ(file_mode(killed), 0600);
+  EXPECT_EQ(file_mode(closed), 0600);
   EXPECT_NE(out.find("recorded "), std::string::npos) << out;
   EXPECT_NE(
       test::run_command(
@@ -671,8 +703,8 @@ TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
   EXPECT_NE(out.find("rvl/none"), std::string::npos) << out;
 
   // Export: a PLY per frame set (one camera) with a point per valid depth pixel, and PNGs.
-  ASSERT_EQ(test::run_command(kVolcast + " export " + killed + " --ply " + (dir / "ply").string() +
-                                  " --png " + (dir / "png").string(),
+  ASSERT_EQ(test::run_command("umask 022; " + kVolcast + " export " + killed + " --ply " +
+                                  (dir / "ply").string() + " --png " + (dir / "png").string(),
                               out),
             0)
       << out;
@@ -689,6 +721,9 @@ TEST(Cli, ARecordingKilledMidwayIsDescribedReplayedToAViewerAndExported) {
     EXPECT_EQ(ply_vertices(dir / "ply" / fmt::format("frame-{:06d}-camera-0.ply", k)), valid) << k;
   }
   EXPECT_TRUE(std::filesystem::exists(dir / "png" / "camera-0" / "intrinsics.json"));
+  EXPECT_EQ(file_mode(dir / "ply" / "frame-000000-camera-0.ply"), 0600);
+  EXPECT_EQ(file_mode(dir / "png" / "camera-0" / "depth" / "000000.png"), 0600);
+  EXPECT_EQ(file_mode(dir / "png" / "camera-0" / "intrinsics.json"), 0600);
   // The hands camera (640x360) is no Azure Kinect depth mode: --mkv says so.
   EXPECT_NE(
       test::run_command(kVolcast + " export " + killed + " --mkv " + (dir / "x.mkv").string(), out),

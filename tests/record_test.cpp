@@ -6,9 +6,11 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "hands_site.hpp"
@@ -478,6 +480,52 @@ TEST(Recording, AReplayPassesTheRecordedTierThroughByteForByteAndEncodesOtherTie
     }
     EXPECT_EQ(viewer.client.frames_undecodable(), 0u);
   }
+}
+
+// A recording of the real hands sequence rewritten as a file that lies: valid CRCs, but its
+// capture time jumps 11.6 days forward at frame set 5 and 40 ms back at frame set 9 (the frame
+// set head's capture time is bytes 9..16 of the body, protocol.hpp 1.1).
+TEST(Recording, ACaptureTimeThatJumpsIsReplayedAtTheFramePaceAndNamedByInfo) {
+  const auto dir = test::temp_dir("record_lying_clock");
+  const RecordedSite hands = record_site(dir, hands_sources(), 12);
+  const fs::path lying = dir / "lying.vcr";
+  {
+    RecordingReader reader(hands.spatial);
+    RecordingWriter w(lying, reader.info().stream, {.overwrite = true});
+    std::vector<uint8_t> body;
+    for (size_t k = 0; k < 12; ++k) {
+      reader.read(k, body);
+      int64_t capture_us = 0;
+      std::memcpy(&capture_us, body.data() + 9, 8);
+      if (k >= 5) capture_us += 1'000'000'000'000;  // 11.6 days
+      if (k >= 9) capture_us -= 40'000 + 33'333;
+      std::memcpy(body.data() + 9, &capture_us, 8);
+      w.append(body);
+    }
+    w.close();
+  }
+  ReplayPlayer player(lying, {.loop = false});
+  EXPECT_EQ(player.timeline().clamped_gaps, 2u);
+  EXPECT_EQ(player.timeline().first_clamped, 5u);
+  EXPECT_EQ(player.timeline().first_clamped_gap_us / 1'000'000, 1'000'000);
+  EXPECT_LT(player.timeline().duration_us(), 2'000'000) << "12 frame sets at about 30 fps";
+  std::atomic<int> published{0};
+  player.start([&](std::shared_ptr<const CapturedFrameSet>) { ++published; });
+  EXPECT_TRUE(test::eventually([&] { return player.finished(); }, std::chrono::seconds(60)))
+      << published << " frame sets published, then the replay stalled";
+  player.stop();
+  EXPECT_EQ(published, 12);
+
+  std::string out;
+  ASSERT_EQ(test::run_command(std::string(VOLCAST_BINARY) + " info --json " + lying.string(), out),
+            0)
+      << out;
+  const auto j = nlohmann::json::parse(out.substr(out.find('{')));
+  EXPECT_EQ(j["clamped_gaps"], 2);
+  const std::string warning = j["warning"];
+  EXPECT_NE(warning.find("jumps by 11.6 days between frame sets 4 and 5"), std::string::npos)
+      << warning;
+  EXPECT_LT(j["duration_s"].get<double>(), 2.0);
 }
 
 // The 40-byte BITMAPINFOHEADER (CodecPrivate) of `file`'s track whose fourcc is `fourcc`.

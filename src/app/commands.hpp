@@ -61,6 +61,7 @@ struct ServeArgs {
   std::string cert, key;           ///< PEM files; default: user_config_dir()/server/*.pem
   std::string token_file;          ///< 32 hex digits; default: a random token per session
   std::string link_host;           ///< host written into the join link; default: found
+  std::string link_file;           ///< also write the join link here (mode 0600); "" = no
   std::vector<std::string> tiers;  ///< offered tiers DEPTH/COLOR[/QUALITY]; empty: any
   double tier_cpu_budget = 0;      ///< cores the tiers' encoders may use; 0: half the cores
   int max_tiers_per_address = 4;   ///< tiers one address's viewers may hold alone
@@ -108,6 +109,9 @@ ServerConfig server_config(const ServeArgs& a);
 /// The host for the join link: --link-host, else the bind address, else (bound to all
 /// addresses) this host's first non-loopback address.
 std::string link_host(const ServeArgs& a);
+/// With --link-file: writes `link` and a newline there, mode 0600, replacing the file at once
+/// (a reader never sees half a link), for `view --connect-file`. Throws Error naming the file.
+void write_link_file(const ServeArgs& a, const std::string& link);
 /// The NATS connection of --nats, --nats-user and --nats-password-file, named `name` in the
 /// cluster's monitoring. Throws Error for an empty URL list or an unreadable password file.
 cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name);
@@ -117,7 +121,8 @@ cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name);
 std::filesystem::path web_root_default();
 
 struct ViewArgs {
-  std::string connect;        ///< join link volcast://... or HOST:PORT
+  std::string connect;        ///< join link volcast://..., HOST:PORT, or "-" (standard input)
+  std::string connect_file;   ///< a file holding the join link (instead of --connect)
   std::string token;          ///< with HOST:PORT: the join token
   std::string fingerprint;    ///< with HOST:PORT: the server certificate's SHA-256 (else pinned)
   std::string known_servers;  ///< pin store; default user_config_dir()/known_servers
@@ -308,14 +313,18 @@ int run_info(const InfoArgs& args);
 int run_recording_info(const InfoArgs& args);
 
 /// The client settings for reaching a server from --connect (a join link, or HOST:PORT with
-/// --token and maybe --fingerprint), --insecure and --known-servers. Throws Error naming the
-/// command and the flag at fault.
+/// --token and maybe --fingerprint; "-": the link on standard input) or --connect-file (a file
+/// holding the link: its first line that is neither empty nor a '#' comment; at most 4 KiB; a
+/// warning if other users may read it), --insecure and --known-servers. Reading the link from a
+/// file or standard input keeps its token out of /proc/PID/cmdline, which every local user can
+/// read. Throws Error naming the command and the flag (or file) at fault.
 ClientConfig connect_client_config(const std::string& command, const std::string& connect,
-                                   const std::string& token, const std::string& fingerprint,
-                                   bool insecure, const std::string& known_servers);
+                                   const std::string& connect_file, const std::string& token,
+                                   const std::string& fingerprint, bool insecure,
+                                   const std::string& known_servers);
 
 struct RecordArgs {
-  std::string connect, token, fingerprint, known_servers;
+  std::string connect, connect_file, token, fingerprint, known_servers;
   bool insecure = false;
   std::string out;
   std::string tier = "volcast/jpeg";  ///< DEPTH/COLOR[/QUALITY]

@@ -33,6 +33,22 @@ void add_filter_flags(CLI::App* app, volcast::FilterFlags& f, bool with_backgrou
   app->add_flag("--kalman", f.kalman, "Per-pixel Kalman denoising with an innovation gate");
 }
 
+// --connect and --connect-file: one of them (connect_client_config reads them and says so if
+// neither is given).
+void add_connect_flags(CLI::App* c, std::string& connect, std::string& connect_file) {
+  auto* link = c->add_option(
+      "--connect", connect,
+      "The join link the server printed (volcast://HOST:PORT/?token=...&fp=...), HOST:PORT with "
+      "--token, or - to read the link from standard input (other users of this machine can read "
+      "a command line, token included: prefer - or --connect-file)");
+  link->excludes(c->add_option("--connect-file", connect_file,
+                               "A file holding the join link (e.g. written by serve --link-file)"));
+}
+
+const std::string kTokenHelp =
+    "Join token (32 hex digits) with --connect HOST:PORT (visible to other local users in the "
+    "process list: prefer the link through --connect-file or --connect -)";
+
 // The flags of every command that serves viewers (serve, replay, relay): the port, pacing,
 // security, the browser page and the NATS account.
 void add_server_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string& kLowLatencyHelp) {
@@ -64,6 +80,9 @@ void add_server_flags(CLI::App* s, volcast::ServeArgs& serve, const std::string&
   s->add_option("--key", serve.key, "Private key PEM for --cert");
   s->add_option("--token-file", serve.token_file,
                 "Join token file, 32 hex digits (default: a new random token per session)");
+  s->add_option("--link-file", serve.link_file,
+                "Also write the join link to this file, readable by you only (mode 0600): "
+                "viewers on this machine join with --connect-file, the token off the command line");
   s->add_option("--link-host", serve.link_host,
                 "Host name or address to print in the join link (default: --bind, or this "
                 "host's first non-loopback address when bound to all)");
@@ -240,11 +259,8 @@ int main(int argc, char** argv) {
   ViewArgs view;
   auto* v =
       app.add_subcommand("view", "Receive a site's stream and watch it in a window (or headset)");
-  v->add_option("--connect", view.connect,
-                "The join link the server printed (volcast://HOST:PORT/?token=...&fp=...), or "
-                "HOST:PORT with --token")
-      ->required();
-  v->add_option("--token", view.token, "Join token (32 hex digits) with --connect HOST:PORT");
+  add_connect_flags(v, view.connect, view.connect_file);
+  v->add_option("--token", view.token, kTokenHelp);
   v->add_option("--fingerprint", view.fingerprint,
                 "Server certificate SHA-256 (64 hex) with --connect HOST:PORT (default: the one "
                 "pinned on first use)");
@@ -485,8 +501,8 @@ int main(int argc, char** argv) {
       "record",
       "Record a server's stream, one tier as sent, to an append-only .vcr that survives a kill "
       "(replay it with `volcast replay`, export it with `volcast export`)");
-  rc->add_option("--connect", record.connect, "Join link (volcast://...) or HOST:PORT")->required();
-  rc->add_option("--token", record.token, "With HOST:PORT: the join token (32 hex digits)");
+  add_connect_flags(rc, record.connect, record.connect_file);
+  rc->add_option("--token", record.token, kTokenHelp);
   rc->add_option("--fingerprint", record.fingerprint,
                  "With HOST:PORT: the server certificate's SHA-256 (64 hex digits)");
   rc->add_option("--known-servers", record.known_servers,

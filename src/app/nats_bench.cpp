@@ -18,6 +18,7 @@
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/private_file.hpp"
 #include "volcast/net/client.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -159,8 +160,7 @@ int run_nats_bench(const BenchArgs& a) {
       fs::create_directories(dir);
       const TlsIdentity node = make_self_signed_identity("localhost");
       std::ofstream(dir / "node.pem") << node.certificate_pem;
-      std::ofstream(dir / "node.key") << node.private_key_pem;
-      fs::permissions(dir / "node.key", fs::perms::owner_read | fs::perms::owner_write);
+      write_private_file(dir / "node.key", node.private_key_pem);
       tls.ca_file = (dir / "node.pem").string();
       tls.tls_name = "localhost";
       tls_config = fmt::format("tls {{\n  cert_file: \"{}\"\n  key_file: \"{}\"\n}}\n",

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -64,8 +65,8 @@ std::tuple<std::string, std::string, int> parse_tier(const std::string& text,
 }
 
 int run_record(const RecordArgs& a) {
-  ClientConfig c = connect_client_config("record", a.connect, a.token, a.fingerprint, a.insecure,
-                                         a.known_servers);
+  ClientConfig c = connect_client_config("record", a.connect, a.connect_file, a.token,
+                                         a.fingerprint, a.insecure, a.known_servers);
   std::tie(c.depth_codec, c.color_codec, c.color_quality) = parse_tier(a.tier, "--tier");
   c.decode = false;  // the bytes are kept as sent; replay and export decode them
   c.keep_encoded = true;
@@ -139,7 +140,22 @@ int run_recording_info(const InfoArgs& a) {
     bad = e.what();
   }
   if (tty) std::fprintf(stderr, "\r\033[K");
-  const double seconds = static_cast<double>(info.duration_us()) / 1e6;
+  // Played as replay plays it: a capture time that jumps or goes back is a gap clamped to the
+  // frame interval, and named here (a file may lie although its CRCs hold).
+  const PlaybackTimeline timeline = playback_timeline(info.frame_sets);
+  const double seconds = static_cast<double>(timeline.duration_us()) / 1e6;
+  std::string gaps;
+  if (timeline.clamped_gaps)
+    gaps = fmt::format(
+        "the capture time {} by {} between frame sets {} and {}{}: replay and export play them "
+        "one frame interval ({}) apart",
+        timeline.first_clamped_gap_us < 0 ? "goes back" : "jumps",
+        describe_span_us(std::abs(timeline.first_clamped_gap_us)), timeline.first_clamped - 1,
+        timeline.first_clamped,
+        timeline.clamped_gaps > 1
+            ? fmt::format(" (and {} more such gaps)", timeline.clamped_gaps - 1)
+            : std::string(),
+        describe_span_us(timeline.frame_interval_us));
   const RecordingStream& s = info.stream;
   nlohmann::json cams = nlohmann::json::array();
   for (const auto& c : s.welcome.cameras) {
@@ -165,6 +181,8 @@ int run_recording_info(const InfoArgs& a) {
       {"frame_sets", info.frame_sets.size()},
       {"key_frame_sets", keys},
       {"duration_s", seconds},
+      {"clamped_gaps", timeline.clamped_gaps},
+      {"warning", gaps},
       {"fps", seconds > 0 ? static_cast<double>(info.frame_sets.size() - 1) / seconds : 0.0},
       {"file_bytes", info.file_bytes},
       {"closed", info.closed},
@@ -196,6 +214,7 @@ int run_recording_info(const InfoArgs& a) {
           static_cast<unsigned long long>(*info.incomplete_tail_at), info.tail_reason.c_str());
     else
       std::printf("  not closed (no index): indexed by scanning, every record complete\n");
+    if (!gaps.empty()) std::printf("  warning: %s\n", gaps.c_str());
     std::printf("  %s\n", bad.empty() ? "every frame set checked (CRC)" : bad.c_str());
   }
   if (!bad.empty()) throw Error(bad);

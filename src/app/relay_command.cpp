@@ -38,6 +38,7 @@ int run_relay(const ServeArgs& a) {
                  relay.session()->relay());
   std::printf("join link (give it only to the viewers of this session):\n  %s\n",
               server.join_link(link_host(a)).c_str());
+  write_link_file(a, server.join_link(link_host(a)));
   if (!o.server.web_root.empty())
     std::printf("browser link (any headset's or laptop's browser; accept the certificate):\n  %s\n",
                 server.web_link(link_host(a)).c_str());

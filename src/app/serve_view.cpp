@@ -2,11 +2,14 @@
 #include <fmt/format.h>
 #include <ifaddrs.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <iostream>
+#include <sstream>
 #include <thread>
 
 #include "case_watch.hpp"
@@ -18,6 +21,7 @@
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/private_file.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/join.hpp"
@@ -241,6 +245,15 @@ static void apply_security(const ServeArgs& a, ServerConfig& config) {
     config.web_root = a.web_root.empty() ? web_root_default() : std::filesystem::path(a.web_root);
 }
 
+void write_link_file(const ServeArgs& a, const std::string& link) {
+  if (a.link_file.empty()) return;
+  const std::filesystem::path file(a.link_file), temporary(a.link_file + ".tmp");
+  write_private_file(temporary, link + "\n");
+  std::error_code ec;
+  std::filesystem::rename(temporary, file, ec);
+  if (ec) throw Error("--link-file: cannot write '" + a.link_file + "': " + ec.message());
+}
+
 // The host for the join link: --link-host, else the bind address, else (bound to all addresses)
 // this host's first non-loopback address.
 std::string link_host(const ServeArgs& a) {
@@ -393,8 +406,9 @@ int run_serve(const ServeArgs& a) {
     spdlog::info(
         "replaying {}: {} frame sets, {:.1f} s, tier {}/{} (passed through as "
         "recorded to viewers of that tier){}",
-        a.sources[0], info.frame_sets.size(), static_cast<double>(info.duration_us()) / 1e6,
-        info.stream.depth_codec, info.stream.color_codec,
+        a.sources[0], info.frame_sets.size(),
+        static_cast<double>(replay->timeline().duration_us()) / 1e6, info.stream.depth_codec,
+        info.stream.color_codec,
         info.closed ? "" : "; not closed by its recorder, indexed by scanning");
     for (const auto& c : replay->cameras()) {
       names.push_back(c.description);
@@ -512,9 +526,11 @@ int run_serve(const ServeArgs& a) {
         cameras.size(), a.nats_site.c_str(), a.nats_site.c_str());
   else if (!a.insecure)
     spdlog::info("certificate SHA-256 fingerprint: {}", server.fingerprint());
-  if (!a.camera_only)
+  if (!a.camera_only) {
     std::printf("join link (give it only to the viewers of this session):\n  %s\n",
                 server.join_link(link_host(a)).c_str());
+    write_link_file(a, server.join_link(link_host(a)));
+  }
   if (!config.web_root.empty())
     std::printf("browser link (any headset's or laptop's browser; accept the certificate):\n  %s\n",
                 server.web_link(link_host(a)).c_str());
@@ -587,9 +603,63 @@ int run_serve(const ServeArgs& a) {
   return 0;
 }
 
-ClientConfig connect_client_config(const std::string& command, const std::string& connect,
-                                   const std::string& token, const std::string& fingerprint,
-                                   bool insecure, const std::string& known_servers) {
+namespace {
+
+constexpr size_t kMaxLinkFileBytes = 4096;
+
+// The join link in `text` (a file's or standard input's): its first line that is neither empty
+// nor a comment, without surrounding blanks. Throws Error naming `where` if there is none.
+std::string link_in(const std::string& text, const std::string& command, const std::string& where) {
+  if (text.size() > kMaxLinkFileBytes)
+    throw Error(command + ": " + where + " is over " + std::to_string(kMaxLinkFileBytes) +
+                " bytes: not a join link");
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const size_t begin = line.find_first_not_of(" \t\r");
+    if (begin == std::string::npos || line[begin] == '#') continue;
+    return line.substr(begin, line.find_last_not_of(" \t\r") + 1 - begin);
+  }
+  throw Error(command + ": " + where + " holds no join link");
+}
+
+// --connect, or the link read from --connect-file or standard input (--connect -).
+std::string connect_target(const std::string& command, const std::string& connect,
+                           const std::string& connect_file) {
+  if (!connect_file.empty() && !connect.empty())
+    throw Error(command + ": give --connect or --connect-file, not both");
+  if (connect_file.empty() && connect != "-") {
+    if (connect.empty())
+      throw Error(command +
+                  ": say where to connect: --connect LINK, --connect-file FILE, or --connect - "
+                  "(the link on standard input)");
+    return connect;
+  }
+  std::string text(kMaxLinkFileBytes + 1, '\0');
+  if (connect == "-") {
+    std::cin.read(text.data(), static_cast<std::streamsize>(text.size()));
+    text.resize(static_cast<size_t>(std::cin.gcount()));
+    return link_in(text, command, "standard input");
+  }
+  std::ifstream in(connect_file, std::ios::binary);
+  if (!in) throw Error(command + ": cannot read --connect-file '" + connect_file + "'");
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<size_t>(in.gcount()));
+  struct stat st {};
+  if (::stat(connect_file.c_str(), &st) == 0 && (st.st_mode & 077))
+    spdlog::warn(
+        "{}: '{}' may be read by other users (mode {:04o}), and its token lets them join: chmod "
+        "600 it",
+        command, connect_file, st.st_mode & 07777);
+  return link_in(text, command, "'" + connect_file + "'");
+}
+
+}  // namespace
+
+ClientConfig connect_client_config(const std::string& command, const std::string& connect_flag,
+                                   const std::string& connect_file, const std::string& token,
+                                   const std::string& fingerprint, bool insecure,
+                                   const std::string& known_servers) {
+  const std::string connect = connect_target(command, connect_flag, connect_file);
   ClientConfig c;
   if (is_join_link(connect)) {
     if (!token.empty() || !fingerprint.empty())
@@ -614,8 +684,8 @@ ClientConfig connect_client_config(const std::string& command, const std::string
 int run_view(const ViewArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   ViewerOptions opt;
-  opt.client =
-      connect_client_config("view", a.connect, a.token, a.fingerprint, a.insecure, a.known_servers);
+  opt.client = connect_client_config("view", a.connect, a.connect_file, a.token, a.fingerprint,
+                                     a.insecure, a.known_servers);
   opt.client.connect_timeout_ms = a.connect_timeout_ms;
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;

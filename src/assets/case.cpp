@@ -80,6 +80,11 @@ void add_label_parts(Case& c, const fs::path& file, const LabelVolume& volume,
     return;
   }
   const std::vector<MaskComponent> parts = connected_components(volume, mask, spec.min_voxels);
+  if (c.parts.size() + parts.size() > kMaxCaseParts)
+    throw Error(file.filename().string() + ": '" + spec.name + "' has " +
+                std::to_string(parts.size()) + " components of at least " +
+                std::to_string(spec.min_voxels) + " voxels; a case holds at most " +
+                std::to_string(kMaxCaseParts) + " parts: raise min_voxels");
   for (size_t i = 0; i < parts.size(); ++i)
     make(spec.name + " " + std::to_string(i + 1), parts[i].mask, parts[i].voxels);
 }
@@ -176,6 +181,9 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
   const fs::path spec_file = folder / "case.json";
   try {
     if (fs::exists(spec_file, ec)) {
+      if (const uintmax_t bytes = fs::file_size(spec_file, ec); !ec && bytes > kMaxCaseJsonBytes)
+        throw Error("case.json is " + std::to_string(bytes) + " bytes; at most " +
+                    std::to_string(kMaxCaseJsonBytes) + " are read");
       std::ifstream in(spec_file);
       json spec;
       try {
@@ -191,8 +199,16 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
       else if (orientation != "lps")
         throw Error("case.json: orientation '" + orientation + "' is neither lps nor room");
       surface.max_triangles = spec.value("max_triangles", surface.max_triangles);
+      if (surface.max_triangles < 1 || surface.max_triangles > kMaxPartTriangles)
+        throw Error("case.json: max_triangles " + std::to_string(surface.max_triangles) +
+                    " is not in 1.." + std::to_string(kMaxPartTriangles));
+      const json parts = spec.value("parts", json::array());
+      if (!parts.is_array()) throw Error("case.json: \"parts\" is not an array");
+      if (parts.size() > kMaxCaseParts)
+        throw Error("case.json declares " + std::to_string(parts.size()) +
+                    " parts; a case holds at most " + std::to_string(kMaxCaseParts));
       std::map<fs::path, LabelVolume> volumes;
-      for (const json& part : spec.value("parts", json::array())) {
+      for (const json& part : parts) {
         const std::string name = part.at("name").get<std::string>();
         const std::string group = part.value("group", name);
         const Eigen::Vector4f rgba = rgba_from(part, name);
@@ -200,6 +216,8 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
           const fs::path file =
               inside(folder, part.at("mesh").get<std::string>(), "part '" + name + "':");
           if (options.progress) options.progress(file.filename().string());
+          if (c.parts.size() >= kMaxCaseParts)
+            throw Error("case.json: more than " + std::to_string(kMaxCaseParts) + " parts");
           CasePart p;
           p.name = name, p.group = group, p.source = file;
           p.mesh = read_mesh_file(file);
@@ -229,6 +247,13 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
       for (const auto& e : fs::directory_iterator(folder, ec))
         if (e.is_regular_file()) files.push_back(e.path());
       std::sort(files.begin(), files.end());
+      const auto meshes = std::count_if(files.begin(), files.end(), [](const fs::path& f) {
+        return kMeshExtensions.count(lower(f.extension().string())) > 0;
+      });
+      if (static_cast<size_t>(meshes) > kMaxCaseParts)
+        throw Error("the folder holds " + std::to_string(meshes) +
+                    " mesh files; a case holds at most " + std::to_string(kMaxCaseParts) +
+                    " parts (list the ones to load in a case.json)");
       for (const fs::path& f : files) {
         const std::string ext = lower(f.extension().string());
         if (kMeshExtensions.count(ext)) {

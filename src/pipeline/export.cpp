@@ -16,6 +16,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/jpeg.hpp"
+#include "volcast/core/private_file.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
 #include "volcast/record/decode.hpp"
 #include "volcast/record/recording.hpp"
@@ -34,9 +35,7 @@ void write_intrinsics_json(const fs::path& file, const CameraCalibration& c, dou
   for (int i = 0; i < 9; ++i) r[i] = c.world_from_camera.rotation(i / 3, i % 3);
   for (int i = 0; i < 3; ++i) t[i] = c.world_from_camera.translation(i);
   j["world_from_camera"] = {{"rotation", r}, {"translation", t}};
-  std::ofstream out(file);
-  out << j.dump(2) << "\n";
-  if (!out) throw Error("export: cannot write " + file.string());
+  write_private_file(file, j.dump(2) + "\n");
 }
 
 void write_ply(const fs::path& file, const PointCloud& cloud, open3d::geometry::PointCloud& o3d) {
@@ -52,6 +51,7 @@ void write_ply(const fs::path& file, const PointCloud& cloud, open3d::geometry::
   opt.write_ascii = open3d::io::WritePointCloudOption::IsAscii::Binary;
   if (!open3d::io::WritePointCloudToPLY(file.string(), o3d, opt))
     throw Error("export: cannot write " + file.string());
+  restrict_to_owner(file);
 }
 
 }  // namespace
@@ -64,18 +64,18 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
   const auto& sets = reader.info().frame_sets;
   const auto& cams = reader.info().stream.welcome.cameras;
   if (sets.empty()) throw Error("export: " + path.string() + " holds no frame sets");
-  const int64_t t0 = sets.front().capture_us;
+  // Selected and paced by the playback timeline, as `replay` does (absurd gaps clamped).
+  const PlaybackTimeline timeline = playback_timeline(sets);
   std::vector<size_t> picked;
   for (size_t k = 0; k < sets.size(); ++k) {
-    const double t = static_cast<double>(sets[k].capture_us - t0) / 1e6;
+    const double t = static_cast<double>(timeline.offset_us[k]) / 1e6;
     if (t >= o.from_s - 1e-6 && (o.to_s < 0 || t <= o.to_s + 1e-6)) picked.push_back(k);
   }
   if (picked.empty()) throw Error("export: no frame sets in the range given");
-  const double fps =
-      picked.size() > 1 && sets[picked.back()].capture_us > sets[picked[0]].capture_us
-          ? static_cast<double>(picked.size() - 1) * 1e6 /
-                static_cast<double>(sets[picked.back()].capture_us - sets[picked[0]].capture_us)
-          : 30.0;
+  const int64_t span = timeline.offset_us[picked.back()] - timeline.offset_us[picked[0]];
+  const double fps = picked.size() > 1 && span > 0
+                         ? static_cast<double>(picked.size() - 1) * 1e6 / static_cast<double>(span)
+                         : 30.0;
   std::vector<CloudBuilder> builders;
   for (const auto& c : cams) builders.emplace_back(c.calibration);
   std::error_code ec;
@@ -163,10 +163,14 @@ ExportReport export_recording(const fs::path& path, const ExportOptions& o) {
       if (!mkvs.empty()) mkvs[c]->write(f);
       if (!o.png_dir.empty()) {
         const fs::path cam = o.png_dir / fmt::format("camera-{}", c);
-        write_depth_png(cam / "depth" / fmt::format("{:06d}.png", n), f.depth);
+        const fs::path depth = cam / "depth" / fmt::format("{:06d}.png", n);
+        write_depth_png(depth, f.depth);
+        restrict_to_owner(depth);
         ++report.files;
         if (!f.color.empty()) {
-          write_color_png(cam / "color" / fmt::format("{:06d}.png", n), f.color);
+          const fs::path color = cam / "color" / fmt::format("{:06d}.png", n);
+          write_color_png(color, f.color);
+          restrict_to_owner(color);
           ++report.files;
         }
       }

@@ -20,6 +20,7 @@
 #include <matroska/KaxTrackEntryData.h>
 #include <matroska/KaxTrackVideo.h>
 #include <matroska/KaxTracks.h>
+#include <unistd.h>
 
 #include <array>
 #include <cerrno>
@@ -34,6 +35,7 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/core/jpeg.hpp"
+#include "volcast/core/private_file.hpp"
 
 namespace volcast {
 using namespace libebml;
@@ -75,8 +77,13 @@ uint64_t k4a_fps(int64_t frame_us) {
 class CheckedFile final : public IOCallback {
  public:
   explicit CheckedFile(const std::filesystem::path& path) : path_(path) {
-    f_ = std::fopen(path.c_str(), "wb");
-    if (!f_) fail("cannot create");
+    // Mode 0600: an export of the OR is its owner's only (volcast/core/private_file.hpp).
+    const int fd = open_private_file(path, false);
+    f_ = ::fdopen(fd, "wb");
+    if (!f_) {
+      ::close(fd);
+      fail("cannot create");
+    }
   }
   ~CheckedFile() override {
     if (f_) std::fclose(f_);

@@ -1,8 +1,10 @@
 #include "volcast/pipeline/replay.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <cstdlib>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -16,8 +18,18 @@ ReplayPlayer::ReplayPlayer(const std::filesystem::path& path, ReplayOptions opti
       buffers_(reader_.info().stream.welcome.cameras.size()) {
   const auto& sets = reader_.info().frame_sets;
   if (sets.empty()) throw Error("replay " + path.string() + ": the recording holds no frame sets");
-  const int64_t t0 = sets.front().capture_us;
-  const auto at = [&](size_t k) { return static_cast<double>(sets[k].capture_us - t0) / 1e6; };
+  timeline_ = playback_timeline(sets);
+  if (timeline_.clamped_gaps)
+    spdlog::warn(
+        "replay {}: the capture time {} by {} between frame sets {} and {}; replaying them one "
+        "frame interval ({}) apart{}",
+        path.string(), timeline_.first_clamped_gap_us < 0 ? "goes back" : "jumps",
+        describe_span_us(std::abs(timeline_.first_clamped_gap_us)), timeline_.first_clamped - 1,
+        timeline_.first_clamped, describe_span_us(timeline_.frame_interval_us),
+        timeline_.clamped_gaps > 1
+            ? fmt::format(" ({} such gaps, each replayed so)", timeline_.clamped_gaps)
+            : std::string());
+  const auto at = [&](size_t k) { return static_cast<double>(timeline_.offset_us[k]) / 1e6; };
   first_ = sets.size();
   for (size_t k = 0; k < sets.size(); ++k)
     if (at(k) >= options.from_s - 1e-6) {
@@ -44,8 +56,7 @@ std::vector<protocol::CameraInfo> ReplayPlayer::cameras() const {
 }
 
 double ReplayPlayer::fps() const {
-  const auto& sets = reader_.info().frame_sets;
-  const int64_t span = sets[last_].capture_us - sets[first_].capture_us;
+  const int64_t span = timeline_.offset_us[last_] - timeline_.offset_us[first_];
   return last_ > first_ && span > 0
              ? static_cast<double>(last_ - first_) * 1e6 / static_cast<double>(span)
              : 30.0;
@@ -81,7 +92,7 @@ void ReplayPlayer::run(const Publish& publish) {
     position += 2;  // a new pass: its first delta does not follow the last pass's end
     for (size_t k = first_; k <= last_ && !stop_; ++k, ++position) {
       const auto due =
-          start + std::chrono::microseconds(sets[k].capture_us - sets[first_].capture_us);
+          start + std::chrono::microseconds(timeline_.offset_us[k] - timeline_.offset_us[first_]);
       while (!stop_ && Clock::now() < due)
         std::this_thread::sleep_for(
             std::min<Clock::duration>(due - Clock::now(), std::chrono::milliseconds(20)));

@@ -1,4 +1,5 @@
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/uio.h>
 #include <unistd.h>
 
@@ -51,11 +52,18 @@ RecordingWriter::RecordingWriter(const std::filesystem::path& path, const Record
                                  RecordingWriterOptions options)
     : path_(path), options_(options) {
   const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options.overwrite ? O_TRUNC : O_EXCL);
-  fd_ = ::open(path.c_str(), flags, 0644);
+  // Mode 0600: a recording shows the OR, for its owner only (also when it replaces a file).
+  fd_ = ::open(path.c_str(), flags, 0600);
   if (fd_ < 0) {
     if (errno == EEXIST)
       throw Error("recording " + path.string() + ": exists already (choose another name)");
     throw Error("recording " + path.string() + ": cannot create: " + std::strerror(errno));
+  }
+  if (::fchmod(fd_, 0600) != 0) {
+    const int e = errno;
+    ::close(fd_);
+    fd_ = -1;
+    throw Error("recording " + path.string() + ": cannot make it private: " + std::strerror(e));
   }
   const auto header = detail::file_header();
   iovec iov{const_cast<uint8_t*>(header.data()), header.size()};

@@ -25,6 +25,7 @@
 // portal/porta, cava/hepatic/venous, aorta/artery, tumour, gallbladder, kidney, bone, skin; the
 // liver is a half-transparent shell over its vessels and tumours, the skin more transparent).
 #include <Eigen/Core>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -60,6 +61,15 @@ struct Case {
   std::vector<std::string> groups() const;  ///< in order of first appearance
 };
 
+/// The most parts a case may have (case.json's "parts", label components, mesh files in a
+/// folder): a real case has tens; a session shares at most 64 objects of 256 parts
+/// (session/objects.hpp). Checked before any file is read, so a hostile case.json costs nothing.
+inline constexpr size_t kMaxCaseParts = 256;
+/// The largest case.json read (bytes): 256 parts take tens of kilobytes.
+inline constexpr uintmax_t kMaxCaseJsonBytes = 1u << 20;
+/// The largest "max_triangles" (per part) case.json may ask for.
+inline constexpr size_t kMaxPartTriangles = 1'000'000;
+
 struct CaseLoadOptions {
   size_t max_triangles = 60000;  ///< per part unless case.json says otherwise
   /// Called with what is being loaded ("liver.obj", "labels: liver") before each step.
@@ -68,7 +78,9 @@ struct CaseLoadOptions {
 
 /// Loads the case in `folder`. Throws Error naming the folder and what was wrong: no such
 /// folder, a case.json that does not parse or names a missing file or an unknown field value, a
-/// file that does not read, a folder with nothing a case can hold.
+/// file that does not read, a folder with nothing a case can hold, a case.json over
+/// kMaxCaseJsonBytes, more than kMaxCaseParts parts or a "max_triangles" over kMaxPartTriangles
+/// (these before any other file is read).
 Case load_case(const std::filesystem::path& folder, const CaseLoadOptions& options = {});
 
 /// The default colour of a part called `name` (see the top of this file).

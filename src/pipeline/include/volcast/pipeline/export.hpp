@@ -45,6 +45,8 @@ struct ExportReport {
 ///     device times in microseconds. `volcast info`, `serve --source` and FFmpeg read it back; the
 ///     layout is the one the Azure Kinect SDK's playback reads (that SDK is not in Debian:
 ///     untested).
+/// Every file written has mode 0600 (it shows the OR: volcast/core/private_file.hpp). Frame sets
+/// are selected by the recording's playback timeline (recording.hpp: absurd gaps clamped).
 /// Throws Error if the recording cannot be opened, the range holds no frame sets or a file cannot
 /// be written (naming it); a frame set that cannot be decoded is skipped with a warning.
 ExportReport export_recording(const std::filesystem::path& path, const ExportOptions& options);

@@ -27,8 +27,8 @@ class ReplayPlayer {
   using Publish = std::function<void(std::shared_ptr<const CapturedFrameSet>)>;
 
   /// Opens the recording (RecordingReader: throws Error naming what is wrong with the file) and
-  /// picks the frame sets captured in [from_s, to_s] after its first. Throws Error if that range
-  /// holds none, or the recording's codecs are not in this build.
+  /// picks the frame sets played in [from_s, to_s] after its first (timeline()). Throws Error if
+  /// that range holds none, or the recording's codecs are not in this build.
   ReplayPlayer(const std::filesystem::path& path, ReplayOptions options = {});
   ~ReplayPlayer();
 
@@ -38,10 +38,14 @@ class ReplayPlayer {
   const RecordingInfo& info() const { return reader_.info(); }
   /// Frame sets per second of the selected range (as recorded).
   double fps() const;
-  /// Starts publishing on a background thread: frame set k at the start time plus its recorded
-  /// capture time minus the first one's, each stamped with this machine's wall clock and carrying
-  /// its recorded body (CapturedFrameSet::encoded). A frame set that cannot be read or decoded is
-  /// skipped with one warning naming it and the offset.
+  /// When each frame set plays: its recorded capture time minus the first one's, with absurd gaps
+  /// (backwards, or over kMaxReplayGapUs: a lying or edited file) clamped to the frame interval
+  /// and logged once when the player opens the file.
+  const PlaybackTimeline& timeline() const { return timeline_; }
+  /// Starts publishing on a background thread: frame set k at the start time plus its timeline()
+  /// offset minus the first selected one's, each stamped with this machine's wall clock and
+  /// carrying its recorded body (CapturedFrameSet::encoded). A frame set that cannot be read or
+  /// decoded is skipped with one warning naming it and the offset.
   void start(Server& server);
   void start(Publish publish);
   /// Stops the thread (returns once it has). Idempotent.
@@ -56,6 +60,7 @@ class ReplayPlayer {
   RecordingReader reader_;
   RecordingDecoder decoder_;
   ReplayOptions options_;
+  PlaybackTimeline timeline_;    // when each frame set plays (absurd gaps clamped)
   size_t first_ = 0, last_ = 0;  // the selected frame sets [first_, last_]
   FramePool buffers_;            // per camera, recycled
   std::thread thread_;

@@ -76,8 +76,9 @@ struct RecordingWriterOptions {
 /// Appends frame sets to a new recording. Not thread-safe: one caller at a time.
 class RecordingWriter {
  public:
-  /// Creates `path` and writes the file header and the Stream record. Throws Error if the file
-  /// exists (without options.overwrite), cannot be created, or the disk is full.
+  /// Creates `path` with mode 0600 (it shows the OR: its owner's only, whatever the umask; a file
+  /// it replaces gets 0600 too) and writes the file header and the Stream record. Throws Error if
+  /// the file exists (without options.overwrite), cannot be created, or the disk is full.
   RecordingWriter(const std::filesystem::path& path, const RecordingStream& stream,
                   RecordingWriterOptions options = {});
   /// Closes (index and End written) if close() was not called; never throws.
@@ -126,6 +127,31 @@ struct RecordingInfo {
     return frame_sets.size() < 2 ? 0 : frame_sets.back().capture_us - frame_sets.front().capture_us;
   }
 };
+
+/// A gap between consecutive capture times longer than this (us) is not replayed as recorded:
+/// a camera that paused for a few seconds is still shown as it was, but a clock that jumped (a
+/// file edited, a sender's clock set mid-recording) would stall the replay for days.
+inline constexpr int64_t kMaxReplayGapUs = 5'000'000;
+
+/// When each frame set of a recording is played, relative to the first (us). Capture times are the
+/// sender's wall clock and a file may lie: a gap that runs backwards or is longer than
+/// kMaxReplayGapUs is replaced by the recording's frame interval (the median of its other gaps,
+/// 33,333 us if it has none) and counted.
+struct PlaybackTimeline {
+  std::vector<int64_t> offset_us;  ///< per frame set; offset_us[0] = 0, non-decreasing
+  int64_t frame_interval_us = 33'333;
+  size_t clamped_gaps = 0;           ///< gaps replaced
+  size_t first_clamped = 0;          ///< frame set k whose gap from k - 1 was the first replaced
+  int64_t first_clamped_gap_us = 0;  ///< that gap as recorded (negative: backwards)
+  /// The time of the last frame set (us; 0 for fewer than two).
+  int64_t duration_us() const { return offset_us.size() < 2 ? 0 : offset_us.back(); }
+};
+
+/// The playback timeline of `sets` (in file order), as described at PlaybackTimeline.
+PlaybackTimeline playback_timeline(std::span<const RecordedFrameSet> sets);
+
+/// "11.6 days", "3.2 s", "-40 ms": a time span (us) for people.
+std::string describe_span_us(int64_t us);
 
 /// Reads a recording. Not thread-safe: one caller at a time.
 class RecordingReader {

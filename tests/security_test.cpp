@@ -182,9 +182,9 @@ TEST(Tls, PinsStoredAtOnceAreAllKept) {
     viewers.emplace_back([&, v] {
       errors[v] = error_of([&] {
         for (int s = 0; s < kServersEach; ++s)
-          check_server_fingerprint(known, "10.0." + std::to_string(v) + "." + std::to_string(s) +
-                                              ":7000",
-                                   std::string(64, 'a' + v % 6), "");
+          check_server_fingerprint(known,
+                                   "10.0." + std::to_string(v) + "." + std::to_string(s) + ":7000",
+                                   std::string(64, static_cast<char>('a' + v % 6)), "");
       });
     });
   for (auto& t : viewers) t.join();

@@ -1,11 +1,11 @@
 #include "volcast/net/trust.hpp"
 
 #include <fcntl.h>
-#include <cerrno>
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <fstream>
 #include <sstream>
 #include <vector>

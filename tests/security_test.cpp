@@ -17,6 +17,7 @@
 #include "volcast/net/join.hpp"
 #include "volcast/net/tls.hpp"
 #include "volcast/net/trust.hpp"
+#include "web_peer.hpp"
 
 namespace volcast {
 namespace {
@@ -119,19 +120,27 @@ TEST(Tls, WrongTokenIsRefusedAndCostsNoViewerSlot) {
   EXPECT_EQ(receive(joining(site.server), 5), 5);  // the right token still gets in
 }
 
-TEST(Tls, RepeatedWrongTokensBackOffTheAddress) {
+// Wrong tokens back the address off (further wrong ones are turned away, each doubling the
+// wait), but a right token is always accepted -- everyone behind one NAT is not locked out by one
+// mistyped link -- and lifts nothing for the wrong ones.
+TEST(Door, ARightTokenIsAcceptedDuringTheBackOff) {
   HandsSite site(30);
   ClientConfig wrong = joining(site.server);
   wrong.token[3] ^= 1;
-  for (int i = 0; i < kFreeWrongTokens; ++i) error_of([&] { Client{wrong}; });
-  // Within the back-off even the right token is turned away, without being compared.
-  const std::string why = error_of([&] { Client{joining(site.server)}; });
-  EXPECT_NE(why.find("try again in"), std::string::npos) << why;
-  EXPECT_EQ(site.server.door().backed_off, 1u);
-  EXPECT_EQ(site.server.door().wrong_token, static_cast<uint64_t>(kFreeWrongTokens));
-  // After it (1 s for the first), the right token gets in.
-  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  for (int i = 0; i < kFreeWrongTokens; ++i) {
+    const std::string why = error_of([&] { Client{wrong}; });
+    EXPECT_NE(why.find("wrong join token"), std::string::npos) << why;
+  }
+  for (int i = 0; i < 2; ++i) {  // backed off: 1 s, then 2 s, now 4 s
+    const std::string why = error_of([&] { Client{wrong}; });
+    EXPECT_NE(why.find("try again in"), std::string::npos) << why;
+  }
   EXPECT_EQ(receive(joining(site.server), 3), 3);
+  const std::string why = error_of([&] { Client{wrong}; });
+  EXPECT_NE(why.find("try again in"), std::string::npos) << why;
+  EXPECT_EQ(site.server.door().wrong_token, static_cast<uint64_t>(kFreeWrongTokens));
+  EXPECT_EQ(site.server.door().backed_off, 3u);
+  EXPECT_EQ(site.server.door().admitted, 1u);
 }
 
 TEST(Tls, AChangedFingerprintIsRefusedBeforeTheTokenIsSent) {
@@ -403,6 +412,95 @@ TEST(Door, FailedHandshakesAreLoggedRateLimitedWithACount) {
   EXPECT_LE(lines, 3u) << log;
   EXPECT_NE(log.find("more failed handshakes not logged"), std::string::npos) << log;
   EXPECT_EQ(log.find("GET /"), std::string::npos);  // the peer's bytes never reach the log
+}
+
+// --- the web door (ServerConfig::web_root) before any token, spoken by hand over TLS ------------
+
+// A page root holding only an index.html: enough for the server's web door.
+fs::path tiny_web_root() {
+  const fs::path dir = test::temp_dir("security_web_root");
+  std::ofstream(dir / "index.html") << "<!doctype html><title>Volcast</title>\n";
+  return dir;
+}
+
+std::unique_ptr<Connection> tls_to(const Server& server) {
+  return connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
+}
+
+// The page server serves files: GET, HEAD (GET's head alone), 405 naming them for any other
+// method; a request announcing a body is answered 413 and closed at its head, its body neither
+// read nor waited for (it is never sent here).
+TEST(Door, ThePageServerAnswersOnlyGetAndHeadAndRefusesABodyUnread) {
+  ServerConfig config;
+  config.web_root = tiny_web_root();
+  HandsSite site(30, config);
+  const auto ask = [&](const std::string& request) {
+    auto c = tls_to(site.server);
+    test::write_text(*c, request);
+    return test::read_to_close(*c);
+  };
+  const std::string get = ask("GET / HTTP/1.1\r\nHost: x\r\n\r\n");
+  const std::string head = ask("HEAD / HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(head.substr(0, 15), "HTTP/1.1 200 OK") << head;
+  EXPECT_EQ(head.size(), get.find("\r\n\r\n") + 4) << head;
+  EXPECT_EQ(head, get.substr(0, head.size()));
+  for (const char* method : {"POST", "PUT", "DELETE", "OPTIONS"}) {
+    const std::string answer = ask(std::string(method) + " / HTTP/1.1\r\nHost: x\r\n\r\n");
+    EXPECT_EQ(answer.substr(0, 12), "HTTP/1.1 405") << method;
+    EXPECT_NE(answer.find("Allow: GET, HEAD\r\n"), std::string::npos) << answer;
+  }
+  for (const char* request : {"POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 16000000\r\n\r\n",
+                              "GET / HTTP/1.1\r\nHost: x\r\nContent-Length: 1\r\n\r\n",
+                              "POST / HTTP/1.1\r\nHost: x\r\nTransfer-Encoding: chunked\r\n\r\n"})
+    EXPECT_EQ(ask(request).substr(0, 12), "HTTP/1.1 413") << request;
+  const std::string upgrade =
+      "GET /stream HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n";
+  for (const char* body : {"Content-Length: 1000\r\n\r\n", "Transfer-Encoding: chunked\r\n\r\n"})
+    EXPECT_EQ(ask(upgrade + body).substr(0, 12), "HTTP/1.1 413") << body;
+  EXPECT_EQ(receive(joining(site.server), 3), 3);
+}
+
+// Before its Hello a WebSocket peer gets no pong (nothing is buffered for it), and one that
+// floods pings is closed once it has sent its connection's byte budget, the log naming the limit;
+// flooders reconnecting all along keep no native viewer out.
+TEST(Door, PingsBeforeTheHelloGetNoPongAndAFloodIsClosedAtItsByteBudget) {
+  auto stream = std::make_shared<std::ostringstream>();
+  auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(*stream);
+  auto previous = spdlog::default_logger();
+  spdlog::set_default_logger(std::make_shared<spdlog::logger>("capture", sink));
+  ServerConfig config;
+  config.web_root = tiny_web_root();
+  HandsSite site(30, config);
+  // 2048 pings of 125 bytes: 268 KB, four times the budget.
+  const std::vector<uint8_t> payload(125, 'p');
+  const std::vector<uint8_t> ping = test::client_frame(0x9, payload);
+  std::vector<uint8_t> flood;
+  for (int i = 0; i < 2048; ++i) flood.insert(flood.end(), ping.begin(), ping.end());
+  std::atomic<bool> stop{false};
+  std::atomic<int> floods{0}, opened{0}, pongs{0};
+  std::thread flooder([&] {
+    while (!stop) {
+      try {
+        auto c = tls_to(site.server);
+        opened += test::upgrade_to_websocket(*c).rfind("HTTP/1.1 101", 0) == 0;
+        error_of([&] { c->write_all(flood, 5000); });  // cut off midway: fine
+        while (true) pongs += test::server_frame(*c).first == 0xA;
+      } catch (const Error&) {  // closed
+      }
+      ++floods;
+    }
+  });
+  EXPECT_EQ(receive(joining(site.server), 10), 10);
+  EXPECT_TRUE(eventually([&] { return floods >= 2; }));
+  stop = true;
+  flooder.join();
+  spdlog::set_default_logger(previous);
+  EXPECT_GE(opened, 2);
+  EXPECT_EQ(pongs, 0);
+  EXPECT_GE(site.server.door().failed, 2u);
+  const std::string log = stream->str();
+  EXPECT_NE(log.find("over the limit of 65536 bytes"), std::string::npos) << log;
 }
 
 }  // namespace

@@ -24,6 +24,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/connection.hpp"
 #include "volcast/net/protocol.hpp"
+#include "web_peer.hpp"
 
 namespace volcast {
 namespace {
@@ -40,82 +41,21 @@ ServerConfig web_config(bool insecure) {
   return c;
 }
 
-// Reads everything until the server closes (at most `limit` bytes, 5 s).
-std::string read_to_close(Connection& c, size_t limit = 1 << 22) {
-  std::string out;
-  uint8_t buffer[4096];
-  const auto deadline = std::chrono::steady_clock::now() + 5s;
-  try {
-    while (out.size() < limit && std::chrono::steady_clock::now() < deadline) {
-      const size_t n = c.read_available(buffer);
-      if (n == 0) {
-        c.wait(-1, 100);
-        continue;
-      }
-      out.append(reinterpret_cast<char*>(buffer), n);
-    }
-  } catch (const Error&) {  // closed
-  }
-  return out;
-}
+using test::client_frame;
+using test::read_to_close;
+using test::server_frame;
 
 std::string http_get(uint16_t port, const std::string& request) {
   auto c = connect_tcp("127.0.0.1", port);
-  c->write_all(std::span(reinterpret_cast<const uint8_t*>(request.data()), request.size()), 2000);
+  test::write_text(*c, request);
   return read_to_close(*c);
-}
-
-// One masked client frame (RFC 6455 5.2): FIN, `opcode`, mask key 1 2 3 4. A test's own framing:
-// the server under test uses WebSocket++.
-std::vector<uint8_t> client_frame(uint8_t opcode, std::span<const uint8_t> payload,
-                                  uint64_t claimed_length = UINT64_MAX) {
-  const uint64_t n = claimed_length == UINT64_MAX ? payload.size() : claimed_length;
-  std::vector<uint8_t> f = {static_cast<uint8_t>(0x80 | opcode)};
-  if (n < 126) {
-    f.push_back(static_cast<uint8_t>(0x80 | n));
-  } else if (n < 65536) {
-    f.insert(f.end(), {0x80 | 126, static_cast<uint8_t>(n >> 8), static_cast<uint8_t>(n)});
-  } else {
-    f.push_back(0x80 | 127);
-    for (int i = 7; i >= 0; --i) f.push_back(static_cast<uint8_t>(n >> (8 * i)));
-  }
-  const uint8_t mask[4] = {1, 2, 3, 4};
-  f.insert(f.end(), mask, mask + 4);
-  for (size_t i = 0; i < payload.size(); ++i) f.push_back(payload[i] ^ mask[i % 4]);
-  return f;
 }
 
 // A WebSocket opened on /stream by hand; returns the connection after the 101.
 std::unique_ptr<Connection> open_websocket(uint16_t port, std::string& answer) {
   auto c = connect_tcp("127.0.0.1", port);
-  const std::string upgrade =
-      "GET /stream HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-      "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n";
-  c->write_all(std::span(reinterpret_cast<const uint8_t*>(upgrade.data()), upgrade.size()), 2000);
-  answer.clear();
-  uint8_t b;
-  while (answer.find("\r\n\r\n") == std::string::npos) {
-    c->read_exact(std::span(&b, 1), 5000);
-    answer.push_back(static_cast<char>(b));
-  }
+  answer = test::upgrade_to_websocket(*c);
   return c;
-}
-
-// Reads one unmasked server frame: its opcode and payload.
-std::pair<uint8_t, std::vector<uint8_t>> server_frame(Connection& c) {
-  uint8_t h[2];
-  c.read_exact(h, 5000);
-  uint64_t n = h[1] & 0x7f;
-  if (n == 126 || n == 127) {
-    uint8_t ext[8];
-    const size_t k = n == 126 ? 2 : 8;
-    c.read_exact(std::span(ext, k), 5000);
-    n = 0;
-    for (size_t i = 0; i < k; ++i) n = n << 8 | ext[i];
-  }
-  std::vector<uint8_t> payload(n);
-  c.read_exact(payload, 5000);
-  return {static_cast<uint8_t>(h[0] & 0x0f), payload};
 }
 
 std::vector<uint8_t> hello_message(const JoinToken& token) {
@@ -143,7 +83,7 @@ TEST(WebDoor, ServesThePageAndAnswersWhatItDoesNotServe) {
   EXPECT_EQ(page.substr(page.size() - index.size()), index) << "the file, byte for byte";
   const std::string wasm = http_get(port, "GET /volcast_decoder.wasm HTTP/1.1\r\nHost: x\r\n\r\n");
   EXPECT_NE(wasm.find("Content-Type: application/wasm"), std::string::npos);
-  // Outside the assets, any path is not found; only GET is allowed.
+  // Outside the assets, any path is not found; only GET and HEAD are allowed.
   for (const char* path : {"/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/nope.js"})
     EXPECT_EQ(
         http_get(port, std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\n\r\n").substr(0, 12),

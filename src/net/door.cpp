@@ -223,7 +223,7 @@ class Door {
           // Not a Volcast viewer: a browser's HTTP request (for the page, or the WebSocket).
           auto web = std::make_unique<WebSocketConnection>(
               std::move(p.connection), std::span(p.bytes).first(p.have), config_.web,
-              protocol::kHeaderBytes + protocol::kMaxHelloBytes);
+              protocol::kHeaderBytes + protocol::kMaxHelloBytes, kPendingWebBytes);
           p.web = web.get();
           p.connection = std::move(web);
           p.have = 0;
@@ -250,40 +250,18 @@ class Door {
     finish(it);
   }
 
-  // The whole Hello is here: token first, then the rest.
+  // The whole Hello is here: token first, then the rest. A right token is always accepted; the
+  // back-off after wrong ones applies to wrong ones only.
   void finish(std::list<Pending>::iterator it) {
     Pending p = std::move(*it);
     pending_.erase(it);
     const auto payload = std::span<const uint8_t>(p.bytes).subspan(protocol::kHeaderBytes);
-    const auto now = Clock::now();
-    const auto known = offences_.find(p.address);
-    if (known != offences_.end() && now < known->second.blocked_until) {
-      ++counters_.backed_off;
-      const auto wait_s =
-          std::chrono::duration_cast<std::chrono::seconds>(known->second.blocked_until - now)
-              .count() +
-          1;
-      log_.add(p.connection->peer(), "refused during this address's back-off");
-      send_reject(*p.connection, "too many wrong join tokens from your address: try again in " +
-                                     std::to_string(wait_s) + " s");
+    if (!tokens_equal(protocol::hello_token(payload), config_.token)) {
+      refuse_wrong_token(p);
       return;
     }
     Admitted a;
     try {
-      if (!tokens_equal(protocol::hello_token(payload), config_.token)) {
-        ++counters_.wrong_token;
-        Offences& o = offences_[p.address];
-        o.last = now;
-        if (++o.wrong_tokens >= volcast::kFreeWrongTokens) {
-          const int doublings = std::min(o.wrong_tokens - volcast::kFreeWrongTokens, 6);
-          o.blocked_until =
-              now + std::min(std::chrono::seconds(1 << doublings), std::chrono::seconds(60));
-        }
-        log_.add(p.connection->peer(), "wrong join token");
-        send_reject(*p.connection, "wrong join token: use the link the server printed at start");
-        prune();
-        return;
-      }
       a.hello = protocol::parse_hello(payload);
     } catch (const Error& e) {
       ++counters_.failed;
@@ -291,11 +269,10 @@ class Door {
       send_reject(*p.connection, std::string("handshake failed: ") + e.what());
       return;
     }
-    offences_.erase(p.address);
     ++counters_.admitted;
     if (p.web) {
       // Authenticated: its messages may now be as long as a session's avatar frames.
-      p.web->set_max_message_bytes(kMaxWebMessageBytes);
+      p.web->authenticated(kMaxWebMessageBytes);
       ++counters_.web_viewers;
     }
     a.connection = std::move(p.connection);
@@ -305,6 +282,34 @@ class Door {
     } catch (const Error& e) {
       if (a.connection) send_reject(*a.connection, e.what());
     }
+  }
+
+  // Refuses a wrong token and backs its address off: after kFreeWrongTokens of them (forgotten
+  // after 10 quiet minutes), each further one is refused for 1 s, doubling up to 60 s from it.
+  void refuse_wrong_token(Pending& p) {
+    const auto now = Clock::now();
+    Offences& o = offences_[p.address];
+    if (now - o.last > kForgetAfter) o = Offences{};
+    o.last = now;
+    const bool backed_off = now < o.blocked_until;
+    if (++o.wrong_tokens >= volcast::kFreeWrongTokens) {
+      const int doublings = std::min(o.wrong_tokens - volcast::kFreeWrongTokens, 6);
+      o.blocked_until =
+          now + std::min(std::chrono::seconds(1 << doublings), std::chrono::seconds(60));
+    }
+    if (backed_off) {
+      ++counters_.backed_off;
+      const auto wait_s =
+          std::chrono::duration_cast<std::chrono::seconds>(o.blocked_until - now).count() + 1;
+      log_.add(p.connection->peer(), "wrong join token during this address's back-off");
+      send_reject(*p.connection, "too many wrong join tokens from your address: try again in " +
+                                     std::to_string(wait_s) + " s");
+    } else {
+      ++counters_.wrong_token;
+      log_.add(p.connection->peer(), "wrong join token");
+      send_reject(*p.connection, "wrong join token: use the link the server printed at start");
+    }
+    prune();
   }
 
   void expire() {
@@ -327,7 +332,7 @@ class Door {
     if (offences_.size() <= kMaxAddresses) return;
     const auto now = Clock::now();
     std::erase_if(offences_, [&](const auto& kv) {
-      return now > kv.second.blocked_until && now - kv.second.last > std::chrono::minutes(10);
+      return now > kv.second.blocked_until && now - kv.second.last > kForgetAfter;
     });
     while (offences_.size() > kMaxAddresses) {
       auto oldest = offences_.begin();
@@ -336,6 +341,8 @@ class Door {
       offences_.erase(oldest);
     }
   }
+
+  static constexpr auto kForgetAfter = std::chrono::minutes(10);
 
   TcpListener& listener_;
   const DoorConfig& config_;

@@ -6,10 +6,11 @@
 //
 // Policy: a handshake must finish within `handshake_timeout_ms`; at most `max_pending` handshakes
 // run at once (the oldest is dropped for a newcomer) and `max_pending_per_address` per peer
-// address (more are closed at once). Wrong tokens are refused after a constant-time compare; an
-// address that sent `kFreeWrongTokens` wrong tokens is refused for a back-off that doubles with
-// each further one (1 s up to 60 s) without its token being compared. Failures are logged at most
-// once per 10 s, with a count.
+// address (more are closed at once). Tokens are compared in constant time. A right token is
+// always accepted; an address that sent `kFreeWrongTokens` wrong tokens is backed off: its wrong
+// tokens are refused with "try again in" for 1 s, doubling with each further one up to 60 s
+// (forgotten after 10 quiet minutes). A connection that speaks HTTP may send kPendingWebBytes
+// before its Hello. Failures are logged at most once per 10 s, with a count.
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -27,6 +28,12 @@ namespace volcast::detail {
 /// An authenticated browser's incoming WebSocket messages are bounded by this (bytes): a session
 /// avatar frame (session/messages.hpp, 8 MiB) with its headers. Before its Hello, a Hello's size.
 inline constexpr size_t kMaxWebMessageBytes = (8u << 20) + (64u << 10);
+/// The byte budget of a connection that speaks HTTP before its Hello: what the door reads from it
+/// (after TLS) until its Hello is complete -- its request's head (WebSocket++ takes at most 16000
+/// bytes), the WebSocket frames and the Hello (protocol::kMaxHelloBytes), with room to spare.
+/// Nothing is written to it meanwhile but the answer to its request (no pong: websocket.hpp).
+/// Over the budget (a flood of pings, say) it is closed, the log naming the limit.
+inline constexpr size_t kPendingWebBytes = 64u << 10;
 
 struct DoorConfig {
   std::shared_ptr<const TlsContext> tls;  ///< null: plain TCP (loopback only, checked by Server)
@@ -43,7 +50,7 @@ struct DoorConfig {
 struct DoorCounters {
   std::atomic<uint64_t> admitted{0};     ///< authenticated (then admitted or rejected by policy)
   std::atomic<uint64_t> wrong_token{0};  ///< refused: wrong join token
-  std::atomic<uint64_t> backed_off{0};   ///< refused during their address's back-off
+  std::atomic<uint64_t> backed_off{0};   ///< wrong tokens during their address's back-off
   std::atomic<uint64_t> failed{0};       ///< TLS or protocol errors, handshake timeouts
   std::atomic<uint64_t> over_limit{0};   ///< closed at once: too many pending handshakes
   std::atomic<uint64_t> web_files{0};    ///< page assets answered (browsers)

@@ -429,7 +429,11 @@ class TlsConnection final : public Connection {
 
   size_t read_available(std::span<uint8_t> data) override {
     size_t done = 0;
-    while (done < data.size() && read_some(data.subspan(done), done) == 0) {
+    try {
+      while (done < data.size() && read_some(data.subspan(done), done) == 0) {
+      }
+    } catch (const Error&) {
+      if (done == 0) throw;  // else the bytes before the close now, the close at the next call
     }
     return done;
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -67,8 +68,11 @@ WebAssets load_web_assets(const std::filesystem::path& dir) {
 WebSocketConnection::WebSocketConnection(std::unique_ptr<Connection> inner,
                                          std::span<const uint8_t> already_read,
                                          std::shared_ptr<const WebAssets> assets,
-                                         size_t max_message_bytes)
-    : inner_(std::move(inner)), engine_(std::move(assets), max_message_bytes) {
+                                         size_t max_message_bytes, size_t read_budget)
+    : inner_(std::move(inner)),
+      engine_(std::move(assets), max_message_bytes),
+      read_(already_read.size()),
+      read_budget_(read_budget) {
   engine_.feed(already_read.data(), already_read.size());
 }
 
@@ -97,17 +101,26 @@ std::unique_ptr<Connection> WebSocketConnection::release_inner() {
   return std::move(inner_);
 }
 
-void WebSocketConnection::set_max_message_bytes(size_t bytes) {
-  engine_.set_max_message_bytes(bytes);
+void WebSocketConnection::authenticated(size_t max_message_bytes) {
+  engine_.set_max_message_bytes(max_message_bytes);
+  engine_.set_answer_pings(true);
+  read_budget_ = SIZE_MAX;
 }
 
 void WebSocketConnection::pump() {
+  if (read_ >= read_budget_)
+    throw Error("over the limit of " + std::to_string(read_budget_) +
+                " bytes before the Hello (for a connection not yet authenticated: its request, "
+                "pings and frames all count)");
   uint8_t buffer[16384];
-  while (true) {
-    const size_t n = inner_->read_available(buffer);
+  for (size_t pumped = 0; pumped < kPumpBytes && read_ < read_budget_;) {
+    const size_t want = std::min(sizeof(buffer), read_budget_ - read_);
+    const size_t n = inner_->read_available(std::span(buffer, want));
     if (n == 0) break;
+    read_ += n;
+    pumped += n;
     engine_.feed(buffer, n);
-    if (n < sizeof(buffer)) break;
+    if (n < want) break;
   }
 }
 

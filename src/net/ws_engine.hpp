@@ -7,8 +7,10 @@
 // 0.8.2 does not compile as C++20 with GCC (template-ids on constructors, P1787).
 //
 // An engine serves one connection: a GET for a file in its WebAssets is answered with the file
-// (200), an unknown path with 404, another method with 405, then it is done (no keep-alive); a
-// GET of /stream with a WebSocket upgrade opens a WebSocket whose binary messages it hands on.
+// (200), a HEAD with GET's head alone, an unknown path with 404, another method with 405 (Allow:
+// GET, HEAD), a request that announces a body (Content-Length > 0, or any Transfer-Encoding) with
+// 413 at its head, the body unread; then it is done (no keep-alive). A GET of /stream with a
+// WebSocket upgrade opens a WebSocket whose binary messages it hands on.
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -56,6 +58,9 @@ class WsEngine {
   std::string path() const;
   /// Changes the incoming message bound (e.g. raised once the peer is authenticated).
   void set_max_message_bytes(size_t bytes);
+  /// Whether pings are answered with pongs (RFC 6455 5.5.2). Off at first: until its peer is
+  /// authenticated nothing is buffered for it, and its pings are read and dropped.
+  void set_answer_pings(bool answer);
   /// The header of one unmasked, final binary frame of `payload_bytes` (RFC 6455 5.2, server to
   /// client), made by WebSocket++: the caller writes it, then the payload.
   static std::string binary_frame_header(uint64_t payload_bytes);

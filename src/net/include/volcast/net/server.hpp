@@ -20,8 +20,8 @@
 // for this Server if the config gives none); `insecure` (plain TCP) only on a loopback address.
 // Every viewer must send the session's join token in its Hello; one thread runs all pending
 // handshakes (no thread per unauthenticated peer), with a handshake timeout, limits on pending
-// handshakes in total and per address, and a back-off for addresses that send wrong tokens. Only
-// then does a viewer get a thread, a tier, and count against `max_viewers`.
+// handshakes in total and per address, and a back-off for wrong tokens (a right one always gets
+// in). Only then does a viewer get a thread, a tier, and count against `max_viewers`.
 //
 // Pacing (per viewer, from Ack timing, after BBR: Cardwell et al., ACM Queue 2016): the server
 // estimates the path's round-trip time (windowed minimum of send -> Ack) and bottleneck rate
@@ -124,14 +124,15 @@ struct ServerConfig {
   std::filesystem::path web_root;
 };
 
-/// Wrong join tokens an address may send before it is backed off (1 s, doubling up to 60 s).
+/// Wrong join tokens an address may send before it is backed off: its further wrong tokens are
+/// refused for 1 s, doubling up to 60 s. A right token is always accepted.
 inline constexpr int kFreeWrongTokens = 3;
 
 /// What came to the server's door (counts since start).
 struct DoorReport {
   uint64_t admitted = 0;  ///< viewers with the right token (then served, or rejected: full, tier)
   uint64_t wrong_token = 0;  ///< refused for a wrong join token
-  uint64_t backed_off = 0;   ///< refused during their address's back-off after wrong tokens
+  uint64_t backed_off = 0;   ///< wrong tokens refused during their address's back-off
   uint64_t failed = 0;       ///< TLS or protocol errors and handshake timeouts
   uint64_t over_limit = 0;   ///< closed at once: too many pending handshakes
   uint64_t web_files = 0;    ///< page files answered to browsers (ServerConfig::web_root)

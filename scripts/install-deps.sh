@@ -14,6 +14,7 @@ packages=(
   libwebsocketpp-dev emscripten chromium nodejs
   libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev
   libnats-dev nats-server
+  libicu-dev
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -45,6 +45,7 @@ struct TestParticipant {
   std::unique_ptr<SessionClient> session;
   std::thread receiver;
   std::atomic<bool> ended{false};
+  std::atomic<uint64_t> frame_sets{0};  ///< received from the stream
   std::string error;
 
   TestParticipant(const SessionSite& s, SessionClientOptions options)
@@ -56,8 +57,7 @@ struct TestParticipant {
     receiver = std::thread([this] {
       ReceivedFrameSet rx;
       try {
-        while (client->receive(rx)) {
-        }
+        while (client->receive(rx)) ++frame_sets;
       } catch (const std::exception& e) {
         error = e.what();
       }

@@ -337,5 +337,87 @@ TEST(Session, LobbyListsAndRefuses) {
   EXPECT_NE(twin.now().last_error.find("taken"), std::string::npos);
 }
 
+// Sessions made by Joins go when their last participant does (issue 33, item 4): one participant
+// making and leaving sessions leaves none behind, the server's own ("OR") stays, and a newcomer
+// can still make one on a server that allows 5. One participant makes at most 4 new sessions at
+// once: its 5th is refused naming that limit.
+TEST(Session, EmptiedSessionsAreRemovedAndNewOnesAreLimitedPerParticipant) {
+  SessionHubConfig config;
+  config.max_sessions = 5;
+  SessionSite s(config);
+  const auto session_names = [&] {
+    std::set<std::string> names;
+    for (const auto& x : s.hub.sessions()) names.insert(x.name);
+    return names;
+  };
+  const std::set<std::string> only_or{"OR"};
+  SessionClientOptions a_options = named("A", "S1");
+  a_options.drive_poses = false;
+  TestParticipant a(s, a_options);
+  for (int i = 1; i <= 4; ++i) {
+    const std::string name = "S" + std::to_string(i);
+    if (i > 1) a.p().join(name, true);
+    ASSERT_TRUE(eventually([&] {
+      const SessionSnapshot n = a.now();
+      return n.joined && n.session_name == name;
+    })) << a.now().last_error;
+    a.p().leave();
+    ASSERT_TRUE(eventually([&] { return session_names() == only_or; })) << name << " stayed";
+  }
+  a.p().join("S5", true);
+  ASSERT_TRUE(eventually([&] { return !a.now().last_error.empty() || a.now().joined; }));
+  EXPECT_FALSE(a.now().joined);
+  EXPECT_NE(a.now().last_error.find("new sessions: 4 at once, then one every 15 s"),
+            std::string::npos)
+      << a.now().last_error;
+  EXPECT_EQ(session_names(), only_or);
+  // Another participant makes one, and it goes when they do.
+  TestParticipant b(s, named("B", "Fresh"));
+  ASSERT_TRUE(eventually([&] { return b.now().joined; })) << b.now().last_error;
+  EXPECT_EQ(session_names(), (std::set<std::string>{"OR", "Fresh"}));
+  b.end();
+  EXPECT_TRUE(eventually([&] { return session_names() == only_or; }));
+  EXPECT_FALSE(a.ended) << a.error;
+}
+
+// Names are shown to everyone as given, so they must look like what they are (issue 33, item 9):
+// a right-to-left override, a Cyrillic "А" in a Latin word, and a name that looks like one already
+// in the session are refused, naming the character or the name it looks like; a name written with
+// a combining mark joins in its composed form (NFC).
+TEST(Session, LookAlikeNamesAreRefusedNamingTheProblem) {
+  SessionSite s;
+  SessionClientOptions admin_options = named("Dr. Admin");
+  admin_options.drive_poses = false;
+  TestParticipant admin(s, admin_options);
+  ASSERT_TRUE(eventually([&] { return admin.now().joined; }));
+  // A probe in the lobby posts its Joins by hand (its own Participant would refuse these names).
+  SessionClientOptions probe_options = named("Probe", "Nowhere");
+  probe_options.participant.create = false;
+  probe_options.drive_poses = false;
+  TestParticipant probe(s, probe_options);
+  ASSERT_TRUE(eventually([&] { return !probe.now().last_error.empty(); }));
+  const auto join_as = [&](const std::string& name, const std::string& expected) {
+    probe.client->post_session(session::message(
+        Type::kJoin,
+        session::serialize(session::Join{"OR", false, name, session::Role::kRemote, false})));
+    EXPECT_TRUE(eventually([&] {
+      const SessionSnapshot n = probe.now();
+      return n.joined || n.last_error.find(expected) != std::string::npos;
+    }));
+    EXPECT_FALSE(probe.now().joined) << "'" << name << "' joined";
+    EXPECT_NE(probe.now().last_error.find(expected), std::string::npos) << probe.now().last_error;
+  };
+  join_as("Dr. \u202Enimda", "U+202E RIGHT-TO-LEFT OVERRIDE");
+  join_as("Dr. \u0410dmin", "U+0410 CYRILLIC CAPITAL LETTER A");
+  join_as("Dr. Adrnin", "looks like 'Dr. Admin'");
+  EXPECT_FALSE(sees(admin, "Dr. \u0410dmin"));
+  // "Mu" + U+0308 COMBINING DIAERESIS + "ller": joins as "Müller" with U+00FC.
+  probe.client->post_session(session::message(
+      Type::kJoin, session::serialize(session::Join{"OR", false, "Dr. Mu\u0308ller",
+                                                    session::Role::kRemote, false})));
+  EXPECT_TRUE(eventually([&] { return sees(admin, "Dr. M\u00fcller"); }));
+  EXPECT_FALSE(sees(admin, "Dr. Mu\u0308ller"));
+}
+
 }  // namespace
 }  // namespace volcast

@@ -573,6 +573,9 @@ int run_serve(const ServeArgs& a) {
           failed.empty() ? "" : "; FAILED camera(s) " + failed + " (last good frame)", recording);
     }
   }
+  // The sessions' last state is written while they are as the participants left them: stopping
+  // the server ends every participant's session, which would delete their states.
+  state.reset();
   if (site) site->stop();
   if (replay) replay->stop();
   server.stop();
@@ -586,7 +589,6 @@ int run_serve(const ServeArgs& a) {
   hub.attach(nullptr);
   hub.attach_remote(nullptr);
   bridge.reset();
-  state.reset();  // writes the last state
   const SessionHubStats hs = hub.stats();
   spdlog::info(
       "sessions: {} joins, {} left, {} timed out, {} dropped; {} poses in, {} out; {} "

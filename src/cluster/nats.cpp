@@ -295,6 +295,12 @@ std::optional<std::vector<uint8_t>> NatsConnection::KeyValue::get(const std::str
   return out;
 }
 
+void NatsConnection::KeyValue::erase(const std::string& key) {
+  const natsStatus s = kvStore_Delete(impl_->kv, key.c_str());
+  if (s != NATS_OK && s != NATS_NOT_FOUND)
+    throw Error("NATS: cannot delete " + key + " from bucket " + impl_->bucket + ": " + reason(s));
+}
+
 std::vector<std::string> NatsConnection::KeyValue::keys() {
   kvKeysList list{};
   const natsStatus s = kvStore_Keys(&list, impl_->kv, nullptr);

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <random>
 
@@ -35,6 +36,12 @@ std::string hex(uint8_t v) {
   char s[4];
   std::snprintf(s, sizeof s, "%02x", v);
   return s;
+}
+
+int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 std::string random_token() {
@@ -355,6 +362,21 @@ void SessionForwarder::publish(PieceKind kind, uint8_t type, uint64_t viewer,
 }
 
 void SessionForwarder::on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
+  // Rate limited here, before NATS and the site's hub see it (the hub limits it again, the same).
+  const session::Admission a = limiter_.admit(viewer, type, steady_us());
+  if (!a.report.empty()) {
+    spdlog::warn("relay {}: session: viewer {}: {}", relay_, viewer, a.report);
+    std::lock_guard lock(mutex_);
+    if (a.started && server_)
+      server_->send_session(viewer,
+                            std::make_shared<const std::vector<uint8_t>>(session::message(
+                                session::Type::kSessionError, session::serialize_error(a.report))));
+  }
+  if (!a.admitted) {
+    std::lock_guard lock(mutex_);
+    ++stats_.rate_limited;
+    return;
+  }
   // The hub checks the message itself; a refusal comes back as a disconnect.
   publish(PieceKind::kMessage, type, viewer, payload);
   std::lock_guard lock(mutex_);
@@ -362,6 +384,8 @@ void SessionForwarder::on_message(uint64_t viewer, uint8_t type, std::span<const
 }
 
 void SessionForwarder::on_viewer_left(uint64_t viewer, const std::string& why) {
+  if (const std::string dropped = limiter_.forget(viewer, steady_us()); !dropped.empty())
+    spdlog::warn("relay {}: session: viewer {} left: {}", relay_, viewer, dropped);
   const std::string reason = why.substr(0, kMaxSessionReason);
   publish(PieceKind::kLeft, 0, viewer,
           {reinterpret_cast<const uint8_t*>(reason.data()), reason.size()});

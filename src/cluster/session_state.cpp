@@ -137,6 +137,7 @@ SessionStateMirror::SessionStateMirror(NatsConnection& nats, const std::string& 
       const auto state = nlohmann::json::parse(value->begin(), value->end());
       if (restore_session_state(hub_, state)) {
         ++stats_.restored;
+        written_[key];  // known: deleted with its session
       } else {
         spdlog::info("session state '{}' in {} was saved for case '{}': not restored", key, bucket,
                      printable(state.value("case", std::string())));
@@ -177,7 +178,29 @@ void SessionStateMirror::run() {
 }
 
 void SessionStateMirror::write_changes() {
-  for (const auto& summary : hub_.sessions()) {
+  const auto sessions = hub_.sessions();
+  // The states of sessions the hub has removed (nobody in them any more) go with them.
+  for (auto it = written_.begin(); it != written_.end();) {
+    bool exists = false;
+    for (const auto& summary : sessions)
+      exists = exists || session_state_key(summary.name) == it->first;
+    if (exists) {
+      ++it;
+      continue;
+    }
+    try {
+      kv_->erase(it->first);
+      it = written_.erase(it);
+      std::lock_guard lock(mutex_);
+      ++stats_.deletes;
+    } catch (const Error& e) {
+      std::lock_guard lock(mutex_);
+      if (stats_.errors++ == 0) spdlog::warn("session state not deleted: {}", e.what());
+      stats_.last_error = e.what();
+      ++it;
+    }
+  }
+  for (const auto& summary : sessions) {
     nlohmann::json state = session_state_json(hub_, summary.name);
     if (state.is_null()) continue;
     const std::string key = session_state_key(summary.name);

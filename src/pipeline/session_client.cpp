@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/session/rate_limit.hpp"
 
 namespace volcast {
 
@@ -112,8 +114,10 @@ void ScriptedObjects::step(Participant& p, double t_s) {
 }
 
 SessionClient::SessionClient(SessionClientOptions options) : options_(std::move(options)) {
-  if (!(options_.pose_rate_hz > 0 && options_.pose_rate_hz <= 1000))
-    throw Error("session: the pose rate must be in (0, 1000] Hz");
+  const double max_rate = session::limit_of(static_cast<uint8_t>(session::Type::kPose)).per_second;
+  if (!(options_.pose_rate_hz > 0 && options_.pose_rate_hz <= max_rate))
+    throw Error("session: the pose rate must be in (0, " + std::to_string(std::lround(max_rate)) +
+                "] Hz (the server's limit, session/rate_limit.hpp)");
   if (options_.camera_source.empty()) return;
   camera_ = open_source(options_.camera_source, options_.camera_options);
   AvatarCameraSetup setup;

@@ -10,6 +10,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/session/names.hpp"
 
 namespace volcast {
 
@@ -33,6 +34,11 @@ uint64_t object_key(uint16_t object) {
 }
 constexpr uint64_t kMonitorKey = uint64_t{4} << 32;
 
+int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
 Shared share(std::vector<uint8_t> m) {
   return std::make_shared<const std::vector<uint8_t>>(std::move(m));
 }
@@ -51,6 +57,8 @@ struct SessionHub::Member {
 struct SessionHub::Session {
   uint32_t id = 0;
   std::string name;
+  bool standing = false;  // made by the server (create_session): kept while empty
+  Clock::time_point made = Clock::now();
   std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
   std::vector<session::ObjectState> objects;            // the case's, by object index
   std::optional<session::MonitorState> monitor;         // when the case has a series
@@ -61,6 +69,7 @@ SessionHub::SessionHub(SessionHubConfig config) : config_(std::move(config)) {
     throw Error("session: presence timeout must be at least 100 ms");
   if (config_.max_sessions < 1 || config_.max_participants < 2)
     throw Error("session: need at least 1 session and 2 participants per session");
+  if (config_.unjoined_session_ms < 0) throw Error("session: unjoined_session_ms must be >= 0");
   presence_ = std::thread([this] { watch_presence(); });
 }
 
@@ -84,14 +93,18 @@ uint32_t SessionHub::max_payload(uint8_t type) const {
   return session::max_payload(type);
 }
 
-SessionHub::Session& SessionHub::make_session(const std::string& name) {
+SessionHub::Session& SessionHub::make_session(const std::string& name, bool standing) {
   for (auto& [id, s] : sessions_)
-    if (s->name == name) return *s;
+    if (s->name == name) {
+      s->standing = s->standing || standing;
+      return *s;
+    }
   if (static_cast<int>(sessions_.size()) >= config_.max_sessions)
     throw Error("the server has " + std::to_string(config_.max_sessions) + " sessions already");
   auto s = std::make_unique<Session>();
   s->id = next_session_++;
   s->name = name;
+  s->standing = standing;
   auto site = std::make_unique<Member>();
   site->info.id = kSiteParticipant;
   site->info.name = config_.site_name;
@@ -112,8 +125,18 @@ void SessionHub::create_session(const std::string& name) {
   j.session = name;
   j.name = "x";
   session::parse_join(session::serialize(j));
+  const std::string checked = session::checked_name(name, "session name");
   std::lock_guard lock(mutex_);
-  make_session(name);
+  make_session(checked, true);
+}
+
+void SessionHub::prune(Session* s) {
+  if (!s || s->standing || s->members.size() > 1) return;  // the OR site is always in it
+  const auto it = sessions_.find(s->id);
+  if (it == sessions_.end()) return;
+  spdlog::info("session '{}' removed: nobody is in it", printable(s->name));
+  sessions_.erase(it);
+  ++stats_.sessions_removed;
 }
 
 std::vector<session::SessionSummary> SessionHub::sessions() const {
@@ -154,6 +177,21 @@ void SessionHub::error(uint64_t viewer, const std::string& reason) {
 void SessionHub::on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
   std::lock_guard lock(mutex_);
   ++stats_.messages_in;
+  const session::Admission admitted = limiter_.admit(viewer, type, steady_us());
+  if (!admitted.report.empty()) {
+    const auto it = by_viewer_.find(viewer);
+    spdlog::warn("session: {}: {}",
+                 it == by_viewer_.end() ? "viewer " + std::to_string(viewer)
+                                        : "'" + printable(it->second->info.name) + "'",
+                 admitted.report);
+    if (admitted.started) error(viewer, admitted.report);
+  }
+  if (!admitted.admitted) {
+    ++stats_.rate_limited;
+    if (const auto it = by_viewer_.find(viewer); it != by_viewer_.end())
+      it->second->last_seen = Clock::now();  // present, if too talkative
+    return;
+  }
   try {
     handle(viewer, type, payload);
   } catch (const Error&) {
@@ -167,6 +205,8 @@ void SessionHub::on_message(uint64_t viewer, uint8_t type, std::span<const uint8
 
 void SessionHub::on_viewer_left(uint64_t viewer, const std::string& why) {
   std::lock_guard lock(mutex_);
+  if (const std::string dropped = limiter_.forget(viewer, steady_us()); !dropped.empty())
+    spdlog::warn("session: viewer {} left: {}", viewer, dropped);
   const auto it = by_viewer_.find(viewer);
   if (it == by_viewer_.end()) return;
   const bool dropped = it->second->dropping;
@@ -194,28 +234,57 @@ void SessionHub::remove(uint64_t viewer, session::LeftReason reason) {
       share(session::message(Type::kParticipantLeft, session::serialize_left(id, reason)));
   for (const auto& [pid, other] : s->members) send_shared(other->info.viewer, left);
   ++stats_.leaves;
+  prune(s);
 }
 
-void SessionHub::join(uint64_t viewer, const session::Join& j) {
-  if (const auto it = by_viewer_.find(viewer); it != by_viewer_.end())
-    return error(viewer, "already in session '" + it->second->session->name + "': leave it first");
+void SessionHub::join(uint64_t viewer, const session::Join& request) {
   Session* s = nullptr;
+  bool made = false;  // by this Join: removed again if the Join is refused
+  const auto refuse = [&](const std::string& why) {
+    ++stats_.joins_refused;
+    if (made) prune(s);
+    error(viewer, why);
+  };
+  if (const auto it = by_viewer_.find(viewer); it != by_viewer_.end())
+    return refuse("already in session '" + it->second->session->name + "': leave it first");
+  // The role is the server's to give: a viewer (the server's own or a relay's) is remote.
+  if (request.role != session::Role::kRemote)
+    return refuse("join refused: the role '" + std::string(session::to_string(request.role)) +
+                  "' is the server's own (its cameras, participant 1); viewers join as remote");
+  session::Join j = request;
+  try {
+    j.session = session::checked_name(j.session, "session name");
+    j.name = session::checked_name(j.name, "display name");
+  } catch (const Error& e) {
+    return refuse(std::string("join refused: ") + e.what());
+  }
   for (auto& [id, candidate] : sessions_)
     if (candidate->name == j.session) s = candidate.get();
   if (!s) {
-    if (!j.create) return error(viewer, "no session named '" + j.session + "'");
+    if (!j.create) return refuse("no session named '" + j.session + "'");
+    const session::Admission a = limiter_.admit_creation(viewer, steady_us());
+    if (!a.report.empty()) spdlog::warn("session: '{}': {}", printable(j.name), a.report);
+    if (!a.admitted)
+      return refuse("session '" + j.session + "' not made: over the limit per participant (" +
+                    session::to_string(session::kSessionCreation) + ")");
     try {
-      s = &make_session(j.session);
+      s = &make_session(j.session, false);
+      made = true;
     } catch (const Error& e) {
-      return error(viewer, e.what());
+      return refuse(e.what());
     }
   }
   if (static_cast<int>(s->members.size()) >= config_.max_participants)
-    return error(viewer, "session '" + s->name + "' is full (" +
-                             std::to_string(config_.max_participants) + " participants)");
-  for (const auto& [pid, other] : s->members)
+    return refuse("session '" + s->name + "' is full (" + std::to_string(config_.max_participants) +
+                  " participants)");
+  const std::string skeleton = session::name_skeleton(j.name);
+  for (const auto& [pid, other] : s->members) {
     if (other->info.name == j.name)
-      return error(viewer, "the name '" + j.name + "' is taken in session '" + s->name + "'");
+      return refuse("the name '" + j.name + "' is taken in session '" + s->name + "'");
+    if (session::name_skeleton(other->info.name) == skeleton)
+      return refuse("the name '" + j.name + "' looks like '" + other->info.name +
+                    "', already in session '" + s->name + "': choose another");
+  }
   // A free spawn spot: free floor, away from the other play areas.
   session::Spot spot;
   const float clearance = 4 * config_.room.person_radius_m;
@@ -245,7 +314,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& j) {
   m.info.id = next_participant_++;
   m.info.viewer = viewer;
   m.info.name = j.name;
-  m.info.role = j.role;
+  m.info.role = session::Role::kRemote;
   m.info.has_camera = j.has_camera;
   m.info.spot = spot;
   m.session = s;
@@ -274,7 +343,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& j) {
   by_viewer_[viewer] = &m;
   ++stats_.joins;
   spdlog::info("session '{}': '{}' joined as participant {} ({}{})", printable(s->name),
-               printable(j.name), m.info.id, session::to_string(j.role),
+               printable(j.name), m.info.id, session::to_string(m.info.role),
                j.has_camera ? ", with a camera" : "");
 }
 
@@ -458,13 +527,14 @@ std::string SessionHub::case_name() const {
 bool SessionHub::restore(const std::string& name, const std::string& case_name,
                          const std::vector<session::ObjectState>& objects,
                          const std::optional<session::MonitorState>& monitor) {
-  create_session(name);  // checks the name
+  session::Join j;  // the checks a Join's name gets
+  j.session = name;
+  j.name = "x";
+  session::parse_join(session::serialize(j));
+  const std::string checked = session::checked_name(name, "session name");
   std::lock_guard lock(mutex_);
+  Session* s = &make_session(checked, false);  // kept if create_session made it
   if (!case_ || case_->name != case_name) return false;
-  Session* s = nullptr;
-  for (auto& [id, x] : sessions_)
-    if (x->name == name) s = x.get();
-  if (!s) return false;
   for (const session::ObjectState& o : objects) {
     if (o.object >= s->objects.size()) continue;
     session::ObjectState& to = s->objects[o.object];
@@ -576,7 +646,15 @@ void SessionHub::watch_presence() {
       if (SessionOutlet* o = outlet(viewer))
         o->disconnect(viewer, "session presence timeout: nothing for " +
                                   std::to_string(config_.presence_timeout_ms) + " ms");
+      if (viewer & kRemoteViewer) limiter_.forget(viewer, steady_us());  // no on_viewer_left
     }
+    // Restored sessions nobody joined (the others go when their last participant does).
+    std::vector<Session*> unjoined;
+    for (const auto& [id, s] : sessions_)
+      if (!s->standing && s->members.size() <= 1 &&
+          now - s->made > std::chrono::milliseconds(config_.unjoined_session_ms))
+        unjoined.push_back(s.get());
+    for (Session* s : unjoined) prune(s);
   }
 }
 

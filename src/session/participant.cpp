@@ -13,6 +13,8 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/session/names.hpp"
+#include "volcast/session/rate_limit.hpp"
 
 namespace volcast {
 
@@ -85,6 +87,7 @@ struct Participant::Impl {
   mutable std::mutex mutex;  // everything below
   SessionSnapshot state;
   uint32_t pose_sequence = 0;
+  session::RateLimiter pose_pace;  // the server's pose limit, kept here (a faster display)
   uint64_t avatar_sequence = 0;
   std::map<uint32_t, int64_t> pose_sent_us;  // sequence -> local steady time, echoes pending
   std::vector<double> round_trips_ms;
@@ -312,7 +315,7 @@ struct Participant::Impl {
     j.session = name;
     j.create = create;
     j.name = config.name;
-    j.role = config.role;
+    j.role = session::Role::kRemote;  // the only role a Join may ask for (hub.hpp)
     j.has_camera = config.camera.has_value();
     post(Type::kJoin, session::serialize(j));
   }
@@ -327,6 +330,8 @@ Participant::Participant(Client& client, ParticipantConfig config)
     j.session = m.config.session;
     j.name = m.config.name;
     session::parse_join(session::serialize(j));
+    m.config.session = session::checked_name(m.config.session, "session name");
+    m.config.name = session::checked_name(m.config.name, "display name");
   }
   if (m.config.camera) {
     session::parse_avatar_camera(session::serialize(session::AvatarCamera{
@@ -359,6 +364,8 @@ void Participant::publish(const BodyPose& playarea_pose) {
   {
     std::lock_guard lock(m.mutex);
     if (!m.state.joined) return;
+    // Over the server's rate (rate_limit.hpp) it would drop the pose: skipped here instead.
+    if (!m.pose_pace.admit(0, static_cast<uint8_t>(Type::kPose), steady_us()).admitted) return;
     msg.sequence = ++m.pose_sequence;
     msg.echo_wanted = msg.sequence % static_cast<uint32_t>(m.config.echo_every) == 0;
     msg.body = to_room(session::room_from_playarea(m.state.spot), playarea_pose);

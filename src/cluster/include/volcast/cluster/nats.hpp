@@ -102,6 +102,8 @@ class NatsConnection {
     void put(const std::string& key, std::span<const uint8_t> value);
     /// The newest value of `key`; nullopt if there is none (or it was deleted). Throws Error.
     std::optional<std::vector<uint8_t>> get(const std::string& key);
+    /// Deletes `key` (get() then finds nothing; no-op if it has no value). Throws Error.
+    void erase(const std::string& key);
     /// Every key with a value now. Throws Error.
     std::vector<std::string> keys();
 

@@ -38,6 +38,7 @@
 
 #include "volcast/cluster/nats.hpp"
 #include "volcast/net/server.hpp"
+#include "volcast/session/rate_limit.hpp"
 
 namespace volcast::cluster {
 
@@ -95,9 +96,10 @@ void publish_session_message(NatsConnection& nats, const std::string& subject, P
 struct SessionLinkStats {
   uint64_t messages_in = 0, messages_out = 0;  ///< whole session messages
   uint64_t viewers = 0;                        ///< remote viewers known now (bridge)
-  uint64_t malformed = 0;  ///< pieces refused (a bad header, over a limit, out of order)
-  uint64_t refused = 0;    ///< viewers dropped: a message the hub refused, or too many viewers
-  uint64_t errors = 0;     ///< publishes that failed (NATS down past libnats' buffer)
+  uint64_t malformed = 0;     ///< pieces refused (a bad header, over a limit, out of order)
+  uint64_t refused = 0;       ///< viewers dropped: a message the hub refused, or too many viewers
+  uint64_t errors = 0;        ///< publishes that failed (NATS down past libnats' buffer)
+  uint64_t rate_limited = 0;  ///< viewers' messages dropped over their limit (forwarder)
   std::string last_error;
 };
 
@@ -150,7 +152,9 @@ class SessionBridge final : public SessionOutlet {
 };
 
 /// The relay's end: the SessionPort of the relay's Server. Its viewers' session messages go up
-/// to the site's hub; the hub's messages for them come down and are queued to them
+/// to the site's hub, each within its type's rate limit per viewer (session/rate_limit.hpp, the
+/// hub's limits: over it a message is dropped here, before NATS, and the viewer told once per
+/// burst by a SessionError); the hub's messages for them come down and are queued to them
 /// (Server::send_session) or end their connection.
 class SessionForwarder final : public SessionPort {
  public:
@@ -180,6 +184,7 @@ class SessionForwarder final : public SessionPort {
   Server* server_ = nullptr;
   SessionLinkStats stats_;
   std::mutex publish_mutex_;
+  session::RateLimiter limiter_;
   PieceAssembler assembler_;  // the subscription's thread only
   std::unique_ptr<NatsConnection::Subscription> sub_;
 };

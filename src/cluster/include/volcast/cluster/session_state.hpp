@@ -39,15 +39,19 @@ bool restore_session_state(SessionHub& hub, const nlohmann::json& state);
 
 struct SessionStateStats {
   uint64_t writes = 0, errors = 0;
-  int restored = 0;  ///< sessions put back when the mirror started
+  uint64_t deletes = 0;  ///< states of sessions the hub removed, deleted from the bucket
+  int restored = 0;      ///< sessions put back when the mirror started
   std::string last_error;
 };
 
 /// Opens (makes) the bucket, puts every saved session back into `hub` (those of another case are
 /// skipped, with a log line), then writes each session's state whenever it changed, checked
-/// every `period_ms`, on its own thread. Write failures (a node down) are counted and retried on
-/// the next change; the hub never waits for NATS. Throws Error if the bucket cannot be opened
-/// (the cluster does not run JetStream). `nats` and `hub` must outlive it.
+/// every `period_ms`, on its own thread, and deletes the state of a session it wrote or restored
+/// once the hub has removed it (a participants' session nobody is in any more: hub.hpp). Stop it
+/// before the server, so that sessions emptied by the server stopping are kept for its restart.
+/// Write failures (a node down) are counted and retried on the next change; the hub never waits for
+/// NATS. Throws Error if the bucket cannot be opened (the cluster does not run JetStream). `nats`
+/// and `hub` must outlive it.
 class SessionStateMirror {
  public:
   SessionStateMirror(NatsConnection& nats, const std::string& site, SessionHub& hub,

@@ -20,7 +20,9 @@ namespace volcast {
 struct SessionClientOptions {
   ParticipantConfig participant;  ///< its `camera` is filled in from `camera_source`
   PoseScript script = idle_pose_script();
-  double pose_rate_hz = 60;  ///< poses published per second (the display rate)
+  /// Poses published per second (the display rate): at most the server's limit, 150
+  /// (session/rate_limit.hpp), else Error.
+  double pose_rate_hz = 60;
   /// false: the caller publishes poses (a window from its eye, a test by hand); the thread only
   /// sends heartbeats (2 Hz) so the participant stays present.
   bool drive_poses = true;

@@ -6,7 +6,22 @@
 // are forwarded to every other participant unchanged. Messages: messages.hpp.
 //
 // The OR site is a participant of every session (id 1, role OR site): its cameras are the
-// stream every participant receives, placed in the room by room_from_site.
+// stream every participant receives, placed in the room by room_from_site. Roles come from the
+// server, never from a Join: every viewer, the server's own and relays', is a remote participant;
+// a Join claiming the OR site's role is refused with a SessionError saying so.
+//
+// Sessions made by the server (create_session: serve's --session) stay while it runs. A session a
+// Join created is removed, with its objects' and monitor's state, when its last participant goes;
+// one put back by restore() that nobody joins, after SessionHubConfig::unjoined_session_ms. One
+// participant (one connection) creates at most rate_limit.hpp's kSessionCreation sessions.
+//
+// Every participant's messages are rate limited per type where they enter (rate_limit.hpp): over
+// its limit a message is dropped, the sender told once per burst (a SessionError naming the
+// limit), the server's log given the count.
+//
+// Names (display and session) are normalised to NFC and checked for bidi controls, invisible
+// characters and mixed-script look-alikes (names.hpp); a display name that looks like another's
+// in the session (the same UTS #39 skeleton) is refused. The Join is refused naming the problem.
 #include <atomic>
 #include <cstdint>
 #include <map>
@@ -19,6 +34,7 @@
 #include "volcast/net/server.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
+#include "volcast/session/rate_limit.hpp"
 #include "volcast/session/room.hpp"
 
 namespace volcast {
@@ -35,6 +51,8 @@ struct SessionHubConfig {
   int presence_timeout_ms = 3000;
   int max_sessions = 16;
   int max_participants = 16;  ///< per session, the OR site included
+  /// A session put back by restore() (saved state) that nobody joins is removed after this long.
+  int unjoined_session_ms = 10 * 60 * 1000;
 };
 
 /// What the hub has handled, since it started.
@@ -44,6 +62,9 @@ struct SessionHubStats {
   uint64_t joins = 0, leaves = 0, timeouts = 0, dropped = 0;
   uint64_t grabs = 0, grabs_refused = 0, object_moves = 0, moves_ignored = 0, releases = 0;
   uint64_t monitor_changes = 0, case_swaps = 0;
+  uint64_t rate_limited = 0;      ///< messages dropped over their type's limit (rate_limit.hpp)
+  uint64_t joins_refused = 0;     ///< Joins answered with a SessionError
+  uint64_t sessions_removed = 0;  ///< sessions removed (empty)
 };
 
 /// One participant as the hub sees it.
@@ -73,8 +94,9 @@ class SessionHub final : public SessionPort {
   /// `remote` (cluster/session_link.hpp's SessionBridge); null detaches (before it is destroyed).
   void attach_remote(SessionOutlet* remote);
   static constexpr uint64_t kRemoteViewer = uint64_t{1} << 63;
-  /// Makes a session with no one but the OR site in it (a session a demo starts); no-op if it
-  /// exists. Throws Error on a bad name or too many sessions.
+  /// Makes a session with no one but the OR site in it (a session a demo starts), kept while the
+  /// hub runs, empty or not; if it exists, it is kept from now on. Throws Error on a bad name
+  /// (names.hpp) or too many sessions.
   void create_session(const std::string& name);
   std::vector<session::SessionSummary> sessions() const;
   /// The members of session `name` (empty if there is none), the OR site first.
@@ -92,12 +114,14 @@ class SessionHub final : public SessionPort {
   std::optional<session::MonitorState> monitor(const std::string& name) const;
   /// The case's name (empty: none yet).
   std::string case_name() const;
-  /// Puts session `name` (made if missing) back as it was saved (cluster/session_state.hpp):
-  /// each object's pose (nobody holds anything after a restart; indices past the case's objects
-  /// are ignored) and the monitor's slice (clamped to the series), window and overlay. Applied
-  /// only when the current case is named `case_name`: false (nothing changed) for another case
-  /// or none. For a hub starting up, before participants join (they get it on joining). Throws
-  /// Error on a bad session name.
+  /// Puts session `name` back as it was saved (cluster/session_state.hpp): each object's pose
+  /// (nobody holds anything after a restart; indices past the case's objects are ignored) and
+  /// the monitor's slice (clamped to the series), window and overlay. A missing session is made,
+  /// and removed like a participant's (when its last participant goes, or after
+  /// unjoined_session_ms if nobody joins) unless create_session made it. Applied only when the
+  /// current case is named `case_name`: false (nothing changed) for another case or none. For a
+  /// hub starting up, before participants join (they get it on joining). Throws Error on a bad
+  /// session name or too many sessions.
   bool restore(const std::string& name, const std::string& case_name,
                const std::vector<session::ObjectState>& objects,
                const std::optional<session::MonitorState>& monitor);
@@ -113,7 +137,8 @@ class SessionHub final : public SessionPort {
   void handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload);
   void join(uint64_t viewer, const session::Join& join);
   void remove(uint64_t viewer, session::LeftReason reason);
-  Session& make_session(const std::string& name);
+  Session& make_session(const std::string& name, bool standing);
+  void prune(Session* s);  // removes `s` if it is a participant's session with nobody in it
   void send(uint64_t viewer, std::vector<uint8_t> message, uint64_t coalesce_key = 0);
   void send_shared(uint64_t viewer, const std::shared_ptr<const std::vector<uint8_t>>& message,
                    uint64_t coalesce_key = 0);
@@ -135,6 +160,7 @@ class SessionHub final : public SessionPort {
   std::map<uint64_t, Member*> by_viewer_;                  // participants in a session
   uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site
   SessionHubStats stats_;
+  session::RateLimiter limiter_;
   std::shared_ptr<const session::SharedCase> case_;
   std::shared_ptr<const std::vector<uint8_t>> case_message_;
   uint32_t case_generation_ = 0;

@@ -23,7 +23,12 @@
 //   0x02 Join           session name string (1..64 bytes, printable) | create u8 (1: make the
 //                       session if there is none of that name) | display name string (1..64
 //                       bytes, printable) | role u8 (0 remote, 1 OR site) | has camera u8.
-//                       Answered by 0x42 then 0x44 for each participant already there, or 0x43.
+//                       Answered by 0x42 then 0x44 for each participant already there, or 0x43:
+//                       for role 1 (the OR site's role is the server's own participant 1; roles
+//                       come from the server, every viewer is remote), for a name names.hpp
+//                       refuses (UTF-8, NFC; bidi controls, invisible characters, mixed-script
+//                       look-alikes) or one that looks like another's in the session, for a new
+//                       session over the creator's limit (rate_limit.hpp kSessionCreation).
 //   0x03 Leave          empty: back to the lobby (the connection and its stream stay).
 //   0x04 Pose           sequence u32 | time i64 | echo wanted u8 (1: every receiver answers with
 //                       0x05) | body. Coalesced: the server keeps only the newest pose of a
@@ -47,8 +52,9 @@
 //                       spot | room_from_site: translation 3 f32 (metres) | yaw f32 (radians) --
 //                       where the OR site's world frame sits in the room (its cameras' poses are
 //                       site_from_camera, the Welcome's world_from_camera).
-//   0x43 SessionError   reason string (no such session, name taken, session full, a spot not free,
-//                       not in a session).
+//   0x43 SessionError   reason string (no such session, name taken or refused, session full, a
+//                       spot not free, not in a session, a message type over its rate limit:
+//                       rate_limit.hpp, once per burst of dropped messages).
 //   0x44 ParticipantJoined  id u32 | display name string | role u8 | has camera u8 | spot
 //   0x45 ParticipantLeft    id u32 | reason u8 (0 left, 1 timed out: nothing heard for the
 //                       server's presence timeout, 2 disconnected, 3 dropped for a bad message)
@@ -59,6 +65,9 @@
 //   0x4a AvatarFrame    participant u32 | the 0x08 payload
 // The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp.
 //
+// Rates: each participant's messages of each type are limited where they enter the server or a
+// relay (rate_limit.hpp); over its rate a message is dropped, not applied or forwarded, and the
+// sender is told by 0x43 once per burst.
 // Limits (a message over its limit, with a bad field, or of an unknown type is malformed: the
 // server drops its sender, a participant ends its connection): 0x08 and 0x4a at most
 // kMaxAvatarFrameBytes (+ 4), and within kMaxAvatarBytesPerPixel x the announced pixels +

@@ -32,10 +32,12 @@ struct AvatarCameraSetup {
 };
 
 struct ParticipantConfig {
-  std::string session = "OR";  ///< the session to join (1..64 printable bytes)
-  bool create = true;          ///< make it if there is none of that name
-  std::string name;            ///< display name, unique in the session (1..64 printable bytes)
-  session::Role role = session::Role::kRemote;
+  /// The session to join (1..64 bytes of UTF-8, checked as names.hpp says).
+  std::string session = "OR";
+  bool create = true;  ///< make it if there is none of that name
+  /// Display name, unique in the session and not like another's (1..64 bytes of UTF-8, checked as
+  /// names.hpp says). A participant is always remote: roles come from the server (hub.hpp).
+  std::string name;
   std::optional<AvatarCameraSetup> camera;
   /// Others' poses are shown this far in the past, interpolated between the two received poses
   /// around that time (two pose intervals at 60 Hz plus jitter; 0 shows the newest).
@@ -120,8 +122,8 @@ struct ParticipantStats {
 class Participant {
  public:
   /// Installs the session handler on `client` (not in receive() yet; it must outlive this object
-  /// or detach() be called first) and sends ListSessions and Join. Throws Error on a bad name or
-  /// camera setup.
+  /// or detach() be called first) and sends ListSessions and Join. Throws Error on a bad name
+  /// (names.hpp: the server would refuse it) or camera setup.
   Participant(Client& client, ParticipantConfig config);
   ~Participant();
   /// Lets go of the client (removes the handler); later sends are ignored, the state stays
@@ -132,7 +134,9 @@ class Participant {
   Participant& operator=(const Participant&) = delete;
 
   /// Publishes this participant's body in its play area frame (playarea_from_head etc.); sent in
-  /// the room frame, time-stamped now on the server clock. Ignored until joined. Thread-safe.
+  /// the room frame, time-stamped now on the server clock. Ignored until joined, and beyond the
+  /// server's pose rate limit (rate_limit.hpp: 150 a second, 75 at once; a faster display's
+  /// extra poses). Thread-safe.
   void publish(const BodyPose& playarea_pose);
   /// Asks to move the play area's origin to `to` (the server checks it; the others see an
   /// effect). Thread-safe.

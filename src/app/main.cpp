@@ -350,8 +350,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   v->add_option("--pose-script", view.pose_script,
                 "Headless participant: JSON key poses and teleports (default: standing, swaying)");
-  v->add_option("--pose-rate", view.pose_rate, "Poses published per second")
-      ->check(CLI::Range(1.0, 1000.0))
+  v->add_option("--pose-rate", view.pose_rate,
+                "Poses published per second (at most 150: the sessions' limit per participant)")
+      ->check(CLI::Range(1.0, 150.0))
       ->capture_default_str();
   v->add_option("--avatar-radius", view.avatar_radius,
                 "Others' camera avatars: draw points within this many metres of their head")

@@ -43,5 +43,5 @@ fi
 ctest --preset dev -j"$(nproc)"
 phase_done tests
 # libFuzzer on every decoder and the protocol parsers, FUZZ_SECONDS each, one per core.
-FUZZ_SECONDS="${FUZZ_SECONDS:-12}" bash scripts/fuzz.sh
+FUZZ_SECONDS="${FUZZ_SECONDS:-10}" bash scripts/fuzz.sh
 phase_done fuzz

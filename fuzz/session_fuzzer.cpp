@@ -1,5 +1,5 @@
-// libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp) and
-// the pose script parser on arbitrary bytes. The first byte picks the parser; a parser may throw
+// libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp), the
+// pose script parser and the name check (names.hpp, ICU) on arbitrary bytes. The first byte picks the parser; a parser may throw
 // Error, nothing else (no crash, no read past the input, no unbounded allocation).
 #include <cstdint>
 #include <span>
@@ -7,6 +7,7 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/names.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/pose_script.hpp"
 
@@ -18,7 +19,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   camera.depth.width = 640;
   camera.depth.height = 360;
   try {
-    switch (data[0] % 18) {
+    switch (data[0] % 19) {
       case 0:
         session::parse_join(p);
         break;
@@ -80,6 +81,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       case 17:
         session::parse_object_request(p, p.size() % 2 == 0);
+        break;
+      case 18:  // a name as a peer sends it: checked, then its skeleton
+        session::name_skeleton(session::checked_name(
+            std::string_view(reinterpret_cast<const char*>(p.data()), p.size()), "name"));
         break;
     }
   } catch (const Error&) {

@@ -84,7 +84,7 @@ struct ServerConfig {
   int max_window = 8;             ///< frame sets in flight (sent, not acknowledged) at most
   int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
   int max_viewers = 16;           ///< further viewers are rejected ("server full")
-  int max_tiers = 8;       ///< distinct tiers at once; a viewer asking for another is rejected
+  int max_tiers = 8;  ///< distinct tiers at once; a viewer asking for another is rejected
   /// CPU the tiers' encoders may use together (cores: 1.0 is one core kept busy). A tier's cost
   /// is its codecs' encode_ns_per_pixel (codec/registry.hpp) times the site's pixels times the
   /// site's frame rate (measured from publish(); 30 fps before the first frame sets), so HEVC
@@ -97,7 +97,7 @@ struct ServerConfig {
   /// no tap watches; together those may also cost at most half of tier_cpu_budget. A viewer
   /// that would go past either is rejected, naming the limit.
   int max_tiers_per_address = 4;
-  int encode_threads = 0;  ///< worker threads for encoding (0 = cores - 1)
+  int encode_threads = 0;           ///< worker threads for encoding (0 = cores - 1)
   int handshake_timeout_ms = 5000;  ///< a viewer must finish TLS and send Hello within this time
   int stall_timeout_ms = 10000;     ///< a viewer that accepts or acknowledges nothing this long is
                                     ///< disconnected

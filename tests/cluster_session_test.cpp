@@ -28,6 +28,9 @@ namespace {
 using namespace cluster;
 using namespace std::chrono_literals;
 using test::eventually;
+using test::hand_driven;
+using test::same_pose;
+using test::turned;
 using test::named;
 using test::TestParticipant;
 
@@ -81,29 +84,12 @@ bool sees(const TestParticipant& p, const std::string& name) {
   return p.other(name).has_value();
 }
 
-SessionClientOptions hand_driven(const std::string& name) {
-  SessionClientOptions o = named(name);
-  o.drive_poses = false;  // heartbeats only; the test moves by hand
-  return o;
-}
-
 // Synthetic: one object (a tetrahedron, 10 cm) and a 40 x 40 x 30 series (48 kB of HU: the case
 // message is over the 64 KiB max_payload, so it comes down in pieces).
 session::SharedCase synthetic_case() {
   session::SharedCase c;
   c.name = "synthetic";
-  session::SharedObject o;
-  o.name = "organ";
-  o.rest.position = {0, 1.3f, 0};
-  session::SharedPart p;
-  p.name = "shell";
-  p.rgba = {0.6f, 0.2f, 0.1f, 1};
-  p.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
-  p.normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  for (auto& n : p.normals) n.normalize();
-  p.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
-  o.parts.push_back(p);
-  c.objects.push_back(o);
+  c.objects.push_back(test::tetrahedron("organ", {0, 1.3f, 0}));
   session::MonitorSeries m;
   m.width = 40, m.height = 40, m.slices = 30;
   m.hu.resize(48000);
@@ -111,19 +97,6 @@ session::SharedCase synthetic_case() {
   m.overlay.assign(48000, 0);
   c.monitor = m;
   return c;
-}
-
-Pose turned(float degrees) {
-  Pose p;
-  p.position = {0.1f, 1.35f, 0.05f};
-  p.orientation =
-      Eigen::Quaternionf(Eigen::AngleAxisf(degrees * float(M_PI) / 180, Eigen::Vector3f::UnitY()));
-  return p;
-}
-
-bool same_pose(const Pose& a, const Pose& b) {
-  return a.position.isApprox(b.position, 1e-6f) &&
-         a.orientation.angularDistance(b.orientation) < 1e-4f;
 }
 
 // A on relay one, B on relay two and C on the site itself: one session. Each sees the others;

@@ -8,14 +8,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
-#include <iterator>
 
 #include "test_data.hpp"
 #include "volcast/codec/registry.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
@@ -34,17 +31,6 @@ std::vector<std::pair<std::string, std::vector<DepthImage>>> real_sequences() {
           {"hands", hands},
           {"4cam", test::real_depth_frames("4cam")},
           {"binned", test::real_depth_frames("binned")}};
-}
-
-ColorImage real_color(int index) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%05d.jpg", index);
-  std::ifstream in(test::hands_dir() / "color" / name, std::ios::binary);
-  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)),
-                                  std::istreambuf_iterator<char>());
-  ColorImage image;
-  decode_jpeg(file, image);
-  return image;
 }
 
 std::string join(const std::vector<std::string>& names) {
@@ -169,8 +155,8 @@ TEST_F(CodecRegistry, TemporalCodecsDeltaFramesAreRefusedByAFreshDecoder) {
     auto dec = c.make_decoder();
     std::vector<uint8_t> key, next;
     ColorImage out;
-    EXPECT_TRUE(enc->encode(real_color(30), true, key)) << c.name;
-    EXPECT_EQ(enc->encode(real_color(31), false, next), !c.temporal) << c.name;
+    EXPECT_TRUE(enc->encode(test::hands_color_image(30), true, key)) << c.name;
+    EXPECT_EQ(enc->encode(test::hands_color_image(31), false, next), !c.temporal) << c.name;
     if (c.temporal) {
       EXPECT_THROW(c.make_decoder()->decode(next, out), Error) << c.name;
     } else {
@@ -182,7 +168,7 @@ TEST_F(CodecRegistry, TemporalCodecsDeltaFramesAreRefusedByAFreshDecoder) {
 }
 
 TEST_F(CodecRegistry, LosslessColorIsExactOnARealImage) {
-  const ColorImage image = real_color(50);
+  const ColorImage image = test::hands_color_image(50);
   for (const ColorCodecInfo& c : all_color_codecs()) {
     if (!c.lossless) continue;
     std::vector<uint8_t> bytes;
@@ -203,7 +189,7 @@ TEST_F(CodecRegistry, EveryCodecsFramesDeclareTheirSizeBeforeDecoding) {
     EXPECT_EQ(size->width, depth.width) << c.name;
     EXPECT_EQ(size->height, depth.height) << c.name;
   }
-  const ColorImage color = real_color(50);
+  const ColorImage color = test::hands_color_image(50);
   for (const ColorCodecInfo& c : all_color_codecs()) {
     std::vector<uint8_t> bytes;
     c.make_encoder()->encode(color, true, bytes);

@@ -17,6 +17,9 @@ namespace {
 
 using namespace std::chrono_literals;
 using test::eventually;
+using test::hand_driven;
+using test::same_pose;
+using test::turned;
 using test::named;
 using test::SessionSite;
 using test::TestParticipant;
@@ -25,18 +28,7 @@ using test::TestParticipant;
 session::SharedCase synthetic_case(const std::string& name = "synthetic") {
   session::SharedCase c;
   c.name = name;
-  session::SharedObject o;
-  o.name = "organ";
-  o.rest.position = {0, 1.3f, 0};
-  session::SharedPart p;
-  p.name = "shell";
-  p.rgba = {0.6f, 0.2f, 0.1f, 0.5f};
-  p.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
-  p.normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  for (auto& n : p.normals) n.normalize();
-  p.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
-  o.parts.push_back(p);
-  c.objects.push_back(o);
+  c.objects.push_back(test::tetrahedron("organ", {0, 1.3f, 0}, {0.6f, 0.2f, 0.1f, 0.5f}));
   session::MonitorSeries m;
   m.width = 4, m.height = 2, m.slices = 3;
   m.hu.assign(24, 40);
@@ -45,25 +37,6 @@ session::SharedCase synthetic_case(const std::string& name = "synthetic") {
   m.overlay_label = "Liver";
   c.monitor = m;
   return c;
-}
-
-SessionClientOptions hand_driven(const std::string& name) {
-  SessionClientOptions o = named(name);
-  o.drive_poses = false;  // heartbeats only; the test moves the objects by hand
-  return o;
-}
-
-Pose turned(float degrees) {
-  Pose p;
-  p.position = {0.1f, 1.35f, 0.05f};
-  p.orientation =
-      Eigen::Quaternionf(Eigen::AngleAxisf(degrees * float(M_PI) / 180, Eigen::Vector3f::UnitY()));
-  return p;
-}
-
-bool same_pose(const Pose& a, const Pose& b) {
-  return a.position.isApprox(b.position, 1e-6f) &&
-         a.orientation.angularDistance(b.orientation) < 1e-4f;
 }
 
 // The case arrives before the objects' and the monitor's state (7 MB of organs and CT in the

@@ -2,7 +2,9 @@
 // A virtual-OR session for tests: the real hands site (hands_site.hpp) served with a SessionHub,
 // and participants, each with its own connection, a thread receiving on it (session messages
 // arrive there) and a SessionClient publishing its pose script (and camera).
+#include <array>
 #include <atomic>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -88,6 +90,46 @@ inline SessionClientOptions named(const std::string& name, const std::string& se
   SessionClientOptions o;
   o.participant.name = name;
   o.participant.session = session;
+  return o;
+}
+
+/// Options joining as `name` with heartbeats only: the test moves the objects and the pose by hand.
+inline SessionClientOptions hand_driven(const std::string& name) {
+  SessionClientOptions o = named(name);
+  o.drive_poses = false;
+  return o;
+}
+
+/// A pose 1.35 m up near the table, turned `degrees` about +y (room frame).
+inline Pose turned(float degrees) {
+  Pose p;
+  p.position = {0.1f, 1.35f, 0.05f};
+  p.orientation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(degrees * float(M_PI) / 180, Eigen::Vector3f::UnitY()));
+  return p;
+}
+
+/// The same pose as the wire carries it (float32): 1 µm, 1e-4 rad.
+inline bool same_pose(const Pose& a, const Pose& b) {
+  return a.position.isApprox(b.position, 1e-6f) &&
+         a.orientation.angularDistance(b.orientation) < 1e-4f;
+}
+
+/// Synthetic (labelled): an object named `name` of one part "shell", a tetrahedron of 10 cm edges
+/// (its corner at the object's origin), colour `rgba`, resting at `rest` (room frame, metres).
+inline session::SharedObject tetrahedron(const std::string& name, const Eigen::Vector3f& rest,
+                                         const std::array<float, 4>& rgba = {0.6f, 0.2f, 0.1f, 1}) {
+  session::SharedObject o;
+  o.name = name;
+  o.rest.position = rest;
+  session::SharedPart p;
+  p.name = "shell";
+  p.rgba = rgba;
+  p.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  p.normals = {{-1, -1, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (auto& n : p.normals) n.normalize();
+  p.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  o.parts.push_back(p);
   return o;
 }
 

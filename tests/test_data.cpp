@@ -5,11 +5,14 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <thread>
 
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/core/jpeg.hpp"
 
 namespace volcast::test {
 namespace fs = std::filesystem;
@@ -47,6 +50,17 @@ std::vector<DepthImage> real_depth_frames(const std::string& set) {
   std::vector<DepthImage> out;
   for (const auto& f : files) out.push_back(read_depth_png(f));
   return out;
+}
+
+ColorImage hands_color_image(int index) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%05d.jpg", index);
+  std::ifstream in(hands_dir() / "color" / name, std::ios::binary);
+  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)),
+                                  std::istreambuf_iterator<char>());
+  ColorImage image;
+  decode_jpeg(file, image);
+  return image;
 }
 
 fs::path temp_dir(const std::string& name) {

@@ -17,6 +17,8 @@ std::filesystem::path kinect_mkv();  ///< k4a-recording/recording.mkv
 /// Every real depth frame of one set, by name: "hands" (207), "kinect" (1), "4cam" (4),
 /// "binned" (6).
 std::vector<DepthImage> real_depth_frames(const std::string& set);
+/// Colour frame `index` (0..206) of the hands sequence, decoded from its JPEG (BGRA, 640x360).
+ColorImage hands_color_image(int index);
 /// A fresh empty temporary folder for one test.
 std::filesystem::path temp_dir(const std::string& name);
 /// Runs a shell command, returns its exit code; its stdout+stderr are stored in `output`.

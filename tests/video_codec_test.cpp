@@ -3,15 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
-#include <iterator>
 
 #include "test_data.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/core/jpeg.hpp"
 
 namespace volcast {
 namespace {
@@ -106,17 +103,6 @@ TEST_F(VideoDepth, DeltaWithoutKeyFrameIsAnErrorAndAKeyFrameResynchronises) {
   }
 }
 
-ColorImage hands_color(int index) {
-  char name[32];
-  std::snprintf(name, sizeof name, "%05d.jpg", index);
-  std::ifstream in(test::hands_dir() / "color" / name, std::ios::binary);
-  const std::vector<uint8_t> file((std::istreambuf_iterator<char>(in)),
-                                  std::istreambuf_iterator<char>());
-  ColorImage image;
-  decode_jpeg(file, image);
-  return image;
-}
-
 TEST_F(VideoColor, H264StreamsRealColorClosely) {
   auto enc = make_color_encoder("h264");
   auto dec = make_color_decoder("h264");
@@ -124,7 +110,7 @@ TEST_F(VideoColor, H264StreamsRealColorClosely) {
   ColorImage out;
   double coded = 0, raw = 0;
   for (int i = 0; i < 20; ++i) {
-    const ColorImage image = hands_color(40 + i);
+    const ColorImage image = test::hands_color_image(40 + i);
     EXPECT_EQ(enc->encode(image, i == 0, bytes), i == 0);
     dec->decode(bytes, out);
     ASSERT_EQ(out.width, image.width);
@@ -140,7 +126,7 @@ TEST_F(VideoColor, H264StreamsRealColorClosely) {
   }
   EXPECT_GT(raw / coded, 40.0);  // JPEG q90 on this set: about 17x
   // A delta frame without its key frame, and a truncated header, are errors.
-  enc->encode(hands_color(70), false, bytes);
+  enc->encode(test::hands_color_image(70), false, bytes);
   EXPECT_THROW(make_color_decoder("h264")->decode(bytes, out), Error);
   EXPECT_THROW(dec->decode(std::span(bytes).first(5), out), Error);
   // 4:2:0 needs even sides; no color at all is sent as nothing.

@@ -1,141 +1,47 @@
+// The viewer, run_viewer: the steps below, in the order a depth frame takes them from the socket
+// to the renderer, each saying which thread runs it.
+//   1. connect, join          calling thread: TCP/TLS and the handshake (the Welcome names the
+//                             cameras); a participant joins its session (on_connected)
+//   2. open_feed              the hand-over point between the receiving and the render thread
+//   3. RenderThread           render thread: the Presenter takes the newest frames from the feed,
+//                             uploads them and reconstructs the points on the GPU (CameraRenderer;
+//                             the headless presenter is in frame_feed.cpp)
+//   4. Watchdog               its own thread: closes the connection at the time limit, on Ctrl-C or
+//                             once the presenter closed, so that a blocked receive returns
+//   5. receive_frame_sets     calling thread, per frame set: receive and decode (Client::receive,
+//                             the cameras in parallel), keep_decoded, count, hand_to_renderer,
+//                             save_frames
+//   6. wind down              stop the watchdog, close the connection, let the render thread draw
+//                             what is pending (RenderThread::finish)
+//   7. the figures            set_end, camera_figures, on_finished, finish (the JSON, and
+//                             ViewerError on an error)
 #include "volcast/pipeline/receiver.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <fstream>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <thread>
 
+#include "frame_feed_state.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/text.hpp"
-#include "volcast/render/headless_target.hpp"
 
 namespace volcast {
 namespace {
 
+using Frames = std::vector<std::shared_ptr<const CameraFrame>>;
+
+// Per camera: what arrived, over the whole run or since the last live refresh.
 struct Accumulator {
   uint64_t frames = 0, dropped = 0, depth_bytes = 0, color_bytes = 0;
   std::vector<double> latencies_ms;
 };
-
-}  // namespace
-
-// Hands the newest decoded images from the receiving thread to the render thread (the
-// presenter), which uploads them and reconstructs the points on the GPU. Frames are shared,
-// immutable once handed over: a camera that repeats its frame keeps its frame (and the renderer
-// skips its upload).
-struct FrameFeed::State {
-  std::vector<CameraCalibration> cameras;
-  mutable std::mutex mutex;
-  std::condition_variable changed;
-  std::vector<std::shared_ptr<const CameraFrame>> frames;
-  uint64_t version = 0, taken = 0;
-  bool done = false;                // the receiving side is finished
-  std::atomic<bool> closed{false};  // the presenter asked to end
-  LiveStats live;
-};
-
-const std::vector<CameraCalibration>& FrameFeed::cameras() const {
-  return state_.cameras;
-}
-
-bool FrameFeed::next(std::vector<std::shared_ptr<const CameraFrame>>& frames,
-                     std::chrono::microseconds wait) {
-  std::unique_lock lock(state_.mutex);
-  state_.changed.wait_for(lock, wait,
-                          [&] { return state_.done || state_.version != state_.taken; });
-  if (state_.version == state_.taken) return false;
-  state_.taken = state_.version;
-  frames = state_.frames;
-  return true;
-}
-
-bool FrameFeed::finished() const {
-  std::lock_guard lock(state_.mutex);
-  return (state_.done && state_.version == state_.taken) || state_.closed;
-}
-
-void FrameFeed::close() {
-  state_.closed = true;
-  state_.changed.notify_all();
-}
-
-LiveStats FrameFeed::live() const {
-  std::lock_guard lock(state_.mutex);
-  return state_.live;
-}
-
-Presenter headless_presenter(const ViewerOptions& opt) {
-  return [opt](FrameFeed& feed, ViewerResult& result) {
-    HeadlessTarget target(opt.width, opt.height);  // before the renderer: it owns the context
-    CameraRenderer renderer;
-    result.renderer = renderer.gl_description();
-    // A software rasteriser (no GPU) takes the cores the stream needs: draw it less often.
-    const bool software = result.renderer.find("llvmpipe") != std::string::npos ||
-                          result.renderer.find("softpipe") != std::string::npos;
-    const bool throttle = software && opt.software_render_fps > 0;
-    if (throttle)
-      spdlog::info("software renderer ({}): drawing at most {} frames per second", result.renderer,
-                   opt.software_render_fps);
-    const std::vector<CameraCalibration>& calibrations = feed.cameras();
-    renderer.set_cameras(calibrations);
-    renderer.set_avatar_filter(opt.avatar_filter);
-    std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(calibrations.size());
-    std::optional<ViewCamera> view = opt.view;
-    auto last_draw = std::chrono::steady_clock::now() - std::chrono::hours(1);
-    while (!feed.finished()) {
-      if (!feed.next(frames, std::chrono::milliseconds(100))) continue;
-      if (throttle) {  // draw the newest frames at most software_render_fps times a second
-        const auto due =
-            last_draw + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                            std::chrono::duration<double>(1.0 / opt.software_render_fps));
-        while (std::chrono::steady_clock::now() < due && !feed.finished())
-          feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
-                                due - std::chrono::steady_clock::now()));
-      }
-      // A frame this thread still holds cannot have been reused by the receiver: the same
-      // pointer is the same images, already on the GPU.
-      for (size_t i = 0; i < frames.size(); ++i)
-        if (frames[i] && frames[i] != uploaded[i]) {
-          renderer.upload(i, *frames[i]);
-          uploaded[i] = frames[i];
-        }
-      if (!view) view = default_view(calibrations, frames);
-      renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target(), opt.pass);
-      last_draw = std::chrono::steady_clock::now();
-      ++result.frames_rendered;
-    }
-    if (!opt.screenshot.empty() && result.frames_rendered > 0) {
-      ColorImage image;  // the only read-back: the last frame, for the screenshot
-      target.read_image(image);
-      write_color_png(opt.screenshot, image);
-      spdlog::info("wrote {}", opt.screenshot.string());
-    }
-  };
-}
-
-ViewCamera default_view(std::span<const CameraCalibration> cameras,
-                        std::span<const std::shared_ptr<const CameraFrame>> frames) {
-  // The default viewpoint needs the points once: built on the CPU this once.
-  std::vector<PointCloud> clouds(frames.size());
-  std::vector<const PointCloud*> views;
-  for (size_t i = 0; i < frames.size() && i < cameras.size(); ++i) {
-    if (frames[i]) CloudBuilder(cameras[i]).build(frames[i]->depth, frames[i]->color, clouds[i]);
-    views.push_back(&clouds[i]);
-  }
-  if (cameras.empty()) return ViewCamera{};
-  return orbit_view(cameras.front().world_from_camera, views);
-}
-
-namespace {
 
 // Refreshes the live figures from what arrived over the last `interval_us` (then forgotten) and
 // the whole session so far.
@@ -215,61 +121,40 @@ ViewerResult finish(const ViewerOptions& opt, ViewerResult result) {
   return result;
 }
 
-}  // namespace
-
-const char* to_string(ViewerEnd end) {
-  switch (end) {
-    case ViewerEnd::kFramesReached:
-      return "frames_reached";
-    case ViewerEnd::kSecondsReached:
-      return "seconds_reached";
-    case ViewerEnd::kInterrupted:
-      return "interrupted";
-    case ViewerEnd::kClosed:
-      return "closed";
-    case ViewerEnd::kServerClosed:
-      return "server_closed";
-    case ViewerEnd::kTimedOut:
-      return "timed_out";
-    case ViewerEnd::kRejected:
-      return "rejected";
-    case ViewerEnd::kProtocolError:
-      return "protocol_error";
-    case ViewerEnd::kConnectionLost:
-      return "connection_lost";
-    case ViewerEnd::kError:
-      return "error";
-  }
-  return "error";
+// Records an error that ended the session before anything was received.
+void fail(ViewerResult& result, const std::exception_ptr& error) {
+  result.ended = end_of(error);
+  result.error = message_of(error);
 }
 
-ViewerResult run_viewer(const ViewerOptions& opt) {
-  ViewerResult result;
-  result.depth_codec = opt.client.depth_codec;
-  result.color_codec = opt.client.color_codec;
-  std::unique_ptr<Client> connected;
+// 1. Connect (calling thread): TCP/TLS, the server's certificate, the handshake (Client). Null on
+// a failure, with result saying why.
+std::unique_ptr<Client> connect_to_server(const ViewerOptions& opt, ViewerResult& result) {
   try {
-    connected = std::make_unique<Client>(opt.client);
+    return std::make_unique<Client>(opt.client);
   } catch (...) {
-    const std::exception_ptr error = std::current_exception();
-    result.ended = end_of(error);
-    result.error = message_of(error);
-    return finish(opt, std::move(result));
+    fail(result, std::current_exception());
+    return nullptr;
   }
-  Client& client = *connected;
-  const auto& cams = client.welcome().cameras;
-  if (opt.on_connected) {
-    try {
-      opt.on_connected(client);
-    } catch (...) {
-      const std::exception_ptr error = std::current_exception();
-      result.ended = end_of(error);
-      result.error = message_of(error);
-      return finish(opt, std::move(result));
-    }
-  }
+}
 
-  FrameFeed::State box;
+// 1. Join (calling thread): options.on_connected, where a participant joins its session. False
+// on a failure, with result saying why.
+bool join(const ViewerOptions& opt, Client& client, ViewerResult& result) {
+  if (!opt.on_connected) return true;
+  try {
+    opt.on_connected(client);
+    return true;
+  } catch (...) {
+    fail(result, std::current_exception());
+    return false;
+  }
+}
+
+// 2. The feed's state for the Welcome's cameras: their calibrations, and what the live figures
+// say from the start (descriptions, sizes, codecs).
+void open_feed(FrameFeed::State& box, const protocol::Welcome& welcome, const ViewerOptions& opt) {
+  const auto& cams = welcome.cameras;
   for (const auto& c : cams) box.cameras.push_back(c.calibration);
   box.live.depth_codec = opt.client.depth_codec;
   box.live.color_codec = opt.client.color_codec;
@@ -279,133 +164,202 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     box.live.cameras[i].width = cams[i].calibration.depth.width;
     box.live.cameras[i].height = cams[i].calibration.depth.height;
   }
-  FrameFeed feed(box);
-  std::exception_ptr render_error;
-  std::thread render_thread;
-  if (opt.render)
-    render_thread = std::thread([&] {
-      try {
-        (opt.presenter ? opt.presenter : headless_presenter(opt))(feed, result);
-      } catch (...) {
-        render_error = std::current_exception();
-      }
-      feed.close();  // the presenter is gone: nothing draws what arrives from now on
-    });
+}
 
-  std::vector<Accumulator> acc(cams.size());
-  // Each camera's newest decoded frame, and per camera the frames images are moved into (one no
-  // longer held by the renderer is reused; a repeated frame keeps its frame).
-  std::vector<std::shared_ptr<const CameraFrame>> frames(cams.size());
-  std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers(cams.size());
-  ReceivedFrameSet rx;
-  StageRecorder stages;
-  std::vector<Accumulator> live_acc(cams.size());  // since the last live refresh
-  int64_t live_from_us = wall_clock_us();
-  const auto start = std::chrono::steady_clock::now();
-  int64_t first_rx_us = 0, last_rx_us = 0;
-  uint64_t last_sequence = 0, received = 0;
-  std::exception_ptr receive_error;
-  // A watchdog closes the connection at the time limit so a blocked receive() returns, and says
-  // why.
-  std::mutex watchdog_mutex;
-  std::condition_variable watchdog_cv;
-  bool finished = false;
-  std::atomic<ViewerEnd> stopped_by{ViewerEnd::kServerClosed};
-  std::thread watchdog([&] {
-    std::unique_lock lock(watchdog_mutex);
-    while (!finished) {
-      watchdog_cv.wait_for(lock, std::chrono::milliseconds(50));
-      const bool timeout = opt.seconds > 0 && std::chrono::steady_clock::now() - start >
-                                                  std::chrono::duration<double>(opt.seconds);
-      if (timeout || (opt.stop && *opt.stop) || box.closed) {
-        stopped_by = timeout                 ? ViewerEnd::kSecondsReached
-                     : opt.stop && *opt.stop ? ViewerEnd::kInterrupted
-                                             : ViewerEnd::kClosed;
-        client.close();
-        return;
-      }
-    }
-  });
-  try {
-    if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
-    while ((opt.frames <= 0 || received < static_cast<uint64_t>(opt.frames)) &&
-           client.receive(rx)) {
-      // The decoded images move (swap, no copy) into a frame the renderer may hold; the client
-      // decodes into the swapped-in buffers next time (decoders keep their own references).
-      for (size_t i = 0; i < cams.size(); ++i) {
-        if (rx.repeated[i] && frames[i]) continue;
-        std::shared_ptr<CameraFrame> frame;
-        for (auto& b : buffers[i])
-          if (b.use_count() == 1) frame = b;
-        if (!frame) {
-          frame = std::make_shared<CameraFrame>();
-          if (buffers[i].size() < 4) buffers[i].push_back(frame);
+// 3. The render thread (only with options.render): runs the presenter (options.presenter, else
+// the headless one) on the feed, writing result.renderer and result.frames_rendered, then closes
+// the feed. It owns the GL context and everything drawn with it.
+class RenderThread {
+ public:
+  RenderThread(const ViewerOptions& opt, FrameFeed& feed, ViewerResult& result) {
+    if (opt.render)
+      thread_ = std::thread([this, &opt, &feed, &result] {
+        try {
+          (opt.presenter ? opt.presenter : headless_presenter(opt))(feed, result);
+        } catch (...) {
+          error_ = std::current_exception();
         }
-        CameraFrame& decoded = rx.frames.cameras[i];
-        std::swap(frame->depth, decoded.depth);
-        std::swap(frame->color, decoded.color);
-        frame->device_timestamp_us = decoded.device_timestamp_us;
-        frames[i] = std::move(frame);
-      }
-      const int64_t now = wall_clock_us();
-      stages.add(rx.times, now);
-      const double latency_ms = static_cast<double>(now - rx.frames.capture_time_us) / 1000.0;
-      const uint64_t gap = received > 0 && rx.frames.sequence > last_sequence + 1
-                               ? rx.frames.sequence - last_sequence - 1
-                               : 0;
-      for (size_t i = 0; i < cams.size(); ++i)
-        for (Accumulator* a : {&acc[i], &live_acc[i]}) {
-          ++a->frames;
-          a->dropped += gap;
-          a->depth_bytes += rx.depth_bytes[i];
-          a->color_bytes += rx.color_bytes[i];
-          a->latencies_ms.push_back(latency_ms);
-        }
-      if (received == 0) first_rx_us = now;
-      last_rx_us = now;
-      last_sequence = rx.frames.sequence;
-      ++received;
-      if (opt.render) {
-        std::lock_guard lock(box.mutex);
-        box.frames = frames;
-        ++box.version;
-        box.changed.notify_one();
-        if (now - live_from_us >= 500'000) {  // the panel's figures, twice a second
-          update_live(box.live, acc, live_acc, stages, received, now - live_from_us);
-          live_from_us = now;
-        }
-      }
-      if (box.closed) break;  // the presenter ended the session, or failed
-      if (!opt.save_frames_dir.empty()) {
-        for (size_t i = 0; i < cams.size(); ++i) {
-          const CameraFrame& f = *frames[i];
-          const std::string stem = fmt::format("cam{}_{:08d}", i, rx.frames.sequence);
-          write_depth_png(opt.save_frames_dir / (stem + "_depth.png"), f.depth);
-          if (!f.color.empty())
-            write_color_png(opt.save_frames_dir / (stem + "_color.png"), f.color);
-        }
-      }
-    }
-  } catch (...) {
-    receive_error = std::current_exception();
+        feed.close();  // the presenter is gone: nothing draws what arrives from now on
+      });
   }
-  {
-    std::lock_guard lock(watchdog_mutex);
-    finished = true;
-  }
-  watchdog_cv.notify_all();
-  watchdog.join();
-  client.close();
-  if (opt.render) {
+
+  // 6. Once receiving has ended (calling thread): marks the feed done and waits until the
+  // presenter has drawn whatever is still pending and returned.
+  void finish(const ViewerOptions& opt, FrameFeed::State& box) {
+    if (!opt.render) return;
     {
       std::lock_guard lock(box.mutex);
       box.done = true;
     }
     box.changed.notify_all();
-    render_thread.join();  // renders whatever is still pending
+    thread_.join();  // renders whatever is still pending
   }
-  result.last_frames = frames;
-  result.frame_sets_received = received;
+
+  // What the presenter threw, if it did (read after finish()).
+  const std::exception_ptr& error() const { return error_; }
+
+ private:
+  std::exception_ptr error_;
+  std::thread thread_;
+};
+
+// 4. The watchdog, on a thread of its own from construction to stop(): every 50 ms it checks the
+// time limit (options.seconds, counted from its construction), the external stop flag and
+// whether the presenter closed the feed; on any, it records which (stopped_by) and closes the
+// connection so that a blocked receive() returns.
+class Watchdog {
+ public:
+  Watchdog(const ViewerOptions& opt, Client& client, const FrameFeed::State& box) {
+    const auto start = std::chrono::steady_clock::now();
+    thread_ = std::thread([this, &opt, &client, &box, start] {
+      std::unique_lock lock(mutex_);
+      while (!finished_) {
+        cv_.wait_for(lock, std::chrono::milliseconds(50));
+        const bool timeout = opt.seconds > 0 && std::chrono::steady_clock::now() - start >
+                                                    std::chrono::duration<double>(opt.seconds);
+        if (timeout || (opt.stop && *opt.stop) || box.closed) {
+          stopped_by_ = timeout                 ? ViewerEnd::kSecondsReached
+                        : opt.stop && *opt.stop ? ViewerEnd::kInterrupted
+                                                : ViewerEnd::kClosed;
+          client.close();
+          return;
+        }
+      }
+    });
+  }
+
+  // 6. Ends the watchdog thread (calling thread) and waits for it.
+  void stop() {
+    {
+      std::lock_guard lock(mutex_);
+      finished_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+  // What the watchdog stopped the session for; kServerClosed if it did not.
+  ViewerEnd stopped_by() const { return stopped_by_; }
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool finished_ = false;
+  std::atomic<ViewerEnd> stopped_by_{ViewerEnd::kServerClosed};
+  std::thread thread_;
+};
+
+// 5. What the receiving (calling) thread keeps while it receives.
+struct Reception {
+  explicit Reception(size_t cameras)
+      : frames(cameras), buffers(cameras), total(cameras), recent(cameras) {}
+
+  ReceivedFrameSet rx;  // the frame set the Client receives and decodes into
+  // Each camera's newest decoded frame, and per camera the frames images are moved into (one no
+  // longer held by the renderer is reused; a repeated frame keeps its frame).
+  Frames frames;
+  std::vector<std::vector<std::shared_ptr<CameraFrame>>> buffers;
+  StageRecorder stages;
+  std::vector<Accumulator> total;   // the whole run
+  std::vector<Accumulator> recent;  // since the last live refresh
+  int64_t live_from_us = wall_clock_us();
+  int64_t first_rx_us = 0, last_rx_us = 0;
+  uint64_t last_sequence = 0, received = 0;
+};
+
+// 5. Keeps what was just decoded: the decoded images move (swap, no copy) into a frame the
+// renderer may hold; the client decodes into the swapped-in buffers next time (decoders keep
+// their own references). A camera that repeated its frame keeps its frame.
+void keep_decoded(Reception& r) {
+  for (size_t i = 0; i < r.frames.size(); ++i) {
+    if (r.rx.repeated[i] && r.frames[i]) continue;
+    std::shared_ptr<CameraFrame> frame;
+    for (auto& b : r.buffers[i])
+      if (b.use_count() == 1) frame = b;
+    if (!frame) {
+      frame = std::make_shared<CameraFrame>();
+      if (r.buffers[i].size() < 4) r.buffers[i].push_back(frame);
+    }
+    CameraFrame& decoded = r.rx.frames.cameras[i];
+    std::swap(frame->depth, decoded.depth);
+    std::swap(frame->color, decoded.color);
+    frame->device_timestamp_us = decoded.device_timestamp_us;
+    r.frames[i] = std::move(frame);
+  }
+}
+
+// 5. Counts the frame set, ready at `now_us`: stage times, bytes, latency, frame sets the server
+// skipped (a gap in the sequence).
+void count(Reception& r, int64_t now_us) {
+  r.stages.add(r.rx.times, now_us);
+  const double latency_ms = static_cast<double>(now_us - r.rx.frames.capture_time_us) / 1000.0;
+  const uint64_t gap = r.received > 0 && r.rx.frames.sequence > r.last_sequence + 1
+                           ? r.rx.frames.sequence - r.last_sequence - 1
+                           : 0;
+  for (size_t i = 0; i < r.frames.size(); ++i)
+    for (Accumulator* a : {&r.total[i], &r.recent[i]}) {
+      ++a->frames;
+      a->dropped += gap;
+      a->depth_bytes += r.rx.depth_bytes[i];
+      a->color_bytes += r.rx.color_bytes[i];
+      a->latencies_ms.push_back(latency_ms);
+    }
+  if (r.received == 0) r.first_rx_us = now_us;
+  r.last_rx_us = now_us;
+  r.last_sequence = r.rx.frames.sequence;
+  ++r.received;
+}
+
+// 5. Hands the newest frames to the render thread (the presenter wakes up in FrameFeed::next) and,
+// twice a second, refreshes the panel's live figures.
+void hand_to_renderer(FrameFeed::State& box, Reception& r, int64_t now_us) {
+  std::lock_guard lock(box.mutex);
+  box.frames = r.frames;
+  ++box.version;
+  box.changed.notify_one();
+  if (now_us - r.live_from_us >= 500'000) {  // the panel's figures, twice a second
+    update_live(box.live, r.total, r.recent, r.stages, r.received, now_us - r.live_from_us);
+    r.live_from_us = now_us;
+  }
+}
+
+// 5. options.save_frames_dir: each camera's decoded depth (and color) as PNG.
+void save_frames(const std::filesystem::path& dir, const Frames& frames, uint64_t sequence) {
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const CameraFrame& f = *frames[i];
+    const std::string stem = fmt::format("cam{}_{:08d}", i, sequence);
+    write_depth_png(dir / (stem + "_depth.png"), f.depth);
+    if (!f.color.empty()) write_color_png(dir / (stem + "_color.png"), f.color);
+  }
+}
+
+// 5. The receive loop (calling thread): until the frame limit, the server's end, the watchdog's
+// close or the presenter's, each frame set is received and decoded, kept, counted, handed to the
+// render thread and saved if asked. Returns what broke it off, or null.
+std::exception_ptr receive_frame_sets(const ViewerOptions& opt, Client& client,
+                                      FrameFeed::State& box, Reception& r) {
+  try {
+    if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
+    while ((opt.frames <= 0 || r.received < static_cast<uint64_t>(opt.frames)) &&
+           client.receive(r.rx)) {
+      keep_decoded(r);
+      const int64_t now = wall_clock_us();
+      count(r, now);
+      if (opt.render) hand_to_renderer(box, r, now);
+      if (box.closed) break;  // the presenter ended the session, or failed
+      if (!opt.save_frames_dir.empty())
+        save_frames(opt.save_frames_dir, r.frames, r.rx.frames.sequence);
+    }
+  } catch (...) {
+    return std::current_exception();
+  }
+  return nullptr;
+}
+
+// 7. Why the session ended, first cause first.
+void set_end(ViewerResult& result, const ViewerOptions& opt, const std::exception_ptr& render_error,
+             const std::exception_ptr& receive_error, uint64_t received, bool presenter_closed,
+             ViewerEnd stopped_by) {
   if (render_error) {  // first: a failed presenter closes the session, which may break a receive
     result.ended = ViewerEnd::kError;
     result.error = "renderer: " + message_of(render_error);
@@ -414,17 +368,20 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     result.error = message_of(receive_error);
   } else if (opt.frames > 0 && received >= static_cast<uint64_t>(opt.frames)) {
     result.ended = ViewerEnd::kFramesReached;
-  } else if (box.closed && stopped_by == ViewerEnd::kServerClosed) {
+  } else if (presenter_closed && stopped_by == ViewerEnd::kServerClosed) {
     result.ended = ViewerEnd::kClosed;  // the presenter ended it before the watchdog saw it
   } else {
     result.ended = stopped_by;  // seconds reached, interrupted, closed, or else the server closed
   }
-  result.frames_undecodable = client.frames_undecodable();
-  result.stages = stages.summary();
+}
 
-  const double seconds = static_cast<double>(last_rx_us - first_rx_us) / 1e6;
+// 7. Each camera's figures over the whole run (rates over first to last frame set received).
+std::vector<CameraStats> camera_figures(const protocol::Welcome& welcome, const Reception& r) {
+  const auto& cams = welcome.cameras;
+  std::vector<CameraStats> out;
+  const double seconds = static_cast<double>(r.last_rx_us - r.first_rx_us) / 1e6;
   for (size_t i = 0; i < cams.size(); ++i) {
-    const Accumulator& a = acc[i];
+    const Accumulator& a = r.total[i];
     CameraStats s;
     s.description = printable(cams[i].description);
     s.width = cams[i].calibration.depth.width;
@@ -442,8 +399,47 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     }
     s.latency_ms_p50 = percentile(a.latencies_ms, 0.50);
     s.latency_ms_p99 = percentile(a.latencies_ms, 0.99);
-    result.cameras.push_back(s);
+    out.push_back(s);
   }
+  return out;
+}
+
+}  // namespace
+
+ViewerResult run_viewer(const ViewerOptions& opt) {
+  ViewerResult result;
+  result.depth_codec = opt.client.depth_codec;
+  result.color_codec = opt.client.color_codec;
+  // 1. Connect and join; the client lives until the figures are written.
+  const std::unique_ptr<Client> connected = connect_to_server(opt, result);
+  if (!connected || !join(opt, *connected, result)) return finish(opt, std::move(result));
+  Client& client = *connected;
+  const protocol::Welcome& welcome = client.welcome();
+
+  // 2.-4. The feed, the render thread, the receiving state and the watchdog, in this order.
+  FrameFeed::State box;
+  open_feed(box, welcome, opt);
+  FrameFeed feed(box);
+  RenderThread render(opt, feed, result);
+  Reception reception(welcome.cameras.size());
+  Watchdog watchdog(opt, client, box);
+
+  // 5. Receive until a limit, the server or an error ends it.
+  const std::exception_ptr receive_error = receive_frame_sets(opt, client, box, reception);
+
+  // 6. Wind down: the watchdog, the connection, then the render thread draws what is pending.
+  watchdog.stop();
+  client.close();
+  render.finish(opt, box);
+
+  // 7. The figures.
+  result.last_frames = reception.frames;
+  result.frame_sets_received = reception.received;
+  set_end(result, opt, render.error(), receive_error, reception.received, box.closed,
+          watchdog.stopped_by());
+  result.frames_undecodable = client.frames_undecodable();
+  result.stages = reception.stages.summary();
+  result.cameras = camera_figures(welcome, reception);
   if (opt.on_finished) {
     try {
       opt.on_finished(result);
@@ -452,111 +448,6 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
     }
   }
   return finish(opt, std::move(result));
-}
-
-void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) {
-  nlohmann::json j;
-  j["ended"] = to_string(r.ended);
-  j["error"] = r.error.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.error);
-  j["frame_sets_received"] = r.frame_sets_received;
-  j["depth_codec"] = r.depth_codec;
-  j["color_codec"] = r.color_codec;
-  j["frames_rendered"] = r.frames_rendered;
-  j["renderer"] = r.renderer;
-  j["frames_undecodable"] = r.frames_undecodable;
-  j["stages"] = nlohmann::json::array();
-  for (const StageLatency& l : r.stages)
-    j["stages"].push_back(
-        {{"stage", l.stage}, {"p50_ms", l.p50_ms}, {"p99_ms", l.p99_ms}, {"mean_ms", l.mean_ms}});
-  j["cameras"] = nlohmann::json::array();
-  for (size_t i = 0; i < r.cameras.size(); ++i) {
-    const CameraStats& s = r.cameras[i];
-    j["cameras"].push_back({{"camera", i},
-                            {"description", s.description},
-                            {"width", s.width},
-                            {"height", s.height},
-                            {"frames_received", s.frames_received},
-                            {"frames_dropped", s.frames_dropped},
-                            {"mean_depth_bytes", s.mean_depth_bytes},
-                            {"mean_color_bytes", s.mean_color_bytes},
-                            {"depth_compression_ratio", s.depth_compression_ratio},
-                            {"received_fps", s.received_fps},
-                            {"mbit_per_s", s.mbit_per_s},
-                            {"latency_ms_p50", s.latency_ms_p50},
-                            {"latency_ms_p99", s.latency_ms_p99}});
-  }
-  if (r.session) {
-    const ParticipantStats& p = *r.session;
-    j["session"] = r.session_name;
-    j["session_round_trip_ms_p50"] = p.round_trip_ms_p50;
-    j["session_round_trip_ms_p99"] = p.round_trip_ms_p99;
-    j["round_trip_samples"] = p.round_trip_samples;
-    j["poses_sent"] = p.poses_sent;
-    j["avatar_frames_sent"] = p.avatar_frames_sent;
-    j["participants"] = nlohmann::json::array();
-    j["others"] = nlohmann::json::array();
-    for (const RemoteStats& o : p.others) {
-      j["participants"].push_back(o.name);
-      j["others"].push_back({{"id", o.id},
-                             {"name", o.name},
-                             {"poses_received", o.poses_received},
-                             {"pose_rate_hz", o.pose_rate_hz},
-                             {"pose_age_ms_p50", o.pose_age_ms_p50},
-                             {"pose_age_ms_p99", o.pose_age_ms_p99},
-                             {"avatar_frames_received", o.avatar_frames_received},
-                             {"avatar_fps", o.avatar_fps},
-                             {"avatar_latency_ms_p50", o.avatar_latency_ms_p50},
-                             {"avatar_latency_ms_p99", o.avatar_latency_ms_p99}});
-    }
-  }
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
-  std::ofstream out(path);
-  out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
-  if (!out) throw Error("cannot write '" + path.string() + "'");
-}
-
-std::string format_stats_table(const ViewerResult& r) {
-  std::string s = fmt::format("depth codec {}, color codec {}, {} frames rendered{}\n",
-                              r.depth_codec, r.color_codec, r.frames_rendered,
-                              r.renderer.empty() ? "" : " (" + r.renderer + ")");
-  s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam",
-                   "size", "frames", "dropped", "depth B/fr", "color B/fr", "ratio", "fps",
-                   "Mbit/s", "lat p50", "lat p99 / source");
-  for (size_t i = 0; i < r.cameras.size(); ++i) {
-    const CameraStats& c = r.cameras[i];
-    s += fmt::format(
-        "{:<4} {:>9} {:>8} {:>7} {:>12.0f} {:>12.0f} {:>6.2f}x {:>7.1f} {:>8.2f} {:>6.1f}ms  "
-        "{:.1f}ms  {}\n",
-        i, fmt::format("{}x{}", c.width, c.height), c.frames_received, c.frames_dropped,
-        c.mean_depth_bytes, c.mean_color_bytes, c.depth_compression_ratio, c.received_fps,
-        c.mbit_per_s, c.latency_ms_p50, c.latency_ms_p99, c.description);
-  }
-  if (!r.stages.empty()) {
-    s += "latency by stage (ms)  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9}", l.stage);
-    s += "\n                  p50  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p50_ms);
-    s += "\n                  p99  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p99_ms);
-    s += "\n";
-  }
-  if (r.session) {
-    const ParticipantStats& p = *r.session;
-    s += fmt::format(
-        "session '{}': round trip p50 {:.2f} ms, p99 {:.2f} ms ({} samples); {} poses "
-        "sent, {} avatar frames sent\n",
-        printable(r.session_name), p.round_trip_ms_p50, p.round_trip_ms_p99, p.round_trip_samples,
-        p.poses_sent, p.avatar_frames_sent);
-    for (const RemoteStats& o : p.others)
-      s += fmt::format(
-          "  {:<20} poses {:>6} at {:>6.1f} Hz, age p50 {:>6.2f} ms p99 {:>6.2f} ms; "
-          "avatar frames {:>5} at {:>5.1f} fps, latency p50 {:>6.1f} ms\n",
-          printable(o.name, 20), o.poses_received, o.pose_rate_hz, o.pose_age_ms_p50,
-          o.pose_age_ms_p99, o.avatar_frames_received, o.avatar_fps, o.avatar_latency_ms_p50);
-  }
-  s += fmt::format("ended: {} after {} frame sets{}\n", to_string(r.ended), r.frame_sets_received,
-                   r.error.empty() ? "" : ": " + r.error);
-  return s;
 }
 
 }  // namespace volcast

@@ -6,6 +6,7 @@
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/render/case_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <numeric>
 
+#include "volcast/net/client.hpp"
+
 namespace volcast {
 
 double percentile(std::vector<double> v, double p) {

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/viewer/pose_sliders.hpp"

@@ -18,6 +18,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
+#include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
 

@@ -11,6 +11,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/hand_grab.hpp"
+#include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
 #include "xr_common.hpp"

@@ -12,13 +12,15 @@
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
-#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/render_target.hpp"
 #include "volcast/render/view.hpp"
 #include "volcast/session/participant.hpp"
 
 namespace volcast {
+
+struct ViewerOptions;  // receiver.hpp
 
 struct SessionSceneOptions {
   CameraPassOptions pass;      ///< surface, splat size, blending (per-camera looks ignored)

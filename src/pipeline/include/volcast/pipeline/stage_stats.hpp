@@ -12,9 +12,9 @@
 #include <string_view>
 #include <vector>
 
-#include "volcast/net/client.hpp"
-
 namespace volcast {
+
+struct StageTimes;  // volcast/net/client.hpp
 
 inline constexpr std::array<std::string_view, 7> kStageNames = {
     "filter", "encode", "send", "receive", "decode", "ready", "total"};

@@ -1,7 +1,7 @@
 #pragma once
 // The desktop viewer: a GLFW window (OpenGL 4.5 core through GLX) that draws the session's cameras
 // with CameraRenderer into its default framebuffer, with a Dear ImGui panel on top. It is a
-// Presenter (volcast/pipeline/receiver.hpp): run_viewer runs it on its render thread.
+// Presenter (volcast/pipeline/frame_feed.hpp): run_viewer runs it on its render thread.
 //
 // Each loop: poll events, take new frames from the feed (waiting up to 5 ms), upload the cameras
 // whose frame changed (the same pointer is the same images), draw, draw the panel, swap. It redraws
@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"

@@ -5,13 +5,13 @@
 // image attached to an FBO with a depth renderbuffer, drawn by CameraRenderer from that eye's View
 // (xr_view.hpp: the located eye pose and its asymmetric field of view) and submitted as one
 // projection layer in a STAGE reference space (LOCAL where there is no STAGE). It is a Presenter
-// (volcast/pipeline/receiver.hpp). The session's state drives it: READY begins it, STOPPING ends
+// (volcast/pipeline/frame_feed.hpp). The session's state drives it: READY begins it, STOPPING ends
 // it, EXITING, LOSS_PENDING or a lost instance end the viewer's session (FrameFeed::close()).
 #include <functional>
 #include <optional>
 #include <string>
 
-#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"

@@ -1,0 +1,83 @@
+#pragma once
+// The render thread's side of a viewer (run_viewer, receiver.hpp): a Presenter takes the newest
+// decoded frames from a FrameFeed and draws them (a window, a headset, a headless target), and
+// shows the live figures. What a presenter needs, without the connection (net), the session or
+// the figures of the whole run (viewer_result.hpp).
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "volcast/core/calibration.hpp"
+#include "volcast/core/frame.hpp"
+#include "volcast/pipeline/stage_stats.hpp"
+#include "volcast/render/view.hpp"
+
+namespace volcast {
+
+struct ViewerResult;  // viewer_result.hpp
+class FrameFeed;
+
+/// What the render thread does with a session: takes frames from the feed and draws them (into a
+/// window, a headset's swapchain or a headless target), setting result.renderer and counting
+/// result.frames_rendered. Runs on a thread of its own until feed.finished() (or it calls
+/// feed.close()); an exception it throws ends the session (ViewerEnd::kError, "renderer: ...").
+using Presenter = std::function<void(FrameFeed& feed, ViewerResult& result)>;
+
+/// Figures for one camera, over the whole run.
+struct CameraStats {
+  std::string description;  ///< the server's, made printable (volcast/core/text.hpp)
+  int width = 0, height = 0;
+  uint64_t frames_received = 0;
+  uint64_t frames_dropped = 0;  ///< frame sets the server skipped for this viewer
+  double mean_depth_bytes = 0, mean_color_bytes = 0;
+  double depth_compression_ratio = 0;  ///< raw depth (width*height*2) / mean encoded depth
+  double received_fps = 0;
+  double mbit_per_s = 0;                          ///< depth + color at the received rate
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> ready (stage_stats.hpp)
+};
+
+/// Figures while the session runs, for a viewer's panel: refreshed about twice a second by the
+/// receiving thread. Per camera, frames_received and frames_dropped count from the start; fps,
+/// Mbit/s and latency cover the last refresh interval. Stages cover the session so far.
+struct LiveStats {
+  std::vector<CameraStats> cameras;
+  std::vector<StageLatency> stages;  ///< kStageNames order; empty until a frame set arrived
+  std::string depth_codec, color_codec;
+  uint64_t frame_sets_received = 0;
+};
+
+/// The render thread's side of a running session (see Presenter). Thread-safe.
+class FrameFeed {
+ public:
+  struct State;  // frame_feed_state.hpp
+  explicit FrameFeed(State& state) : state_(state) {}
+
+  /// The cameras of the session, as the server described them (index = camera).
+  const std::vector<CameraCalibration>& cameras() const;
+  /// Waits up to `wait` for frames newer than the last ones taken. On new frames: true, with
+  /// `frames` (one per camera, null until a camera's first frame arrives; shared and immutable --
+  /// the same pointer is the same images) replaced. False on timeout or once finished().
+  bool next(std::vector<std::shared_ptr<const CameraFrame>>& frames,
+            std::chrono::microseconds wait);
+  /// True once the session is over (a limit, the server, an error, close()) and every frame was
+  /// taken; the presenter should return.
+  bool finished() const;
+  /// Ends the session (ViewerEnd::kClosed unless it already ended otherwise); returns at once.
+  void close();
+  /// A copy of the newest live figures.
+  LiveStats live() const;
+
+ private:
+  State& state_;
+};
+
+/// The viewpoint a viewer starts from: orbit_view around the first camera, over the points of
+/// `frames` (null entries skipped; built on the CPU, once). Camera i of `frames` is `cameras[i]`.
+ViewCamera default_view(std::span<const CameraCalibration> cameras,
+                        std::span<const std::shared_ptr<const CameraFrame>> frames);
+
+}  // namespace volcast

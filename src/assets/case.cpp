@@ -139,6 +139,152 @@ void load_dicom(Case& c, const fs::path& series, const std::optional<fs::path>& 
   if (seg) read_dicom_seg(*seg, *c.dicom, segment);
 }
 
+// case.json, read (at most kMaxCaseJsonBytes) and parsed: a JSON object.
+json read_spec(const fs::path& spec_file) {
+  std::error_code ec;
+  if (const uintmax_t bytes = fs::file_size(spec_file, ec); !ec && bytes > kMaxCaseJsonBytes)
+    throw Error("case.json is " + std::to_string(bytes) + " bytes; at most " +
+                std::to_string(kMaxCaseJsonBytes) + " are read");
+  std::ifstream in(spec_file);
+  json spec;
+  try {
+    spec = json::parse(in);
+  } catch (const json::exception& e) {
+    throw Error(std::string("case.json does not parse: ") + e.what());
+  }
+  if (!spec.is_object()) throw Error("case.json is not a JSON object");
+  return spec;
+}
+
+// case.json's "name", "orientation" (lps or room) and "max_triangles".
+void apply_spec_settings(Case& c, const json& spec, SurfaceOptions& surface) {
+  c.name = spec.value("name", c.name);
+  const std::string orientation = spec.value("orientation", std::string("lps"));
+  if (orientation == "room")
+    c.room_from_case.setIdentity();
+  else if (orientation != "lps")
+    throw Error("case.json: orientation '" + orientation + "' is neither lps nor room");
+  surface.max_triangles = spec.value("max_triangles", surface.max_triangles);
+  if (surface.max_triangles < 1 || surface.max_triangles > kMaxPartTriangles)
+    throw Error("case.json: max_triangles " + std::to_string(surface.max_triangles) +
+                " is not in 1.." + std::to_string(kMaxPartTriangles));
+}
+
+// case.json's "parts": each a mesh file, or the surface of a label volume's selected labels (one
+// part, or one per connected component); a label volume read once for all its parts.
+void load_spec_parts(Case& c, const fs::path& folder, const json& spec,
+                     const SurfaceOptions& surface, const CaseLoadOptions& options) {
+  const json parts = spec.value("parts", json::array());
+  if (!parts.is_array()) throw Error("case.json: \"parts\" is not an array");
+  if (parts.size() > kMaxCaseParts)
+    throw Error("case.json declares " + std::to_string(parts.size()) +
+                " parts; a case holds at most " + std::to_string(kMaxCaseParts));
+  std::map<fs::path, LabelVolume> volumes;
+  for (const json& part : parts) {
+    const std::string name = part.at("name").get<std::string>();
+    const std::string group = part.value("group", name);
+    const Eigen::Vector4f rgba = rgba_from(part, name);
+    if (part.contains("mesh")) {
+      const fs::path file =
+          inside(folder, part.at("mesh").get<std::string>(), "part '" + name + "':");
+      if (options.progress) options.progress(file.filename().string());
+      if (c.parts.size() >= kMaxCaseParts)
+        throw Error("case.json: more than " + std::to_string(kMaxCaseParts) + " parts");
+      CasePart p;
+      p.name = name, p.group = group, p.source = file;
+      p.mesh = read_mesh_file(file);
+      c.parts.push_back(finish(std::move(p), rgba));
+    } else if (part.contains("labels")) {
+      const fs::path file =
+          inside(folder, part.at("labels").get<std::string>(), "part '" + name + "':");
+      if (!volumes.count(file)) volumes.emplace(file, read_label_volume(file));
+      LabelPartSpec s{name,
+                      {part.value("mask", -1), part.value("value", 1)},
+                      part.value("components", false),
+                      part.value("min_voxels", size_t{10})};
+      add_label_parts(c, file, volumes.at(file), s, group, rgba, surface, options);
+    } else {
+      throw Error("case.json: part '" + name + "' has neither \"mesh\" nor \"labels\"");
+    }
+  }
+}
+
+// A folder with case.json: its settings, its parts, and its "dicom" series (and SEG) if named.
+void load_from_spec(Case& c, const fs::path& folder, const fs::path& spec_file,
+                    SurfaceOptions& surface, const CaseLoadOptions& options) {
+  const json spec = read_spec(spec_file);
+  apply_spec_settings(c, spec, surface);
+  load_spec_parts(c, folder, spec, surface, options);
+  if (spec.contains("dicom")) {
+    const json& d = spec.at("dicom");
+    const fs::path series = inside(folder, d.at("series").get<std::string>(), "DICOM series");
+    std::optional<fs::path> seg;
+    if (d.contains("seg")) seg = inside(folder, d.at("seg").get<std::string>(), "DICOM SEG");
+    load_dicom(c, series, seg, d.value("segment", std::string()), options);
+  }
+}
+
+// A folder without case.json: every mesh file as a part (grouped by default_group), every .vti
+// as 3D-IRCADb label volume (its structures), in file name order.
+void load_folder_parts(Case& c, const fs::path& folder, const SurfaceOptions& surface,
+                       const CaseLoadOptions& options) {
+  std::error_code ec;
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(folder, ec))
+    if (e.is_regular_file()) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  const auto meshes = std::count_if(files.begin(), files.end(), [](const fs::path& f) {
+    return kMeshExtensions.count(lower(f.extension().string())) > 0;
+  });
+  if (static_cast<size_t>(meshes) > kMaxCaseParts)
+    throw Error("the folder holds " + std::to_string(meshes) +
+                " mesh files; a case holds at most " + std::to_string(kMaxCaseParts) +
+                " parts (list the ones to load in a case.json)");
+  for (const fs::path& f : files) {
+    const std::string ext = lower(f.extension().string());
+    if (kMeshExtensions.count(ext)) {
+      if (options.progress) options.progress(f.filename().string());
+      CasePart p;
+      p.name = f.stem().string(), p.source = f;
+      std::replace(p.name.begin(), p.name.end(), '_', ' ');
+      p.group = default_group(p.name);
+      p.mesh = read_mesh_file(f);
+      // The colour before the move: argument order is unspecified (Clang moves p first).
+      const Eigen::Vector4f rgba = default_part_rgba(p.name);
+      c.parts.push_back(finish(std::move(p), rgba));
+    } else if (ext == ".vti") {
+      const LabelVolume volume = read_label_volume(f);
+      for (const LabelPartSpec& s : ircad_structures())
+        add_label_parts(c, f, volume, s, default_group(s.name), std::nullopt, surface, options);
+    }
+  }
+}
+
+// The folder holding a DICOM series: the case folder itself, else its first subfolder (by name)
+// with DICOM files; none if neither.
+std::optional<fs::path> find_dicom_series(const fs::path& folder) {
+  if (has_dicom(folder)) return folder;
+  std::error_code ec;
+  std::vector<fs::path> subs;
+  for (const auto& e : fs::directory_iterator(folder, ec))
+    if (e.is_directory()) subs.push_back(e.path());
+  std::sort(subs.begin(), subs.end());
+  for (const fs::path& s : subs)
+    if (has_dicom(s)) return s;
+  return std::nullopt;
+}
+
+// A folder without case.json: its mesh files and label volumes, and a DICOM series found in it
+// (with the first SEG file beside it).
+void load_from_files(Case& c, const fs::path& folder, const SurfaceOptions& surface,
+                     const CaseLoadOptions& options) {
+  load_folder_parts(c, folder, surface, options);
+  if (const std::optional<fs::path> series = find_dicom_series(folder)) {
+    const std::vector<fs::path> segs = seg_files(*series);
+    load_dicom(c, *series, segs.empty() ? std::nullopt : std::optional(segs.front()), "", options);
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> Case::groups() const {
@@ -180,118 +326,10 @@ Case load_case(const fs::path& folder, const CaseLoadOptions& options) {
   surface.max_triangles = options.max_triangles;
   const fs::path spec_file = folder / "case.json";
   try {
-    if (fs::exists(spec_file, ec)) {
-      if (const uintmax_t bytes = fs::file_size(spec_file, ec); !ec && bytes > kMaxCaseJsonBytes)
-        throw Error("case.json is " + std::to_string(bytes) + " bytes; at most " +
-                    std::to_string(kMaxCaseJsonBytes) + " are read");
-      std::ifstream in(spec_file);
-      json spec;
-      try {
-        spec = json::parse(in);
-      } catch (const json::exception& e) {
-        throw Error(std::string("case.json does not parse: ") + e.what());
-      }
-      if (!spec.is_object()) throw Error("case.json is not a JSON object");
-      c.name = spec.value("name", c.name);
-      const std::string orientation = spec.value("orientation", std::string("lps"));
-      if (orientation == "room")
-        c.room_from_case.setIdentity();
-      else if (orientation != "lps")
-        throw Error("case.json: orientation '" + orientation + "' is neither lps nor room");
-      surface.max_triangles = spec.value("max_triangles", surface.max_triangles);
-      if (surface.max_triangles < 1 || surface.max_triangles > kMaxPartTriangles)
-        throw Error("case.json: max_triangles " + std::to_string(surface.max_triangles) +
-                    " is not in 1.." + std::to_string(kMaxPartTriangles));
-      const json parts = spec.value("parts", json::array());
-      if (!parts.is_array()) throw Error("case.json: \"parts\" is not an array");
-      if (parts.size() > kMaxCaseParts)
-        throw Error("case.json declares " + std::to_string(parts.size()) +
-                    " parts; a case holds at most " + std::to_string(kMaxCaseParts));
-      std::map<fs::path, LabelVolume> volumes;
-      for (const json& part : parts) {
-        const std::string name = part.at("name").get<std::string>();
-        const std::string group = part.value("group", name);
-        const Eigen::Vector4f rgba = rgba_from(part, name);
-        if (part.contains("mesh")) {
-          const fs::path file =
-              inside(folder, part.at("mesh").get<std::string>(), "part '" + name + "':");
-          if (options.progress) options.progress(file.filename().string());
-          if (c.parts.size() >= kMaxCaseParts)
-            throw Error("case.json: more than " + std::to_string(kMaxCaseParts) + " parts");
-          CasePart p;
-          p.name = name, p.group = group, p.source = file;
-          p.mesh = read_mesh_file(file);
-          c.parts.push_back(finish(std::move(p), rgba));
-        } else if (part.contains("labels")) {
-          const fs::path file =
-              inside(folder, part.at("labels").get<std::string>(), "part '" + name + "':");
-          if (!volumes.count(file)) volumes.emplace(file, read_label_volume(file));
-          LabelPartSpec s{name,
-                          {part.value("mask", -1), part.value("value", 1)},
-                          part.value("components", false),
-                          part.value("min_voxels", size_t{10})};
-          add_label_parts(c, file, volumes.at(file), s, group, rgba, surface, options);
-        } else {
-          throw Error("case.json: part '" + name + "' has neither \"mesh\" nor \"labels\"");
-        }
-      }
-      if (spec.contains("dicom")) {
-        const json& d = spec.at("dicom");
-        const fs::path series = inside(folder, d.at("series").get<std::string>(), "DICOM series");
-        std::optional<fs::path> seg;
-        if (d.contains("seg")) seg = inside(folder, d.at("seg").get<std::string>(), "DICOM SEG");
-        load_dicom(c, series, seg, d.value("segment", std::string()), options);
-      }
-    } else {
-      std::vector<fs::path> files;
-      for (const auto& e : fs::directory_iterator(folder, ec))
-        if (e.is_regular_file()) files.push_back(e.path());
-      std::sort(files.begin(), files.end());
-      const auto meshes = std::count_if(files.begin(), files.end(), [](const fs::path& f) {
-        return kMeshExtensions.count(lower(f.extension().string())) > 0;
-      });
-      if (static_cast<size_t>(meshes) > kMaxCaseParts)
-        throw Error("the folder holds " + std::to_string(meshes) +
-                    " mesh files; a case holds at most " + std::to_string(kMaxCaseParts) +
-                    " parts (list the ones to load in a case.json)");
-      for (const fs::path& f : files) {
-        const std::string ext = lower(f.extension().string());
-        if (kMeshExtensions.count(ext)) {
-          if (options.progress) options.progress(f.filename().string());
-          CasePart p;
-          p.name = f.stem().string(), p.source = f;
-          std::replace(p.name.begin(), p.name.end(), '_', ' ');
-          p.group = default_group(p.name);
-          p.mesh = read_mesh_file(f);
-          // The colour before the move: argument order is unspecified (Clang moves p first).
-          const Eigen::Vector4f rgba = default_part_rgba(p.name);
-          c.parts.push_back(finish(std::move(p), rgba));
-        } else if (ext == ".vti") {
-          const LabelVolume volume = read_label_volume(f);
-          for (const LabelPartSpec& s : ircad_structures())
-            add_label_parts(c, f, volume, s, default_group(s.name), std::nullopt, surface, options);
-        }
-      }
-      std::optional<fs::path> series;
-      if (has_dicom(folder))
-        series = folder;
-      else {
-        std::vector<fs::path> subs;
-        for (const auto& e : fs::directory_iterator(folder, ec))
-          if (e.is_directory()) subs.push_back(e.path());
-        std::sort(subs.begin(), subs.end());
-        for (const fs::path& s : subs)
-          if (has_dicom(s)) {
-            series = s;
-            break;
-          }
-      }
-      if (series) {
-        const std::vector<fs::path> segs = seg_files(*series);
-        load_dicom(c, *series, segs.empty() ? std::nullopt : std::optional(segs.front()), "",
-                   options);
-      }
-    }
+    if (fs::exists(spec_file, ec))
+      load_from_spec(c, folder, spec_file, surface, options);
+    else
+      load_from_files(c, folder, surface, options);
   } catch (const json::exception& e) {
     throw Error("case " + folder.string() + ": case.json: " + e.what());
   } catch (const Error& e) {

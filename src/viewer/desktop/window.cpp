@@ -272,6 +272,123 @@ void take_screenshot(ViewerControls& c, const DesktopOptions& o, const RenderTar
   }
 }
 
+using Frames = std::vector<std::shared_ptr<const CameraFrame>>;
+
+// Routes the window's input to `input` (reached through the window's user pointer) and to Dear
+// ImGui.
+void install_callbacks(GLFWwindow* window, Input& input) {
+  glfwSetWindowUserPointer(window, &input);
+  glfwSetKeyCallback(window, on_key);
+  glfwSetMouseButtonCallback(window, on_mouse_button);
+  glfwSetCursorPosCallback(window, on_cursor);
+  glfwSetScrollCallback(window, on_scroll);
+  glfwSetCharCallback(window, on_char);
+  glfwSetWindowFocusCallback(window, ImGui_ImplGlfw_WindowFocusCallback);
+  glfwSetCursorEnterCallback(window, ImGui_ImplGlfw_CursorEnterCallback);
+}
+
+// Uploads the cameras whose frame changed.
+void upload_changed(CameraRenderer& renderer, const Frames& frames, Frames& uploaded) {
+  for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+    if (frames[i] && frames[i] != uploaded[i]) {  // the same pointer is the same images
+      renderer.upload(i, *frames[i]);
+      uploaded[i] = frames[i];
+    }
+}
+
+// Where the window looks from: the camera the user moves and the view R returns to, set once the
+// session starts; from then on frames are counted.
+struct Viewpoint {
+  ViewCamera camera, start;
+  bool started = false;     // a frame of the stream arrived (or the participant joined)
+  session::Spot last_spot;  // with a participant: its spot when last seen (its teleports)
+};
+
+// Starts the view once there is something to see: with a participant once it joined (at its
+// eye), else at the stream's first frame (default_view()); DesktopOptions::view if given.
+void start_when_ready(Viewpoint& v, const DesktopOptions& o, Participant* participant,
+                      const SessionSnapshot& snapshot,
+                      const std::vector<CameraCalibration>& cameras, const Frames& uploaded) {
+  if (!v.started && participant && snapshot.joined) {
+    v.started = true;
+    v.last_spot = snapshot.spot;
+    v.start = o.view ? *o.view : camera_at_eye(snapshot);
+    v.camera = v.start;
+  }
+  if (!v.started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
+    v.started = true;
+    v.start = o.view ? *o.view : default_view(cameras, uploaded);
+    v.camera = v.start;
+  }
+}
+
+// A test's scripted keys (sorted by frame, stable) and clicks, and how many were played.
+struct Script {
+  std::vector<ScriptedKey> keys;
+  size_t next_key = 0, next_click = 0;
+};
+
+Script script_of(const DesktopOptions& o) {
+  Script script{o.script};
+  std::stable_sort(script.keys.begin(), script.keys.end(),
+                   [](const ScriptedKey& a, const ScriptedKey& b) { return a.frame < b.frame; });
+  return script;
+}
+
+// Plays the scripted keys and clicks due by the frame about to be drawn (`drawn` + 1) as real
+// ones.
+void play_script(Script& script, const std::vector<ScriptedClick>& clicks, Input& input,
+                 uint64_t drawn) {
+  for (; script.next_key < script.keys.size() && script.keys[script.next_key].frame <= drawn + 1;
+       ++script.next_key)
+    handle_key(input, script.keys[script.next_key].key, GLFW_PRESS,
+               script.keys[script.next_key].mods);
+  for (; script.next_click < clicks.size() && clicks[script.next_click].frame <= drawn + 1;
+       ++script.next_click)
+    if (input.session && input.session->teleport_mode) {  // as on_mouse_button does
+      input.mouse_x = clicks[script.next_click].x;
+      input.mouse_y = clicks[script.next_click].y;
+      input.click_pending = true;
+    }
+}
+
+// With a participant, before its scene is drawn: acts on a teleport click, then publishes the
+// window's eye as its head and follows its teleports.
+void steer_participant(GLFWwindow* window, Participant& participant,
+                       const SessionSnapshot& snapshot, Input& input, Viewpoint& v) {
+  if (input.click_pending) {
+    input.click_pending = false;
+    input.session->teleport_mode = false;
+    int window_w = 0, window_h = 0;
+    glfwGetWindowSize(window, &window_w, &window_h);
+    if (window_w > 0 && window_h > 0)
+      teleport_at(participant, v.camera, input.mouse_x, input.mouse_y, window_w, window_h);
+  }
+  sync_participant(participant, snapshot, v.camera, v.last_spot);
+}
+
+// The panel over the scene, unless hidden (H); with a participant also the session and case
+// sections.
+void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* participant,
+              SessionPanelState& session_panel, CasePanelState& case_panel,
+              const SessionSnapshot& snapshot, int width, int height) {
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  ImGui::NewFrame();
+  if (controls.show_panel) {
+    draw_panel(controls, info);
+    if (participant) {
+      ImGui::Begin("volcast (H hides)");
+      draw_session_panel(session_panel, *participant, snapshot);
+      draw_case_panel(case_panel, *participant, snapshot);
+      ImGui::End();
+    }
+  }
+  ImGui::Render();
+  glViewport(0, 0, width, height);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+}
+
 void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   Glfw glfw;
   Window window(o);
@@ -281,33 +398,21 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   if (participant) scene = std::make_unique<SessionScene>();
   SessionPanelState session_panel;
   CasePanelState case_panel;
-  session::Spot last_spot;
+  Viewpoint viewpoint;
   result.renderer = renderer.gl_description();
   Gui gui(window.window);
   const std::vector<CameraCalibration>& cameras = feed.cameras();
   renderer.set_cameras(cameras);
   renderer.set_avatar_filter(o.avatar_filter);
   ViewerControls controls = initial_controls(o.pass, o.avatar_filter, cameras.size());
-  ViewCamera camera, start;
-  Input input{controls, camera};
+  Input input{controls, viewpoint.camera};
   if (participant) input.session = &session_panel;
-  glfwSetWindowUserPointer(window.window, &input);
-  glfwSetKeyCallback(window.window, on_key);
-  glfwSetMouseButtonCallback(window.window, on_mouse_button);
-  glfwSetCursorPosCallback(window.window, on_cursor);
-  glfwSetScrollCallback(window.window, on_scroll);
-  glfwSetCharCallback(window.window, on_char);
-  glfwSetWindowFocusCallback(window.window, ImGui_ImplGlfw_WindowFocusCallback);
-  glfwSetCursorEnterCallback(window.window, ImGui_ImplGlfw_CursorEnterCallback);
+  install_callbacks(window.window, input);
   spdlog::info("desktop window {}x{}: {}", o.width, o.height, result.renderer);
 
-  std::vector<ScriptedKey> script = o.script;
-  std::stable_sort(script.begin(), script.end(),
-                   [](const ScriptedKey& a, const ScriptedKey& b) { return a.frame < b.frame; });
-  size_t next_key = 0, next_click = 0;
-  std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
-  bool started = false;  // a frame of the stream arrived: the view is set, frames are counted
-  uint64_t drawn = 0;    // frames drawn since then
+  Script script = script_of(o);
+  Frames frames, uploaded(cameras.size());
+  uint64_t drawn = 0;  // frames drawn since the view started
   LiveStats live = feed.live();
   auto last_live = std::chrono::steady_clock::now(), last_loop = last_live;
   while (!feed.finished()) {
@@ -315,88 +420,45 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     if (glfwWindowShouldClose(window.window)) break;
     const bool arrived = feed.next(frames, std::chrono::milliseconds(5));
     const auto now = std::chrono::steady_clock::now();
-    const bool flew =
-        fly_keys(window.window, camera, std::chrono::duration<float>(now - last_loop).count());
+    const bool flew = fly_keys(window.window, viewpoint.camera,
+                               std::chrono::duration<float>(now - last_loop).count());
     last_loop = now;
-    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
-      if (frames[i] && frames[i] != uploaded[i]) {  // the same pointer is the same images
-        renderer.upload(i, *frames[i]);
-        uploaded[i] = frames[i];
-      }
+    upload_changed(renderer, frames, uploaded);
     SessionSnapshot snapshot;
     if (participant) snapshot = participant->snapshot(wall_clock_us());
-    if (!started && participant && snapshot.joined) {
-      started = true;
-      last_spot = snapshot.spot;
-      start = o.view ? *o.view : camera_at_eye(snapshot);
-      camera = start;
-    }
-    if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
-      started = true;
-      start = o.view ? *o.view : default_view(cameras, uploaded);
-      camera = start;
-    }
+    start_when_ready(viewpoint, o, participant, snapshot, cameras, uploaded);
     // In a session the others move on their own: draw every frame (vsync paces it).
     if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
-    if (started) {
-      for (; next_key < script.size() && script[next_key].frame <= drawn + 1; ++next_key)
-        handle_key(input, script[next_key].key, GLFW_PRESS, script[next_key].mods);
-      for (; next_click < o.clicks.size() && o.clicks[next_click].frame <= drawn + 1; ++next_click)
-        if (input.session && input.session->teleport_mode) {  // as on_mouse_button does
-          input.mouse_x = o.clicks[next_click].x;
-          input.mouse_y = o.clicks[next_click].y;
-          input.click_pending = true;
-        }
-    }
-    apply_requests(controls, renderer, cameras, o, camera, start);
+    if (viewpoint.started) play_script(script, o.clicks, input, drawn);
+    apply_requests(controls, renderer, cameras, o, viewpoint.camera, viewpoint.start);
     int width = 0, height = 0;
     glfwGetFramebufferSize(window.window, &width, &height);
     if (width <= 0 || height <= 0) continue;  // minimised
     const RenderTarget target{0, 0, 0, width, height};
     if (participant) {
-      if (input.click_pending) {
-        input.click_pending = false;
-        session_panel.teleport_mode = false;
-        int window_w = 0, window_h = 0;
-        glfwGetWindowSize(window.window, &window_w, &window_h);
-        if (window_w > 0 && window_h > 0)
-          teleport_at(*participant, camera, input.mouse_x, input.mouse_y, window_w, window_h);
-      }
-      sync_participant(*participant, snapshot, camera, last_spot);
+      steer_participant(window.window, *participant, snapshot, input, viewpoint);
       SessionSceneOptions so = o.scene;
       so.pass = controls.pass;
-      scene->draw(to_view(camera, target.aspect()), target, cameras, uploaded, *participant,
-                  wall_clock_us(), so);
+      scene->draw(to_view(viewpoint.camera, target.aspect()), target, cameras, uploaded,
+                  *participant, wall_clock_us(), so);
     } else {
-      renderer.draw_cameras(to_view(camera, target.aspect()), target, controls.pass);
+      renderer.draw_cameras(to_view(viewpoint.camera, target.aspect()), target, controls.pass);
     }
     if (controls.screenshot) take_screenshot(controls, o, target);
     if (now - last_live > std::chrono::milliseconds(250)) {
       live = feed.live();
       last_live = now;
     }
-    ImGui_ImplOpenGL3_NewFrame();
-    ImGui_ImplGlfw_NewFrame();
-    ImGui::NewFrame();
-    if (controls.show_panel) {
-      draw_panel(controls,
-                 PanelInfo{live, result.renderer, camera.target, camera.eye, o.site_config});
-      if (participant) {
-        ImGui::Begin("volcast (H hides)");
-        draw_session_panel(session_panel, *participant, snapshot);
-        draw_case_panel(case_panel, *participant, snapshot);
-        ImGui::End();
-      }
-    }
-    ImGui::Render();
-    glViewport(0, 0, width, height);
-    ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    draw_gui(controls,
+             PanelInfo{live, result.renderer, viewpoint.camera.target, viewpoint.camera.eye,
+                       o.site_config},
+             participant, session_panel, case_panel, snapshot, width, height);
     glfwSwapBuffers(window.window);
     if (controls.poses_changed || controls.filter_changed || controls.save || controls.screenshot ||
         controls.reset_view)
       input.redraw = std::max(input.redraw, 1);  // act on the panel's requests next loop
-    if (!started) continue;
+    if (!viewpoint.started) continue;
     ++drawn;
     ++result.frames_rendered;
     if (o.max_frames > 0 && drawn >= o.max_frames) break;

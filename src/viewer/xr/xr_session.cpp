@@ -219,6 +219,231 @@ bool poll_events(XrInstance instance, XrSession session, bool& running) {
   }
 }
 
+// The OpenXR objects of the presenter, made in this order (open_instance, open_session,
+// make_eyes) and destroyed in reverse: the instance and its head-mounted system, the session bound
+// to the hidden window's GLX context, its reference space (STAGE where offered, else LOCAL) and
+// one Eye per view of the stereo configuration.
+struct XrRig {
+  Instance instance;
+  XrSystemId system = XR_NULL_SYSTEM_ID;
+  Session session;
+  Space space;
+  float eye_height = 0;  // STAGE: XrOptions::eye_height_m (its floor is at 0); LOCAL: 0
+  uint32_t view_count = 0;
+  std::vector<Eye> eyes;
+};
+
+constexpr auto kStereo = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
+
+// The instance with XR_KHR_opengl_enable and its head-mounted display; checks the runtime's
+// OpenGL requirements (which OpenXR requires asking for before xrCreateSession).
+void open_instance(XrRig& rig) {
+  xr_check(create_gl_instance(&rig.instance.handle), "xrCreateInstance");
+  auto system_info = xr_struct<XrSystemGetInfo>(XR_TYPE_SYSTEM_GET_INFO);
+  system_info.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
+  xr_check(xrGetSystem(rig.instance.handle, &system_info, &rig.system), "xrGetSystem");
+  PFN_xrGetOpenGLGraphicsRequirementsKHR requirements_of = nullptr;
+  xr_check(xrGetInstanceProcAddr(rig.instance.handle, "xrGetOpenGLGraphicsRequirementsKHR",
+                                 reinterpret_cast<PFN_xrVoidFunction*>(&requirements_of)),
+           "xrGetInstanceProcAddr(xrGetOpenGLGraphicsRequirementsKHR)");
+  auto requirements =
+      xr_struct<XrGraphicsRequirementsOpenGLKHR>(XR_TYPE_GRAPHICS_REQUIREMENTS_OPENGL_KHR);
+  xr_check(requirements_of(rig.instance.handle, rig.system, &requirements),
+           "xrGetOpenGLGraphicsRequirementsKHR");  // required before xrCreateSession
+  if (requirements.minApiVersionSupported > XR_MAKE_VERSION(4, 5, 0))
+    throw Error("OpenXR: the runtime needs a newer OpenGL than 4.5");
+}
+
+// The session on `window`'s GLX context and its reference space.
+void open_session(XrRig& rig, GLFWwindow* window, const XrOptions& o) {
+  const XrGraphicsBindingOpenGLXlibKHR binding = glx_binding(window);
+  auto session_info = xr_struct<XrSessionCreateInfo>(XR_TYPE_SESSION_CREATE_INFO);
+  session_info.next = &binding;
+  session_info.systemId = rig.system;
+  xr_check(xrCreateSession(rig.instance.handle, &session_info, &rig.session.handle),
+           "xrCreateSession");
+  auto space_info = xr_struct<XrReferenceSpaceCreateInfo>(XR_TYPE_REFERENCE_SPACE_CREATE_INFO);
+  space_info.referenceSpaceType = pick_space(rig.session.handle);
+  space_info.poseInReferenceSpace.orientation.w = 1;
+  xr_check(xrCreateReferenceSpace(rig.session.handle, &space_info, &rig.space.handle),
+           "xrCreateReferenceSpace");
+  rig.eye_height =
+      space_info.referenceSpaceType == XR_REFERENCE_SPACE_TYPE_STAGE ? o.eye_height_m : 0;
+}
+
+// One eye per view of the stereo configuration, at the runtime's recommended size.
+void make_eyes(XrRig& rig) {
+  xr_check(xrEnumerateViewConfigurationViews(rig.instance.handle, rig.system, kStereo, 0,
+                                             &rig.view_count, nullptr),
+           "xrEnumerateViewConfigurationViews");
+  std::vector<XrViewConfigurationView> configs(
+      rig.view_count, xr_struct<XrViewConfigurationView>(XR_TYPE_VIEW_CONFIGURATION_VIEW));
+  xr_check(xrEnumerateViewConfigurationViews(rig.instance.handle, rig.system, kStereo,
+                                             rig.view_count, &rig.view_count, configs.data()),
+           "xrEnumerateViewConfigurationViews");
+  const int64_t format = pick_format(rig.session.handle);
+  rig.eyes = std::vector<Eye>(rig.view_count);
+  for (uint32_t i = 0; i < rig.view_count; ++i)
+    make_eye(rig.session.handle, configs[i], format, rig.eyes[i]);
+}
+
+// The frame loop's state (render thread): what it draws with and what it keeps between frames.
+struct FrameLoop {
+  const XrOptions& o;
+  XrRig& rig;
+  CameraRenderer& renderer;
+  SessionScene* scene;       // with a participant
+  Participant* participant;  // null: a plain viewer
+  XrControllers& controllers;
+  const std::vector<CameraCalibration>& cameras;
+  HandGrab hand_grab;
+  std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded;
+  std::vector<XrView> views;
+  std::vector<XrCompositionLayerProjectionView> projected;
+  RigidTransform world_from_stage_now;
+  bool running = false;  // between READY and STOPPING (poll_events)
+  bool started = false;  // the stream's first frame arrived: the view is set, frames are counted
+
+  FrameLoop(const XrOptions& options, XrRig& xr_rig, CameraRenderer& camera_renderer,
+            SessionScene* session_scene, Participant* joined, XrControllers& xr_controllers,
+            const std::vector<CameraCalibration>& site_cameras)
+      : o(options),
+        rig(xr_rig),
+        renderer(camera_renderer),
+        scene(session_scene),
+        participant(joined),
+        controllers(xr_controllers),
+        cameras(site_cameras),
+        uploaded(cameras.size()),
+        views(rig.view_count, xr_struct<XrView>(XR_TYPE_VIEW)),
+        projected(rig.view_count),
+        world_from_stage_now(world_from_stage(ViewCamera{}, rig.eye_height)) {}
+
+  // Takes new frames from the feed (waiting only while not running), uploads the cameras whose
+  // frame changed and, at the first, places the stage (XrOptions::view or default_view()).
+  void take_frames(FrameFeed& feed) {
+    // Not running: wait for the runtime (and the stream) without spinning.
+    const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
+    feed.next(frames, wait);
+    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+      if (frames[i] && frames[i] != uploaded[i]) {
+        renderer.upload(i, *frames[i]);
+        uploaded[i] = frames[i];
+      }
+    if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
+      started = true;
+      world_from_stage_now =
+          world_from_stage(o.view ? *o.view : default_view(cameras, uploaded), rig.eye_height);
+    }
+  }
+
+  // With a participant: publishes its head (the eyes' midpoint, the first eye's orientation) and
+  // hands (the controllers' grips), lets a squeezing hand grab a case object or move the one it
+  // holds, and follows its play area in the room (its teleports) with the stage.
+  void track_participant(const XrFrameState& frame, int64_t now) {
+    const uint32_t view_count = rig.view_count;
+    // The stage is the play area; a LOCAL space starts at the head, so it is lifted.
+    const float lift = rig.eye_height > 0 ? 0 : o.eye_height_m;
+    BodyPose body;
+    for (uint32_t i = 0; i < view_count; ++i) {
+      const XrVector3f& p = views[i].pose.position;
+      body.head.position += Eigen::Vector3f(p.x, p.y + lift, p.z) / float(view_count);
+    }
+    const XrQuaternionf& q = views[0].pose.orientation;
+    body.head.orientation = Eigen::Quaternionf(q.w, q.x, q.y, q.z).normalized();
+    // The controllers: published as the hands; a squeeze near an organ grabs it.
+    const auto hands = controllers.sync(rig.space.handle, frame.predictedDisplayTime);
+    Pose* grips[2] = {&body.left_hand, &body.right_hand};
+    for (int h = 0; h < 2; ++h)
+      if (hands[h].tracked) {
+        *grips[h] = hands[h].pose;
+        grips[h]->position.y() += lift;
+      }
+    body.hands_tracked = hands[0].tracked && hands[1].tracked;
+    participant->publish(body);
+    const SessionSnapshot snapshot = participant->snapshot(now);
+    RigidTransform stage_lift;
+    stage_lift.translation.y() = lift;
+    const RigidTransform room_from_playarea = session::room_from_playarea(snapshot.spot);
+    world_from_stage_now = room_from_playarea * stage_lift;
+    std::array<HandInput, 2> grab_input;
+    const Eigen::Quaternionf turn(room_from_playarea.rotation.cast<float>());
+    for (int h = 0; h < 2; ++h) {
+      grab_input[h].tracked = hands[h].tracked;
+      grab_input[h].squeeze = hands[h].squeeze;
+      grab_input[h].room_from_hand.position =
+          (room_from_playarea * grips[h]->position.cast<double>()).cast<float>();
+      grab_input[h].room_from_hand.orientation = (turn * grips[h]->orientation).normalized();
+    }
+    hand_grab.update(*participant, snapshot, grab_input);
+  }
+
+  // Draws each located eye (the SessionScene with a participant, else the cameras) and fills
+  // `layer` with them.
+  void draw_eyes(XrCompositionLayerProjection& layer, int64_t now) {
+    for (uint32_t i = 0; i < rig.view_count; ++i) {
+      const View view =
+          xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m);
+      draw_eye(rig.eyes[i], [&](const RenderTarget& target) {
+        if (participant) {
+          SessionSceneOptions so = o.scene;
+          so.pass = o.pass;
+          scene->draw(view, target, cameras, uploaded, *participant, now, so);
+        } else {
+          renderer.draw_cameras(view, target, o.pass);
+        }
+      });
+      projected[i] =
+          xr_struct<XrCompositionLayerProjectionView>(XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
+      projected[i].pose = views[i].pose;
+      projected[i].fov = views[i].fov;
+      projected[i].subImage.swapchain = rig.eyes[i].swapchain.handle;
+      projected[i].subImage.imageRect.extent = {rig.eyes[i].width, rig.eyes[i].height};
+    }
+    layer.space = rig.space.handle;
+    layer.viewCount = rig.view_count;
+    layer.views = projected.data();
+  }
+
+  // One frame of a running session: waits for the runtime's frame and begins it; where it is to
+  // be rendered and the eyes are located, tracks the participant and draws the eyes; ends it
+  // with one projection layer, or none. True if the layer was submitted.
+  bool render_frame() {
+    XrSession session = rig.session.handle;
+    auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
+    xr_check_live(xrWaitFrame(session, nullptr, &frame), "xrWaitFrame");
+    xr_check_live(xrBeginFrame(session, nullptr), "xrBeginFrame");
+    auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
+    const XrCompositionLayerBaseHeader* layers[] = {
+        reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
+    uint32_t layer_count = 0;
+    if (frame.shouldRender) {
+      auto locate = xr_struct<XrViewLocateInfo>(XR_TYPE_VIEW_LOCATE_INFO);
+      locate.viewConfigurationType = kStereo;
+      locate.displayTime = frame.predictedDisplayTime;
+      locate.space = rig.space.handle;
+      auto state = xr_struct<XrViewState>(XR_TYPE_VIEW_STATE);
+      uint32_t located = 0;
+      xr_check_live(xrLocateViews(session, &locate, &state, rig.view_count, &located, views.data()),
+                    "xrLocateViews");
+      if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) &&
+          located == rig.view_count) {
+        const int64_t now = wall_clock_us();
+        if (participant && rig.view_count > 0) track_participant(frame, now);
+        draw_eyes(layer, now);
+        layer_count = 1;
+      }
+    }
+    auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
+    end.displayTime = frame.predictedDisplayTime;
+    end.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
+    end.layerCount = layer_count;
+    end.layers = layers;
+    xr_check_live(xrEndFrame(session, &end), "xrEndFrame");
+    return layer_count > 0;
+  }
+};
+
 void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   HiddenContext context;
   CameraRenderer renderer;
@@ -230,168 +455,23 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   renderer.set_cameras(cameras);
   renderer.set_avatar_filter(o.avatar_filter);
 
-  Instance instance;
-  xr_check(create_gl_instance(&instance.handle), "xrCreateInstance");
-  auto system_info = xr_struct<XrSystemGetInfo>(XR_TYPE_SYSTEM_GET_INFO);
-  system_info.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
-  XrSystemId system = XR_NULL_SYSTEM_ID;
-  xr_check(xrGetSystem(instance.handle, &system_info, &system), "xrGetSystem");
-  PFN_xrGetOpenGLGraphicsRequirementsKHR requirements_of = nullptr;
-  xr_check(xrGetInstanceProcAddr(instance.handle, "xrGetOpenGLGraphicsRequirementsKHR",
-                                 reinterpret_cast<PFN_xrVoidFunction*>(&requirements_of)),
-           "xrGetInstanceProcAddr(xrGetOpenGLGraphicsRequirementsKHR)");
-  auto requirements =
-      xr_struct<XrGraphicsRequirementsOpenGLKHR>(XR_TYPE_GRAPHICS_REQUIREMENTS_OPENGL_KHR);
-  xr_check(requirements_of(instance.handle, system, &requirements),
-           "xrGetOpenGLGraphicsRequirementsKHR");  // required before xrCreateSession
-  if (requirements.minApiVersionSupported > XR_MAKE_VERSION(4, 5, 0))
-    throw Error("OpenXR: the runtime needs a newer OpenGL than 4.5");
+  XrRig rig;
+  open_instance(rig);
+  open_session(rig, context.window, o);
+  make_eyes(rig);
+  spdlog::info("OpenXR: {} eyes of {}x{}, {} space, {}", rig.view_count,
+               rig.view_count ? rig.eyes[0].width : 0, rig.view_count ? rig.eyes[0].height : 0,
+               rig.eye_height > 0 ? "STAGE" : "LOCAL", result.renderer);
 
-  const XrGraphicsBindingOpenGLXlibKHR binding = glx_binding(context.window);
-  auto session_info = xr_struct<XrSessionCreateInfo>(XR_TYPE_SESSION_CREATE_INFO);
-  session_info.next = &binding;
-  session_info.systemId = system;
-  Session session;
-  xr_check(xrCreateSession(instance.handle, &session_info, &session.handle), "xrCreateSession");
-  auto space_info = xr_struct<XrReferenceSpaceCreateInfo>(XR_TYPE_REFERENCE_SPACE_CREATE_INFO);
-  space_info.referenceSpaceType = pick_space(session.handle);
-  space_info.poseInReferenceSpace.orientation.w = 1;
-  Space space;
-  xr_check(xrCreateReferenceSpace(session.handle, &space_info, &space.handle),
-           "xrCreateReferenceSpace");
-  const float eye_height =
-      space_info.referenceSpaceType == XR_REFERENCE_SPACE_TYPE_STAGE ? o.eye_height_m : 0;
-
-  uint32_t view_count = 0;
-  const auto stereo = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
-  xr_check(
-      xrEnumerateViewConfigurationViews(instance.handle, system, stereo, 0, &view_count, nullptr),
-      "xrEnumerateViewConfigurationViews");
-  std::vector<XrViewConfigurationView> configs(
-      view_count, xr_struct<XrViewConfigurationView>(XR_TYPE_VIEW_CONFIGURATION_VIEW));
-  xr_check(xrEnumerateViewConfigurationViews(instance.handle, system, stereo, view_count,
-                                             &view_count, configs.data()),
-           "xrEnumerateViewConfigurationViews");
-  const int64_t format = pick_format(session.handle);
-  std::vector<Eye> eyes(view_count);
-  for (uint32_t i = 0; i < view_count; ++i) make_eye(session.handle, configs[i], format, eyes[i]);
-  spdlog::info("OpenXR: {} eyes of {}x{}, {} space, {}", view_count, view_count ? eyes[0].width : 0,
-               view_count ? eyes[0].height : 0, eye_height > 0 ? "STAGE" : "LOCAL",
-               result.renderer);
-
-  XrControllers controllers(instance.handle, session.handle);
-  HandGrab hand_grab;
-  std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded(cameras.size());
-  std::vector<XrView> views(view_count, xr_struct<XrView>(XR_TYPE_VIEW));
-  std::vector<XrCompositionLayerProjectionView> projected(view_count);
-  RigidTransform world_from_stage_now = world_from_stage(ViewCamera{}, eye_height);
-  bool running = false, started = false;
+  XrControllers controllers(rig.instance.handle, rig.session.handle);
+  FrameLoop loop(o, rig, renderer, scene.get(), participant, controllers, cameras);
   try {
     while (!feed.finished()) {
       glfwPollEvents();
-      if (!poll_events(instance.handle, session.handle, running)) break;
-      // Not running: wait for the runtime (and the stream) without spinning.
-      const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
-      feed.next(frames, wait);
-      for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
-        if (frames[i] && frames[i] != uploaded[i]) {
-          renderer.upload(i, *frames[i]);
-          uploaded[i] = frames[i];
-        }
-      if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
-        started = true;
-        world_from_stage_now =
-            world_from_stage(o.view ? *o.view : default_view(cameras, uploaded), eye_height);
-      }
-      if (!running) continue;
-      auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
-      xr_check_live(xrWaitFrame(session.handle, nullptr, &frame), "xrWaitFrame");
-      xr_check_live(xrBeginFrame(session.handle, nullptr), "xrBeginFrame");
-      auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
-      const XrCompositionLayerBaseHeader* layers[] = {
-          reinterpret_cast<const XrCompositionLayerBaseHeader*>(&layer)};
-      uint32_t layer_count = 0;
-      if (frame.shouldRender) {
-        auto locate = xr_struct<XrViewLocateInfo>(XR_TYPE_VIEW_LOCATE_INFO);
-        locate.viewConfigurationType = stereo;
-        locate.displayTime = frame.predictedDisplayTime;
-        locate.space = space.handle;
-        auto state = xr_struct<XrViewState>(XR_TYPE_VIEW_STATE);
-        uint32_t located = 0;
-        xr_check_live(
-            xrLocateViews(session.handle, &locate, &state, view_count, &located, views.data()),
-            "xrLocateViews");
-        if ((state.viewStateFlags & XR_VIEW_STATE_ORIENTATION_VALID_BIT) && located == view_count) {
-          const int64_t now = wall_clock_us();
-          if (participant && view_count > 0) {
-            // The stage is the play area; a LOCAL space starts at the head, so it is lifted.
-            const float lift = eye_height > 0 ? 0 : o.eye_height_m;
-            BodyPose body;
-            for (uint32_t i = 0; i < view_count; ++i) {
-              const XrVector3f& p = views[i].pose.position;
-              body.head.position += Eigen::Vector3f(p.x, p.y + lift, p.z) / float(view_count);
-            }
-            const XrQuaternionf& q = views[0].pose.orientation;
-            body.head.orientation = Eigen::Quaternionf(q.w, q.x, q.y, q.z).normalized();
-            // The controllers: published as the hands; a squeeze near an organ grabs it.
-            const auto hands = controllers.sync(space.handle, frame.predictedDisplayTime);
-            Pose* grips[2] = {&body.left_hand, &body.right_hand};
-            for (int h = 0; h < 2; ++h)
-              if (hands[h].tracked) {
-                *grips[h] = hands[h].pose;
-                grips[h]->position.y() += lift;
-              }
-            body.hands_tracked = hands[0].tracked && hands[1].tracked;
-            participant->publish(body);
-            const SessionSnapshot snapshot = participant->snapshot(now);
-            RigidTransform stage_lift;
-            stage_lift.translation.y() = lift;
-            const RigidTransform room_from_playarea = session::room_from_playarea(snapshot.spot);
-            world_from_stage_now = room_from_playarea * stage_lift;
-            std::array<HandInput, 2> grab_input;
-            const Eigen::Quaternionf turn(room_from_playarea.rotation.cast<float>());
-            for (int h = 0; h < 2; ++h) {
-              grab_input[h].tracked = hands[h].tracked;
-              grab_input[h].squeeze = hands[h].squeeze;
-              grab_input[h].room_from_hand.position =
-                  (room_from_playarea * grips[h]->position.cast<double>()).cast<float>();
-              grab_input[h].room_from_hand.orientation =
-                  (turn * grips[h]->orientation).normalized();
-            }
-            hand_grab.update(*participant, snapshot, grab_input);
-          }
-          for (uint32_t i = 0; i < view_count; ++i) {
-            const View view =
-                xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m);
-            draw_eye(eyes[i], [&](const RenderTarget& target) {
-              if (participant) {
-                SessionSceneOptions so = o.scene;
-                so.pass = o.pass;
-                scene->draw(view, target, cameras, uploaded, *participant, now, so);
-              } else {
-                renderer.draw_cameras(view, target, o.pass);
-              }
-            });
-            projected[i] = xr_struct<XrCompositionLayerProjectionView>(
-                XR_TYPE_COMPOSITION_LAYER_PROJECTION_VIEW);
-            projected[i].pose = views[i].pose;
-            projected[i].fov = views[i].fov;
-            projected[i].subImage.swapchain = eyes[i].swapchain.handle;
-            projected[i].subImage.imageRect.extent = {eyes[i].width, eyes[i].height};
-          }
-          layer.space = space.handle;
-          layer.viewCount = view_count;
-          layer.views = projected.data();
-          layer_count = 1;
-        }
-      }
-      auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
-      end.displayTime = frame.predictedDisplayTime;
-      end.environmentBlendMode = XR_ENVIRONMENT_BLEND_MODE_OPAQUE;
-      end.layerCount = layer_count;
-      end.layers = layers;
-      xr_check_live(xrEndFrame(session.handle, &end), "xrEndFrame");
-      if (layer_count > 0 && started) ++result.frames_rendered;
+      if (!poll_events(rig.instance.handle, rig.session.handle, loop.running)) break;
+      loop.take_frames(feed);
+      if (!loop.running) continue;
+      if (loop.render_frame() && loop.started) ++result.frames_rendered;
     }
   } catch (const Lost&) {
     spdlog::warn("OpenXR: the runtime lost the session");

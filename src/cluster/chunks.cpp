@@ -6,24 +6,12 @@
 #include <string>
 
 #include "volcast/core/error.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast::cluster {
 namespace {
 
 constexpr uint8_t kMagic[4] = {'V', 'C', 'K', '1'};
-
-template <typename T>
-void put(uint8_t* at, T v) {
-  for (size_t i = 0; i < sizeof(T); ++i)
-    at[i] = static_cast<uint8_t>(static_cast<uint64_t>(v) >> (8 * i));
-}
-
-template <typename T>
-T get(const uint8_t* at) {
-  uint64_t v = 0;
-  for (size_t i = 0; i < sizeof(T); ++i) v |= static_cast<uint64_t>(at[i]) << (8 * i);
-  return static_cast<T>(v);
-}
 
 }  // namespace
 
@@ -46,12 +34,12 @@ void chunk_frame_set(const ChunkedFrameSet& f, size_t max_message_bytes,
     scratch.resize(kChunkHeaderBytes + n);
     uint8_t* h = scratch.data();
     std::memcpy(h, kMagic, 4);
-    put<uint64_t>(h + 4, f.sequence);
-    put<int64_t>(h + 12, f.capture_us);
-    put<uint32_t>(h + 20, static_cast<uint32_t>(f.body.size()));
-    put<uint32_t>(h + 24, static_cast<uint32_t>(offset));
-    put<uint16_t>(h + 28, static_cast<uint16_t>(i));
-    put<uint16_t>(h + 30, static_cast<uint16_t>(count));
+    wire::store<uint64_t>(h + 4, f.sequence);
+    wire::store<int64_t>(h + 12, f.capture_us);
+    wire::store<uint32_t>(h + 20, static_cast<uint32_t>(f.body.size()));
+    wire::store<uint32_t>(h + 24, static_cast<uint32_t>(offset));
+    wire::store<uint16_t>(h + 28, static_cast<uint16_t>(i));
+    wire::store<uint16_t>(h + 30, static_cast<uint16_t>(count));
     h[32] = f.key ? 1 : 0;
     h[33] = h[34] = h[35] = 0;
     std::memcpy(h + kChunkHeaderBytes, f.body.data() + offset, n);
@@ -66,12 +54,12 @@ bool Reassembler::add(std::span<const uint8_t> m) {
   };
   if (m.size() <= kChunkHeaderBytes || std::memcmp(m.data(), kMagic, 4) != 0) return refuse();
   const uint8_t* h = m.data();
-  const auto sequence = get<uint64_t>(h + 4);
-  const auto capture_us = get<int64_t>(h + 12);
-  const auto total = get<uint32_t>(h + 20);
-  const auto offset = get<uint32_t>(h + 24);
-  const auto index = get<uint16_t>(h + 28);
-  const auto count = get<uint16_t>(h + 30);
+  const auto sequence = wire::load<uint64_t>(h + 4);
+  const auto capture_us = wire::load<int64_t>(h + 12);
+  const auto total = wire::load<uint32_t>(h + 20);
+  const auto offset = wire::load<uint32_t>(h + 24);
+  const auto index = wire::load<uint16_t>(h + 28);
+  const auto count = wire::load<uint16_t>(h + 30);
   const uint8_t flags = h[32];
   const size_t n = m.size() - kChunkHeaderBytes;
   // Sizes first, before anything is allocated for them.

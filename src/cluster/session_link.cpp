@@ -9,25 +9,13 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/core/wire.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 
 namespace volcast::cluster {
 namespace {
-
-template <typename T>
-void put(uint8_t* at, T v) {
-  for (size_t i = 0; i < sizeof(T); ++i)
-    at[i] = static_cast<uint8_t>(static_cast<uint64_t>(v) >> (8 * i));
-}
-
-template <typename T>
-T get(const uint8_t* at) {
-  uint64_t v = 0;
-  for (size_t i = 0; i < sizeof(T); ++i) v |= static_cast<uint64_t>(at[i]) << (8 * i);
-  return static_cast<T>(v);
-}
 
 // A down message is a whole channel-2 message: the largest payload (a case) and its header.
 constexpr uint32_t kMaxDownBytes = session::kMaxCaseBytes + 64;
@@ -76,10 +64,10 @@ SessionPiece parse_session_piece(std::span<const uint8_t> data) {
   if (kind != 1 && kind != 2) throw Error("session piece: unknown kind " + std::to_string(kind));
   p.kind = static_cast<PieceKind>(kind);
   p.type = data[2];
-  p.viewer = get<uint64_t>(&data[4]);
-  p.coalesce_key = get<uint64_t>(&data[12]);
-  p.total = get<uint32_t>(&data[20]);
-  p.offset = get<uint32_t>(&data[24]);
+  p.viewer = wire::load<uint64_t>(&data[4]);
+  p.coalesce_key = wire::load<uint64_t>(&data[12]);
+  p.total = wire::load<uint32_t>(&data[20]);
+  p.offset = wire::load<uint32_t>(&data[24]);
   p.bytes = data.subspan(kSessionPieceHeader);
   if (p.offset > p.total || p.bytes.size() > p.total - p.offset)
     throw Error("session piece: bytes " + std::to_string(p.offset) + ".." +
@@ -147,10 +135,10 @@ void publish_session_message(NatsConnection& nats, const std::string& subject, P
     piece.assign(kSessionPieceHeader + n, 0);
     piece[0] = static_cast<uint8_t>(kind);
     piece[2] = type;
-    put<uint64_t>(&piece[4], viewer);
-    put<uint64_t>(&piece[12], coalesce_key);
-    put<uint32_t>(&piece[20], static_cast<uint32_t>(message.size()));
-    put<uint32_t>(&piece[24], static_cast<uint32_t>(offset));
+    wire::store<uint64_t>(&piece[4], viewer);
+    wire::store<uint64_t>(&piece[12], coalesce_key);
+    wire::store<uint32_t>(&piece[20], static_cast<uint32_t>(message.size()));
+    wire::store<uint32_t>(&piece[24], static_cast<uint32_t>(offset));
     std::copy_n(message.data() + offset, n, piece.data() + kSessionPieceHeader);
     nats.publish(subject, piece);
     offset += n;

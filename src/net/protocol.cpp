@@ -6,9 +6,12 @@
 #include <optional>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
+#include "volcast/net/calibration_wire.hpp"
 
 namespace volcast::protocol {
+using wire::Reader;
+using wire::Writer;
 
 void put_calibration(Writer& w, const CameraCalibration& c) {
   const Intrinsics& k = c.depth;

@@ -8,7 +8,7 @@
 
 #include "record_format.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast {
 namespace {
@@ -33,8 +33,7 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path
                   " bytes, shorter than the 16-byte file header)");
     if (!std::equal(detail::kRecordingMagic.begin(), detail::kRecordingMagic.end(), fh.begin()))
       throw Error(where + ": not a Volcast recording (no VCRECORD magic at offset 0)");
-    uint16_t version = 0;
-    std::memcpy(&version, fh.data() + 8, 2);
+    const auto version = wire::load<uint16_t>(fh.data() + 8);
     if (fh != detail::file_header()) {
       if (version != kRecordingVersion)
         throw Error(where + ": format version " + std::to_string(version) + ", this build reads " +
@@ -88,8 +87,7 @@ bool RecordingReader::read_index() {
       h.type != RecordType::kEnd || h.payload_bytes != 8 ||
       crc32_of(std::span(end).subspan(kRecordHeaderBytes)) != h.payload_crc)
     return false;
-  uint64_t index_at = 0;
-  std::memcpy(&index_at, end.data() + kRecordHeaderBytes, 8);
+  const auto index_at = wire::load<uint64_t>(end.data() + kRecordHeaderBytes);
   const std::string at_index = " at offset " + std::to_string(index_at);
   std::array<uint8_t, kRecordHeaderBytes> rh{};
   if (index_at >= size - kEndBytes || !detail::read_at(fd_, index_at, rh) ||
@@ -101,7 +99,7 @@ bool RecordingReader::read_index() {
   if (!detail::read_at(fd_, index_at + kRecordHeaderBytes, payload) ||
       crc32_of(payload) != h.payload_crc)
     throw Error(where + ": corrupt index" + at_index + " (fails its CRC)");
-  protocol::Reader r(payload, "recording index");
+  wire::Reader r(payload, "recording index");
   try {
     const uint32_t count = r.get<uint32_t>();
     if (uint64_t{count} * kIndexEntryBytes != r.remaining()) r.fail("wrong length");

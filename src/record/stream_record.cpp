@@ -1,12 +1,13 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
 #include "record_format.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast {
 
@@ -24,7 +25,7 @@ uint32_t crc32_of(std::span<const uint8_t> bytes) {
 }
 
 RecordedFrameSet frame_set_head(std::span<const uint8_t> body) {
-  protocol::Reader r(body, "frame set");
+  wire::Reader r(body, "frame set");
   RecordedFrameSet h;
   h.bytes = static_cast<uint32_t>(body.size());
   h.sequence = r.get<uint64_t>();
@@ -39,10 +40,9 @@ namespace detail {
 
 std::array<uint8_t, kRecordingFileHeaderBytes> file_header() {
   std::array<uint8_t, kRecordingFileHeaderBytes> h{};
-  std::memcpy(h.data(), kRecordingMagic.data(), 8);
-  std::memcpy(h.data() + 8, &kRecordingVersion, 2);
-  const uint32_t crc = crc32_of(std::span(h).first(12));
-  std::memcpy(h.data() + 12, &crc, 4);
+  std::copy(kRecordingMagic.begin(), kRecordingMagic.end(), h.begin());
+  wire::store<uint16_t>(h.data() + 8, kRecordingVersion);
+  wire::store<uint32_t>(h.data() + 12, crc32_of(std::span(h).first(12)));
   return h;
 }
 
@@ -54,26 +54,24 @@ std::array<uint8_t, kRecordHeaderBytes> record_header(RecordType type,
   const uint32_t n = static_cast<uint32_t>(head.size() + body.size());
   const uLong crc = crc_update(crc_update(crc32_z(0, nullptr, 0), head), body);
   const uint32_t payload_crc = static_cast<uint32_t>(crc);
-  std::memcpy(h.data() + 4, &n, 4);
-  std::memcpy(h.data() + 8, &payload_crc, 4);
-  const uint32_t header_crc = crc32_of(std::span(h).first(12));
-  std::memcpy(h.data() + 12, &header_crc, 4);
+  wire::store<uint32_t>(h.data() + 4, n);
+  wire::store<uint32_t>(h.data() + 8, payload_crc);
+  wire::store<uint32_t>(h.data() + 12, crc32_of(std::span(h).first(12)));
   return h;
 }
 
 bool parse_record_header(std::span<const uint8_t, kRecordHeaderBytes> b, RecordHeader& out) {
-  uint32_t header_crc = 0;
-  std::memcpy(&header_crc, b.data() + 12, 4);
+  const auto header_crc = wire::load<uint32_t>(b.data() + 12);
   if (header_crc != crc32_of(b.first(12)) || b[1] != 0 || b[2] != 0 || b[3] != 0) return false;
   out.type = static_cast<RecordType>(b[0]);
-  std::memcpy(&out.payload_bytes, b.data() + 4, 4);
-  std::memcpy(&out.payload_crc, b.data() + 8, 4);
+  out.payload_bytes = wire::load<uint32_t>(b.data() + 4);
+  out.payload_crc = wire::load<uint32_t>(b.data() + 8);
   return true;
 }
 
 std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
   std::vector<uint8_t> out;
-  protocol::Writer w(out);
+  wire::Writer w(out);
   w.put_string(s.depth_codec);
   w.put_string(s.color_codec);
   w.put<uint8_t>(static_cast<uint8_t>(s.color_quality));
@@ -84,7 +82,7 @@ std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
 }
 
 RecordingStream parse_stream(std::span<const uint8_t> payload) {
-  protocol::Reader r(payload, "recording stream");
+  wire::Reader r(payload, "recording stream");
   RecordingStream s;
   s.depth_codec = r.get_string();
   s.color_codec = r.get_string();

@@ -9,7 +9,7 @@
 #include "record_format.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast {
 namespace {
@@ -133,7 +133,7 @@ void RecordingWriter::close() {
   closed_ = true;
   if (failed_) return;  // what was written stays; a reader indexes it by scanning
   std::vector<uint8_t> index;
-  protocol::Writer w(index);
+  wire::Writer w(index);
   w.put<uint32_t>(static_cast<uint32_t>(index_.size()));
   for (const RecordedFrameSet& e : index_) {
     w.put<uint64_t>(e.offset);
@@ -143,7 +143,8 @@ void RecordingWriter::close() {
   }
   const uint64_t index_at = end_;
   write_record(RecordType::kIndex, index, {});
-  const std::span<const uint8_t> end_payload(reinterpret_cast<const uint8_t*>(&index_at), 8);
+  std::array<uint8_t, 8> end_payload{};
+  wire::store<uint64_t>(end_payload.data(), index_at);
   write_record(RecordType::kEnd, end_payload, {});
   if (::fsync(fd_) != 0) fail_write(errno, "the index (sync)");
   ::close(fd_);

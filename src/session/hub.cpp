@@ -10,6 +10,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/core/wire.hpp"
 #include "volcast/session/names.hpp"
 
 namespace volcast {
@@ -493,7 +494,7 @@ void SessionHub::set_case(session::SharedCase c) {
   std::vector<uint8_t> payload = session::serialize(c);
   std::lock_guard lock(mutex_);
   c.generation = case_generation_ + 1;
-  std::memcpy(payload.data(), &c.generation, sizeof c.generation);
+  wire::store<uint32_t>(payload.data(), c.generation);
   auto message = share(session::message(Type::kCase, payload));
   case_generation_ = c.generation;
   case_ = std::make_shared<const session::SharedCase>(std::move(c));

@@ -4,14 +4,15 @@
 
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/wire.hpp"
+#include "volcast/net/calibration_wire.hpp"
 #include "volcast/net/protocol.hpp"
-#include "volcast/net/wire.hpp"
 #include "volcast/session/objects.hpp"
 #include "wire_fields.hpp"
 
 namespace volcast::session {
-using protocol::Reader;
-using protocol::Writer;
+using wire::Reader;
+using wire::Writer;
 using namespace fields;
 
 uint32_t max_payload(uint8_t type) {
@@ -361,7 +362,7 @@ std::vector<uint8_t> forward(Type type, uint32_t participant, std::span<const ui
   std::vector<uint8_t> out(protocol::kHeaderBytes + 4 + payload.size());
   protocol::write_header(static_cast<protocol::MessageType>(0x0200 | static_cast<uint8_t>(type)),
                          static_cast<uint32_t>(4 + payload.size()), out.data());
-  std::memcpy(out.data() + protocol::kHeaderBytes, &participant, 4);
+  wire::store<uint32_t>(out.data() + protocol::kHeaderBytes, participant);
   if (!payload.empty())
     std::memcpy(out.data() + protocol::kHeaderBytes + 4, payload.data(), payload.size());
   return out;
@@ -369,9 +370,7 @@ std::vector<uint8_t> forward(Type type, uint32_t participant, std::span<const ui
 
 std::pair<uint32_t, std::span<const uint8_t>> split_forwarded(std::span<const uint8_t> p) {
   if (p.size() < 4) throw Error("malformed forwarded session message: truncated");
-  uint32_t id;
-  std::memcpy(&id, p.data(), 4);
-  return {id, p.subspan(4)};
+  return {wire::load<uint32_t>(p.data()), p.subspan(4)};
 }
 
 }  // namespace volcast::session

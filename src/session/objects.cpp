@@ -43,12 +43,12 @@ std::vector<uint8_t> serialize(const SharedCase& c) {
         w.put<uint8_t>(static_cast<uint8_t>(std::lround(std::clamp(p.rgba[i], 0.0f, 1.0f) * 255)));
       w.put<uint32_t>(static_cast<uint32_t>(p.positions.size()));
       w.put<uint32_t>(static_cast<uint32_t>(p.indices.size() / 3));
-      for (const Eigen::Vector3f& v : p.positions) w.append(v.data(), 12);
+      for (const Eigen::Vector3f& v : p.positions) w.put_array<float>({v.data(), 3});
       for (size_t i = 0; i < p.positions.size(); ++i) {
         const Eigen::Vector3f n = i < p.normals.size() ? p.normals[i] : Eigen::Vector3f::UnitY();
         for (int k = 0; k < 3; ++k) w.put<int8_t>(snorm8(n[k]));
       }
-      w.append(p.indices.data(), (p.indices.size() / 3) * 12);
+      w.put_array<uint32_t>(std::span(p.indices).first(p.indices.size() / 3 * 3));
     }
   }
   w.put<uint8_t>(c.monitor ? 1 : 0);
@@ -58,7 +58,7 @@ std::vector<uint8_t> serialize(const SharedCase& c) {
     w.put<uint16_t>(static_cast<uint16_t>(m.height));
     w.put<uint16_t>(static_cast<uint16_t>(m.slices));
     for (int i = 0; i < 3; ++i) w.put<float>(m.spacing_mm[i]);
-    w.append(m.hu.data(), m.hu.size() * 2);
+    w.put_array<int16_t>(m.hu);
     w.put<uint8_t>(m.overlay.empty() ? 0 : 1);
     if (!m.overlay.empty()) {
       w.put_string(m.overlay_label);

@@ -5,13 +5,13 @@
 #include <cmath>
 #include <string>
 
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
 #include "volcast/session/messages.hpp"
 
 namespace volcast::session::fields {
 
-using protocol::Reader;
-using protocol::Writer;
+using wire::Reader;
+using wire::Writer;
 
 inline std::string get_name(Reader& r, const char* field) {
   std::string s = r.get_string();

@@ -12,7 +12,7 @@
 //     1 Stream, exactly once, first: depth codec string | color codec string | color quality u8 |
 //       recorder's wall clock when recording began i64 (us) | origin string (who recorded what, for
 //       people) | the Welcome payload as the server sent it (protocol.hpp 0.2, byte string).
-//       Strings are u16 length + UTF-8, a byte string u32 length + bytes (net/wire.hpp).
+//       Strings are u16 length + UTF-8, a byte string u32 length + bytes (core/wire.hpp).
 //     2 FrameSet: the FrameSet body (protocol.hpp 1.1: everything after the send time: sequence,
 //       flags, capture/filter/encode times, per camera device time, depth and color streams),
 //       byte-identical to what the tier's viewers were sent. Written with one write() each.

@@ -38,7 +38,7 @@
 //   0x06 Teleport       spot (where the play area's origin goes, and its new yaw). The server
 //                       checks the spot is free (room.hpp) and answers everyone with 0x48, or the
 //                       sender with 0x43.
-//   0x07 AvatarCamera   the participant's RGB-D camera: calibration (wire.hpp put_calibration;
+//   0x07 AvatarCamera   the participant's RGB-D camera: calibration (calibration_wire.hpp;
 //                       its pose is playarea_from_camera) | depth codec string | color codec
 //                       string. The depth codec must be lossless and not temporal (a receiver
 //                       joining later decodes any frame), the color codec not temporal. Sent once,

@@ -12,6 +12,7 @@
 #include "volcast/net/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/hub.hpp"
+#include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
 
 namespace volcast {
@@ -90,6 +91,52 @@ TEST(SessionMessages, RoundTripAndRefuseBadFields) {
   EXPECT_NE(
       test::error_of([&] { session::parse_avatar_frame(huge, cam.calibration); }).find("exceed"),
       std::string::npos);
+}
+
+// The message table (message_table.hpp): every type once, with its sender and limits, and a
+// decoder that takes what the type's encoder wrote and refuses it cut short.
+TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
+  std::set<uint8_t> types;
+  for (const session::MessageKind& m : session::message_table()) {
+    const uint8_t type = static_cast<uint8_t>(m.type);
+    EXPECT_TRUE(types.insert(type).second) << m.name;
+    EXPECT_EQ(session::find_message(type), &m);
+    EXPECT_EQ(session::max_payload(type), m.max_payload);
+    EXPECT_EQ(m.sender == session::Sender::kParticipant, type < 0x40) << m.name;
+    EXPECT_EQ(m.check == nullptr, m.type == Type::kAvatarFrame || m.type == Type::kAvatarFrameFrom)
+        << m.name;
+  }
+  EXPECT_EQ(types.size(), 26u);
+  EXPECT_EQ(session::find_message(0x00), nullptr);
+  EXPECT_EQ(session::max_payload(0x4e), 0u);
+  EXPECT_EQ(session::max_payload(0x4b), session::kMaxCaseBytes);
+  EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPose)).per_second, 150);
+  EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPoseFrom)).per_second, 0);
+
+  const std::vector<std::pair<Type, std::vector<uint8_t>>> samples = {
+      {Type::kJoin,
+       session::serialize(session::Join{"OR", true, "Dr. A", session::Role::kRemote, false})},
+      {Type::kPose, session::serialize(session::PoseMessage{})},
+      {Type::kTeleported, session::serialize(session::Teleported{})},
+      {Type::kObjectMove, session::serialize(session::ObjectRequest{}, true)},
+      {Type::kMonitorState, session::serialize(session::MonitorState{})},
+      {Type::kSetMonitor, session::serialize_set_monitor(session::MonitorState{})},
+      {Type::kParticipantLeft, session::serialize_left(3, session::LeftReason::kTimedOut)},
+  };
+  for (const auto& sample : samples) {
+    const session::MessageKind* m = session::find_message(static_cast<uint8_t>(sample.first));
+    ASSERT_NE(m, nullptr);
+    const std::vector<uint8_t>& bytes = sample.second;
+    EXPECT_EQ(test::error_of([&] { m->check(bytes); }), "") << m->name;
+    EXPECT_NE(test::error_of([&] {
+                m->check(std::span(bytes).first(bytes.size() - 1));
+              }).find("malformed"),
+              std::string::npos)
+        << m->name;
+  }
+  const std::vector<uint8_t> one = {0};
+  EXPECT_EQ(test::error_of([&] { session::find_message(0x09)->check(one); }),
+            "malformed heartbeat: not empty");
 }
 
 TEST(SessionRoom, FreeSpotsKeepOutOfWallsAndTable) {

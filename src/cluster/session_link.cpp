@@ -11,6 +11,7 @@
 #include "volcast/core/text.hpp"
 #include "volcast/core/wire.hpp"
 #include "volcast/session/hub.hpp"
+#include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 

@@ -7,49 +7,16 @@
 #include "volcast/core/wire.hpp"
 #include "volcast/net/calibration_wire.hpp"
 #include "volcast/net/protocol.hpp"
-#include "volcast/session/objects.hpp"
 #include "wire_fields.hpp"
 
 namespace volcast::session {
+using fields::decode;
+using fields::encode;
+using fields::Fields;
+using fields::In;
+using fields::Of;
 using wire::Reader;
 using wire::Writer;
-using namespace fields;
-
-uint32_t max_payload(uint8_t type) {
-  switch (static_cast<Type>(type)) {
-    case Type::kListSessions:
-    case Type::kJoin:
-    case Type::kLeave:
-    case Type::kPose:
-    case Type::kPoseEcho:
-    case Type::kTeleport:
-    case Type::kAvatarCamera:
-    case Type::kHeartbeat:
-    case Type::kSessionList:
-    case Type::kJoined:
-    case Type::kSessionError:
-    case Type::kParticipantJoined:
-    case Type::kParticipantLeft:
-    case Type::kPoseFrom:
-    case Type::kPoseEchoFrom:
-    case Type::kTeleported:
-    case Type::kAvatarCameraFrom:
-    case Type::kGrab:
-    case Type::kObjectMove:
-    case Type::kRelease:
-    case Type::kSetMonitor:
-    case Type::kObjectState:
-    case Type::kMonitorState:
-      return kMaxSessionMessageBytes;
-    case Type::kCase:
-      return kMaxCaseBytes;
-    case Type::kAvatarFrame:
-      return kMaxAvatarFrameBytes;
-    case Type::kAvatarFrameFrom:
-      return kMaxAvatarFrameBytes + 4;
-  }
-  return 0;
-}
 
 const char* to_string(Role role) {
   return role == Role::kOrSite ? "OR site" : "remote";
@@ -85,27 +52,99 @@ std::vector<uint8_t> message(Type type, std::span<const uint8_t> payload) {
   return out;
 }
 
+// ---- Each message's layout once (wire_fields.hpp), then its encoder and decoder ----------------
+
+template <typename Io, Of<Join> M>
+void layout(Io& io, M& m) {
+  io.name(m.session, "session name");
+  io.flag(m.create);
+  io.name(m.name, "display name");
+  io.enumeration(m.role, 1, "role");
+  io.flag(m.has_camera);
+}
+
+template <typename Io, Of<Joined> M>
+void layout(Io& io, M& m) {
+  io.number(m.participant);
+  io.number(m.session);
+  io.name(m.session_name, "session name");
+  io.spot(m.spot);
+  for (int i = 0; i < 3; ++i) io.finite(m.site_translation[i]);
+  io.finite(m.site_yaw);
+}
+
+template <typename Io, Of<ParticipantInfo> M>
+void layout(Io& io, M& m) {
+  io.number(m.id);
+  io.name(m.name, "display name");
+  io.enumeration(m.role, 1, "role");
+  io.flag(m.has_camera);
+  io.spot(m.spot);
+}
+
+template <typename Io, Of<PoseMessage> M>
+void layout(Io& io, M& m) {
+  io.number(m.sequence);
+  io.number(m.time_us);
+  io.flag(m.echo_wanted);
+  io.flag(m.body.hands_tracked, "unknown body flags");
+  io.pose(m.body.head);
+  io.pose(m.body.left_hand);
+  io.pose(m.body.right_hand);
+}
+
+template <typename Io, Of<Spot> M>
+void layout(Io& io, M& m) {
+  io.spot(m);
+}
+
+template <typename Io, Of<Teleported> M>
+void layout(Io& io, M& m) {
+  io.number(m.participant);
+  io.spot(m.from);
+  io.spot(m.to);
+  io.number(m.time_us);
+}
+
+template <typename Io, Of<AvatarFrameView> M>
+void layout(Io& io, M& m) {
+  io.number(m.sequence);
+  io.number(m.capture_us);
+  io.bytes(m.depth);
+  io.bytes(m.color);
+}
+
+namespace {
+
+struct Left {
+  uint32_t participant = 0;
+  LeftReason reason{};
+};
+
+template <typename Io, Of<Left> M>
+void layout(Io& io, M& m) {
+  io.number(m.participant);
+  io.enumeration(m.reason, 3, "reason");
+}
+
+struct Echo {
+  uint32_t participant = 0, sequence = 0;
+};
+
+template <typename Io, Of<Echo> M>
+void layout(Io& io, M& m) {
+  io.number(m.participant);
+  io.number(m.sequence);
+}
+
+}  // namespace
+
 std::vector<uint8_t> serialize(const Join& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put_string(m.session);
-  w.put<uint8_t>(m.create);
-  w.put_string(m.name);
-  w.put<uint8_t>(static_cast<uint8_t>(m.role));
-  w.put<uint8_t>(m.has_camera);
-  return out;
+  return encode(m);
 }
 
 Join parse_join(std::span<const uint8_t> p) {
-  Reader r(p, "join");
-  Join m;
-  m.session = get_name(r, "session name");
-  m.create = get_flag(r);
-  m.name = get_name(r, "display name");
-  m.role = checked_enum<Role>(r, 1, "role");
-  m.has_camera = get_flag(r);
-  r.expect_end();
-  return m;
+  return decode<Join>(p, "join");
 }
 
 std::vector<uint8_t> serialize(const std::vector<SessionSummary>& m) {
@@ -123,13 +162,14 @@ std::vector<uint8_t> serialize(const std::vector<SessionSummary>& m) {
 
 std::vector<SessionSummary> parse_session_list(std::span<const uint8_t> p) {
   Reader r(p, "session list");
+  In in{r};
   const uint16_t n = r.get<uint16_t>();
   if (n > kMaxListedSessions)
     r.fail("more than " + std::to_string(kMaxListedSessions) + " sessions");
   std::vector<SessionSummary> out(n);
   for (auto& s : out) {
     s.id = r.get<uint32_t>();
-    s.name = get_name(r, "session name");
+    in.name(s.name, "session name");
     s.participants = r.get<uint16_t>();
   }
   r.expect_end();
@@ -137,28 +177,11 @@ std::vector<SessionSummary> parse_session_list(std::span<const uint8_t> p) {
 }
 
 std::vector<uint8_t> serialize(const Joined& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(m.participant);
-  w.put<uint32_t>(m.session);
-  w.put_string(m.session_name);
-  put_spot(w, m.spot);
-  for (int i = 0; i < 3; ++i) w.put<float>(m.site_translation[i]);
-  w.put<float>(m.site_yaw);
-  return out;
+  return encode(m);
 }
 
 Joined parse_joined(std::span<const uint8_t> p) {
-  Reader r(p, "joined");
-  Joined m;
-  m.participant = r.get<uint32_t>();
-  m.session = r.get<uint32_t>();
-  m.session_name = get_name(r, "session name");
-  m.spot = get_spot(r);
-  for (int i = 0; i < 3; ++i) m.site_translation[i] = get_finite(r);
-  m.site_yaw = get_finite(r);
-  r.expect_end();
-  return m;
+  return decode<Joined>(p, "joined");
 }
 
 std::vector<uint8_t> serialize_error(const std::string& reason) {
@@ -175,122 +198,53 @@ std::string parse_error(std::span<const uint8_t> p) {
 }
 
 std::vector<uint8_t> serialize(const ParticipantInfo& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(m.id);
-  w.put_string(m.name);
-  w.put<uint8_t>(static_cast<uint8_t>(m.role));
-  w.put<uint8_t>(m.has_camera);
-  put_spot(w, m.spot);
-  return out;
+  return encode(m);
 }
 
 ParticipantInfo parse_participant(std::span<const uint8_t> p) {
-  Reader r(p, "participant joined");
-  ParticipantInfo m;
-  m.id = r.get<uint32_t>();
-  m.name = get_name(r, "display name");
-  m.role = checked_enum<Role>(r, 1, "role");
-  m.has_camera = get_flag(r);
-  m.spot = get_spot(r);
-  r.expect_end();
-  return m;
+  return decode<ParticipantInfo>(p, "participant joined");
 }
 
 std::vector<uint8_t> serialize_left(uint32_t participant, LeftReason reason) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(participant);
-  w.put<uint8_t>(static_cast<uint8_t>(reason));
-  return out;
+  return encode(Left{participant, reason});
 }
 
 std::pair<uint32_t, LeftReason> parse_left(std::span<const uint8_t> p) {
-  Reader r(p, "participant left");
-  const uint32_t id = r.get<uint32_t>();
-  const LeftReason why = checked_enum<LeftReason>(r, 3, "reason");
-  r.expect_end();
-  return {id, why};
+  const Left m = decode<Left>(p, "participant left");
+  return {m.participant, m.reason};
 }
 
 std::vector<uint8_t> serialize(const PoseMessage& m) {
-  std::vector<uint8_t> out;
-  out.reserve(4 + 8 + 1 + 1 + 3 * 28);
-  Writer w(out);
-  w.put<uint32_t>(m.sequence);
-  w.put<int64_t>(m.time_us);
-  w.put<uint8_t>(m.echo_wanted);
-  w.put<uint8_t>(m.body.hands_tracked ? 1 : 0);
-  put_pose(w, m.body.head);
-  put_pose(w, m.body.left_hand);
-  put_pose(w, m.body.right_hand);
-  return out;
+  return encode(m, Fields{}, 4 + 8 + 1 + 1 + 3 * 28);
 }
 
 PoseMessage parse_pose(std::span<const uint8_t> p) {
-  Reader r(p, "pose");
-  PoseMessage m;
-  m.sequence = r.get<uint32_t>();
-  m.time_us = r.get<int64_t>();
-  m.echo_wanted = get_flag(r);
-  const uint8_t flags = r.get<uint8_t>();
-  if (flags > 1) r.fail("unknown body flags");
-  m.body.hands_tracked = flags & 1;
-  m.body.head = get_pose(r);
-  m.body.left_hand = get_pose(r);
-  m.body.right_hand = get_pose(r);
-  r.expect_end();
-  return m;
+  return decode<PoseMessage>(p, "pose");
 }
 
 std::vector<uint8_t> serialize_echo(uint32_t participant, uint32_t sequence) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(participant);
-  w.put<uint32_t>(sequence);
-  return out;
+  return encode(Echo{participant, sequence});
 }
 
 std::pair<uint32_t, uint32_t> parse_echo(std::span<const uint8_t> p) {
-  Reader r(p, "pose echo");
-  const uint32_t a = r.get<uint32_t>(), b = r.get<uint32_t>();
-  r.expect_end();
-  return {a, b};
+  const Echo m = decode<Echo>(p, "pose echo");
+  return {m.participant, m.sequence};
 }
 
 std::vector<uint8_t> serialize(const Spot& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  put_spot(w, m);
-  return out;
+  return encode(m);
 }
 
 Spot parse_teleport(std::span<const uint8_t> p) {
-  Reader r(p, "teleport");
-  const Spot s = get_spot(r);
-  r.expect_end();
-  return s;
+  return decode<Spot>(p, "teleport");
 }
 
 std::vector<uint8_t> serialize(const Teleported& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(m.participant);
-  put_spot(w, m.from);
-  put_spot(w, m.to);
-  w.put<int64_t>(m.time_us);
-  return out;
+  return encode(m);
 }
 
 Teleported parse_teleported(std::span<const uint8_t> p) {
-  Reader r(p, "teleported");
-  Teleported m;
-  m.participant = r.get<uint32_t>();
-  m.from = get_spot(r);
-  m.to = get_spot(r);
-  m.time_us = r.get<int64_t>();
-  r.expect_end();
-  return m;
+  return decode<Teleported>(p, "teleported");
 }
 
 std::vector<uint8_t> serialize(const AvatarCamera& m) {
@@ -327,14 +281,8 @@ AvatarCamera parse_avatar_camera(std::span<const uint8_t> p) {
 std::vector<uint8_t> serialize_avatar_frame(uint64_t sequence, int64_t capture_us,
                                             std::span<const uint8_t> depth,
                                             std::span<const uint8_t> color) {
-  std::vector<uint8_t> out;
-  out.reserve(8 + 8 + 8 + depth.size() + color.size());
-  Writer w(out);
-  w.put<uint64_t>(sequence);
-  w.put<int64_t>(capture_us);
-  w.put_bytes(depth);
-  w.put_bytes(color);
-  return out;
+  return encode(AvatarFrameView{sequence, capture_us, depth, color}, Fields{},
+                8 + 8 + 8 + depth.size() + color.size());
 }
 
 uint32_t avatar_frame_limit(const CameraCalibration& camera) {
@@ -345,17 +293,11 @@ uint32_t avatar_frame_limit(const CameraCalibration& camera) {
 }
 
 AvatarFrameView parse_avatar_frame(std::span<const uint8_t> p, const CameraCalibration& camera) {
-  Reader r(p, "avatar frame");
   if (p.size() > avatar_frame_limit(camera))
-    r.fail(std::to_string(p.size()) + " bytes exceed the limit of " +
-           std::to_string(avatar_frame_limit(camera)) + " for its camera");
-  AvatarFrameView m;
-  m.sequence = r.get<uint64_t>();
-  m.capture_us = r.get<int64_t>();
-  m.depth = r.get_span();
-  m.color = r.get_span();
-  r.expect_end();
-  return m;
+    Reader(p, "avatar frame")
+        .fail(std::to_string(p.size()) + " bytes exceed the limit of " +
+              std::to_string(avatar_frame_limit(camera)) + " for its camera");
+  return decode<AvatarFrameView>(p, "avatar frame");
 }
 
 std::vector<uint8_t> forward(Type type, uint32_t participant, std::span<const uint8_t> payload) {

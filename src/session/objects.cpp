@@ -8,7 +8,13 @@
 
 namespace volcast::session {
 
-using namespace fields;
+using fields::decode;
+using fields::encode;
+using fields::In;
+using fields::Of;
+using fields::Out;
+using wire::Reader;
+using wire::Writer;
 
 namespace {
 
@@ -28,13 +34,14 @@ void need_items(const Reader& r, uint64_t count, uint64_t bytes, const char* wha
 std::vector<uint8_t> serialize(const SharedCase& c) {
   std::vector<uint8_t> out;
   Writer w(out);
+  Out io{w};
   w.put<uint32_t>(c.generation);
   w.put_string(c.name);
   if (c.objects.size() > kMaxCaseObjects) throw Error("case: too many objects");
   w.put<uint16_t>(static_cast<uint16_t>(c.objects.size()));
   for (const SharedObject& o : c.objects) {
     w.put_string(o.name);
-    put_pose(w, o.rest);
+    io.pose(o.rest);
     if (o.parts.size() > kMaxObjectParts) throw Error("case: too many parts in " + o.name);
     w.put<uint16_t>(static_cast<uint16_t>(o.parts.size()));
     for (const SharedPart& p : o.parts) {
@@ -76,6 +83,7 @@ std::vector<uint8_t> serialize(const SharedCase& c) {
 
 SharedCase parse_case(std::span<const uint8_t> p) {
   Reader r(p, "case");
+  In in{r};
   SharedCase c;
   c.generation = r.get<uint32_t>();
   c.name = r.get_string();
@@ -85,13 +93,13 @@ SharedCase parse_case(std::span<const uint8_t> p) {
   uint64_t triangles_total = 0;
   c.objects.resize(objects);
   for (SharedObject& o : c.objects) {
-    o.name = get_name(r, "object name");
-    o.rest = get_pose(r);
+    in.name(o.name, "object name");
+    in.pose(o.rest);
     const uint16_t parts = r.get<uint16_t>();
     if (parts > kMaxObjectParts) r.fail("more than " + std::to_string(kMaxObjectParts) + " parts");
     o.parts.resize(parts);
     for (SharedPart& part : o.parts) {
-      part.name = get_name(r, "part name");
+      in.name(part.name, "part name");
       for (int i = 0; i < 4; ++i) part.rgba[i] = r.get<uint8_t>() / 255.0f;
       const uint32_t vertices = r.get<uint32_t>(), triangles = r.get<uint32_t>();
       triangles_total += triangles;
@@ -100,7 +108,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
       need_items(r, vertices, 15, "vertices");
       part.positions.resize(vertices);
       for (Eigen::Vector3f& v : part.positions) {
-        for (int i = 0; i < 3; ++i) v[i] = get_finite(r);
+        for (int i = 0; i < 3; ++i) in.finite(v[i]);
         o.radius_m = std::max(o.radius_m, v.norm());
       }
       part.normals.resize(vertices);
@@ -116,21 +124,25 @@ SharedCase parse_case(std::span<const uint8_t> p) {
       }
     }
   }
-  if (get_flag(r)) {
+  bool has_monitor = false;
+  in.flag(has_monitor);
+  if (has_monitor) {
     MonitorSeries m;
     m.width = r.get<uint16_t>();
     m.height = r.get<uint16_t>();
     m.slices = r.get<uint16_t>();
     if (m.width < 1 || m.height < 1 || m.slices < 1) r.fail("an empty monitor series");
     for (int i = 0; i < 3; ++i) {
-      m.spacing_mm[i] = get_finite(r);
+      in.finite(m.spacing_mm[i]);
       if (m.spacing_mm[i] <= 0) r.fail("a spacing is not positive");
     }
     const uint64_t pixels = static_cast<uint64_t>(m.width) * m.height * m.slices;
     need_items(r, pixels, 2, "monitor pixels");
     m.hu.resize(pixels);
     for (int16_t& v : m.hu) v = r.get<int16_t>();
-    if (get_flag(r)) {
+    bool has_overlay = false;
+    in.flag(has_overlay);
+    if (has_overlay) {
       m.overlay_label = r.get_string();
       need_items(r, (pixels + 7) / 8, 1, "overlay bytes");
       m.overlay.resize(pixels);
@@ -146,101 +158,80 @@ SharedCase parse_case(std::span<const uint8_t> p) {
   return c;
 }
 
+template <typename Io, Of<ObjectState> M>
+void layout(Io& io, M& s) {
+  io.number(s.generation);
+  io.number(s.object);
+  io.number(s.owner);
+  io.number(s.sequence);
+  io.number(s.time_us);
+  io.pose(s.pose);
+}
+
 std::vector<uint8_t> serialize(const ObjectState& s) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(s.generation);
-  w.put<uint16_t>(s.object);
-  w.put<uint32_t>(s.owner);
-  w.put<uint32_t>(s.sequence);
-  w.put<int64_t>(s.time_us);
-  put_pose(w, s.pose);
-  return out;
+  return encode(s);
 }
 
 ObjectState parse_object_state(std::span<const uint8_t> p) {
-  Reader r(p, "object state");
-  ObjectState s;
-  s.generation = r.get<uint32_t>();
-  s.object = r.get<uint16_t>();
-  s.owner = r.get<uint32_t>();
-  s.sequence = r.get<uint32_t>();
-  s.time_us = r.get<int64_t>();
-  s.pose = get_pose(r);
-  r.expect_end();
-  return s;
+  return decode<ObjectState>(p, "object state");
 }
 
 namespace {
 
-void put_monitor(Writer& w, const MonitorState& s) {
-  w.put<uint32_t>(s.generation);
-  w.put<uint16_t>(s.slice);
-  w.put<float>(s.center);
-  w.put<float>(s.width);
-  w.put<uint8_t>(s.overlay ? 1 : 0);
+// 0x0d's fields, which 0x4d follows with `by`.
+template <typename Io, typename M>
+void monitor_layout(Io& io, M& s) {
+  io.number(s.generation);
+  io.number(s.slice);
+  io.finite(s.center);
+  io.finite(s.width);
+  io.check(s.width >= 1, "window width below 1 HU");
+  io.flag(s.overlay);
 }
 
-MonitorState get_monitor(Reader& r) {
-  MonitorState s;
-  s.generation = r.get<uint32_t>();
-  s.slice = r.get<uint16_t>();
-  s.center = get_finite(r);
-  s.width = get_finite(r);
-  if (s.width < 1) r.fail("window width below 1 HU");
-  s.overlay = get_flag(r);
-  return s;
-}
+const auto kSetMonitor = [](auto& io, auto& s) { monitor_layout(io, s); };
+const auto kMonitorState = [](auto& io, auto& s) {
+  monitor_layout(io, s);
+  io.number(s.by);
+};
 
 }  // namespace
 
 std::vector<uint8_t> serialize(const MonitorState& s) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  put_monitor(w, s);
-  w.put<uint32_t>(s.by);
-  return out;
+  return encode(s, kMonitorState);
 }
 
 MonitorState parse_monitor_state(std::span<const uint8_t> p) {
-  Reader r(p, "monitor state");
-  MonitorState s = get_monitor(r);
-  s.by = r.get<uint32_t>();
-  r.expect_end();
-  return s;
+  return decode<MonitorState>(p, "monitor state", kMonitorState);
 }
 
 std::vector<uint8_t> serialize_set_monitor(const MonitorState& s) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  put_monitor(w, s);
-  return out;
+  return encode(s, kSetMonitor);
 }
 
 MonitorState parse_set_monitor(std::span<const uint8_t> p) {
-  Reader r(p, "set monitor");
-  MonitorState s = get_monitor(r);
-  r.expect_end();
-  return s;
+  return decode<MonitorState>(p, "set monitor", kSetMonitor);
 }
 
+namespace {
+
+// 0x0a without a pose, 0x0b and 0x0c with one.
+auto request_layout(bool with_pose) {
+  return [with_pose](auto& io, auto& q) {
+    io.number(q.generation);
+    io.number(q.object);
+    if (with_pose) io.pose(q.pose);
+  };
+}
+
+}  // namespace
+
 std::vector<uint8_t> serialize(const ObjectRequest& q, bool with_pose) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  w.put<uint32_t>(q.generation);
-  w.put<uint16_t>(q.object);
-  if (with_pose) put_pose(w, q.pose);
-  return out;
+  return encode(q, request_layout(with_pose));
 }
 
 ObjectRequest parse_object_request(std::span<const uint8_t> p, bool with_pose) {
-  Reader r(p, "object request");
-  ObjectRequest q;
-  q.generation = r.get<uint32_t>();
-  q.object = r.get<uint16_t>();
-  if (with_pose) q.pose = get_pose(r);
-  r.expect_end();
-  return q;
+  return decode<ObjectRequest>(p, "object request", request_layout(with_pose));
 }
 
 const std::vector<WindowPreset>& window_presets() {

@@ -4,8 +4,6 @@
 #include <cmath>
 #include <cstdio>
 
-#include "volcast/session/messages.hpp"
-
 namespace volcast::session {
 namespace {
 
@@ -20,39 +18,6 @@ std::string number(double v) {
 }
 
 }  // namespace
-
-RateLimit limit_of(uint8_t type) {
-  switch (static_cast<Type>(type)) {
-    case Type::kPose:
-      return {150, 75, "poses"};
-    case Type::kObjectMove:
-      return {150, 75, "object moves"};
-    case Type::kSetMonitor:
-      return {150, 75, "monitor changes"};
-    case Type::kPoseEcho:
-      return {600, 300, "pose echoes"};
-    case Type::kAvatarFrame:
-      return {30, 15, "avatar frames"};
-    case Type::kHeartbeat:
-      return {10, 10, "heartbeats"};
-    case Type::kGrab:
-      return {10, 10, "grabs"};
-    case Type::kRelease:
-      return {10, 10, "releases"};
-    case Type::kTeleport:
-      return {4, 8, "teleports"};
-    case Type::kListSessions:
-      return {2, 5, "session lists"};
-    case Type::kJoin:
-      return {2, 5, "joins"};
-    case Type::kLeave:
-      return {2, 5, "leaves"};
-    case Type::kAvatarCamera:
-      return {1, 2, "avatar cameras"};
-    default:
-      return {0, 0, "messages of a type participants do not send"};
-  }
-}
 
 std::string to_string(const RateLimit& limit) {
   const std::string per = limit.per_second >= 1

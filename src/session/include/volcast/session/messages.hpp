@@ -63,7 +63,8 @@
 //   0x48 Teleported     participant u32 | from spot | to spot | time i64
 //   0x49 AvatarCamera   participant u32 | the 0x07 payload
 //   0x4a AvatarFrame    participant u32 | the 0x08 payload
-// The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp.
+// The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp. Every type's
+// sender, payload limit, rate limit and decoder in one table: message_table.hpp.
 //
 // Rates: each participant's messages of each type are limited where they enter the server or a
 // relay (rate_limit.hpp); over its rate a message is dropped, not applied or forwarded, and the
@@ -119,9 +120,6 @@ enum class Type : uint8_t {
   kObjectState = 0x4c,   // objects.hpp
   kMonitorState = 0x4d,  // objects.hpp
 };
-
-/// The largest payload (bytes) a message of `type` may have; 0 for a type that does not exist.
-uint32_t max_payload(uint8_t type);
 
 enum class Role : uint8_t { kRemote = 0, kOrSite = 1 };
 const char* to_string(Role role);

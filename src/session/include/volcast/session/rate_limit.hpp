@@ -8,7 +8,8 @@
 // when it starts, naming the limit, and with its count every 10 s while it lasts and once it has
 // ended (at the sender's next message of that type, or when the sender goes): never per message.
 //
-// The limits (limit_of): what one real headset or desktop viewer sends, with room to spare.
+// The limits (limit_of, message_table.cpp): what one real headset or desktop viewer sends, with
+// room to spare.
 //   poses 0x04, object moves 0x0b, monitor changes 0x0d   150 a second, 75 at once (display
 //                                                          rate: 90-144 Hz headsets, monitors)
 //   pose echoes 0x05     600 a second, 300 at once (every 6th pose of up to 15 others at 150 Hz)
@@ -26,19 +27,10 @@
 #include <mutex>
 #include <string>
 
+#include "volcast/session/message_table.hpp"
+
 namespace volcast::session {
 
-/// A token bucket's shape: `burst` messages at once, refilled at `per_second`; `what` names the
-/// messages in reports ("poses").
-struct RateLimit {
-  double per_second = 0;
-  double burst = 0;
-  const char* what = "";
-};
-
-/// The limit of a participant's session messages of `type` (messages.hpp's 0x01..0x0d); for a
-/// type a participant does not send, a limit of 0: not limited here (the hub refuses it).
-RateLimit limit_of(uint8_t type);
 /// The sessions one participant may create (Join with create, for a session not there yet).
 inline constexpr RateLimit kSessionCreation{1.0 / 15, 4, "new sessions"};
 /// "150 poses a second (75 at once)"

@@ -1,0 +1,109 @@
+#include "volcast/session/message_table.hpp"
+
+#include <array>
+#include <string>
+
+#include "volcast/core/error.hpp"
+#include "volcast/session/objects.hpp"
+
+namespace volcast::session {
+namespace {
+
+using Payload = std::span<const uint8_t>;
+
+constexpr uint32_t kSmall = kMaxSessionMessageBytes;
+constexpr Sender kUp = Sender::kParticipant;
+constexpr Sender kDown = Sender::kServer;
+constexpr RateLimit kServers{};
+
+void empty(Payload p, const char* name) {
+  if (!p.empty()) throw Error(std::string("malformed ") + name + ": not empty");
+}
+
+// The server -> participant types that forward a participant's payload (messages.hpp forward).
+template <auto parse>
+void forwarded(Payload p) {
+  parse(split_forwarded(p).second);
+}
+
+// Who sends it, its name, the largest payload, the rate limit, the decoder: one row per type.
+// clang-format off
+constexpr std::array kTable{
+    MessageKind{Type::kListSessions, "list sessions", kUp, kSmall, {2, 5, "session lists"},
+                [](Payload p) { empty(p, "list sessions"); }},
+    MessageKind{Type::kJoin, "join", kUp, kSmall, {2, 5, "joins"},
+                [](Payload p) { parse_join(p); }},
+    MessageKind{Type::kLeave, "leave", kUp, kSmall, {2, 5, "leaves"},
+                [](Payload p) { empty(p, "leave"); }},
+    MessageKind{Type::kPose, "pose", kUp, kSmall, {150, 75, "poses"},
+                [](Payload p) { parse_pose(p); }},
+    MessageKind{Type::kPoseEcho, "pose echo", kUp, kSmall, {600, 300, "pose echoes"},
+                [](Payload p) { parse_echo(p); }},
+    MessageKind{Type::kTeleport, "teleport", kUp, kSmall, {4, 8, "teleports"},
+                [](Payload p) { parse_teleport(p); }},
+    MessageKind{Type::kAvatarCamera, "avatar camera", kUp, kSmall, {1, 2, "avatar cameras"},
+                [](Payload p) { parse_avatar_camera(p); }},
+    MessageKind{Type::kAvatarFrame, "avatar frame", kUp, kMaxAvatarFrameBytes,
+                {30, 15, "avatar frames"}, nullptr},
+    MessageKind{Type::kHeartbeat, "heartbeat", kUp, kSmall, {10, 10, "heartbeats"},
+                [](Payload p) { empty(p, "heartbeat"); }},
+    MessageKind{Type::kGrab, "grab", kUp, kSmall, {10, 10, "grabs"},
+                [](Payload p) { parse_object_request(p, false); }},
+    MessageKind{Type::kObjectMove, "object move", kUp, kSmall, {150, 75, "object moves"},
+                [](Payload p) { parse_object_request(p, true); }},
+    MessageKind{Type::kRelease, "release", kUp, kSmall, {10, 10, "releases"},
+                [](Payload p) { parse_object_request(p, true); }},
+    MessageKind{Type::kSetMonitor, "set monitor", kUp, kSmall, {150, 75, "monitor changes"},
+                [](Payload p) { parse_set_monitor(p); }},
+    MessageKind{Type::kSessionList, "session list", kDown, kSmall, kServers,
+                [](Payload p) { parse_session_list(p); }},
+    MessageKind{Type::kJoined, "joined", kDown, kSmall, kServers,
+                [](Payload p) { parse_joined(p); }},
+    MessageKind{Type::kSessionError, "session error", kDown, kSmall, kServers,
+                [](Payload p) { parse_error(p); }},
+    MessageKind{Type::kParticipantJoined, "participant joined", kDown, kSmall, kServers,
+                [](Payload p) { parse_participant(p); }},
+    MessageKind{Type::kParticipantLeft, "participant left", kDown, kSmall, kServers,
+                [](Payload p) { parse_left(p); }},
+    MessageKind{Type::kPoseFrom, "pose", kDown, kSmall, kServers, forwarded<parse_pose>},
+    MessageKind{Type::kPoseEchoFrom, "pose echo", kDown, kSmall, kServers,
+                [](Payload p) { parse_echo(p); }},
+    MessageKind{Type::kTeleported, "teleported", kDown, kSmall, kServers,
+                [](Payload p) { parse_teleported(p); }},
+    MessageKind{Type::kAvatarCameraFrom, "avatar camera", kDown, kSmall, kServers,
+                forwarded<parse_avatar_camera>},
+    MessageKind{Type::kAvatarFrameFrom, "avatar frame", kDown, kMaxAvatarFrameBytes + 4, kServers,
+                nullptr},
+    MessageKind{Type::kCase, "case", kDown, kMaxCaseBytes, kServers,
+                [](Payload p) { parse_case(p); }},
+    MessageKind{Type::kObjectState, "object state", kDown, kSmall, kServers,
+                [](Payload p) { parse_object_state(p); }},
+    MessageKind{Type::kMonitorState, "monitor state", kDown, kSmall, kServers,
+                [](Payload p) { parse_monitor_state(p); }},
+};
+// clang-format on
+
+}  // namespace
+
+std::span<const MessageKind> message_table() {
+  return kTable;
+}
+
+const MessageKind* find_message(uint8_t type) {
+  for (const MessageKind& m : kTable)
+    if (static_cast<uint8_t>(m.type) == type) return &m;
+  return nullptr;
+}
+
+uint32_t max_payload(uint8_t type) {
+  const MessageKind* m = find_message(type);
+  return m ? m->max_payload : 0;
+}
+
+RateLimit limit_of(uint8_t type) {
+  const MessageKind* m = find_message(type);
+  if (m && m->sender == Sender::kParticipant) return m->rate;
+  return {0, 0, "messages of a type participants do not send"};
+}
+
+}  // namespace volcast::session

@@ -1,0 +1,66 @@
+#pragma once
+// Private to src/session: a SessionHub's members and sessions (hub.hpp), shared by the lobby,
+// presence and forwarding (hub.cpp) and the patient case's objects and monitor (hub_case.cpp).
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "volcast/session/hub.hpp"
+
+namespace volcast {
+namespace hub_detail {
+
+using session::Type;
+using Clock = std::chrono::steady_clock;
+using Shared = std::shared_ptr<const std::vector<uint8_t>>;
+
+inline constexpr uint32_t kSiteParticipant = 1;
+
+// Coalescing keys: the newest pose / avatar frame of a participant replaces a queued one.
+inline uint64_t pose_key(uint32_t id) {
+  return (uint64_t{1} << 32) | id;
+}
+inline uint64_t avatar_key(uint32_t id) {
+  return (uint64_t{2} << 32) | id;
+}
+inline uint64_t object_key(uint16_t object) {
+  return (uint64_t{3} << 32) | object;
+}
+inline constexpr uint64_t kMonitorKey = uint64_t{4} << 32;
+
+inline int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+inline Shared share(std::vector<uint8_t> m) {
+  return std::make_shared<const std::vector<uint8_t>>(std::move(m));
+}
+
+}  // namespace hub_detail
+
+using namespace hub_detail;
+
+struct SessionHub::Member {
+  SessionMember info;
+  Session* session = nullptr;
+  Clock::time_point last_seen = Clock::now();
+  bool dropping = false;  // its last message was malformed: it leaves as kDropped
+  std::optional<session::AvatarCamera> camera;
+  Shared camera_message, last_pose;  // forwarded forms, for participants who join later
+};
+
+struct SessionHub::Session {
+  uint32_t id = 0;
+  std::string name;
+  bool standing = false;  // made by the server (create_session): kept while empty
+  Clock::time_point made = Clock::now();
+  std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
+  std::vector<session::ObjectState> objects;            // the case's, by object index
+  std::optional<session::MonitorState> monitor;         // when the case has a series
+};
+
+}  // namespace volcast

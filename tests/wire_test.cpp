@@ -59,21 +59,21 @@ TEST(Wire, BytesAreLittleEndian) {
   w.put<uint16_t>(0x0102);
   w.put<uint32_t>(0x03040506u);
   w.put<uint64_t>(0x0708090a0b0c0d0eull);
-  w.put<float>(1.0f);    // 0x3f800000
-  w.put<double>(-2.0);   // 0xc000000000000000
-  w.put<int16_t>(-2);    // 0xfffe
+  w.put<float>(1.0f);   // 0x3f800000
+  w.put<double>(-2.0);  // 0xc000000000000000
+  w.put<int16_t>(-2);   // 0xfffe
   w.put_string("ab");
   const std::array<uint32_t, 2> array = {0x11223344u, 0x55667788u};
   w.put_array<uint32_t>(array);
   const std::vector<uint8_t> expected = {
-      0x02, 0x01,                                            // u16
-      0x06, 0x05, 0x04, 0x03,                                // u32
-      0x0e, 0x0d, 0x0c, 0x0b, 0x0a, 0x09, 0x08, 0x07,        // u64
-      0x00, 0x00, 0x80, 0x3f,                                // f32 1.0
-      0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xc0,        // f64 -2.0
-      0xfe, 0xff,                                            // i16 -2
-      0x02, 0x00, 'a',  'b',                                 // string
-      0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55};       // u32 array
+      0x02, 0x01,                                       // u16
+      0x06, 0x05, 0x04, 0x03,                           // u32
+      0x0e, 0x0d, 0x0c, 0x0b, 0x0a, 0x09, 0x08, 0x07,   // u64
+      0x00, 0x00, 0x80, 0x3f,                           // f32 1.0
+      0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xc0,   // f64 -2.0
+      0xfe, 0xff,                                       // i16 -2
+      0x02, 0x00, 'a',  'b',                            // string
+      0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55};  // u32 array
   EXPECT_EQ(out, expected);
 
   std::array<uint8_t, 8> at{};

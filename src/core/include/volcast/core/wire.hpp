@@ -19,14 +19,16 @@ namespace volcast::wire {
 /// The unsigned integer of T's size (T: an integer, an enum or a float/double of 1, 2, 4 or 8
 /// bytes).
 template <typename T>
-using Bits = std::conditional_t<
-    sizeof(T) == 1, uint8_t,
-    std::conditional_t<sizeof(T) == 2, uint16_t,
-                       std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+using Bits =
+    std::conditional_t<sizeof(T) == 1, uint8_t,
+                       std::conditional_t<sizeof(T) == 2, uint16_t,
+                                          std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
 
+/// What the codec reads and writes as a number: an integer, enum, float or double of 1, 2, 4 or
+/// 8 bytes.
 template <typename T>
-concept Number = (std::is_arithmetic_v<T> || std::is_enum_v<T>) &&
-                 (sizeof(T) == 1 || sizeof(T) == 2 || sizeof(T) == 4 || sizeof(T) == 8);
+concept Number = sizeof(T) <= 8 && std::has_single_bit(sizeof(T)) &&
+                 (std::is_arithmetic_v<T> || std::is_enum_v<T>);
 
 /// Writes `v` little-endian at `at` (sizeof(T) bytes; the caller owns the room).
 template <Number T>

@@ -101,14 +101,14 @@ bool RecordingReader::read_index() {
     throw Error(where + ": corrupt index" + at_index + " (fails its CRC)");
   wire::Reader r(payload, "recording index");
   try {
-    const uint32_t count = r.get<uint32_t>();
+    const uint32_t count = r.get<uint32_t>("count");
     if (uint64_t{count} * kIndexEntryBytes != r.remaining()) r.fail("wrong length");
     info_.frame_sets.resize(count);
     for (RecordedFrameSet& e : info_.frame_sets) {
-      e.offset = r.get<uint64_t>();
-      e.sequence = r.get<uint64_t>();
-      e.capture_us = r.get<int64_t>();
-      e.key = (r.get<uint8_t>() & 1) != 0;
+      e.offset = r.get<uint64_t>("offset");
+      e.sequence = r.get<uint64_t>("sequence");
+      e.capture_us = r.get<int64_t>("capture time");
+      e.key = (r.get<uint8_t>("flags") & 1) != 0;
     }
   } catch (const Error& e) {
     throw Error(where + ": index" + at_index + ": " + e.what());

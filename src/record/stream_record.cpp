@@ -28,11 +28,11 @@ RecordedFrameSet frame_set_head(std::span<const uint8_t> body) {
   wire::Reader r(body, "frame set");
   RecordedFrameSet h;
   h.bytes = static_cast<uint32_t>(body.size());
-  h.sequence = r.get<uint64_t>();
-  h.key = (r.get<uint8_t>() & 1) != 0;
-  h.capture_us = r.get<int64_t>();
-  r.get<int64_t>();  // filter done
-  r.get<int64_t>();  // encode done
+  h.sequence = r.get<uint64_t>("sequence");
+  h.key = (r.get<uint8_t>("flags") & 1) != 0;
+  h.capture_us = r.get<int64_t>("capture time");
+  r.get<int64_t>("filter time");
+  r.get<int64_t>("encode time");
   return h;
 }
 
@@ -84,13 +84,13 @@ std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
 RecordingStream parse_stream(std::span<const uint8_t> payload) {
   wire::Reader r(payload, "recording stream");
   RecordingStream s;
-  s.depth_codec = r.get_string();
-  s.color_codec = r.get_string();
-  s.color_quality = r.get<uint8_t>();
+  s.depth_codec = r.get_string("depth codec");
+  s.color_codec = r.get_string("color codec");
+  s.color_quality = r.get<uint8_t>("color quality");
   if (s.color_quality > 100) r.fail("color quality above 100");
-  s.started_us = r.get<int64_t>();
-  s.origin = r.get_string();
-  s.welcome = protocol::parse_welcome(r.get_span());
+  s.started_us = r.get<int64_t>("start time");
+  s.origin = r.get_string("origin");
+  s.welcome = protocol::parse_welcome(r.get_span("welcome"));
   r.expect_end();
   if (s.depth_codec.empty() || s.color_codec.empty()) r.fail("no codec named");
   return s;

@@ -2,7 +2,6 @@
 // A virtual-OR session for tests: the real hands site (hands_site.hpp) served with a SessionHub,
 // and participants, each with its own connection, a thread receiving on it (session messages
 // arrive there) and a SessionClient publishing its pose script (and camera).
-#include <array>
 #include <atomic>
 #include <cmath>
 #include <memory>
@@ -118,7 +117,7 @@ inline bool same_pose(const Pose& a, const Pose& b) {
 /// Synthetic (labelled): an object named `name` of one part "shell", a tetrahedron of 10 cm edges
 /// (its corner at the object's origin), colour `rgba`, resting at `rest` (room frame, metres).
 inline session::SharedObject tetrahedron(const std::string& name, const Eigen::Vector3f& rest,
-                                         const std::array<float, 4>& rgba = {0.6f, 0.2f, 0.1f, 1}) {
+                                         const Eigen::Vector4f& rgba = {0.6f, 0.2f, 0.1f, 1}) {
   session::SharedObject o;
   o.name = name;
   o.rest.position = rest;

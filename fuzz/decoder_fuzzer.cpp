@@ -16,9 +16,9 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/join.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/seal.hpp"
+#include "volcast/net/protocol/join.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/stream/seal.hpp"
 
 namespace {
 
@@ -102,6 +102,18 @@ void fuzz_protocol(const uint8_t* data, size_t size) {
   attempt([&] {
     protocol::FrameSetView set;
     protocol::parse_frame_set(bytes, set);
+  });
+  // The same bytes through every receiver's path (frame_set.hpp): read, sizes, decode.
+  attempt([&] {
+    static FrameSetDecoder decoder = [] {
+      protocol::CameraInfo camera;
+      camera.calibration.depth.width = 64;
+      camera.calibration.depth.height = 48;
+      camera.calibration.depth.fx = camera.calibration.depth.fy = 50;
+      return FrameSetDecoder("raw", "raw", {camera});
+    }();
+    FrameSet frames;
+    decoder.decode(bytes, frames);
   });
   attempt([&] {
     protocol::SealedFrameSet seal;

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/connection.hpp"
-#include "volcast/net/server.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/stream/server.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <memory>
 #include <string>
 
-#include "../src/net/ws_engine.hpp"
+#include "volcast/net/transport/ws_engine.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using volcast::detail::WsEngine;

@@ -14,7 +14,7 @@
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/io/site_config.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/transport/tls.hpp"
 #include "xvfb.hpp"
 
 namespace volcast {

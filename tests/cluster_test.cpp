@@ -20,9 +20,9 @@
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/client.hpp"
-#include "volcast/net/frame_set_decoder.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 namespace volcast {
 namespace {

@@ -4,7 +4,7 @@
 
 #include "real_sites.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 

@@ -10,7 +10,7 @@
 #include "test_data.hpp"
 #include "volcast/capture/k4a_device.hpp"
 #include "volcast/capture/source.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 
 namespace volcast {

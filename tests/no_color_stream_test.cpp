@@ -9,7 +9,7 @@
 #include "sequence_folder.hpp"
 #include "test_data.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 
 namespace volcast {

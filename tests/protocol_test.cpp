@@ -5,7 +5,7 @@
 #include <random>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
 
 namespace volcast::protocol {
 namespace {

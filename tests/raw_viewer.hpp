@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/connection.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/seal.hpp"
-#include "volcast/net/server.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/stream/seal.hpp"
+#include "volcast/net/stream/server.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 namespace volcast::test {
 

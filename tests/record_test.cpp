@@ -19,7 +19,7 @@
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/export.hpp"
 #include "volcast/pipeline/replay.hpp"
 #include "volcast/record/decode.hpp"

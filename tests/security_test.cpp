@@ -13,10 +13,10 @@
 #include "test_data.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/client.hpp"
-#include "volcast/net/join.hpp"
-#include "volcast/net/tls.hpp"
-#include "volcast/net/trust.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/net/protocol/join.hpp"
+#include "volcast/net/transport/tls.hpp"
+#include "volcast/net/transport/trust.hpp"
 #include "web_peer.hpp"
 
 namespace volcast {

@@ -10,7 +10,7 @@
 #include "session_site.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"

@@ -11,7 +11,7 @@
 
 #include "hands_site.hpp"
 #include "volcast/core/clock.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/hub.hpp"
 

@@ -9,7 +9,7 @@
 
 #include "session_site.hpp"
 #include "volcast/core/clock.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/session/message_table.hpp"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/connection.hpp"
+#include "volcast/net/transport/connection.hpp"
 
 namespace volcast::test {
 

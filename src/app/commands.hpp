@@ -12,8 +12,8 @@
 #include "volcast/cluster/nats.hpp"
 #include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
-#include "volcast/net/client.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/net/stream/server.hpp"
 
 namespace volcast {
 
@@ -56,7 +56,7 @@ struct ServeArgs {
   int max_read_failures = 30;  ///< failed reads in a row that mark a camera failed
   double seconds = 0;          ///< 0 = until interrupted
   bool low_latency = false;    ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
-  // Security and policy (volcast/net/server.hpp).
+  // Security and policy (volcast/net/stream/server.hpp).
   bool insecure = false;           ///< plain TCP, loopback only
   std::string cert, key;           ///< PEM files; default: user_config_dir()/server/*.pem
   std::string token_file;          ///< 32 hex digits; default: a random token per session

@@ -19,8 +19,8 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/private_file.hpp"
-#include "volcast/net/client.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/net/transport/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 

@@ -14,7 +14,7 @@
 #include "real_sites.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 #include "volcast/record/recorder.hpp"

@@ -15,7 +15,7 @@
 #include "commands.hpp"
 #include "real_sites.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/hub.hpp"

@@ -324,7 +324,7 @@ SessionForwarder::~SessionForwarder() {
   sub_.reset();
 }
 
-void SessionForwarder::attach(Server* server) {
+void SessionForwarder::attach(SessionOutlet* server) {
   std::lock_guard lock(mutex_);
   server_ = server;
 }

@@ -29,7 +29,7 @@ SessionHub::~SessionHub() {
   presence_.join();
 }
 
-void SessionHub::attach(Server* server) {
+void SessionHub::attach(SessionOutlet* server) {
   std::lock_guard lock(mutex_);
   server_ = server;
 }

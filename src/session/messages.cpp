@@ -5,8 +5,8 @@
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/wire.hpp"
-#include "volcast/net/calibration_wire.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/calibration_wire.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 #include "wire_fields.hpp"
 
 namespace volcast::session {

@@ -1,4 +1,4 @@
-#include "volcast/net/join.hpp"
+#include "volcast/net/protocol/join.hpp"
 
 #include <openssl/crypto.h>
 #include <openssl/rand.h>

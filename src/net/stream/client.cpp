@@ -1,4 +1,4 @@
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -16,15 +16,15 @@
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
-#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
 #include "volcast/core/worker_pool.hpp"
-#include "volcast/net/connection.hpp"
-#include "volcast/net/seal.hpp"
-#include "volcast/net/tls.hpp"
-#include "volcast/net/trust.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/stream/seal.hpp"
+#include "volcast/net/transport/tls.hpp"
+#include "volcast/net/transport/trust.hpp"
 
 namespace volcast {
 
@@ -45,10 +45,9 @@ struct Client::Impl {
   protocol::Welcome welcome;
   uint32_t frame_set_limit = 0;  // protocol::frame_set_payload_limit(welcome)
   int64_t clock_offset_us = 0;
-  std::vector<std::unique_ptr<DepthDecoder>> depth;
-  std::vector<std::unique_ptr<ColorDecoder>> color;
+  std::unique_ptr<FrameSetDecoder> decoder;  // the tier's decoders (frame_set.hpp), after Welcome
   std::unique_ptr<WorkerPool> pool;
-  protocol::FrameSetView view;
+  protocol::FrameSetView unopened;  // a sealed frame set a receive-only viewer did not open
   std::vector<uint8_t> buffer;  // the last message's payload is its first payload_bytes bytes
   size_t payload_bytes = 0;
   size_t wire_bytes = 0;          // the last message's bytes on the wire (sealed body included)
@@ -59,7 +58,6 @@ struct Client::Impl {
   bool stateless = false;  // both codecs non-temporal
   const ReceivedFrameSet* last_out = nullptr;
   std::vector<std::vector<uint8_t>> last_depth, last_color;
-  std::vector<size_t> tasks;
   // Session channel: the handler, and messages waiting for the receiving thread to send them.
   SessionHandler session_handler;
   std::function<uint32_t(uint8_t)> session_max_payload;
@@ -239,23 +237,116 @@ struct Client::Impl {
     return Clock::now() + std::chrono::milliseconds(timeout_ms);
   }
 
-  // Each camera's streams must declare its calibrated size, checked before a decoder allocates
-  // for what they declare.
-  void check_declared_sizes() const {
-    for (size_t i = 0; i < view.cameras.size(); ++i) {
-      const Intrinsics& k = welcome.cameras[i].calibration.depth;
-      const auto check = [&](const char* stream, const std::optional<DeclaredSize>& size) {
-        if (size && (size->width != k.width || size->height != k.height))
-          throw ClientError(Kind::kProtocol,
-                            "camera " + std::to_string(i) + " (" +
-                                printable(welcome.cameras[i].description, 80) + "): its " + stream +
-                                " stream declares " + std::to_string(size->width) + "x" +
-                                std::to_string(size->height) + ", its calibration is " +
-                                std::to_string(k.width) + "x" + std::to_string(k.height));
-      };
-      check("depth", declared_depth_size(view.cameras[i].depth));
-      check("color", declared_color_size(view.cameras[i].color));
+  // Hands the session message just read to the handler; an Error it throws is a kProtocol one.
+  void to_session_handler(const protocol::Header& header) {
+    if (!session_handler) return;
+    try {
+      session_handler(static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff), payload());
+    } catch (const ClientError&) {
+      throw;
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, std::string("session message: ") + e.what());
     }
+  }
+
+  // The frame set just read (its payload in `buffer`), read by the tier's FrameSetDecoder -- or,
+  // for a sealed one a receive-only viewer did not open, taken from its descriptor. Throws
+  // ClientError kProtocol on a malformed one, a descriptor whose copy of the head differs from the
+  // opened body's, another camera count than the site's, or (when decoding or keeping the bytes)
+  // a stream that declares another size than its camera's calibration.
+  const protocol::FrameSetView& read_frame_set(bool sealed) {
+    if (sealed && !config.decode && !config.keep_encoded) {
+      unopened.sequence = seal.sequence;
+      unopened.key = seal.key_frame_set;
+      unopened.times = seal.times;
+      unopened.times.send_us = seal.send_us;
+      unopened.cameras.assign(welcome.cameras.size(), {});  // sizes and device times: in the body
+      return unopened;
+    }
+    try {
+      const protocol::FrameSetView& view = decoder->read(payload());
+      if (sealed && (view.sequence != seal.sequence || view.key != seal.key_frame_set ||
+                     view.times.capture_us != seal.times.capture_us ||
+                     view.times.filter_done_us != seal.times.filter_done_us ||
+                     view.times.encode_done_us != seal.times.encode_done_us))
+        throw Error(
+            "sealed frame set: the descriptor's copy of sequence, flags and times differs from "
+            "the opened body's");
+      if (config.decode || config.keep_encoded) decoder->check_declared_sizes();
+      return view;
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, e.what());
+    }
+  }
+
+  // Fills `out` from `view`, all but the images: the sender's times on this clock, sizes, device
+  // times, no camera repeated, and the encoded body when the config keeps it.
+  void describe(const protocol::FrameSetView& view, int64_t received_us,
+                ReceivedFrameSet& out) const {
+    const size_t n = view.cameras.size();
+    out.frames.sequence = view.sequence;
+    out.frames.capture_time_us = view.times.capture_us - clock_offset_us;
+    out.frames.cameras.resize(n);
+    out.key = view.key;
+    out.times.capture_us = view.times.capture_us - clock_offset_us;
+    out.times.filter_done_us = view.times.filter_done_us - clock_offset_us;
+    out.times.encode_done_us = view.times.encode_done_us - clock_offset_us;
+    out.times.send_us = view.times.send_us - clock_offset_us;
+    out.times.received_us = received_us;
+    out.depth_bytes.resize(n);
+    out.color_bytes.resize(n);
+    out.repeated.assign(n, 0);
+    out.message_bytes = wire_bytes;
+    for (size_t i = 0; i < n; ++i) {
+      out.frames.cameras[i].device_timestamp_us = view.cameras[i].device_timestamp_us;
+      out.depth_bytes[i] = view.cameras[i].depth.size();
+      out.color_bytes[i] = view.cameras[i].color.size();
+    }
+    if (config.keep_encoded) {
+      const auto body = payload().subspan(8);
+      out.encoded_body.assign(body.begin(), body.end());
+    } else {
+      out.encoded_body.clear();
+    }
+  }
+
+  // Decodes the frame set the decoder read into `out`, in parallel; a camera whose bytes equal
+  // those decoded into this same `out` last time is not decoded again (stateless codecs only:
+  // the same bytes decode to the same images). False if it cannot be decoded (a delta whose
+  // reference is missing, or corrupt bytes). Throws Error if an image differs from its
+  // calibration.
+  bool decode(ReceivedFrameSet& out) {
+    const protocol::FrameSetView& view = decoder->view();
+    const size_t n = view.cameras.size();
+    const bool same_out = stateless && last_out == &out;
+    for (size_t i = 0; i < n; ++i)
+      out.repeated[i] = same_out && std::ranges::equal(view.cameras[i].depth, last_depth[i]) &&
+                        std::ranges::equal(view.cameras[i].color, last_color[i]);
+    try {
+      decoder->decode_cameras(out.frames, pool.get(), out.repeated);
+    } catch (const Error& e) {
+      last_out = nullptr;  // `out` holds partly decoded images now
+      if (undecodable++ == 0)
+        spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
+      return false;
+    }
+    last_out = &out;
+    if (stateless)
+      for (size_t i = 0; i < n; ++i) {
+        last_depth[i].assign(view.cameras[i].depth.begin(), view.cameras[i].depth.end());
+        last_color[i].assign(view.cameras[i].color.begin(), view.cameras[i].color.end());
+      }
+    for (size_t i = 0; i < n; ++i) {
+      if (out.repeated[i]) continue;  // not decoded: what the caller left there
+      const CameraFrame& f = out.frames.cameras[i];
+      const Intrinsics& k = welcome.cameras[i].calibration.depth;
+      if (f.depth.width != k.width || f.depth.height != k.height)
+        throw Error("camera " + std::to_string(i) +
+                    ": depth frame size differs from its calibration");
+      if (!f.color.empty() && (f.color.width != k.width || f.color.height != k.height))
+        throw Error("camera " + std::to_string(i) + ": color frame is not registered to depth");
+    }
+    return true;
   }
 
   void send(std::span<const uint8_t> message) {
@@ -357,14 +448,10 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   // uncertain by half the handshake's round trip, within which the clocks count as one.
   const int64_t offset = impl_->welcome.server_time_us - (sent_us + received_us) / 2;
   if (std::llabs(offset) > (received_us - sent_us) / 2) impl_->clock_offset_us = offset;
-  for (size_t i = 0; i < impl_->welcome.cameras.size(); ++i) {
-    impl_->depth.push_back(make_depth_decoder(config.depth_codec));
-    impl_->color.push_back(make_color_decoder(config.color_codec));
-  }
+  impl_->decoder = std::make_unique<FrameSetDecoder>(config.depth_codec, config.color_codec,
+                                                     impl_->welcome.cameras);
   if (config.decode) impl_->pool = std::make_unique<WorkerPool>(config.decode_threads);
-  const DepthCodecInfo* d = find_depth_codec(config.depth_codec);
-  const ColorCodecInfo* c = find_color_codec(config.color_codec);
-  impl_->stateless = d && c && !d->temporal && !c->temporal;
+  impl_->stateless = impl_->decoder->stateless();
   impl_->last_depth.resize(impl_->welcome.cameras.size());
   impl_->last_color.resize(impl_->welcome.cameras.size());
 }
@@ -398,22 +485,12 @@ uint64_t Client::frames_undecodable() const {
 
 bool Client::receive(ReceivedFrameSet& out) {
   Impl& m = *impl_;
-  const auto& cams = m.welcome.cameras;
   while (true) {
     protocol::Header header;
     const auto deadline = Impl::deadline_in(m.config.receive_timeout_ms);
     if (!m.read_message(header, m.frame_set_limit, deadline, false)) return false;
     if (header.channel == protocol::Channel::kSession) {
-      if (m.session_handler) {
-        try {
-          m.session_handler(static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff),
-                            m.payload());
-        } catch (const ClientError&) {
-          throw;
-        } catch (const Error& e) {
-          throw ClientError(Kind::kProtocol, std::string("session message: ") + e.what());
-        }
-      }
+      m.to_session_handler(header);
       continue;
     }
     const bool sealed = header.type == protocol::MessageType::kSealedFrameSet;
@@ -424,107 +501,8 @@ bool Client::receive(ReceivedFrameSet& out) {
       throw ClientError(Kind::kProtocol, "expected a FrameSet message");
     }
     const int64_t received_us = wall_clock_us();
-    if (sealed && !m.config.decode && !m.config.keep_encoded) {
-      m.view.sequence = m.seal.sequence;
-      m.view.key = m.seal.key_frame_set;
-      m.view.times = m.seal.times;
-      m.view.times.send_us = m.seal.send_us;
-      m.view.cameras.assign(cams.size(), {});  // sizes and device times are in the body
-    } else {
-      try {
-        protocol::parse_frame_set(m.payload(), m.view);
-      } catch (const Error& e) {
-        throw ClientError(Kind::kProtocol, e.what());
-      }
-      if (sealed && (m.view.sequence != m.seal.sequence || m.view.key != m.seal.key_frame_set ||
-                     m.view.times.capture_us != m.seal.times.capture_us ||
-                     m.view.times.filter_done_us != m.seal.times.filter_done_us ||
-                     m.view.times.encode_done_us != m.seal.times.encode_done_us))
-        throw ClientError(Kind::kProtocol,
-                          "sealed frame set: the descriptor's copy of sequence, flags and times "
-                          "differs from the opened body's");
-    }
-    if (m.view.cameras.size() != cams.size())
-      throw ClientError(Kind::kProtocol, "frame set has " + std::to_string(m.view.cameras.size()) +
-                                             " cameras, the site has " +
-                                             std::to_string(cams.size()));
-    const size_t n = cams.size();
-    out.frames.sequence = m.view.sequence;
-    out.frames.capture_time_us = m.view.times.capture_us - m.clock_offset_us;
-    out.frames.cameras.resize(n);
-    out.key = m.view.key;
-    out.times.capture_us = m.view.times.capture_us - m.clock_offset_us;
-    out.times.filter_done_us = m.view.times.filter_done_us - m.clock_offset_us;
-    out.times.encode_done_us = m.view.times.encode_done_us - m.clock_offset_us;
-    out.times.send_us = m.view.times.send_us - m.clock_offset_us;
-    out.times.received_us = received_us;
-    out.depth_bytes.resize(n);
-    out.color_bytes.resize(n);
-    out.message_bytes = m.wire_bytes;
-    for (size_t i = 0; i < n; ++i) {
-      out.frames.cameras[i].device_timestamp_us = m.view.cameras[i].device_timestamp_us;
-      out.depth_bytes[i] = m.view.cameras[i].depth.size();
-      out.color_bytes[i] = m.view.cameras[i].color.size();
-    }
-    if (m.config.decode || m.config.keep_encoded) m.check_declared_sizes();
-    if (m.config.keep_encoded) {
-      const auto body = m.payload().subspan(8);
-      out.encoded_body.assign(body.begin(), body.end());
-    } else {
-      out.encoded_body.clear();
-    }
-    bool decoded = true;
-    out.repeated.assign(n, 0);
-    if (m.config.decode) {
-      // A camera whose bytes equal those decoded into this same `out` last time is not decoded
-      // again (stateless codecs only: the same bytes decode to the same images).
-      const bool same_out = m.stateless && m.last_out == &out;
-      m.tasks.clear();
-      for (size_t i = 0; i < n; ++i) {
-        const auto& e = m.view.cameras[i];
-        out.repeated[i] = same_out && std::ranges::equal(e.depth, m.last_depth[i]) &&
-                          std::ranges::equal(e.color, m.last_color[i]);
-        if (!out.repeated[i]) {
-          m.tasks.push_back(i);
-          m.tasks.push_back(n + i);
-        }
-      }
-      // Tasks decode depth (t < n) or color (t >= n) of camera t % n, in parallel.
-      try {
-        m.pool->parallel_for(m.tasks.size(), [&](size_t k) {
-          const size_t t = m.tasks[k], i = t % n;
-          CameraFrame& f = out.frames.cameras[i];
-          if (t < n)
-            m.depth[i]->decode(m.view.cameras[i].depth, f.depth);
-          else if (m.view.cameras[i].color.empty())
-            f.color = ColorImage();  // zero-length color: none for this frame (protocol.hpp)
-          else
-            m.color[i]->decode(m.view.cameras[i].color, f.color);
-        });
-        m.last_out = &out;
-        if (m.stateless)
-          for (size_t i = 0; i < n; ++i) {
-            m.last_depth[i].assign(m.view.cameras[i].depth.begin(), m.view.cameras[i].depth.end());
-            m.last_color[i].assign(m.view.cameras[i].color.begin(), m.view.cameras[i].color.end());
-          }
-      } catch (const Error& e) {
-        m.last_out = nullptr;  // `out` holds partly decoded images now
-        // A delta whose reference is missing (or a corrupt frame): skip it, ask for a key frame.
-        if (m.undecodable++ == 0)
-          spdlog::warn("frame set {} not decoded: {}", out.frames.sequence, e.what());
-        decoded = false;
-      }
-      for (size_t i = 0; decoded && i < n; ++i) {
-        if (out.repeated[i]) continue;  // not decoded: what the caller left there
-        const CameraFrame& f = out.frames.cameras[i];
-        const Intrinsics& k = cams[i].calibration.depth;
-        if (f.depth.width != k.width || f.depth.height != k.height)
-          throw Error("camera " + std::to_string(i) +
-                      ": depth frame size differs from its calibration");
-        if (!f.color.empty() && (f.color.width != k.width || f.color.height != k.height))
-          throw Error("camera " + std::to_string(i) + ": color frame is not registered to depth");
-      }
-    }
+    m.describe(m.read_frame_set(sealed), received_us, out);
+    const bool decoded = !m.config.decode || m.decode(out);
     out.times.decoded_us = wall_clock_us();
     // Tell the server, whose pacing follows these Acks.
     m.send(protocol::ack_message(out.frames.sequence));

@@ -1,4 +1,4 @@
-#include "volcast/net/pacing.hpp"
+#include "volcast/net/stream/pacing.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "volcast/net/seal.hpp"
+#include "volcast/net/stream/seal.hpp"
 
 #include <openssl/crypto.h>
 #include <openssl/err.h>

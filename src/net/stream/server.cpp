@@ -1,4 +1,4 @@
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/server.hpp"
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -17,15 +17,15 @@
 #include <mutex>
 #include <thread>
 
-#include "door.hpp"
+#include "volcast/net/transport/door.hpp"
 #include "tier_encoder.hpp"
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
-#include "volcast/net/connection.hpp"
-#include "volcast/net/pacing.hpp"
-#include "websocket.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/stream/pacing.hpp"
+#include "volcast/net/transport/websocket.hpp"
 
 namespace volcast {
 namespace {
@@ -621,6 +621,7 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   impl_->door.handshake_timeout_ms = config.handshake_timeout_ms;
   impl_->door.max_pending = config.max_pending;
   impl_->door.max_pending_per_address = config.max_pending_per_address;
+  impl_->door.free_wrong_tokens = kFreeWrongTokens;
   impl_->budget_cores = config.tier_cpu_budget > 0
                             ? config.tier_cpu_budget
                             : std::max(1.0, double(std::thread::hardware_concurrency()) / 2);

@@ -3,12 +3,11 @@
 #include <time.h>
 
 #include <algorithm>
-#include <cstring>
 
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/seal.hpp"
+#include "volcast/net/stream/seal.hpp"
 
 namespace volcast::detail {
 namespace {
@@ -80,13 +79,7 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
     out->key = pre->key;
     out->encode_done_us = wall_clock_us();
     times.encode_done_us = out->encode_done_us;
-    uint8_t* h = out->body.data();
-    const uint8_t flags = pre->key ? 1 : 0;
-    std::memcpy(h, &frames.sequence, 8);
-    std::memcpy(h + 8, &flags, 1);
-    std::memcpy(h + 9, &times.capture_us, 8);
-    std::memcpy(h + 17, &times.filter_done_us, 8);
-    std::memcpy(h + 25, &times.encode_done_us, 8);
+    protocol::rewrite_frame_set_head(out->body, frames.sequence, pre->key, times);
     passing_ = true;
     passed_position_ = pre->position;
     encoders_stale_ = true;

@@ -9,7 +9,7 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/core/worker_pool.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
 
 namespace volcast::detail {
 

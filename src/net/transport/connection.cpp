@@ -1,4 +1,4 @@
-#include "volcast/net/connection.hpp"
+#include "volcast/net/transport/connection.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>

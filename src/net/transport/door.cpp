@@ -1,4 +1,4 @@
-#include "door.hpp"
+#include "volcast/net/transport/door.hpp"
 
 #include <poll.h>
 #include <spdlog/spdlog.h>
@@ -13,8 +13,7 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/server.hpp"
-#include "websocket.hpp"
+#include "volcast/net/transport/websocket.hpp"
 
 namespace volcast::detail {
 namespace {
@@ -284,7 +283,7 @@ class Door {
     }
   }
 
-  // Refuses a wrong token and backs its address off: after kFreeWrongTokens of them (forgotten
+  // Refuses a wrong token and backs its address off: after free_wrong_tokens of them (forgotten
   // after 10 quiet minutes), each further one is refused for 1 s, doubling up to 60 s from it.
   void refuse_wrong_token(Pending& p) {
     const auto now = Clock::now();
@@ -292,8 +291,8 @@ class Door {
     if (now - o.last > kForgetAfter) o = Offences{};
     o.last = now;
     const bool backed_off = now < o.blocked_until;
-    if (++o.wrong_tokens >= volcast::kFreeWrongTokens) {
-      const int doublings = std::min(o.wrong_tokens - volcast::kFreeWrongTokens, 6);
+    if (++o.wrong_tokens >= config_.free_wrong_tokens) {
+      const int doublings = std::min(o.wrong_tokens - config_.free_wrong_tokens, 6);
       o.blocked_until =
           now + std::min(std::chrono::seconds(1 << doublings), std::chrono::seconds(60));
     }

@@ -1,4 +1,4 @@
-#include "volcast/net/tls.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 #include <fcntl.h>
 #include <openssl/err.h>

@@ -1,4 +1,4 @@
-#include "volcast/net/trust.hpp"
+#include "volcast/net/transport/trust.hpp"
 
 #include <fcntl.h>
 #include <sys/file.h>

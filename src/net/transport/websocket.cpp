@@ -1,4 +1,4 @@
-#include "websocket.hpp"
+#include "volcast/net/transport/websocket.hpp"
 
 #include <poll.h>
 

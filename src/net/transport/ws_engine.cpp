@@ -1,5 +1,5 @@
 // Compiled as C++17 (see ws_engine.hpp).
-#include "ws_engine.hpp"
+#include "volcast/net/transport/ws_engine.hpp"
 
 #define _WEBSOCKETPP_CPP11_STL_
 #include <websocketpp/config/core.hpp>

@@ -16,7 +16,7 @@
 //       33    3  reserved, 0
 //       36    …  the body's bytes [offset, offset + n), n = message size - 36
 // A body is `total` bytes: the FrameSet body exactly as the tier sends it to viewers
-// (volcast/net/protocol.hpp).
+// (volcast/net/protocol/protocol.hpp).
 #include <cstddef>
 #include <cstdint>
 #include <functional>

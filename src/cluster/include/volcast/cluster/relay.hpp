@@ -31,9 +31,9 @@
 #include "volcast/cluster/session_link.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/frame_pool.hpp"
-#include "volcast/net/frame_set_decoder.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/stream/server.hpp"
 
 namespace volcast::cluster {
 

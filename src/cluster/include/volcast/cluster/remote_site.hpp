@@ -25,8 +25,8 @@
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/nats.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
-#include "volcast/net/frame_set_decoder.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 
 namespace volcast::cluster {
 

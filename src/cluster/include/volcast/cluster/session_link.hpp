@@ -37,7 +37,7 @@
 #include <vector>
 
 #include "volcast/cluster/nats.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/session_port.hpp"
 #include "volcast/session/rate_limit.hpp"
 
 namespace volcast::cluster {
@@ -166,7 +166,7 @@ class SessionForwarder final : public SessionPort {
   SessionForwarder& operator=(const SessionForwarder&) = delete;
 
   /// The relay's server (its ServerConfig::session is this); null detaches, before it goes.
-  void attach(Server* server);
+  void attach(SessionOutlet* server);
   const std::string& relay() const { return relay_; }
   SessionLinkStats stats() const;
 
@@ -181,7 +181,7 @@ class SessionForwarder final : public SessionPort {
   NatsConnection& nats_;
   std::string site_, relay_, up_;
   mutable std::mutex mutex_;  // server_, stats_
-  Server* server_ = nullptr;
+  SessionOutlet* server_ = nullptr;
   SessionLinkStats stats_;
   std::mutex publish_mutex_;
   session::RateLimiter limiter_;

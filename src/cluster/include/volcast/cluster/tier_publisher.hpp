@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "volcast/cluster/nats.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/stream/server.hpp"
 
 namespace volcast::cluster {
 

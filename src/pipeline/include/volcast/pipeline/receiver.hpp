@@ -9,7 +9,7 @@
 #include <functional>
 #include <optional>
 
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "volcast/core/frame_pool.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/server.hpp"
 #include "volcast/record/decode.hpp"
 #include "volcast/record/recording.hpp"
 

@@ -13,7 +13,7 @@
 
 #include "volcast/capture/source.hpp"
 #include "volcast/filter/chain.hpp"
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/server.hpp"
 
 namespace volcast {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "volcast/capture/source.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/session/participant.hpp"
 #include "volcast/session/pose_script.hpp"
 

@@ -14,7 +14,7 @@
 
 namespace volcast {
 
-struct StageTimes;  // volcast/net/client.hpp
+struct StageTimes;  // volcast/net/stream/client.hpp
 
 inline constexpr std::array<std::string_view, 7> kStageNames = {
     "filter", "encode", "send", "receive", "decode", "ready", "total"};

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "volcast/core/frame.hpp"
-#include "volcast/net/frame_set_decoder.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 #include "volcast/record/recording.hpp"
 
 namespace volcast {

@@ -9,7 +9,7 @@
 #include <string>
 #include <thread>
 
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/server.hpp"
 #include "volcast/record/recording.hpp"
 
 namespace volcast {

@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 
 namespace volcast {
 

@@ -31,7 +31,7 @@
 #include <thread>
 #include <vector>
 
-#include "volcast/net/server.hpp"
+#include "volcast/net/stream/session_port.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/rate_limit.hpp"
@@ -88,7 +88,7 @@ class SessionHub final : public SessionPort {
 
   /// The server whose viewers are the participants (its ServerConfig::session must be this hub);
   /// null detaches (before the server is destroyed).
-  void attach(Server* server);
+  void attach(SessionOutlet* server);
   /// Viewer ids with bit 63 set (kRemoteViewer) are viewers of relays: their messages come in
   /// through on_message like the server's own viewers', and what the hub sends them goes to
   /// `remote` (cluster/session_link.hpp's SessionBridge); null detaches (before it is destroyed).

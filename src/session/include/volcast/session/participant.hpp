@@ -15,7 +15,7 @@
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"

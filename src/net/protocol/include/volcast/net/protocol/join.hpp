@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 
 namespace volcast {
 

@@ -29,7 +29,7 @@
 //                    decoded (or, for a receive-only peer, read). The server paces by Acks.
 //     0.5 KeyFrameRequest  viewer -> server, empty: the viewer's decoder refused a delta frame;
 //                    the server sends the viewer's tier's next key frame (rate-limited per tier).
-//   1 frames
+//   1 frames       (its code, writer and reader: frame_set.hpp)
 //     1.1 FrameSet   server -> viewer: send time i64 (when this server began writing the message
 //                    to this viewer), then the tier's shared body, byte-identical for every viewer
 //                    of the tier: sequence u64 | flags u8 (bit 0: key frame set, every camera's
@@ -189,84 +189,15 @@ struct Welcome {
   int64_t server_time_us = 0;
 };
 
-/// Sender-side times of one frame set (wall clock, microseconds since the Unix epoch).
-struct SenderTimes {
-  int64_t capture_us = 0;      ///< frames read from the sources
-  int64_t filter_done_us = 0;  ///< filter chains done
-  int64_t encode_done_us = 0;  ///< every camera of the tier encoded
-  int64_t send_us = 0;         ///< this server began writing the message to this viewer
-};
-
-/// One camera's share of a parsed frame set: views into the received payload (valid while it is).
-struct EncodedCameraView {
-  int64_t device_timestamp_us = 0;
-  std::span<const uint8_t> depth;
-  std::span<const uint8_t> color;
-};
-
-struct FrameSetView {
-  uint64_t sequence = 0;
-  bool key = false;
-  SenderTimes times;
-  std::vector<EncodedCameraView> cameras;
-};
-
-/// One camera's encoded streams, for building a frame set body.
-struct EncodedCamera {
-  int64_t device_timestamp_us = 0;
-  std::vector<uint8_t> depth;
-  std::vector<uint8_t> color;
-};
-
-// Payload serialisation. The parse_* functions throw Error("malformed <message>: ...") on any
-// truncated, oversized or inconsistent field and never read past `payload`.
+// Payload serialisation (FrameSet 1.1 and SealedFrameSet 1.2: frame_set.hpp). The parse_*
+// functions throw Error("malformed <message>: ...") on any truncated, oversized or inconsistent
+// field and never read past `payload`.
 std::vector<uint8_t> serialize(const Hello& m);
 std::vector<uint8_t> serialize(const Welcome& m);
 std::vector<uint8_t> serialize_reject(const std::string& reason);
 std::vector<uint8_t> serialize_ack(uint64_t sequence);
 /// A whole Ack message (header + sequence), without allocating: the viewer sends one per frame set.
 std::array<uint8_t, kHeaderBytes + 8> ack_message(uint64_t sequence);
-
-/// Writes a FrameSet's shared body (everything after the send time) into `out` (cleared first;
-/// capacity reused). `times.send_us` is not part of the body.
-void serialize_frame_set_body(uint64_t sequence, bool key, const SenderTimes& times,
-                              std::span<const EncodedCamera> cameras, std::vector<uint8_t>& out);
-/// The 20 bytes a FrameSet message starts with for one viewer: header (payload = 8 + body size)
-/// and the send time. The message is these bytes followed by the shared body (a gather write).
-inline constexpr size_t kFrameSetPrefixBytes = kHeaderBytes + 8;
-std::array<uint8_t, kFrameSetPrefixBytes> frame_set_prefix(size_t body_bytes, int64_t send_us);
-
-/// One chunk of a sealed body: its detached AES-GCM tag and the SHA-256 of its ciphertext.
-struct SealChunk {
-  std::array<uint8_t, kSealTagBytes> tag{};
-  std::array<uint8_t, kSealDigestBytes> digest{};
-};
-
-/// What a SealedFrameSet (1.2) carries inside TLS: how to check and open the sealed body that
-/// follows it outside TLS (seal.hpp seals and opens).
-struct SealedFrameSet {
-  int64_t send_us = 0;  ///< as in FrameSet: when this server began writing to this viewer
-  /// Copies of the sealed body's sequence, key flag and sender times (send_us unused here).
-  uint64_t sequence = 0;
-  bool key_frame_set = false;
-  SenderTimes times;
-  uint32_t body_bytes = 0;   ///< sealed bytes that follow (= the FrameSet body's length)
-  uint32_t chunk_bytes = 0;  ///< power of two in [kMinSealChunkBytes, kMaxSealChunkBytes]
-  std::array<uint8_t, kSealKeyBytes> key{};
-  std::vector<SealChunk> chunks;  ///< ceil(body_bytes / chunk_bytes) of them
-};
-
-/// The SealedFrameSet payload after its send time (shared by every viewer of the tier), written
-/// into `out` (cleared first; capacity reused). Throws Error if `m` breaks the limits above.
-void serialize_sealed_frame_set_rest(const SealedFrameSet& m, std::vector<uint8_t>& out);
-/// The 20 bytes a SealedFrameSet message starts with for one viewer (header with payload
-/// 8 + rest_bytes, and the send time), followed by the shared rest (a gather write).
-std::array<uint8_t, kFrameSetPrefixBytes> sealed_frame_set_prefix(size_t rest_bytes,
-                                                                  int64_t send_us);
-/// Parses a SealedFrameSet payload into `out` (its chunk list reused). Throws Error("malformed
-/// sealed frame set: ...") on a chunk length that is not a power of two in range, a chunk count
-/// other than ceil(body / chunk) or above kMaxSealChunks, truncation or trailing bytes.
-void parse_sealed_frame_set(std::span<const uint8_t> payload, SealedFrameSet& out);
 
 /// The token a Hello payload starts with, without parsing the rest (the server checks it first).
 /// Throws Error("malformed hello: truncated") if the payload is shorter than a token.
@@ -281,9 +212,6 @@ Welcome parse_welcome(std::span<const uint8_t> payload);
 uint32_t frame_set_payload_limit(const Welcome& welcome);
 std::string parse_reject(std::span<const uint8_t> payload);
 uint64_t parse_ack(std::span<const uint8_t> payload);
-/// Parses a FrameSet payload (send time + body) into `out` (its camera list reused); the views
-/// point into `payload`.
-void parse_frame_set(std::span<const uint8_t> payload, FrameSetView& out);
 
 /// Header + payload as one message.
 std::vector<uint8_t> message(MessageType type, const std::vector<uint8_t>& payload);

@@ -10,8 +10,8 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/core/frame.hpp"
-#include "volcast/net/join.hpp"
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/join.hpp"
+#include "volcast/net/protocol/protocol.hpp"
 
 namespace volcast {
 

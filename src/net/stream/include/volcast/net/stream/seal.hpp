@@ -10,7 +10,7 @@
 #include <span>
 #include <vector>
 
-#include "volcast/net/protocol.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
 
 namespace volcast {
 

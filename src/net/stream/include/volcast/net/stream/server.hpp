@@ -39,41 +39,12 @@
 #include <vector>
 
 #include "volcast/core/frame.hpp"
-#include "volcast/net/join.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/protocol/join.hpp"
+#include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/stream/session_port.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 namespace volcast {
-
-/// The service behind the session channel (protocol.hpp channel 2; src/session's SessionHub). The
-/// server only carries its bytes: it calls these on the viewer's own thread, never while holding
-/// its own locks, and a viewer's session messages in the order they arrived.
-class SessionPort {
- public:
-  virtual ~SessionPort() = default;
-  /// The largest payload (bytes) a viewer may send in a session message of `type`; 0 for a type
-  /// that does not exist (the viewer is then dropped). Checked before the payload is read.
-  virtual uint32_t max_payload(uint8_t type) const = 0;
-  /// A session message from viewer `viewer` (ViewerReport::id). Throwing Error drops that viewer
-  /// (a malformed or hostile message), with what() as the reason; nobody else is touched.
-  virtual void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) = 0;
-  /// Viewer `viewer` has gone (closed, dropped, stalled, server stopping); `why` says how.
-  virtual void on_viewer_left(uint64_t viewer, const std::string& why) = 0;
-};
-
-/// Where the session service's messages for viewers go: the Server for its own viewers, a NATS
-/// session bridge (cluster/session_link.hpp) for viewers of relays.
-class SessionOutlet {
- public:
-  virtual ~SessionOutlet() = default;
-  /// Queues a whole session-channel message (protocol.hpp channel 2, header included) for
-  /// `viewer`; `coalesce_key` != 0 replaces a queued message with the same key. Never blocks on
-  /// the network. Returns false if there is no such viewer (gone). Thread-safe.
-  virtual bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
-                            uint64_t coalesce_key = 0) = 0;
-  /// Ends viewer `viewer`'s connection, saying `why`; on_viewer_left follows. Thread-safe.
-  virtual void disconnect(uint64_t viewer, const std::string& why) = 0;
-};
 
 struct ServerConfig {
   std::string bind_address =

@@ -1,5 +1,5 @@
 #pragma once
-// The server's door (internal to volcast_net): one thread accepts connections and runs every
+// The server's door (internal to src/net: the Server's): one thread accepts connections and runs every
 // pending handshake -- TLS, then the Hello with its join token -- without a thread per peer, and
 // hands only authenticated viewers on. Unauthenticated peers never reach the tiers, cost no
 // encoding, and are never logged with their own bytes.
@@ -7,7 +7,7 @@
 // Policy: a handshake must finish within `handshake_timeout_ms`; at most `max_pending` handshakes
 // run at once (the oldest is dropped for a newcomer) and `max_pending_per_address` per peer
 // address (more are closed at once). Tokens are compared in constant time. A right token is
-// always accepted; an address that sent `kFreeWrongTokens` wrong tokens is backed off: its wrong
+// always accepted; an address that sent `free_wrong_tokens` wrong tokens is backed off: its wrong
 // tokens are refused with "try again in" for 1 s, doubling with each further one up to 60 s
 // (forgotten after 10 quiet minutes). A connection that speaks HTTP may send kPendingWebBytes
 // before its Hello. Failures are logged at most once per 10 s, with a count.
@@ -17,11 +17,11 @@
 #include <memory>
 #include <string>
 
-#include "volcast/net/connection.hpp"
-#include "volcast/net/join.hpp"
-#include "volcast/net/protocol.hpp"
-#include "volcast/net/tls.hpp"
-#include "ws_engine.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/protocol/join.hpp"
+#include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/transport/tls.hpp"
+#include "volcast/net/transport/ws_engine.hpp"
 
 namespace volcast::detail {
 
@@ -44,6 +44,8 @@ struct DoorConfig {
   int handshake_timeout_ms = 5000;
   int max_pending = 64;
   int max_pending_per_address = 8;
+  /// Wrong tokens an address may send before it is backed off (the Server's kFreeWrongTokens).
+  int free_wrong_tokens = 3;
 };
 
 /// Counts of what came to the door, updated by its thread, read from any.

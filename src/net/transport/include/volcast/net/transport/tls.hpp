@@ -13,7 +13,7 @@
 #include <string>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/connection.hpp"
+#include "volcast/net/transport/connection.hpp"
 
 namespace volcast {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Internal to volcast_net: browser viewers. A TLS connection that spoke HTTP instead of the
+// Internal to src/net (the Server's): browser viewers. A TLS connection that spoke HTTP instead of the
 // Volcast Hello becomes a WebSocketConnection: a GET of a page asset is answered and closed; a
 // WebSocket upgrade on /stream opens a WebSocket that carries the Volcast protocol unchanged
 // (protocol.hpp), each write_all one binary message, read as a byte stream whatever the message
@@ -10,8 +10,8 @@
 #include <span>
 #include <string>
 
-#include "volcast/net/connection.hpp"
-#include "ws_engine.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/transport/ws_engine.hpp"
 
 namespace volcast::detail {
 

@@ -1,5 +1,5 @@
 #pragma once
-// Internal to volcast_net: the server side of HTTP/1.1 and WebSocket (RFC 6455) for browser
+// Internal to src/net (the Server's): the server side of HTTP/1.1 and WebSocket (RFC 6455) for browser
 // viewers, as a byte-in / byte-out engine over WebSocket++ (Debian's libwebsocketpp-dev, its
 // iostream transport: no sockets of its own). websocket.cpp runs it on top of a TLS Connection.
 //

@@ -1,0 +1,179 @@
+// Each viewer's thread of the Server: its Welcome, then its tier's frame sets paced by its Acks,
+// with its session messages (server_impl.hpp).
+#include <spdlog/spdlog.h>
+#include <time.h>
+
+#include "server_impl.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+namespace {
+
+// CPU time of the calling thread, milliseconds.
+double thread_cpu_ms() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+}
+
+}  // namespace
+
+void Server::Impl::update(Viewer& v, const std::function<void(ViewerReport&)>& f) {
+  std::lock_guard lock(mutex);
+  f(v.report);
+}
+
+void Server::Impl::serve_viewer(Viewer& v) {
+  Connection& c = *v.connection;
+  try {
+    protocol::Welcome welcome{cameras, wall_clock_us()};
+    c.write_all(protocol::message(protocol::MessageType::kWelcome, protocol::serialize(welcome)),
+                config.stall_timeout_ms);
+    spdlog::info("viewer {} connected (depth {}, color {})", v.report.peer, v.report.depth_codec,
+                 v.report.color_codec);
+    stream(v, *v.tier);
+  } catch (const std::exception& e) {
+    if (!stopping) spdlog::info("viewer {} ended: {}", v.report.peer, e.what());
+    update(v, [&](ViewerReport& r) { r.error = e.what(); });
+  }
+  unsubscribe(*v.tier, v.wake);
+  c.shutdown();
+  std::string why;
+  update(v, [&](ViewerReport& r) {
+    r.connected = false;
+    why = r.error.empty() ? "server stopping" : r.error;
+    v.outbox.clear();
+  });
+  if (config.session) {
+    try {
+      config.session->on_viewer_left(v.id, why);
+    } catch (const std::exception& e) {
+      spdlog::error("session: viewer {} left: {}", v.id, e.what());
+    }
+  }
+  v.done = true;
+}
+
+// Writes the session messages queued for `v` (in order); throws Error if it was kicked.
+void Server::Impl::flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch) {
+  batch.clear();
+  {
+    std::lock_guard lock(mutex);
+    if (!v.kicked.empty()) throw Error(v.kicked);
+    for (auto& m : v.outbox) batch.push_back(std::move(m.second));
+    v.outbox.clear();
+  }
+  for (const auto& m : batch) v.connection->write_all(*m, config.stall_timeout_ms);
+}
+
+// Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
+// session service, else skipped). Anything else ends the connection.
+void Server::Impl::read_control(Viewer& v, Tier& tier, Pacer& pacer, std::vector<uint8_t>& payload) {
+  Connection& c = *v.connection;
+  uint8_t header_bytes[protocol::kHeaderBytes];
+  c.read_exact(header_bytes, config.handshake_timeout_ms);
+  const protocol::Header h = protocol::parse_header(header_bytes);
+  const uint8_t session_type = static_cast<uint8_t>(static_cast<uint16_t>(h.type) & 0xff);
+  const bool session = h.channel == protocol::Channel::kSession;
+  const uint32_t limit = session && config.session ? config.session->max_payload(session_type)
+                                                   : protocol::kMaxControlBytes;
+  if (limit == 0)
+    throw Error("viewer sent an unknown session message type " + std::to_string(session_type));
+  if (h.payload_bytes > limit)
+    throw Error("viewer sent a message of " + std::to_string(h.payload_bytes) +
+                " bytes, over the limit of " + std::to_string(limit));
+  payload.resize(h.payload_bytes);
+  c.read_exact(payload, config.handshake_timeout_ms);
+  if (session && config.session) {
+    config.session->on_message(v.id, session_type, payload);
+    return;
+  }
+  if (h.type == protocol::MessageType::kAck) {
+    if (!pacer.on_ack(protocol::parse_ack(payload), steady_us()))
+      throw Error("viewer acknowledged a frame set it was not sent");
+  } else if (h.type == protocol::MessageType::kKeyFrameRequest) {
+    std::lock_guard lock(mutex);
+    tier.key_wanted = true;
+    ++v.report.key_requests;
+  } else if (h.channel != protocol::Channel::kSession) {
+    throw Error("viewer sent an unexpected message");
+  }
+}
+
+void Server::Impl::stream(Viewer& v, Tier& tier) {
+  Connection& c = *v.connection;
+  Pacer pacer(config.max_window);
+  std::vector<uint8_t> payload;
+  uint64_t last_sequence = 0;  // the site sequence last sent (or skipped)
+  uint64_t last_index = 0;     // the tier index last sent; a delta needs index == last + 1
+  bool synced = false;
+  auto last_progress = std::chrono::steady_clock::now();
+  const double cpu_start_ms = thread_cpu_ms();
+  std::vector<std::shared_ptr<const std::vector<uint8_t>>> batch;
+  while (!stopping) {
+    const Connection::Ready ready = c.wait(v.wake.fd, 100);
+    if (ready.woken) v.wake.drain();
+    if (ready.readable) {
+      read_control(v, tier, pacer, payload);
+      last_progress = std::chrono::steady_clock::now();
+    }
+    flush_session(v, batch);  // session messages go ahead of frame sets
+    if (!batch.empty())
+      update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });
+    if (pacer.frames_in_flight() > 0 && std::chrono::steady_clock::now() - last_progress >
+                                            std::chrono::milliseconds(config.stall_timeout_ms))
+      throw Error("viewer stalled: acknowledged nothing for " +
+                  std::to_string(config.stall_timeout_ms) + " ms");
+    std::shared_ptr<const detail::EncodedFrames> frames;
+    {
+      std::lock_guard lock(mutex);
+      frames = tier.latest;
+    }
+    if (!frames || frames->sequence <= last_sequence) continue;
+    if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) continue;
+    const int64_t now_wall = wall_clock_us();
+    const bool decodable = frames->key || (synced && frames->index == last_index + 1);
+    const bool stale = now_wall - frames->capture_us > int64_t{config.latency_budget_ms} * 1000;
+    if (!decodable || stale) {
+      // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
+      std::lock_guard lock(mutex);
+      ++v.report.frames_dropped;
+      v.report.frames_stale += stale;
+      if (!decodable) tier.key_wanted = true;
+      synced = false;
+      last_sequence = frames->sequence;
+      continue;
+    }
+    size_t bytes = 0;
+    if (c.encrypted() && c.carries_raw() && !frames->sealed.empty()) {
+      // Key, tags and digests inside this viewer's TLS session; the sealed body after them,
+      // outside TLS: the same bytes for every viewer of the tier (protocol.hpp, 1.2).
+      const auto prefix = protocol::sealed_frame_set_prefix(frames->seal_rest.size(), now_wall);
+      const std::span<const uint8_t> parts[2] = {prefix, frames->seal_rest};
+      c.write_with_raw(parts, frames->sealed, config.stall_timeout_ms);
+      bytes = prefix.size() + frames->seal_rest.size() + frames->sealed.size();
+    } else {
+      const auto prefix = protocol::frame_set_prefix(frames->body.size(), now_wall);
+      const std::span<const uint8_t> parts[2] = {prefix, frames->body};
+      c.write_all(parts, config.stall_timeout_ms);
+      bytes = prefix.size() + frames->body.size();
+    }
+    if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
+    pacer.on_send(frames->sequence, bytes, steady_us());
+    std::lock_guard lock(mutex);
+    if (last_sequence > 0 && frames->sequence > last_sequence + 1)
+      v.report.frames_dropped += frames->sequence - last_sequence - 1;
+    last_sequence = frames->sequence;
+    last_index = frames->index;
+    synced = true;
+    ++v.report.frames_sent;
+    v.report.bytes_sent += bytes;
+    v.report.min_rtt_ms = pacer.min_rtt_us() / 1000;
+    v.report.bottleneck_mbit_s = pacer.bottleneck_bytes_per_us() * 8;
+    v.report.window = pacer.window_frames();
+    v.report.send_cpu_ms = thread_cpu_ms() - cpu_start_ms;
+  }
+}
+
+}  // namespace volcast

@@ -16,8 +16,8 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/protocol/join.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/protocol/join.hpp"
 #include "volcast/net/stream/seal.hpp"
 
 namespace {

@@ -18,8 +18,8 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/stream/server.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 
 namespace {

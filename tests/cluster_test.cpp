@@ -20,8 +20,8 @@
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
-#include "volcast/net/stream/client.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/net/transport/tls.hpp"
 
 namespace volcast {

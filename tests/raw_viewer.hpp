@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "volcast/core/error.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/stream/seal.hpp"
 #include "volcast/net/stream/server.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 
 namespace volcast::test {

@@ -19,10 +19,10 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
-#include "volcast/net/stream/client.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/net/stream/seal.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 
 namespace volcast {

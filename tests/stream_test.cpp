@@ -20,9 +20,9 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/stream/client.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/stream/pacing.hpp"
 #include "volcast/net/stream/seal.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 #include "volcast/pipeline/sender.hpp"
 

@@ -26,9 +26,9 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/net/transport/connection.hpp"
-#include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/pipeline/receiver.hpp"
 
 extern char** environ;

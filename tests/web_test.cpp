@@ -22,8 +22,8 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/image_io.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "web_peer.hpp"
 
 namespace volcast {

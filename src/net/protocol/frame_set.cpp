@@ -193,9 +193,8 @@ void FrameSetDecoder::check_declared_sizes() const {
     const Intrinsics& k = cameras_[i].calibration.depth;
     const auto check = [&](const char* stream, const std::optional<DeclaredSize>& size) {
       if (size && (size->width != k.width || size->height != k.height))
-        throw Error("camera " + std::to_string(i) + " (" +
-                    printable(cameras_[i].description, 80) + "): its " + stream +
-                    " stream declares " + std::to_string(size->width) + "x" +
+        throw Error("camera " + std::to_string(i) + " (" + printable(cameras_[i].description, 80) +
+                    "): its " + stream + " stream declares " + std::to_string(size->width) + "x" +
                     std::to_string(size->height) + ", its calibration is " +
                     std::to_string(k.width) + "x" + std::to_string(k.height));
     };

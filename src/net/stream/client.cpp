@@ -21,8 +21,8 @@
 #include "volcast/core/text.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/stream/seal.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 #include "volcast/net/transport/trust.hpp"
 

@@ -146,11 +146,10 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
       const bool recorded_tier = pre && pre->depth_codec == tk.depth_codec &&
                                  pre->color_codec == tk.color_codec &&
                                  pre->color_quality == tk.color_quality;
-      key =
-          tier->report.frames_encoded == 0 ||
-          (!recorded_tier && since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval)) ||
-          (tier->key_wanted &&
-           now - last_key >= std::chrono::milliseconds(config.min_key_interval_ms));
+      key = tier->report.frames_encoded == 0 ||
+            (!recorded_tier && since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval)) ||
+            (tier->key_wanted &&
+             now - last_key >= std::chrono::milliseconds(config.min_key_interval_ms));
     }
     last_sequence = frames->sequence;
     const auto start = std::chrono::steady_clock::now();
@@ -194,7 +193,8 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
 // Finds or makes the tier and subscribes `wake` (if not null) to it. A new tier for a viewer
 // from `address` must fit the CPU budget (check_tier_budget); one for a tap (`address` null)
 // is made regardless. Caller holds mutex. Throws Error.
-std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKey& key, const WakeFd* wake,
+std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKey& key,
+                                                            const WakeFd* wake,
                                                             const std::string* address) {
   std::shared_ptr<Tier> tier;
   for (const auto& t : tiers)

@@ -56,7 +56,8 @@ void Server::Impl::serve_viewer(Viewer& v) {
 }
 
 // Writes the session messages queued for `v` (in order); throws Error if it was kicked.
-void Server::Impl::flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch) {
+void Server::Impl::flush_session(Viewer& v,
+                                 std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch) {
   batch.clear();
   {
     std::lock_guard lock(mutex);
@@ -69,7 +70,8 @@ void Server::Impl::flush_session(Viewer& v, std::vector<std::shared_ptr<const st
 
 // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
 // session service, else skipped). Anything else ends the connection.
-void Server::Impl::read_control(Viewer& v, Tier& tier, Pacer& pacer, std::vector<uint8_t>& payload) {
+void Server::Impl::read_control(Viewer& v, Tier& tier, Pacer& pacer,
+                                std::vector<uint8_t>& payload) {
   Connection& c = *v.connection;
   uint8_t header_bytes[protocol::kHeaderBytes];
   c.read_exact(header_bytes, config.handshake_timeout_ms);

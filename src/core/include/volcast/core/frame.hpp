@@ -27,9 +27,9 @@ struct FrameSet {
 };
 
 /// A frame set that arrives already encoded for one tier -- a recording being replayed: its
-/// FrameSet body (volcast/net/protocol/protocol.hpp 1.1) as recorded. A server tier of the same codecs and
-/// quality sends these bytes, with the head's sequence and times rewritten, instead of encoding
-/// the frames again (volcast/net/stream/server.hpp).
+/// FrameSet body (volcast/net/protocol/protocol.hpp 1.1) as recorded. A server tier of the same
+/// codecs and quality sends these bytes, with the head's sequence and times rewritten, instead of
+/// encoding the frames again (volcast/net/stream/server.hpp).
 struct EncodedFrameSetBody {
   std::string depth_codec, color_codec;  ///< the tier it was encoded for
   int color_quality = 0;

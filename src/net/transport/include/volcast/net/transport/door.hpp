@@ -1,7 +1,7 @@
 #pragma once
-// The server's door (internal to src/net: the Server's): one thread accepts connections and runs every
-// pending handshake -- TLS, then the Hello with its join token -- without a thread per peer, and
-// hands only authenticated viewers on. Unauthenticated peers never reach the tiers, cost no
+// The server's door (internal to src/net: the Server's): one thread accepts connections and runs
+// every pending handshake -- TLS, then the Hello with its join token -- without a thread per peer,
+// and hands only authenticated viewers on. Unauthenticated peers never reach the tiers, cost no
 // encoding, and are never logged with their own bytes.
 //
 // Policy: a handshake must finish within `handshake_timeout_ms`; at most `max_pending` handshakes
@@ -17,9 +17,9 @@
 #include <memory>
 #include <string>
 
-#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/transport/connection.hpp"
 #include "volcast/net/transport/tls.hpp"
 #include "volcast/net/transport/ws_engine.hpp"
 

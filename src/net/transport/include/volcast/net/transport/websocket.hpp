@@ -1,6 +1,6 @@
 #pragma once
-// Internal to src/net (the Server's): browser viewers. A TLS connection that spoke HTTP instead of the
-// Volcast Hello becomes a WebSocketConnection: a GET of a page asset is answered and closed; a
+// Internal to src/net (the Server's): browser viewers. A TLS connection that spoke HTTP instead of
+// the Volcast Hello becomes a WebSocketConnection: a GET of a page asset is answered and closed; a
 // WebSocket upgrade on /stream opens a WebSocket that carries the Volcast protocol unchanged
 // (protocol.hpp), each write_all one binary message, read as a byte stream whatever the message
 // boundaries. No raw bytes (carries_raw() is false): the server sends it FrameSet 1.1, never the

@@ -1,7 +1,7 @@
 #pragma once
-// Internal to src/net (the Server's): the server side of HTTP/1.1 and WebSocket (RFC 6455) for browser
-// viewers, as a byte-in / byte-out engine over WebSocket++ (Debian's libwebsocketpp-dev, its
-// iostream transport: no sockets of its own). websocket.cpp runs it on top of a TLS Connection.
+// Internal to src/net (the Server's): the server side of HTTP/1.1 and WebSocket (RFC 6455) for
+// browser viewers, as a byte-in / byte-out engine over WebSocket++ (Debian's libwebsocketpp-dev,
+// its iostream transport: no sockets of its own). websocket.cpp runs it on top of a TLS Connection.
 //
 // This header is C++17 (no std::span): ws_engine.cpp is compiled as C++17 because WebSocket++
 // 0.8.2 does not compile as C++20 with GCC (template-ids on constructors, P1787).

@@ -2,7 +2,7 @@
 
 #include <chrono>
 
-#include "real_sites.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"

@@ -14,7 +14,7 @@
 #include <random>
 
 #include "hands_site.hpp"
-#include "real_sites.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "test_data.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/codec/depth_codec.hpp"

@@ -12,6 +12,7 @@
 
 #include "test_data.hpp"
 #include "volcast/calibrate/floor.hpp"
+#include "volcast/calibrate/site_calibration.hpp"
 #include "volcast/calibrate/target.hpp"
 #include "volcast/calibrate/target_sim.hpp"
 #include "volcast/calibrate/targetless.hpp"
@@ -434,6 +435,42 @@ TEST(CalibrateCommand, BadInputIsNamed) {
                               out),
             0);
   EXPECT_NE(out.find("--reference 3"), std::string::npos) << out;
+}
+
+// The procedure without the CLI (site_calibration.hpp) on the real Azure Kinect recording: one
+// camera is placed above the floor it sees, the site config it writes reads back, and
+// bad input is named as `volcast calibrate` names it (CalibrateCommand.BadInputIsNamed).
+TEST(CalibrateSite, PlacesOneRealCameraAndNamesBadInput) {
+  CalibrationOptions options;
+  options.sources = {test::kinect_mkv().string()};
+  options.frames = 1;
+  const SiteCalibration site = calibrate_site(options);
+  ASSERT_EQ(site.cameras.size(), 1u);
+  EXPECT_EQ(site.placed(), 1u);
+  EXPECT_TRUE(site.problems.empty());
+  const CalibratedCamera& camera = site.cameras[0];
+  EXPECT_EQ(camera.name, "recording.mkv");
+  EXPECT_EQ(camera.method, "single camera");
+  ASSERT_TRUE(camera.world_from_camera);
+  ASSERT_TRUE(site.floor);  // the CLI test's "floor:": the room frame has the floor at y = 0
+  EXPECT_GT(camera.world_from_camera->translation.y(), 0.3);
+  EXPECT_EQ(camera.first.depth.width, camera.calibration.depth.width);
+  const fs::path dir = test::temp_dir("calibrate_site");
+  write_calibrated_site(site, dir / "site.json");
+  const auto poses = read_site_poses(dir / "site.json");
+  ASSERT_EQ(poses.size(), 1u);
+  ASSERT_TRUE(poses[0]);
+  EXPECT_LT((poses[0]->translation - camera.world_from_camera->translation).norm(), 1e-6);
+  EXPECT_NE(calibration_table(site).find("single camera"), std::string::npos);
+
+  options.reference = 3;
+  EXPECT_NE(test::error_of([&] { calibrate_site(options); }).find("--reference 3"),
+            std::string::npos);
+  const fs::path empty = test::temp_dir("calibrate_site_empty");
+  options = {};
+  options.sources = {empty.string()};
+  EXPECT_NE(test::error_of([&] { calibrate_site(options); }).find(empty.string()),
+            std::string::npos);
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 
 #include <fstream>
 
-#include "case_watch.hpp"
+#include "volcast/assets/case_watch.hpp"
 #include "session_site.hpp"
 #include "volcast/session/objects.hpp"
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "cli.hpp"
 #include "commands.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
@@ -97,6 +98,23 @@ int run_case(const CaseArgs& args) {
   }
   if (!args.render.empty()) render_case(c, args.render);
   return 0;
+}
+
+void register_case(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<CaseArgs>();
+  CaseArgs& case_args = *args;
+  auto* ca = app.add_subcommand(
+      "case",
+      "Load a patient case (organ meshes, label volumes made into meshes, a DICOM series) and "
+      "print its parts and series; the folder serve --case shows in the virtual OR");
+  ca->add_option("folder", case_args.folder, "Case folder (case.json optional)")->required();
+  ca->add_flag("--json", case_args.json, "Print JSON");
+  ca->add_option("--render", case_args.render, "PNG of the case: front and top views");
+  ca->add_option("--max-triangles", case_args.max_triangles,
+                 "Triangle budget per part made from a label volume")
+      ->check(CLI::Range(1000, 5000000))
+      ->capture_default_str();
+  commands.push_back({ca, [args] { return run_case(*args); }});
 }
 
 }  // namespace volcast

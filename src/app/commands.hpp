@@ -9,6 +9,7 @@
 #include <tuple>
 #include <vector>
 
+#include "volcast/calibrate/site_calibration.hpp"
 #include "volcast/cluster/nats.hpp"
 #include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
@@ -171,25 +172,6 @@ struct ViewArgs {
 /// --stats-json.
 int run_view(const ViewArgs& args);
 
-struct DemoArgs {
-  double seconds = 5;
-  std::string out = "out/demo";
-  std::string
-      data;  ///< folder holding the shared recordings; default: found near the binary or cwd
-  std::string depth_codec = "volcast", color_codec = "jpeg";
-  int cameras = 2;
-  bool no_render = false;    ///< render only the PNGs at the end, not while streaming
-  bool low_latency = false;  ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
-  bool no_session = false;   ///< skip the virtual-OR session part
-  double session_seconds = 8;
-};
-int run_demo(const DemoArgs& args);
-/// The demo's virtual-OR session (demo_session.cpp): the registered four-camera site (registered
-/// once, cached as out/site-4cam.json), two scripted participants (a camera avatar from the hands
-/// sequence, a mesh avatar who teleports), a screenshot from each one's eye and its figures.
-int run_demo_session(const DemoArgs& args, const std::filesystem::path& data,
-                     const std::filesystem::path& out);
-
 struct FilterArgs {
   std::string source;
   std::string out = "out/filter";
@@ -211,21 +193,14 @@ struct BackgroundArgs {
 int run_background(const BackgroundArgs& args);
 
 struct CalibrateArgs {
-  std::vector<std::string> sources;  ///< .mkv, image-sequence folder, camera folder or depth PNG
-  std::string out = "site.json";     ///< the site config to write
-  std::string preview;               ///< PNG: the registered clouds from above and the side
-  std::string intrinsics_from;       ///< for a camera folder's PNGs: a .mkv or sequence folder
-  std::string start;                 ///< site config with rough poses (e.g. the viewer's sliders)
-  int reference = 0;                 ///< the camera whose frame is the site's (before the floor)
-  bool reference_target = false;     ///< the target's first placement is the world, not a camera
-  int frames = 30;                   ///< frame sets scanned for the target
-  bool no_target = false;            ///< skip the target search
-  bool refine = false;               ///< ICP over the overlap also for target-placed cameras
-  bool no_floor = false;             ///< keep the reference camera's frame (no room alignment)
+  CalibrationOptions options;     ///< the procedure's flags
+  std::string out = "site.json";  ///< the site config to write
+  std::string preview;            ///< PNG: the registered clouds from above and the side
 };
-/// Registers the cameras (target, then targetless), aligns the floor, prints the residuals and
-/// writes the site config (and a preview). Exit code 0 when every camera was placed, 3 when some
-/// were not (the file is written with the others; each problem is printed naming its camera).
+/// Registers the cameras (volcast/calibrate/site_calibration.hpp: target, then targetless), aligns
+/// the floor, prints the residuals and writes the site config (and a preview). Exit code 0 when
+/// every camera was placed, 3 when some were not (the file is written with the others; each
+/// problem is printed naming its camera).
 int run_calibrate(const CalibrateArgs& args);
 
 struct CaseArgs {
@@ -237,69 +212,6 @@ struct CaseArgs {
 /// Loads a case and prints its parts (name, triangles, volume, bounding box; one per connected
 /// tumour) and DICOM series (slices, spacing), with the load time; renders it with --render.
 int run_case(const CaseArgs& args);
-
-struct BenchArgs {
-  std::vector<std::string> datasets;  ///< extra recordings or folders
-  std::string json;
-  std::string data;
-  int repeats = 50;
-  int frames = 0;             ///< frames of each sequence at most (0: all; the filters take 60)
-  bool server = false;        ///< the server benchmark instead of the codec/filter tables
-  double server_seconds = 4;  ///< measured per configuration
-  int server_repeats = 3;     ///< TCP/TLS pairs per configuration, interleaved (medians reported)
-  std::vector<int> viewers;   ///< viewer counts (default 1, 4, 8, 16)
-  bool render = false;        ///< the render benchmark instead
-  double render_seconds = 1;  ///< drawn per configuration (at least 3 frames)
-  bool session = false;       ///< the session benchmark instead (uses server_seconds)
-  bool record = false;        ///< the recording benchmark instead (server_seconds, server_repeats)
-  bool low_latency = false;   ///< --session: hold the CPU wake-up latency at 0 (cpu_latency.hpp)
-  bool nats = false;          ///< the NATS cluster benchmark instead (server_seconds, viewers)
-  int relays = 2;             ///< --nats: relays the viewers are spread over
-  bool nats_tls = false;      ///< --nats: TLS on the links to the nodes (self-signed, verified)
-};
-/// Times each filter on real frames (one thread), prints a table and optionally JSON.
-int run_bench(const BenchArgs& args);
-/// Runs a server on loopback with the real sets as 2 and 4 cameras and 1..16 receive-only viewers
-/// per tier, each over plain TCP and over TLS, `server_repeats` times interleaved; prints a table
-/// of medians and writes {"server": [{cameras, viewers, tier, transport, fps_min, latency_ms_p50,
-/// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, send_cpu_percent (the threads
-/// serving viewers), send_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs, send_tls_over_tcp,
-/// send_tls_over_tcp_runs}]} to args.json if set (ratios on TLS rows: the median of each pair's).
-/// The stream through a 3-node nats-server cluster (started here, loopback) and `relays` relays to
-/// receive-only TLS viewers (args.viewers, default 50), against the same viewers on the site's
-/// own server: the real two-camera site at 30 fps, tier volcast/jpeg, then one node killed (relay
-/// 0's); with args.nats_tls the site and relays reach the nodes over TLS (a self-signed node
-/// certificate, checked by CA and name). Prints a table and writes {"nats": [{viewers, relays,
-/// nats_nodes, nats_tls, fps_min,
-/// latency_ms_p50, latency_ms_p99, direct_fps_min, direct_latency_ms_p50, direct_latency_ms_p99,
-/// node_kill_max_gap_ms, node_kill_viewers_lost}]} to args.json if set. Latency: the site's
-/// capture to the viewer's read, one clock.
-int run_nats_bench(const BenchArgs& args);
-int run_server_bench(const BenchArgs& args);
-/// Draws the real four-camera set with CameraRenderer, headless: splats and mesh, blended or not,
-/// 1/2/4 cameras, 1280x720 mono and 2x2160x2160 stereo; prints a table and writes {"render":
-/// [{renderer, blend, cameras, width, height (per eye), eyes, ms_per_frame (median, both eyes),
-/// frames_timed, upload_ms, first_draw_after_upload_ms, ms_sum_of_cameras_alone (each camera drawn
-/// alone, summed: the linear baseline), gpu}]} to args.json if set.
-int run_render_bench(const BenchArgs& args);
-/// The virtual OR's sessions on loopback over TLS: 2 participants with the site idle (the session
-/// alone), then with the real two-camera site streaming at 30 fps 2 and 8 participants with mesh
-/// avatars (idle script, poses at 60 Hz) and 4 participants uploading the hands sequence as camera
-/// avatars; prints a table and writes {"session": [{configuration, participants, site_cameras,
-/// site_streaming, camera_avatars, session_round_trip_ms_p50, _p99,
-/// round_trip_samples, pose_rate_hz_min, pose_age_ms_p50, _p99, avatar_fps_min,
-/// avatar_latency_ms_p50, _p99, serving_cpu_percent, serving_cpu_percent_per_participant,
-/// site_encode_cpu_percent}]} to args.json if set.
-int run_session_bench(const BenchArgs& args);
-/// What recording costs a live server: the real two-camera site at 30 fps with one TLS viewer,
-/// without a recorder, recording the viewer's tier (shared encoding: only the disk write is new)
-/// and recording another tier (one more encoding), `server_repeats` times interleaved; prints
-/// viewer latency p50/p99, server CPU, the latency and CPU added against the run without (median
-/// of per-repeat differences), MB per minute per camera and frame sets dropped; writes {"record":
-/// [{configuration, latency_ms_p50, latency_ms_p99, server_cpu_percent, added_latency_ms_p50,
-/// added_server_cpu_percent, recorded_mb_per_minute_per_camera, recorded_frame_sets,
-/// recorder_dropped, *_runs}]} to args.json if set.
-int run_record_bench(const BenchArgs& args);
 
 struct InfoArgs {
   std::string file;

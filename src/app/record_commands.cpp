@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
+#include "cli.hpp"
 #include "commands.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -240,6 +241,53 @@ int run_export(const ExportArgs& a) {
       static_cast<unsigned long long>(r.valid_pixels),
       r.skipped ? fmt::format(", {} frame sets skipped (see warnings)", r.skipped).c_str() : "");
   return 0;
+}
+
+void register_record(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<RecordArgs>();
+  RecordArgs& record = *args;
+  auto* rc = app.add_subcommand(
+      "record",
+      "Record a server's stream, one tier as sent, to an append-only .vcr that survives a kill "
+      "(replay it with `volcast replay`, export it with `volcast export`)");
+  add_connect_flags(rc, record.connect, record.connect_file);
+  rc->add_option("--token", record.token, kTokenHelp);
+  rc->add_option("--fingerprint", record.fingerprint,
+                 "With HOST:PORT: the server certificate's SHA-256 (64 hex digits)");
+  rc->add_option("--known-servers", record.known_servers,
+                 "Pinned server certificates (default: $XDG_CONFIG_HOME/volcast/known_servers)");
+  rc->add_flag("--insecure", record.insecure, "Plain TCP (loopback only)");
+  rc->add_option("--out", record.out, "The recording to write (.vcr)")->required();
+  rc->add_option("--tier", record.tier, "The tier to record: DEPTH/COLOR[/QUALITY]")
+      ->capture_default_str();
+  rc->add_option("--seconds", record.seconds, "Stop after this many seconds (default: Ctrl-C)");
+  rc->add_flag("--overwrite", record.overwrite, "Replace --out if it exists");
+  rc->add_option("--sync-interval", record.sync_interval_ms,
+                 "Flush to disk at least this often (ms): what a power cut can lose")
+      ->capture_default_str();
+  commands.push_back({rc, [args] { return run_record(*args); }});
+}
+
+void register_export(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<ExportArgs>();
+  ExportArgs& export_args = *args;
+  auto* ex = app.add_subcommand(
+      "export",
+      "Export a recording (.vcr): binary PLY point clouds, 16-bit depth + color PNGs, or Azure "
+      "Kinect-style Matroska");
+  ex->add_option("file", export_args.file, "Volcast recording (.vcr)")->required();
+  ex->add_option("--ply", export_args.ply,
+                 "Folder for one binary PLY per camera and frame set (world frame, metres, "
+                 "with color)");
+  ex->add_option("--png", export_args.png,
+                 "Folder for depth (16-bit PNG, mm) and color (PNG) per camera and frame set");
+  ex->add_option("--mkv", export_args.mkv,
+                 "Azure Kinect-style Matroska: DEPTH track (b16g), calibration.json, color "
+                 "registered to depth as a COLOR_ON_DEPTH track; one file per camera "
+                 "(FILE-camera-C.mkv) for several; `volcast info` reads it back");
+  ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
+  ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
+  commands.push_back({ex, [args] { return run_export(*args); }});
 }
 
 }  // namespace volcast

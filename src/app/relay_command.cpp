@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "cli.hpp"
 #include "commands.hpp"
 #include "volcast/cluster/relay.hpp"
 #include "volcast/core/error.hpp"
@@ -77,6 +78,34 @@ int run_relay(const ServeArgs& a) {
         v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
         static_cast<double>(v.bytes_sent) / 1e6);
   return 0;
+}
+
+void register_relay(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<ServeArgs>();
+  ServeArgs& relay = *args;
+  auto* rl = app.add_subcommand(
+      "relay",
+      "Serve a site's stream taken from a NATS cluster (serve --nats publishes it): as many "
+      "relays as you like, on any machines; viewers need only a relay's link");
+  rl->add_option("--nats", relay.nats, "The NATS cluster: URL[,URL...] (e.g. nats://HOST:4222)")
+      ->required();
+  rl->add_option("--site", relay.nats_site, "The site to relay (serve's --nats-site)")
+      ->capture_default_str();
+  rl->add_option("--tier", relay.relay_tier,
+                 "The published tier to take (one of serve's --nats-tier): DEPTH/COLOR[/QUALITY]; "
+                 "its viewers get the site's bytes, other tiers are encoded here")
+      ->capture_default_str();
+  rl->add_option("--relay-name", relay.relay_name,
+                 "This relay's name in the session's NATS subjects (volcast.SITE.session.up.NAME; "
+                 "unique among the site's relays; default: a random one), for per-relay "
+                 "permissions");
+  rl->add_flag("--no-session", relay.relay_no_session,
+               "Stream only: viewers cannot join the site's sessions through this relay");
+  rl->add_option("--welcome-timeout", relay.welcome_timeout_ms,
+                 "Give up unless the site's Welcome arrives this soon (ms)")
+      ->capture_default_str();
+  add_server_flags(rl, relay);
+  commands.push_back({rl, [args] { return run_relay(*args); }});
 }
 
 }  // namespace volcast

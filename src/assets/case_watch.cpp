@@ -1,4 +1,4 @@
-#include "case_watch.hpp"
+#include "volcast/assets/case_watch.hpp"
 
 #include <spdlog/spdlog.h>
 

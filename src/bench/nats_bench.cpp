@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "commands.hpp"
-#include "real_sites.hpp"
+#include "volcast/bench/bench.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
 #include "volcast/cluster/tier_publisher.hpp"

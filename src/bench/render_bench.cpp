@@ -9,8 +9,8 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "commands.hpp"
-#include "real_sites.hpp"
+#include "volcast/bench/bench.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"

@@ -10,8 +10,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "commands.hpp"
-#include "real_sites.hpp"
+#include "volcast/bench/bench.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"

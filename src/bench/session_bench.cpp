@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "commands.hpp"
-#include "real_sites.hpp"
+#include "volcast/bench/bench.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -160,7 +160,6 @@ int run_session_bench(const BenchArgs& a) {
   const auto data = find_data(a.data);
   if (!data) throw Error("bench --session: the real recordings were not found (--data DIR)");
   if (!(a.server_seconds > 0)) throw Error("--server-seconds must be positive");
-  const auto low_latency = hold_low_latency(a.low_latency);
   spdlog::set_level(spdlog::level::warn);
   struct Config {
     const char* name;

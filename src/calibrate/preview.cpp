@@ -1,4 +1,4 @@
-#include "calibrate_preview.hpp"
+#include "volcast/calibrate/preview.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,8 @@
-// volcast calibrate: every camera's world_from_camera from depth alone (the lattice target where
-// the cameras see it, targetless ICP over their overlap otherwise), the floor for room_from_site,
-// a report of the residuals, a site config and a preview picture.
+// Calibrating a site (volcast calibrate): every camera's world_from_camera from depth alone (the
+// lattice target where the cameras see it, targetless ICP over their overlap otherwise), the floor
+// for room_from_site, the residuals and the site config.
+#include "volcast/calibrate/site_calibration.hpp"
+
 #include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
@@ -8,14 +10,12 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 
-#include "calibrate_preview.hpp"
-#include "commands.hpp"
-#include "real_sites.hpp"
-#include "volcast/calibrate/floor.hpp"
+#include "volcast/calibrate/preview.hpp"
 #include "volcast/calibrate/target.hpp"
-#include "volcast/calibrate/targetless.hpp"
 #include "volcast/capture/camera_folder.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
@@ -39,7 +39,7 @@ struct Camera {
 
 // The intrinsics a camera folder's PNGs get: --intrinsics-from, else the Azure Kinect recording's
 // factory NFOV calibration from the shared data (nominal for these cameras, said so in the report).
-Intrinsics folder_intrinsics(const CalibrateArgs& a, const FolderCamera& c, std::string& note) {
+Intrinsics folder_intrinsics(const CalibrationOptions& a, const FolderCamera& c, std::string& note) {
   fs::path from = a.intrinsics_from;
   if (from.empty()) {
     const auto data = find_data("");
@@ -55,7 +55,7 @@ Intrinsics folder_intrinsics(const CalibrateArgs& a, const FolderCamera& c, std:
   return open_source(from)->calibration().depth;
 }
 
-std::vector<Camera> open_cameras(const CalibrateArgs& a, std::vector<std::string>& notes) {
+std::vector<Camera> open_cameras(const CalibrationOptions& a, std::vector<std::string>& notes) {
   std::vector<Camera> cameras;
   for (const std::string& s : a.sources) {
     const fs::path path(s);
@@ -90,7 +90,7 @@ std::vector<Camera> open_cameras(const CalibrateArgs& a, std::vector<std::string
 
 // Reads up to a.frames frame sets (camera i's frame k = capture k) and looks for the target in
 // each; keeps every camera's first frame for the targetless step.
-void scan(const CalibrateArgs& a, std::vector<Camera>& cameras) {
+void scan(const CalibrationOptions& a, std::vector<Camera>& cameras) {
   int frames = a.frames;
   for (const Camera& c : cameras) frames = std::min(frames, c.reader->frame_count());
   frames = std::max(frames, 1);
@@ -132,22 +132,10 @@ std::string relative_to(const fs::path& file, const fs::path& dir) {
   return rel.string();
 }
 
-}  // namespace
-
-int run_calibrate(const CalibrateArgs& a) {
-  std::vector<std::string> notes;
-  std::vector<Camera> cameras = open_cameras(a, notes);
+// 1. The target, where the cameras saw it: the start poses of the cameras it placed.
+std::vector<std::optional<RigidTransform>> place_by_target(const CalibrationOptions& a,
+                                                           std::vector<Camera>& cameras) {
   const size_t n = cameras.size();
-  if (a.reference < 0 || static_cast<size_t>(a.reference) >= n)
-    throw Error("calibrate: --reference " + std::to_string(a.reference) + " is not one of the " +
-                std::to_string(n) + " cameras");
-  spdlog::info("calibrate: {} cameras", n);
-  for (size_t i = 0; i < n; ++i)
-    spdlog::info("  camera {} ({}): {}", i, cameras[i].name, cameras[i].reader->description());
-  for (const auto& note : notes) spdlog::warn("{}", note);
-  scan(a, cameras);
-
-  // 1. The target, where the cameras saw it.
   std::vector<std::optional<RigidTransform>> start(n);
   std::vector<TargetObservation> observations;
   int captures = 0;
@@ -186,17 +174,21 @@ int run_calibrate(const CalibrateArgs& a) {
         cameras[i].method = "start";
       }
   }
+  return start;
+}
 
-  // 2. Targetless: the cameras nothing placed yet (and, with --refine, all of them).
-  std::vector<std::vector<Eigen::Vector3d>> clouds;
-  for (const Camera& c : cameras) clouds.push_back(c.cloud);
+// 2. Targetless: the cameras nothing placed yet (and, with --refine, all of them). Returns the
+// poses; `t` gets what the registration measured.
+std::vector<std::optional<RigidTransform>> place_by_overlap(
+    const CalibrationOptions& a, std::vector<Camera>& cameras,
+    const std::vector<std::optional<RigidTransform>>& start, TargetlessResult& t) {
+  const size_t n = cameras.size();
   std::vector<TargetlessCamera> views;
   for (const Camera& c : cameras)
     views.push_back({c.cloud, c.first.depth, c.reader->calibration().depth});
   bool need = a.refine;
   for (size_t i = 0; i < n; ++i) need = need || !start[i] || cameras[i].method == "start";
   std::vector<std::optional<RigidTransform>> pose = start;
-  TargetlessResult t;
   if (need && n > 1) {
     TargetlessOptions o;
     o.progress = [](const std::string& line) { spdlog::info("  {}", line); };
@@ -227,14 +219,19 @@ int run_calibrate(const CalibrateArgs& a) {
     pose[0] = pose[0].value_or(RigidTransform{});
     cameras[0].method = cameras[0].method.empty() ? "single camera" : cameras[0].method;
   }
+  return pose;
+}
 
-  // 3. The floor: room_from_site.
+// 3. The floor: room_from_site, applied to every pose.
+std::optional<FloorPlane> align_floor(const CalibrationOptions& a,
+                                      const std::vector<Camera>& cameras,
+                                      std::vector<std::optional<RigidTransform>>& pose) {
   std::vector<RigidTransform> placed;
   std::vector<std::vector<Eigen::Vector3d>> placed_clouds;
-  for (size_t i = 0; i < n; ++i)
+  for (size_t i = 0; i < cameras.size(); ++i)
     if (pose[i]) {
       placed.push_back(*pose[i]);
-      placed_clouds.push_back(clouds[i]);
+      placed_clouds.push_back(cameras[i].cloud);
     }
   std::optional<FloorPlane> floor;
   if (!a.no_floor && !placed.empty()) {
@@ -250,76 +247,139 @@ int run_calibrate(const CalibrateArgs& a) {
       spdlog::warn("floor: {}; the site keeps camera {}'s frame", why, a.reference);
     }
   }
+  return floor;
+}
 
-  // 4. The report.
+// 4. The result: the residuals at the final poses, and a problem for every camera left unplaced.
+SiteCalibration summarise(std::vector<Camera>& cameras,
+                          const std::vector<std::optional<RigidTransform>>& pose,
+                          std::optional<FloorPlane> floor, const TargetlessResult& t) {
+  const size_t n = cameras.size();
+  std::vector<std::vector<Eigen::Vector3d>> clouds;
+  for (const Camera& c : cameras) clouds.push_back(c.cloud);
   const std::vector<CameraOverlap> overlap = measure_overlap(clouds, pose, 0.01, 0.03);
-  const size_t placed_count = static_cast<size_t>(
-      std::count_if(pose.begin(), pose.end(), [](const auto& p) { return p.has_value(); }));
-  std::printf("\n%-3s %-14s %-16s %10s %9s %11s %11s %9s\n", "cam", "name", "method", "target mm",
-              "overlap", "RMS before", "RMS mm", "height m");
+  SiteCalibration site;
+  site.floor = std::move(floor);
   for (size_t i = 0; i < n; ++i) {
-    const Camera& c = cameras[i];
-    const std::string target =
-        c.feature_rms_m >= 0 ? fmt::format("{:.2f}", c.feature_rms_m * 1e3) : "-";
-    const std::string before = i < t.before.size() && t.before[i].points > 0
-                                   ? fmt::format("{:.1f}", t.before[i].rms_m * 1e3)
-                                   : "-";
-    if (!pose[i]) {
-      std::printf("%-3zu %-14s %-16s %10s %9s %11s %11s %9s\n", i, c.name.c_str(), "NOT PLACED",
-                  target.c_str(), "-", before.c_str(), "-", "-");
-      continue;
-    }
-    const std::string height = floor ? fmt::format("{:.2f}", pose[i]->translation.y()) : "-";
-    std::printf("%-3zu %-14s %-16s %10s %8.1f%% %11s %11.1f %9s\n", i, c.name.c_str(),
-                c.method.c_str(), target.c_str(), overlap[i].fraction * 100, before.c_str(),
-                overlap[i].rms_m * 1e3, height.c_str());
+    Camera& c = cameras[i];
+    CalibratedCamera r;
+    r.name = c.name;
+    r.source = c.source;
+    r.intrinsics = c.intrinsics;
+    r.calibration = c.reader->calibration();
+    r.world_from_camera = pose[i];
+    if (pose[i]) r.calibration.world_from_camera = *pose[i];
+    r.method = c.method;
+    r.target_rms_m = c.feature_rms_m;
+    if (i < t.before.size() && t.before[i].points > 0) r.before_rms_m = t.before[i].rms_m;
+    r.overlap = overlap[i];
+    r.first = std::move(c.first);
+    site.cameras.push_back(std::move(r));
   }
-  std::printf(
-      "target mm: RMS of the sphere centres after the solve; overlap: share of the camera's "
-      "samples within 30 mm of another camera's surface; RMS: their point-to-plane distance\n\n");
-  std::vector<std::string> problems = t.problems;
+  site.problems = t.problems;
   for (size_t i = 0; i < n; ++i)
-    if (!pose[i] && std::none_of(problems.begin(), problems.end(), [&](const std::string& p) {
+    if (!pose[i] &&
+        std::none_of(site.problems.begin(), site.problems.end(), [&](const std::string& p) {
           return p.rfind("camera " + std::to_string(i) + ":", 0) == 0;
         }))
-      problems.push_back("camera " + std::to_string(i) + ": could not be placed");
-  for (const auto& p : problems) spdlog::error("{}", p);
+      site.problems.push_back("camera " + std::to_string(i) + ": could not be placed");
+  return site;
+}
 
-  // 5. The site config and the preview.
-  const fs::path out(a.out);
+}  // namespace
+
+size_t SiteCalibration::placed() const {
+  return static_cast<size_t>(std::count_if(cameras.begin(), cameras.end(), [](const auto& c) {
+    return c.world_from_camera.has_value();
+  }));
+}
+
+SiteCalibration calibrate_site(const CalibrationOptions& a) {
+  std::vector<std::string> notes;
+  std::vector<Camera> cameras = open_cameras(a, notes);
+  const size_t n = cameras.size();
+  if (a.reference < 0 || static_cast<size_t>(a.reference) >= n)
+    throw Error("calibrate: --reference " + std::to_string(a.reference) + " is not one of the " +
+                std::to_string(n) + " cameras");
+  spdlog::info("calibrate: {} cameras", n);
+  for (size_t i = 0; i < n; ++i)
+    spdlog::info("  camera {} ({}): {}", i, cameras[i].name, cameras[i].reader->description());
+  for (const auto& note : notes) spdlog::warn("{}", note);
+  scan(a, cameras);
+  const std::vector<std::optional<RigidTransform>> start = place_by_target(a, cameras);
+  TargetlessResult t;
+  std::vector<std::optional<RigidTransform>> pose = place_by_overlap(a, cameras, start, t);
+  std::optional<FloorPlane> floor = align_floor(a, cameras, pose);
+  return summarise(cameras, pose, std::move(floor), t);
+}
+
+std::string calibration_table(const SiteCalibration& site) {
+  std::string out =
+      fmt::format("\n{:<3} {:<14} {:<16} {:>10} {:>9} {:>11} {:>11} {:>9}\n", "cam", "name",
+                  "method", "target mm", "overlap", "RMS before", "RMS mm", "height m");
+  for (size_t i = 0; i < site.cameras.size(); ++i) {
+    const CalibratedCamera& c = site.cameras[i];
+    const std::string target =
+        c.target_rms_m >= 0 ? fmt::format("{:.2f}", c.target_rms_m * 1e3) : "-";
+    const std::string before = c.before_rms_m >= 0 ? fmt::format("{:.1f}", c.before_rms_m * 1e3)
+                                                   : "-";
+    if (!c.world_from_camera) {
+      out += fmt::format("{:<3} {:<14} {:<16} {:>10} {:>9} {:>11} {:>11} {:>9}\n", i, c.name,
+                         "NOT PLACED", target, "-", before, "-", "-");
+      continue;
+    }
+    const std::string height =
+        site.floor ? fmt::format("{:.2f}", c.world_from_camera->translation.y()) : "-";
+    out += fmt::format("{:<3} {:<14} {:<16} {:>10} {:>8.1f}% {:>11} {:>11.1f} {:>9}\n", i, c.name,
+                       c.method, target, c.overlap.fraction * 100, before, c.overlap.rms_m * 1e3,
+                       height);
+  }
+  out +=
+      "target mm: RMS of the sphere centres after the solve; overlap: share of the camera's "
+      "samples within 30 mm of another camera's surface; RMS: their point-to-plane distance\n\n";
+  return out;
+}
+
+void write_calibrated_site(const SiteCalibration& calibration, const fs::path& out) {
   const fs::path out_dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
   std::vector<SiteCamera> site;
-  for (size_t i = 0; i < n; ++i) {
+  for (const CalibratedCamera& c : calibration.cameras) {
     SiteCamera s;
-    s.source = relative_to(cameras[i].source, out_dir);
-    s.name = cameras[i].name;
-    s.intrinsics = cameras[i].intrinsics;
-    s.world_from_camera = pose[i];
-    if (pose[i]) {
+    s.source = relative_to(c.source, out_dir);
+    s.name = c.name;
+    s.intrinsics = c.intrinsics;
+    s.world_from_camera = c.world_from_camera;
+    if (c.world_from_camera) {
       SiteRegistration r;
-      r.method = cameras[i].method;
-      r.feature_rms_mm = cameras[i].feature_rms_m >= 0 ? cameras[i].feature_rms_m * 1e3 : -1;
-      r.overlap_rms_mm = overlap[i].points > 0 ? overlap[i].rms_m * 1e3 : -1;
+      r.method = c.method;
+      r.feature_rms_mm = c.target_rms_m >= 0 ? c.target_rms_m * 1e3 : -1;
+      r.overlap_rms_mm = c.overlap.points > 0 ? c.overlap.rms_m * 1e3 : -1;
       s.registration = r;
     }
     site.push_back(std::move(s));
   }
   write_site_config(out, site);
-  spdlog::info("wrote {} ({} of {} cameras placed)", out.string(), placed_count, n);
-  if (!a.preview.empty()) {
+}
+
+int report_calibration(const SiteCalibration& site, const fs::path& out,
+                       const std::string& preview) {
+  std::printf("%s", calibration_table(site).c_str());
+  for (const auto& p : site.problems) spdlog::error("{}", p);
+  write_calibrated_site(site, out);
+  spdlog::info("wrote {} ({} of {} cameras placed)", out.string(), site.placed(),
+               site.cameras.size());
+  if (!preview.empty()) {
     std::vector<CameraCalibration> calibrations;
     std::vector<CameraFrame> frames;
-    for (size_t i = 0; i < n; ++i)
-      if (pose[i]) {
-        CameraCalibration cal = cameras[i].reader->calibration();
-        cal.world_from_camera = *pose[i];
-        calibrations.push_back(cal);
-        frames.push_back(cameras[i].first);
+    for (const CalibratedCamera& c : site.cameras)
+      if (c.world_from_camera) {
+        calibrations.push_back(c.calibration);
+        frames.push_back(c.first);
       }
-    write_calibration_preview(a.preview, calibrations, frames, floor.has_value());
-    spdlog::info("wrote {} (from above, and from the side)", a.preview);
+    write_calibration_preview(preview, calibrations, frames, site.floor.has_value());
+    spdlog::info("wrote {} (from above, and from the side)", preview);
   }
-  return problems.empty() ? 0 : 3;
+  return site.problems.empty() ? 0 : 3;
 }
 
 }  // namespace volcast

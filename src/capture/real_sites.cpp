@@ -1,4 +1,4 @@
-#include "real_sites.hpp"
+#include "volcast/capture/real_sites.hpp"
 
 #include <spdlog/spdlog.h>
 

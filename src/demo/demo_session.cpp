@@ -13,12 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "commands.hpp"
-#include "real_sites.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
+#include "volcast/calibrate/site_calibration.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/demo/demo.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -40,11 +41,10 @@ fs::path registered_site(const fs::path& data, const fs::path& out) {
     return config;
   }
   spdlog::info("demo: registering the four Azure Kinects from depth alone (once; about a minute)");
-  CalibrateArgs c;
+  CalibrationOptions c;
   c.sources = {(data / kFourKinectSet).string()};
-  c.out = config.string();
-  c.preview = (out / "site-4cam-registration.png").string();
-  const int code = run_calibrate(c);
+  const int code = report_calibration(calibrate_site(c), config,
+                                      (out / "site-4cam-registration.png").string());
   if (code != 0 || !fs::exists(config))
     throw Error("demo: the four cameras could not be registered (volcast calibrate exit " +
                 std::to_string(code) + ")");
@@ -102,6 +102,108 @@ fs::path demo_case(const fs::path& data, const fs::path& out) {
   return folder;
 }
 
+// A scripted remote participant of the demo's session: its client, viewer and how it ended.
+struct Person {
+  std::string name, file;
+  std::unique_ptr<SessionClient> session;
+  ViewerOptions opt;
+  ViewerResult result;
+  std::string error;
+};
+
+// The two participants joining session "OR" through `link`: Dr. Hands (a camera avatar from the
+// hands sequence, who grabs and turns the liver) and Dr. Mesh (a mesh avatar who teleports and
+// sets the monitor), each with a screenshot and figures in `out`.
+std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const fs::path& data,
+                                                       const fs::path& out,
+                                                       const std::string& link) {
+  std::vector<std::unique_ptr<Person>> people;
+  for (int i = 0; i < 2; ++i) {
+    auto p = std::make_unique<Person>();
+    p->name = i == 0 ? "Dr. Hands (camera)" : "Dr. Mesh";
+    p->file = i == 0 ? "session_camera_avatar" : "session_mesh_avatar";
+    SessionClientOptions o;
+    o.participant.session = "OR";
+    o.participant.name = p->name;
+    o.script = demo_script(i == 0 ? -35 : 10, i == 1);
+    if (i == 0)  // takes the liver and turns it 150 degrees
+      o.script.grabs.push_back({1.0, 2.5, "liver", 60});
+    else  // the next slice in the liver window, the overlay on
+      o.script.monitor.push_back({0.8, 2, session::window_preset("liver").center,
+                                  session::window_preset("liver").width, true});
+    if (i == 0) {
+      o.camera_source = data / kHandsSet;
+      o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+    }
+    p->session = std::make_unique<SessionClient>(std::move(o));
+    SessionClient* client = p->session.get();
+    ViewerOptions& v = p->opt;
+    v.client = client_config_from_link(link);
+    v.seconds = a.session_seconds;
+    v.width = 1280;
+    v.height = 720;
+    v.screenshot = out / (p->file + ".png");
+    v.stats_json = out / (p->file + ".json");
+    v.stop = a.stop;
+    v.on_connected = [client](Client& c) { client->start(c); };
+    Person* raw = p.get();
+    v.on_finished = [raw](ViewerResult& r) {
+      raw->session->stop();
+      if (Participant* part = raw->session->participant()) {
+        r.session = part->stats();
+        r.session_name = "OR";
+      }
+    };
+    v.presenter = session_presenter(
+        v, [client] { return client->participant(); }, {}, 2);
+    people.push_back(std::move(p));
+  }
+  return people;
+}
+
+// session_case.json: what the hub and each participant ended with -- one pose for the liver, one
+// monitor state.
+void write_session_case(const fs::path& file, const Case& patient, SessionHub& hub,
+                        const std::vector<std::unique_ptr<Person>>& people) {
+  nlohmann::json r;
+  r["case"] = patient.name;
+  r["load_ms"] = patient.load_ms;
+  for (const CasePart& p : patient.parts)
+    r["parts"].push_back({{"name", p.name},
+                          {"triangles", p.mesh.triangles()},
+                          {"volume_ml", p.volume_ml},
+                          {"voxel_volume_ml", p.voxel_volume_ml},
+                          {"closed", p.closed}});
+  const SessionHubStats hs = hub.stats();
+  r["hub"] = {{"grabs", hs.grabs},
+              {"releases", hs.releases},
+              {"object_moves", hs.object_moves},
+              {"monitor_changes", hs.monitor_changes}};
+  const auto objects = hub.objects("OR");
+  const Pose rest = hub_rest_pose(patient);
+  if (!objects.empty())
+    r["liver"] = {{"owner", objects[0].owner},
+                  {"turned_deg",
+                   objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
+  if (const auto m = hub.monitor("OR"))
+    r["monitor"] = {
+        {"slice", m->slice}, {"center", m->center}, {"width", m->width}, {"overlay", m->overlay}};
+  for (auto& p : people) {
+    const Participant* part = p->session->participant();
+    if (!part || objects.empty()) continue;
+    const SessionSnapshot snap = part->snapshot(wall_clock_us());
+    const bool same =
+        !snap.objects.empty() &&
+        snap.objects[0].pose.orientation.angularDistance(objects[0].pose.orientation) < 1e-4f &&
+        snap.objects[0].pose.position.isApprox(objects[0].pose.position, 1e-5f);
+    r["participants"].push_back(
+        {{"name", p->name},
+         {"sees_the_hubs_liver_pose", same},
+         {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
+  }
+  std::ofstream(file) << r.dump(2) << "\n";
+}
+
 }  // namespace
 
 int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& out) {
@@ -137,54 +239,7 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   spdlog::info("demo: session 'OR' with the OR site's {} cameras on 127.0.0.1:{} (TLS)",
                cameras.size(), server.port());
 
-  struct Person {
-    std::string name, file;
-    std::unique_ptr<SessionClient> session;
-    ViewerOptions opt;
-    ViewerResult result;
-    std::string error;
-  };
-  std::vector<std::unique_ptr<Person>> people;
-  for (int i = 0; i < 2; ++i) {
-    auto p = std::make_unique<Person>();
-    p->name = i == 0 ? "Dr. Hands (camera)" : "Dr. Mesh";
-    p->file = i == 0 ? "session_camera_avatar" : "session_mesh_avatar";
-    SessionClientOptions o;
-    o.participant.session = "OR";
-    o.participant.name = p->name;
-    o.script = demo_script(i == 0 ? -35 : 10, i == 1);
-    if (i == 0)  // takes the liver and turns it 150 degrees
-      o.script.grabs.push_back({1.0, 2.5, "liver", 60});
-    else  // the next slice in the liver window, the overlay on
-      o.script.monitor.push_back({0.8, 2, session::window_preset("liver").center,
-                                  session::window_preset("liver").width, true});
-    if (i == 0) {
-      o.camera_source = data / kHandsSet;
-      o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
-    }
-    p->session = std::make_unique<SessionClient>(std::move(o));
-    SessionClient* client = p->session.get();
-    ViewerOptions& v = p->opt;
-    v.client = client_config_from_link(link);
-    v.seconds = a.session_seconds;
-    v.width = 1280;
-    v.height = 720;
-    v.screenshot = out / (p->file + ".png");
-    v.stats_json = out / (p->file + ".json");
-    v.stop = &g_interrupted;
-    v.on_connected = [client](Client& c) { client->start(c); };
-    Person* raw = p.get();
-    v.on_finished = [raw](ViewerResult& r) {
-      raw->session->stop();
-      if (Participant* part = raw->session->participant()) {
-        r.session = part->stats();
-        r.session_name = "OR";
-      }
-    };
-    v.presenter = session_presenter(
-        v, [client] { return client->participant(); }, {}, 2);
-    people.push_back(std::move(p));
-  }
+  std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link);
   std::vector<std::thread> threads;
   for (auto& p : people)
     threads.emplace_back([&p] {
@@ -195,45 +250,7 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
       }
     });
   for (auto& t : threads) t.join();
-  {  // What the hub and each participant ended with: one pose for the liver, one monitor state.
-    nlohmann::json r;
-    r["case"] = patient.name;
-    r["load_ms"] = patient.load_ms;
-    for (const CasePart& p : patient.parts)
-      r["parts"].push_back({{"name", p.name},
-                            {"triangles", p.mesh.triangles()},
-                            {"volume_ml", p.volume_ml},
-                            {"voxel_volume_ml", p.voxel_volume_ml},
-                            {"closed", p.closed}});
-    const SessionHubStats hs = hub.stats();
-    r["hub"] = {{"grabs", hs.grabs},
-                {"releases", hs.releases},
-                {"object_moves", hs.object_moves},
-                {"monitor_changes", hs.monitor_changes}};
-    const auto objects = hub.objects("OR");
-    const Pose rest = hub_rest_pose(patient);
-    if (!objects.empty())
-      r["liver"] = {{"owner", objects[0].owner},
-                    {"turned_deg",
-                     objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
-    if (const auto m = hub.monitor("OR"))
-      r["monitor"] = {
-          {"slice", m->slice}, {"center", m->center}, {"width", m->width}, {"overlay", m->overlay}};
-    for (auto& p : people) {
-      const Participant* part = p->session->participant();
-      if (!part || objects.empty()) continue;
-      const SessionSnapshot snap = part->snapshot(wall_clock_us());
-      const bool same =
-          !snap.objects.empty() &&
-          snap.objects[0].pose.orientation.angularDistance(objects[0].pose.orientation) < 1e-4f &&
-          snap.objects[0].pose.position.isApprox(objects[0].pose.position, 1e-5f);
-      r["participants"].push_back(
-          {{"name", p->name},
-           {"sees_the_hubs_liver_pose", same},
-           {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
-    }
-    std::ofstream(out / "session_case.json") << r.dump(2) << "\n";
-  }
+  write_session_case(out / "session_case.json", patient, hub, people);
   site.stop();
   hub.attach(nullptr);
   server.stop();

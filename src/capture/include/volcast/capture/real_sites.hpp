@@ -1,5 +1,6 @@
 #pragma once
-// The real recordings in ../shared/data arranged as sites, for the demo and the server benchmark.
+// The real recordings in ../shared/data arranged as sites, for the demo, the benchmarks, the tests
+// and calibrate's nominal intrinsics.
 #include <filesystem>
 #include <memory>
 #include <optional>

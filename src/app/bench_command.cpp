@@ -1,0 +1,68 @@
+// volcast bench: its flags, and which benchmark (volcast/bench/bench.hpp) they pick.
+#include "cli.hpp"
+#include "commands.hpp"
+#include "volcast/bench/bench.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+
+void register_bench(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<BenchArgs>();
+  BenchArgs& bench = *args;
+  auto* bn = app.add_subcommand(
+      "bench", "Time the filter chain and the codecs on real recordings (one thread)");
+  bn->add_option("--dataset", bench.datasets, "Extra recording or folder (repeat)");
+  bn->add_option("--data", bench.data,
+                 "Folder with the shared recordings (default ../shared/data)");
+  bn->add_option("--json", bench.json, "Write the figures as JSON");
+  bn->add_option("--repeats", bench.repeats, "Passes over each set (codecs: a tenth of it)")
+      ->capture_default_str();
+  bn->add_option("--frames", bench.frames,
+                 "Frames of each sequence at most, for a quick look (default: all; the filter "
+                 "chain takes 60)")
+      ->check(CLI::NonNegativeNumber);
+  bn->add_flag("--server", bench.server,
+               "Server benchmark instead: 2 and 4 real cameras, 1/4/8/16 receive-only viewers");
+  bn->add_option("--server-seconds", bench.server_seconds,
+                 "With --server: seconds measured per configuration")
+      ->capture_default_str();
+  bn->add_option("--server-repeats", bench.server_repeats,
+                 "With --server: TCP/TLS pairs run per configuration, interleaved; medians shown")
+      ->capture_default_str();
+  bn->add_option("--viewers", bench.viewers,
+                 "With --server or --nats: viewer counts to run (repeat)");
+  bn->add_flag("--nats", bench.nats,
+               "Benchmark the stream through a 3-node NATS cluster (nats-server, started here) "
+               "and relays to --viewers viewers (default 50), against the site's own server "
+               "(--server-seconds each)");
+  bn->add_flag("--nats-tls", bench.nats_tls,
+               "With --nats: TLS on the links to the cluster's nodes (self-signed, verified)");
+  bn->add_option("--relays", bench.relays, "With --nats: relays the viewers are spread over")
+      ->capture_default_str();
+  bn->add_flag("--session", bench.session,
+               "Session benchmark instead: pose round trip, pose rates, camera avatars, server CPU "
+               "per participant (--server-seconds each)");
+  bn->add_flag("--low-latency", bench.low_latency, "With --session: " + kLowLatencyHelp);
+  bn->add_flag("--record", bench.record,
+               "Recording benchmark instead: latency and CPU a server-side recorder adds to a "
+               "live viewer, MB per minute per camera (--server-seconds, --server-repeats)");
+  bn->add_flag("--render", bench.render,
+               "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
+  bn->add_option("--render-seconds", bench.render_seconds,
+                 "With --render: seconds drawn per configuration (at least 3 frames)")
+      ->capture_default_str();
+  commands.push_back({bn, [args] {
+    const BenchArgs& a = *args;
+    if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) > 1)
+      throw Error("bench: --server, --render, --session, --record and --nats are separate runs");
+    const auto low_latency = hold_low_latency(a.session && a.low_latency);
+    return a.nats      ? run_nats_bench(a)
+           : a.server  ? run_server_bench(a)
+           : a.render  ? run_render_bench(a)
+           : a.session ? run_session_bench(a)
+           : a.record  ? run_record_bench(a)
+                       : run_bench(a);
+  }});
+}
+
+}  // namespace volcast

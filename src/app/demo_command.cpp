@@ -1,0 +1,41 @@
+// volcast demo: its flags (volcast/demo/demo.hpp runs it).
+#include "cli.hpp"
+#include "commands.hpp"
+#include "volcast/codec/color_codec.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/registry.hpp"
+#include "volcast/demo/demo.hpp"
+
+namespace volcast {
+
+void register_demo(CLI::App& app, Commands& commands) {
+  auto args = std::make_shared<DemoArgs>();
+  DemoArgs& demo = *args;
+  auto* d = app.add_subcommand("demo",
+                               "Stream the shared real recordings on loopback, render and report");
+  d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
+  d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
+  d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
+  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + depth_codec_help())
+      ->capture_default_str();
+  d->add_option("--color-codec", demo.color_codec, "Color codec: " + color_codec_help())
+      ->capture_default_str();
+  d->add_flag("--no-session", demo.no_session,
+              "Skip the virtual-OR session (the registered OR cameras, two scripted participants)");
+  d->add_option("--session-seconds", demo.session_seconds, "How long the session part runs")
+      ->capture_default_str();
+  d->add_option("--cameras", demo.cameras,
+                "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")
+      ->check(CLI::IsMember({2, 4}))
+      ->capture_default_str();
+  d->add_flag("--no-render", demo.no_render,
+              "Render the PNGs only at the end, not while streaming (latency without a GPU)");
+  d->add_flag("--low-latency", demo.low_latency, kLowLatencyHelp);
+  demo.stop = &g_interrupted;
+  commands.push_back({d, [args] {
+    const auto low_latency = hold_low_latency(args->low_latency);
+    return run_demo(*args);
+  }});
+}
+
+}  // namespace volcast

@@ -14,9 +14,9 @@
 #include <random>
 
 #include "hands_site.hpp"
-#include "volcast/capture/real_sites.hpp"
 #include "test_data.hpp"
 #include "volcast/capture/k4a_recording.hpp"
+#include "volcast/capture/real_sites.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/net/stream/client.hpp"

@@ -8,8 +8,8 @@
 
 #include <fstream>
 
-#include "volcast/assets/case_watch.hpp"
 #include "session_site.hpp"
+#include "volcast/assets/case_watch.hpp"
 #include "volcast/session/objects.hpp"
 
 namespace volcast {

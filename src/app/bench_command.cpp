@@ -5,6 +5,23 @@
 #include "volcast/core/error.hpp"
 
 namespace volcast {
+namespace {
+
+// The benchmark the flags pick (one per run); bench --session --low-latency holds the CPU wake-up
+// latency at 0 while it runs.
+int run_selected_bench(const BenchArgs& a) {
+  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) > 1)
+    throw Error("bench: --server, --render, --session, --record and --nats are separate runs");
+  const auto low_latency = hold_low_latency(a.session && a.low_latency);
+  return a.nats      ? run_nats_bench(a)
+         : a.server  ? run_server_bench(a)
+         : a.render  ? run_render_bench(a)
+         : a.session ? run_session_bench(a)
+         : a.record  ? run_record_bench(a)
+                     : run_bench(a);
+}
+
+}  // namespace
 
 void register_bench(CLI::App& app, Commands& commands) {
   auto args = std::make_shared<BenchArgs>();
@@ -51,18 +68,7 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_option("--render-seconds", bench.render_seconds,
                  "With --render: seconds drawn per configuration (at least 3 frames)")
       ->capture_default_str();
-  commands.push_back({bn, [args] {
-    const BenchArgs& a = *args;
-    if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) > 1)
-      throw Error("bench: --server, --render, --session, --record and --nats are separate runs");
-    const auto low_latency = hold_low_latency(a.session && a.low_latency);
-    return a.nats      ? run_nats_bench(a)
-           : a.server  ? run_server_bench(a)
-           : a.render  ? run_render_bench(a)
-           : a.session ? run_session_bench(a)
-           : a.record  ? run_record_bench(a)
-                       : run_bench(a);
-  }});
+  commands.push_back({bn, [args] { return run_selected_bench(*args); }});
 }
 
 }  // namespace volcast

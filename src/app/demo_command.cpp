@@ -7,6 +7,15 @@
 #include "volcast/demo/demo.hpp"
 
 namespace volcast {
+namespace {
+
+// --low-latency holds the CPU wake-up latency at 0 for the whole demo.
+int run_demo_with_flags(const DemoArgs& a) {
+  const auto low_latency = hold_low_latency(a.low_latency);
+  return run_demo(a);
+}
+
+}  // namespace
 
 void register_demo(CLI::App& app, Commands& commands) {
   auto args = std::make_shared<DemoArgs>();
@@ -32,10 +41,7 @@ void register_demo(CLI::App& app, Commands& commands) {
               "Render the PNGs only at the end, not while streaming (latency without a GPU)");
   d->add_flag("--low-latency", demo.low_latency, kLowLatencyHelp);
   demo.stop = &g_interrupted;
-  commands.push_back({d, [args] {
-    const auto low_latency = hold_low_latency(args->low_latency);
-    return run_demo(*args);
-  }});
+  commands.push_back({d, [args] { return run_demo_with_flags(*args); }});
 }
 
 }  // namespace volcast

@@ -148,7 +148,6 @@ int run_info(const InfoArgs& a) {
   return 0;
 }
 
-
 void register_info(CLI::App& app, Commands& commands) {
   auto args = std::make_shared<InfoArgs>();
   InfoArgs& info = *args;

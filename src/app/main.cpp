@@ -25,10 +25,10 @@ int main(int argc, char** argv) {
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log debug messages");
   Commands commands;
-  for (const auto add : {register_serve, register_replay, register_relay, register_view,
-                         register_demo, register_filter, register_background, register_bench,
-                         register_calibrate, register_info, register_record, register_export,
-                         register_case})
+  for (const auto add :
+       {register_serve, register_replay, register_relay, register_view, register_demo,
+        register_filter, register_background, register_bench, register_calibrate, register_info,
+        register_record, register_export, register_case})
     add(app, commands);
 
   CLI11_PARSE(app, argc, argv);

@@ -104,7 +104,7 @@ struct Serving {
   std::optional<CaseWatch> case_watch;
   std::optional<BackgroundRecorder> recorder;
   std::optional<cluster::TierPublisher> publisher;
-  std::optional<cluster::SessionBridge> bridge;       ///< relays' participants, to the hub
+  std::optional<cluster::SessionBridge> bridge;      ///< relays' participants, to the hub
   std::optional<cluster::SessionStateMirror> state;  ///< the hub's state, in a NATS bucket
   std::optional<Server> server;
 };
@@ -214,8 +214,8 @@ void add_outlets(const ServeArgs& a, Serving& s) {
   for (const std::string& t : a.nats_tiers) {
     const auto [depth, color, quality] = parse_tier(t, "--nats-tier");
     s.publisher->publish_tier(server, depth, color, quality);
-    spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)",
-                 t, cluster::tier_subject(a.nats_site, depth, color, quality));
+    spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)", t,
+                 cluster::tier_subject(a.nats_site, depth, color, quality));
   }
   if (a.camera_only) return;
   // Participants of relays join this hub's sessions.
@@ -283,9 +283,9 @@ void log_progress(const Serving& s) {
   }
   if (s.publisher) {
     const cluster::PublisherStats p = s.publisher->stats();
-    recording += fmt::format(
-        "; NATS {} frame sets, {:.1f} MB{}", p.frame_sets, static_cast<double>(p.bytes) / 1e6,
-        p.errors ? fmt::format(", {} lost ({})", p.errors, p.last_error) : "");
+    recording += fmt::format("; NATS {} frame sets, {:.1f} MB{}", p.frame_sets,
+                             static_cast<double>(p.bytes) / 1e6,
+                             p.errors ? fmt::format(", {} lost ({})", p.errors, p.last_error) : "");
   }
   spdlog::info(
       "{} frame sets published, {} viewer(s) connected{}{}",

@@ -36,7 +36,6 @@ FilterConfig FilterFlags::to_config(size_t index) const {
   return c;
 }
 
-
 // The server's security settings from the flags: TLS identity (made on first run), join token,
 // policy limits. Logs where the identity comes from.
 static void apply_security(const ServeArgs& a, ServerConfig& config) {
@@ -96,7 +95,6 @@ std::string link_host(const ServeArgs& a) {
   }
   return found;
 }
-
 
 ServerConfig server_config(const ServeArgs& a) {
   ServerConfig config;
@@ -189,6 +187,5 @@ cluster::NatsOptions nats_options(const ServeArgs& a, const std::string& name) {
         o.user);
   return o;
 }
-
 
 }  // namespace volcast

@@ -283,7 +283,6 @@ int run_view(const ViewArgs& a) {
   return 0;
 }
 
-
 void register_view(CLI::App& app, Commands& commands) {
   auto args = std::make_shared<ViewArgs>();
   ViewArgs& view = *args;

@@ -39,7 +39,8 @@ struct Camera {
 
 // The intrinsics a camera folder's PNGs get: --intrinsics-from, else the Azure Kinect recording's
 // factory NFOV calibration from the shared data (nominal for these cameras, said so in the report).
-Intrinsics folder_intrinsics(const CalibrationOptions& a, const FolderCamera& c, std::string& note) {
+Intrinsics folder_intrinsics(const CalibrationOptions& a, const FolderCamera& c,
+                             std::string& note) {
   fs::path from = a.intrinsics_from;
   if (from.empty()) {
     const auto data = find_data("");
@@ -321,8 +322,8 @@ std::string calibration_table(const SiteCalibration& site) {
     const CalibratedCamera& c = site.cameras[i];
     const std::string target =
         c.target_rms_m >= 0 ? fmt::format("{:.2f}", c.target_rms_m * 1e3) : "-";
-    const std::string before = c.before_rms_m >= 0 ? fmt::format("{:.1f}", c.before_rms_m * 1e3)
-                                                   : "-";
+    const std::string before =
+        c.before_rms_m >= 0 ? fmt::format("{:.1f}", c.before_rms_m * 1e3) : "-";
     if (!c.world_from_camera) {
       out += fmt::format("{:<3} {:<14} {:<16} {:>10} {:>9} {:>11} {:>11} {:>9}\n", i, c.name,
                          "NOT PLACED", target, "-", before, "-", "-");

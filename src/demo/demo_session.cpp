@@ -43,8 +43,8 @@ fs::path registered_site(const fs::path& data, const fs::path& out) {
   spdlog::info("demo: registering the four Azure Kinects from depth alone (once; about a minute)");
   CalibrationOptions c;
   c.sources = {(data / kFourKinectSet).string()};
-  const int code = report_calibration(calibrate_site(c), config,
-                                      (out / "site-4cam-registration.png").string());
+  const int code =
+      report_calibration(calibrate_site(c), config, (out / "site-4cam-registration.png").string());
   if (code != 0 || !fs::exists(config))
     throw Error("demo: the four cameras could not be registered (volcast calibrate exit " +
                 std::to_string(code) + ")");
@@ -182,9 +182,9 @@ void write_session_case(const fs::path& file, const Case& patient, SessionHub& h
   const auto objects = hub.objects("OR");
   const Pose rest = hub_rest_pose(patient);
   if (!objects.empty())
-    r["liver"] = {{"owner", objects[0].owner},
-                  {"turned_deg",
-                   objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
+    r["liver"] = {
+        {"owner", objects[0].owner},
+        {"turned_deg", objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
   if (const auto m = hub.monitor("OR"))
     r["monitor"] = {
         {"slice", m->slice}, {"center", m->center}, {"width", m->width}, {"overlay", m->overlay}};
@@ -196,10 +196,9 @@ void write_session_case(const fs::path& file, const Case& patient, SessionHub& h
         !snap.objects.empty() &&
         snap.objects[0].pose.orientation.angularDistance(objects[0].pose.orientation) < 1e-4f &&
         snap.objects[0].pose.position.isApprox(objects[0].pose.position, 1e-5f);
-    r["participants"].push_back(
-        {{"name", p->name},
-         {"sees_the_hubs_liver_pose", same},
-         {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
+    r["participants"].push_back({{"name", p->name},
+                                 {"sees_the_hubs_liver_pose", same},
+                                 {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
   }
   std::ofstream(file) << r.dump(2) << "\n";
 }

@@ -36,11 +36,11 @@ struct CalibratedCamera {
   std::optional<Intrinsics> intrinsics;  ///< given to the source (a camera folder's); else none
   CameraCalibration calibration;         ///< the source's; world_from_camera as placed (if so)
   std::optional<RigidTransform> world_from_camera;  ///< room frame (site frame with no_floor)
-  std::string method;                  ///< "target", "targetless", "start + ICP", ...; "" unplaced
-  double target_rms_m = -1;            ///< RMS of the target's sphere centres; -1: not by it
-  double before_rms_m = -1;            ///< overlap RMS before targetless ICP; -1: not measured
-  CameraOverlap overlap;               ///< with the other placed cameras, at the final poses
-  CameraFrame first;                   ///< the frame the targetless step and a preview use
+  std::string method;        ///< "target", "targetless", "start + ICP", ...; "" unplaced
+  double target_rms_m = -1;  ///< RMS of the target's sphere centres; -1: not by it
+  double before_rms_m = -1;  ///< overlap RMS before targetless ICP; -1: not measured
+  CameraOverlap overlap;     ///< with the other placed cameras, at the final poses
+  CameraFrame first;         ///< the frame the targetless step and a preview use
 };
 
 /// The result: the cameras in source order, the floor if found, and each problem as one line

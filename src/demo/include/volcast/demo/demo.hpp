@@ -16,9 +16,9 @@ struct DemoArgs {
   int cameras = 2;
   bool no_render = false;    ///< render only the PNGs at the end, not while streaming
   bool low_latency = false;  ///< the CLI holds the CPU wake-up latency at 0 meanwhile
-  const std::atomic<bool>* stop = nullptr;  ///< set: stop early (the CLI's Ctrl-C flag)
   bool no_session = false;   ///< skip the virtual-OR session part
   double session_seconds = 8;
+  const std::atomic<bool>* stop = nullptr;  ///< set: stop early (the CLI's Ctrl-C flag)
 };
 /// Streams the real site (the two-camera or the four-camera set) over TLS on loopback to one
 /// viewer for `seconds`, writes out/stats.json and renders (the overview as splats and as a mesh,

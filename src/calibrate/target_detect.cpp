@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 
 #include "volcast/calibrate/target.hpp"
 #include "volcast/core/error.hpp"
@@ -207,6 +208,188 @@ void match(const std::vector<FoundSphere>& found, const TargetModel& model, doub
   match(found, model, tolerance, i + 1, count, m);
 }
 
+// A pinhole approximation of the lens near the image centre, to size pixel boxes and caps.
+struct CentreLens {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+};
+
+// The depth samples in [min_depth_m, max_depth_m] as points in the camera frame (metres), per
+// pixel; zero where invalid.
+void back_project(const DepthImage& depth, const RayTable& rays, const TargetDetectOptions& o,
+                  std::vector<Eigen::Vector3f>& points) {
+  points.assign(depth.size(), Eigen::Vector3f::Zero());
+  const float min_mm = static_cast<float>(o.min_depth_m * 1000);
+  const float max_mm = static_cast<float>(o.max_depth_m * 1000);
+  for (size_t i = 0; i < depth.size(); ++i) {
+    const float mm = depth.pixels[i];
+    if (mm < min_mm || mm > max_mm || !std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i]))
+      continue;
+    const float z = mm * 1e-3f;
+    points[i] = Eigen::Vector3f(rays.x[i] * z, rays.y[i] * z, z);
+  }
+}
+
+// The lens at the image centre from the ray table; nullopt where it has no rays there.
+std::optional<CentreLens> centre_lens(const RayTable& rays, int w, int h) {
+  const size_t mid = static_cast<size_t>(h / 2) * w + w / 2;
+  CentreLens l;
+  l.fx = 1.0 / static_cast<double>(rays.x[mid + 1] - rays.x[mid]);
+  l.fy = 1.0 / static_cast<double>(rays.y[mid + w] - rays.y[mid]);
+  l.cx = w / 2 - rays.x[mid] * l.fx, l.cy = h / 2 - rays.y[mid] * l.fy;
+  if (!std::isfinite(l.fx) || !std::isfinite(l.fy) || !std::isfinite(l.cx) ||
+      !std::isfinite(l.cy) || l.fx <= 0 || l.fy <= 0)
+    return std::nullopt;
+  return l;
+}
+
+// The back-projected image: a point per pixel (z = 0 where invalid).
+struct PointGrid {
+  const std::vector<Eigen::Vector3f>& points;
+  int w, h;
+  const Eigen::Vector3f& at(int x, int y) const {
+    return points[static_cast<size_t>(y) * w + x];
+  }
+};
+
+// 1. Votes: each sample's normal (from neighbours kNormalStep pixels away, toward the camera)
+// points from the centre of the sphere it would lie on. Returns false when the vote table filled
+// up before every sample voted.
+bool cast_votes(const PointGrid& g, double r, VoteTable& votes) {
+  votes.clear();
+  const int w = g.w, h = g.h;
+  for (int y = kNormalStep; y < h - kNormalStep; y += kStride)
+    for (int x = kNormalStep; x < w - kNormalStep; x += kStride) {
+      const Eigen::Vector3f& p = g.at(x, y);
+      if (p.z() == 0) continue;
+      const Eigen::Vector3f &l = g.at(x - kNormalStep, y), &rr = g.at(x + kNormalStep, y),
+                            &u = g.at(x, y - kNormalStep), &d = g.at(x, y + kNormalStep);
+      if (l.z() == 0 || rr.z() == 0 || u.z() == 0 || d.z() == 0) continue;
+      const float jump = 0.05f * p.z();  // across a depth edge: no normal
+      if (std::abs(l.z() - p.z()) > jump || std::abs(rr.z() - p.z()) > jump ||
+          std::abs(u.z() - p.z()) > jump || std::abs(d.z() - p.z()) > jump)
+        continue;
+      Eigen::Vector3f n = (rr - l).cross(d - u);
+      const float len = n.norm();
+      if (len < 1e-12f) continue;
+      n /= len;
+      if (n.dot(p) > 0) n = -n;
+      if (!votes.add(key((p - n * static_cast<float>(r)).cast<double>()))) return false;
+    }
+  return true;
+}
+
+// 2. Peaks: the vote mass of each cell's 3x3x3 neighbourhood against what a sphere's visible cap
+// would cast at that depth; strongest first, one per model radius, into ws.kept.
+void find_peaks(const CentreLens& lens, double r, const TargetDetectOptions& o, Workspace& ws) {
+  ws.candidates.clear();
+  for (const uint32_t slot : ws.votes.used) {
+    if (ws.votes.counts[slot] < 3) continue;
+    const uint64_t k = ws.votes.keys[slot];
+    const Eigen::Vector3d c = cell_centre(k);
+    if (c.z() < o.min_depth_m) continue;
+    const int64_t ix = static_cast<int64_t>(std::floor(c.x() / kCell)),
+                  iy = static_cast<int64_t>(std::floor(c.y() / kCell)),
+                  iz = static_cast<int64_t>(std::floor(c.z() / kCell));
+    int sum = 0;
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int n = ws.votes.find(key_of(ix + dx, iy + dy, iz + dz));
+          sum += n;
+          mean += (c + Eigen::Vector3d(dx, dy, dz) * kCell) * n;
+        }
+    const double pixel_m = c.z() / lens.fx;  // a depth pixel's footprint there, metres
+    const double cap = M_PI * std::pow(r / pixel_m, 2) / (kStride * kStride);
+    if (sum < std::max(8.0, 0.15 * cap)) continue;
+    ws.candidates.push_back({mean / sum, sum});
+  }
+  std::sort(ws.candidates.begin(), ws.candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.votes > b.votes; });
+  ws.kept.clear();
+  for (const Candidate& c : ws.candidates) {
+    if (std::any_of(ws.kept.begin(), ws.kept.end(),
+                    [&](const Eigen::Vector3d& k) { return (k - c.centre).norm() < r; }))
+      continue;
+    ws.kept.push_back(c.centre);
+    if (ws.kept.size() >= kMaxCandidates) break;
+  }
+}
+
+// The samples within `band` of the sphere (`centre`, radius r) in its pixel box, into `sample`;
+// after the first pass only those facing the camera whose 4-neighbours are invalid or on the
+// sphere too.
+void gather_band(const PointGrid& g, const CentreLens& lens, double r,
+                 const Eigen::Vector3d& centre, double band, int pass, double u, double v,
+                 std::vector<Eigen::Vector3d>& sample) {
+  const int w = g.w, h = g.h;
+  const double zc = centre.z();
+  const int half_x = static_cast<int>(std::ceil((r + 0.03) / zc * lens.fx * 1.2)) + 4;
+  const int half_y = static_cast<int>(std::ceil((r + 0.03) / zc * lens.fy * 1.2)) + 4;
+  sample.clear();
+  const int x0 = std::max(0, static_cast<int>(u) - half_x),
+            x1 = std::min(w, static_cast<int>(u) + half_x);
+  const int y0 = std::max(0, static_cast<int>(v) - half_y),
+            y1 = std::min(h, static_cast<int>(v) + half_y);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const Eigen::Vector3f& pf = g.at(x, y);
+      if (pf.z() == 0) continue;
+      const Eigen::Vector3d p = pf.cast<double>();
+      const Eigen::Vector3d d = p - centre;
+      const double dn = d.norm();
+      if (std::abs(dn - r) >= band) continue;
+      // Only where the surface faces the camera: the silhouette's ring is noisy and holds the
+      // flying pixels mixed with the background.
+      if (pass > 0 && -d.dot(p) < kMinFacing * dn * p.norm()) continue;
+      // Nor next to anything off the sphere (an occluding edge, the rod, a flying pixel): each
+      // 4-neighbour is invalid or on the sphere too.
+      if (pass > 0) {
+        const auto on = [&](int nx, int ny) {
+          if (nx < 0 || ny < 0 || nx >= w || ny >= h) return true;
+          const Eigen::Vector3f& q = g.at(nx, ny);
+          return q.z() == 0 || std::abs((q.cast<double>() - centre).norm() - r) < band;
+        };
+        if (!on(x - 1, y) || !on(x + 1, y) || !on(x, y - 1) || !on(x, y + 1)) continue;
+      }
+      sample.push_back(p);
+    }
+}
+
+// 3. Fits a candidate on the samples near its surface (a shrinking band), then checks it: its
+// free radius, the share of the facing cap it covers, its RMS. nullopt if it is no target sphere.
+std::optional<FoundSphere> fit_candidate(const PointGrid& g, const CentreLens& lens, double r,
+                                         const TargetDetectOptions& o, Eigen::Vector3d centre,
+                                         std::vector<Eigen::Vector3d>& sample) {
+  FoundSphere s;
+  double radius = r;
+  for (int pass = 0; pass < 4; ++pass) {
+    const double zc = centre.z();
+    if (zc < 0.1) return std::nullopt;
+    const double band = pass == 0 ? 0.03 : pass == 1 ? 0.015 : band_at(zc);
+    const double u = centre.x() / zc * lens.fx + lens.cx, v = centre.y() / zc * lens.fy + lens.cy;
+    if (!(std::abs(u) < 1e6 && std::abs(v) < 1e6)) return std::nullopt;
+    gather_band(g, lens, r, centre, band, pass, u, v, sample);
+    if (sample.size() < 12) return std::nullopt;
+    radius = r;
+    s.rms_m = fit_sphere(sample, false, centre, radius);
+  }
+  if (!centre.allFinite()) return std::nullopt;
+  s.centre_m = centre;
+  s.inliers = static_cast<int>(sample.size());
+  Eigen::Vector3d free_centre = centre;
+  s.radius_m = r;
+  fit_sphere(sample, true, free_centre, s.radius_m);
+  // Coverage: the samples must fill a fair part of the facing cap (pixels of the disc within
+  // kMinFacing of the silhouette: 1 - kMinFacing^2 of its area).
+  const double pixel_m = centre.z() / std::sqrt(lens.fx * lens.fy);
+  const double cap = M_PI * std::pow(r / pixel_m, 2) * (1 - kMinFacing * kMinFacing);
+  if (std::abs(s.radius_m - r) > o.radius_tolerance_m || s.inliers < 0.25 * cap ||
+      s.rms_m > band_at(centre.z()))
+    return std::nullopt;
+  return s;
+}
+
 }  // namespace
 
 TargetDetection detect_target(const DepthImage& depth, const RayTable& rays,
@@ -227,161 +410,18 @@ TargetDetection detect_target(const DepthImage& depth, const RayTable& rays,
     return out;
   }
   thread_local Workspace ws;
-  ws.points.assign(depth.size(), Eigen::Vector3f::Zero());
-  const float min_mm = static_cast<float>(o.min_depth_m * 1000);
-  const float max_mm = static_cast<float>(o.max_depth_m * 1000);
-  for (size_t i = 0; i < depth.size(); ++i) {
-    const float mm = depth.pixels[i];
-    if (mm < min_mm || mm > max_mm || !std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i]))
-      continue;
-    const float z = mm * 1e-3f;
-    ws.points[i] = Eigen::Vector3f(rays.x[i] * z, rays.y[i] * z, z);
-  }
-  // A pinhole approximation of the lens near the image centre, to size pixel boxes and caps.
-  const size_t mid = static_cast<size_t>(h / 2) * w + w / 2;
-  const double fx = 1.0 / static_cast<double>(rays.x[mid + 1] - rays.x[mid]);
-  const double fy = 1.0 / static_cast<double>(rays.y[mid + w] - rays.y[mid]);
-  const double cx = w / 2 - rays.x[mid] * fx, cy = h / 2 - rays.y[mid] * fy;
-  if (!std::isfinite(fx) || !std::isfinite(fy) || !std::isfinite(cx) || !std::isfinite(cy) ||
-      fx <= 0 || fy <= 0) {
+  back_project(depth, rays, o, ws.points);
+  const std::optional<CentreLens> lens = centre_lens(rays, w, h);
+  if (!lens) {
     out.why_not = "the ray table has no rays at the image centre";
     return out;
   }
-  const auto at = [&](int x, int y) -> const Eigen::Vector3f& {
-    return ws.points[static_cast<size_t>(y) * w + x];
-  };
-
-  // 1. Votes: each sample's normal (from neighbours kNormalStep pixels away, toward the camera)
-  // points from the centre of the sphere it would lie on.
-  ws.votes.clear();
-  bool full = false;
-  for (int y = kNormalStep; y < h - kNormalStep && !full; y += kStride)
-    for (int x = kNormalStep; x < w - kNormalStep; x += kStride) {
-      const Eigen::Vector3f& p = at(x, y);
-      if (p.z() == 0) continue;
-      const Eigen::Vector3f &l = at(x - kNormalStep, y), &rr = at(x + kNormalStep, y),
-                            &u = at(x, y - kNormalStep), &d = at(x, y + kNormalStep);
-      if (l.z() == 0 || rr.z() == 0 || u.z() == 0 || d.z() == 0) continue;
-      const float jump = 0.05f * p.z();  // across a depth edge: no normal
-      if (std::abs(l.z() - p.z()) > jump || std::abs(rr.z() - p.z()) > jump ||
-          std::abs(u.z() - p.z()) > jump || std::abs(d.z() - p.z()) > jump)
-        continue;
-      Eigen::Vector3f n = (rr - l).cross(d - u);
-      const float len = n.norm();
-      if (len < 1e-12f) continue;
-      n /= len;
-      if (n.dot(p) > 0) n = -n;
-      if (!ws.votes.add(key((p - n * static_cast<float>(r)).cast<double>()))) {
-        full = true;
-        break;
-      }
-    }
-
-  // 2. Peaks: the vote mass of each cell's 3x3x3 neighbourhood against what a sphere's visible cap
-  // would cast at that depth; strongest first, one per model radius.
-  ws.candidates.clear();
-  for (const uint32_t slot : ws.votes.used) {
-    if (ws.votes.counts[slot] < 3) continue;
-    const uint64_t k = ws.votes.keys[slot];
-    const Eigen::Vector3d c = cell_centre(k);
-    if (c.z() < o.min_depth_m) continue;
-    const int64_t ix = static_cast<int64_t>(std::floor(c.x() / kCell)),
-                  iy = static_cast<int64_t>(std::floor(c.y() / kCell)),
-                  iz = static_cast<int64_t>(std::floor(c.z() / kCell));
-    int sum = 0;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int n = ws.votes.find(key_of(ix + dx, iy + dy, iz + dz));
-          sum += n;
-          mean += (c + Eigen::Vector3d(dx, dy, dz) * kCell) * n;
-        }
-    const double pixel_m = c.z() / fx;  // a depth pixel's footprint there, metres
-    const double cap = M_PI * std::pow(r / pixel_m, 2) / (kStride * kStride);
-    if (sum < std::max(8.0, 0.15 * cap)) continue;
-    ws.candidates.push_back({mean / sum, sum});
-  }
-  std::sort(ws.candidates.begin(), ws.candidates.end(),
-            [](const Candidate& a, const Candidate& b) { return a.votes > b.votes; });
-  ws.kept.clear();
-  for (const Candidate& c : ws.candidates) {
-    if (std::any_of(ws.kept.begin(), ws.kept.end(),
-                    [&](const Eigen::Vector3d& k) { return (k - c.centre).norm() < r; }))
-      continue;
-    ws.kept.push_back(c.centre);
-    if (ws.kept.size() >= kMaxCandidates) break;
-  }
-
-  // 3. Fit each candidate on the samples near its surface (a shrinking band), then check it.
-  for (Eigen::Vector3d centre : ws.kept) {
-    FoundSphere s;
-    double radius = r;
-    bool ok = true;
-    for (int pass = 0; pass < 4 && ok; ++pass) {
-      const double zc = centre.z();
-      if (zc < 0.1) {
-        ok = false;
-        break;
-      }
-      const double band = pass == 0 ? 0.03 : pass == 1 ? 0.015 : band_at(zc);
-      const double u = centre.x() / zc * fx + cx, v = centre.y() / zc * fy + cy;
-      const int half_x = static_cast<int>(std::ceil((r + 0.03) / zc * fx * 1.2)) + 4;
-      const int half_y = static_cast<int>(std::ceil((r + 0.03) / zc * fy * 1.2)) + 4;
-      if (!(std::abs(u) < 1e6 && std::abs(v) < 1e6)) {
-        ok = false;
-        break;
-      }
-      ws.sample.clear();
-      const int x0 = std::max(0, static_cast<int>(u) - half_x),
-                x1 = std::min(w, static_cast<int>(u) + half_x);
-      const int y0 = std::max(0, static_cast<int>(v) - half_y),
-                y1 = std::min(h, static_cast<int>(v) + half_y);
-      for (int y = y0; y < y1; ++y)
-        for (int x = x0; x < x1; ++x) {
-          const Eigen::Vector3f& pf = at(x, y);
-          if (pf.z() == 0) continue;
-          const Eigen::Vector3d p = pf.cast<double>();
-          const Eigen::Vector3d d = p - centre;
-          const double dn = d.norm();
-          if (std::abs(dn - r) >= band) continue;
-          // Only where the surface faces the camera: the silhouette's ring is noisy and holds the
-          // flying pixels mixed with the background.
-          if (pass > 0 && -d.dot(p) < kMinFacing * dn * p.norm()) continue;
-          // Nor next to anything off the sphere (an occluding edge, the rod, a flying pixel): each
-          // 4-neighbour is invalid or on the sphere too.
-          if (pass > 0) {
-            const auto on = [&](int nx, int ny) {
-              if (nx < 0 || ny < 0 || nx >= w || ny >= h) return true;
-              const Eigen::Vector3f& q = at(nx, ny);
-              return q.z() == 0 || std::abs((q.cast<double>() - centre).norm() - r) < band;
-            };
-            if (!on(x - 1, y) || !on(x + 1, y) || !on(x, y - 1) || !on(x, y + 1)) continue;
-          }
-          ws.sample.push_back(p);
-        }
-      if (ws.sample.size() < 12) {
-        ok = false;
-        break;
-      }
-      radius = r;
-      s.rms_m = fit_sphere(ws.sample, false, centre, radius);
-    }
-    if (!ok || !centre.allFinite()) continue;
-    s.centre_m = centre;
-    s.inliers = static_cast<int>(ws.sample.size());
-    Eigen::Vector3d free_centre = centre;
-    s.radius_m = r;
-    fit_sphere(ws.sample, true, free_centre, s.radius_m);
-    // Coverage: the samples must fill a fair part of the facing cap (pixels of the disc within
-    // kMinFacing of the silhouette: 1 - kMinFacing^2 of its area).
-    const double pixel_m = centre.z() / std::sqrt(fx * fy);
-    const double cap = M_PI * std::pow(r / pixel_m, 2) * (1 - kMinFacing * kMinFacing);
-    if (std::abs(s.radius_m - r) > o.radius_tolerance_m || s.inliers < 0.25 * cap ||
-        s.rms_m > band_at(centre.z()))
-      continue;
-    out.spheres.push_back(s);
-  }
+  const PointGrid grid{ws.points, w, h};
+  const bool full = !cast_votes(grid, r, ws.votes);
+  find_peaks(*lens, r, o, ws);
+  for (const Eigen::Vector3d& centre : ws.kept)
+    if (const auto s = fit_candidate(grid, *lens, r, o, centre, ws.sample))
+      out.spheres.push_back(*s);
   std::sort(out.spheres.begin(), out.spheres.end(),
             [](const FoundSphere& a, const FoundSphere& b) { return a.inliers > b.inliers; });
   if (out.spheres.size() > kMaxSpheres) out.spheres.resize(kMaxSpheres);

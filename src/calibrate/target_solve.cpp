@@ -24,11 +24,10 @@ double moved(const RigidTransform& before, const RigidTransform& t) {
   return (t.translation - before.translation).norm() + (t.rotation - before.rotation).norm();
 }
 
-}  // namespace
-
-TargetSolution solve_target_registration(int cameras, int captures,
-                                         std::span<const TargetObservation> observations,
-                                         int reference_camera, const TargetModel& model) {
+// Throws Error for counts below 0, a reference camera out of range or an observation naming a
+// camera, capture or sphere that is not there.
+void check_inputs(int cameras, int captures, std::span<const TargetObservation> observations,
+                  int reference_camera, const TargetModel& model) {
   if (cameras < 0 || captures < 0)
     throw Error("solve_target_registration: negative camera or capture count");
   if (reference_camera >= cameras)
@@ -50,18 +49,15 @@ TargetSolution solve_target_registration(int cameras, int captures,
                     " is not one of the model's " + std::to_string(model.centres_m.size()) +
                     " (or its centre is not finite)");
   }
-  const size_t nc = static_cast<size_t>(cameras), nk = static_cast<size_t>(captures);
-  const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
-  TargetSolution s;
-  s.world_from_camera.assign(nc, std::nullopt);
-  s.world_from_target.assign(nk, std::nullopt);
-  s.rms_m.assign(nc, 0);
-  s.features.assign(nc, 0);
+}
 
-  // Observations usable for a pose (>= 3 centres; detect_target gives no fewer) and their own
-  // camera_from_target.
+// Observations usable for a pose (>= 3 centres; detect_target gives no fewer); `seen[i]` gets
+// observation i's own camera_from_target.
+std::vector<size_t> usable_observations(std::span<const TargetObservation> observations,
+                                        const TargetModel& model,
+                                        std::vector<RigidTransform>& seen) {
+  const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
   std::vector<size_t> usable;
-  std::vector<RigidTransform> seen(observations.size());
   for (size_t i = 0; i < observations.size(); ++i) {
     const auto& centres = observations[i].centres;
     if (centres.size() < 3) continue;
@@ -73,38 +69,44 @@ TargetSolution solve_target_registration(int cameras, int captures,
     seen[i] = kabsch(a, b);
     usable.push_back(i);
   }
+  return usable;
+}
 
-  // The world and the spanning tree of shared captures from it.
+// Without a reference camera, the world is a capture's target placement: the lowest capture of
+// the group of cameras and captures (joined by observations) that holds the most cameras, ties to
+// the lowest capture, so a stray detection cannot take the world away; -1 when none is usable.
+int root_capture_of(size_t nc, size_t nk, std::span<const TargetObservation> observations,
+                    const std::vector<size_t>& usable) {
   int root_capture = -1;
-  if (reference_camera >= 0) {
-    s.world_from_camera[static_cast<size_t>(reference_camera)] = RigidTransform{};
-  } else {
-    // The lowest capture of the group of cameras and captures (joined by observations) that holds
-    // the most cameras, ties to the lowest capture: a stray detection cannot take the world away.
-    std::vector<size_t> parent(nc + nk);  // union-find over cameras 0..nc-1, captures nc..
-    for (size_t i = 0; i < parent.size(); ++i) parent[i] = i;
-    const auto find = [&](size_t i) {
-      while (parent[i] != i) i = parent[i] = parent[parent[i]];
-      return i;
-    };
-    for (const size_t i : usable)
-      parent[find(static_cast<size_t>(observations[i].camera))] =
-          find(nc + static_cast<size_t>(observations[i].capture));
-    std::vector<int> cameras_in(parent.size(), 0);
-    for (size_t c = 0; c < nc; ++c) ++cameras_in[find(c)];
-    for (const size_t i : usable) {
-      const int k = observations[i].capture;
-      if (root_capture < 0) {
-        root_capture = k;
-        continue;
-      }
-      const int here = cameras_in[find(nc + static_cast<size_t>(k))];
-      const int best = cameras_in[find(nc + static_cast<size_t>(root_capture))];
-      if (here > best || (here == best && k < root_capture)) root_capture = k;
+  std::vector<size_t> parent(nc + nk);  // union-find over cameras 0..nc-1, captures nc..
+  for (size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  const auto find = [&](size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (const size_t i : usable)
+    parent[find(static_cast<size_t>(observations[i].camera))] =
+        find(nc + static_cast<size_t>(observations[i].capture));
+  std::vector<int> cameras_in(parent.size(), 0);
+  for (size_t c = 0; c < nc; ++c) ++cameras_in[find(c)];
+  for (const size_t i : usable) {
+    const int k = observations[i].capture;
+    if (root_capture < 0) {
+      root_capture = k;
+      continue;
     }
-    if (root_capture >= 0)
-      s.world_from_target[static_cast<size_t>(root_capture)] = RigidTransform{};
+    const int here = cameras_in[find(nc + static_cast<size_t>(k))];
+    const int best = cameras_in[find(nc + static_cast<size_t>(root_capture))];
+    if (here > best || (here == best && k < root_capture)) root_capture = k;
   }
+  return root_capture;
+}
+
+// The spanning tree of shared captures from the world: places every camera and capture that a
+// chain of usable observations joins to one already placed.
+void grow_from_world(std::span<const TargetObservation> observations,
+                     const std::vector<size_t>& usable, const std::vector<RigidTransform>& seen,
+                     TargetSolution& s) {
   for (bool grew = true; grew;) {
     grew = false;
     for (const size_t i : usable) {
@@ -119,8 +121,15 @@ TargetSolution solve_target_registration(int cameras, int captures,
       }
     }
   }
+}
 
-  // Alternating least squares; the world's own frame (reference camera or root capture) stays.
+// Alternating least squares over the placed cameras and captures until no pose moves by 1e-9 m
+// (200 rounds at most); the world's own frame (reference camera or root capture) stays.
+void refine_poses(std::span<const TargetObservation> observations,
+                  const std::vector<size_t>& usable, const TargetModel& model,
+                  int reference_camera, int root_capture, TargetSolution& s) {
+  const size_t nc = s.world_from_camera.size(), nk = s.world_from_target.size();
+  const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
   Eigen::Matrix3Xd a, b;
   const auto gather = [&](auto&& take) {  // take(observation) -> add its pairs; returns the count
     long count = 0;
@@ -171,8 +180,14 @@ TargetSolution solve_target_registration(int cameras, int captures,
     }
     if (change < 1e-9) break;
   }
+}
 
-  // Residuals, and why each unplaced camera is unplaced.
+// Residuals (rms_m, features) per camera, and why each unplaced camera is unplaced.
+void add_residuals(std::span<const TargetObservation> observations,
+                   const std::vector<size_t>& usable, const TargetModel& model,
+                   TargetSolution& s) {
+  const size_t nc = s.world_from_camera.size();
+  const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
   std::vector<double> sum(nc, 0);
   for (const size_t i : usable) {
     const TargetObservation& o = observations[i];
@@ -198,6 +213,33 @@ TargetSolution solve_target_registration(int cameras, int captures,
                              : "saw the target only in captures no other placed camera saw";
     s.problems.push_back("camera " + std::to_string(c) + ": " + why);
   }
+}
+
+}  // namespace
+
+TargetSolution solve_target_registration(int cameras, int captures,
+                                         std::span<const TargetObservation> observations,
+                                         int reference_camera, const TargetModel& model) {
+  check_inputs(cameras, captures, observations, reference_camera, model);
+  const size_t nc = static_cast<size_t>(cameras), nk = static_cast<size_t>(captures);
+  TargetSolution s;
+  s.world_from_camera.assign(nc, std::nullopt);
+  s.world_from_target.assign(nk, std::nullopt);
+  s.rms_m.assign(nc, 0);
+  s.features.assign(nc, 0);
+  std::vector<RigidTransform> seen(observations.size());
+  const std::vector<size_t> usable = usable_observations(observations, model, seen);
+  int root_capture = -1;
+  if (reference_camera >= 0) {
+    s.world_from_camera[static_cast<size_t>(reference_camera)] = RigidTransform{};
+  } else {
+    root_capture = root_capture_of(nc, nk, observations, usable);
+    if (root_capture >= 0)
+      s.world_from_target[static_cast<size_t>(root_capture)] = RigidTransform{};
+  }
+  grow_from_world(observations, usable, seen, s);
+  refine_poses(observations, usable, model, reference_camera, root_capture, s);
+  add_residuals(observations, usable, model, s);
   return s;
 }
 

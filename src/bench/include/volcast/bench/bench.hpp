@@ -9,8 +9,8 @@ namespace volcast {
 
 struct BenchArgs {
   std::vector<std::string> datasets;  ///< extra recordings or folders
-  std::string json;
-  std::string data;
+  std::string json;                   ///< write the figures here as JSON ("": do not)
+  std::string data;                   ///< the shared recordings ("": ../shared/data)
   int repeats = 50;
   int frames = 0;             ///< frames of each sequence at most (0: all; the filters take 60)
   bool server = false;        ///< the server benchmark instead of the codec/filter tables
@@ -26,7 +26,8 @@ struct BenchArgs {
   int relays = 2;             ///< --nats: relays the viewers are spread over
   bool nats_tls = false;      ///< --nats: TLS on the links to the nodes (self-signed, verified)
 };
-/// Times each filter on real frames (one thread), prints a table and optionally JSON.
+/// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
+/// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
 int run_bench(const BenchArgs& args);
 /// Runs a server on loopback with the real sets as 2 and 4 cameras and 1..16 receive-only viewers
 /// per tier, each over plain TCP and over TLS, `server_repeats` times interleaved; prints a table
@@ -34,6 +35,7 @@ int run_bench(const BenchArgs& args);
 /// latency_ms_p99, server_cpu_percent, server_cpu_percent_runs, send_cpu_percent (the threads
 /// serving viewers), send_cpu_percent_runs, tls_over_tcp, tls_over_tcp_runs, send_tls_over_tcp,
 /// send_tls_over_tcp_runs}]} to args.json if set (ratios on TLS rows: the median of each pair's).
+int run_server_bench(const BenchArgs& args);
 /// The stream through a 3-node nats-server cluster (started here, loopback) and `relays` relays to
 /// receive-only TLS viewers (args.viewers, default 50), against the same viewers on the site's
 /// own server: the real two-camera site at 30 fps, tier volcast/jpeg, then one node killed (relay
@@ -44,7 +46,6 @@ int run_bench(const BenchArgs& args);
 /// node_kill_max_gap_ms, node_kill_viewers_lost}]} to args.json if set. Latency: the site's
 /// capture to the viewer's read, one clock.
 int run_nats_bench(const BenchArgs& args);
-int run_server_bench(const BenchArgs& args);
 /// Draws the real four-camera set with CameraRenderer, headless: splats and mesh, blended or not,
 /// 1/2/4 cameras, 1280x720 mono and 2x2160x2160 stereo; prints a table and writes {"render":
 /// [{renderer, blend, cameras, width, height (per eye), eyes, ms_per_frame (median, both eyes),

@@ -91,7 +91,8 @@ bool replaying(const ServeArgs& a) {
 //   serves its sessions (each holds a pointer to it);
 // - the recorder and the publisher outlive the server, whose tier taps feed them; the bridge and
 //   the state mirror (the hub over NATS) outlive it too;
-// - the server goes first: its viewers' threads stop before anything they reach.
+// - the server goes first: its viewers' threads stop before anything they reach;
+// - the --low-latency hold goes last: it covers the whole run, shutdown included.
 // stop_serving() stops them, in the order that keeps the sessions' state, before they go.
 struct Serving {
   std::unique_ptr<CpuLatencyRequest> low_latency;

@@ -293,110 +293,99 @@ std::vector<CameraOverlap> measure_overlap(
   return out;
 }
 
-TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
-                                     std::span<const std::optional<RigidTransform>> start,
-                                     int reference, const TargetlessOptions& o) {
-  const size_t n = cameras.size();
-  if (start.size() != n)
-    throw Error("register_targetless: " + std::to_string(n) + " cameras but " +
-                std::to_string(start.size()) + " start poses");
-  if (reference < 0 || static_cast<size_t>(reference) >= n)
-    throw Error("register_targetless: reference camera " + std::to_string(reference) +
-                " is not one of the " + std::to_string(n) + " cameras");
-  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
-  open3d::utility::random::Seed(static_cast<int>(o.seed));
-  std::vector<std::vector<Eigen::Vector3d>> clouds(n);
-  for (size_t c = 0; c < n; ++c) clouds[c] = cameras[c].cloud;
-  TargetlessResult result;
-  const auto note = [&](const std::string& line) {
-    result.log.push_back(line);
-    if (o.progress) o.progress(line);
-  };
-  result.world_from_camera.assign(n, std::nullopt);
-  result.conditioning.assign(n, 0);
-  const size_t ref = static_cast<size_t>(reference);
-  for (size_t c = 0; c < n; ++c)
-    if (clouds[c].size() < 100)
-      result.problems.push_back(cam(c) + ": fewer than 100 valid depth samples");
+namespace {
 
-  bool all_started = true;
-  for (size_t c = 0; c < n; ++c) all_started = all_started && start[c].has_value();
-  if (all_started) {
-    std::vector<RigidTransform> poses;
-    for (const auto& s : start) poses.push_back(*s);
-    result.before = measure_overlap(clouds, poses, o.icp_voxels_m[3], o.overlap_distance_m);
-  }
+// What register_targetless works on: the cameras, their starts, the options, where progress
+// goes, and per camera its cloud (camera frame, metres), a sparse copy (the free-space check) and
+// its ICP levels.
+struct Work {
+  std::span<const TargetlessCamera> cameras;
+  std::span<const std::optional<RigidTransform>> start;
+  const TargetlessOptions& o;
+  std::function<void(const std::string&)> note;
+  std::vector<std::vector<Eigen::Vector3d>> clouds, sparse;
+  std::vector<Levels> levels;
+};
 
-  // 1. Placement: started cameras where they are; the others by features, one at a time, each
-  //    against the placed camera it matches best. A hypothesis must agree with what both cameras
-  //    saw: neither may see the other's points in its free space.
-  std::vector<std::vector<Eigen::Vector3d>> sparse(n);
-  std::vector<Levels> levels(n);
-  for (size_t c = 0; c < n; ++c) {
-    sparse[c] = prepare(clouds[c], 0.05)->points_;
-    if (clouds[c].size() >= 100) levels[c] = prepare_levels(clouds[c], o);
+// Whether `world_from_c` ends within the tolerance of the camera's start (always, without one).
+bool near_start(const std::optional<RigidTransform>& start, const RigidTransform& world_from_c,
+                const TargetlessOptions& o) {
+  if (!start) return true;
+  const double angle = Eigen::AngleAxisd(start->rotation.transpose() * world_from_c.rotation).angle();
+  return (world_from_c.translation - start->translation).norm() <= o.start_tolerance_m &&
+         angle <= o.start_tolerance_deg * M_PI / 180;
+}
+
+// The best alignment of camera c to placed camera p found so far (score: overlap, -1 none).
+struct Tried {
+  bool done = false;
+  double score = -1;
+  RigidTransform p_from_c;
+};
+
+// Camera c against placed camera p: each hypothesis (its start, then the features'), refined by
+// ICP, kept when it agrees with what both saw (free space) and stays near c's start; the best
+// into `t`.
+void try_pair(const Work& w, size_t c, size_t p,
+              const std::vector<std::optional<RigidTransform>>& pose, Tried& t) {
+  const TargetlessOptions& o = w.o;
+  std::vector<RigidTransform> hypotheses;
+  if (w.start[c]) hypotheses.push_back(pose[p]->inverse() * *w.start[c]);
+  const size_t from_start = hypotheses.size();
+  for (const RigidTransform& g : global_candidates(w.clouds[c], w.clouds[p], o))
+    hypotheses.push_back(g);
+  for (size_t h = 0; h < hypotheses.size(); ++h) {
+    const RigidTransform& g = hypotheses[h];
+    const bool is_start = h < from_start;
+    const PairFit f = icp(w.levels[c], w.levels[p], g, o, is_start ? 0 : 1, 2);
+    const double seen_by_p =
+        free_space_violations(w.sparse[c], f.target_from_source, w.cameras[p].depth,
+                              w.cameras[p].intrinsics, o.free_space_margin_m);
+    const double seen_by_c =
+        free_space_violations(w.sparse[p], f.target_from_source.inverse(), w.cameras[c].depth,
+                              w.cameras[c].intrinsics, o.free_space_margin_m);
+    const double violations = std::max(seen_by_p, seen_by_c);
+    const bool near = near_start(w.start[c], *pose[p] * f.target_from_source, o);
+    const bool ok = violations <= o.max_free_space_violations && near;
+    w.note(cam(c) + " against " + cam(p) +
+         (is_start ? ": its start" : ": features + RANSAC") +
+         ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
+         format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
+         "% in the other's free space" +
+         (ok     ? ""
+          : near ? " (rejected)"
+                 : " (rejected: too far from its start)"));
+    if (ok && f.fitness > t.score) {
+      t.score = f.fitness;
+      t.p_from_c = f.target_from_source;
+    }
   }
-  // Only the reference is placed as given. A camera with a start is placed like the others, from
-  // hypotheses (its start, and the features') refined and checked against the cameras already
-  // placed -- keeping those that end within the tolerance of its start -- so one rough start
-  // cannot pull the others.
+}
+
+// 1. Placement: started cameras where they are; the others by features, one at a time, each
+//    against the placed camera it matches best. A hypothesis must agree with what both cameras
+//    saw: neither may see the other's points in its free space. Only the reference is placed as
+//    given. A camera with a start is placed like the others, from hypotheses (its start, and the
+//    features') refined and checked against the cameras already placed -- keeping those that end
+//    within the tolerance of its start -- so one rough start cannot pull the others.
+std::vector<std::optional<RigidTransform>> place_cameras(const Work& w, size_t ref) {
+  const size_t n = w.cameras.size();
+  const TargetlessOptions& o = w.o;
   std::vector<std::optional<RigidTransform>> pose(n);
-  pose[ref] = start[ref].value_or(RigidTransform{});
-  const auto near_start = [&](size_t c, const RigidTransform& world_from_c) {
-    if (!start[c]) return true;
-    const double angle =
-        Eigen::AngleAxisd(start[c]->rotation.transpose() * world_from_c.rotation).angle();
-    return (world_from_c.translation - start[c]->translation).norm() <= o.start_tolerance_m &&
-           angle <= o.start_tolerance_deg * M_PI / 180;
-  };
-  struct Tried {
-    bool done = false;
-    double score = -1;
-    RigidTransform p_from_c;
-  };
+  pose[ref] = w.start[ref].value_or(RigidTransform{});
   std::vector<std::vector<Tried>> tried(n, std::vector<Tried>(n));
   for (;;) {
     double best_score = -1;
     size_t best = n;
     RigidTransform best_pose;
     for (size_t c = 0; c < n; ++c) {
-      if (pose[c] || clouds[c].size() < 100) continue;
+      if (pose[c] || w.clouds[c].size() < 100) continue;
       for (size_t p = 0; p < n; ++p) {
-        if (!pose[p] || clouds[p].size() < 100) continue;
+        if (!pose[p] || w.clouds[p].size() < 100) continue;
         Tried& t = tried[c][p];
         if (!t.done) {
           t.done = true;
-          std::vector<RigidTransform> hypotheses;
-          if (start[c]) hypotheses.push_back(pose[p]->inverse() * *start[c]);
-          const size_t from_start = hypotheses.size();
-          for (const RigidTransform& g : global_candidates(clouds[c], clouds[p], o))
-            hypotheses.push_back(g);
-          for (size_t h = 0; h < hypotheses.size(); ++h) {
-            const RigidTransform& g = hypotheses[h];
-            const bool is_start = h < from_start;
-            const PairFit f = icp(levels[c], levels[p], g, o, is_start ? 0 : 1, 2);
-            const double seen_by_p =
-                free_space_violations(sparse[c], f.target_from_source, cameras[p].depth,
-                                      cameras[p].intrinsics, o.free_space_margin_m);
-            const double seen_by_c =
-                free_space_violations(sparse[p], f.target_from_source.inverse(), cameras[c].depth,
-                                      cameras[c].intrinsics, o.free_space_margin_m);
-            const double violations = std::max(seen_by_p, seen_by_c);
-            const bool near = near_start(c, *pose[p] * f.target_from_source);
-            const bool ok = violations <= o.max_free_space_violations && near;
-            note(cam(c) + " against " + cam(p) +
-                 (is_start ? ": its start" : ": features + RANSAC") +
-                 ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
-                 format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
-                 "% in the other's free space" +
-                 (ok     ? ""
-                  : near ? " (rejected)"
-                         : " (rejected: too far from its start)"));
-            if (ok && f.fitness > t.score) {
-              t.score = f.fitness;
-              t.p_from_c = f.target_from_source;
-            }
-          }
+          try_pair(w, c, p, pose, t);
         }
         if (t.score > best_score) {
           best_score = t.score;
@@ -408,23 +397,14 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
     if (best == n || best_score < o.min_overlap) break;
     pose[best] = best_pose;
   }
-  for (size_t c = 0; c < n; ++c)
-    if (!pose[c] && clouds[c].size() >= 100)
-      result.problems.push_back(
-          cam(c) +
-          (start[c]
-               ? ": no alignment to the other cameras found near its start or from features (it "
-               : ": no alignment to the other cameras found from features (it ") +
-          "shares too little of the scene with them, or the scene has too "
-          "little shape); give it a rough start (viewer sliders) or a target");
+  return pose;
+}
 
-  const auto started = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
-  for (size_t c = 0; c < n; ++c)
-    if (pose[c])
-      note(cam(c) + " before the joint ICP: overlap " + format_fixed(started[c].fraction * 100, 1) +
-           "%, RMS " + format_fixed(started[c].rms_m * 1e3, 1) + " mm");
-  // 2. Joint refinement: each camera in turn, ICP against all the other placed cameras together
-  //    (the reference stays), a few rounds -- every overlap pulls at once, no chain of pairs.
+// 2. Joint refinement: each camera in turn, ICP against all the other placed cameras together
+//    (the reference stays), a few rounds -- every overlap pulls at once, no chain of pairs.
+void refine_jointly(const Work& w, size_t ref, std::vector<std::optional<RigidTransform>>& pose) {
+  const size_t n = w.cameras.size();
+  const TargetlessOptions& o = w.o;
   for (int round = 0; round < o.joint_rounds; ++round)
     for (size_t c = 0; c < n; ++c) {
       if (!pose[c] || c == ref) continue;
@@ -433,18 +413,24 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
       for (size_t d = 0; d < n; ++d)
         if (d != c && pose[d])
           for (int l = 0; l < kLevels; ++l)
-            *others.level[l] += *transformed(*levels[d].level[l], *pose[d]);
+            *others.level[l] += *transformed(*w.levels[d].level[l], *pose[d]);
       // From the coarsest level in the first round (a start may be 20 cm off), down to the
       // samples in the last.
-      const PairFit f = icp(levels[c], others, *pose[c], o, round == 0 ? 0 : 1,
+      const PairFit f = icp(w.levels[c], others, *pose[c], o, round == 0 ? 0 : 1,
                             round + 1 < o.joint_rounds ? 2 : 3);
       pose[c] = f.target_from_source;
       if (round == o.joint_rounds - 1)
-        note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
+        w.note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
              "% overlap, RMS " + format_fixed(f.rms_m * 1e3, 1) + " mm");
     }
+}
 
-  // 3. Verify: every placed camera must overlap and be constrained; otherwise say so, no pose.
+// 3. Verify: every placed camera must overlap and be constrained; otherwise say so, no pose.
+void verify(const Work& w, size_t ref, const std::vector<std::optional<RigidTransform>>& pose,
+            TargetlessResult& result) {
+  const size_t n = w.cameras.size();
+  const TargetlessOptions& o = w.o;
+  const auto& clouds = w.clouds;
   result.after = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
   for (size_t c = 0; c < n; ++c) {
     if (!pose[c]) continue;
@@ -472,6 +458,69 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
     }
     result.world_from_camera[c] = pose[c];
   }
+}
+
+}  // namespace
+
+TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
+                                     std::span<const std::optional<RigidTransform>> start,
+                                     int reference, const TargetlessOptions& o) {
+  const size_t n = cameras.size();
+  if (start.size() != n)
+    throw Error("register_targetless: " + std::to_string(n) + " cameras but " +
+                std::to_string(start.size()) + " start poses");
+  if (reference < 0 || static_cast<size_t>(reference) >= n)
+    throw Error("register_targetless: reference camera " + std::to_string(reference) +
+                " is not one of the " + std::to_string(n) + " cameras");
+  open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
+  open3d::utility::random::Seed(static_cast<int>(o.seed));
+  TargetlessResult result;
+  Work w{cameras, start, o,
+         [&](const std::string& line) {
+           result.log.push_back(line);
+           if (o.progress) o.progress(line);
+         },
+         std::vector<std::vector<Eigen::Vector3d>>(n), std::vector<std::vector<Eigen::Vector3d>>(n),
+         std::vector<Levels>(n)};
+  std::vector<std::vector<Eigen::Vector3d>>& clouds = w.clouds;
+  for (size_t c = 0; c < n; ++c) clouds[c] = cameras[c].cloud;
+  result.world_from_camera.assign(n, std::nullopt);
+  result.conditioning.assign(n, 0);
+  const size_t ref = static_cast<size_t>(reference);
+  for (size_t c = 0; c < n; ++c)
+    if (clouds[c].size() < 100)
+      result.problems.push_back(cam(c) + ": fewer than 100 valid depth samples");
+
+  bool all_started = true;
+  for (size_t c = 0; c < n; ++c) all_started = all_started && start[c].has_value();
+  if (all_started) {
+    std::vector<RigidTransform> poses;
+    for (const auto& s : start) poses.push_back(*s);
+    result.before = measure_overlap(clouds, poses, o.icp_voxels_m[3], o.overlap_distance_m);
+  }
+
+  for (size_t c = 0; c < n; ++c) {
+    w.sparse[c] = prepare(clouds[c], 0.05)->points_;
+    if (clouds[c].size() >= 100) w.levels[c] = prepare_levels(clouds[c], o);
+  }
+  std::vector<std::optional<RigidTransform>> pose = place_cameras(w, ref);
+  for (size_t c = 0; c < n; ++c)
+    if (!pose[c] && clouds[c].size() >= 100)
+      result.problems.push_back(
+          cam(c) +
+          (start[c]
+               ? ": no alignment to the other cameras found near its start or from features (it "
+               : ": no alignment to the other cameras found from features (it ") +
+          "shares too little of the scene with them, or the scene has too "
+          "little shape); give it a rough start (viewer sliders) or a target");
+
+  const auto started = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
+  for (size_t c = 0; c < n; ++c)
+    if (pose[c])
+      w.note(cam(c) + " before the joint ICP: overlap " + format_fixed(started[c].fraction * 100, 1) +
+           "%, RMS " + format_fixed(started[c].rms_m * 1e3, 1) + " mm");
+  refine_jointly(w, ref, pose);
+  verify(w, ref, pose, result);
   return result;
 }
 

@@ -11,7 +11,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/private_file.hpp"
 #include "volcast/filter/filters.hpp"
-#include "volcast/net/tls.hpp"
+#include "volcast/net/transport/tls.hpp"
 
 namespace volcast {
 

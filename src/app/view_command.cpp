@@ -17,7 +17,7 @@
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
-#include "volcast/net/join.hpp"
+#include "volcast/net/protocol/join.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <numeric>
 
-#include "volcast/net/client.hpp"
+#include "volcast/net/stream/client.hpp"
 
 namespace volcast {
 

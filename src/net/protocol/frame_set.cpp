@@ -10,9 +10,12 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
 #include "volcast/core/worker_pool.hpp"
-#include "volcast/net/wire.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast::protocol {
+
+using wire::Reader;
+using wire::Writer;
 
 namespace {
 

@@ -6,7 +6,7 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/core/wire.hpp"
-#include "volcast/net/calibration_wire.hpp"
+#include "volcast/net/protocol/calibration_wire.hpp"
 
 namespace volcast::protocol {
 using wire::Reader;

@@ -75,7 +75,7 @@ std::array<uint8_t, kFrameSetPrefixBytes> send_time_prefix(MessageType type, con
   if (rest_bytes + 8 > limit) throw Error(std::string("protocol: ") + what + " too large to send");
   std::array<uint8_t, kFrameSetPrefixBytes> out;
   write_header(type, static_cast<uint32_t>(rest_bytes + 8), out.data());
-  std::memcpy(out.data() + kHeaderBytes, &send_us, 8);
+  wire::store<int64_t>(out.data() + kHeaderBytes, send_us);
   return out;
 }
 

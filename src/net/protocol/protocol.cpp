@@ -47,21 +47,20 @@ CameraCalibration get_calibration(Reader& r) {
 
 void write_header(MessageType type, uint32_t payload_bytes, uint8_t out[kHeaderBytes]) {
   const uint16_t t = static_cast<uint16_t>(type);
-  std::memcpy(out, &kMagic, 4);
-  std::memcpy(out + 4, &kVersion, 2);
+  wire::store<uint32_t>(out, kMagic);
+  wire::store<uint16_t>(out + 4, kVersion);
   out[6] = static_cast<uint8_t>(t >> 8);    // channel
   out[7] = static_cast<uint8_t>(t & 0xff);  // type within the channel
-  std::memcpy(out + 8, &payload_bytes, 4);
+  wire::store<uint32_t>(out + 8, payload_bytes);
 }
 
 Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload) {
   if (bytes.size() < kHeaderBytes) throw Error("malformed header: truncated");
-  uint32_t magic;
   Header h;
-  std::memcpy(&magic, bytes.data(), 4);
-  std::memcpy(&h.version, bytes.data() + 4, 2);
+  const uint32_t magic = wire::load<uint32_t>(bytes.data());
+  h.version = wire::load<uint16_t>(bytes.data() + 4);
   const uint8_t channel = bytes[6], type = bytes[7];
-  std::memcpy(&h.payload_bytes, bytes.data() + 8, 4);
+  h.payload_bytes = wire::load<uint32_t>(bytes.data() + 8);
   if (magic != kMagic) throw Error("malformed header: bad magic (not a Volcast peer)");
   if (h.version != kVersion)
     throw Error("protocol version mismatch: peer speaks " + std::to_string(h.version) +
@@ -177,7 +176,7 @@ std::vector<uint8_t> serialize_ack(uint64_t sequence) {
 std::array<uint8_t, kHeaderBytes + 8> ack_message(uint64_t sequence) {
   std::array<uint8_t, kHeaderBytes + 8> out;
   write_header(MessageType::kAck, 8, out.data());
-  std::memcpy(out.data() + kHeaderBytes, &sequence, 8);
+  wire::store<uint64_t>(out.data() + kHeaderBytes, sequence);
   return out;
 }
 

@@ -19,6 +19,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/core/wire.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/stream/seal.hpp"
@@ -212,7 +213,7 @@ struct Client::Impl {
       }
     }
     if (buffer.size() < 8) buffer.resize(8);  // an empty body
-    std::memcpy(buffer.data(), &seal.send_us, 8);
+    wire::store<int64_t>(buffer.data(), seal.send_us);
     payload_bytes = 8 + seal.body_bytes;
     wire_bytes += seal.body_bytes;
     return true;

@@ -11,6 +11,7 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
+#include "volcast/core/wire.hpp"
 
 namespace volcast {
 namespace {
@@ -47,8 +48,7 @@ const EVP_MD* sha256() {
 // The 12-byte GCM nonce of chunk `i`: i as u32 little-endian, then zeros (protocol.hpp).
 std::array<uint8_t, 12> nonce_of(size_t i) {
   std::array<uint8_t, 12> n{};
-  const uint32_t v = static_cast<uint32_t>(i);
-  std::memcpy(n.data(), &v, 4);
+  wire::store<uint32_t>(n.data(), static_cast<uint32_t>(i));
   return n;
 }
 

@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${FUZZ_SECONDS:-30}"
 jobs="${FUZZ_JOBS:-$(nproc)}"
-export LSAN_OPTIONS="suppressions=$PWD/tests/lsan.supp"
+export LSAN_OPTIONS="suppressions=$PWD/tests/support/lsan.supp"
 [ -f build/dev/build.ninja ] || cmake --preset dev >/dev/null
 
 mapfile -t targets < <(ninja -C build/dev -t targets all | sed -n 's|^fuzz/\(fuzz_[a-z0-9_]*\): .*|\1|p' | sort -u)

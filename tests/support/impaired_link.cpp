@@ -1,5 +1,5 @@
 // The impaired link: namespace and TUN set-up with ioctls, the relay thread, the impairment queue.
-#include "impaired_link.hpp"
+#include "support/impaired_link.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>

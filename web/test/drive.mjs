@@ -1,5 +1,5 @@
 // Drives Debian's Chromium (headless, SwiftShader WebGL2) through the Volcast web viewer for the
-// browser tests (tests/web_test.cpp): opens the link, waits for decoded frames, and writes what
+// browser tests (tests/net/web_test.cpp): opens the link, waits for decoded frames, and writes what
 // the page measured (window.volcast) and a screenshot. With --xr, IWER (npm `iwer`) stands in
 // for a Meta Quest 3: the page enters immersive-vr, renders both eyes, and publishes the
 // emulated head and controllers; the emulated right trigger teleports.

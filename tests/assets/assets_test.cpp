@@ -1,0 +1,397 @@
+// Patient cases on the real medical data (../shared/data/medical; 3D-IRCADb, dcmqi): organ meshes,
+// label volumes made into meshes, the CT series and its SEG overlay, window/level, case.json, and
+// the case's wire format. Figures are checked against what the test computes on its own.
+#include <dcmtk/dcmdata/dcdeftag.h>
+#include <dcmtk/dcmdata/dcfilefo.h>
+#include <dcmtk/dcmimgle/dcmimage.h>
+#include <dcmtk/dcmimgle/dipixel.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "support/test_data.hpp"
+#include "volcast/assets/case.hpp"
+#include "volcast/assets/label_volume.hpp"
+#include "volcast/assets/shared_case.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/session/objects.hpp"
+
+namespace volcast {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path medical() {
+  return test::data_dir() / "medical";
+}
+
+const CasePart* part(const Case& c, const std::string& name) {
+  for (const CasePart& p : c.parts)
+    if (p.name == name) return &p;
+  return nullptr;
+}
+
+// The test's own reading of an OBJ file's enclosed volume (mm^3): "v x y z" and "f a b c" lines
+// (1-based indices, optionally "a/t/n"), the signed tetrahedra summed in double.
+double obj_volume(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<Eigen::Vector3d> v;
+  double six = 0;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream s(line);
+    std::string tag;
+    s >> tag;
+    if (tag == "v") {
+      Eigen::Vector3d p;
+      s >> p.x() >> p.y() >> p.z();
+      v.push_back(p);
+    } else if (tag == "f") {
+      std::vector<int> idx;
+      std::string t;
+      while (s >> t) idx.push_back(std::stoi(t.substr(0, t.find('/'))) - 1);
+      for (size_t k = 1; k + 1 < idx.size(); ++k)
+        six += v[idx[0]].dot(v[idx[k]].cross(v[idx[k + 1]]));
+    }
+  }
+  return std::abs(six) / 6;
+}
+
+// The test's own closedness check: positions welded, every edge in exactly two triangles.
+bool closed_surface(const TriangleMesh& m) {
+  std::map<std::array<float, 3>, int> weld;
+  std::map<std::pair<int, int>, int> edges;
+  const auto id = [&](uint32_t i) {
+    const auto& p = m.positions[i];
+    return weld.try_emplace({p.x(), p.y(), p.z()}, static_cast<int>(weld.size())).first->second;
+  };
+  for (size_t t = 0; t < m.indices.size(); t += 3)
+    for (int e = 0; e < 3; ++e) {
+      int a = id(m.indices[t + e]), b = id(m.indices[t + (e + 1) % 3]);
+      if (a > b) std::swap(a, b);
+      ++edges[{a, b}];
+    }
+  if (edges.empty()) return false;
+  for (const auto& [e, n] : edges)
+    if (n != 2) return false;
+  return true;
+}
+
+TEST(CaseMeshes, Ircad11LiverVolumeMatchesTheMeshComputedIndependently) {
+  const Case c = load_case(medical() / "ircad11-organs");
+  EXPECT_EQ(c.parts.size(), 11u);
+  EXPECT_FALSE(c.dicom);
+  const CasePart* liver = part(c, "liver");
+  ASSERT_NE(liver, nullptr);
+  EXPECT_TRUE(liver->closed);
+  const double independent_ml = obj_volume(medical() / "ircad11-organs" / "liver.obj") / 1000;
+  EXPECT_NEAR(liver->volume_ml, independent_ml, 0.02 * independent_ml);
+  EXPECT_GT(liver->volume_ml, 1200);  // "~1.4 L"
+  EXPECT_LT(liver->volume_ml, 1600);
+  EXPECT_EQ(liver->mesh.triangles(), 7996u);
+  EXPECT_EQ(liver->group, "liver");
+  EXPECT_LT(liver->rgba.w(), 1.0f);  // the half-transparent shell
+  EXPECT_EQ(part(c, "skin")->group, "body");
+  EXPECT_EQ(part(c, "porta")->group, "liver");
+  std::printf("[ figures ] ircad11-organs: liver %.1f ml (independent %.1f ml), load %.0f ms\n",
+              liver->volume_ml, independent_ml, c.load_ms);
+}
+
+TEST(CaseLabels, Ircad01MeshesAreClosedAndMatchTheirVoxels) {
+  const fs::path vti = medical() / "ircad01-labelmap" / "3Dircadb0101Labeled.vti";
+  const LabelVolume volume = read_label_volume(vti);
+  ASSERT_EQ(volume.dims[0], 512);
+  ASSERT_EQ(volume.dims[2], 129);
+  const Case c = load_case(medical() / "ircad01-labelmap");
+  // The test counts each structure's voxels itself.
+  const auto count = [&](int mask, int value) {
+    size_t n = 0;
+    for (int32_t l : volume.labels) n += (l & mask) == value;
+    return n;
+  };
+  const double voxel_ml = volume.spacing_mm.prod() / 1000;
+  for (const auto& [name, mask, value] :
+       {std::tuple{"liver", 448, 448}, {"portal vein", 16, 16}, {"hepatic veins", 32, 32}}) {
+    const CasePart* p = part(c, name);
+    ASSERT_NE(p, nullptr) << name;
+    EXPECT_EQ(p->voxels, count(mask, value)) << name;
+  }
+  size_t tumour_parts = 0;
+  for (const CasePart& p : c.parts) {
+    SCOPED_TRACE(p.name);
+    EXPECT_TRUE(closed_surface(p.mesh));
+    EXPECT_GT(p.voxels, 0u);
+    const double voxels_ml = double(p.voxels) * voxel_ml;
+    EXPECT_NEAR(p.volume_ml, voxels_ml, 0.05 * voxels_ml);
+    EXPECT_LE(p.mesh.triangles(), 60000u);
+    tumour_parts += p.name.rfind("tumour ", 0) == 0;
+    std::printf("[ figures ] %-14s %7zu triangles, mesh %8.2f ml, voxels %8.2f ml\n",
+                p.name.c_str(), p.mesh.triangles(), p.volume_ml, voxels_ml);
+  }
+  // Every tumour component (6-connected, >= 10 voxels) became a part: the test's own flood fill.
+  std::vector<uint8_t> seen(volume.labels.size(), 0);
+  std::vector<size_t> sizes;
+  const int nx = volume.dims[0], ny = volume.dims[1], nz = volume.dims[2];
+  for (size_t start = 0; start < seen.size(); ++start) {
+    if (seen[start] || !(volume.labels[start] & 2)) continue;
+    size_t n = 0;
+    std::vector<size_t> stack{start};
+    seen[start] = 1;
+    while (!stack.empty()) {
+      const size_t at = stack.back();
+      stack.pop_back();
+      ++n;
+      const int i = int(at % nx), j = int(at / nx % ny), k = int(at / (size_t(nx) * ny));
+      const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+      for (const auto& o : d) {
+        const int a = i + o[0], b = j + o[1], cc = k + o[2];
+        if (a < 0 || b < 0 || cc < 0 || a >= nx || b >= ny || cc >= nz) continue;
+        const size_t q = volume.index(a, b, cc);
+        if (!seen[q] && (volume.labels[q] & 2)) seen[q] = 1, stack.push_back(q);
+      }
+    }
+    if (n >= 10) sizes.push_back(n);
+  }
+  EXPECT_GE(sizes.size(), 2u);
+  EXPECT_EQ(tumour_parts, sizes.size());
+  std::sort(sizes.rbegin(), sizes.rend());
+  for (size_t i = 0; i < sizes.size(); ++i)
+    EXPECT_EQ(part(c, "tumour " + std::to_string(i + 1))->voxels, sizes[i]);
+  std::printf("[ figures ] ircad01-labelmap: %zu tumours, load %.0f ms\n", sizes.size(), c.load_ms);
+}
+
+// DCMTK's own image module (modality LUT applied) reads the same HU as the series.
+TEST(CaseDicom, HounsfieldUnitsMatchDcmtkAndTheOverlaySitsOnTheLiver) {
+  const fs::path folder = medical() / "ct-liver-3slices";
+  DicomSeries series = read_dicom_series(folder);
+  ASSERT_EQ(series.slices, 3);
+  ASSERT_EQ(series.width, 512);
+  EXPECT_NEAR(series.spacing_mm.z(), 1.0, 1e-3);
+  for (const char* name : {"01.dcm", "02.dcm", "03.dcm"}) {
+    DcmFileFormat f;
+    ASSERT_TRUE(f.loadFile((folder / name).string().c_str()).good());
+    Float64 z = 0;
+    f.getDataset()->findAndGetFloat64(DCM_ImagePositionPatient, z, 2);
+    int slice = -1;
+    for (int s = 0; s < series.slices; ++s)
+      if (std::abs(series.positions_mm[s].z() - z) < 1e-3) slice = s;
+    ASSERT_GE(slice, 0);
+    DicomImage image((folder / name).string().c_str());
+    ASSERT_EQ(image.getStatus(), EIS_Normal);
+    const DiPixel* px = image.getInterData();
+    ASSERT_NE(px, nullptr);
+    for (const auto& [row, col] : {std::pair{256, 256}, {100, 300}, {400, 50}}) {
+      const size_t i = size_t(row) * 512 + col;
+      double dcmtk = 0;
+      switch (px->getRepresentation()) {
+        case EPR_Sint16:
+          dcmtk = static_cast<const Sint16*>(px->getData())[i];
+          break;
+        case EPR_Uint16:
+          dcmtk = static_cast<const Uint16*>(px->getData())[i];
+          break;
+        case EPR_Sint32:
+          dcmtk = static_cast<const Sint32*>(px->getData())[i];
+          break;
+        case EPR_Uint32:
+          dcmtk = static_cast<const Uint32*>(px->getData())[i];
+          break;
+        default:
+          FAIL() << "unexpected representation";
+      }
+      EXPECT_EQ(series.at(slice, row, col), static_cast<int16_t>(dcmtk))
+          << name << " " << row << "," << col;
+    }
+  }
+  read_dicom_seg(folder / "liver_seg.dcm", series);
+  EXPECT_EQ(series.overlay_label, "Liver");
+  // The overlay covers soft tissue (liver, ~40..120 HU), not air or fat: it is aligned.
+  double sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < series.overlay.size(); ++i)
+    if (series.overlay[i]) sum += series.hu[i], ++n;
+  ASSERT_GT(n, 10000u);
+  const double mean = sum / double(n);
+  EXPECT_GT(mean, 20);
+  EXPECT_LT(mean, 150);
+  std::printf("[ figures ] SEG 'Liver': %zu pixels over 3 slices, mean %.1f HU\n", n, mean);
+}
+
+TEST(CaseDicom, WindowPresetsMapHounsfieldUnitsAsDocumented) {
+  const auto liver = session::window_preset("liver");
+  EXPECT_EQ(liver.center, 90);
+  EXPECT_EQ(liver.width, 150);
+  EXPECT_EQ(session::window_preset("abdomen").width, 400);
+  EXPECT_EQ(session::window_preset("bone").center, 480);
+  EXPECT_NE(test::error_of([] { session::window_preset("lung"); }).find("abdomen, liver, bone"),
+            std::string::npos);
+  for (const auto& p : session::window_presets()) {
+    SCOPED_TRACE(p.name);
+    // PS3.3 C.11.2.1.2.1: black at and below c - 0.5 - (w-1)/2, white above c - 0.5 + (w-1)/2.
+    EXPECT_EQ(session::window_gray(p.center - p.width / 2, p.center, p.width), 0);
+    EXPECT_EQ(session::window_gray(p.center - p.width, p.center, p.width), 0);
+    EXPECT_EQ(session::window_gray(p.center + p.width / 2, p.center, p.width), 255);
+    EXPECT_NEAR(session::window_gray(p.center, p.center, p.width), 128, 1);
+    const float hu = p.center + p.width / 4, c = p.center, w = p.width;
+    EXPECT_EQ(session::window_gray(hu, c, w),
+              std::lround(((hu - (c - 0.5)) / (w - 1) + 0.5) * 255));
+  }
+  // Monotonic across the window.
+  for (int hu = -100; hu < 300; ++hu)
+    EXPECT_LE(session::window_gray(float(hu), 90, 150),
+              session::window_gray(float(hu + 1), 90, 150));
+  // The monitor's image: gray, orange where the overlay is.
+  session::MonitorSeries s;
+  s.width = 2, s.height = 1, s.slices = 1;
+  s.hu = {90, 90};
+  s.overlay = {0, 1};
+  const auto rgba = session::monitor_image(s, {0, 0, 90, 150, true, 0});
+  EXPECT_EQ(rgba[0], rgba[2]);  // gray
+  EXPECT_GT(rgba[4], rgba[6]);  // orange
+  EXPECT_FALSE(test::error_of([&] {
+                 session::monitor_image(s, {0, 1, 90, 150, true, 0});
+               }).empty());
+}
+
+TEST(CaseFolder, OnlyMeshesOnlyLabelsOnlyDicomOrACaseJson) {
+  EXPECT_EQ(load_case(medical() / "ct-liver-3slices").parts.size(), 0u);
+  EXPECT_TRUE(load_case(medical() / "ct-liver-3slices").dicom->overlay.size() > 0);
+  const fs::path dir = test::temp_dir("case_json");
+  const auto write = [&](const std::string& text) { std::ofstream(dir / "case.json") << text; };
+  const fs::path organs = medical() / "ircad11-organs";
+  write(R"({"name": "two", "orientation": "room", "parts": [
+      {"name": "liver", "mesh": ")" +
+        (organs / "liver.obj").string() + R"(", "opacity": 0.4, "color": [1, 0, 0]},
+      {"name": "gb", "mesh": ")" +
+        (organs / "gallbladder.obj").string() + R"(", "group": "liver"}],
+      "dicom": {"series": ")" +
+        (medical() / "ct-liver-3slices").string() + R"("}})");
+  const Case c = load_case(dir);
+  EXPECT_EQ(c.name, "two");
+  ASSERT_EQ(c.parts.size(), 2u);
+  EXPECT_EQ(c.groups(), (std::vector<std::string>{"liver"}));
+  EXPECT_FLOAT_EQ(c.parts[0].rgba.w(), 0.4f);
+  EXPECT_FLOAT_EQ(c.parts[0].rgba.x(), 1.0f);
+  EXPECT_TRUE(c.room_from_case.isIdentity());
+  ASSERT_TRUE(c.dicom);
+  EXPECT_TRUE(c.dicom->overlay.empty());  // no "seg" named
+  EXPECT_NE(case_json(c).find("\"spacing_mm\""), std::string::npos);
+  // Errors name what was wrong.
+  write("{not json");
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("does not parse"), std::string::npos);
+  write(R"({"parts": [{"name": "x", "mesh": "missing.obj"}]})");
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("missing.obj"), std::string::npos);
+  write(R"({"orientation": "ras"})");
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("ras"), std::string::npos);
+  write(R"({"parts": [{"name": "x"}]})");
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("neither"), std::string::npos);
+  fs::remove(dir / "case.json");
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("nothing in it"), std::string::npos);
+  EXPECT_NE(test::error_of([&] { load_case(dir / "nope"); }).find("not a folder"),
+            std::string::npos);
+  std::ofstream(dir / "bad.obj") << "v 1 2\nf 1 2 3\n";
+  EXPECT_NE(test::error_of([&] { load_case(dir); }).find("bad.obj"), std::string::npos);
+}
+
+// A case.json declaring 100,000 parts (each a real organ mesh), or 257, is refused before any
+// mesh is read, naming the size or count and the limit; 256 parts still load.
+TEST(CaseFolder, ACaseJsonDeclaringTooManyPartsIsRefusedBeforeAnyFileIsRead) {
+  const fs::path dir = test::temp_dir("case_too_many_parts");
+  std::string mesh = (medical() / "ircad11-organs" / "gallbladder.obj").string();
+  const auto write = [&](size_t parts, size_t max_triangles) {
+    nlohmann::json j{{"parts", nlohmann::json::array()}, {"max_triangles", max_triangles}};
+    for (size_t i = 0; i < parts; ++i)
+      j["parts"].push_back({{"name", "part " + std::to_string(i)}, {"mesh", mesh}});
+    std::ofstream(dir / "case.json") << j.dump();
+  };
+  size_t steps = 0;
+  CaseLoadOptions options;
+  options.progress = [&](const std::string&) { ++steps; };
+  write(100'000, 60000);  // 9 MB of JSON: not even parsed
+  std::string e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("bytes; at most 1048576 are read"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u) << "no file read";
+  write(kMaxCaseParts + 1, 60000);
+  e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("declares 257 parts; a case holds at most 256"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u) << "no file read";
+  write(2, 50'000'000);
+  e = test::error_of([&] { load_case(dir, options); });
+  EXPECT_NE(e.find("max_triangles 50000000 is not in 1..1000000"), std::string::npos) << e;
+  EXPECT_EQ(steps, 0u);
+  // At the limit, with a tetrahedron (synthetic, for the count only) to keep it quick.
+  std::ofstream(dir / "tetra.obj") << "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\n"
+                                      "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  mesh = (dir / "tetra.obj").string();
+  write(kMaxCaseParts, 60000);
+  EXPECT_EQ(load_case(dir, options).parts.size(), kMaxCaseParts);
+  EXPECT_EQ(steps, kMaxCaseParts);
+}
+
+TEST(CaseWire, RoundTripsAndRefusesHostileCounts) {
+  const Case c = load_case(medical() / "ircad11-organs");
+  session::SharedCase shared = to_shared_case(c);
+  ASSERT_EQ(shared.objects.size(), 2u);  // liver, body
+  shared.generation = 3;
+  shared.monitor = session::MonitorSeries{};
+  shared.monitor->width = 3, shared.monitor->height = 2, shared.monitor->slices = 2;
+  shared.monitor->hu = {-1000, 0, 40, 90, 400, 1200, 5, 6, 7, 8, 9, 10};
+  shared.monitor->overlay = {0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  shared.monitor->overlay_label = "Liver";
+  const std::vector<uint8_t> bytes = session::serialize(shared);
+  const session::SharedCase back = session::parse_case(bytes);
+  EXPECT_EQ(back.generation, 3u);
+  ASSERT_EQ(back.objects.size(), 2u);
+  for (size_t o = 0; o < 2; ++o) {
+    ASSERT_EQ(back.objects[o].parts.size(), shared.objects[o].parts.size());
+    for (size_t p = 0; p < back.objects[o].parts.size(); ++p) {
+      EXPECT_EQ(back.objects[o].parts[p].positions, shared.objects[o].parts[p].positions);
+      EXPECT_EQ(back.objects[o].parts[p].indices, shared.objects[o].parts[p].indices);
+    }
+    EXPECT_TRUE(back.objects[o].rest.position.isApprox(shared.objects[o].rest.position));
+  }
+  EXPECT_EQ(back.monitor->hu, shared.monitor->hu);
+  EXPECT_EQ(back.monitor->overlay, shared.monitor->overlay);
+  // The liver floats over the table; the body lies on it.
+  const RoomLayout room = default_operating_room();
+  const float top = room.table.center.y() + room.table.half_extent.y();
+  const auto& liver = shared.objects[0].name == "liver" ? shared.objects[0] : shared.objects[1];
+  const auto& body = shared.objects[0].name == "body" ? shared.objects[0] : shared.objects[1];
+  ASSERT_NE(&liver, &body);
+  EXPECT_GT(liver.rest.position.y(), top + 0.3f);
+  EXPECT_GT(body.rest.position.y(), top);
+  EXPECT_LT(body.rest.position.y(), top + 0.3f);
+  // Truncated anywhere: an error, never a read past the end.
+  for (size_t cut : {size_t{0}, size_t{3}, size_t{40}, bytes.size() / 2, bytes.size() - 1})
+    EXPECT_NE(test::error_of([&] {
+                session::parse_case(std::span(bytes).first(cut));
+              }).find("malformed case"),
+              std::string::npos);
+  // A vertex count beyond the message is refused before allocating.
+  session::SharedCase tiny;
+  tiny.objects.resize(1);
+  tiny.objects[0].name = "x";
+  tiny.objects[0].parts.resize(1);
+  tiny.objects[0].parts[0].name = "p";
+  auto hostile = session::serialize(tiny);
+  const size_t vertices_at = 4 + 2 + 2 + (2 + 1) + 28 + 2 + (2 + 1) + 4;
+  const uint32_t huge = 0xfffffff0u;
+  std::memcpy(hostile.data() + vertices_at, &huge, 4);
+  EXPECT_NE(
+      test::error_of([&] { session::parse_case(hostile); }).find("more than the message holds"),
+      std::string::npos);
+  // An index out of range.
+  tiny.objects[0].parts[0].positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  tiny.objects[0].parts[0].indices = {0, 1, 3};
+  EXPECT_NE(
+      test::error_of([&] { session::parse_case(session::serialize(tiny)); }).find("out of range"),
+      std::string::npos);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -1,0 +1,388 @@
+// The shared encoded stream: one encoding per tier, identical bytes for every viewer of a tier,
+// key frames for joiners, pacing that follows the path. Real recordings (the hands sequence).
+#include <gtest/gtest.h>
+
+#include <fmt/format.h>
+#include <array>
+#include <future>
+#include <map>
+#include <mutex>
+#include <random>
+#include <set>
+#include <thread>
+
+#include "support/hands_site.hpp"
+#include "support/raw_viewer.hpp"
+#include "support/test_data.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/core/cpu_latency.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/core/worker_pool.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/net/stream/pacing.hpp"
+#include "volcast/net/stream/seal.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "volcast/net/transport/tls.hpp"
+#include "volcast/pipeline/sender.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+using test::HandsSite;
+using test::RawViewer;
+
+TEST(SharedStream, ViewersOfOneTierGetIdenticalBytesAndExactDepthWhileJoiningAndLeaving) {
+  ServerConfig config;
+  config.key_frame_interval = 1000;  // key frames only when someone joins or skips
+  config.min_key_interval_ms = 50;
+  config.seal_from_viewers = 1;  // sealed however many watch: the sealed bytes are compared too
+  HandsSite site(15, config);
+  // Six viewers on one temporal tier join at random times and leave after a random number of
+  // frame sets; each decodes what it gets with its own decoder.
+  std::mt19937 rng(7);
+  // Per viewer: frame set -> (body, its sealed bytes as they came on the wire, its key).
+  using Got = std::map<uint64_t, std::pair<std::vector<uint8_t>, std::vector<uint8_t>>>;
+  std::mutex keys_mutex;
+  std::map<uint64_t, std::set<std::array<uint8_t, protocol::kSealKeyBytes>>> keys;
+  std::vector<std::future<Got>> viewers;
+  std::atomic<int> decoded{0};
+  for (int i = 0; i < 6; ++i) {
+    const int delay_ms = static_cast<int>(rng() % 1200);
+    const int frames = 4 + static_cast<int>(rng() % 10);
+    viewers.push_back(std::async(std::launch::async, [&, delay_ms, frames] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+      RawViewer v(site.server, "volcast-t", "jpeg");
+      auto decoder = make_depth_decoder("volcast-t");
+      Got got;
+      DepthImage depth;
+      for (int n = 0; n < frames; ++n) {
+        auto [sequence, body] = v.next_frame_set();
+        protocol::FrameSetView view;
+        std::vector<uint8_t> payload(8, 0);
+        payload.insert(payload.end(), body.begin(), body.end());
+        protocol::parse_frame_set(payload, view);
+        if (n == 0) {
+          EXPECT_TRUE(view.key) << "a joiner's first frame set is a key frame set";
+        }
+        decoder->decode(view.cameras[0].depth, depth);  // throws if its reference is missing
+        EXPECT_EQ(depth, test::hands_source_frame(sequence)) << "frame set " << sequence;
+        ++decoded;
+        got.emplace(sequence, std::pair(std::move(body), v.sealed));
+        std::lock_guard lock(keys_mutex);
+        keys[sequence].insert(v.key);
+      }
+      return got;
+    }));
+  }
+  std::map<uint64_t, std::vector<std::pair<std::vector<uint8_t>, std::vector<uint8_t>>>>
+      by_sequence;
+  for (auto& f : viewers)
+    for (auto& [sequence, got] : f.get()) by_sequence[sequence].push_back(std::move(got));
+  size_t shared = 0;
+  std::set<std::array<uint8_t, protocol::kSealKeyBytes>> all_keys;
+  for (const auto& [sequence, bodies] : by_sequence) {
+    for (const auto& [body, sealed] : bodies) {
+      EXPECT_EQ(body, bodies.front().first) << "frame set " << sequence;
+      // Sealed once for the tier: the same bytes on every viewer's wire.
+      EXPECT_EQ(sealed, bodies.front().second) << "frame set " << sequence;
+    }
+    shared += bodies.size() > 1;
+    EXPECT_EQ(keys[sequence].size(), 1u) << "one key per frame set for the whole tier";
+    all_keys.insert(*keys[sequence].begin());
+  }
+  EXPECT_EQ(all_keys.size(), by_sequence.size()) << "a fresh key for every frame set";
+  EXPECT_GT(shared, 0u) << "viewers overlapped in time, so some frame sets went to several";
+  EXPECT_GE(decoded.load(), 6 * 4);
+  // Viewers that left are gone from their tier (once the server has seen each connection close).
+  int watching = -1;
+  for (int i = 0; i < 100 && watching != 0; ++i) {
+    watching = 0;
+    for (const auto& t : site.server.tiers()) watching += t.viewers;
+    if (watching) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(watching, 0);
+}
+
+class JoinMidStream : public testing::TestWithParam<const char*> {};
+
+TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
+  const std::string codec = GetParam();
+  ServerConfig config;
+  config.key_frame_interval = 1000;  // so the joiner's key frame is the one made for it
+  HandsSite site(15, config);
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
+  c.depth_codec = codec;
+  Client first(c);
+  ReceivedFrameSet rx;
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(first.receive(rx));
+  uint64_t keys_before = 0;
+  for (const auto& t : site.server.tiers()) keys_before = t.key_frames;
+
+  Client joiner(c);
+  ReceivedFrameSet jx;
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_TRUE(joiner.receive(jx));
+    if (i == 0) {
+      EXPECT_TRUE(jx.key);
+    }
+    EXPECT_EQ(jx.frames.cameras[0].depth, test::hands_source_frame(jx.frames.sequence));
+    ASSERT_TRUE(first.receive(rx));  // the first viewer goes on too
+  }
+  EXPECT_EQ(joiner.frames_undecodable(), 0u);
+  const auto tiers = site.server.tiers();
+  ASSERT_EQ(tiers.size(), 1u);  // both on one tier: encoded once
+  EXPECT_EQ(tiers[0].viewers, 2);
+  EXPECT_GT(tiers[0].key_frames, keys_before);              // a key frame was made for the joiner
+  EXPECT_LT(tiers[0].key_frames, tiers[0].frames_encoded);  // and deltas otherwise
+}
+
+INSTANTIATE_TEST_SUITE_P(TemporalCodecs, JoinMidStream, testing::Values("volcast-t", "trvl"));
+
+TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
+  HandsSite site(15);
+  std::vector<std::unique_ptr<Client>> clients;
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
+  c.decode = false;
+  for (int i = 0; i < 4; ++i) clients.push_back(std::make_unique<Client>(c));
+  c.depth_codec = "rvl";
+  clients.push_back(std::make_unique<Client>(c));
+  ReceivedFrameSet rx;
+  for (int n = 0; n < 5; ++n)
+    for (auto& cl : clients) ASSERT_TRUE(cl->receive(rx));
+  std::map<std::string, int> viewers;
+  for (const auto& t : site.server.tiers()) viewers[t.depth_codec] = t.viewers;
+  EXPECT_EQ(viewers.size(), 2u);
+  EXPECT_EQ(viewers["volcast"], 4);
+  EXPECT_EQ(viewers["rvl"], 1);
+}
+
+TEST(SharedStream, ColorQualityIsPartOfTheTier) {
+  HandsSite site(15);
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
+  Client standard(c);
+  c.color_quality = 40;
+  Client low(c);
+  ReceivedFrameSet a, b;
+  size_t standard_bytes = 0, low_bytes = 0;
+  for (int n = 0; n < 5; ++n) {
+    ASSERT_TRUE(standard.receive(a));
+    ASSERT_TRUE(low.receive(b));
+    standard_bytes += a.color_bytes[0];
+    low_bytes += b.color_bytes[0];
+  }
+  EXPECT_EQ(site.server.tiers().size(), 2u);
+  EXPECT_LT(low_bytes, standard_bytes * 3 / 4);  // JPEG q40 against q90 on the real frames
+  c.color_quality = 101;
+  EXPECT_THROW(Client{c}, Error);
+}
+
+// A camera slower than the site (the 5 fps Azure Kinect recording in a 30 fps site) repeats its
+// frame: a stateless tier sends the same bytes without encoding again, and the viewer neither
+// decodes them again nor rebuilds the cloud -- yet always holds the right images.
+TEST(SharedStream, RepeatedFramesOfASlowCameraAreNotCodedAgain) {
+  for (const char* codec : {"volcast", "volcast-t"}) {
+    std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
+    sources.push_back(open_source(test::kinect_mkv()));
+    SitePlayer player(std::move(sources), 0);
+    ServerConfig config;
+    config.port = 0;
+    Server server(player.cameras(), config);
+    player.start(server);
+    ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
+    c.depth_codec = codec;
+    Client client(c);
+    ReceivedFrameSet rx;
+    const DepthImage kinect = open_source(test::kinect_mkv())->next().depth;  // its one capture
+    int repeated = 0, hands_repeated = 0, same_capture = 0;
+    int64_t last_stamp = -1;
+    for (int i = 0; i < 24; ++i) {
+      ASSERT_TRUE(client.receive(rx));
+      repeated += rx.repeated[1];
+      hands_repeated += rx.repeated[0];
+      // A repeat is exactly a frame set carrying the same Kinect capture as the one before it
+      // (how many there are depends on how many frame sets a loaded machine skips).
+      const int64_t stamp = rx.frames.cameras[1].device_timestamp_us;
+      same_capture += i > 0 && stamp == last_stamp;
+      last_stamp = stamp;
+      EXPECT_EQ(rx.frames.cameras[1].depth, kinect);
+      EXPECT_EQ(rx.frames.cameras[0].depth, test::hands_source_frame(rx.frames.sequence));
+    }
+    player.stop();
+    server.stop();
+    EXPECT_EQ(hands_repeated, 0) << codec;  // a new hands frame in every frame set
+    if (std::string(codec) == "volcast") {
+      EXPECT_EQ(repeated, same_capture) << "about 5 of every 6 Kinect frames repeat";
+      EXPECT_GE(repeated, 1);
+    } else
+      EXPECT_EQ(repeated, 0) << "temporal codecs code every frame";
+  }
+}
+
+TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
+  HandsSite site(15);
+  // A viewer that takes 400 ms to acknowledge each frame set (a slow decoder or path).
+  std::atomic<bool> stop{false};
+  std::atomic<int> slow_frames{0};
+  std::thread slow([&] {
+    RawViewer v(site.server, "volcast", "jpeg");
+    while (!stop) {
+      v.next_frame_set(false);
+      std::this_thread::sleep_for(std::chrono::milliseconds(400));
+      if (stop) break;
+      ++slow_frames;
+      protocol::FrameSetView view;
+      protocol::parse_frame_set(v.payload, view);
+      v.c->write_all(
+          protocol::message(protocol::MessageType::kAck, protocol::serialize_ack(view.sequence)),
+          5000);
+    }
+  });
+  ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
+  Client fast(c);
+  ReceivedFrameSet rx;
+  uint64_t first = 0, last = 0;
+  for (int i = 0; i < 30; ++i) {
+    ASSERT_TRUE(fast.receive(rx));
+    if (i == 0) first = rx.frames.sequence;
+    last = rx.frames.sequence;
+  }
+  stop = true;
+  fast.close();
+  site.server.stop();
+  slow.join();
+  // Counts, not times: the fast viewer got most frame sets of the span; the slow one far fewer.
+  EXPECT_LE(last - first + 1, 30u + 15u);
+  EXPECT_LT(slow_frames.load(), 20);
+}
+
+// Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,
+// frame sets of 100 kB every 33 ms -- the window must grow past the 2 frame sets that capped the
+// old fixed window, and stay bounded.
+TEST(Pacer, WindowFollowsTheBandwidthDelayProduct) {
+  Pacer p(8);
+  const int64_t rtt = 100'000, frame_us = 33'333;
+  const size_t bytes = 100'000;
+  const double bytes_per_us = 10.0;               // 80 Mbit/s
+  std::deque<std::pair<uint64_t, int64_t>> acks;  // sequence, when its Ack arrives
+  int64_t link_free = 0;
+  uint64_t sent = 0, offered = 0;
+  for (int64_t t = 0; t < 5'000'000; t += 1000) {
+    while (!acks.empty() && acks.front().second <= t) {
+      EXPECT_TRUE(p.on_ack(acks.front().first, t));
+      acks.pop_front();
+    }
+    if (t >= static_cast<int64_t>(offered) * frame_us) {
+      ++offered;
+      if (p.can_send(bytes)) {
+        p.on_send(offered, bytes, t);
+        ++sent;
+        link_free = std::max(link_free, t) + static_cast<int64_t>(bytes / bytes_per_us);
+        acks.emplace_back(offered, link_free + rtt);
+      }
+    }
+  }
+  EXPECT_NEAR(p.min_rtt_us(), rtt + 10'000, 1000);  // the path plus one frame's transmission
+  EXPECT_GE(p.window_frames(), 4);                  // about 3 frame sets per round trip
+  EXPECT_LE(p.window_frames(), 8);
+  EXPECT_GE(sent, offered * 95 / 100);  // the path carries the stream: almost nothing skipped
+  EXPECT_FALSE(p.on_ack(999999, 0));    // never sent
+}
+
+// On a path slower than the stream, the Pacer keeps about 2 BDP in flight instead of queueing.
+TEST(Pacer, BoundsTheQueueOnASlowPath) {
+  Pacer p(8);
+  const int64_t rtt = 20'000, frame_us = 33'333;
+  const size_t bytes = 100'000;
+  const double bytes_per_us = 1.0;  // 8 Mbit/s: one frame set takes 100 ms to transmit
+  std::deque<std::pair<uint64_t, int64_t>> acks;
+  int64_t link_free = 0;
+  uint64_t offered = 0;
+  int64_t worst_queue_us = 0;
+  for (int64_t t = 0; t < 10'000'000; t += 1000) {
+    while (!acks.empty() && acks.front().second <= t) {
+      p.on_ack(acks.front().first, t);
+      acks.pop_front();
+    }
+    if (t >= static_cast<int64_t>(offered) * frame_us) {
+      ++offered;
+      if (p.can_send(bytes)) {
+        p.on_send(offered, bytes, t);
+        worst_queue_us = std::max(worst_queue_us, link_free - t);
+        link_free = std::max(link_free, t) + static_cast<int64_t>(bytes / bytes_per_us);
+        acks.emplace_back(offered, link_free + rtt);
+      }
+    }
+  }
+  EXPECT_LE(p.frames_in_flight(), 3u);
+  // At most a few frame sets (100 ms of transmission each) wait at the bottleneck, not a growing
+  // queue.
+  EXPECT_LE(worst_queue_us, 300'000);
+}
+
+TEST(WorkerPool, PrewokenWorkersTakeTheNextJobAndSleepAgainWhenNoneComes) {
+  WorkerPool pool(2);
+  for (int round = 0; round < 50; ++round) {
+    // Woken ahead of a job that comes at once, later, or (every fifth round) only after the spin.
+    pool.prewake(std::chrono::microseconds(round % 5 == 4 ? 100 : 5000));
+    if (round % 5 == 4) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (round % 3 == 1) std::this_thread::sleep_for(std::chrono::microseconds(300));
+    std::vector<std::atomic<int>> hits(9);
+    std::set<std::thread::id> threads;
+    std::mutex m;
+    pool.parallel_for(hits.size(), [&](size_t i) {
+      ++hits[i];
+      std::lock_guard lock(m);
+      threads.insert(std::this_thread::get_id());
+    });
+    for (auto& h : hits) EXPECT_EQ(h.load(), 1);
+    EXPECT_LE(threads.size(), 3u);
+  }
+  // A prewake during a job changes nothing about it.
+  std::atomic<int> count{0};
+  pool.parallel_for(6, [&](size_t i) {
+    if (i == 0) pool.prewake(std::chrono::microseconds(200));
+    ++count;
+  });
+  EXPECT_EQ(count.load(), 6);
+  pool.prewake(std::chrono::seconds(600));  // destroyed while its workers poll: they stop
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
+}
+
+TEST(CpuLatencyRequest, HoldsTheLimitAtZeroWhileAliveAndDropsItAfter) {
+  const int64_t before = current_cpu_latency_limit_us();
+  {
+    CpuLatencyRequest request(0);
+    if (!request.active()) {  // no PM QoS device, or not root: says why, changes nothing
+      EXPECT_NE(request.error().find("/dev/cpu_dma_latency"), std::string::npos) << request.error();
+      EXPECT_EQ(current_cpu_latency_limit_us(), before);
+      GTEST_SKIP() << request.error();
+    }
+    EXPECT_EQ(current_cpu_latency_limit_us(), 0);
+  }
+  if (before > 0) {  // nobody else held a request of 0: ours is gone with the object
+    EXPECT_EQ(current_cpu_latency_limit_us(), before);
+  }
+  EXPECT_FALSE(CpuLatencyRequest(-1).active());
+}
+
+TEST(WorkerPool, RunsEveryIndexOnceAndRethrows) {
+  WorkerPool pool(3);
+  for (int round = 0; round < 50; ++round) {
+    std::vector<std::atomic<int>> hits(17);
+    pool.parallel_for(hits.size(), [&](size_t i) { ++hits[i]; });
+    for (auto& h : hits) EXPECT_EQ(h.load(), 1);
+  }
+  EXPECT_THROW(pool.parallel_for(8,
+                                 [](size_t i) {
+                                   if (i == 5) throw Error("five");
+                                 }),
+               Error);
+  std::atomic<int> after{0};
+  pool.parallel_for(4, [&](size_t) { ++after; });  // still usable
+  EXPECT_EQ(after.load(), 4);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -1,0 +1,420 @@
+// The browser viewer (web/): the server's HTTP and WebSocket door (page assets, the protocol over
+// WebSocket, hostile requests), and the page itself in Debian's Chromium driven headless by
+// playwright-core (web/test/drive.mjs) against the real hands recording: bit-exact WebAssembly
+// decoding, WebGL2 pictures, and -- with IWER emulating a headset -- an immersive session whose
+// poses a native participant receives.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <atomic>
+#include <chrono>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <thread>
+
+#include <openssl/evp.h>
+
+#include "support/session_site.hpp"
+#include "volcast/assets/case.hpp"
+#include "volcast/assets/shared_case.hpp"
+#include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec_video/video_codecs.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/transport/connection.hpp"
+#include "support/web_peer.hpp"
+
+namespace volcast {
+namespace {
+
+using namespace std::chrono_literals;
+
+const std::filesystem::path kWebRoot = VOLCAST_WEB_ROOT;
+const std::filesystem::path kWebTests = VOLCAST_WEB_TEST_DIR;
+
+ServerConfig web_config(bool insecure) {
+  ServerConfig c;
+  c.web_root = kWebRoot;
+  c.insecure = insecure;
+  return c;
+}
+
+using test::client_frame;
+using test::read_to_close;
+using test::server_frame;
+
+std::string http_get(uint16_t port, const std::string& request) {
+  auto c = connect_tcp("127.0.0.1", port);
+  test::write_text(*c, request);
+  return read_to_close(*c);
+}
+
+// A WebSocket opened on /stream by hand; returns the connection after the 101.
+std::unique_ptr<Connection> open_websocket(uint16_t port, std::string& answer) {
+  auto c = connect_tcp("127.0.0.1", port);
+  answer = test::upgrade_to_websocket(*c);
+  return c;
+}
+
+std::vector<uint8_t> hello_message(const JoinToken& token) {
+  protocol::Hello hello;
+  hello.token = token;
+  hello.depth_codec = "volcast";
+  hello.color_codec = "jpeg";
+  return protocol::message(protocol::MessageType::kHello, protocol::serialize(hello));
+}
+
+TEST(WebDoor, ServesThePageAndAnswersWhatItDoesNotServe) {
+  ASSERT_TRUE(std::filesystem::exists(kWebRoot / "index.html")) << kWebRoot;
+  test::HandsSite s(15, web_config(true));
+  const uint16_t port = s.server.port();
+  std::string index;
+  {
+    std::ifstream in(kWebRoot / "index.html");
+    index.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::string page = http_get(port, "GET / HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(page.substr(0, 15), "HTTP/1.1 200 OK");
+  EXPECT_NE(page.find("Connection: close"), std::string::npos);
+  EXPECT_NE(page.find("Content-Security-Policy: default-src 'self'"), std::string::npos);
+  EXPECT_NE(page.find("text/html"), std::string::npos);
+  EXPECT_EQ(page.substr(page.size() - index.size()), index) << "the file, byte for byte";
+  const std::string wasm = http_get(port, "GET /volcast_decoder.wasm HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_NE(wasm.find("Content-Type: application/wasm"), std::string::npos);
+  // Outside the assets, any path is not found; only GET and HEAD are allowed.
+  for (const char* path : {"/../../etc/passwd", "/%2e%2e/%2e%2e/etc/passwd", "/nope.js"})
+    EXPECT_EQ(
+        http_get(port, std::string("GET ") + path + " HTTP/1.1\r\nHost: x\r\n\r\n").substr(0, 12),
+        "HTTP/1.1 404")
+        << path;
+  EXPECT_EQ(http_get(port, "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n\r\n").substr(0, 12),
+            "HTTP/1.1 405");
+  // A WebSocket elsewhere than /stream, and garbage, are refused.
+  EXPECT_NE(http_get(port,
+                     "GET /other HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: "
+                     "Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n"
+                     "Sec-WebSocket-Version: 13\r\n\r\n")
+                .substr(0, 12),
+            "HTTP/1.1 101");
+  EXPECT_EQ(http_get(port, "GARBAGE\r\n\r\n").find("200 OK"), std::string::npos);
+  EXPECT_GE(s.server.door().web_files, 5u);
+}
+
+TEST(WebDoor, TheProtocolOverWebSocketAndHostileMessages) {
+  test::HandsSite s(15, web_config(true));
+  const uint16_t port = s.server.port();
+  std::string answer;
+  {  // The right token: Welcome, then frame sets, whole messages inside binary frames.
+    auto c = open_websocket(port, answer);
+    EXPECT_EQ(answer.substr(0, 12), "HTTP/1.1 101");
+    c->write_all(client_frame(0x2, hello_message(s.server.token())), 2000);
+    auto [op, welcome] = server_frame(*c);
+    EXPECT_EQ(op, 0x2);
+    const auto h = protocol::parse_header(welcome);
+    EXPECT_EQ(h.type, protocol::MessageType::kWelcome);
+    const auto w = protocol::parse_welcome(std::span(welcome).subspan(protocol::kHeaderBytes));
+    EXPECT_EQ(w.cameras.size(), 1u);
+    bool frame_set = false;
+    for (int i = 0; i < 20 && !frame_set; ++i) {
+      auto [op2, m] = server_frame(*c);
+      frame_set = protocol::parse_header(m).type == protocol::MessageType::kFrameSet;
+    }
+    EXPECT_TRUE(frame_set) << "FrameSet 1.1 (never the sealed 1.2 outside WebSocket messages)";
+  }
+  {  // A wrong token: Reject, inside a binary frame.
+    auto c = open_websocket(port, answer);
+    JoinToken wrong{};
+    c->write_all(client_frame(0x2, hello_message(wrong)), 2000);
+    auto [op, reject] = server_frame(*c);
+    EXPECT_EQ(protocol::parse_header(reject).type, protocol::MessageType::kReject);
+  }
+  {  // A text message before the Hello: closed.
+    auto c = open_websocket(port, answer);
+    const std::string text = "hello";
+    c->write_all(client_frame(0x1, std::span(reinterpret_cast<const uint8_t*>(text.data()), 5)),
+                 2000);
+    const std::string rest = read_to_close(*c);
+    EXPECT_LT(rest.size(), 200u) << "a close frame at most";
+  }
+  {  // A message that claims 1 GiB before authenticating: closed, nothing allocated for it.
+    auto c = open_websocket(port, answer);
+    const uint8_t some[16] = {};
+    c->write_all(client_frame(0x2, some, uint64_t{1} << 30), 2000);
+    EXPECT_LT(read_to_close(*c).size(), 200u);
+  }
+  // The server goes on: a native viewer on the same port still gets frames.
+  ClientConfig cc = client_config_from_link(s.server.join_link("127.0.0.1"));
+  Client native(cc);
+  ReceivedFrameSet rx;
+  ASSERT_TRUE(native.receive(rx));
+  EXPECT_EQ(rx.depth_bytes.size(), 1u);
+  EXPECT_GE(s.server.door().web_viewers, 1u);
+}
+
+// FNV-1a 32 of a depth image's bytes (little-endian uint16): web/page/worker.js computes the same.
+uint32_t fnv1a(const DepthImage& d) {
+  uint32_t h = 0x811c9dc5u;
+  for (uint16_t v : d.pixels) {
+    h = (h ^ (v & 0xffu)) * 0x01000193u;
+    h = (h ^ (v >> 8)) * 0x01000193u;
+  }
+  return h;
+}
+
+// Runs web/test/drive.mjs against `link`; returns page.json.
+nlohmann::json drive(const std::string& link, const std::filesystem::path& out,
+                     const std::string& flags) {
+  if (!std::filesystem::exists(kWebTests / "node_modules/playwright-core")) {
+    ADD_FAILURE() << "npm packages missing: run `npm ci --prefix web/test` (scripts/test.sh does)";
+    return {};
+  }
+  const std::string command = "cd " + kWebTests.string() + " && node drive.mjs --link '" + link +
+                              "' --out " + out.string() + " " + flags;
+  std::string output;
+  const int rc = test::run_command(command, output);
+  EXPECT_EQ(rc, 0) << output;
+  std::ifstream in(out / "page.json");
+  if (!in) {
+    ADD_FAILURE() << "no page.json: " << output;
+    return {};
+  }
+  return nlohmann::json::parse(in);
+}
+
+// Pixels of a screenshot that differ from the page's clear colour (20, 23, 28).
+size_t covered(const ColorImage& image) {
+  size_t n = 0;
+  for (size_t i = 0; i < image.bgra.size(); i += 4)
+    n += std::abs(image.bgra[i] - 28) + std::abs(image.bgra[i + 1] - 23) +
+             std::abs(image.bgra[i + 2] - 20) >
+         24;
+  return n;
+}
+
+// Pixels with a clear hue (not grey): points drawn with their camera's color.
+size_t colored(const ColorImage& image) {
+  size_t n = 0;
+  for (size_t i = 0; i < image.bgra.size(); i += 4) {
+    const int b = image.bgra[i], g = image.bgra[i + 1], r = image.bgra[i + 2];
+    n += std::max({r, g, b}) - std::min({r, g, b}) > 40;
+  }
+  return n;
+}
+
+TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
+  register_video_codecs();  // the h264 color tier, as the volcast CLI offers it
+  test::HandsSite s(15, web_config(false));
+  const auto out = test::temp_dir("web_desktop");
+  const nlohmann::json page = drive(s.server.web_link("127.0.0.1") + "&check=1&room=0&name=Desk",
+                                    out, "--frames 40 --seconds 200 --bench");
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_EQ(page["cameras"], 1);
+  EXPECT_GE(page["framesReceived"].get<int>(), 40);
+  EXPECT_GE(page["framesDrawn"].get<int>(), 1);
+  // Every decoded depth image is the recording's frame of that frame set, bit for bit.
+  size_t checked = 0;
+  std::set<uint32_t> distinct;
+  for (const auto& f : page["hashes"]) {
+    const uint64_t sequence = f["sequence"];
+    const uint32_t hash = f["hashes"][0];
+    ASSERT_EQ(hash, fnv1a(test::hands_source_frame(sequence))) << "frame set " << sequence;
+    distinct.insert(hash);
+    ++checked;
+  }
+  EXPECT_GE(checked, 40u);
+  EXPECT_GE(distinct.size(), 30u) << "the frames change";
+  // The points alone (room=0) cover a good part of the picture.
+  const ColorImage shot = read_color_png(out / "desktop.png");
+  const size_t points = covered(shot);
+  EXPECT_GT(points, shot.bgra.size() / 4 / 50) << "at least 2 % of the picture";
+  EXPECT_GT(colored(shot), points / 4) << "with the camera's JPEG colors";
+  // The grid-mesh surface covers the picture at least as the splats do, give or take the edges.
+  const auto mesh_out = test::temp_dir("web_desktop_mesh");
+  const nlohmann::json mesh_page = drive(
+      s.server.web_link("127.0.0.1") + "&room=0&surface=mesh&name=Mesh", mesh_out, "--frames 10");
+  ASSERT_FALSE(mesh_page.is_null());
+  EXPECT_EQ(mesh_page["phase"], "streaming") << mesh_page["error"];
+  EXPECT_GT(covered(read_color_png(mesh_out / "desktop.png")), points / 2);
+  // H.264 color through WebCodecs: colored points (not the grey of a camera without color).
+  const auto h264_out = test::temp_dir("web_desktop_h264");
+  const nlohmann::json h264_page = drive(
+      s.server.web_link("127.0.0.1") + "&room=0&color=h264&name=Video", h264_out, "--frames 20");
+  ASSERT_FALSE(h264_page.is_null());
+  EXPECT_EQ(h264_page["phase"], "streaming") << h264_page["error"];
+  EXPECT_GE(h264_page["colorFrames"].get<int>(), 15) << h264_page["warnings"].dump();
+  const ColorImage video = read_color_png(h264_out / "desktop.png");
+  EXPECT_GT(colored(video), colored(shot) / 2) << "as colored as with JPEG, give or take";
+  // The WebAssembly decoder beside the native one, on the same frame (figures, no assertion).
+  ASSERT_TRUE(page.contains("bench")) << page.dump();
+  const std::string b64 = page["bench"]["stream"];
+  std::string bytes(b64.size() / 4 * 3, '\0');
+  const int n = EVP_DecodeBlock(reinterpret_cast<unsigned char*>(bytes.data()),
+                                reinterpret_cast<const unsigned char*>(b64.data()),
+                                static_cast<int>(b64.size()));
+  ASSERT_GT(n, 12);
+  bytes.resize(static_cast<size_t>(n) - (b64.ends_with("==") ? 2 : b64.ends_with("=") ? 1 : 0));
+  auto decoder = make_depth_decoder("volcast");
+  DepthImage image;
+  const auto stream = std::span(reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size());
+  std::vector<double> ms;
+  for (int i = 0; i < 200; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    decoder->decode(stream, image);
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  const double wasm_ms = page["bench"]["medianMs"];
+  std::printf(
+      "volcast decode of one 640x360 frame (%zu bytes): WebAssembly in Chromium %.3f ms, native "
+      "(this build) %.3f ms, ratio %.2f; page load to first frame %.0f ms\n",
+      bytes.size(), wasm_ms, ms[ms.size() / 2], wasm_ms / ms[ms.size() / 2],
+      page["firstFrameMs"].get<double>());
+  EXPECT_EQ(image.width, 640);
+}
+
+TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
+  SessionHubConfig hub;
+  hub.site_translation = {0, 1.3f, 0.3f};
+  test::SessionSite s(hub, 15, web_config(false));
+  // A native participant with a camera avatar (the hands sequence again).
+  SessionClientOptions with_camera = test::named("Native");
+  with_camera.camera_source = test::hands_dir();
+  with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+  test::TestParticipant native(s, with_camera);
+  const auto out = test::temp_dir("web_xr");
+  // What the native participant sees of the web one while the browser runs (it leaves at the end).
+  std::atomic<bool> done{false}, seen{false}, hands{false};
+  std::thread watch([&] {
+    while (!done) {
+      if (const auto web = native.other("Web"); web && web->has_pose) {
+        seen = true;
+        hands = hands || web->newest_pose.hands_tracked;
+      }
+      std::this_thread::sleep_for(20ms);
+    }
+  });
+  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3",
+                                    out, "--frames 20 --stall 4.5 --xr");
+  done = true;
+  watch.join();
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_TRUE(page["xr"]["active"]);
+  EXPECT_EQ(page["xr"]["views"], 2) << "both eyes";
+  EXPECT_GE(page["xr"]["frames"].get<int>(), 30);
+  EXPECT_TRUE(page["session"]["joined"]);
+  // Its main thread was blocked for longer than the hub's 3 s presence timeout, and it stayed.
+  EXPECT_GE(page["stalledMs"].get<double>(), 4500.0);
+  EXPECT_EQ(s.hub.stats().timeouts, 0u);
+  bool sees_native = false;
+  int native_id = 0;
+  for (const auto& o : page["session"]["others"])
+    if (o["name"] == "Native") {
+      sees_native = o["poses"].get<int>() > 0;
+      native_id = o["id"];
+    }
+  EXPECT_TRUE(sees_native) << page["session"].dump();
+  // Its camera avatar, decoded in the browser.
+  const std::string id = std::to_string(native_id);
+  EXPECT_TRUE(page["avatarErrors"].empty()) << page["avatarErrors"].dump();
+  ASSERT_TRUE(page["avatarFrames"].contains(id)) << page["avatarFrames"].dump();
+  EXPECT_GE(page["avatarFrames"][id].get<int>(), 10);
+  EXPECT_GE(page["session"]["teleports"].get<int>(), 1) << "the trigger teleported";
+  // The native participant received the web participant's head and hands.
+  EXPECT_TRUE(seen);
+  EXPECT_TRUE(hands) << "two emulated controllers";
+  const ParticipantStats stats = native.p().stats();
+  bool counted = false;
+  for (const RemoteStats& o : stats.others)
+    if (o.name == "Web") {
+      counted = true;
+      EXPECT_GE(o.poses_received, 60u);
+      std::printf("web -> native poses: %llu at %.1f Hz, age p50 %.2f ms, p99 %.2f ms\n",
+                  static_cast<unsigned long long>(o.poses_received), o.pose_rate_hz,
+                  o.pose_age_ms_p50, o.pose_age_ms_p99);
+    }
+  EXPECT_TRUE(counted);
+  const ColorImage shot = read_color_png(out / "xr.png");
+  EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10) << "the headset's picture is not blank";
+}
+
+// The patient case in the browser: the real organs (3D-IRCADb patient 11) and CT (dcmqi) reach the
+// page; a person at the keyboard grabs the liver, turns it and lets it go, and scrolls the
+// monitor; a native participant sees each of it.
+TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
+  test::SessionSite s({}, 15, web_config(false));
+  const auto folder = test::temp_dir("web_case");
+  const auto medical = test::data_dir() / "medical";
+  std::ofstream(folder / "case.json")
+      << R"({"name": "web", "parts": [
+      {"name": "liver", "mesh": ")"
+      << (medical / "ircad11-organs/liver.obj").string() << R"("},
+      {"name": "porta", "mesh": ")"
+      << (medical / "ircad11-organs/porta.obj").string() << R"(", "group": "liver"}],
+      "dicom": {"series": ")"
+      << (medical / "ct-liver-3slices").string() << R"(", "seg": ")"
+      << (medical / "ct-liver-3slices/liver_seg.dcm").string() << R"("}})";
+  s.hub.set_case(to_shared_case(load_case(folder)));
+  SessionClientOptions watcher = test::named("Native");
+  watcher.drive_poses = false;
+  test::TestParticipant native(s, watcher);
+  std::atomic<bool> done{false}, saw_web_hold{false};
+  std::thread watch([&] {
+    while (!done) {
+      const SessionSnapshot n = native.now();
+      if (!n.objects.empty() && n.objects[0].owner != 0) saw_web_hold = true;
+      std::this_thread::sleep_for(20ms);
+    }
+  });
+  const auto out = test::temp_dir("web_case_out");
+  const nlohmann::json page =
+      drive(s.site.server.web_link("127.0.0.1") + "&name=Web", out, "--frames 10 --case");
+  done = true;
+  watch.join();
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_EQ(page["case"]["name"], "web");
+  EXPECT_EQ(page["case"]["objects"][0], "liver");
+  EXPECT_EQ(page["case"]["slices"], 3);
+  EXPECT_TRUE(saw_web_hold) << "the native participant saw the browser hold the liver";
+  const SessionHubStats st = s.hub.stats();
+  EXPECT_EQ(st.grabs, 1u);
+  EXPECT_EQ(st.releases, 1u);
+  EXPECT_GE(st.object_moves, 5u) << "moved while held";
+  // Let go turned: not at rest any more, and the native participant sees it where the hub has it.
+  const session::ObjectState o = s.hub.objects("OR")[0];
+  EXPECT_EQ(o.owner, 0u);
+  const Pose rest = native.p().shared_case()->objects[0].rest;
+  // X held a second or more at 2.4 rad/s: turned that far about the liver's own y axis (on a
+  // loaded machine perhaps past a whole turn, so compared modulo 2 pi).
+  ASSERT_TRUE(page["case"].contains("turnedRad"));
+  const double turned = page["case"]["turnedRad"];
+  EXPECT_GT(turned, 1.0);
+  double expected = std::fmod(turned, 2 * M_PI);
+  if (expected > M_PI) expected = 2 * M_PI - expected;
+  EXPECT_NEAR(o.pose.orientation.angularDistance(rest.orientation), expected, 0.05);
+  ASSERT_TRUE(test::eventually([&] {
+    const SessionSnapshot n = native.now();
+    return n.objects[0].owner == 0 &&
+           n.objects[0].pose.orientation.angularDistance(o.pose.orientation) < 1e-4f;
+  }));
+  // The monitor: one slice on (the middle one was 1), the liver window, the overlay off.
+  const auto m = s.hub.monitor("OR");
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->slice, 2);
+  EXPECT_EQ(m->center, 90);
+  EXPECT_EQ(m->width, 150);
+  EXPECT_FALSE(m->overlay);
+  EXPECT_EQ(page["session"]["monitor"]["slice"], 2);
+  ASSERT_TRUE(
+      test::eventually([&] { return native.now().monitor && native.now().monitor->slice == 2; }));
+  const ColorImage shot = read_color_png(out / "desktop.png");
+  EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10);
+}
+
+}  // namespace
+}  // namespace volcast

@@ -1,0 +1,470 @@
+// The virtual OR's session: lobby, participants, poses, presence, teleports, camera avatars and a
+// hostile participant, over the real stream (TLS, join token) of a real site (the hands sequence).
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <set>
+#include <thread>
+
+#include "support/session_site.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/session/hub.hpp"
+#include "volcast/session/message_table.hpp"
+#include "volcast/session/messages.hpp"
+
+namespace volcast {
+namespace {
+
+using namespace std::chrono_literals;
+using session::Type;
+
+// Polls `done` every 10 ms for up to `limit` (generous: a loaded 2-core machine under ASan).
+using test::eventually;
+
+using test::named;
+using test::SessionSite;
+using test::TestParticipant;
+
+bool sees(const TestParticipant& p, const std::string& name) {
+  return p.other(name).has_value();
+}
+
+TEST(SessionMessages, RoundTripAndRefuseBadFields) {
+  session::PoseMessage pose;
+  pose.sequence = 7;
+  pose.time_us = 123456789;
+  pose.echo_wanted = true;
+  pose.body.head.position = {1, 1.6f, -2};
+  pose.body.head.orientation =
+      Eigen::Quaternionf(Eigen::AngleAxisf(0.5f, Eigen::Vector3f::UnitY()));
+  pose.body.hands_tracked = true;
+  const auto bytes = session::serialize(pose);
+  const session::PoseMessage back = session::parse_pose(bytes);
+  EXPECT_EQ(back.sequence, 7u);
+  EXPECT_EQ(back.time_us, 123456789);
+  EXPECT_TRUE(back.echo_wanted);
+  EXPECT_TRUE(back.body.hands_tracked);
+  EXPECT_TRUE(back.body.head.position.isApprox(pose.body.head.position));
+  EXPECT_NEAR(back.body.head.orientation.angularDistance(pose.body.head.orientation), 0, 1e-5);
+
+  auto nan = bytes;
+  const float bad = std::nanf("");
+  std::memcpy(nan.data() + 14, &bad, 4);  // head x
+  EXPECT_NE(test::error_of([&] { session::parse_pose(nan); }).find("not finite"),
+            std::string::npos);
+  auto skew = bytes;
+  const float two = 2;
+  std::memcpy(skew.data() + 14 + 12, &two, 4);  // head orientation x: not a unit quaternion
+  EXPECT_NE(test::error_of([&] { session::parse_pose(skew); }).find("unit quaternion"),
+            std::string::npos);
+  EXPECT_NE(
+      test::error_of([&] { session::parse_pose(std::span(bytes).first(20)); }).find("truncated"),
+      std::string::npos);
+
+  session::Join join{"OR", true, "Dr. A", session::Role::kRemote, false};
+  EXPECT_EQ(session::parse_join(session::serialize(join)).name, "Dr. A");
+  join.name = std::string(65, 'x');
+  EXPECT_NE(test::error_of([&] { session::parse_join(session::serialize(join)); }).find("1 to 64"),
+            std::string::npos);
+  join.name = "bell\a";
+  EXPECT_NE(test::error_of([&] { session::parse_join(session::serialize(join)); }).find("control"),
+            std::string::npos);
+
+  session::AvatarCamera cam;
+  cam.calibration.depth = Intrinsics{640, 360, 460, 460, 320, 180};
+  cam.depth_codec = "volcast";
+  cam.color_codec = "jpeg";
+  EXPECT_EQ(session::parse_avatar_camera(session::serialize(cam)).calibration.depth.width, 640);
+  cam.depth_codec = "h264";  // lossy: refused
+  EXPECT_NE(test::error_of([&] {
+              session::parse_avatar_camera(session::serialize(cam));
+            }).find("lossless"),
+            std::string::npos);
+  cam.depth_codec = "volcast-t";  // temporal: refused
+  EXPECT_FALSE(
+      test::error_of([&] { session::parse_avatar_camera(session::serialize(cam)); }).empty());
+  // An avatar frame larger than its camera could need is refused before anything else.
+  std::vector<uint8_t> huge(8 + 8 + 4 + 640 * 360 * 8 + (64 << 10) + 1, 0);
+  EXPECT_NE(
+      test::error_of([&] { session::parse_avatar_frame(huge, cam.calibration); }).find("exceed"),
+      std::string::npos);
+}
+
+// The message table (message_table.hpp): every type once, with its sender and limits, and a
+// decoder that takes what the type's encoder wrote and refuses it cut short.
+TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
+  std::set<uint8_t> types;
+  for (const session::MessageKind& m : session::message_table()) {
+    const uint8_t type = static_cast<uint8_t>(m.type);
+    EXPECT_TRUE(types.insert(type).second) << m.name;
+    EXPECT_EQ(session::find_message(type), &m);
+    EXPECT_EQ(session::max_payload(type), m.max_payload);
+    EXPECT_EQ(m.sender == session::Sender::kParticipant, type < 0x40) << m.name;
+    EXPECT_EQ(m.check == nullptr, m.type == Type::kAvatarFrame || m.type == Type::kAvatarFrameFrom)
+        << m.name;
+  }
+  EXPECT_EQ(types.size(), 26u);
+  EXPECT_EQ(session::find_message(0x00), nullptr);
+  EXPECT_EQ(session::max_payload(0x4e), 0u);
+  EXPECT_EQ(session::max_payload(0x4b), session::kMaxCaseBytes);
+  EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPose)).per_second, 150);
+  EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPoseFrom)).per_second, 0);
+
+  const std::vector<std::pair<Type, std::vector<uint8_t>>> samples = {
+      {Type::kJoin,
+       session::serialize(session::Join{"OR", true, "Dr. A", session::Role::kRemote, false})},
+      {Type::kPose, session::serialize(session::PoseMessage{})},
+      {Type::kTeleported, session::serialize(session::Teleported{})},
+      {Type::kObjectMove, session::serialize(session::ObjectRequest{}, true)},
+      {Type::kMonitorState, session::serialize(session::MonitorState{})},
+      {Type::kSetMonitor, session::serialize_set_monitor(session::MonitorState{})},
+      {Type::kParticipantLeft, session::serialize_left(3, session::LeftReason::kTimedOut)},
+  };
+  for (const auto& sample : samples) {
+    const session::MessageKind* m = session::find_message(static_cast<uint8_t>(sample.first));
+    ASSERT_NE(m, nullptr);
+    const std::vector<uint8_t>& bytes = sample.second;
+    EXPECT_EQ(test::error_of([&] { m->check(bytes); }), "") << m->name;
+    EXPECT_NE(test::error_of([&] {
+                m->check(std::span(bytes).first(bytes.size() - 1));
+              }).find("malformed"),
+              std::string::npos)
+        << m->name;
+  }
+  const std::vector<uint8_t> one = {0};
+  EXPECT_EQ(test::error_of([&] { session::find_message(0x09)->check(one); }),
+            "malformed heartbeat: not empty");
+}
+
+TEST(SessionRoom, FreeSpotsKeepOutOfWallsAndTable) {
+  const RoomLayout room = default_operating_room();
+  std::string why;
+  EXPECT_TRUE(is_free_floor_spot(room, {0, 1.4f}));
+  EXPECT_FALSE(is_free_floor_spot(room, {0, 0}, &why));
+  EXPECT_EQ(why, "inside the operating table");
+  EXPECT_FALSE(is_free_floor_spot(room, {3.4f, 0}, &why));
+  EXPECT_EQ(why, "outside the room");
+  EXPECT_FALSE(is_free_floor_spot(room, {std::nanf(""), 0}));
+  for (const auto& s : room.spawn_spots) EXPECT_TRUE(is_free_floor_spot(room, s));
+}
+
+// Two participants join, see each other's names and every pose the other published (in order,
+// the last one exactly), measure the round trip, and leave.
+TEST(Session, TwoParticipantsSeeEachOtherAndLeave) {
+  SessionSite s;
+  // A publishes its poses by hand here (no script): pose k has the head at x = k cm.
+  SessionClientOptions a_options = named("Dr. A");
+  a_options.drive_poses = false;
+  TestParticipant a(s, a_options), b(s, named("Dr. B"));
+  ASSERT_TRUE(eventually([&] { return sees(a, "Dr. B") && sees(b, "Dr. A"); }));
+  EXPECT_TRUE(sees(a, "OR site"));
+  EXPECT_EQ(a.other("OR site")->role, session::Role::kOrSite);
+  EXPECT_EQ(s.hub.members("OR").size(), 3u);
+  const SessionSnapshot as = a.now();
+  EXPECT_TRUE(as.joined);
+  EXPECT_EQ(as.session_name, "OR");
+  // Spawned on free, different spots.
+  const SessionSnapshot bs = b.now();
+  EXPECT_TRUE(is_free_floor_spot(default_operating_room(), {as.spot.x, as.spot.z}));
+  EXPECT_GT(std::hypot(as.spot.x - bs.spot.x, as.spot.z - bs.spot.z), 1.0);
+
+  BodyPose body;
+  for (int k = 1; k <= 120; ++k) {
+    body.head.position = {static_cast<float>(k) * 0.01f, 1.6f, 0};
+    a.p().publish(body);
+    std::this_thread::sleep_for(std::chrono::microseconds(16667));
+  }
+  // B ends with A's last pose, exactly where A put it in the room.
+  const RigidTransform room_from_a = session::room_from_playarea(as.spot);
+  const Eigen::Vector3f last = (room_from_a * Eigen::Vector3d(1.2, 1.6, 0)).cast<float>();
+  ASSERT_TRUE(eventually([&] {
+    const auto o = b.other("Dr. A");
+    return o && o->has_pose && o->newest_pose_sequence >= 120;
+  }));
+  const RemoteParticipant seen = *b.other("Dr. A");
+  EXPECT_LT((seen.newest_pose.head.position - last).norm(), 1e-4);
+  // Interpolated for now (40 ms in the past), it lies on A's path.
+  const Eigen::Vector3f first = (room_from_a * Eigen::Vector3d(0.01, 1.6, 0)).cast<float>();
+  const Eigen::Vector3f on_path = seen.pose.head.position - first;
+  EXPECT_LT(
+      (on_path - on_path.dot((last - first).normalized()) * (last - first).normalized()).norm(),
+      1e-3);
+  // B echoed every 6th of A's poses: A measured round trips.
+  ASSERT_TRUE(eventually([&] { return a.p().stats().round_trip_samples >= 10; }));
+  const ParticipantStats stats = a.p().stats();
+  EXPECT_GT(stats.round_trip_ms_p50, 0);
+  EXPECT_GE(stats.round_trip_ms_p99, stats.round_trip_ms_p50);
+  const auto rb = b.p().stats();
+  ASSERT_FALSE(rb.others.empty());
+
+  // A leaves the session (its connection stays): B sees it go, as "left".
+  a.p().leave();
+  ASSERT_TRUE(eventually([&] { return !sees(b, "Dr. A"); }));
+  const auto departed = b.now().departed;
+  ASSERT_EQ(departed.size(), 1u);
+  EXPECT_EQ(std::get<1>(departed[0]), "Dr. A");
+  EXPECT_EQ(std::get<2>(departed[0]), session::LeftReason::kLeft);
+  EXPECT_FALSE(a.ended);
+  EXPECT_EQ(s.hub.members("OR").size(), 2u);
+}
+
+// Eight participants (the idle script at 60 Hz) see all seven others; one is killed (its
+// connection drops), one freezes (alive but silent): the others see them go, disconnected and
+// timed out.
+TEST(Session, EightParticipantsJoinAndTimeOut) {
+  SessionHubConfig config;
+  config.presence_timeout_ms = 2000;
+  SessionSite s(config, 10);
+  std::vector<std::unique_ptr<TestParticipant>> people;
+  for (int i = 0; i < 8; ++i)
+    people.push_back(std::make_unique<TestParticipant>(s, named("P" + std::to_string(i))));
+  ASSERT_TRUE(eventually([&] {
+    for (auto& p : people)
+      if (p->now().others.size() != 8) return false;  // 7 others and the OR site
+    return true;
+  }));
+  // Every receiver gets every other's poses.
+  ASSERT_TRUE(eventually([&] {
+    for (auto& p : people) {
+      const auto st = p->p().stats();
+      if (st.others.size() != 7) return false;  // the others (the OR site sends no poses)
+      for (const auto& o : st.others)
+        if (o.poses_received < 30) return false;
+    }
+    return true;
+  }));
+  std::set<std::string> names;
+  for (const auto& o : people[0]->now().others) names.insert(o.name);
+  EXPECT_EQ(names, (std::set<std::string>{"OR site", "P1", "P2", "P3", "P4", "P5", "P6", "P7"}));
+
+  people[7]->end();            // killed: the connection drops
+  people[6]->session->stop();  // frozen: connected, nothing sent any more
+  ASSERT_TRUE(eventually([&] { return people[0]->now().departed.size() == 2; }));
+  std::map<std::string, session::LeftReason> why;
+  for (const auto& [id, name, reason] : people[0]->now().departed) why[name] = reason;
+  EXPECT_EQ(why["P7"], session::LeftReason::kDisconnected);
+  EXPECT_EQ(why["P6"], session::LeftReason::kTimedOut);
+  // The frozen one was disconnected by the server; the others are untouched.
+  EXPECT_TRUE(eventually([&] { return people[6]->ended.load(); }));
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_FALSE(people[i]->ended) << i << ": " << people[i]->error;
+    // P0 saw both go; the others' ParticipantLeft may still be on its way (a loaded box).
+    EXPECT_TRUE(eventually([&] { return people[i]->now().others.size() == 6u; })) << i;
+  }
+  EXPECT_EQ(s.hub.stats().timeouts, 1u);
+}
+
+// A participant's camera (the real hands sequence) reaches every other participant bit-exact.
+TEST(Session, CameraAvatarReachesEveryoneBitExact) {
+  SessionSite s;
+  SessionClientOptions with_camera = named("Surgeon");
+  with_camera.camera_source = test::hands_dir();
+  with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+  with_camera.upload_color_codec = "raw";
+  TestParticipant a(s, with_camera), b(s, named("B")), c(s, named("C"));
+  // Every hands frame, to match what arrives against.
+  const std::vector<DepthImage> hands = test::real_depth_frames("hands");
+  std::set<std::vector<uint16_t>> depths;
+  for (const DepthImage& d : hands) depths.insert(d.pixels);
+  for (TestParticipant* receiver : {&b, &c}) {
+    ASSERT_TRUE(eventually([&] {
+      const auto o = receiver->other("Surgeon");
+      return o && o->avatar_camera && o->avatar_sequence >= 3;
+    }));
+    const RemoteParticipant o = *receiver->other("Surgeon");
+    const auto frame = receiver->p().avatar_frame(o.id);
+    ASSERT_TRUE(frame);
+    EXPECT_EQ(frame->depth.width, 640);
+    EXPECT_TRUE(depths.count(frame->depth.pixels)) << "decoded depth is no hands frame";
+    EXPECT_EQ(frame->color.width, 640);
+    // Its camera stands in the room where the sender's play area puts it.
+    const RigidTransform expected =
+        session::room_from_playarea(o.spot) * auto_playarea_from_camera(hands.front());
+    EXPECT_TRUE(
+        o.avatar_camera->world_from_camera.translation.isApprox(expected.translation, 1e-4));
+  }
+  // The same frame decoded by both is the same; and equals what the sender uploaded with that
+  // sequence: compare with the sender's own frame of a still moment (the latest both agree on).
+  const auto own = a.p().own_frame();
+  ASSERT_TRUE(own);
+  EXPECT_TRUE(depths.count(own->depth.pixels));
+  EXPECT_GE(s.hub.stats().avatar_frames_in, 3u);
+}
+
+// Teleports: a free spot moves the participant and everyone sees it; the table is refused.
+TEST(Session, TeleportMovesAndOthersSeeIt) {
+  SessionSite s;
+  TestParticipant a(s, named("A")), b(s, named("B"));
+  ASSERT_TRUE(eventually([&] { return sees(a, "B") && sees(b, "A"); }));
+  const session::Spot to{2.0f, -1.5f, 1.0f};
+  a.p().teleport(to);
+  ASSERT_TRUE(eventually([&] { return std::abs(a.now().spot.x - 2.0f) < 1e-6; }));
+  ASSERT_TRUE(eventually([&] { return std::abs(b.other("A")->spot.x - 2.0f) < 1e-6; }));
+  const auto seen = b.now().teleports;
+  ASSERT_FALSE(seen.empty());
+  EXPECT_FLOAT_EQ(seen.back().to.z, -1.5f);
+  // A's next poses are at the new spot: the idle script's head stays within 10 cm of the origin.
+  ASSERT_TRUE(eventually([&] {
+    const auto o = b.other("A");
+    return o && (o->newest_pose.head.position - Eigen::Vector3f(2.0f, 1.6f, -1.5f)).norm() < 0.1f;
+  }));
+  a.p().teleport({0, 0, 0});  // onto the operating table
+  ASSERT_TRUE(eventually([&] { return !a.now().last_error.empty(); }));
+  EXPECT_NE(a.now().last_error.find("inside the operating table"), std::string::npos);
+  EXPECT_FLOAT_EQ(a.now().spot.x, 2.0f);
+}
+
+// A participant sending malformed session messages is dropped; the others go on.
+TEST(Session, MalformedMessagesDropOnlyTheirSender) {
+  SessionSite s;
+  TestParticipant good(s, named("Good")), witness(s, named("Witness"));
+  const auto junk = [&](std::vector<uint8_t> message) {
+    TestParticipant bad(s, named("Bad"));
+    EXPECT_TRUE(eventually([&] { return sees(good, "Bad"); }));
+    bad.client->post_session(std::move(message));
+    EXPECT_TRUE(eventually([&] { return bad.ended.load(); })) << "the server did not drop it";
+    EXPECT_TRUE(eventually([&] { return !sees(good, "Bad"); }));
+    bad.end();
+  };
+  // A pose with a NaN position.
+  session::PoseMessage pose;
+  auto p = session::serialize(pose);
+  const float nan = std::nanf("");
+  std::memcpy(p.data() + 14, &nan, 4);
+  junk(session::message(Type::kPose, p));
+  // A type no participant may send (a server's Joined).
+  junk(session::message(Type::kJoined, session::serialize(session::Joined{})));
+  // An avatar frame before any camera.
+  junk(session::message(Type::kAvatarFrame, session::serialize_avatar_frame(1, 0, {}, {})));
+  // A header claiming a payload over the session limit (nothing follows).
+  std::vector<uint8_t> big = session::message(Type::kPose, {});
+  const uint32_t claim = session::kMaxSessionMessageBytes + 1;
+  std::memcpy(big.data() + 8, &claim, 4);
+  junk(big);
+
+  EXPECT_EQ(s.hub.stats().dropped, 3u);  // the oversized header is refused by the server itself
+  const auto departed = good.now().departed;
+  ASSERT_EQ(departed.size(), 4u);
+  EXPECT_EQ(std::get<2>(departed[0]), session::LeftReason::kDropped);
+  // The others were never touched: connected, still seeing each other's poses.
+  EXPECT_FALSE(good.ended) << good.error;
+  EXPECT_FALSE(witness.ended) << witness.error;
+  const auto witness_poses = [&] {
+    for (const auto& o : good.p().stats().others)
+      if (o.name == "Witness") return o.poses_received;
+    return uint64_t{0};
+  };
+  const uint64_t before = witness_poses();
+  EXPECT_TRUE(eventually([&] { return witness_poses() > before + 10; }));
+}
+
+// The lobby lists sessions with their participant counts; joining a missing one without create
+// is refused; names are unique in a session.
+TEST(Session, LobbyListsAndRefuses) {
+  SessionSite s;
+  TestParticipant a(s, named("A", "Tumour board"));
+  ASSERT_TRUE(eventually([&] { return a.now().joined; }));
+  a.p().list_sessions();
+  ASSERT_TRUE(eventually([&] { return a.now().lobby.size() == 2; }));
+  std::map<std::string, uint32_t> counts;
+  for (const auto& l : a.now().lobby) counts[l.name] = l.participants;
+  EXPECT_EQ(counts["OR"], 1u);            // the OR site alone
+  EXPECT_EQ(counts["Tumour board"], 2u);  // the OR site and A
+  SessionClientOptions no_create = named("B", "Nowhere");
+  no_create.participant.create = false;
+  TestParticipant b(s, no_create);
+  ASSERT_TRUE(eventually([&] { return !b.now().last_error.empty(); }));
+  EXPECT_NE(b.now().last_error.find("no session named"), std::string::npos);
+  EXPECT_FALSE(b.now().joined);
+  TestParticipant twin(s, named("A", "Tumour board"));
+  ASSERT_TRUE(eventually([&] { return !twin.now().last_error.empty(); }));
+  EXPECT_NE(twin.now().last_error.find("taken"), std::string::npos);
+}
+
+// Sessions made by Joins go when their last participant does (issue 33, item 4): one participant
+// making and leaving sessions leaves none behind, the server's own ("OR") stays, and a newcomer
+// can still make one on a server that allows 5. One participant makes at most 4 new sessions at
+// once: its 5th is refused naming that limit.
+TEST(Session, EmptiedSessionsAreRemovedAndNewOnesAreLimitedPerParticipant) {
+  SessionHubConfig config;
+  config.max_sessions = 5;
+  SessionSite s(config);
+  const auto session_names = [&] {
+    std::set<std::string> names;
+    for (const auto& x : s.hub.sessions()) names.insert(x.name);
+    return names;
+  };
+  const std::set<std::string> only_or{"OR"};
+  SessionClientOptions a_options = named("A", "S1");
+  a_options.drive_poses = false;
+  TestParticipant a(s, a_options);
+  for (int i = 1; i <= 4; ++i) {
+    const std::string name = "S" + std::to_string(i);
+    if (i > 1) a.p().join(name, true);
+    ASSERT_TRUE(eventually([&] {
+      const SessionSnapshot n = a.now();
+      return n.joined && n.session_name == name;
+    })) << a.now().last_error;
+    a.p().leave();
+    ASSERT_TRUE(eventually([&] { return session_names() == only_or; })) << name << " stayed";
+  }
+  a.p().join("S5", true);
+  ASSERT_TRUE(eventually([&] { return !a.now().last_error.empty() || a.now().joined; }));
+  EXPECT_FALSE(a.now().joined);
+  EXPECT_NE(a.now().last_error.find("new sessions: 4 at once, then one every 15 s"),
+            std::string::npos)
+      << a.now().last_error;
+  EXPECT_EQ(session_names(), only_or);
+  // Another participant makes one, and it goes when they do.
+  TestParticipant b(s, named("B", "Fresh"));
+  ASSERT_TRUE(eventually([&] { return b.now().joined; })) << b.now().last_error;
+  EXPECT_EQ(session_names(), (std::set<std::string>{"OR", "Fresh"}));
+  b.end();
+  EXPECT_TRUE(eventually([&] { return session_names() == only_or; }));
+  EXPECT_FALSE(a.ended) << a.error;
+}
+
+// Names are shown to everyone as given, so they must look like what they are (issue 33, item 9):
+// a right-to-left override, a Cyrillic "А" in a Latin word, and a name that looks like one already
+// in the session are refused, naming the character or the name it looks like; a name written with
+// a combining mark joins in its composed form (NFC).
+TEST(Session, LookAlikeNamesAreRefusedNamingTheProblem) {
+  SessionSite s;
+  SessionClientOptions admin_options = named("Dr. Admin");
+  admin_options.drive_poses = false;
+  TestParticipant admin(s, admin_options);
+  ASSERT_TRUE(eventually([&] { return admin.now().joined; }));
+  // A probe in the lobby posts its Joins by hand (its own Participant would refuse these names).
+  SessionClientOptions probe_options = named("Probe", "Nowhere");
+  probe_options.participant.create = false;
+  probe_options.drive_poses = false;
+  TestParticipant probe(s, probe_options);
+  ASSERT_TRUE(eventually([&] { return !probe.now().last_error.empty(); }));
+  const auto join_as = [&](const std::string& name, const std::string& expected) {
+    probe.client->post_session(session::message(
+        Type::kJoin,
+        session::serialize(session::Join{"OR", false, name, session::Role::kRemote, false})));
+    EXPECT_TRUE(eventually([&] {
+      const SessionSnapshot n = probe.now();
+      return n.joined || n.last_error.find(expected) != std::string::npos;
+    }));
+    EXPECT_FALSE(probe.now().joined) << "'" << name << "' joined";
+    EXPECT_NE(probe.now().last_error.find(expected), std::string::npos) << probe.now().last_error;
+  };
+  join_as("Dr. \u202Enimda", "U+202E RIGHT-TO-LEFT OVERRIDE");
+  join_as("Dr. \u0410dmin", "U+0410 CYRILLIC CAPITAL LETTER A");
+  join_as("Dr. Adrnin", "looks like 'Dr. Admin'");
+  EXPECT_FALSE(sees(admin, "Dr. \u0410dmin"));
+  // "Mu" + U+0308 COMBINING DIAERESIS + "ller": joins as "Müller" with U+00FC.
+  probe.client->post_session(session::message(
+      Type::kJoin, session::serialize(session::Join{"OR", false, "Dr. Mu\u0308ller",
+                                                    session::Role::kRemote, false})));
+  EXPECT_TRUE(eventually([&] { return sees(admin, "Dr. M\u00fcller"); }));
+  EXPECT_FALSE(sees(admin, "Dr. Mu\u0308ller"));
+}
+
+}  // namespace
+}  // namespace volcast

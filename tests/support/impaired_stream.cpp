@@ -1,0 +1,56 @@
+#include "support/impaired_stream.hpp"
+
+#include <chrono>
+
+#include "volcast/capture/real_sites.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/net/stream/client.hpp"
+#include "volcast/pipeline/sender.hpp"
+#include "volcast/pipeline/stage_stats.hpp"
+
+namespace volcast {
+
+PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds,
+                      int max_window) {
+  SitePlayer site(two_camera_site(data), 30);
+  ServerConfig config;
+  config.bind_address = link.server_address();
+  config.port = 0;
+  config.max_window = max_window;
+  auto server =
+      link.in_server_namespace([&] { return std::make_unique<Server>(site.cameras(), config); });
+  site.start(*server);
+  ClientConfig c = client_config_from_link(server->join_link(link.server_address()));
+  c.decode = false;  // the figure is the path's and the server's pacing
+  auto client = link.in_client_namespace([&] { return std::make_unique<Client>(c); });
+  ReceivedFrameSet rx;
+  PathRun r;
+  std::vector<double> latency;
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  const auto measure_from = start + std::chrono::seconds(1);
+  const auto end = measure_from + std::chrono::duration<double>(seconds);
+  while (clock::now() < end) {
+    if (!client->receive(rx)) throw Error("server closed the stream");
+    r.worst_send_age_ms = std::max(
+        r.worst_send_age_ms, static_cast<double>(rx.times.send_us - rx.times.capture_us) / 1000.0);
+    if (clock::now() < measure_from) continue;
+    ++r.frames;
+    latency.push_back(static_cast<double>(rx.times.received_us - rx.times.capture_us) / 1000.0);
+  }
+  r.fps = static_cast<double>(r.frames) / seconds;
+  r.latency_ms_p50 = percentile(latency, 0.5);
+  r.latency_ms_p99 = percentile(latency, 0.99);
+  for (const auto& v : server->viewers())
+    if (v.connected) {
+      r.min_rtt_ms = v.min_rtt_ms;
+      r.window = v.window;
+      r.skipped = v.frames_dropped;
+    }
+  client->close();
+  site.stop();
+  server->stop();
+  return r;
+}
+
+}  // namespace volcast

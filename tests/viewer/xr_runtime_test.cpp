@@ -1,0 +1,358 @@
+// The OpenXR presenter in a real session against a mock runtime (tests/support/
+// mock_openxr_runtime.cpp, loaded by Debian's OpenXR loader through a runtime manifest named by
+// XR_RUNTIME_JSON), under Xvfb for its GLX context, showing the real hands stream: it runs until
+// the runtime asks to exit, submitting valid stereo projection layers whose two eye images show the
+// scene, each from its own eye; it leaves the runtime cleanly when the stream ends first, and a
+// lost instance ends the viewer's session as closed.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/session_site.hpp"
+#include "support/test_data.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/viewer/xr.hpp"
+#include "support/xvfb.hpp"
+
+namespace volcast {
+namespace {
+namespace fs = std::filesystem;
+
+// The runtime manifest of the mock runtime in `dir`, for XR_RUNTIME_JSON.
+fs::path write_manifest(const fs::path& dir) {
+  const fs::path manifest = dir / "mock_runtime.json";
+  std::ofstream(manifest) << nlohmann::json{
+      {"file_format_version", "1.0.0"},
+      {"runtime", {{"name", "volcast mock"}, {"library_path", VOLCAST_MOCK_XR}}}};
+  return manifest;
+}
+
+// The mock runtime installed for one test: its manifest in a fresh folder, its output folder, a
+// display (Xvfb) for the GLX context, and the environment naming them, restored afterwards.
+// frames: VOLCAST_MOCK_XR_FRAMES; end: VOLCAST_MOCK_XR_END (null: ask to exit).
+struct MockRuntime {
+  fs::path dir, out;
+  test::Xvfb xvfb;
+  test::ScopedEnv display, runtime, frames, end, out_env;
+  MockRuntime(const std::string& name, const char* frame_count, const char* end_how = nullptr)
+      : dir(test::temp_dir(name)),
+        out(dir / "out"),
+        display("DISPLAY", xvfb.display().c_str()),
+        runtime("XR_RUNTIME_JSON", write_manifest(dir).c_str()),
+        frames("VOLCAST_MOCK_XR_FRAMES", frame_count),
+        end("VOLCAST_MOCK_XR_END", end_how),
+        out_env("VOLCAST_MOCK_XR_OUT", out.c_str()) {
+    fs::create_directories(out);
+  }
+};
+
+struct Ppm {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgb;
+  const uint8_t* pixel(int x, int y) const { return &rgb[(size_t(y) * width + x) * 3]; }
+};
+
+Ppm read_ppm(const fs::path& path) {  // binary P6 with maxval 255, as the mock writes it
+  std::ifstream in(path, std::ios::binary);
+  std::string magic;
+  int maxval = 0;
+  Ppm image;
+  in >> magic >> image.width >> image.height >> maxval;
+  in.get();
+  if (magic != "P6" || maxval != 255 || image.width <= 0 || image.height <= 0) return {};
+  image.rgb.resize(size_t(image.width) * image.height * 3);
+  in.read(reinterpret_cast<char*>(image.rgb.data()),
+          static_cast<std::streamsize>(image.rgb.size()));
+  if (!in) return {};
+  return image;
+}
+
+// The fraction of pixels clearly off the top-left corner's colour, and the number of colours.
+std::pair<double, size_t> content(const Ppm& image) {
+  const uint8_t* corner = image.pixel(0, 0);
+  size_t differing = 0;
+  std::set<uint32_t> colours;
+  for (int y = 0; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = image.pixel(x, y);
+      differing +=
+          std::abs(p[0] - corner[0]) + std::abs(p[1] - corner[1]) + std::abs(p[2] - corner[2]) > 30;
+      colours.insert(uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16);
+    }
+  return {static_cast<double>(differing) / (image.width * image.height), colours.size()};
+}
+
+double mean_difference(const Ppm& a, const Ppm& b) {
+  double sum = 0;
+  for (size_t i = 0; i < a.rgb.size(); ++i) sum += std::abs(a.rgb[i] - b.rgb[i]);
+  return sum / static_cast<double>(a.rgb.size());
+}
+
+// Mean absolute difference between `a` at x + shift and `b` at x, over the middle columns: smallest
+// at the shift by which `a` shows the scene further right than `b`.
+double shifted_difference(const Ppm& a, const Ppm& b, int shift) {
+  double sum = 0;
+  size_t n = 0;
+  for (int y = 0; y < a.height; ++y)
+    for (int x = 32; x < a.width - 32; ++x) {
+      const uint8_t *p = a.pixel(x + shift, y), *q = b.pixel(x, y);
+      sum += std::abs(p[0] - q[0]) + std::abs(p[1] - q[1]) + std::abs(p[2] - q[2]);
+      ++n;
+    }
+  return sum / static_cast<double>(n);
+}
+
+TEST(XrRuntime, ThePresenterRunsASessionOnAMockRuntimeUntilItAsksToExit) {
+  const MockRuntime mock("xr_runtime", "5");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
+
+  std::string why;
+  ASSERT_TRUE(xr_available(&why)) << why;
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.presenter = xr_presenter(XrOptions{});
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  EXPECT_GE(r.frames_rendered, 5u);
+  EXPECT_NE(r.renderer.find("OpenGL 4."), std::string::npos) << r.renderer;
+
+  // What the runtime saw.
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_EQ(log["sessions"], 1);
+  EXPECT_FALSE(log["session_destroyed_running"].get<bool>());
+  EXPECT_EQ(log["sessions_ended"], 1);  // xrEndSession on STOPPING
+  EXPECT_TRUE(log["exit_requested"].get<bool>());
+  EXPECT_GE(log["frames_with_layer"].get<int>(), 5);
+  EXPECT_GE(log["frames_with_content"].get<int>(), 5);
+  ASSERT_TRUE(log["images_written"].get<bool>());
+
+  // The two eyes' last images: the scene, seen from two places.
+  const Ppm left = read_ppm(out / "eye0.ppm"), right = read_ppm(out / "eye1.ppm");
+  ASSERT_EQ(left.width, 256);
+  ASSERT_EQ(left.height, 256);
+  ASSERT_EQ(right.width, 256);
+  ASSERT_EQ(right.height, 256);
+  const auto [left_fraction, left_colours] = content(left);
+  const auto [right_fraction, right_colours] = content(right);
+  const double difference = mean_difference(left, right);
+  std::printf(
+      "eye images: left %.1f %% off the background, %zu colours; right %.1f %%, %zu colours; mean "
+      "difference %.2f\n",
+      100 * left_fraction, left_colours, 100 * right_fraction, right_colours, difference);
+  EXPECT_GT(left_fraction, 0.05);
+  EXPECT_GT(right_fraction, 0.05);
+  EXPECT_GT(left_colours, 200u);
+  EXPECT_GT(right_colours, 200u);
+  EXPECT_GT(difference, 1.0);  // two eyes 64 mm apart see two different images
+  // Each eye drew its own view: the left eye (view 0) sees the scene shifted right against the
+  // right eye's image.
+  int best = 0;
+  for (int shift = -20; shift <= 20; ++shift)
+    if (shifted_difference(left, right, shift) < shifted_difference(left, right, best))
+      best = shift;
+  std::printf("eye images best aligned at a shift of %d px\n", best);
+  EXPECT_GT(best, 0);
+}
+
+TEST(XrRuntime, WhenTheStreamEndsFirstThePresenterLeavesTheRuntimeCleanly) {
+  const MockRuntime mock("xr_runtime_stream_end", "1000000");  // never asks to exit
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.frames = 10;
+  opt.seconds = 300;  // a safety net only
+  opt.presenter = xr_presenter(XrOptions{});
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kFramesReached) << to_string(r.ended) << ": " << r.error;
+
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);  // swapchains and spaces destroyed
+  EXPECT_EQ(log["sessions"], 1);
+  EXPECT_FALSE(log["exit_requested"].get<bool>());
+}
+
+TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
+  const MockRuntime mock("xr_runtime_lost", "5", "lost");  // lost: XR_ERROR_INSTANCE_LOST, no event
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const fs::path& out = mock.out;
+
+  test::HandsSite site(15);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(site.server.join_link("127.0.0.1"));
+  opt.seconds = 300;  // a safety net only
+  opt.presenter = xr_presenter(XrOptions{});
+  ViewerResult r;
+  ASSERT_NO_THROW(r = run_viewer(opt));
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+
+  ASSERT_TRUE(fs::exists(out / "log.json"));
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(out / "log.json"));
+  std::printf("mock runtime log: %s\n", log.dump().c_str());
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_TRUE(log["lost"].get<bool>());
+  EXPECT_GE(log["frames_with_content"].get<int>(), 5);
+}
+
+// A participant in a headset: the presenter draws the virtual OR for each eye and publishes the
+// head as the participant's pose; another participant sees it standing at its spot.
+TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
+  const MockRuntime mock("xr_runtime_session", "60");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  test::SessionSite s;
+  const std::string link = s.link();
+  test::TestParticipant observer(s, test::named("Observer"));
+  // The headset participant.
+  SessionClientOptions headset_options;
+  headset_options.participant.name = "Headset";
+  headset_options.drive_poses = false;  // the headset publishes
+  SessionClient headset(headset_options);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(link);
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.on_connected = [&](Client& c) {
+    headset.start(c);
+    // Its first frames wait for the join, so that the headset's poses count.
+    for (int i = 0; i < 500 && !headset.participant()->joined(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  };
+  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  XrOptions xr;
+  xr.participant = [&] { return headset.participant(); };
+  opt.presenter = xr_presenter(xr);
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  EXPECT_GE(r.frames_rendered, 30u);
+
+  const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
+  observer.end();
+  const ParticipantStats stats = observer.p().stats();
+  uint64_t poses = 0;
+  for (const auto& o : stats.others)
+    if (o.name == "Headset") poses = o.poses_received;
+  EXPECT_GE(poses, 10u) << "the observer saw the headset's head move";
+  const auto departed = seen.departed;
+  // Where it stood: above its spot (the mock's eyes are at the stage's origin height).
+  bool found = false;
+  for (const auto& o : seen.others)
+    if (o.name == "Headset") {
+      found = true;
+      EXPECT_LT(std::hypot(o.newest_pose.head.position.x() - o.spot.x,
+                           o.newest_pose.head.position.z() - o.spot.z),
+                0.3f);
+    }
+  EXPECT_TRUE(found || !departed.empty());
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  const Ppm left = read_ppm(mock.out / "eye0.ppm");
+  ASSERT_EQ(left.width, 256);
+  EXPECT_GT(content(left).first, 0.3) << "the room fills the eye";
+}
+
+// A headset participant grabs an organ with its controller: the mock's right grip, within reach
+// of the (synthetic, exact) object, squeezes for 12 syncs while turning 0.03 rad per sync; the
+// object follows the hand, is let go turned 0.36 rad, and an observer sees who held it and the
+// headset's two tracked hands.
+TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
+  const MockRuntime mock("xr_runtime_grab", "40");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const test::ScopedEnv grip("VOLCAST_MOCK_XR_RIGHT_GRIP", "0.2,1.2,-0.3");
+  const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "8,20");
+  test::SessionSite s;
+  // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
+  // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
+  session::SharedCase c;
+  c.name = "synthetic";
+  session::SharedObject o;
+  o.name = "organ";
+  o.rest.position = {0.2f, 1.25f, 1.05f};
+  session::SharedPart part;
+  part.name = "shell";
+  part.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
+  part.normals = {{0, 0, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  part.indices = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  o.parts.push_back(part);
+  c.objects.push_back(o);
+  s.hub.set_case(c);
+  SessionClientOptions headset_options;
+  headset_options.participant.name = "Headset";
+  headset_options.drive_poses = false;
+  SessionClient headset(headset_options);
+  std::unique_ptr<test::TestParticipant> observer;
+  std::atomic<bool> done{false}, saw_held{false}, saw_hands{false}, ready{false};
+  std::thread watch;
+  ViewerOptions opt;
+  opt.client = client_config_from_link(s.link());
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.on_connected = [&](Client& client) {
+    headset.start(client);
+    // The headset's join goes out once the viewer reads, after this returns: the observer joins
+    // only after it, so that the headset has the first spawn spot (the grip's place above).
+    watch = std::thread([&] {
+      ready = test::eventually([&] {
+        return headset.participant()->joined() && headset.participant()->shared_case() != nullptr;
+      });
+      observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+      while (!done) {
+        const SessionSnapshot n = observer->now();
+        for (const auto& other : n.others)
+          if (other.name == "Headset" && other.has_pose && other.newest_pose.hands_tracked)
+            saw_hands = true;
+        if (!n.objects.empty() && n.objects[0].owner != 0) saw_held = true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    });
+  };
+  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  XrOptions xr;
+  xr.participant = [&] { return headset.participant(); };
+  opt.presenter = xr_presenter(xr);
+  const ViewerResult r = run_viewer(opt);
+  done = true;
+  if (watch.joinable()) watch.join();
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_TRUE(ready) << "the headset joined and received the case";
+  const SessionHubStats st = s.hub.stats();
+  EXPECT_EQ(st.grabs, 1u);
+  EXPECT_EQ(st.releases, 1u);
+  EXPECT_GE(st.object_moves, 5u) << "it followed the hand";
+  const session::ObjectState final_state = s.hub.objects("OR")[0];
+  EXPECT_EQ(final_state.owner, 0u);
+  EXPECT_NEAR(final_state.pose.orientation.angularDistance(o.rest.orientation), 0.36f, 0.01f);
+  // Turned about the hand's vertical axis through the grip: still within reach of it.
+  EXPECT_LT((final_state.pose.position - Eigen::Vector3f(0.2f, 1.2f, 1.1f)).norm(), 0.1f);
+  EXPECT_TRUE(saw_held) << "the observer saw the headset hold it";
+  EXPECT_TRUE(saw_hands) << "the observer received both tracked controllers as hands";
+  ASSERT_TRUE(observer);
+  ASSERT_TRUE(test::eventually([&] {
+    const auto n = observer->now();
+    return !n.objects.empty() &&
+           n.objects[0].pose.orientation.angularDistance(final_state.pose.orientation) < 1e-4f;
+  }));
+}
+
+}  // namespace
+}  // namespace volcast

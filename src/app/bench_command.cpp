@@ -24,9 +24,7 @@ int run_selected_bench(const BenchArgs& a) {
 }  // namespace
 
 void register_bench(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<BenchArgs>();
-  BenchArgs& bench = *args;
-  auto* bn = app.add_subcommand(
+  auto [bn, bench] = add_command<BenchArgs>(app, commands, run_selected_bench,
       "bench", "Time the filter chain and the codecs on real recordings (one thread)");
   bn->add_option("--dataset", bench.datasets, "Extra recording or folder (repeat)");
   bn->add_option("--data", bench.data,
@@ -68,7 +66,6 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_option("--render-seconds", bench.render_seconds,
                  "With --render: seconds drawn per configuration (at least 3 frames)")
       ->capture_default_str();
-  commands.push_back({bn, [args] { return run_selected_bench(*args); }});
 }
 
 }  // namespace volcast

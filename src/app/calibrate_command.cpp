@@ -10,19 +10,18 @@ int run_calibrate(const CalibrateArgs& a) {
 }
 
 void register_calibrate(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<CalibrateArgs>();
-  CalibrationOptions& calibrate = args->options;
-  auto* c = app.add_subcommand(
+  auto [c, args] = add_command<CalibrateArgs>(app, commands, run_calibrate,
       "calibrate",
       "Place the cameras to each other and to the room from depth alone (lattice target where "
       "seen, else ICP over their overlap); print residuals, write a site config");
+  CalibrationOptions& calibrate = args.options;
   c->add_option("--source", calibrate.sources,
                 "Camera: Azure Kinect .mkv, image-sequence folder, or depth.<serial>-*.png; a "
                 "folder of depth.<serial>-*.png files is one camera per serial (repeat)")
       ->required();
-  c->add_option("--out", args->out, "Site config to write (serve --config, view --site-config)")
+  c->add_option("--out", args.out, "Site config to write (serve --config, view --site-config)")
       ->capture_default_str();
-  c->add_option("--preview", args->preview,
+  c->add_option("--preview", args.preview,
                 "PNG of the registered cameras from above and from the side, one tint each");
   c->add_option("--intrinsics-from", calibrate.intrinsics_from,
                 "Intrinsics for a camera folder's PNGs: an Azure Kinect .mkv (factory "
@@ -44,7 +43,6 @@ void register_calibrate(CLI::App& app, Commands& commands) {
               "Also refine target-placed cameras by ICP over the overlap");
   c->add_flag("--no-floor", calibrate.no_floor,
               "Keep the reference camera's frame; do not put the floor at y = 0");
-  commands.push_back({c, [args] { return run_calibrate(*args); }});
 }
 
 }  // namespace volcast

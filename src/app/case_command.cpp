@@ -101,9 +101,7 @@ int run_case(const CaseArgs& args) {
 }
 
 void register_case(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<CaseArgs>();
-  CaseArgs& case_args = *args;
-  auto* ca = app.add_subcommand(
+  auto [ca, case_args] = add_command<CaseArgs>(app, commands, run_case,
       "case",
       "Load a patient case (organ meshes, label volumes made into meshes, a DICOM series) and "
       "print its parts and series; the folder serve --case shows in the virtual OR");
@@ -114,7 +112,6 @@ void register_case(CLI::App& app, Commands& commands) {
                  "Triangle budget per part made from a label volume")
       ->check(CLI::Range(1000, 5000000))
       ->capture_default_str();
-  commands.push_back({ca, [args] { return run_case(*args); }});
 }
 
 }  // namespace volcast

@@ -4,6 +4,8 @@
 // when it is the one given.
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <memory>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -19,6 +21,18 @@ struct Command {
   std::function<int()> run;
 };
 using Commands = std::vector<Command>;
+
+/// Adds subcommand `name` (`help` is what --help says of it) to `app` and its Command to
+/// `commands`: `run(args)` on an `Args` that the subcommand's flags fill. Returns the subcommand,
+/// to add those flags to, and the Args (the Command owns them).
+template <typename Args, typename Run>
+std::pair<CLI::App*, Args&> add_command(CLI::App& app, Commands& commands, Run run,
+                                        const std::string& name, const std::string& help) {
+  auto args = std::make_shared<Args>();
+  CLI::App* sub = app.add_subcommand(name, help);
+  commands.push_back({sub, [args, run] { return run(*args); }});
+  return {sub, *args};
+}
 
 /// --low-latency's help text (serve, replay, relay, view, demo; bench --session prefixes it).
 extern const std::string kLowLatencyHelp;

@@ -18,9 +18,7 @@ int run_demo_with_flags(const DemoArgs& a) {
 }  // namespace
 
 void register_demo(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<DemoArgs>();
-  DemoArgs& demo = *args;
-  auto* d = app.add_subcommand("demo",
+  auto [d, demo] = add_command<DemoArgs>(app, commands, run_demo_with_flags,"demo",
                                "Stream the shared real recordings on loopback, render and report");
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
@@ -41,7 +39,6 @@ void register_demo(CLI::App& app, Commands& commands) {
               "Render the PNGs only at the end, not while streaming (latency without a GPU)");
   d->add_flag("--low-latency", demo.low_latency, kLowLatencyHelp);
   demo.stop = &g_interrupted;
-  commands.push_back({d, [args] { return run_demo_with_flags(*args); }});
 }
 
 }  // namespace volcast

@@ -195,9 +195,7 @@ int run_background(const BackgroundArgs& a) {
 }
 
 void register_filter(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<FilterArgs>();
-  FilterArgs& filter = *args;
-  auto* f = app.add_subcommand(
+  auto [f, filter] = add_command<FilterArgs>(app, commands, run_filter,
       "filter",
       "Run the depth filter chain on a recording; write before/after PNGs and quality figures");
   f->add_option("--source", filter.source, "Azure Kinect .mkv or image-sequence folder")
@@ -207,13 +205,10 @@ void register_filter(CLI::App& app, Commands& commands) {
                 "fx,fy,cx,cy for image sequences without intrinsics.json");
   f->add_option("--frames", filter.frames, "Frames to process (default: one pass, at most 300)");
   add_filter_flags(f, filter.filters, true);
-  commands.push_back({f, [args] { return run_filter(*args); }});
 }
 
 void register_background(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<BackgroundArgs>();
-  BackgroundArgs& background = *args;
-  auto* b = app.add_subcommand(
+  auto [b, background] = add_command<BackgroundArgs>(app, commands, run_background,
       "background", "Learn a camera's background (per-pixel minimum depth) from the empty room");
   b->add_option("--source", background.source, "Recording of the empty room")->required();
   b->add_option("--out", background.out, "Model file to write (16-bit PNG)")->required();
@@ -221,7 +216,6 @@ void register_background(CLI::App& app, Commands& commands) {
                 "fx,fy,cx,cy for image sequences without intrinsics.json");
   b->add_option("--frames", background.frames, "Frames to learn from")->capture_default_str();
   add_filter_flags(b, background.filters, false);
-  commands.push_back({b, [args] { return run_background(*args); }});
 }
 
 }  // namespace volcast

@@ -149,9 +149,7 @@ int run_info(const InfoArgs& a) {
 }
 
 void register_info(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<InfoArgs>();
-  InfoArgs& info = *args;
-  auto* i = app.add_subcommand(
+  auto [i, info] = add_command<InfoArgs>(app, commands, run_info,
       "info",
       "Describe a recording: streams, frames, derived intrinsics; reads every frame and lists "
       "those that cannot be read (exit code 0 whenever the source opens)");
@@ -159,7 +157,6 @@ void register_info(CLI::App& app, Commands& commands) {
                 "Azure Kinect .mkv, image-sequence folder, or Volcast recording .vcr")
       ->required();
   i->add_flag("--json", info.json, "Print JSON");
-  commands.push_back({i, [args] { return run_info(*args); }});
 }
 
 }  // namespace volcast

@@ -244,9 +244,7 @@ int run_export(const ExportArgs& a) {
 }
 
 void register_record(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<RecordArgs>();
-  RecordArgs& record = *args;
-  auto* rc = app.add_subcommand(
+  auto [rc, record] = add_command<RecordArgs>(app, commands, run_record,
       "record",
       "Record a server's stream, one tier as sent, to an append-only .vcr that survives a kill "
       "(replay it with `volcast replay`, export it with `volcast export`)");
@@ -265,13 +263,10 @@ void register_record(CLI::App& app, Commands& commands) {
   rc->add_option("--sync-interval", record.sync_interval_ms,
                  "Flush to disk at least this often (ms): what a power cut can lose")
       ->capture_default_str();
-  commands.push_back({rc, [args] { return run_record(*args); }});
 }
 
 void register_export(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<ExportArgs>();
-  ExportArgs& export_args = *args;
-  auto* ex = app.add_subcommand(
+  auto [ex, export_args] = add_command<ExportArgs>(app, commands, run_export,
       "export",
       "Export a recording (.vcr): binary PLY point clouds, 16-bit depth + color PNGs, or Azure "
       "Kinect-style Matroska");
@@ -287,7 +282,6 @@ void register_export(CLI::App& app, Commands& commands) {
                  "(FILE-camera-C.mkv) for several; `volcast info` reads it back");
   ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
   ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
-  commands.push_back({ex, [args] { return run_export(*args); }});
 }
 
 }  // namespace volcast

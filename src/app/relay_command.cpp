@@ -81,9 +81,7 @@ int run_relay(const ServeArgs& a) {
 }
 
 void register_relay(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<ServeArgs>();
-  ServeArgs& relay = *args;
-  auto* rl = app.add_subcommand(
+  auto [rl, relay] = add_command<ServeArgs>(app, commands, run_relay,
       "relay",
       "Serve a site's stream taken from a NATS cluster (serve --nats publishes it): as many "
       "relays as you like, on any machines; viewers need only a relay's link");
@@ -105,7 +103,6 @@ void register_relay(CLI::App& app, Commands& commands) {
                  "Give up unless the site's Welcome arrives this soon (ms)")
       ->capture_default_str();
   add_server_flags(rl, relay);
-  commands.push_back({rl, [args] { return run_relay(*args); }});
 }
 
 }  // namespace volcast

@@ -357,9 +357,7 @@ int run_serve(const ServeArgs& a) {
 }
 
 void register_serve(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<ServeArgs>();
-  ServeArgs& serve = *args;
-  auto* s = app.add_subcommand("serve", "Stream one site (several cameras) to viewers over TCP");
+  auto [s, serve] = add_command<ServeArgs>(app, commands, run_serve,"serve", "Stream one site (several cameras) to viewers over TCP");
   s->add_option(
        "--source", serve.sources,
        "Camera source: Azure Kinect .mkv, image-sequence folder (repeat per camera), or one "
@@ -367,17 +365,13 @@ void register_serve(CLI::App& app, Commands& commands) {
       ->required();
   s->get_option("--source")->required(false);
   add_serve_flags(s, serve);
-  commands.push_back({s, [args] { return run_serve(*args); }});
 }
 
 void register_replay(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<ServeArgs>();
-  ServeArgs& replay = *args;
-  auto* rp = app.add_subcommand(
+  auto [rp, replay] = add_command<ServeArgs>(app, commands, run_serve,
       "replay", "Serve a recording (.vcr) to viewers, paced as recorded, looping (serve's flags)");
   rp->add_option("file", replay.sources, "Volcast recording (.vcr)")->required()->expected(1);
   add_serve_flags(rp, replay);
-  commands.push_back({rp, [args] { return run_serve(*args); }});
 }
 
 }  // namespace volcast

@@ -284,10 +284,7 @@ int run_view(const ViewArgs& a) {
 }
 
 void register_view(CLI::App& app, Commands& commands) {
-  auto args = std::make_shared<ViewArgs>();
-  ViewArgs& view = *args;
-  auto* v =
-      app.add_subcommand("view", "Receive a site's stream and watch it in a window (or headset)");
+  auto [v, view] = add_command<ViewArgs>(app, commands, run_view,"view", "Receive a site's stream and watch it in a window (or headset)");
   add_connect_flags(v, view.connect, view.connect_file);
   v->add_option("--token", view.token, kTokenHelp);
   v->add_option("--fingerprint", view.fingerprint,
@@ -393,7 +390,6 @@ void register_view(CLI::App& app, Commands& commands) {
       "--seconds, Ctrl-C) or the server closed it; 1 when none arrived or it ended on an error "
       "(timeout, rejected, protocol error, connection lost), after printing the table and "
       "writing --stats-json with \"ended\" and \"error\".");
-  commands.push_back({v, [args] { return run_view(*args); }});
 }
 
 }  // namespace volcast

@@ -24,8 +24,9 @@ int run_selected_bench(const BenchArgs& a) {
 }  // namespace
 
 void register_bench(CLI::App& app, Commands& commands) {
-  auto [bn, bench] = add_command<BenchArgs>(app, commands, run_selected_bench,
-      "bench", "Time the filter chain and the codecs on real recordings (one thread)");
+  auto [bn, bench] = add_command<BenchArgs>(
+      app, commands, run_selected_bench, "bench",
+      "Time the filter chain and the codecs on real recordings (one thread)");
   bn->add_option("--dataset", bench.datasets, "Extra recording or folder (repeat)");
   bn->add_option("--data", bench.data,
                  "Folder with the shared recordings (default ../shared/data)");

@@ -10,8 +10,8 @@ int run_calibrate(const CalibrateArgs& a) {
 }
 
 void register_calibrate(CLI::App& app, Commands& commands) {
-  auto [c, args] = add_command<CalibrateArgs>(app, commands, run_calibrate,
-      "calibrate",
+  auto [c, args] = add_command<CalibrateArgs>(
+      app, commands, run_calibrate, "calibrate",
       "Place the cameras to each other and to the room from depth alone (lattice target where "
       "seen, else ICP over their overlap); print residuals, write a site config");
   CalibrationOptions& calibrate = args.options;

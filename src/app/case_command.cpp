@@ -101,8 +101,8 @@ int run_case(const CaseArgs& args) {
 }
 
 void register_case(CLI::App& app, Commands& commands) {
-  auto [ca, case_args] = add_command<CaseArgs>(app, commands, run_case,
-      "case",
+  auto [ca, case_args] = add_command<CaseArgs>(
+      app, commands, run_case, "case",
       "Load a patient case (organ meshes, label volumes made into meshes, a DICOM series) and "
       "print its parts and series; the folder serve --case shows in the virtual OR");
   ca->add_option("folder", case_args.folder, "Case folder (case.json optional)")->required();

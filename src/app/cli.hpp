@@ -5,8 +5,8 @@
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <memory>
-#include <utility>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace volcast {

@@ -18,8 +18,9 @@ int run_demo_with_flags(const DemoArgs& a) {
 }  // namespace
 
 void register_demo(CLI::App& app, Commands& commands) {
-  auto [d, demo] = add_command<DemoArgs>(app, commands, run_demo_with_flags,"demo",
-                               "Stream the shared real recordings on loopback, render and report");
+  auto [d, demo] =
+      add_command<DemoArgs>(app, commands, run_demo_with_flags, "demo",
+                            "Stream the shared real recordings on loopback, render and report");
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");

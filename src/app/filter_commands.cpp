@@ -195,8 +195,8 @@ int run_background(const BackgroundArgs& a) {
 }
 
 void register_filter(CLI::App& app, Commands& commands) {
-  auto [f, filter] = add_command<FilterArgs>(app, commands, run_filter,
-      "filter",
+  auto [f, filter] = add_command<FilterArgs>(
+      app, commands, run_filter, "filter",
       "Run the depth filter chain on a recording; write before/after PNGs and quality figures");
   f->add_option("--source", filter.source, "Azure Kinect .mkv or image-sequence folder")
       ->required();
@@ -208,8 +208,9 @@ void register_filter(CLI::App& app, Commands& commands) {
 }
 
 void register_background(CLI::App& app, Commands& commands) {
-  auto [b, background] = add_command<BackgroundArgs>(app, commands, run_background,
-      "background", "Learn a camera's background (per-pixel minimum depth) from the empty room");
+  auto [b, background] = add_command<BackgroundArgs>(
+      app, commands, run_background, "background",
+      "Learn a camera's background (per-pixel minimum depth) from the empty room");
   b->add_option("--source", background.source, "Recording of the empty room")->required();
   b->add_option("--out", background.out, "Model file to write (16-bit PNG)")->required();
   b->add_option("--intrinsics", background.intrinsics,

@@ -149,8 +149,8 @@ int run_info(const InfoArgs& a) {
 }
 
 void register_info(CLI::App& app, Commands& commands) {
-  auto [i, info] = add_command<InfoArgs>(app, commands, run_info,
-      "info",
+  auto [i, info] = add_command<InfoArgs>(
+      app, commands, run_info, "info",
       "Describe a recording: streams, frames, derived intrinsics; reads every frame and lists "
       "those that cannot be read (exit code 0 whenever the source opens)");
   i->add_option("file", info.file,

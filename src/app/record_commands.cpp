@@ -244,8 +244,8 @@ int run_export(const ExportArgs& a) {
 }
 
 void register_record(CLI::App& app, Commands& commands) {
-  auto [rc, record] = add_command<RecordArgs>(app, commands, run_record,
-      "record",
+  auto [rc, record] = add_command<RecordArgs>(
+      app, commands, run_record, "record",
       "Record a server's stream, one tier as sent, to an append-only .vcr that survives a kill "
       "(replay it with `volcast replay`, export it with `volcast export`)");
   add_connect_flags(rc, record.connect, record.connect_file);
@@ -266,8 +266,8 @@ void register_record(CLI::App& app, Commands& commands) {
 }
 
 void register_export(CLI::App& app, Commands& commands) {
-  auto [ex, export_args] = add_command<ExportArgs>(app, commands, run_export,
-      "export",
+  auto [ex, export_args] = add_command<ExportArgs>(
+      app, commands, run_export, "export",
       "Export a recording (.vcr): binary PLY point clouds, 16-bit depth + color PNGs, or Azure "
       "Kinect-style Matroska");
   ex->add_option("file", export_args.file, "Volcast recording (.vcr)")->required();

@@ -81,8 +81,8 @@ int run_relay(const ServeArgs& a) {
 }
 
 void register_relay(CLI::App& app, Commands& commands) {
-  auto [rl, relay] = add_command<ServeArgs>(app, commands, run_relay,
-      "relay",
+  auto [rl, relay] = add_command<ServeArgs>(
+      app, commands, run_relay, "relay",
       "Serve a site's stream taken from a NATS cluster (serve --nats publishes it): as many "
       "relays as you like, on any machines; viewers need only a relay's link");
   rl->add_option("--nats", relay.nats, "The NATS cluster: URL[,URL...] (e.g. nats://HOST:4222)")

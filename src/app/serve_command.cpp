@@ -357,7 +357,8 @@ int run_serve(const ServeArgs& a) {
 }
 
 void register_serve(CLI::App& app, Commands& commands) {
-  auto [s, serve] = add_command<ServeArgs>(app, commands, run_serve,"serve", "Stream one site (several cameras) to viewers over TCP");
+  auto [s, serve] = add_command<ServeArgs>(app, commands, run_serve, "serve",
+                                           "Stream one site (several cameras) to viewers over TCP");
   s->add_option(
        "--source", serve.sources,
        "Camera source: Azure Kinect .mkv, image-sequence folder (repeat per camera), or one "
@@ -368,8 +369,9 @@ void register_serve(CLI::App& app, Commands& commands) {
 }
 
 void register_replay(CLI::App& app, Commands& commands) {
-  auto [rp, replay] = add_command<ServeArgs>(app, commands, run_serve,
-      "replay", "Serve a recording (.vcr) to viewers, paced as recorded, looping (serve's flags)");
+  auto [rp, replay] = add_command<ServeArgs>(
+      app, commands, run_serve, "replay",
+      "Serve a recording (.vcr) to viewers, paced as recorded, looping (serve's flags)");
   rp->add_option("file", replay.sources, "Volcast recording (.vcr)")->required()->expected(1);
   add_serve_flags(rp, replay);
 }

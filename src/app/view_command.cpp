@@ -284,7 +284,9 @@ int run_view(const ViewArgs& a) {
 }
 
 void register_view(CLI::App& app, Commands& commands) {
-  auto [v, view] = add_command<ViewArgs>(app, commands, run_view,"view", "Receive a site's stream and watch it in a window (or headset)");
+  auto [v, view] =
+      add_command<ViewArgs>(app, commands, run_view, "view",
+                            "Receive a site's stream and watch it in a window (or headset)");
   add_connect_flags(v, view.connect, view.connect_file);
   v->add_option("--token", view.token, kTokenHelp);
   v->add_option("--fingerprint", view.fingerprint,

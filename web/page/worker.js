@@ -1,5 +1,5 @@
 // The browser viewer's stream worker: the WebSocket to `volcast serve --web`, the Volcast
-// protocol (src/net/include/volcast/net/protocol.hpp, version 5: the same bytes as a native
+// protocol (src/net/protocol/include/volcast/net/protocol/protocol.hpp, version 5: the same bytes as a native
 // viewer's TLS stream, each message one binary WebSocket message or split across several), and
 // decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
 // JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,

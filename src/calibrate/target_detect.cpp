@@ -246,9 +246,7 @@ std::optional<CentreLens> centre_lens(const RayTable& rays, int w, int h) {
 struct PointGrid {
   const std::vector<Eigen::Vector3f>& points;
   int w, h;
-  const Eigen::Vector3f& at(int x, int y) const {
-    return points[static_cast<size_t>(y) * w + x];
-  }
+  const Eigen::Vector3f& at(int x, int y) const { return points[static_cast<size_t>(y) * w + x]; }
 };
 
 // 1. Votes: each sample's normal (from neighbours kNormalStep pixels away, toward the camera)

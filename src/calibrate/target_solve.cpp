@@ -126,8 +126,8 @@ void grow_from_world(std::span<const TargetObservation> observations,
 // Alternating least squares over the placed cameras and captures until no pose moves by 1e-9 m
 // (200 rounds at most); the world's own frame (reference camera or root capture) stays.
 void refine_poses(std::span<const TargetObservation> observations,
-                  const std::vector<size_t>& usable, const TargetModel& model,
-                  int reference_camera, int root_capture, TargetSolution& s) {
+                  const std::vector<size_t>& usable, const TargetModel& model, int reference_camera,
+                  int root_capture, TargetSolution& s) {
   const size_t nc = s.world_from_camera.size(), nk = s.world_from_target.size();
   const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
   Eigen::Matrix3Xd a, b;
@@ -184,8 +184,7 @@ void refine_poses(std::span<const TargetObservation> observations,
 
 // Residuals (rms_m, features) per camera, and why each unplaced camera is unplaced.
 void add_residuals(std::span<const TargetObservation> observations,
-                   const std::vector<size_t>& usable, const TargetModel& model,
-                   TargetSolution& s) {
+                   const std::vector<size_t>& usable, const TargetModel& model, TargetSolution& s) {
   const size_t nc = s.world_from_camera.size();
   const auto model_point = [&](int j) { return model.centres_m[static_cast<size_t>(j)]; };
   std::vector<double> sum(nc, 0);

@@ -311,7 +311,8 @@ struct Work {
 bool near_start(const std::optional<RigidTransform>& start, const RigidTransform& world_from_c,
                 const TargetlessOptions& o) {
   if (!start) return true;
-  const double angle = Eigen::AngleAxisd(start->rotation.transpose() * world_from_c.rotation).angle();
+  const double angle =
+      Eigen::AngleAxisd(start->rotation.transpose() * world_from_c.rotation).angle();
   return (world_from_c.translation - start->translation).norm() <= o.start_tolerance_m &&
          angle <= o.start_tolerance_deg * M_PI / 180;
 }
@@ -347,14 +348,13 @@ void try_pair(const Work& w, size_t c, size_t p,
     const double violations = std::max(seen_by_p, seen_by_c);
     const bool near = near_start(w.start[c], *pose[p] * f.target_from_source, o);
     const bool ok = violations <= o.max_free_space_violations && near;
-    w.note(cam(c) + " against " + cam(p) +
-         (is_start ? ": its start" : ": features + RANSAC") +
-         ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
-         format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
-         "% in the other's free space" +
-         (ok     ? ""
-          : near ? " (rejected)"
-                 : " (rejected: too far from its start)"));
+    w.note(cam(c) + " against " + cam(p) + (is_start ? ": its start" : ": features + RANSAC") +
+           ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
+           format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
+           "% in the other's free space" +
+           (ok     ? ""
+            : near ? " (rejected)"
+                   : " (rejected: too far from its start)"));
     if (ok && f.fitness > t.score) {
       t.score = f.fitness;
       t.p_from_c = f.target_from_source;
@@ -421,7 +421,7 @@ void refine_jointly(const Work& w, size_t ref, std::vector<std::optional<RigidTr
       pose[c] = f.target_from_source;
       if (round == o.joint_rounds - 1)
         w.note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
-             "% overlap, RMS " + format_fixed(f.rms_m * 1e3, 1) + " mm");
+               "% overlap, RMS " + format_fixed(f.rms_m * 1e3, 1) + " mm");
     }
 }
 
@@ -475,12 +475,15 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
   open3d::utility::random::Seed(static_cast<int>(o.seed));
   TargetlessResult result;
-  Work w{cameras, start, o,
+  Work w{cameras,
+         start,
+         o,
          [&](const std::string& line) {
            result.log.push_back(line);
            if (o.progress) o.progress(line);
          },
-         std::vector<std::vector<Eigen::Vector3d>>(n), std::vector<std::vector<Eigen::Vector3d>>(n),
+         std::vector<std::vector<Eigen::Vector3d>>(n),
+         std::vector<std::vector<Eigen::Vector3d>>(n),
          std::vector<Levels>(n)};
   std::vector<std::vector<Eigen::Vector3d>>& clouds = w.clouds;
   for (size_t c = 0; c < n; ++c) clouds[c] = cameras[c].cloud;
@@ -517,8 +520,9 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
   const auto started = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
   for (size_t c = 0; c < n; ++c)
     if (pose[c])
-      w.note(cam(c) + " before the joint ICP: overlap " + format_fixed(started[c].fraction * 100, 1) +
-           "%, RMS " + format_fixed(started[c].rms_m * 1e3, 1) + " mm");
+      w.note(cam(c) + " before the joint ICP: overlap " +
+             format_fixed(started[c].fraction * 100, 1) + "%, RMS " +
+             format_fixed(started[c].rms_m * 1e3, 1) + " mm");
   refine_jointly(w, ref, pose);
   verify(w, ref, pose, result);
   return result;

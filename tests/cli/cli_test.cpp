@@ -10,12 +10,12 @@
 #include <fmt/format.h>
 
 #include "support/test_data.hpp"
+#include "support/xvfb.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/net/transport/tls.hpp"
-#include "support/xvfb.hpp"
 
 namespace volcast {
 namespace {

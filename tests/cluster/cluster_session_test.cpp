@@ -29,10 +29,10 @@ using namespace cluster;
 using namespace std::chrono_literals;
 using test::eventually;
 using test::hand_driven;
-using test::same_pose;
-using test::turned;
 using test::named;
+using test::same_pose;
 using test::TestParticipant;
+using test::turned;
 
 NatsOptions nats_at(const std::string& url) {
   NatsOptions o;

@@ -6,8 +6,8 @@
 
 #include <thread>
 
-#include "support/impaired_stream.hpp"
 #include "support/impaired_link.hpp"
+#include "support/impaired_stream.hpp"
 #include "support/test_data.hpp"
 
 namespace volcast {

@@ -11,13 +11,13 @@
 
 #include "support/hands_site.hpp"
 #include "support/test_data.hpp"
+#include "support/web_peer.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/net/transport/tls.hpp"
 #include "volcast/net/transport/trust.hpp"
-#include "support/web_peer.hpp"
 
 namespace volcast {
 namespace {

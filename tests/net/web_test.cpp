@@ -17,6 +17,7 @@
 #include <openssl/evp.h>
 
 #include "support/session_site.hpp"
+#include "support/web_peer.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -24,7 +25,6 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/protocol/protocol.hpp"
 #include "volcast/net/transport/connection.hpp"
-#include "support/web_peer.hpp"
 
 namespace volcast {
 namespace {

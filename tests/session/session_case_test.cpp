@@ -18,11 +18,11 @@ namespace {
 using namespace std::chrono_literals;
 using test::eventually;
 using test::hand_driven;
-using test::same_pose;
-using test::turned;
 using test::named;
+using test::same_pose;
 using test::SessionSite;
 using test::TestParticipant;
+using test::turned;
 
 // Synthetic: one object (a tetrahedron, 10 cm) and a 4 x 2 x 3 series with an overlay.
 session::SharedCase synthetic_case(const std::string& name = "synthetic") {

@@ -15,6 +15,7 @@
 
 #include "support/session_site.hpp"
 #include "support/test_data.hpp"
+#include "support/xvfb.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -30,7 +31,6 @@
 #include "volcast/viewer/pose_sliders.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
-#include "support/xvfb.hpp"
 
 namespace volcast {
 namespace {

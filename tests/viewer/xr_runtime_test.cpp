@@ -19,10 +19,10 @@
 
 #include "support/session_site.hpp"
 #include "support/test_data.hpp"
+#include "support/xvfb.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/viewer/xr.hpp"
-#include "support/xvfb.hpp"
 
 namespace volcast {
 namespace {

@@ -9,8 +9,8 @@
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
-#include "volcast/core/worker_pool.hpp"
 #include "volcast/core/wire.hpp"
+#include "volcast/core/worker_pool.hpp"
 
 namespace volcast::protocol {
 

@@ -49,7 +49,7 @@ struct Client::Impl {
   std::unique_ptr<FrameSetDecoder> decoder;  // the tier's decoders (frame_set.hpp), after Welcome
   std::unique_ptr<WorkerPool> pool;
   protocol::FrameSetView unopened;  // a sealed frame set a receive-only viewer did not open
-  std::vector<uint8_t> buffer;  // the last message's payload is its first payload_bytes bytes
+  std::vector<uint8_t> buffer;      // the last message's payload is its first payload_bytes bytes
   size_t payload_bytes = 0;
   size_t wire_bytes = 0;          // the last message's bytes on the wire (sealed body included)
   protocol::SealedFrameSet seal;  // the last SealedFrameSet's descriptor (chunk list reused)

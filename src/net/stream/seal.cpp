@@ -10,8 +10,8 @@
 #include <string>
 
 #include "volcast/core/error.hpp"
-#include "volcast/core/worker_pool.hpp"
 #include "volcast/core/wire.hpp"
+#include "volcast/core/worker_pool.hpp"
 
 namespace volcast {
 namespace {

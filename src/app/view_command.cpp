@@ -41,6 +41,17 @@ CameraPassOptions pass_options(const ViewArgs& a) {
   return pass;
 }
 
+// The desktop window's options that both kinds of view share: size, pass, viewpoint, screenshot.
+DesktopOptions desktop_options(const ViewArgs& a, const ViewerOptions& opt) {
+  DesktopOptions desktop;
+  desktop.width = opt.width;
+  desktop.height = opt.height;
+  desktop.pass = opt.pass;
+  desktop.view = opt.view;
+  desktop.screenshot = a.screenshot;
+  return desktop;
+}
+
 // The presenter for a viewer with a display: OpenXR with --xr when a runtime is available, else
 // the desktop window; empty (headless) when no window can be opened. Each fallback is one line.
 Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
@@ -58,13 +69,8 @@ Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
     options.view = opt.view;
     return xr_presenter(options);
   }
-  DesktopOptions desktop;
-  desktop.width = opt.width;
-  desktop.height = opt.height;
-  desktop.pass = opt.pass;
+  DesktopOptions desktop = desktop_options(a, opt);
   desktop.avatar_filter = opt.avatar_filter;
-  desktop.view = opt.view;
-  desktop.screenshot = a.screenshot;
   if (!a.site_config.empty()) desktop.site_config = a.site_config;
   return desktop_presenter(desktop);
 }
@@ -123,12 +129,7 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
     options.scene = scene;
     opt.presenter = xr_presenter(options);
   } else if (window) {
-    DesktopOptions desktop;
-    desktop.width = opt.width;
-    desktop.height = opt.height;
-    desktop.pass = opt.pass;
-    desktop.view = opt.view;
-    desktop.screenshot = a.screenshot;
+    DesktopOptions desktop = desktop_options(a, opt);
     desktop.participant = participant;
     desktop.scene = scene;
     desktop.title = "volcast: " + a.name + " in " + a.join;

@@ -2,4 +2,6 @@
 // subcommand registers itself from its own file (src/app/cli.hpp).
 #include "run_cli.hpp"
 
-int main(int argc, char** argv) { return volcast::run_cli(argc, argv); }
+int main(int argc, char** argv) {
+  return volcast::run_cli(argc, argv);
+}

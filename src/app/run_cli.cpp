@@ -6,8 +6,8 @@
 #include <csignal>
 
 #include "cli.hpp"
-#include "run_cli.hpp"
 #include "commands.hpp"
+#include "run_cli.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 
 namespace volcast {

@@ -62,6 +62,10 @@ SessionHub::Session& SessionHub::make_session(const std::string& name, bool stan
   site->info.role = session::Role::kOrSite;
   site->info.has_camera = true;
   site->session = s.get();
+  site->info.muted = site_muted_;
+  if (site_muted_)
+    site->voice_state = share(session::forward(Type::kVoiceStateFrom, kSiteParticipant,
+                                               session::serialize_voice_state(true)));
   s->members.emplace(kSiteParticipant, std::move(site));
   reset_case_state(*s);
   Session& ref = *s;
@@ -283,6 +287,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
     send(viewer, session::message(Type::kParticipantJoined, session::serialize(info)));
     if (other->camera_message) send_shared(viewer, other->camera_message);
     if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
+    if (other->voice_state) send_shared(viewer, other->voice_state);
   }
   send_case_state(*s, viewer);
   const Shared announce = share(
@@ -395,6 +400,10 @@ void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> 
         }
       return;
     }
+    case Type::kVoice:
+    case Type::kVoiceState:
+      if (!m) return error(viewer, "voice: not in a session (join one first)");
+      return handle_voice(*m, static_cast<Type>(type), payload);
     case Type::kGrab:
     case Type::kObjectMove:
     case Type::kRelease:

@@ -30,6 +30,13 @@ inline uint64_t object_key(uint16_t object) {
   return (uint64_t{3} << 32) | object;
 }
 inline constexpr uint64_t kMonitorKey = uint64_t{4} << 32;
+// A speaker's voice packets queue up (session_port.hpp kQueuedStreamKey): none replaces another.
+inline uint64_t voice_key(uint32_t id) {
+  return kQueuedStreamKey | (uint64_t{5} << 32) | id;
+}
+inline uint64_t voice_state_key(uint32_t id) {
+  return (uint64_t{6} << 32) | id;
+}
 
 inline int64_t steady_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
@@ -51,6 +58,8 @@ struct SessionHub::Member {
   bool dropping = false;  // its last message was malformed: it leaves as kDropped
   std::optional<session::AvatarCamera> camera;
   Shared camera_message, last_pose;  // forwarded forms, for participants who join later
+  Shared voice_state;                // forwarded VoiceState, for participants who join later
+  uint32_t malformed_voice = 0;      // voice packets refused (voice_messages.hpp)
 };
 
 struct SessionHub::Session {

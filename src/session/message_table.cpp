@@ -5,6 +5,7 @@
 
 #include "volcast/core/error.hpp"
 #include "volcast/session/objects.hpp"
+#include "volcast/session/voice_messages.hpp"
 
 namespace volcast::session {
 namespace {
@@ -55,6 +56,11 @@ constexpr std::array kTable{
                 [](Payload p) { parse_object_request(p, true); }},
     MessageKind{Type::kSetMonitor, "set monitor", kUp, kSmall, {150, 75, "monitor changes"},
                 [](Payload p) { parse_set_monitor(p); }},
+    // Voice: 50 packets a second while talking; a burst after a stall of the sender's link.
+    MessageKind{Type::kVoice, "voice", kUp, kVoiceMessageLimit, {60, 40, "voice packets"},
+                [](Payload p) { parse_voice(p); }},
+    MessageKind{Type::kVoiceState, "voice state", kUp, kSmall, {5, 10, "voice states"},
+                [](Payload p) { parse_voice_state(p); }},
     MessageKind{Type::kSessionList, "session list", kDown, kSmall, kServers,
                 [](Payload p) { parse_session_list(p); }},
     MessageKind{Type::kJoined, "joined", kDown, kSmall, kServers,
@@ -80,6 +86,10 @@ constexpr std::array kTable{
                 [](Payload p) { parse_object_state(p); }},
     MessageKind{Type::kMonitorState, "monitor state", kDown, kSmall, kServers,
                 [](Payload p) { parse_monitor_state(p); }},
+    MessageKind{Type::kVoiceFrom, "voice", kDown, kVoiceMessageLimit + 4, kServers,
+                forwarded<parse_voice>},
+    MessageKind{Type::kVoiceStateFrom, "voice state", kDown, kSmall, kServers,
+                forwarded<parse_voice_state>},
 };
 // clang-format on
 

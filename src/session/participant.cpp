@@ -42,6 +42,22 @@ void Participant::detach() {
   m.client.set_session_handler(nullptr, nullptr);
 }
 
+void Participant::send_voice(const session::VoicePacketView& packet) {
+  Impl& m = *impl_;
+  if (!joined()) return;
+  ++m.voice_sent;
+  m.post(Type::kVoice, session::serialize(packet), voice_key());
+}
+
+void Participant::set_muted(bool muted) {
+  impl_->post(Type::kVoiceState, session::serialize_voice_state(muted));
+}
+
+void Participant::set_voice_handler(VoiceHandler handler) {
+  std::lock_guard lock(impl_->voice_mutex);
+  impl_->voice_handler = std::move(handler);
+}
+
 void Participant::publish(const BodyPose& playarea_pose) {
   Impl& m = *impl_;
   session::PoseMessage msg;
@@ -245,6 +261,7 @@ ParticipantStats Participant::stats() const {
   ParticipantStats s;
   s.poses_sent = m.poses_sent;
   s.avatar_frames_sent = m.avatar_frames_sent;
+  s.voice_sent = m.voice_sent;
   s.round_trip_samples = m.round_trips_ms.size();
   s.round_trip_ms_p50 = percentile(m.round_trips_ms, 0.5);
   s.round_trip_ms_p99 = percentile(m.round_trips_ms, 0.99);

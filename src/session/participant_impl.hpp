@@ -14,6 +14,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/net/stream/session_port.hpp"
 #include "volcast/session/participant.hpp"
 #include "volcast/session/rate_limit.hpp"
 
@@ -30,6 +31,9 @@ inline uint64_t pose_key() {
 }
 inline uint64_t avatar_key() {
   return 2;
+}
+inline uint64_t voice_key() {  // packets queue up (session_port.hpp), none replaces another
+  return kQueuedStreamKey | 5;
 }
 
 inline int64_t steady_us() {
@@ -94,7 +98,10 @@ struct Participant::Impl {
   std::map<uint32_t, int64_t> pose_sent_us;  // sequence -> local steady time, echoes pending
   std::vector<double> round_trips_ms;
   uint64_t poses_sent = 0, avatar_frames_sent = 0;
+  std::atomic<uint64_t> voice_sent{0};
   std::shared_ptr<const CameraFrame> own;
+  std::mutex voice_mutex;  // the handler (taken on the receiving thread without `mutex`)
+  VoiceHandler voice_handler;
 
   struct Remote {
     RemoteParticipant info;
@@ -146,6 +153,8 @@ struct Participant::Impl {
   void on_avatar_camera(std::span<const uint8_t> p);
   void on_avatar_frame(std::span<const uint8_t> p, int64_t now_server);
   void on_object_state(const session::ObjectState& o);
+  // A voice packet: parsed and handed to the handler before taking `mutex`.
+  void handle_voice(std::span<const uint8_t> p);
 
   // A move or release of `object` at `pose` (shown here at once), coalesced per object.
   void post_object(Type type, uint16_t object, const Pose& pose) {

@@ -19,8 +19,23 @@ void Participant::Impl::handle_case(std::span<const uint8_t> p) {
   shared_case = std::move(c);
 }
 
+void Participant::Impl::handle_voice(std::span<const uint8_t> p) {
+  const auto [from, payload] = session::split_forwarded(p);
+  const session::VoicePacketView packet = session::parse_voice(payload);
+  {
+    std::lock_guard lock(mutex);
+    const auto it = remotes.find(from);
+    if (it == remotes.end()) return;  // left meanwhile
+    ++it->second->info.voice_packets;
+    it->second->info.last_voice_us = wall_clock_us();
+  }
+  std::lock_guard lock(voice_mutex);
+  if (voice_handler) voice_handler(from, packet);
+}
+
 void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
   if (static_cast<Type>(type) == Type::kCase) return handle_case(p);
+  if (static_cast<Type>(type) == Type::kVoiceFrom) return handle_voice(p);
   const int64_t now_server = server_now();
   std::lock_guard lock(mutex);
   switch (static_cast<Type>(type)) {
@@ -62,6 +77,12 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
       const session::MonitorState m = session::parse_monitor_state(p);
       if (!shared_case || m.generation != shared_case->generation) return;
       monitor = m;
+      return;
+    }
+    case Type::kVoiceStateFrom: {
+      const auto [from, payload] = session::split_forwarded(p);
+      const bool muted = session::parse_voice_state(payload);
+      if (const auto it = remotes.find(from); it != remotes.end()) it->second->info.muted = muted;
       return;
     }
     default:

@@ -21,6 +21,7 @@
 #include "volcast/core/text.hpp"
 #include "volcast/core/wire.hpp"
 #include "volcast/core/worker_pool.hpp"
+#include "volcast/net/stream/session_port.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/stream/seal.hpp"
 #include "volcast/net/transport/connection.hpp"
@@ -522,15 +523,7 @@ void Client::post_session(std::vector<uint8_t> message, uint64_t coalesce_key) {
   Impl& m = *impl_;
   {
     std::lock_guard lock(m.outbox_mutex);
-    bool replaced = false;
-    if (coalesce_key != 0)
-      for (auto& q : m.outbox)
-        if (q.first == coalesce_key) {
-          q.second = std::move(message);
-          replaced = true;
-          break;
-        }
-    if (!replaced) m.outbox.emplace_back(coalesce_key, std::move(message));
+    queue_session_message(m.outbox, coalesce_key, std::move(message));
   }
   const uint64_t one = 1;
   [[maybe_unused]] const auto n = ::write(m.wake_fd, &one, sizeof one);

@@ -254,21 +254,10 @@ bool Server::send_session(uint64_t viewer, std::shared_ptr<const std::vector<uin
   for (auto& v : impl_->viewers) {
     if (v.id != viewer) continue;
     if (v.done || !v.kicked.empty()) return false;
-    bool replaced = false;
-    if (coalesce_key != 0)
-      for (auto& m : v.outbox)
-        if (m.first == coalesce_key) {
-          m.second = std::move(message);
-          replaced = true;
-          break;
-        }
-    if (!replaced) {
-      if (v.outbox.size() >= 4096) {
-        v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
-      } else {
-        v.outbox.emplace_back(coalesce_key, std::move(message));
-      }
-    }
+    if (v.outbox.size() >= 4096)
+      v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
+    else
+      v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
     v.wake.signal();
     return true;
   }

@@ -23,6 +23,7 @@
 // characters and mixed-script look-alikes (names.hpp); a display name that looks like another's
 // in the session (the same UTS #39 skeleton) is refused. The Join is refused naming the problem.
 #include <atomic>
+#include <functional>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -36,6 +37,7 @@
 #include "volcast/session/objects.hpp"
 #include "volcast/session/rate_limit.hpp"
 #include "volcast/session/room.hpp"
+#include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
 
@@ -53,6 +55,11 @@ struct SessionHubConfig {
   int max_participants = 16;  ///< per session, the OR site included
   /// A session put back by restore() (saved state) that nobody joins is removed after this long.
   int unjoined_session_ms = 10 * 60 * 1000;
+  /// The OR site's loudspeaker (voice_messages.hpp): called with every voice packet a participant
+  /// of any session sends, and its sender's participant id, after the hub checked it. Called with
+  /// the hub's lock held, on the sender's thread: it must only queue the packet. Null: the site
+  /// does not listen.
+  std::function<void(uint32_t participant, const session::VoicePacketView& packet)> site_listener;
 };
 
 /// What the hub has handled, since it started.
@@ -65,6 +72,9 @@ struct SessionHubStats {
   uint64_t rate_limited = 0;      ///< messages dropped over their type's limit (rate_limit.hpp)
   uint64_t joins_refused = 0;     ///< Joins answered with a SessionError
   uint64_t sessions_removed = 0;  ///< sessions removed (empty)
+  /// Voice packets received (the site's own included), sent on to receivers, and refused as
+  /// malformed (voice_messages.hpp: each loses only itself until kMaxMalformedVoice).
+  uint64_t voice_in = 0, voice_out = 0, voice_malformed = 0;
 };
 
 /// One participant as the hub sees it.
@@ -76,6 +86,8 @@ struct SessionMember {
   bool has_camera = false;
   session::Spot spot;
   uint64_t poses = 0, avatar_frames = 0;
+  uint64_t voice_packets = 0;
+  bool muted = false;  ///< its last VoiceState (voice_messages.hpp)
 };
 
 class SessionHub final : public SessionPort {
@@ -126,6 +138,13 @@ class SessionHub final : public SessionPort {
                const std::vector<session::ObjectState>& objects,
                const std::optional<session::MonitorState>& monitor);
 
+  /// The OR site's microphone (participant 1): forwards `packet` (voice_messages.hpp; the site's
+  /// own sequence, frame and capture time on the server's clock) to every participant of every
+  /// session. Thread-safe; never blocks on the network.
+  void site_voice(const session::VoicePacketView& packet);
+  /// The OR site's microphone muted or not (0x4f to everyone, and to those who join later).
+  void site_voice_state(bool muted);
+
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;
   void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) override;
@@ -148,6 +167,9 @@ class SessionHub final : public SessionPort {
   void send_case_state(const Session& s, uint64_t viewer);
   void handle_object(Member& m, session::Type type, std::span<const uint8_t> payload);
   void broadcast_object(const Session& s, uint16_t object, const Member* except);
+  void handle_voice(Member& m, session::Type type, std::span<const uint8_t> payload);
+  void broadcast_voice(uint32_t from, const std::shared_ptr<const std::vector<uint8_t>>& message,
+                       const Session& s);
 
   SessionHubConfig config_;
   mutable std::mutex mutex_;
@@ -164,6 +186,7 @@ class SessionHub final : public SessionPort {
   std::shared_ptr<const session::SharedCase> case_;
   std::shared_ptr<const std::vector<uint8_t>> case_message_;
   uint32_t case_generation_ = 0;
+  bool site_muted_ = false;
   std::atomic<bool> stopping_{false};
   std::thread presence_;
 };

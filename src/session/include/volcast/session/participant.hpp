@@ -7,6 +7,7 @@
 // the session round trip (own pose -> seen by another -> echoed back), pose rates and ages, and
 // avatar latency, all on the server's clock (Client::clock_offset_us).
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -19,6 +20,7 @@
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"
+#include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
 
@@ -61,6 +63,9 @@ struct RemoteParticipant {
   /// playarea_from_camera; absent without a camera.
   std::optional<CameraCalibration> avatar_camera;
   uint64_t avatar_sequence = 0;  ///< newest avatar frame received (0: none)
+  bool muted = false;            ///< its microphone is muted (voice_messages.hpp 0x4f)
+  uint64_t voice_packets = 0;    ///< voice packets received from it
+  int64_t last_voice_us = 0;     ///< local wall clock of the newest (0: none)
 };
 
 /// A teleport seen in the session (anyone's, one's own included).
@@ -112,7 +117,7 @@ struct RemoteStats {
 };
 
 struct ParticipantStats {
-  uint64_t poses_sent = 0, avatar_frames_sent = 0;
+  uint64_t poses_sent = 0, avatar_frames_sent = 0, voice_sent = 0;
   size_t round_trip_samples = 0;
   double round_trip_ms_p50 = 0, round_trip_ms_p99 = 0;
   std::vector<RemoteStats> others;  ///< by id: everyone seen in the session (those who left too),
@@ -145,6 +150,18 @@ class Participant {
   /// clock); kept as own_frame(). Sizes as its calibration, else Error; without a camera in the
   /// config, Error. Ignored until joined. Thread-safe.
   void upload(std::shared_ptr<const CameraFrame> frame, int64_t capture_us);
+  /// Sends one voice packet of this participant's microphone (voice_messages.hpp; capture time on
+  /// the server's clock: local wall clock + clock_offset_us()). Up to kMaxQueuedVoice wait for the
+  /// connection; one more drops the oldest. Ignored until joined. Thread-safe.
+  void send_voice(const session::VoicePacketView& packet);
+  /// Tells the others whether this participant's microphone is muted (0x0f). Thread-safe.
+  void set_muted(bool muted);
+  /// Called with every voice packet received (0x4e: from `participant`, 1 = the OR site), on the
+  /// client's receiving thread, the packet's bytes valid during the call: it must only queue
+  /// them. Null: voices are ignored. Set it before receiving starts or from that thread.
+  using VoiceHandler =
+      std::function<void(uint32_t participant, const session::VoicePacketView& packet)>;
+  void set_voice_handler(VoiceHandler handler);
   /// Sends a Heartbeat (presence while no pose is published).
   void heartbeat();
   void list_sessions();

@@ -19,6 +19,9 @@
 //   teleports 0x06       4 a second, 8 at once
 //   lobby: list 0x01, join 0x02, leave 0x03   2 a second, 5 at once
 //   avatar camera 0x07   1 a second, 2 at once (sent once; twice is refused by the hub)
+//   voice 0x0e           60 a second, 40 at once (50 a second while talking, a burst after a
+//                        stall of the sender's link)
+//   voice state 0x0f     5 a second, 10 at once (mute toggles)
 // and the sessions one participant (one connection) may create (kSessionCreation): 4 at once,
 // then one every 15 s.
 #include <array>
@@ -66,7 +69,7 @@ class RateLimiter {
     uint64_t drops = 0;  // in the burst going on (0: none)
     RateLimit limit;
   };
-  static constexpr size_t kSlots = 0x0e + 1;  // message types 0x00..0x0d, then creation
+  static constexpr size_t kSlots = 0x10 + 1;  // message types 0x00..0x0f, then creation
   Admission take(Bucket& b, const RateLimit& limit, int64_t now_us);
   static std::string burst_count(const Bucket& b, int64_t now_us);
   mutable std::mutex mutex_;

@@ -120,6 +120,9 @@ struct ViewerReport {
   uint64_t frames_dropped = 0;  ///< frame sets of its tier it skipped (pacing, budget, no key yet)
   uint64_t frames_stale = 0;    ///< of those, skipped for being older than the latency budget
   uint64_t key_requests = 0;    ///< KeyFrameRequests the viewer sent
+  /// Session messages of a queued stream (voice) dropped, oldest first, for it being slow
+  /// (session_port.hpp kQueuedStreamKey).
+  uint64_t session_dropped = 0;
   uint64_t bytes_sent = 0;
   double min_rtt_ms = 0;         ///< path round trip (send -> Ack), windowed minimum
   double bottleneck_mbit_s = 0;  ///< delivery-rate estimate, windowed maximum

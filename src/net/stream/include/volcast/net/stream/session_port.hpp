@@ -10,6 +10,40 @@
 
 namespace volcast {
 
+/// A coalesce key with this bit set marks a stream of messages that must not replace each other
+/// (voice: every packet plays): up to kMaxQueuedPerStream of one key wait for a receiver; one more
+/// drops the oldest of them (a slow receiver loses its oldest audio first; nobody else waits).
+inline constexpr uint64_t kQueuedStreamKey = uint64_t{1} << 62;
+inline constexpr size_t kMaxQueuedPerStream = 8;
+
+/// Queues `message` under `key` in `outbox` (pairs of key and message, in send order): key 0
+/// appends; a key with kQueuedStreamKey appends after dropping the oldest of its key when
+/// kMaxQueuedPerStream are queued; any other key replaces a queued message with the same key, or
+/// appends. Returns the number of messages dropped (0 or 1). For Server and Client outboxes.
+template <typename Outbox, typename Message>
+size_t queue_session_message(Outbox& outbox, uint64_t key, Message message) {
+  size_t dropped = 0;
+  if (key & kQueuedStreamKey) {
+    size_t queued = 0;
+    for (const auto& m : outbox) queued += m.first == key;
+    if (queued >= kMaxQueuedPerStream)
+      for (auto it = outbox.begin(); it != outbox.end(); ++it)
+        if (it->first == key) {
+          outbox.erase(it);
+          dropped = 1;
+          break;
+        }
+  } else if (key != 0) {
+    for (auto& m : outbox)
+      if (m.first == key) {
+        m.second = std::move(message);
+        return 0;
+      }
+  }
+  outbox.emplace_back(key, std::move(message));
+  return dropped;
+}
+
 /// The service behind the session channel (protocol.hpp channel 2; src/session's SessionHub). The
 /// server only carries its bytes: it calls these on the viewer's own thread, never while holding
 /// its own locks, and a viewer's session messages in the order they arrived.
@@ -32,7 +66,8 @@ class SessionOutlet {
  public:
   virtual ~SessionOutlet() = default;
   /// Queues a whole session-channel message (protocol.hpp channel 2, header included) for
-  /// `viewer`; `coalesce_key` != 0 replaces a queued message with the same key. Never blocks on
+  /// `viewer`; `coalesce_key` != 0 replaces a queued message with the same key, or with
+  /// kQueuedStreamKey set queues up to kMaxQueuedPerStream of it. Never blocks on
   /// the network. Returns false if there is no such viewer (gone). Thread-safe.
   virtual bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
                             uint64_t coalesce_key = 0) = 0;

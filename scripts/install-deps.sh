@@ -15,6 +15,8 @@ packages=(
   libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev
   libnats-dev nats-server
   libicu-dev
+  libopus-dev libspeexdsp-dev libopenal-dev libopenal-data libwebrtc-audio-processing-dev
+  libsndfile1-dev portaudio19-dev espeak-ng sox
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -10,14 +10,18 @@ namespace {
 // The benchmark the flags pick (one per run); bench --session --low-latency holds the CPU wake-up
 // latency at 0 while it runs.
 int run_selected_bench(const BenchArgs& a) {
-  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) > 1)
-    throw Error("bench: --server, --render, --session, --record and --nats are separate runs");
+  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) +
+          int(a.voice) >
+      1)
+    throw Error(
+        "bench: --server, --render, --session, --record, --nats and --voice are separate runs");
   const auto low_latency = hold_low_latency(a.session && a.low_latency);
   return a.nats      ? run_nats_bench(a)
          : a.server  ? run_server_bench(a)
          : a.render  ? run_render_bench(a)
          : a.session ? run_session_bench(a)
          : a.record  ? run_record_bench(a)
+         : a.voice   ? run_voice_bench(a)
                      : run_bench(a);
 }
 
@@ -62,6 +66,9 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_flag("--record", bench.record,
                "Recording benchmark instead: latency and CPU a server-side recorder adds to a "
                "live viewer, MB per minute per camera (--server-seconds, --server-repeats)");
+  bn->add_flag("--voice", bench.voice,
+               "Voice benchmark instead: mouth-to-ear latency, concealment, bytes per speaker, "
+               "server CPU forwarding 4 talkers to 16 participants (--server-seconds each)");
   bn->add_flag("--render", bench.render,
                "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
   bn->add_option("--render-seconds", bench.render_seconds,

@@ -76,6 +76,9 @@ struct ServeArgs {
   int presence_timeout_ms = 3000;
   std::string case_folder;  ///< the patient case shown in every session (reloaded on change)
   size_t case_max_triangles = 60000;
+  // The OR's own voice (volcast/voice/site_voice.hpp).
+  std::string mic, speaker;            ///< a .wav file or a sound device; empty: none
+  bool no_echo_cancellation = false;   ///< keep the loudspeaker's echo in the microphone
   // Browsers (ServerConfig::web_root).
   bool web = false;      ///< serve the browser viewer and print its https:// link
   std::string web_root;  ///< its folder; default: web_root_default()
@@ -159,6 +162,12 @@ struct ViewArgs {
   std::string camera_intrinsics;         ///< "fx,fy,cx,cy" for a camera source without any
   std::string upload_codec = "volcast";  ///< the avatar's depth codec (lossless)
   std::string upload_color = "jpeg";     ///< the avatar's color codec
+  // Voice (volcast/voice/voice_link.hpp): a .wav file or a sound device each; empty: none.
+  std::string mic, speaker;
+  bool mute = false;                     ///< start with the microphone muted
+  std::vector<std::string> volumes;      ///< "NAME=GAIN" per participant
+  bool mono_voices = false;              ///< a mono mix instead of HRTF (one channel)
+  std::string voice_json;                ///< write what was heard (latency, loss) here
   std::string pose_script;               ///< JSON pose script; default: standing, idle sway
   double pose_rate = 60;                 ///< poses published per second
   float avatar_radius = 0.6f;            ///< the others' camera avatars: metres around their head

@@ -22,6 +22,7 @@
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/record/recorder.hpp"
 #include "volcast/session/hub.hpp"
+#include "volcast/voice/site_voice.hpp"
 
 namespace volcast {
 namespace {
@@ -102,6 +103,8 @@ struct Serving {
   std::optional<SitePlayer> site;
   std::vector<protocol::CameraInfo> cameras;  ///< as viewers see them: names, never file paths
   std::optional<SessionHub> hub;
+  std::unique_ptr<voice::SiteVoice> voice;  ///< --mic, --speaker: the OR speaks and listens
+  std::atomic<voice::SiteVoice*> listening{nullptr};
   std::optional<CaseWatch> case_watch;
   std::optional<BackgroundRecorder> recorder;
   std::optional<cluster::TierPublisher> publisher;
@@ -185,8 +188,26 @@ void open_server(const ServeArgs& a, const ServerConfig& base, Serving& s) {
     hub_config.site_translation = Eigen::Vector3d(r[0], r[1], r[2]).cast<float>();
     hub_config.site_yaw = static_cast<float>(r[3] * M_PI / 180);
   }
+  if (!a.mic.empty() || !a.speaker.empty())
+    hub_config.site_listener = [&s](uint32_t id, const session::VoicePacketView& p) {
+      if (voice::SiteVoice* v = s.listening.load()) v->put(id, p);
+    };
   SessionHub& hub = s.hub.emplace(hub_config);
   for (const auto& name : a.sessions) hub.create_session(name);
+  if (!a.mic.empty() || !a.speaker.empty()) {
+    voice::SiteVoiceConfig v;
+    v.echo_cancellation = !a.no_echo_cancellation;
+    s.voice = std::make_unique<voice::SiteVoice>(
+        v, a.mic.empty() ? nullptr : voice::open_microphone(a.mic),
+        a.speaker.empty() ? nullptr : voice::open_speaker(a.speaker, 1),
+        [&hub](const session::VoicePacketView& p) { hub.site_voice(p); });
+    s.listening = s.voice.get();
+    spdlog::info("the OR's voice: microphone {}, loudspeaker {}{}", a.mic.empty() ? "none" : a.mic,
+                 a.speaker.empty() ? "none" : a.speaker,
+                 v.echo_cancellation && !a.mic.empty() && !a.speaker.empty()
+                     ? ", echo cancelled"
+                     : "");
+  }
   if (!a.case_folder.empty()) s.case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
   s.server.emplace(s.cameras, config);
@@ -299,6 +320,15 @@ void stop_serving(Serving& s) {
   // The sessions' last state is written while they are as the participants left them: stopping
   // the server ends every participant's session, which would delete their states.
   s.state.reset();
+  s.listening = nullptr;
+  if (s.voice) {
+    s.voice->stop();
+    for (const auto& h : s.voice->stats().heard)
+      spdlog::info("the OR heard participant {}: {} packets, mouth-to-ear p50 {:.0f} ms, p99 {:.0f} "
+                   "ms, {:.1f} % concealed",
+                   h.id, h.stream.packets, h.latency_ms_p50, h.latency_ms_p99,
+                   h.stream.concealed_percent());
+  }
   if (s.site) s.site->stop();
   if (s.replay) s.replay->stop();
   s.server->stop();

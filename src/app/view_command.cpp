@@ -20,6 +20,7 @@
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
+#include "volcast/voice/voice_report.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
@@ -75,6 +76,26 @@ Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
   return desktop_presenter(desktop);
 }
 
+// The voice link's settings from --mic, --speaker, --mute, --volume, --mono-voices; none without
+// a microphone or loudspeaker.
+std::optional<voice::VoiceConfig> voice_options(const ViewArgs& a) {
+  if (a.mic.empty() && a.speaker.empty()) return std::nullopt;
+  voice::VoiceConfig v;
+  v.mic = a.mic;
+  v.speaker = a.speaker;
+  v.muted = a.mute;
+  v.spatial = !a.mono_voices;
+  for (const std::string& entry : a.volumes) {
+    const size_t eq = entry.rfind('=');
+    if (eq == std::string::npos || eq == 0)
+      throw Error("view: --volume takes NAME=GAIN, not '" + entry + "'");
+    const double gain = parse_numbers(entry.substr(eq + 1), 1, "--volume")[0];
+    if (!(gain >= 0 && gain <= 4)) throw Error("view: --volume's gain must be 0 to 4: " + entry);
+    v.volumes[entry.substr(0, eq)] = static_cast<float>(gain);
+  }
+  return v;
+}
+
 // A participant of session --join: its SessionClient (pose script, camera upload), joined once
 // connected, and a presenter that draws the virtual OR from its eye: the desktop window (the eye
 // moved by mouse and keyboard is published as the head pose) or, headless or without a display,
@@ -109,8 +130,20 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   auto session = std::make_unique<SessionClient>(std::move(s));
   SessionClient* client = session.get();
   const std::string session_name = a.join;
-  opt.on_connected = [client](Client& c) { client->start(c); };
-  opt.on_finished = [client, session_name](ViewerResult& r) {
+  const auto voice_config = voice_options(a);
+  auto voice = std::make_shared<std::unique_ptr<voice::VoiceLink>>();
+  opt.on_connected = [client, voice, voice_config](Client& c) {
+    client->start(c);
+    if (voice_config && client->participant())
+      *voice = std::make_unique<voice::VoiceLink>(*client->participant(), *voice_config);
+  };
+  const std::string voice_json = a.voice_json;
+  opt.on_finished = [client, session_name, voice, voice_json](ViewerResult& r) {
+    if (*voice) {
+      (*voice)->stop();
+      report_voice((*voice)->stats(), voice_json);
+      voice->reset();
+    }
     client->stop();
     if (Participant* p = client->participant()) {
       r.session = p->stats();
@@ -377,6 +410,20 @@ void register_view(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   v->add_option("--upload-color", view.upload_color, "Your camera's color codec: jpeg, raw, none")
       ->capture_default_str();
+  v->add_option("--mic", view.mic,
+                "With --join: your microphone, a sound device (\"default\" or part of its name) "
+                "or a .wav file (played in real time)");
+  v->add_option("--speaker", view.speaker,
+                "With --join: where the others' voices play, each from where its speaker stands "
+                "(HRTF): a sound device or a .wav file (stereo)");
+  v->add_flag("--mute", view.mute, "Start with your microphone muted");
+  v->add_option("--volume", view.volumes,
+                "A participant's volume: NAME=GAIN (0 silent, 1 as sent, up to 4; repeat)");
+  v->add_flag("--mono-voices", view.mono_voices,
+              "Mix the voices to one channel instead of placing them (HRTF)");
+  v->add_option("--voice-json", view.voice_json,
+                "Write what your voice link sent and heard (mouth-to-ear latency, loss, "
+                "concealment per speaker) as JSON");
   v->add_option("--pose-script", view.pose_script,
                 "Headless participant: JSON key poses and teleports (default: standing, swaying)");
   v->add_option("--pose-rate", view.pose_rate,

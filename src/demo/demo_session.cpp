@@ -26,6 +26,8 @@
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/session/hub.hpp"
+#include "volcast/voice/voice_report.hpp"
+#include "demo_voice.hpp"
 
 namespace volcast {
 namespace fs = std::filesystem;
@@ -109,14 +111,16 @@ struct Person {
   ViewerOptions opt;
   ViewerResult result;
   std::string error;
+  std::unique_ptr<voice::VoiceLink> voice;  // with the spoken exchange
+  voice::VoiceStats heard;
 };
 
 // The two participants joining session "OR" through `link`: Dr. Hands (a camera avatar from the
 // hands sequence, who grabs and turns the liver) and Dr. Mesh (a mesh avatar who teleports and
 // sets the monitor), each with a screenshot and figures in `out`.
 std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const fs::path& data,
-                                                       const fs::path& out,
-                                                       const std::string& link) {
+                                                       const fs::path& out, const std::string& link,
+                                                       const std::optional<demo::Exchange>& talk) {
   std::vector<std::unique_ptr<Person>> people;
   for (int i = 0; i < 2; ++i) {
     auto p = std::make_unique<Person>();
@@ -139,15 +143,27 @@ std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const 
     SessionClient* client = p->session.get();
     ViewerOptions& v = p->opt;
     v.client = client_config_from_link(link);
-    v.seconds = a.session_seconds;
+    // Long enough for the spoken exchange's last line.
+    v.seconds = talk ? std::max(a.session_seconds, 12.0) : a.session_seconds;
     v.width = 1280;
     v.height = 720;
     v.screenshot = out / (p->file + ".png");
     v.stats_json = out / (p->file + ".json");
     v.stop = a.stop;
-    v.on_connected = [client](Client& c) { client->start(c); };
     Person* raw = p.get();
+    std::optional<voice::VoiceConfig> talking;
+    if (talk) talking = demo::participant_voice(*talk, p->file);
+    v.on_connected = [raw, talking](Client& c) {
+      raw->session->start(c);
+      if (talking && raw->session->participant())
+        raw->voice = std::make_unique<voice::VoiceLink>(*raw->session->participant(), *talking);
+    };
     v.on_finished = [raw](ViewerResult& r) {
+      if (raw->voice) {
+        raw->voice->stop();
+        raw->heard = raw->voice->stats();
+        raw->voice.reset();
+      }
       raw->session->stop();
       if (Participant* part = raw->session->participant()) {
         r.session = part->stats();
@@ -223,6 +239,10 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   SessionHubConfig hub_config;
   hub_config.site_translation = {2.2f, 0, 0};
   hub_config.site_name = "OR site";
+  std::atomic<voice::SiteVoice*> listening{nullptr};  // the OR's loudspeaker, while it plays
+  hub_config.site_listener = [&listening](uint32_t id, const session::VoicePacketView& p) {
+    if (voice::SiteVoice* v = listening.load()) v->put(id, p);
+  };
   SessionHub hub(hub_config);
   hub.create_session("OR");
   spdlog::info("demo: loading the patient case (meshes from the liver's label volume, the CT)");
@@ -238,7 +258,14 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   spdlog::info("demo: session 'OR' with the OR site's {} cameras on 127.0.0.1:{} (TLS)",
                cameras.size(), server.port());
 
-  std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link);
+  // The spoken exchange begins 2.5 s after the participants start connecting.
+  const std::optional<demo::Exchange> talk = demo::prepare_exchange(out, 2.5);
+  std::unique_ptr<voice::SiteVoice> or_voice;
+  if (talk) {
+    or_voice = demo::site_voice(*talk, hub);
+    listening = or_voice.get();
+  }
+  std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link, talk);
   std::vector<std::thread> threads;
   for (auto& p : people)
     threads.emplace_back([&p] {
@@ -249,6 +276,8 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
       }
     });
   for (auto& t : threads) t.join();
+  listening = nullptr;
+  if (or_voice) or_voice->stop();
   write_session_case(out / "session_case.json", patient, hub, people);
   site.stop();
   hub.attach(nullptr);
@@ -265,7 +294,14 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     std::printf("\n%s:\n%s", p->name.c_str(), format_stats_table(p->result).c_str());
     std::printf("wrote %s (its eye) and %s\n", p->opt.screenshot.c_str(),
                 p->opt.stats_json.c_str());
+    if (talk) {
+      const fs::path heard = talk->dir / ("heard_" + p->file);
+      voice::report_voice(p->heard, heard.string() + ".json");
+      std::printf("wrote %s.wav (what it heard, HRTF) and %s.json\n", heard.c_str(),
+                  heard.c_str());
+    }
   }
+  if (or_voice) demo::report_site(*talk, or_voice->stats());
   return 0;
 }
 

@@ -25,6 +25,7 @@ struct BenchArgs {
   bool nats = false;          ///< the NATS cluster benchmark instead (server_seconds, viewers)
   int relays = 2;             ///< --nats: relays the viewers are spread over
   bool nats_tls = false;      ///< --nats: TLS on the links to the nodes (self-signed, verified)
+  bool voice = false;         ///< the voice benchmark instead (server_seconds)
 };
 /// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
 /// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
@@ -70,5 +71,11 @@ int run_session_bench(const BenchArgs& args);
 /// added_server_cpu_percent, recorded_mb_per_minute_per_camera, recorded_frame_sets,
 /// recorder_dropped, *_runs}]} to args.json if set.
 int run_record_bench(const BenchArgs& args);
+/// Voices on loopback over TLS (voice_bench.cpp): real recorded speech from microphone files, one
+/// talker to one listener, then 16 participants with 4 talking (the site idle); prints a table and
+/// writes {"voice": [{configuration, participants, talkers, mouth_to_ear_ms_p50, _p99,
+/// concealed_percent, bytes_per_second_per_speaker, packets_forwarded,
+/// server_cpu_percent_of_one_core}]} to args.json if set.
+int run_voice_bench(const BenchArgs& args);
 
 }  // namespace volcast

@@ -1,0 +1,102 @@
+#pragma once
+// A participant's voice (issue 35): its microphone encoded to Opus (audio/opus_voice.hpp) and sent
+// on its session connection (session/voice_messages.hpp), and everyone else's voices received,
+// each through its own jitter buffer with loss concealment (audio/voice_stream.hpp), played from
+// where that speaker's head is in the room (HRTF, audio/spatial_mixer.hpp) on its loudspeaker.
+// The OR site's voice plays from a point above the table. One thread runs the 20 ms loop, paced
+// by the microphone (or the wall clock without one).
+//
+// Mouth-to-ear latency: each packet carries the capture time of its first sample on the server's
+// clock; when a frame is played the link measures now (server clock) + the loudspeaker's latency
+// minus that time.
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "volcast/audio/opus_voice.hpp"
+#include "volcast/audio/voice_stream.hpp"
+#include "volcast/session/participant.hpp"
+
+namespace volcast::voice {
+
+struct VoiceConfig {
+  std::string mic;      ///< devices.hpp spec: a .wav file or a device; empty: listen only
+  std::string speaker;  ///< devices.hpp spec; empty: voices are received and measured, not played
+  int64_t mic_start_us = 0;  ///< a file microphone's first sample (local wall clock; 0: at start)
+  audio::VoiceEncoderConfig encoder;
+  bool spatial = true;        ///< HRTF to stereo; false: a mono mix (one channel)
+  bool muted = false;         ///< start muted
+  bool push_to_talk = false;  ///< send only while set_talking(true)
+  /// Where the OR site's voice (participant 1) plays from: room frame, metres (above the table).
+  Eigen::Vector3f site_position{0.0f, 1.5f, 0.0f};
+  /// Volume per display name (1: as sent, 0: silent); others 1.
+  std::map<std::string, float> volumes;
+};
+
+/// One speaker as this participant hears it.
+struct HeardVoice {
+  uint32_t id = 0;
+  std::string name;
+  audio::VoiceStreamStats stream;
+  double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< mouth-to-ear, played frames
+  bool speaking = false;  ///< voice energy in the last 300 ms (the avatar's speaking indicator)
+  bool muted = false;     ///< its microphone is muted (the avatar's badge)
+  float volume = 1;
+};
+
+struct VoiceStats {
+  int64_t started_us = 0;  ///< local wall clock of the loop's first block (the speaker file's 0)
+  uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
+  double bytes_per_second = 0;  ///< sent, over the frames captured while not muted
+  bool hrtf = false;            ///< the spatial mixer runs with HRTF
+  std::vector<HeardVoice> heard;  ///< by id
+};
+
+class VoiceLink {
+ public:
+  /// Installs the voice handler on `participant` (which must outlive this object) and starts the
+  /// loop. Throws Error on a device or file that does not open.
+  VoiceLink(Participant& participant, VoiceConfig config);
+  /// stop().
+  ~VoiceLink();
+  VoiceLink(const VoiceLink&) = delete;
+  VoiceLink& operator=(const VoiceLink&) = delete;
+  /// Ends the loop and removes the handler (the speaker file is complete after it). Idempotent.
+  void stop();
+
+  void set_muted(bool muted);  ///< also tells the others (VoiceState)
+  bool muted() const { return muted_; }
+  void set_talking(bool talking);  ///< push-to-talk pressed (with VoiceConfig::push_to_talk)
+  void set_volume(uint32_t participant, float volume);
+  /// Whether the microphone (a file) has been read to its end.
+  bool mic_ended() const { return mic_ended_; }
+  /// The loop's error, if it stopped on one (a device failed, the disk filled).
+  std::string error() const;
+  VoiceStats stats() const;
+
+ private:
+  struct Speaker;
+  void run();
+  void capture(std::span<const float, audio::kFrameSamples> block, int64_t capture_us);
+  void play(int64_t now_us);
+
+  Participant& participant_;
+  VoiceConfig config_;
+  struct Devices;
+  std::unique_ptr<Devices> devices_;
+  audio::VoiceEncoder encoder_;
+  std::atomic<bool> muted_{false}, talking_{false}, stopping_{false}, mic_ended_{false};
+  uint32_t sequence_ = 0, frame_ = 0;
+  mutable std::mutex mutex_;  // speakers_, stats_, error_
+  std::map<uint32_t, std::unique_ptr<Speaker>> speakers_;
+  VoiceStats stats_;
+  std::string error_;
+  std::thread thread_;
+};
+
+}  // namespace volcast::voice

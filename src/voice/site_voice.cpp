@@ -1,0 +1,133 @@
+#include "volcast/voice/site_voice.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+
+#include "level.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast::voice {
+
+using audio::kFrameSamples;
+using audio::kFrameUs;
+
+struct SiteVoice::Heard {
+  audio::VoiceStream stream;
+  Latencies latencies;
+};
+
+SiteVoice::SiteVoice(SiteVoiceConfig config, std::unique_ptr<Microphone> mic,
+                     std::unique_ptr<Speaker> speaker, Send send)
+    : config_(std::move(config)),
+      mic_(std::move(mic)),
+      speaker_(std::move(speaker)),
+      send_(std::move(send)),
+      encoder_(config_.encoder),
+      block_(kFrameSamples),
+      heard_(kFrameSamples),
+      mix_(kFrameSamples) {
+  if (speaker_ && speaker_->channels() != 1)
+    throw Error("the OR site's loudspeaker plays one channel (a mix)");
+  if (config_.echo_cancellation && mic_ && speaker_)
+    echo_ = std::make_unique<audio::EchoCanceller>(config_.echo);
+  muted_ = config_.muted;
+  thread_ = std::thread([this] { run(); });
+}
+
+SiteVoice::~SiteVoice() {
+  stop();
+}
+
+void SiteVoice::stop() {
+  stopping_ = true;
+  if (thread_.joinable()) thread_.join();
+  speaker_.reset();  // closes a file
+}
+
+void SiteVoice::put(uint32_t participant, const session::VoicePacketView& packet) {
+  std::lock_guard lock(mutex_);
+  auto& h = heard_voices_[participant];
+  if (!h) h = std::make_unique<Heard>();
+  h->stream.put(packet.sequence, packet.frame, packet.capture_us, packet.opus);
+}
+
+std::string SiteVoice::error() const {
+  std::lock_guard lock(mutex_);
+  return error_;
+}
+
+void SiteVoice::run() {
+  const int64_t start = wall_clock_us();
+  {
+    std::lock_guard lock(mutex_);
+    stats_.started_us = start;
+  }
+  try {
+    for (int64_t tick = 0; !stopping_; ++tick) {
+      if (mic_) {
+        capture(mic_->read(std::span<float, kFrameSamples>(block_.data(), kFrameSamples)));
+        mic_ended_ = mic_->ended();
+      } else {
+        const int64_t wait = start + (tick + 1) * kFrameUs - wall_clock_us();
+        if (wait > 0) std::this_thread::sleep_for(std::chrono::microseconds(wait));
+      }
+      play(wall_clock_us());
+    }
+  } catch (const Error& e) {
+    spdlog::error("OR site voice: {}", e.what());
+    std::lock_guard lock(mutex_);
+    error_ = e.what();
+  }
+}
+
+void SiteVoice::capture(int64_t captured_us) {
+  const std::span<float, kFrameSamples> block(block_.data(), kFrameSamples);
+  const uint32_t frame = frame_++;
+  std::lock_guard lock(mutex_);
+  if (echo_) echo_->near_end(block);  // the loudspeaker's echo out of the room's microphone
+  ++stats_.frames_captured;
+  if (muted_) return;
+  const std::span<const uint8_t> packet = encoder_.encode(block);
+  if (encoder_.last_was_dtx()) {
+    ++stats_.dtx_frames;
+    return;
+  }
+  send_({sequence_++, frame, captured_us, packet});
+  ++stats_.packets_sent;
+  stats_.bytes_sent += packet.size();
+}
+
+void SiteVoice::play(int64_t now_us) {
+  const int64_t heard_at = now_us + (speaker_ ? speaker_->latency_us() : 0);
+  std::fill(mix_.begin(), mix_.end(), 0.0f);
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, h] : heard_voices_) {
+      const audio::PlayedFrame played =
+          h->stream.next(std::span<float, kFrameSamples>(heard_.data(), kFrameSamples));
+      if (played.source == audio::PlayedFrame::Source::kPacket ||
+          played.source == audio::PlayedFrame::Source::kFec)
+        h->latencies.add(double(heard_at - played.capture_us) / 1000.0);
+      for (size_t i = 0; i < kFrameSamples; ++i) mix_[i] += heard_[i];
+    }
+    ++stats_.frames_played;
+    for (float& x : mix_) x = soft_clip(x);
+    if (echo_) echo_->far_end(std::span<const float, kFrameSamples>(mix_.data(), kFrameSamples));
+  }
+  if (speaker_) speaker_->write(mix_);
+}
+
+SiteVoiceStats SiteVoice::stats() const {
+  std::lock_guard lock(mutex_);
+  SiteVoiceStats out = stats_;
+  if (echo_) out.echo = echo_->stats();
+  for (const auto& [id, h] : heard_voices_)
+    out.heard.push_back({id, h->stream.stats(), h->latencies.percentile(0.5),
+                         h->latencies.percentile(0.99)});
+  return out;
+}
+
+}  // namespace volcast::voice

@@ -1,0 +1,197 @@
+#include "volcast/voice/voice_link.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+
+#include "level.hpp"
+#include "volcast/audio/spatial_mixer.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
+#include "volcast/voice/devices.hpp"
+
+namespace volcast::voice {
+
+using audio::kFrameSamples;
+using audio::kFrameUs;
+
+struct VoiceLink::Speaker {
+  audio::VoiceStream stream;
+  std::string name;
+  float volume = 1;
+  Loudness loudness;
+  Latencies latencies;
+};
+
+struct VoiceLink::Devices {
+  std::unique_ptr<Microphone> mic;
+  std::unique_ptr<voice::Speaker> speaker;
+  std::unique_ptr<audio::SpatialMixer> mixer;
+  std::array<float, kFrameSamples> block{}, heard{};
+  std::array<float, 2 * kFrameSamples> out{};
+};
+
+VoiceLink::VoiceLink(Participant& participant, VoiceConfig config)
+    : participant_(participant),
+      config_(std::move(config)),
+      devices_(std::make_unique<Devices>()),
+      encoder_(config_.encoder) {
+  Devices& d = *devices_;
+  if (!config_.mic.empty()) d.mic = open_microphone(config_.mic, config_.mic_start_us);
+  if (!config_.speaker.empty()) d.speaker = open_speaker(config_.speaker, config_.spatial ? 2 : 1);
+  if (config_.spatial) {
+    d.mixer = std::make_unique<audio::SpatialMixer>();
+    stats_.hrtf = d.mixer->hrtf();
+  }
+  muted_ = config_.muted;
+  if (muted_) participant_.set_muted(true);
+  participant_.set_voice_handler([this](uint32_t from, const session::VoicePacketView& p) {
+    std::lock_guard lock(mutex_);
+    auto& s = speakers_[from];
+    if (!s) s = std::make_unique<Speaker>();
+    s->stream.put(p.sequence, p.frame, p.capture_us, p.opus);
+  });
+  thread_ = std::thread([this] { run(); });
+}
+
+VoiceLink::~VoiceLink() {
+  stop();
+}
+
+void VoiceLink::stop() {
+  stopping_ = true;
+  if (thread_.joinable()) thread_.join();
+  participant_.set_voice_handler(nullptr);
+  devices_->speaker.reset();  // closes the file
+}
+
+void VoiceLink::set_muted(bool muted) {
+  if (muted_.exchange(muted) != muted) participant_.set_muted(muted);
+}
+
+void VoiceLink::set_talking(bool talking) {
+  talking_ = talking;
+}
+
+void VoiceLink::set_volume(uint32_t participant, float volume) {
+  std::lock_guard lock(mutex_);
+  auto& s = speakers_[participant];
+  if (!s) s = std::make_unique<Speaker>();
+  s->volume = std::clamp(volume, 0.0f, 4.0f);
+}
+
+std::string VoiceLink::error() const {
+  std::lock_guard lock(mutex_);
+  return error_;
+}
+
+void VoiceLink::run() {
+  Devices& d = *devices_;
+  const int64_t start = wall_clock_us();
+  {
+    std::lock_guard lock(mutex_);
+    stats_.started_us = start;
+  }
+  try {
+    for (int64_t tick = 0; !stopping_; ++tick) {
+      if (d.mic) {
+        const int64_t captured = d.mic->read(d.block);
+        capture(d.block, captured);
+        mic_ended_ = d.mic->ended();
+      } else {
+        const int64_t wait = start + (tick + 1) * kFrameUs - wall_clock_us();
+        if (wait > 0) std::this_thread::sleep_for(std::chrono::microseconds(wait));
+      }
+      play(wall_clock_us());
+    }
+  } catch (const Error& e) {
+    spdlog::error("voice: {}", e.what());
+    std::lock_guard lock(mutex_);
+    error_ = e.what();
+  }
+}
+
+void VoiceLink::capture(std::span<const float, kFrameSamples> block, int64_t capture_us) {
+  const uint32_t frame = frame_++;
+  const bool sending = !muted_ && (!config_.push_to_talk || talking_);
+  std::lock_guard lock(mutex_);
+  ++stats_.frames_captured;
+  if (!sending) return;
+  const std::span<const uint8_t> packet = encoder_.encode(block);
+  if (encoder_.last_was_dtx()) {
+    ++stats_.dtx_frames;
+    return;
+  }
+  participant_.send_voice(
+      {sequence_++, frame, capture_us + participant_.clock_offset_us(), packet});
+  ++stats_.packets_sent;
+  stats_.bytes_sent += packet.size();
+}
+
+void VoiceLink::play(int64_t now_us) {
+  Devices& d = *devices_;
+  const SessionSnapshot s = participant_.snapshot(now_us);
+  const int64_t heard_at =
+      now_us + participant_.clock_offset_us() + (d.speaker ? d.speaker->latency_us() : 0);
+  if (d.mixer) {
+    const Pose head = listener_head(s);
+    d.mixer->set_listener(head.position, head.orientation);
+  }
+  std::fill(d.out.begin(), d.out.end(), 0.0f);
+  std::lock_guard lock(mutex_);
+  for (auto& [id, speaker] : speakers_) {
+    const audio::PlayedFrame played = speaker->stream.next(d.heard);
+    if (played.source == audio::PlayedFrame::Source::kPacket ||
+        played.source == audio::PlayedFrame::Source::kFec)
+      speaker->latencies.add(double(heard_at - played.capture_us) / 1000.0);
+    speaker->loudness.add(d.heard);
+    float volume = speaker->volume;
+    for (const RemoteParticipant& r : s.others)
+      if (r.id == id) {
+        speaker->name = r.name;
+        if (const auto v = config_.volumes.find(r.name); v != config_.volumes.end())
+          volume *= v->second;
+      }
+    if (d.mixer) {
+      d.mixer->set_source(id, speaker_position(s, id, config_.site_position), volume);
+      d.mixer->push(id, d.heard);
+    } else {
+      for (size_t i = 0; i < kFrameSamples; ++i) d.out[i] += volume * d.heard[i];
+    }
+  }
+  if (d.mixer) d.mixer->render(d.out);
+  if (d.speaker) {
+    const size_t n = d.mixer ? 2 * kFrameSamples : kFrameSamples;
+    for (size_t i = 0; i < n; ++i) d.out[i] = soft_clip(d.out[i]);
+    d.speaker->write(std::span<const float>(d.out.data(), n));
+  }
+}
+
+VoiceStats VoiceLink::stats() const {
+  const SessionSnapshot s = participant_.snapshot(wall_clock_us());
+  std::lock_guard lock(mutex_);
+  VoiceStats out = stats_;
+  const uint64_t sent_frames = out.packets_sent + out.dtx_frames;
+  if (sent_frames > 0)
+    out.bytes_per_second = double(out.bytes_sent) / (double(sent_frames) * kFrameUs / 1e6);
+  for (const auto& [id, speaker] : speakers_) {
+    HeardVoice h;
+    h.id = id;
+    h.name = speaker->name;
+    h.stream = speaker->stream.stats();
+    h.latency_ms_p50 = speaker->latencies.percentile(0.5);
+    h.latency_ms_p99 = speaker->latencies.percentile(0.99);
+    h.speaking = speaker->loudness.speaking();
+    h.volume = speaker->volume;
+    for (const RemoteParticipant& r : s.others)
+      if (r.id == id) h.muted = r.muted, h.name = r.name;
+    out.heard.push_back(std::move(h));
+  }
+  return out;
+}
+
+}  // namespace volcast::voice

@@ -1,0 +1,125 @@
+#pragma once
+// Measuring speech that went through a voice path, for tests: real recorded voices (shared
+// data, speech/), where one signal sits in another (cross-correlation), how alike they are
+// (normalised cross-correlation), energies and level ratios.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "support/test_data.hpp"
+#include "volcast/audio/voice_format.hpp"
+#include "volcast/audio/wav.hpp"
+
+namespace volcast::test {
+
+/// A real recorded voice: shared data speech/<name>.wav (48 kHz mono).
+inline std::vector<float> speech(const std::string& name) {
+  return audio::read_voice(data_dir() / "speech" / (name + ".wav"));
+}
+
+/// Phrases one after another, each after `gap_s` of silence; `starts` gets each phrase's first
+/// sample.
+inline std::vector<float> phrases(const std::vector<std::string>& names, double gap_s,
+                                  std::vector<size_t>* starts = nullptr) {
+  std::vector<float> out;
+  for (const std::string& n : names) {
+    out.resize(out.size() + static_cast<size_t>(gap_s * audio::kSampleRate), 0.0f);
+    if (starts) starts->push_back(out.size());
+    const std::vector<float> s = speech(n);
+    out.insert(out.end(), s.begin(), s.end());
+  }
+  out.resize(out.size() + static_cast<size_t>(gap_s * audio::kSampleRate), 0.0f);
+  return out;
+}
+
+/// Writes mono 48 kHz `samples` to `path` (a microphone file).
+inline std::filesystem::path write_voice(const std::filesystem::path& path,
+                                         const std::vector<float>& samples) {
+  audio::Pcm pcm;
+  pcm.samples = samples;
+  audio::write_wav(path, pcm);
+  return path;
+}
+
+/// Channel `channel` of interleaved `pcm`.
+inline std::vector<float> channel(const audio::Pcm& pcm, int channel) {
+  std::vector<float> out(pcm.frames());
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i] = pcm.samples[i * size_t(pcm.channels) + size_t(channel)];
+  return out;
+}
+
+/// Normalised cross-correlation of `a` with `b` starting at b[offset] (over a's length, or
+/// what of b there is).
+inline double ncc(std::span<const float> a, std::span<const float> b, std::ptrdiff_t offset) {
+  double ab = 0, aa = 0, bb = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const std::ptrdiff_t j = offset + std::ptrdiff_t(i);
+    if (j < 0 || j >= std::ptrdiff_t(b.size())) continue;
+    ab += double(a[i]) * b[size_t(j)];
+    aa += double(a[i]) * a[i];
+    bb += double(b[size_t(j)]) * b[size_t(j)];
+  }
+  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0;
+}
+
+struct Alignment {
+  std::ptrdiff_t offset = 0;  ///< where `a` begins in `b` (samples)
+  double correlation = 0;     ///< normalised, at that offset
+};
+
+/// Where `a` sits best in `b` within offsets [from, to]: a coarse search on 12x decimated
+/// signals, then every sample around the best.
+inline Alignment align(std::span<const float> a, std::span<const float> b, std::ptrdiff_t from,
+                       std::ptrdiff_t to) {
+  const auto decimate = [](std::span<const float> x) {
+    std::vector<float> out(x.size() / 12);
+    for (size_t i = 0; i < out.size(); ++i) {
+      float s = 0;
+      for (size_t k = 0; k < 12; ++k) s += x[i * 12 + k];
+      out[i] = s;
+    }
+    return out;
+  };
+  const std::vector<float> da = decimate(a), db = decimate(b);
+  Alignment coarse{from, -2};
+  for (std::ptrdiff_t o = from / 12; o <= to / 12; ++o)
+    if (const double c = ncc(da, db, o); c > coarse.correlation) coarse = {o * 12, c};
+  Alignment best{coarse.offset, -2};
+  for (std::ptrdiff_t o = coarse.offset - 24; o <= coarse.offset + 24; ++o)
+    if (const double c = ncc(a, b, o); c > best.correlation) best = {o, c};
+  return best;
+}
+
+/// Mean square of x[from, from + n).
+inline double energy(std::span<const float> x, size_t from, size_t n) {
+  double e = 0;
+  size_t count = 0;
+  for (size_t i = from; i < std::min(x.size(), from + n); ++i, ++count) e += double(x[i]) * x[i];
+  return count ? e / double(count) : 0;
+}
+
+inline double db(double ratio) {
+  return 10 * std::log10(std::max(ratio, 1e-20));
+}
+
+/// Interaural delay: the lag (samples, within ±max_lag) at which `right` best matches `left`;
+/// positive when the right ear hears it later (the source is on the left).
+inline int interaural_lag(std::span<const float> left, std::span<const float> right, size_t from,
+                          size_t n, int max_lag = 48) {
+  int best = 0;
+  double best_c = -2;
+  const std::span<const float> l = left.subspan(from, std::min(n, left.size() - from));
+  for (int lag = -max_lag; lag <= max_lag; ++lag)
+    if (const double c = ncc(l, right, std::ptrdiff_t(from) + lag); c > best_c) {
+      best_c = c;
+      best = lag;
+    }
+  return best;
+}
+
+}  // namespace volcast::test

@@ -1,0 +1,99 @@
+#pragma once
+// One speaker's incoming voice at a receiver: speexdsp's adaptive jitter buffer
+// (speex/speex_jitter.h, timestamps in samples) in front of a VoiceDecoder, with Opus in-band FEC
+// when a packet is missing but the next one is there, PLC (comfort noise after DTX) otherwise.
+//
+// Packets carry `sequence` (+1 per packet sent) and `frame` (+1 per 20 ms frame captured, sent
+// or not: DTX skips frames). A gap between two played packets of `sequence` s -> s' and `frame`
+// f -> f' holds G = f' - f - 1 frames of which L = min(s' - s - 1, G) packets were lost. Rule:
+// the lost ones are the first L frames of the gap (a talk spurt goes on, then the speaker falls
+// silent); the other G - L frames were DTX silence.
+//
+// When a frame is due and its packet is missing:
+//  - if a later packet is already buffered, the rule above labels the frame now: lost -> kFec
+//    (the next frame's packet is buffered: its in-band FEC) or kConcealed (PLC); DTX -> kSilence;
+//  - if none is (the speaker stopped talking, or a burst was lost), the frame is played with PLC
+//    (which fades into comfort noise) and returned as kSilence, provisionally: when the next
+//    packet is played, the rule is applied to these frames and stats() moves the lost ones from
+//    frames_silent to frames_concealed. Counts are therefore final once the next packet plays.
+// Before the first packet, frames are silence (zeros), kSilence.
+//
+// On (re)synchronisation (the first packet, or the jitter buffer's own reset after > 20 missing
+// frames, as after a DTX pause) playout waits the last measured delay (at least
+// `initial_delay_ms`) before the first packet plays, so a new talk spurt starts with the buffer
+// the last one needed. (A wait longer than the jitter needs is undone by the jitter buffer, which
+// then drops frames: they count as late and lost.)
+//
+// Not thread-safe: put() and next() from one thread (or under one lock). No allocation after
+// construction. Movable, not copyable.
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "volcast/audio/voice_format.hpp"
+
+namespace volcast::audio {
+
+/// One 20 ms frame of output and where it came from.
+struct PlayedFrame {
+  enum class Source : uint8_t {
+    kPacket,     ///< decoded from its packet
+    kFec,        ///< lost; recovered from the next packet's in-band FEC
+    kConcealed,  ///< lost (or inserted by the buffer mid-talk to grow its delay); Opus PLC
+    kSilence,    ///< not talking: before the first packet, DTX, or fate not known yet (see above)
+  };
+  Source source = Source::kSilence;
+  uint32_t frame = 0;      ///< the sender's frame number this output stands for (estimated if none)
+  int64_t capture_us = 0;  ///< sender's capture time of its first sample, server clock, µs
+                           ///< (extrapolated from the last packet at 20 ms/frame if not a packet)
+};
+
+/// Counters since construction. Packets: put() calls; frames: next() calls.
+struct VoiceStreamStats {
+  uint64_t packets = 0;     ///< well-formed packets put (including duplicates and late ones)
+  uint64_t duplicates = 0;  ///< packets whose sequence was already received
+  uint64_t late = 0;        ///< packets too late to play (arrived after their time, or discarded
+                            ///< by the buffer unplayed when it shrank its delay)
+  uint64_t malformed = 0;   ///< put() packets that are not is_voice_packet(): dropped
+  uint64_t lost = 0;        ///< sequence numbers never played (lost in transit, or late)
+  uint64_t frames_played = 0;        ///< next() calls
+  uint64_t frames_from_packets = 0;  ///< Source::kPacket
+  uint64_t frames_fec = 0;           ///< Source::kFec
+  uint64_t frames_concealed = 0;     ///< Source::kConcealed (corrected as the header describes)
+  uint64_t frames_silent = 0;        ///< Source::kSilence (corrected as the header describes)
+  int delay_ms = 0;  ///< the jitter buffer's current delay: how long the newest packet waits, ms
+  /// (fec + concealed) / (packets + fec + concealed frames, i.e. the frames while talking), in
+  /// percent; 0 before any talking.
+  double concealed_percent() const {
+    const uint64_t talking = frames_from_packets + frames_fec + frames_concealed;
+    return talking == 0 ? 0.0
+                        : 100.0 * static_cast<double>(frames_fec + frames_concealed) /
+                              static_cast<double>(talking);
+  }
+};
+
+/// One speaker's jitter buffer and decoder (see the file comment).
+class VoiceStream {
+ public:
+  /// `initial_delay_ms`: the least playout waits after (re)synchronising (0..1000); throws
+  /// volcast::Error outside that range.
+  explicit VoiceStream(int initial_delay_ms = 0);
+  ~VoiceStream();
+  VoiceStream(VoiceStream&&) noexcept;
+  VoiceStream& operator=(VoiceStream&&) noexcept;
+
+  /// Queues a packet (copied). `capture_us`: the sender's capture time of the frame's first
+  /// sample, server clock. Duplicates and packets too late to play are ignored (counted); a
+  /// malformed packet (not is_voice_packet) is dropped and counted, never thrown.
+  void put(uint32_t sequence, uint32_t frame, int64_t capture_us,
+           std::span<const uint8_t> packet);
+  /// Plays the next 20 ms into `out` (float [-1, 1]); call once per 20 ms of the playout clock.
+  PlayedFrame next(std::span<float, kFrameSamples> out);
+  VoiceStreamStats stats() const;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace volcast::audio

@@ -1,0 +1,373 @@
+// src/audio's voice codec path on real speech: WAV files (libsndfile), Opus (libopus) and one
+// speaker's jitter buffer (speexdsp) under loss, jitter and hostile packets. The figures measured
+// (correlation, bytes per second, concealed share) are printed and recorded as test properties.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "volcast/audio/opus_voice.hpp"
+#include "volcast/audio/voice_format.hpp"
+#include "volcast/audio/voice_stream.hpp"
+#include "volcast/audio/wav.hpp"
+#include "volcast/core/error.hpp"
+
+namespace fs = std::filesystem;
+using namespace volcast::audio;
+
+namespace {
+
+const fs::path kSpeech = fs::path(VOLCAST_TEST_DATA) / "speech";
+using Frame = std::array<float, kFrameSamples>;
+
+fs::path temp_path(const std::string& name) {
+  return fs::temp_directory_path() / ("volcast_voice_test_" + std::to_string(::getpid()) + name);
+}
+
+// Recorded speech, five phrases ("Front Center", ...), with 600 ms of digital silence after each
+// (so that the encoder's DTX has pauses to skip), padded to whole frames.
+const std::vector<float>& speech() {
+  static const std::vector<float> all = [] {
+    std::vector<float> out;
+    for (const char* name : {"Front_Center", "Front_Left", "Front_Right", "Side_Left",
+                             "Side_Right"}) {
+      const std::vector<float> phrase = read_voice(kSpeech / (std::string(name) + ".wav"));
+      out.insert(out.end(), phrase.begin(), phrase.end());
+      out.insert(out.end(), 600 * 48, 0.0f);
+    }
+    out.resize((out.size() + kFrameSamples - 1) / kFrameSamples * kFrameSamples, 0.0f);
+    return out;
+  }();
+  return all;
+}
+
+size_t frame_count() { return speech().size() / kFrameSamples; }
+std::span<const float, kFrameSamples> frame_of(const std::vector<float>& s, size_t i) {
+  return std::span<const float, kFrameSamples>(s.data() + i * kFrameSamples, kFrameSamples);
+}
+
+struct Best {
+  double corr = 0;
+  int lag = 0;
+};
+
+double ncc_at(const std::vector<float>& ref, const std::vector<float>& got, int lag, int stride) {
+  double ab = 0;
+  double aa = 0;
+  double bb = 0;
+  for (size_t i = 0; i + static_cast<size_t>(lag) < got.size() && i < ref.size();
+       i += static_cast<size_t>(stride)) {
+    const double a = ref[i];
+    const double b = got[i + static_cast<size_t>(lag)];
+    ab += a * b;
+    aa += a * a;
+    bb += b * b;
+  }
+  return aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0.0;
+}
+
+// Normalised cross-correlation of `got` against `ref`, `got` delayed by 0..max_lag samples:
+// a coarse search (every 4th sample, lags in steps of 4), then every lag near the best.
+Best best_ncc(const std::vector<float>& ref, const std::vector<float>& got, int max_lag = 960) {
+  Best coarse;
+  for (int lag = 0; lag <= max_lag; lag += 4) {
+    const double c = ncc_at(ref, got, lag, 4);
+    if (c > coarse.corr) coarse = {c, lag};
+  }
+  Best best;
+  for (int lag = std::max(0, coarse.lag - 4); lag <= std::min(max_lag, coarse.lag + 4); ++lag) {
+    const double c = ncc_at(ref, got, lag, 1);
+    if (c > best.corr) best = {c, lag};
+  }
+  return best;
+}
+
+struct Sent {
+  uint32_t sequence;
+  uint32_t frame;
+  std::vector<uint8_t> bytes;
+};
+
+// The sender: every frame encoded, DTX frames not sent.
+std::vector<Sent> encode_speech(VoiceEncoderConfig config = {}) {
+  VoiceEncoder encoder(config);
+  std::vector<Sent> sent;
+  uint32_t sequence = 1000;
+  for (size_t i = 0; i < frame_count(); ++i) {
+    const auto packet = encoder.encode(frame_of(speech(), i));
+    if (encoder.last_was_dtx()) continue;
+    sent.push_back({sequence++, static_cast<uint32_t>(i), {packet.begin(), packet.end()}});
+  }
+  return sent;
+}
+
+// Decoding what was sent, in order, PLC for the frames not sent: the codec's own output.
+std::vector<float> decode_direct(const std::vector<Sent>& sent) {
+  VoiceDecoder decoder;
+  std::vector<float> out(speech().size(), 0.0f);
+  size_t next = 0;
+  for (size_t i = 0; i < frame_count(); ++i) {
+    std::span<float, kFrameSamples> dst(out.data() + i * kFrameSamples, kFrameSamples);
+    if (next < sent.size() && sent[next].frame == i) {
+      decoder.decode(sent[next++].bytes, dst);
+    } else {
+      decoder.conceal(dst);
+    }
+  }
+  return out;
+}
+
+void report(const char* name, double value) {
+  std::printf("[ figure   ] %s = %.4f\n", name, value);
+  ::testing::Test::RecordProperty(name, std::to_string(value));
+}
+
+// A receiver on a simulated clock: packet i is captured at frame*20 ms, sent 20 ms later and
+// arrives `arrival_us` (or never: -1); the playout clock calls next() every 20 ms (5 ms after
+// the frame boundary) after putting what arrived. Output frames are placed by PlayedFrame::frame.
+struct Playout {
+  std::vector<float> aligned;
+  VoiceStreamStats stats;
+};
+
+Playout play(const std::vector<Sent>& sent, const std::vector<int64_t>& arrival_us,
+             VoiceStream& stream) {
+  std::vector<size_t> order(sent.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return arrival_us[a] < arrival_us[b]; });
+  Playout result;
+  result.aligned.assign(speech().size(), 0.0f);
+  size_t o = 0;
+  Frame out{};
+  for (int64_t tick = 0; tick < static_cast<int64_t>(frame_count()) + 50; ++tick) {
+    const int64_t now = tick * kFrameUs + 5000;
+    for (; o < order.size() && arrival_us[order[o]] <= now; ++o) {
+      const Sent& s = sent[order[o]];
+      if (arrival_us[order[o]] < 0) continue;
+      stream.put(s.sequence, s.frame, int64_t{s.frame} * kFrameUs, s.bytes);
+    }
+    const PlayedFrame played = stream.next(out);
+    EXPECT_EQ(played.capture_us, int64_t{played.frame} * kFrameUs);
+    if (played.frame < frame_count()) {
+      std::copy(out.begin(), out.end(), result.aligned.begin() + played.frame * kFrameSamples);
+    }
+  }
+  result.stats = stream.stats();
+  return result;
+}
+
+std::vector<int64_t> in_time(const std::vector<Sent>& sent) {
+  std::vector<int64_t> arrival;
+  for (const Sent& s : sent) arrival.push_back((int64_t{s.frame} + 1) * kFrameUs + 2000);
+  return arrival;
+}
+
+}  // namespace
+
+TEST(Wav, RoundTripAndStreamingSinkKeepsAValidHeader) {
+  Pcm pcm;
+  pcm.channels = 2;
+  for (int i = 0; i < 4800; ++i) {
+    pcm.samples.push_back(0.5f * std::sin(static_cast<float>(i) * 0.05f));
+    pcm.samples.push_back(-0.25f);
+  }
+  const fs::path path = temp_path("round.wav");
+  write_wav(path, pcm);
+  const Pcm back = read_wav(path);
+  EXPECT_EQ(back.sample_rate, kSampleRate);
+  ASSERT_EQ(back.channels, 2);
+  ASSERT_EQ(back.frames(), 4800u);
+  for (size_t i = 0; i < pcm.samples.size(); ++i) {
+    ASSERT_NEAR(back.samples[i], pcm.samples[i], 1.0 / 16384) << i;
+  }
+  // The sink's file is playable while it is still open (as after a kill).
+  const fs::path sink_path = temp_path("sink.wav");
+  WavSink sink(sink_path, 1);
+  const std::vector<float> speech_part(speech().begin(), speech().begin() + 3 * kFrameSamples);
+  for (size_t i = 0; i < 3; ++i) sink.write(frame_of(speech_part, i));
+  EXPECT_EQ(sink.frames_written(), 3 * kFrameSamples);
+  const Pcm open_copy = read_wav(sink_path);
+  EXPECT_EQ(open_copy.frames(), 3 * kFrameSamples);
+  sink.close();
+  EXPECT_THROW(sink.write(std::vector<float>(2, 0.0f)), volcast::Error);
+  fs::remove(path);
+  fs::remove(sink_path);
+}
+
+TEST(Wav, ErrorsNameTheFile) {
+  const fs::path missing = temp_path("missing.wav");
+  try {
+    read_wav(missing);
+    FAIL() << "no error";
+  } catch (const volcast::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(missing.string()), std::string::npos) << e.what();
+  }
+  const fs::path garbage = temp_path("garbage.wav");
+  std::ofstream(garbage) << "RIFF this is not a wave file at all";
+  try {
+    read_voice(garbage);
+    FAIL() << "no error";
+  } catch (const volcast::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(garbage.string()), std::string::npos) << e.what();
+    std::printf("garbage file: %s\n", e.what());
+  }
+  fs::remove(garbage);
+  EXPECT_THROW(write_wav(garbage, Pcm{kSampleRate, 0, {}}), volcast::Error);
+}
+
+TEST(Wav, ReadVoiceResamplesEspeakTo48kHz) {
+  // Synthetic speech: espeak-ng writes 22050 Hz.
+  const fs::path path = temp_path("espeak.wav");
+  const std::string command =
+      "espeak-ng -w '" + path.string() + "' 'clamp the vessel there' 2>/dev/null";
+  if (std::system(command.c_str()) != 0 || !fs::exists(path)) {
+    GTEST_SKIP() << "espeak-ng is not installed";
+  }
+  const Pcm raw = read_wav(path);
+  ASSERT_EQ(raw.sample_rate, 22050);
+  const std::vector<float> voice = read_voice(path);
+  EXPECT_EQ(voice.size(), static_cast<size_t>(std::llround(static_cast<double>(raw.frames()) *
+                                                           48000.0 / 22050.0)));
+  // The resampled signal matches the original at the original's instants (linear interpolation).
+  std::vector<float> back(raw.frames());
+  for (size_t i = 0; i < back.size(); ++i) {
+    const double t = static_cast<double>(i) * 48000.0 / 22050.0;
+    const auto j = static_cast<size_t>(t);
+    const double f = t - static_cast<double>(j);
+    back[i] = j + 1 < voice.size()
+                  ? static_cast<float>((1 - f) * voice[j] + f * voice[j + 1])
+                  : 0.0f;
+  }
+  const double corr = ncc_at(raw.samples, back, 0, 1);
+  report("espeak_resample_correlation", corr);
+  EXPECT_GE(corr, 0.95);
+  fs::remove(path);
+}
+
+TEST(Opus, RealSpeechRoundTripWithDtx) {
+  const std::vector<Sent> sent = encode_speech();
+  size_t bytes = 0;
+  for (const Sent& s : sent) bytes += s.bytes.size();
+  const double seconds = static_cast<double>(speech().size()) / kSampleRate;
+  const size_t skipped = frame_count() - sent.size();
+  const Best best = best_ncc(speech(), decode_direct(sent));
+  report("opus_correlation", best.corr);
+  report("opus_codec_delay_ms", best.lag / 48.0);
+  report("opus_bytes_per_second", static_cast<double>(bytes) / seconds);
+  report("opus_dtx_frames_skipped", static_cast<double>(skipped));
+  EXPECT_GE(best.corr, 0.9);
+  // 5 pauses of 600 ms: DTX starts after ~200 ms of silence.
+  EXPECT_GE(skipped, 5u * 15u);
+  EXPECT_LE(static_cast<double>(bytes) / seconds, 32000 / 8 * 1.2);
+  // Without DTX every frame is sent.
+  EXPECT_EQ(encode_speech({.dtx = false}).size(), frame_count());
+}
+
+TEST(VoiceStream, InOrderEqualsDirectDecodingAndDtxIsSilence) {
+  const std::vector<Sent> sent = encode_speech();
+  VoiceStream stream;
+  const Playout out = play(sent, in_time(sent), stream);
+  const Best vs_direct = best_ncc(decode_direct(sent), out.aligned);
+  const Best vs_input = best_ncc(speech(), out.aligned);
+  report("stream_in_order_correlation_with_direct_decoding", vs_direct.corr);
+  report("stream_in_order_correlation_with_input", vs_input.corr);
+  report("stream_in_order_concealed_percent", out.stats.concealed_percent());
+  report("stream_in_order_delay_ms", out.stats.delay_ms);
+  EXPECT_GE(vs_direct.corr, 0.9);
+  EXPECT_GE(vs_input.corr, 0.9);
+  EXPECT_EQ(out.stats.packets, sent.size());
+  EXPECT_EQ(out.stats.frames_from_packets, sent.size());
+  EXPECT_EQ(out.stats.lost, 0u);
+  EXPECT_EQ(out.stats.late, 0u);
+  // DTX pauses are silence, not concealment.
+  EXPECT_EQ(out.stats.frames_concealed + out.stats.frames_fec, 0u);
+  EXPECT_EQ(out.stats.concealed_percent(), 0.0);
+  EXPECT_GE(out.stats.frames_silent, frame_count() - sent.size());
+  EXPECT_EQ(out.stats.frames_played, out.stats.frames_from_packets + out.stats.frames_silent);
+}
+
+TEST(VoiceStream, LossAndJitterAreConcealed) {
+  const std::vector<Sent> sent = encode_speech();
+  std::mt19937 rng(35);
+  std::uniform_int_distribution<int64_t> jitter(0, 40'000);
+  std::bernoulli_distribution drop(0.02);
+  std::vector<int64_t> arrival = in_time(sent);
+  size_t dropped = 0;
+  for (int64_t& a : arrival) {
+    a += 10'000 + jitter(rng);  // 10 ms path + up to 40 ms jitter: packets reorder
+    if (drop(rng)) {
+      a = -1;
+      ++dropped;
+    }
+  }
+  VoiceStream stream;
+  const Playout out = play(sent, arrival, stream);
+  const VoiceStreamStats& st = out.stats;
+  const Best best = best_ncc(speech(), out.aligned);
+  report("stream_loss_jitter_correlation", best.corr);
+  report("stream_loss_jitter_concealed_percent", st.concealed_percent());
+  report("stream_loss_jitter_dropped", static_cast<double>(dropped));
+  report("stream_loss_jitter_lost", static_cast<double>(st.lost));
+  report("stream_loss_jitter_late", static_cast<double>(st.late));
+  report("stream_loss_jitter_fec_frames", static_cast<double>(st.frames_fec));
+  report("stream_loss_jitter_concealed_frames", static_cast<double>(st.frames_concealed));
+  report("stream_loss_jitter_delay_ms", st.delay_ms);
+  EXPECT_GE(best.corr, 0.8);
+  EXPECT_GE(st.lost, dropped);
+  EXPECT_LE(st.lost, dropped + st.late);
+  EXPECT_GT(st.frames_fec, 0u);
+  EXPECT_GE(st.concealed_percent(), 1.0);
+  EXPECT_LE(st.concealed_percent(), 5.0);
+  EXPECT_EQ(st.frames_played, st.frames_from_packets + st.frames_fec + st.frames_concealed +
+                                  st.frames_silent);
+}
+
+TEST(VoiceStream, HostilePacketsAreDroppedNotThrown) {
+  const std::vector<Sent> sent = encode_speech();
+  std::vector<std::vector<uint8_t>> bad;
+  bad.emplace_back();                                            // empty
+  bad.emplace_back(kMaxOpusPacketBytes + 1, uint8_t{0x08});      // oversized (SILK 20 ms TOC)
+  bad.push_back({uint8_t{10 << 3}, 1, 2, 3, 4});                 // SILK WB 40 ms
+  std::vector<uint8_t> stereo = sent[10].bytes;
+  stereo[0] = static_cast<uint8_t>(stereo[0] | 0x04);            // the TOC's stereo bit
+  bad.push_back(stereo);
+  bad.push_back({uint8_t{(1 << 3) | 3}, 0x3f});                  // code 3, 63 frames of 20 ms
+  VoiceDecoder decoder;
+  Frame out{};
+  for (const auto& packet : bad) {
+    EXPECT_FALSE(is_voice_packet(packet));
+    EXPECT_THROW(decoder.decode(packet, out), volcast::Error) << packet.size();
+  }
+  VoiceStream stream;
+  uint32_t sequence = 0;
+  for (const auto& packet : bad) {
+    ++sequence;
+    EXPECT_NO_THROW(stream.put(sequence, sequence, 0, packet));
+  }
+  EXPECT_EQ(stream.stats().malformed, bad.size());
+  // Random bytes: those that do not pass is_voice_packet are counted malformed; the rest (a valid
+  // TOC with garbage inside) play without a throw.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> byte(0, 255);
+  uint64_t invalid = 0;
+  for (uint32_t i = 0; i < 500; ++i) {
+    std::vector<uint8_t> packet(1 + static_cast<size_t>(byte(rng)) * 4);
+    for (auto& b : packet) b = static_cast<uint8_t>(byte(rng));
+    invalid += is_voice_packet(packet) ? 0 : 1;
+    ++sequence;
+    EXPECT_NO_THROW(stream.put(sequence, sequence, 0, packet));
+    EXPECT_NO_THROW(stream.next(out));
+  }
+  EXPECT_EQ(stream.stats().malformed, bad.size() + invalid);
+  std::printf("random packets: %llu of 500 malformed\n", static_cast<unsigned long long>(invalid));
+}

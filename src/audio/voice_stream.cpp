@@ -14,6 +14,7 @@ namespace {
 constexpr size_t kSlots = 100;  // 2 s of packets; the jitter buffer itself holds up to 200
 constexpr auto kSpan = static_cast<spx_uint32_t>(kFrameSamples);
 constexpr int32_t kRestartSamples = 5 * kSampleRate;  // a packet 5 s off the play position
+constexpr int32_t kRestartPackets = 250;              // a sequence 5 s of packets back
 constexpr int kMaxHoldFrames = 10;                   // 200 ms
 
 int32_t diff(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
@@ -51,7 +52,7 @@ struct VoiceStream::State {
   bool note_received(uint32_t sequence);
   Slot* free_slot();
   Slot* earliest_buffered() const;
-  void restart(uint32_t frame);
+  void restart(uint32_t sequence, uint32_t frame, bool new_sequence);
   int hold_frames() const;
   void resolve_gap(uint32_t sequence, uint32_t frame);
   PlayedFrame play_packet(Slot& slot, std::span<float, kFrameSamples> out);
@@ -163,11 +164,19 @@ int VoiceStream::State::hold_frames() const {
   return std::clamp(std::max(initial_hold, (stats.delay_ms + 19) / 20), 0, kMaxHoldFrames);
 }
 
-void VoiceStream::State::restart(uint32_t frame) {
+// Resynchronises on a packet far off the play position: the sender restarted (its sequence went
+// back: start counting afresh) or its frame clock jumped.
+void VoiceStream::State::restart(uint32_t sequence, uint32_t frame, bool new_sequence) {
   jitter_buffer_reset(jb);  // discards what it holds (counted late)
   base_frame = frame;
   synced = false;
   waiting = false;
+  if (new_sequence) {
+    have_highest = false;
+    last_seq = sequence - 1;
+    last_frame = frame - 1;
+    pending = 0;
+  }
 }
 
 void VoiceStream::State::put(uint32_t sequence, uint32_t frame, int64_t capture_us,
@@ -177,6 +186,9 @@ void VoiceStream::State::put(uint32_t sequence, uint32_t frame, int64_t capture_
     return;
   }
   ++stats.packets;
+  if (have_highest && diff(sequence, highest_seq) < -kRestartPackets) {
+    restart(sequence, frame, true);
+  }
   if (!note_received(sequence)) return;
   if (started && diff(sequence, last_seq) <= 0) {
     ++stats.late;  // its place was played already
@@ -191,7 +203,7 @@ void VoiceStream::State::put(uint32_t sequence, uint32_t frame, int64_t capture_
   if (synced) {
     const int32_t ahead = diff(ts, pointer);
     if (ahead < -kRestartSamples || ahead > kRestartSamples) {
-      restart(frame);  // the sender restarted or jumped: resynchronise on this packet
+      restart(sequence, frame, false);
       ts = 0;
     } else if (diff(ts + kSpan, pointer) < 0) {
       ++stats.late;  // the jitter buffer would not take it (jitter.c: hopelessly late)

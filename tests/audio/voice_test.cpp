@@ -6,11 +6,13 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <random>
 #include <string>
 #include <vector>
@@ -24,13 +26,31 @@
 namespace fs = std::filesystem;
 using namespace volcast::audio;
 
+// Counts operator new while `g_count_allocations` is set: the per-frame path must not allocate.
+namespace {
+std::atomic<bool> g_count_allocations{false};
+std::atomic<size_t> g_allocations{0};
+}  // namespace
+void* operator new(size_t size) {
+  if (g_count_allocations) ++g_allocations;
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void* operator new(size_t size, const std::nothrow_t&) noexcept {
+  if (g_count_allocations) ++g_allocations;
+  return std::malloc(size == 0 ? 1 : size);
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
+void operator delete(void* p, size_t) noexcept { std::free(p); }
+
 namespace {
 
 const fs::path kSpeech = fs::path(VOLCAST_TEST_DATA) / "speech";
 using Frame = std::array<float, kFrameSamples>;
 
 fs::path temp_path(const std::string& name) {
-  return fs::temp_directory_path() / ("volcast_voice_test_" + std::to_string(::getpid()) + name);
+  return fs::temp_directory_path() / ("volcast_voice_test_" + std::to_string(::getpid()) + "_" + name);
 }
 
 // Recorded speech, five phrases ("Front Center", ...), with 600 ms of digital silence after each
@@ -326,10 +346,30 @@ TEST(VoiceStream, LossAndJitterAreConcealed) {
   EXPECT_GE(st.lost, dropped);
   EXPECT_LE(st.lost, dropped + st.late);
   EXPECT_GT(st.frames_fec, 0u);
+  EXPECT_GE(st.frames_fec + st.frames_concealed, dropped);  // each lost frame is made up
   EXPECT_GE(st.concealed_percent(), 1.0);
   EXPECT_LE(st.concealed_percent(), 5.0);
   EXPECT_EQ(st.frames_played, st.frames_from_packets + st.frames_fec + st.frames_concealed +
                                   st.frames_silent);
+}
+
+TEST(VoiceStream, LossIsToldFromDtxOnceTheNextPacketPlays) {
+  const std::vector<Sent> sent = encode_speech();
+  // Drop one packet mid-spurt and the last packet before the first DTX pause.
+  size_t last_before_pause = 0;
+  while (sent[last_before_pause + 1].frame == sent[last_before_pause].frame + 1) {
+    ++last_before_pause;
+  }
+  std::vector<int64_t> arrival = in_time(sent);
+  arrival[20] = -1;
+  arrival[last_before_pause] = -1;
+  VoiceStream stream;
+  const VoiceStreamStats st = play(sent, arrival, stream).stats;
+  EXPECT_EQ(st.lost, 2u);
+  EXPECT_EQ(st.frames_fec + st.frames_concealed, 2u);
+  EXPECT_EQ(st.frames_from_packets, sent.size() - 2);
+  EXPECT_EQ(st.frames_silent, st.frames_played - sent.size());
+  report("stream_two_lost_concealed_percent", st.concealed_percent());
 }
 
 TEST(VoiceStream, HostilePacketsAreDroppedNotThrown) {
@@ -370,4 +410,38 @@ TEST(VoiceStream, HostilePacketsAreDroppedNotThrown) {
   }
   EXPECT_EQ(stream.stats().malformed, bad.size() + invalid);
   std::printf("random packets: %llu of 500 malformed\n", static_cast<unsigned long long>(invalid));
+}
+
+TEST(VoiceStream, SenderRestartResynchronisesWithoutAllocating) {
+  {  // the counter counts
+    g_count_allocations = true;
+    auto* volatile probe = new std::vector<int>(100);
+    g_count_allocations = false;
+    delete probe;
+    ASSERT_GE(g_allocations.exchange(0), 1u);
+  }
+  const std::vector<Sent> sent = encode_speech();
+  VoiceStream stream;
+  Frame out{};
+  uint64_t played_from_packets = 0;
+  // Twice the same speech: the second time the sender restarted (sequence and frame from 0).
+  for (int run = 0; run < 2; ++run) {
+    size_t next = 0;
+    for (uint32_t tick = 0; tick < frame_count(); ++tick) {
+      if (run == 0 && tick == 10) g_count_allocations = true;
+      for (; next < sent.size() && sent[next].frame <= tick; ++next) {
+        const Sent& s = sent[next];
+        const uint32_t sequence = run == 0 ? s.sequence : s.sequence - 1000;
+        stream.put(sequence, s.frame, int64_t{s.frame} * kFrameUs, s.bytes);
+      }
+      played_from_packets += stream.next(out).source == PlayedFrame::Source::kPacket ? 1 : 0;
+    }
+    g_count_allocations = false;
+  }
+  EXPECT_EQ(g_allocations.load(), 0u);
+  const VoiceStreamStats st = stream.stats();
+  EXPECT_EQ(played_from_packets, 2 * sent.size());
+  EXPECT_EQ(st.frames_from_packets, 2 * sent.size());
+  EXPECT_EQ(st.lost, 0u);
+  EXPECT_EQ(st.concealed_percent(), 0.0);
 }

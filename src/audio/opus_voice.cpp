@@ -55,7 +55,8 @@ struct VoiceEncoder::Codec {
 VoiceEncoder::VoiceEncoder(VoiceEncoderConfig config) : codec_(std::make_unique<Codec>()) {
   int err = OPUS_OK;
   codec_->enc = opus_encoder_create(kSampleRate, 1, OPUS_APPLICATION_VOIP, &err);
-  if (codec_->enc == nullptr) throw Error(std::string("opus_encoder_create: ") + opus_strerror(err));
+  if (codec_->enc == nullptr)
+    throw Error(std::string("opus_encoder_create: ") + opus_strerror(err));
   OpusEncoder* enc = codec_->enc;
   check_ctl(opus_encoder_ctl(enc, OPUS_SET_BITRATE(config.bitrate_bps)), "bitrate");
   check_ctl(opus_encoder_ctl(enc, OPUS_SET_INBAND_FEC(config.fec ? 1 : 0)), "fec");
@@ -86,7 +87,8 @@ struct VoiceDecoder::Codec {
 VoiceDecoder::VoiceDecoder() : codec_(std::make_unique<Codec>()) {
   int err = OPUS_OK;
   codec_->dec = opus_decoder_create(kSampleRate, 1, &err);
-  if (codec_->dec == nullptr) throw Error(std::string("opus_decoder_create: ") + opus_strerror(err));
+  if (codec_->dec == nullptr)
+    throw Error(std::string("opus_decoder_create: ") + opus_strerror(err));
 }
 
 VoiceDecoder::~VoiceDecoder() = default;

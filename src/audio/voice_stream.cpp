@@ -15,9 +15,11 @@ constexpr size_t kSlots = 100;  // 2 s of packets; the jitter buffer itself hold
 constexpr auto kSpan = static_cast<spx_uint32_t>(kFrameSamples);
 constexpr int32_t kRestartSamples = 5 * kSampleRate;  // a packet 5 s off the play position
 constexpr int32_t kRestartPackets = 250;              // a sequence 5 s of packets back
-constexpr int kMaxHoldFrames = 10;                   // 200 ms
+constexpr int kMaxHoldFrames = 10;                    // 200 ms
 
-int32_t diff(uint32_t a, uint32_t b) { return static_cast<int32_t>(a - b); }
+int32_t diff(uint32_t a, uint32_t b) {
+  return static_cast<int32_t>(a - b);
+}
 
 // One buffered packet. The jitter buffer holds `bytes` (JITTER_BUFFER_SET_DESTROY_CALLBACK: it
 // does not copy) and hands it back from jitter_buffer_get() or to discard() when it drops it.
@@ -299,7 +301,8 @@ PlayedFrame VoiceStream::State::play_missing(uint32_t timestamp,
   const int32_t k = diff(frame, last_frame);  // 1 for the first frame of the gap
   ++since_last;
   if (const Slot* next = earliest_buffered()) {
-    const int32_t lost = std::min(diff(next->sequence, last_seq), diff(next->frame, last_frame)) - 1;
+    const int32_t lost =
+        std::min(diff(next->sequence, last_seq), diff(next->frame, last_frame)) - 1;
     if (k >= 1 && k <= lost) {
       talking = true;
       if (diff(next->frame, frame) == 1) {
@@ -371,8 +374,12 @@ void VoiceStream::put(uint32_t sequence, uint32_t frame, int64_t capture_us,
   state_->put(sequence, frame, capture_us, packet);
 }
 
-PlayedFrame VoiceStream::next(std::span<float, kFrameSamples> out) { return state_->next(out); }
+PlayedFrame VoiceStream::next(std::span<float, kFrameSamples> out) {
+  return state_->next(out);
+}
 
-VoiceStreamStats VoiceStream::stats() const { return state_->stats; }
+VoiceStreamStats VoiceStream::stats() const {
+  return state_->stats;
+}
 
 }  // namespace volcast::audio

@@ -19,7 +19,9 @@ struct SndfileCloser {
 };
 using SndfilePtr = std::unique_ptr<SNDFILE, SndfileCloser>;
 
-std::string describe(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+std::string describe(const std::filesystem::path& path) {
+  return "'" + path.string() + "'";
+}
 
 }  // namespace
 
@@ -54,9 +56,8 @@ std::vector<float> resample_to_voice(std::span<const float> samples, int from_ra
   }
   if (from_rate == kSampleRate) return {samples.begin(), samples.end()};
   int err = 0;
-  SpeexResamplerState* st =
-      speex_resampler_init(1, static_cast<spx_uint32_t>(from_rate), kSampleRate, kResamplerQuality,
-                           &err);
+  SpeexResamplerState* st = speex_resampler_init(1, static_cast<spx_uint32_t>(from_rate),
+                                                 kSampleRate, kResamplerQuality, &err);
   if (st == nullptr) {
     throw Error(std::string("speex_resampler_init: ") + speex_resampler_strerror(err));
   }
@@ -149,7 +150,9 @@ WavSink::WavSink(const std::filesystem::path& path, int channels, int sample_rat
   sf_command(file_->handle.get(), SFC_SET_UPDATE_HEADER_AUTO, nullptr, SF_TRUE);
 }
 
-WavSink::~WavSink() { close(); }
+WavSink::~WavSink() {
+  close();
+}
 WavSink::WavSink(WavSink&&) noexcept = default;
 WavSink& WavSink::operator=(WavSink&& other) noexcept {
   if (this != &other) {

@@ -40,9 +40,15 @@ void* operator new(size_t size, const std::nothrow_t&) noexcept {
   if (g_count_allocations) ++g_allocations;
   return std::malloc(size == 0 ? 1 : size);
 }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, const std::nothrow_t&) noexcept { std::free(p); }
-void operator delete(void* p, size_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, const std::nothrow_t&) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, size_t) noexcept {
+  std::free(p);
+}
 
 namespace {
 
@@ -50,7 +56,8 @@ const fs::path kSpeech = fs::path(VOLCAST_TEST_DATA) / "speech";
 using Frame = std::array<float, kFrameSamples>;
 
 fs::path temp_path(const std::string& name) {
-  return fs::temp_directory_path() / ("volcast_voice_test_" + std::to_string(::getpid()) + "_" + name);
+  return fs::temp_directory_path() /
+         ("volcast_voice_test_" + std::to_string(::getpid()) + "_" + name);
 }
 
 // Recorded speech, five phrases ("Front Center", ...), with 600 ms of digital silence after each
@@ -58,8 +65,8 @@ fs::path temp_path(const std::string& name) {
 const std::vector<float>& speech() {
   static const std::vector<float> all = [] {
     std::vector<float> out;
-    for (const char* name : {"Front_Center", "Front_Left", "Front_Right", "Side_Left",
-                             "Side_Right"}) {
+    for (const char* name :
+         {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"}) {
       const std::vector<float> phrase = read_voice(kSpeech / (std::string(name) + ".wav"));
       out.insert(out.end(), phrase.begin(), phrase.end());
       out.insert(out.end(), 600 * 48, 0.0f);
@@ -70,7 +77,9 @@ const std::vector<float>& speech() {
   return all;
 }
 
-size_t frame_count() { return speech().size() / kFrameSamples; }
+size_t frame_count() {
+  return speech().size() / kFrameSamples;
+}
 std::span<const float, kFrameSamples> frame_of(const std::vector<float>& s, size_t i) {
   return std::span<const float, kFrameSamples>(s.data() + i * kFrameSamples, kFrameSamples);
 }
@@ -256,17 +265,16 @@ TEST(Wav, ReadVoiceResamplesEspeakTo48kHz) {
   const Pcm raw = read_wav(path);
   ASSERT_EQ(raw.sample_rate, 22050);
   const std::vector<float> voice = read_voice(path);
-  EXPECT_EQ(voice.size(), static_cast<size_t>(std::llround(static_cast<double>(raw.frames()) *
-                                                           48000.0 / 22050.0)));
+  EXPECT_EQ(voice.size(), static_cast<size_t>(
+                              std::llround(static_cast<double>(raw.frames()) * 48000.0 / 22050.0)));
   // The resampled signal matches the original at the original's instants (linear interpolation).
   std::vector<float> back(raw.frames());
   for (size_t i = 0; i < back.size(); ++i) {
     const double t = static_cast<double>(i) * 48000.0 / 22050.0;
     const auto j = static_cast<size_t>(t);
     const double f = t - static_cast<double>(j);
-    back[i] = j + 1 < voice.size()
-                  ? static_cast<float>((1 - f) * voice[j] + f * voice[j + 1])
-                  : 0.0f;
+    back[i] =
+        j + 1 < voice.size() ? static_cast<float>((1 - f) * voice[j] + f * voice[j + 1]) : 0.0f;
   }
   const double corr = ncc_at(raw.samples, back, 0, 1);
   report("espeak_resample_correlation", corr);
@@ -349,8 +357,8 @@ TEST(VoiceStream, LossAndJitterAreConcealed) {
   EXPECT_GE(st.frames_fec + st.frames_concealed, dropped);  // each lost frame is made up
   EXPECT_GE(st.concealed_percent(), 1.0);
   EXPECT_LE(st.concealed_percent(), 5.0);
-  EXPECT_EQ(st.frames_played, st.frames_from_packets + st.frames_fec + st.frames_concealed +
-                                  st.frames_silent);
+  EXPECT_EQ(st.frames_played,
+            st.frames_from_packets + st.frames_fec + st.frames_concealed + st.frames_silent);
 }
 
 TEST(VoiceStream, LossIsToldFromDtxOnceTheNextPacketPlays) {
@@ -375,13 +383,13 @@ TEST(VoiceStream, LossIsToldFromDtxOnceTheNextPacketPlays) {
 TEST(VoiceStream, HostilePacketsAreDroppedNotThrown) {
   const std::vector<Sent> sent = encode_speech();
   std::vector<std::vector<uint8_t>> bad;
-  bad.emplace_back();                                            // empty
-  bad.emplace_back(kMaxOpusPacketBytes + 1, uint8_t{0x08});      // oversized (SILK 20 ms TOC)
-  bad.push_back({uint8_t{10 << 3}, 1, 2, 3, 4});                 // SILK WB 40 ms
+  bad.emplace_back();                                        // empty
+  bad.emplace_back(kMaxOpusPacketBytes + 1, uint8_t{0x08});  // oversized (SILK 20 ms TOC)
+  bad.push_back({uint8_t{10 << 3}, 1, 2, 3, 4});             // SILK WB 40 ms
   std::vector<uint8_t> stereo = sent[10].bytes;
-  stereo[0] = static_cast<uint8_t>(stereo[0] | 0x04);            // the TOC's stereo bit
+  stereo[0] = static_cast<uint8_t>(stereo[0] | 0x04);  // the TOC's stereo bit
   bad.push_back(stereo);
-  bad.push_back({uint8_t{(1 << 3) | 3}, 0x3f});                  // code 3, 63 frames of 20 ms
+  bad.push_back({uint8_t{(1 << 3) | 3}, 0x3f});  // code 3, 63 frames of 20 ms
   VoiceDecoder decoder;
   Frame out{};
   for (const auto& packet : bad) {

@@ -12,11 +12,11 @@ namespace volcast::audio {
 
 /// Encoder settings (libopus CTLs of the same names).
 struct VoiceEncoderConfig {
-  int bitrate_bps = 32000;         ///< OPUS_SET_BITRATE, bits per second
-  bool fec = true;                 ///< OPUS_SET_INBAND_FEC: each packet carries the previous frame
-  bool dtx = true;                 ///< OPUS_SET_DTX: silence gives <= 2-byte packets (not sent)
-  int expected_loss_percent = 5;   ///< OPUS_SET_PACKET_LOSS_PERC (sizes the FEC)
-  int complexity = 5;              ///< OPUS_SET_COMPLEXITY, 0..10
+  int bitrate_bps = 32000;        ///< OPUS_SET_BITRATE, bits per second
+  bool fec = true;                ///< OPUS_SET_INBAND_FEC: each packet carries the previous frame
+  bool dtx = true;                ///< OPUS_SET_DTX: silence gives <= 2-byte packets (not sent)
+  int expected_loss_percent = 5;  ///< OPUS_SET_PACKET_LOSS_PERC (sizes the FEC)
+  int complexity = 5;             ///< OPUS_SET_COMPLEXITY, 0..10
 };
 
 /// Encodes 20 ms mono frames to Opus packets. Owns an OpusEncoder; movable, not copyable.

@@ -50,13 +50,13 @@ struct PlayedFrame {
 
 /// Counters since construction. Packets: put() calls; frames: next() calls.
 struct VoiceStreamStats {
-  uint64_t packets = 0;     ///< well-formed packets put (including duplicates and late ones)
-  uint64_t duplicates = 0;  ///< packets whose sequence was already received
-  uint64_t late = 0;        ///< packets too late to play (arrived after their time, or discarded
-                            ///< by the buffer unplayed when it shrank its delay)
-  uint64_t malformed = 0;   ///< put() packets that are not is_voice_packet(): dropped
-  uint64_t lost = 0;        ///< sequence numbers never played (lost in transit, or late)
-  uint64_t frames_played = 0;        ///< next() calls
+  uint64_t packets = 0;        ///< well-formed packets put (including duplicates and late ones)
+  uint64_t duplicates = 0;     ///< packets whose sequence was already received
+  uint64_t late = 0;           ///< packets too late to play (arrived after their time, or discarded
+                               ///< by the buffer unplayed when it shrank its delay)
+  uint64_t malformed = 0;      ///< put() packets that are not is_voice_packet(): dropped
+  uint64_t lost = 0;           ///< sequence numbers never played (lost in transit, or late)
+  uint64_t frames_played = 0;  ///< next() calls
   uint64_t frames_from_packets = 0;  ///< Source::kPacket
   uint64_t frames_fec = 0;           ///< Source::kFec
   uint64_t frames_concealed = 0;     ///< Source::kConcealed (corrected as the header describes)
@@ -85,8 +85,7 @@ class VoiceStream {
   /// Queues a packet (copied). `capture_us`: the sender's capture time of the frame's first
   /// sample, server clock. Duplicates and packets too late to play are ignored (counted); a
   /// malformed packet (not is_voice_packet) is dropped and counted, never thrown.
-  void put(uint32_t sequence, uint32_t frame, int64_t capture_us,
-           std::span<const uint8_t> packet);
+  void put(uint32_t sequence, uint32_t frame, int64_t capture_us, std::span<const uint8_t> packet);
   /// Plays the next 20 ms into `out` (float [-1, 1]); call once per 20 ms of the playout clock.
   PlayedFrame next(std::span<float, kFrameSamples> out);
   VoiceStreamStats stats() const;

@@ -17,7 +17,9 @@ struct Pcm {
   int channels = 1;
   std::vector<float> samples;  ///< interleaved, [-1, 1]
   /// Number of frames (samples per channel).
-  size_t frames() const { return channels > 0 ? samples.size() / static_cast<size_t>(channels) : 0; }
+  size_t frames() const {
+    return channels > 0 ? samples.size() / static_cast<size_t>(channels) : 0;
+  }
 };
 
 /// Reads any file libsndfile reads (WAV, FLAC, Ogg...). Throws volcast::Error naming the file and

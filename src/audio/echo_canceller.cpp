@@ -22,9 +22,12 @@ void check(int result, const char* what) {
 
 webrtc::EchoCancellation::SuppressionLevel suppression_level(EchoSuppression level) {
   switch (level) {
-    case EchoSuppression::kLow: return webrtc::EchoCancellation::kLowSuppression;
-    case EchoSuppression::kModerate: return webrtc::EchoCancellation::kModerateSuppression;
-    case EchoSuppression::kHigh: return webrtc::EchoCancellation::kHighSuppression;
+    case EchoSuppression::kLow:
+      return webrtc::EchoCancellation::kLowSuppression;
+    case EchoSuppression::kModerate:
+      return webrtc::EchoCancellation::kModerateSuppression;
+    case EchoSuppression::kHigh:
+      return webrtc::EchoCancellation::kHighSuppression;
   }
   throw Error("EchoCanceller: unknown suppression level " +
               std::to_string(static_cast<int>(level)));

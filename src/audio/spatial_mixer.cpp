@@ -44,22 +44,29 @@ struct Voice {
   std::array<ALuint, kAlBuffers> buffers{};
   std::array<ALuint, kAlBuffers> free_buffers{};
   int free_count = 0;
-  int in_al = 0;                 // buffers queued on the source, not yet unqueued
-  std::vector<float> pending;    // ring of kMaxQueuedFrames frames
+  int in_al = 0;               // buffers queued on the source, not yet unqueued
+  std::vector<float> pending;  // ring of kMaxQueuedFrames frames
   int pending_head = 0;
   int pending_count = 0;
-  int waited = 0;                // renders a stopped voice has waited with one frame
+  int waited = 0;  // renders a stopped voice has waited with one frame
 };
 
 std::string status_words(ALCint status) {
   switch (status) {
-    case ALC_HRTF_DISABLED_SOFT: return "disabled";
-    case ALC_HRTF_ENABLED_SOFT: return "enabled";
-    case ALC_HRTF_DENIED_SOFT: return "denied";
-    case ALC_HRTF_REQUIRED_SOFT: return "required";
-    case ALC_HRTF_HEADPHONES_DETECTED_SOFT: return "headphones detected";
-    case ALC_HRTF_UNSUPPORTED_FORMAT_SOFT: return "unsupported format";
-    default: return "unknown (" + std::to_string(status) + ")";
+    case ALC_HRTF_DISABLED_SOFT:
+      return "disabled";
+    case ALC_HRTF_ENABLED_SOFT:
+      return "enabled";
+    case ALC_HRTF_DENIED_SOFT:
+      return "denied";
+    case ALC_HRTF_REQUIRED_SOFT:
+      return "required";
+    case ALC_HRTF_HEADPHONES_DETECTED_SOFT:
+      return "headphones detected";
+    case ALC_HRTF_UNSUPPORTED_FORMAT_SOFT:
+      return "unsupported format";
+    default:
+      return "unknown (" + std::to_string(status) + ")";
   }
 }
 
@@ -140,13 +147,20 @@ void SpatialMixer::Impl::open() {
       ALC_TRUE) {
     throw Error("OpenAL: the loopback device refuses float stereo at 48 kHz");
   }
-  std::vector<ALCint> attributes = {ALC_FORMAT_CHANNELS_SOFT, ALC_STEREO_SOFT,
-                                    ALC_FORMAT_TYPE_SOFT,     ALC_FLOAT_SOFT,
-                                    ALC_FREQUENCY,            kSampleRate,
-                                    ALC_MONO_SOURCES,         config.max_sources,
-                                    ALC_STEREO_SOURCES,       0,
-                                    ALC_OUTPUT_LIMITER_SOFT,  ALC_TRUE,
-                                    ALC_HRTF_SOFT,            config.hrtf ? ALC_TRUE : ALC_FALSE};
+  std::vector<ALCint> attributes = {ALC_FORMAT_CHANNELS_SOFT,
+                                    ALC_STEREO_SOFT,
+                                    ALC_FORMAT_TYPE_SOFT,
+                                    ALC_FLOAT_SOFT,
+                                    ALC_FREQUENCY,
+                                    kSampleRate,
+                                    ALC_MONO_SOURCES,
+                                    config.max_sources,
+                                    ALC_STEREO_SOURCES,
+                                    0,
+                                    ALC_OUTPUT_LIMITER_SOFT,
+                                    ALC_TRUE,
+                                    ALC_HRTF_SOFT,
+                                    config.hrtf ? ALC_TRUE : ALC_FALSE};
   if (config.hrtf) {
     const ALCint index = hrtf_48k_index(device);
     if (index >= 0) attributes.insert(attributes.end(), {ALC_HRTF_ID_SOFT, index});
@@ -194,7 +208,8 @@ void SpatialMixer::Impl::reset(Voice& voice) {
 // Moves the oldest pending frame into a free OpenAL buffer queued on the source. Context current.
 void SpatialMixer::Impl::queue_one(Voice& voice) {
   const ALuint buffer = voice.free_buffers[static_cast<size_t>(--voice.free_count)];
-  const float* frame = voice.pending.data() + static_cast<size_t>(voice.pending_head) * kFrameSamples;
+  const float* frame =
+      voice.pending.data() + static_cast<size_t>(voice.pending_head) * kFrameSamples;
   alBufferData(buffer, AL_FORMAT_MONO_FLOAT32, frame,
                static_cast<ALsizei>(kFrameSamples * sizeof(float)), kSampleRate);
   alSourceQueueBuffers(voice.source, 1, &buffer);
@@ -294,8 +309,8 @@ void SpatialMixer::push(uint32_t id, std::span<const float, kFrameSamples> mono)
   }
   const int slot = (voice->pending_head + voice->pending_count) % kMaxQueuedFrames;
   std::copy(mono.begin(), mono.end(),
-            voice->pending.begin() + static_cast<std::ptrdiff_t>(slot) *
-                                         static_cast<std::ptrdiff_t>(kFrameSamples));
+            voice->pending.begin() +
+                static_cast<std::ptrdiff_t>(slot) * static_cast<std::ptrdiff_t>(kFrameSamples));
   ++voice->pending_count;
 }
 

@@ -124,7 +124,8 @@ EchoResult run_room(int stream_delay_ms) {
   result.stats = aec.stats();
   // Echo only (far end talking, no local talker): 20 ms frames where the loudspeaker is active.
   double echo_in = 0, echo_out = 0;
-  for (size_t at = Room::kConverged; at + kFrameSamples <= Room::kTalkerStart; at += kFrameSamples) {
+  for (size_t at = Room::kConverged; at + kFrameSamples <= Room::kTalkerStart;
+       at += kFrameSamples) {
     const std::span<const float> far(r.speaker.data() + at - kEchoDelaySamples, kFrameSamples);
     if (energy(far) / kFrameSamples < 1e-5) continue;  // far end silent here (below -50 dBFS)
     echo_in += energy(std::span<const float>(r.mic.data() + at, kFrameSamples));

@@ -44,7 +44,8 @@ Stereo render_voices(SpatialMixer& mixer, const std::vector<VoiceInput>& voices)
   for (size_t f = 0; f < frames + 3; ++f) {
     for (const VoiceInput& v : voices) {
       if ((f + 1) * kFrameSamples > v.samples->size()) continue;
-      for (size_t i = 0; i < kFrameSamples; ++i) mono[i] = v.scale * (*v.samples)[f * kFrameSamples + i];
+      for (size_t i = 0; i < kFrameSamples; ++i)
+        mono[i] = v.scale * (*v.samples)[f * kFrameSamples + i];
       mixer.push(v.id, std::span<const float, kFrameSamples>(mono.data(), kFrameSamples));
     }
     mixer.render(std::span<float, 2 * kFrameSamples>(stereo.data(), 2 * kFrameSamples));
@@ -119,7 +120,8 @@ TEST_F(SpatialTest, VoiceOnTheRightIsLouderAndEarlierInTheRightEar) {
 }
 
 TEST_F(SpatialTest, TurningTheHeadAroundSwapsTheSides) {
-  const Eigen::Quaternionf turned(Eigen::AngleAxisf(static_cast<float>(kPi), Eigen::Vector3f::UnitY()));
+  const Eigen::Quaternionf turned(
+      Eigen::AngleAxisf(static_cast<float>(kPi), Eigen::Vector3f::UnitY()));
   const Direction d = one_voice({2, 0, 0}, turned, speech_a_);
   std::printf("voice at +x, head turned 180 deg: R/L %+.1f dB, right ear leads by %+.0f us\n",
               d.right_over_left_db, d.right_lead_us);
@@ -127,8 +129,10 @@ TEST_F(SpatialTest, TurningTheHeadAroundSwapsTheSides) {
   if (hrtf_) {
     EXPECT_LT(d.right_lead_us, -200.0);
   }
-  // A quarter turn to the left (about +y): the head looks down -x, so a voice at -z is on its right.
-  const Eigen::Quaternionf quarter(Eigen::AngleAxisf(static_cast<float>(kPi / 2), Eigen::Vector3f::UnitY()));
+  // A quarter turn to the left (about +y): the head looks down -x, so a voice at -z is on its
+  // right.
+  const Eigen::Quaternionf quarter(
+      Eigen::AngleAxisf(static_cast<float>(kPi / 2), Eigen::Vector3f::UnitY()));
   const Direction q = one_voice({0, 0, -2}, quarter, speech_a_);
   std::printf("voice at -z, head turned 90 deg left: R/L %+.1f dB\n", q.right_over_left_db);
   EXPECT_GT(q.right_over_left_db, 3.0);
@@ -174,7 +178,8 @@ TEST_F(SpatialTest, AVoiceThatStopsIsSilentAndOneThatRunsAheadIsBounded) {
   std::vector<float> mono(kFrameSamples);
   for (int f = 0; f < 20; ++f) {  // 400 ms pushed at once: only the newest frames are kept
     for (size_t i = 0; i < kFrameSamples; ++i) {  // a steady 440 Hz tone: every frame audible
-      const double t = static_cast<double>(static_cast<size_t>(f) * kFrameSamples + i) / kSampleRate;
+      const double t =
+          static_cast<double>(static_cast<size_t>(f) * kFrameSamples + i) / kSampleRate;
       mono[i] = static_cast<float>(0.3 * std::sin(2 * kPi * 440.0 * t));
     }
     mixer.push(5, std::span<const float, kFrameSamples>(mono.data(), kFrameSamples));
@@ -219,10 +224,12 @@ TEST_F(SpatialTest, AVoicePushedFrameByFramePlaysWithoutGapsOrClicks) {
     for (size_t i = 1; i < kFrameSamples; ++i) {
       step_inside = std::max(step_inside, static_cast<double>(std::abs(frame[i] - frame[i - 1])));
     }
-    step_at_boundary = std::max(step_at_boundary, static_cast<double>(std::abs(frame[0] - left[f * kFrameSamples - 1])));
+    step_at_boundary = std::max(
+        step_at_boundary, static_cast<double>(std::abs(frame[0] - left[f * kFrameSamples - 1])));
   }
-  std::printf("steady tone: frame energies within %.2f dB; largest step at a boundary %.4f, inside %.4f\n",
-              db(highest / lowest), step_at_boundary, step_inside);
+  std::printf(
+      "steady tone: frame energies within %.2f dB; largest step at a boundary %.4f, inside %.4f\n",
+      db(highest / lowest), step_at_boundary, step_inside);
   EXPECT_LT(db(highest / lowest), 0.5);
   EXPECT_LE(step_at_boundary, 1.1 * step_inside);
 }

@@ -17,7 +17,8 @@ inline std::vector<float> read_speech(const std::string& name) {
   const std::string path = std::string(VOLCAST_TEST_DATA) + "/speech/" + name;
   SF_INFO info{};
   SNDFILE* file = sf_open(path.c_str(), SFM_READ, &info);
-  if (file == nullptr) throw std::runtime_error("cannot open " + path + ": " + sf_strerror(nullptr));
+  if (file == nullptr)
+    throw std::runtime_error("cannot open " + path + ": " + sf_strerror(nullptr));
   if (info.channels != 1 || info.samplerate != 48000) {
     sf_close(file);
     throw std::runtime_error(path + " is not 48 kHz mono");
@@ -35,7 +36,9 @@ inline double energy(std::span<const float> x) {
   return sum;
 }
 
-inline double db(double ratio) { return 10.0 * std::log10(ratio); }
+inline double db(double ratio) {
+  return 10.0 * std::log10(ratio);
+}
 
 /// Normalised correlation of a[n] with b[n - lag] over their overlap.
 inline double correlation_at(std::span<const float> a, std::span<const float> b, long lag) {

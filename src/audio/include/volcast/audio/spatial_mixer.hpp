@@ -19,11 +19,11 @@ namespace volcast::audio {
 
 /// How voices are rendered.
 struct SpatialConfig {
-  bool hrtf = true;                    ///< binaural (HRTF) rendering; false: stereo panning
-  float reference_distance_m = 1.0f;   ///< distance at which a voice plays at its own gain
-  float rolloff = 1.0f;                ///< gain = ref / (ref + rolloff * (d - ref))
-  float max_distance_m = 15.0f;        ///< beyond this the gain no longer falls
-  int max_sources = 32;                ///< voices that may be placed at once
+  bool hrtf = true;                   ///< binaural (HRTF) rendering; false: stereo panning
+  float reference_distance_m = 1.0f;  ///< distance at which a voice plays at its own gain
+  float rolloff = 1.0f;               ///< gain = ref / (ref + rolloff * (d - ref))
+  float max_distance_m = 15.0f;       ///< beyond this the gain no longer falls
+  int max_sources = 32;               ///< voices that may be placed at once
 };
 
 /// Mixes mono 20 ms frames of many voices into one stereo 20 ms frame for one listener. Owns an

@@ -4,8 +4,8 @@
 #include <cstddef>
 #include <cstdint>
 namespace volcast::audio {
-inline constexpr int kSampleRate = 48000;                       ///< Hz
-inline constexpr size_t kFrameSamples = 960;                    ///< one 20 ms mono frame
-inline constexpr int64_t kFrameUs = 20'000;                     ///< one frame, microseconds
-inline constexpr size_t kMaxOpusPacketBytes = 1275;             ///< RFC 6716 §3.4 (one frame)
+inline constexpr int kSampleRate = 48000;            ///< Hz
+inline constexpr size_t kFrameSamples = 960;         ///< one 20 ms mono frame
+inline constexpr int64_t kFrameUs = 20'000;          ///< one frame, microseconds
+inline constexpr size_t kMaxOpusPacketBytes = 1275;  ///< RFC 6716 §3.4 (one frame)
 }  // namespace volcast::audio

@@ -29,7 +29,9 @@ struct SpatialConfig {
 /// Mixes mono 20 ms frames of many voices into one stereo 20 ms frame for one listener. Owns an
 /// OpenAL Soft loopback device and context; several mixers may live in one process (each AL call
 /// is made under the mixer's own thread-local context, ALC_EXT_thread_local_context). All members
-/// are thread-safe (one mutex). After construction, push() and render() allocate nothing.
+/// are thread-safe (one mutex). After construction push() and render() allocate nothing of their
+/// own (AL buffers are reused); OpenAL Soft 1.19's alSourceQueueBuffers itself callocs one small
+/// queue entry per queued buffer (freed on unqueue).
 class SpatialMixer {
  public:
   /// Opens the loopback device (float stereo at 48 kHz) and its context. HRTF is requested when

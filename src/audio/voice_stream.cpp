@@ -110,6 +110,10 @@ VoiceStream::State::State(int initial_delay_ms)
   initial_hold = (initial_delay_ms + 19) / 20;
   void (*callback)(void*) = &State::discard;
   jitter_buffer_ctl(jb, JITTER_BUFFER_SET_DESTROY_CALLBACK, reinterpret_cast<void*>(callback));
+  // The share of packets the buffer lets arrive too late (speexdsp's default: 4 %): 1 % keeps
+  // enough delay for TCP's retransmissions on a lossy path (tests/voice: the impaired path).
+  spx_int32_t late_rate = 1;
+  jitter_buffer_ctl(jb, JITTER_BUFFER_SET_MAX_LATE_RATE, &late_rate);
   for (size_t i = 0; i < kSlots; ++i) {
     slots[i].owner = this;
     slots[i].held = false;

@@ -197,7 +197,7 @@ int run_voice_bench(const BenchArgs& a) {
       "m2e: mouth-to-ear, a frame's capture (its first sample) -> played at the listener (file "
       "devices: no device latency), median of the p50s, worst p99; concealed: worst share of "
       "talking frames rebuilt by FEC or PLC; server CPU: the server's threads serving the "
-      "participants (reading, forwarding and writing the voice packets), % of one core\n");
+      "participants (reading, forwarding and writing the voice packets), %% of one core\n");
   if (!a.json.empty()) {
     nlohmann::json j;
     j["voice"] = rows;

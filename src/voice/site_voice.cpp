@@ -86,18 +86,22 @@ void SiteVoice::run() {
 void SiteVoice::capture(int64_t captured_us) {
   const std::span<float, kFrameSamples> block(block_.data(), kFrameSamples);
   const uint32_t frame = frame_++;
-  std::lock_guard lock(mutex_);
-  if (echo_) echo_->near_end(block);  // the loudspeaker's echo out of the room's microphone
-  ++stats_.frames_captured;
-  if (muted_) return;
-  const std::span<const uint8_t> packet = encoder_.encode(block);
-  if (encoder_.last_was_dtx()) {
-    ++stats_.dtx_frames;
-    return;
+  std::span<const uint8_t> packet;
+  {
+    std::lock_guard lock(mutex_);
+    if (echo_) echo_->near_end(block);  // the loudspeaker's echo out of the room's microphone
+    ++stats_.frames_captured;
+    if (muted_) return;
+    packet = encoder_.encode(block);  // only this thread encodes: valid until the next frame
+    if (encoder_.last_was_dtx()) {
+      ++stats_.dtx_frames;
+      return;
+    }
+    ++stats_.packets_sent;
+    stats_.bytes_sent += packet.size();
   }
+  // Outside the lock: the hub calls put() with its own lock held.
   send_({sequence_++, frame, captured_us, packet});
-  ++stats_.packets_sent;
-  stats_.bytes_sent += packet.size();
 }
 
 void SiteVoice::play(int64_t now_us) {

@@ -92,14 +92,17 @@ std::string VoiceLink::error() const {
 void VoiceLink::run() {
   Devices& d = *devices_;
   const int64_t start = wall_clock_us();
-  {
+  const auto started = [this](int64_t at) {
     std::lock_guard lock(mutex_);
-    stats_.started_us = start;
-  }
+    stats_.started_us = at;
+  };
+  started(start);
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
       if (d.mic) {
         const int64_t captured = d.mic->read(d.block);
+        // The microphone paces the loop: the loudspeaker's first block goes out with its first.
+        if (tick == 0) started(captured);
         capture(d.block, captured);
         mic_ended_ = d.mic->ended();
       } else {
@@ -118,18 +121,21 @@ void VoiceLink::run() {
 void VoiceLink::capture(std::span<const float, kFrameSamples> block, int64_t capture_us) {
   const uint32_t frame = frame_++;
   const bool sending = !muted_ && (!config_.push_to_talk || talking_);
-  std::lock_guard lock(mutex_);
-  ++stats_.frames_captured;
-  if (!sending) return;
-  const std::span<const uint8_t> packet = encoder_.encode(block);
-  if (encoder_.last_was_dtx()) {
-    ++stats_.dtx_frames;
-    return;
+  std::span<const uint8_t> packet;
+  {
+    std::lock_guard lock(mutex_);
+    ++stats_.frames_captured;
+    if (!sending) return;
+    packet = encoder_.encode(block);  // only this thread encodes: valid until the next frame
+    if (encoder_.last_was_dtx()) {
+      ++stats_.dtx_frames;
+      return;
+    }
+    ++stats_.packets_sent;
+    stats_.bytes_sent += packet.size();
   }
   participant_.send_voice(
       {sequence_++, frame, capture_us + participant_.clock_offset_us(), packet});
-  ++stats_.packets_sent;
-  stats_.bytes_sent += packet.size();
 }
 
 void VoiceLink::play(int64_t now_us) {

@@ -72,19 +72,33 @@ struct Alignment {
   double correlation = 0;     ///< normalised, at that offset
 };
 
+/// `x` summed over runs of 12 samples: 4 kHz, the band below about 2 kHz (telephone speech).
+inline std::vector<float> decimate(std::span<const float> x) {
+  std::vector<float> out(x.size() / 12);
+  for (size_t i = 0; i < out.size(); ++i) {
+    float s = 0;
+    for (size_t k = 0; k < 12; ++k) s += x[i * 12 + k];
+    out[i] = s;
+  }
+  return out;
+}
+
+/// Where `a` sits best in `b` within offsets [from, to], compared below about 2 kHz (decimate):
+/// what stays of speech through processing that reshapes its upper bands (an echo canceller's
+/// band split and noise suppressor).
+inline Alignment align_band(std::span<const float> a, std::span<const float> b,
+                            std::ptrdiff_t from, std::ptrdiff_t to) {
+  const std::vector<float> da = decimate(a), db = decimate(b);
+  Alignment best{from, -2};
+  for (std::ptrdiff_t o = from / 12; o <= to / 12; ++o)
+    if (const double c = ncc(da, db, o); c > best.correlation) best = {o * 12, c};
+  return best;
+}
+
 /// Where `a` sits best in `b` within offsets [from, to]: a coarse search on 12x decimated
 /// signals, then every sample around the best.
 inline Alignment align(std::span<const float> a, std::span<const float> b, std::ptrdiff_t from,
                        std::ptrdiff_t to) {
-  const auto decimate = [](std::span<const float> x) {
-    std::vector<float> out(x.size() / 12);
-    for (size_t i = 0; i < out.size(); ++i) {
-      float s = 0;
-      for (size_t k = 0; k < 12; ++k) s += x[i * 12 + k];
-      out[i] = s;
-    }
-    return out;
-  };
   const std::vector<float> da = decimate(a), db = decimate(b);
   Alignment coarse{from, -2};
   for (std::ptrdiff_t o = from / 12; o <= to / 12; ++o)
@@ -93,6 +107,23 @@ inline Alignment align(std::span<const float> a, std::span<const float> b, std::
   for (std::ptrdiff_t o = coarse.offset - 24; o <= coarse.offset + 24; ++o)
     if (const double c = ncc(a, b, o); c > best.correlation) best = {o, c};
   return best;
+}
+
+/// The mean correlation of `a`'s `pieces` equal parts with `b`, each aligned on its own within
+/// ±`slack` samples of where `a` as a whole sits (align). An adaptive jitter buffer shifts later
+/// speech by whole frames when it changes its delay: each part then still matches, the whole
+/// less.
+inline double piecewise_correlation(std::span<const float> a, std::span<const float> b,
+                                    std::ptrdiff_t offset, int pieces = 4,
+                                    std::ptrdiff_t slack = 2880) {
+  double sum = 0;
+  const size_t n = a.size() / size_t(pieces);
+  for (int k = 0; k < pieces; ++k) {
+    const std::span<const float> piece = a.subspan(size_t(k) * n, n);
+    const std::ptrdiff_t at = offset + std::ptrdiff_t(size_t(k) * n);
+    sum += align(piece, b, at - slack, at + slack).correlation;
+  }
+  return sum / pieces;
 }
 
 /// Mean square of x[from, from + n).

@@ -11,13 +11,6 @@
 #include "volcast/core/wire.hpp"
 
 namespace volcast {
-namespace {
-
-// 8 (offset) + 8 (sequence) + 8 (capture time) + 1 (flags) bytes per frame set in the Index.
-constexpr size_t kIndexEntryBytes = 25;
-
-}  // namespace
-
 RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path) {
   const std::string where = "recording " + path.string();
   fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -34,12 +27,12 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path
     if (!std::equal(detail::kRecordingMagic.begin(), detail::kRecordingMagic.end(), fh.begin()))
       throw Error(where + ": not a Volcast recording (no VCRECORD magic at offset 0)");
     const auto version = wire::load<uint16_t>(fh.data() + 8);
-    if (fh != detail::file_header()) {
-      if (version != kRecordingVersion)
-        throw Error(where + ": format version " + std::to_string(version) + ", this build reads " +
-                    std::to_string(kRecordingVersion));
+    if (version != 1 && version != kRecordingVersion)
+      throw Error(where + ": format version " + std::to_string(version) +
+                  ", this build reads 1 and " + std::to_string(kRecordingVersion));
+    if (fh != detail::file_header(version))
       throw Error(where + ": corrupt file header at offset 0 (fails its CRC)");
-    }
+    info_.version = version;
     // The Stream record: without it nothing can be replayed.
     std::array<uint8_t, kRecordHeaderBytes> rh{};
     detail::RecordHeader h;
@@ -62,6 +55,7 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path
     } catch (const Error& e) {
       throw Error(where + ": stream description at offset " + std::to_string(at) + ": " + e.what());
     }
+    records_at_ = at + kRecordHeaderBytes + h.payload_bytes;
     if (!read_index()) scan();
   } catch (...) {
     ::close(fd_);
@@ -99,33 +93,7 @@ bool RecordingReader::read_index() {
   if (!detail::read_at(fd_, index_at + kRecordHeaderBytes, payload) ||
       crc32_of(payload) != h.payload_crc)
     throw Error(where + ": corrupt index" + at_index + " (fails its CRC)");
-  wire::Reader r(payload, "recording index");
-  try {
-    const uint32_t count = r.get<uint32_t>("count");
-    if (uint64_t{count} * kIndexEntryBytes != r.remaining()) r.fail("wrong length");
-    info_.frame_sets.resize(count);
-    for (RecordedFrameSet& e : info_.frame_sets) {
-      e.offset = r.get<uint64_t>("offset");
-      e.sequence = r.get<uint64_t>("sequence");
-      e.capture_us = r.get<int64_t>("capture time");
-      e.key = (r.get<uint8_t>("flags") & 1) != 0;
-    }
-  } catch (const Error& e) {
-    throw Error(where + ": index" + at_index + ": " + e.what());
-  }
-  // Offsets must rise through the frame-set area; each body's length is up to the next record.
-  uint64_t floor = kRecordingFileHeaderBytes + kRecordHeaderBytes;  // past the Stream header
-  for (size_t k = 0; k < info_.frame_sets.size(); ++k) {
-    RecordedFrameSet& e = info_.frame_sets[k];
-    const uint64_t next =
-        k + 1 < info_.frame_sets.size() ? info_.frame_sets[k + 1].offset : index_at;
-    if (e.offset < floor || next < e.offset + kRecordHeaderBytes ||
-        next - e.offset - kRecordHeaderBytes > kMaxRecordBytes)
-      throw Error(where + ": index" + at_index + ": frame set " + std::to_string(k) +
-                  " has a bad offset " + std::to_string(e.offset));
-    e.bytes = static_cast<uint32_t>(next - e.offset - kRecordHeaderBytes);
-    floor = next;
-  }
+  parse_index(payload, index_at);
   info_.closed = true;
   return true;
 }
@@ -135,9 +103,7 @@ void RecordingReader::scan() {
   const uint64_t size = info_.file_bytes;
   std::array<uint8_t, kRecordHeaderBytes> rh{};
   detail::RecordHeader h;
-  if (!detail::read_at(fd_, kRecordingFileHeaderBytes, rh) || !detail::parse_record_header(rh, h))
-    throw Error(where + ": corrupt stream description");  // checked in the constructor
-  uint64_t at = kRecordingFileHeaderBytes + kRecordHeaderBytes + h.payload_bytes;
+  uint64_t at = records_at_;
   std::vector<uint8_t> payload;
   const auto tail = [&](const std::string& why) {
     info_.incomplete_tail_at = at;
@@ -169,15 +135,22 @@ void RecordingReader::scan() {
       throw Error(where + ": corrupt record header at offset " + std::to_string(at));
     }
     const uint64_t next = at + kRecordHeaderBytes + h.payload_bytes;
+    const bool voices = info_.version >= 2;
+    const bool voice = h.type == RecordType::kVoice, speaker = h.type == RecordType::kSpeaker;
     if (h.type != RecordType::kFrameSet && h.type != RecordType::kIndex &&
-        h.type != RecordType::kEnd)
+        h.type != RecordType::kEnd && !(voices && (voice || speaker)))
       throw Error(where + ": record of unknown type " + std::to_string(static_cast<int>(h.type)) +
                   " at offset " + std::to_string(at));
-    if (h.payload_bytes > kMaxRecordBytes)
-      throw Error(where + ": record of " + std::to_string(h.payload_bytes) +
-                  " bytes (over the limit) at offset " + std::to_string(at));
+    const uint32_t limit = voice     ? uint32_t{detail::kVoiceHeadBytes + kMaxRecordedVoiceBytes}
+                           : speaker ? detail::kMaxSpeakerRecordBytes
+                                     : kMaxRecordBytes;
+    const std::string kind = detail::record_kind(h.type);
+    if (h.payload_bytes > limit)
+      throw Error(where + ": " + kind + " record of " + std::to_string(h.payload_bytes) +
+                  " bytes (over the limit of " + std::to_string(limit) + ") at offset " +
+                  std::to_string(at));
     if (next > size) {
-      tail("a frame set cut short (" + std::to_string(size - at - kRecordHeaderBytes) + " of " +
+      tail("the last record (" + kind + ") cut short (" + std::to_string(size - at - kRecordHeaderBytes) + " of " +
            std::to_string(h.payload_bytes) + " bytes)");
       return;
     }
@@ -186,11 +159,20 @@ void RecordingReader::scan() {
       throw Error(where + ": changed while being read");
     if (crc32_of(payload) != h.payload_crc) {
       if (next == size) {
-        tail("a last frame set whose bytes never all reached the disk (fails its CRC)");
+        tail("a last record (" + kind + ") whose bytes never all reached the disk (fails its CRC)");
         return;
       }
-      throw Error(where + ": corrupt frame set at offset " + std::to_string(at) +
+      throw Error(where + ": corrupt " + kind + " at offset " + std::to_string(at) +
                   " (fails its CRC)");
+    }
+    try {
+      if (speaker) add_speaker(detail::parse_speaker(payload));
+      if (voice) {
+        std::span<const uint8_t> opus;
+        add_voice(detail::parse_voice(payload, opus), at);
+      }
+    } catch (const Error& err) {
+      throw Error(where + ": " + kind + " at offset " + std::to_string(at) + ": " + err.what());
     }
     if (h.type == RecordType::kFrameSet) {
       RecordedFrameSet e;
@@ -234,9 +216,14 @@ void RecordingReader::read(size_t k, std::vector<uint8_t>& body, size_t at_front
 
 void RecordingReader::verify(const std::function<void(size_t, size_t)>& progress) {
   std::vector<uint8_t> body;
+  const size_t total = info_.frame_sets.size() + info_.voices.size();
   for (size_t k = 0; k < info_.frame_sets.size(); ++k) {
     read(k, body);
-    if (progress) progress(k + 1, info_.frame_sets.size());
+    if (progress) progress(k + 1, total);
+  }
+  for (size_t k = 0; k < info_.voices.size(); ++k) {
+    read_voice(info_.voices[k], body);
+    if (progress) progress(info_.frame_sets.size() + k + 1, total);
   }
 }
 

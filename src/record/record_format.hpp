@@ -13,7 +13,8 @@ namespace volcast::detail {
 
 inline constexpr std::array<uint8_t, 8> kRecordingMagic = {'V', 'C', 'R', 'E', 'C', 'O', 'R', 'D'};
 
-std::array<uint8_t, kRecordingFileHeaderBytes> file_header();
+/// The file header of format `version`.
+std::array<uint8_t, kRecordingFileHeaderBytes> file_header(uint16_t version = kRecordingVersion);
 
 struct RecordHeader {
   RecordType type{};
@@ -30,6 +31,35 @@ bool parse_record_header(std::span<const uint8_t, kRecordHeaderBytes> bytes, Rec
 std::vector<uint8_t> serialize_stream(const RecordingStream& s);
 /// Throws Error("malformed recording stream: ...").
 RecordingStream parse_stream(std::span<const uint8_t> payload);
+
+/// A Voice record's payload before its Opus bytes: participant, sequence, frame, capture time, the
+/// byte string's length u32.
+inline constexpr size_t kVoiceHeadBytes = 24;
+/// The largest Speaker record payload: participant, a name of 65535 bytes, role.
+inline constexpr uint32_t kMaxSpeakerRecordBytes = 4 + 2 + 65535 + 1;
+
+/// Appends a Speaker record's payload to `out` (cleared first).
+void serialize_speaker(const RecordedSpeaker& s, std::vector<uint8_t>& out);
+/// Throws Error("malformed speaker: ...").
+RecordedSpeaker parse_speaker(std::span<const uint8_t> payload);
+/// A Voice record's head (kVoiceHeadBytes; the Opus bytes follow it).
+std::array<uint8_t, kVoiceHeadBytes> voice_head(const RecordedVoice& v);
+/// Parses a Voice record's payload (offset left 0); `opus` is set to its Opus bytes. Throws
+/// Error("malformed voice: ...") for a wrong length or a packet of 0 or over 1275 bytes.
+RecordedVoice parse_voice(std::span<const uint8_t> payload, std::span<const uint8_t>& opus);
+
+/// What a record of `type` is, for people ("frame set", "voice", ...).
+inline const char* record_kind(RecordType type) {
+  switch (type) {
+    case RecordType::kStream: return "stream description";
+    case RecordType::kFrameSet: return "frame set";
+    case RecordType::kIndex: return "index";
+    case RecordType::kEnd: return "end record";
+    case RecordType::kSpeaker: return "speaker";
+    case RecordType::kVoice: return "voice";
+  }
+  return "record";
+}
 
 /// Reads exactly out.size() bytes at `offset`; false if the file ends first. Throws Error on an
 /// I/O error.

@@ -2,14 +2,19 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "volcast/core/error.hpp"
 
 namespace volcast {
 
 BackgroundRecorder::BackgroundRecorder(const std::filesystem::path& path,
                                        const RecordingStream& stream,
-                                       RecordingWriterOptions options, size_t max_queued)
-    : writer_(path, stream, options), max_queued_(std::max<size_t>(1, max_queued)) {
+                                       RecordingWriterOptions options, size_t max_queued,
+                                       size_t max_queued_voices)
+    : writer_(path, stream, options),
+      max_queued_(std::max<size_t>(1, max_queued)),
+      voices_(std::max<size_t>(1, max_queued_voices)) {
   stats_.bytes = writer_.bytes();
   thread_ = std::thread([this] { run(); });
 }
@@ -37,19 +42,68 @@ void BackgroundRecorder::push(const TierFrameSet& f) {
   changed_.notify_one();
 }
 
+void BackgroundRecorder::push_speaker(uint32_t participant, const std::string& name,
+                                      uint8_t role) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || !stats_.error.empty()) return;
+    speakers_.push_back({participant, name, role});
+  }
+  changed_.notify_one();
+}
+
+void BackgroundRecorder::push_voice(uint32_t participant, uint32_t sequence, uint32_t frame,
+                                    int64_t capture_us, std::span<const uint8_t> opus) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || !stats_.error.empty()) return;
+    if (opus.empty() || opus.size() > kMaxRecordedVoiceBytes || voice_count_ == voices_.size()) {
+      ++stats_.voice_dropped;
+      return;
+    }
+    QueuedVoice& q = voices_[(voice_head_ + voice_count_++) % voices_.size()];
+    q.participant = participant;
+    q.sequence = sequence;
+    q.frame = frame;
+    q.capture_us = capture_us;
+    q.bytes = opus.size();
+    std::copy(opus.begin(), opus.end(), q.opus.begin());
+  }
+  changed_.notify_one();
+}
+
 void BackgroundRecorder::run() {
   while (true) {
     TierFrameSet f;
+    std::vector<RecordedSpeaker> speakers;
+    bool voice = false;
     {
       std::unique_lock lock(mutex_);
-      changed_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
-      if (queue_.empty()) break;  // stopping, all written
-      f = std::move(queue_.front());
-      queue_.pop_front();
+      changed_.wait(lock, [&] { return stopping_ || !idle(); });
+      if (idle()) break;  // stopping, all written
+      // Speakers first: one pushed before its voice is written before it.
+      speakers.assign(speakers_.begin(), speakers_.end());
+      speakers_.clear();
+      if (voice_count_ > 0) {
+        writing_ = voices_[voice_head_];
+        voice_head_ = (voice_head_ + 1) % voices_.size();
+        --voice_count_;
+        voice = true;
+      }
+      if (!queue_.empty()) {
+        f = std::move(queue_.front());
+        queue_.pop_front();
+      }
     }
     std::string error;
+    bool voice_written = false;
     try {
-      writer_.append(f.body);
+      for (const RecordedSpeaker& s : speakers) writer_.append_speaker(s.participant, s.name, s.role);
+      if (voice)
+        writer_.append_voice(writing_.participant, writing_.sequence, writing_.frame,
+                             writing_.capture_us, std::span(writing_.opus).first(writing_.bytes));
+      voice_written = voice;
+      if (!f.body.empty()) writer_.append(f.body);
     } catch (const Error& e) {
       error = e.what();
       spdlog::error("{}", error);
@@ -58,10 +112,13 @@ void BackgroundRecorder::run() {
     std::lock_guard lock(mutex_);
     stats_.bytes = writer_.bytes();
     stats_.frame_sets = writer_.frame_sets();
+    stats_.voice_packets = writer_.voices();
     if (!error.empty()) {
       stats_.error = error;
       stats_.dropped += queue_.size();
       queue_.clear();
+      stats_.voice_dropped += voice_count_ + (voice && !voice_written ? 1 : 0);
+      voice_count_ = 0;
       break;
     }
   }

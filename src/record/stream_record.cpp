@@ -38,10 +38,10 @@ RecordedFrameSet frame_set_head(std::span<const uint8_t> body) {
 
 namespace detail {
 
-std::array<uint8_t, kRecordingFileHeaderBytes> file_header() {
+std::array<uint8_t, kRecordingFileHeaderBytes> file_header(uint16_t version) {
   std::array<uint8_t, kRecordingFileHeaderBytes> h{};
   std::copy(kRecordingMagic.begin(), kRecordingMagic.end(), h.begin());
-  wire::store<uint16_t>(h.data() + 8, kRecordingVersion);
+  wire::store<uint16_t>(h.data() + 8, version);
   wire::store<uint32_t>(h.data() + 12, crc32_of(std::span(h).first(12)));
   return h;
 }
@@ -94,6 +94,51 @@ RecordingStream parse_stream(std::span<const uint8_t> payload) {
   r.expect_end();
   if (s.depth_codec.empty() || s.color_codec.empty()) r.fail("no codec named");
   return s;
+}
+
+void serialize_speaker(const RecordedSpeaker& s, std::vector<uint8_t>& out) {
+  out.clear();
+  wire::Writer w(out);
+  w.put<uint32_t>(s.participant);
+  w.put_string(s.name);
+  w.put<uint8_t>(s.role);
+}
+
+RecordedSpeaker parse_speaker(std::span<const uint8_t> payload) {
+  wire::Reader r(payload, "speaker");
+  RecordedSpeaker s;
+  s.participant = r.get<uint32_t>("participant");
+  s.name = r.get_string("display name");
+  s.role = r.get<uint8_t>("role");
+  r.expect_end();
+  return s;
+}
+
+std::array<uint8_t, kVoiceHeadBytes> voice_head(const RecordedVoice& v) {
+  std::array<uint8_t, kVoiceHeadBytes> h{};
+  wire::store<uint32_t>(h.data(), v.participant);
+  wire::store<uint32_t>(h.data() + 4, v.sequence);
+  wire::store<uint32_t>(h.data() + 8, v.frame);
+  wire::store<int64_t>(h.data() + 12, v.capture_us);
+  wire::store<uint32_t>(h.data() + 20, v.bytes);
+  return h;
+}
+
+RecordedVoice parse_voice(std::span<const uint8_t> payload, std::span<const uint8_t>& opus) {
+  wire::Reader r(payload, "voice");
+  RecordedVoice v;
+  v.participant = r.get<uint32_t>("participant");
+  v.sequence = r.get<uint32_t>("sequence");
+  v.frame = r.get<uint32_t>("frame");
+  v.capture_us = r.get<int64_t>("capture time");
+  const auto n = r.get<uint32_t>("Opus length");
+  if (n == 0 || n > kMaxRecordedVoiceBytes)
+    r.fail("an Opus packet of " + std::to_string(n) + " bytes (1.." +
+           std::to_string(kMaxRecordedVoiceBytes) + ")");
+  if (r.remaining() != n) r.fail("Opus length " + std::to_string(n) + " does not fit the record");
+  opus = payload.subspan(kVoiceHeadBytes);
+  v.bytes = static_cast<uint16_t>(n);
+  return v;
 }
 
 bool read_at(int fd, uint64_t offset, std::span<uint8_t> out) {

@@ -3,6 +3,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -90,8 +91,10 @@ void RecordingWriter::fail_write(int error_number, const char* what) {
     [[maybe_unused]] const int t = ::ftruncate(fd_, static_cast<off_t>(end_));
     ::fdatasync(fd_);
   }
-  const std::string kept = std::to_string(index_.size()) + " frame sets (" + megabytes(end_) +
-                           ") written before it are kept and replay";
+  const std::string kept = std::to_string(index_.size()) + " frame sets" +
+                           (voices_.empty() ? ""
+                                            : " and " + std::to_string(voices_.size()) + " voices") +
+                           " (" + megabytes(end_) + ") written before it are kept and replay";
   if (out_of_space(error_number))
     throw Error("recording " + path_.string() + ": disk full (" + std::strerror(error_number) +
                 ") while writing " + what + "; " + kept);
@@ -106,14 +109,29 @@ void RecordingWriter::write_record(RecordType type, std::span<const uint8_t> hea
                   {const_cast<uint8_t*>(head.data()), head.size()},
                   {const_cast<uint8_t*>(body.data()), body.size()}};
   if (const int e = write_fully(fd_, iov, 3))
-    fail_write(e, type == RecordType::kFrameSet ? "a frame set" : "the index");
+    fail_write(e, type == RecordType::kFrameSet ? "a frame set"
+                  : type == RecordType::kVoice  ? "a voice"
+                  : type == RecordType::kSpeaker ? "a speaker"
+                                                 : "the index");
   end_ += header.size() + head.size() + body.size();
 }
 
-void RecordingWriter::append(std::span<const uint8_t> body) {
+void RecordingWriter::check_open() const {
   if (failed_ || closed_)
     throw Error("recording " + path_.string() + ": " +
                 (closed_ ? "closed" : "stopped by an error"));
+}
+
+void RecordingWriter::maybe_sync(const char* what) {
+  const int64_t now = wall_clock_us();
+  if (now - last_sync_us_ >= int64_t{options_.sync_interval_ms} * 1000) {
+    if (::fdatasync(fd_) != 0) fail_write(errno, what);
+    last_sync_us_ = now;
+  }
+}
+
+void RecordingWriter::append(std::span<const uint8_t> body) {
+  check_open();
   if (body.size() > kMaxRecordBytes)
     throw Error("recording " + path_.string() + ": frame set of " + std::to_string(body.size()) +
                 " bytes is over the limit");
@@ -121,11 +139,46 @@ void RecordingWriter::append(std::span<const uint8_t> body) {
   entry.offset = end_;
   write_record(RecordType::kFrameSet, {}, body);
   index_.push_back(entry);
-  const int64_t now = wall_clock_us();
-  if (now - last_sync_us_ >= int64_t{options_.sync_interval_ms} * 1000) {
-    if (::fdatasync(fd_) != 0) fail_write(errno, "a frame set (sync)");
-    last_sync_us_ = now;
-  }
+  maybe_sync("a frame set (sync)");
+}
+
+void RecordingWriter::append_speaker(uint32_t participant, const std::string& name, uint8_t role) {
+  check_open();
+  if (name.size() > 65535)
+    throw Error("recording " + path_.string() + ": display name of " +
+                std::to_string(name.size()) + " bytes is over 65535");
+  // The last record of this participant holds; write only what changes it.
+  for (auto it = speakers_.rbegin(); it != speakers_.rend(); ++it)
+    if (it->speaker.participant == participant) {
+      if (it->speaker.name == name && it->speaker.role == role) return;
+      break;
+    }
+  const RecordedSpeaker s{participant, name, role};
+  detail::serialize_speaker(s, scratch_);
+  const uint64_t at = end_;
+  write_record(RecordType::kSpeaker, scratch_, {});
+  speakers_.push_back({at, s});
+  maybe_sync("a speaker (sync)");
+}
+
+void RecordingWriter::append_voice(uint32_t participant, uint32_t sequence, uint32_t frame,
+                                   int64_t capture_us, std::span<const uint8_t> opus) {
+  check_open();
+  if (opus.empty() || opus.size() > kMaxRecordedVoiceBytes)
+    throw Error("recording " + path_.string() + ": voice packet of " +
+                std::to_string(opus.size()) + " bytes from participant " +
+                std::to_string(participant) + " refused (Opus packets are 1.." +
+                std::to_string(kMaxRecordedVoiceBytes) + " bytes)");
+  const bool known = std::any_of(speakers_.begin(), speakers_.end(), [&](const SpeakerEntry& e) {
+    return e.speaker.participant == participant;
+  });
+  if (!known) append_speaker(participant, "participant " + std::to_string(participant), 0);
+  RecordedVoice v{end_, participant, sequence, frame, capture_us,
+                  static_cast<uint16_t>(opus.size())};
+  const auto head = detail::voice_head(v);
+  write_record(RecordType::kVoice, head, opus);
+  voices_.push_back(v);
+  maybe_sync("a voice (sync)");
 }
 
 void RecordingWriter::close() {
@@ -140,6 +193,22 @@ void RecordingWriter::close() {
     w.put<uint64_t>(e.sequence);
     w.put<int64_t>(e.capture_us);
     w.put<uint8_t>(e.key ? 1 : 0);
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(speakers_.size()));
+  for (const SpeakerEntry& e : speakers_) {
+    w.put<uint64_t>(e.offset);
+    w.put<uint32_t>(e.speaker.participant);
+    w.put<uint8_t>(e.speaker.role);
+    w.put_string(e.speaker.name);
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(voices_.size()));
+  for (const RecordedVoice& v : voices_) {
+    w.put<uint64_t>(v.offset);
+    w.put<uint32_t>(v.participant);
+    w.put<uint32_t>(v.sequence);
+    w.put<uint32_t>(v.frame);
+    w.put<int64_t>(v.capture_us);
+    w.put<uint16_t>(v.bytes);
   }
   const uint64_t index_at = end_;
   write_record(RecordType::kIndex, index, {});

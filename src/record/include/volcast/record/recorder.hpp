@@ -1,6 +1,7 @@
 #pragma once
-// A server-side recorder: one more consumer of a tier (Server::add_tier_tap), writing on its own
-// thread so that the disk never holds up the tier's live viewers.
+// A server-side recorder: one more consumer of a tier (Server::add_tier_tap) and of the session's
+// voices, writing on its own thread so that the disk never holds up the tier's live viewers.
+#include <array>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -21,16 +22,23 @@ struct RecorderStats {
   /// Frame sets not recorded because the queue was full (the disk slower than the stream), and
   /// the deltas after them up to the next key frame set (they could not be decoded).
   uint64_t dropped = 0;
+  uint64_t voice_packets = 0;  ///< voice packets written
+  /// Voice packets not recorded: the voice queue was full, or the packet was empty or over
+  /// kMaxRecordedVoiceBytes.
+  uint64_t voice_dropped = 0;
   std::string error;  ///< what stopped the recording (disk full, ...), else empty
 };
 
-/// Writes a tier's frame sets to a recording (recording.hpp) on a thread of its own.
+/// Writes a tier's frame sets and the session's voices to a recording (recording.hpp) on a thread
+/// of its own.
 class BackgroundRecorder {
  public:
   /// Creates the file (RecordingWriter: throws Error if it exists or cannot be made). At most
-  /// `max_queued` frame sets wait for the disk.
+  /// `max_queued` frame sets and `max_queued_voices` voice packets (preallocated, ~1.3 KB each)
+  /// wait for the disk.
   BackgroundRecorder(const std::filesystem::path& path, const RecordingStream& stream,
-                     RecordingWriterOptions options = {}, size_t max_queued = 64);
+                     RecordingWriterOptions options = {}, size_t max_queued = 64,
+                     size_t max_queued_voices = 256);
   /// stop().
   ~BackgroundRecorder();
   BackgroundRecorder(const BackgroundRecorder&) = delete;
@@ -40,18 +48,37 @@ class BackgroundRecorder {
   /// the deltas after it up to the next key frame set. After an error nothing more is queued.
   /// Thread-safe.
   void push(const TierFrameSet& f);
+  /// Queues a Speaker record (RecordingWriter::append_speaker): call it when a participant joins
+  /// or changes its name, before pushing its voice. Never dropped. Thread-safe.
+  void push_speaker(uint32_t participant, const std::string& name, uint8_t role);
+  /// Copies one voice packet (RecordingWriter::append_voice) into the queue and returns at once;
+  /// no allocation. A full queue, an empty packet or one over kMaxRecordedVoiceBytes is dropped
+  /// and counted (RecorderStats::voice_dropped). Thread-safe.
+  void push_voice(uint32_t participant, uint32_t sequence, uint32_t frame, int64_t capture_us,
+                  std::span<const uint8_t> opus);
   /// Writes what is queued, closes the file (writes its index) and joins the thread. Idempotent.
   void stop();
   RecorderStats stats() const;
   const std::filesystem::path& path() const { return writer_.path(); }
 
  private:
+  struct QueuedVoice {
+    uint32_t participant = 0, sequence = 0, frame = 0;
+    int64_t capture_us = 0;
+    size_t bytes = 0;
+    std::array<uint8_t, kMaxRecordedVoiceBytes> opus{};
+  };
   void run();
+  bool idle() const { return queue_.empty() && speakers_.empty() && voice_count_ == 0; }
   RecordingWriter writer_;
   size_t max_queued_;
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   std::deque<TierFrameSet> queue_;  // guarded by mutex_
+  std::deque<RecordedSpeaker> speakers_;  // guarded by mutex_
+  std::vector<QueuedVoice> voices_;       // guarded by mutex_: a ring of max_queued_voices
+  size_t voice_head_ = 0, voice_count_ = 0;  // guarded by mutex_
+  QueuedVoice writing_;                   // the recorder thread's own
   RecorderStats stats_;             // guarded by mutex_
   bool waiting_for_key_ = false;    // guarded by mutex_: dropped one, deltas cannot follow
   bool stopping_ = false;           // guarded by mutex_

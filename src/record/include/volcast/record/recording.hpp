@@ -1,10 +1,12 @@
 #pragma once
 // Recordings of the encoded stream (.vcr): one tier's frame sets exactly as the server sent them,
-// in an append-only file that survives the recorder being killed or the disk filling up.
+// and the session's voices as the recorder heard them, in an append-only file that survives the
+// recorder being killed or the disk filling up.
 //
-// File format, version 1 (little-endian throughout):
-//   File header, 16 bytes: magic "VCRECORD" (8 bytes) | format version u16 (= 1) | reserved u16
-//     (= 0) | CRC-32 (zlib's, ISO-HDLC) of the 12 bytes before it.
+// File format, version 2 (this build writes 2 and reads 1 and 2; little-endian throughout):
+//   File header, 16 bytes: magic "VCRECORD" (8 bytes) | format version u16 (= 2; 1 for files
+//     without voices written before it) | reserved u16 (= 0) | CRC-32 (zlib's, ISO-HDLC) of the
+//     12 bytes before it.
 //   Records, back to back, each a 16-byte record header then its payload:
 //     type u8 | reserved 3 bytes (= 0) | payload length u32 | CRC-32 of the payload | CRC-32 of
 //     the header's first 12 bytes. The header's own CRC is checked before its length is trusted.
@@ -16,18 +18,33 @@
 //     2 FrameSet: the FrameSet body (protocol.hpp 1.1: everything after the send time: sequence,
 //       flags, capture/filter/encode times, per camera device time, depth and color streams),
 //       byte-identical to what the tier's viewers were sent. Written with one write() each.
-//     3 Index, written when the recording is closed: count u32, then per frame set its record's
-//       file offset u64 | sequence u64 | capture time i64 (us, the sender's clock) | flags u8.
+//     3 Index, written when the recording is closed:
+//       version 1: frame-set count u32, then per frame set its record's file offset u64 |
+//         sequence u64 | capture time i64 (us, the sender's clock) | flags u8 (25 bytes).
+//       version 2: the same, then speaker-record count u32, then per Speaker record its file
+//         offset u64 | participant u32 | role u8 | display name string; then voice count u32, then
+//         per Voice record its file offset u64 | participant u32 | sequence u32 | frame u32 |
+//         capture time i64 | Opus length u16 (30 bytes). Each list in file order; together with
+//         the frame sets they tile the file from the end of the Stream record to the Index.
 //     4 End, last, directly after the Index: the Index record's file offset u64.
+//     5 Speaker (version 2), before the first Voice of its participant, again only if its name or
+//       role changed (the last one holds): participant u32 | display name string | role u8 (0 a
+//       remote participant, 1 the OR site; others kept as they are).
+//     6 Voice (version 2), one Opus packet (RFC 6716) as the session carried it: participant u32 |
+//       sequence u32 (+1 per packet sent) | frame u32 (+1 per 20 ms frame captured; DTX skips
+//       frames) | capture time i64 (us, the server's clock, as frame sets' capture times) | Opus
+//       packet byte string (1..1275 bytes, RFC 6716 3.4). Not synced one by one: the writer's
+//       sync interval covers voices and frame sets alike.
 //   A file that does not end in an End record pointing at a valid Index (the recorder was killed,
-//   the machine lost power, the disk filled) is indexed by scanning its records: the frame sets up
-//   to the last complete one replay; an incomplete last record (one that runs past the end of the
-//   file or whose payload fails its CRC with nothing after it), or zeros where a record should
-//   begin, is the tail a stopped recorder leaves and is reported, not refused.
+//   the machine lost power, the disk filled) is indexed by scanning its records: the frame sets
+//   and voices up to the last complete record replay; an incomplete last record (one that runs
+//   past the end of the file or whose payload fails its CRC with nothing after it), or zeros where
+//   a record should begin, is the tail a stopped recorder leaves and is reported, not refused.
 //   Anything else -- a bad file header, a record header that fails its CRC with data after it, a
-//   payload that fails its CRC with records after it, an unknown type, a Stream that is missing,
-//   repeated or malformed, an Index that does not match the records -- is corruption: an Error
-//   naming the file and the byte offset.
+//   payload that fails its CRC with records after it, an unknown type (5 and 6 in a version-1
+//   file), a Stream that is missing, repeated or malformed, a Speaker or Voice that is malformed
+//   (a voice of 0 or over 1275 bytes, a Voice before its participant's Speaker), an Index that does
+//   not match the records -- is corruption: an Error naming the file and the byte offset.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -40,13 +57,51 @@
 
 namespace volcast {
 
-inline constexpr uint16_t kRecordingVersion = 1;
+inline constexpr uint16_t kRecordingVersion = 2;  ///< written; 1 and 2 are read
 inline constexpr size_t kRecordingFileHeaderBytes = 16;
 inline constexpr size_t kRecordHeaderBytes = 16;
 /// The largest record payload a reader accepts (bytes): a frame set within the protocol's limit.
 inline constexpr uint32_t kMaxRecordBytes = protocol::kMaxPayloadBytes;
 
-enum class RecordType : uint8_t { kStream = 1, kFrameSet = 2, kIndex = 3, kEnd = 4 };
+enum class RecordType : uint8_t {
+  kStream = 1,
+  kFrameSet = 2,
+  kIndex = 3,
+  kEnd = 4,
+  kSpeaker = 5,
+  kVoice = 6
+};
+
+/// The largest Opus packet a Voice record holds (bytes): one frame, RFC 6716 section 3.4.
+inline constexpr size_t kMaxRecordedVoiceBytes = 1275;
+/// One voice frame (us): 20 ms Opus frames at 48 kHz, as the session carries them.
+inline constexpr int64_t kVoiceFrameUs = 20'000;
+
+/// Who spoke (a Speaker record).
+struct RecordedSpeaker {
+  uint32_t participant = 0;  ///< the session's participant id
+  std::string name;          ///< display name
+  uint8_t role = 0;          ///< 0 a remote participant, 1 the OR site
+};
+
+/// One voice packet's place in the file (a Voice record).
+struct RecordedVoice {
+  uint64_t offset = 0;  ///< file offset of its record header
+  uint32_t participant = 0;
+  uint32_t sequence = 0;   ///< +1 per packet the speaker sent
+  uint32_t frame = 0;      ///< +1 per 20 ms frame the speaker captured (DTX skips frames)
+  int64_t capture_us = 0;  ///< the server's clock (us), as frame sets' capture times
+  uint16_t bytes = 0;      ///< the Opus packet's length, 1..kMaxRecordedVoiceBytes
+};
+
+/// One voice packet with its Opus bytes (RFC 6716), as a decoder takes it.
+struct RecordedVoicePacket {
+  uint32_t participant = 0;
+  uint32_t sequence = 0;
+  uint32_t frame = 0;
+  int64_t capture_us = 0;       ///< the server's clock (us)
+  std::vector<uint8_t> bytes;  ///< one Opus packet, 1..kMaxRecordedVoiceBytes bytes
+};
 
 /// What a recording is of (its Stream record).
 struct RecordingStream {
@@ -92,17 +147,34 @@ class RecordingWriter {
   /// and the file is cut back to its last complete frame set and synced, so everything before it
   /// stays and replays. After a throw the writer accepts no more frame sets.
   void append(std::span<const uint8_t> body);
+  /// Appends a Speaker record for `participant` (display `name`, `role` 0 remote / 1 OR site)
+  /// unless the last one written for it says the same. Throws Error for a name over 65535 bytes
+  /// or as append() does when the write fails.
+  void append_speaker(uint32_t participant, const std::string& name, uint8_t role);
+  /// Appends one Voice record (the Opus packet `opus`, 1..kMaxRecordedVoiceBytes bytes; times as
+  /// at RecordedVoice) with a single write, synced with the frame sets (options.sync_interval_ms).
+  /// A participant with no Speaker yet gets one first, named "participant <id>", role 0. Throws
+  /// Error for an empty or oversized packet (nothing written, the writer goes on) or as append()
+  /// does when the write fails. No allocation once its buffers have grown (the index aside).
+  void append_voice(uint32_t participant, uint32_t sequence, uint32_t frame, int64_t capture_us,
+                    std::span<const uint8_t> opus);
+  void append_voice(const RecordedVoicePacket& p) {
+    append_voice(p.participant, p.sequence, p.frame, p.capture_us, p.bytes);
+  }
   /// Writes the Index and End records and syncs. Idempotent. Throws Error if that fails (the frame
   /// sets stay: a reader indexes them by scanning).
   void close();
 
   const std::filesystem::path& path() const { return path_; }
   uint64_t frame_sets() const { return index_.size(); }
+  uint64_t voices() const { return voices_.size(); }
   uint64_t bytes() const { return end_; }  ///< file size so far
 
  private:
   void write_record(RecordType type, std::span<const uint8_t> head, std::span<const uint8_t> body);
   [[noreturn]] void fail_write(int error_number, const char* what);
+  void check_open() const;
+  void maybe_sync(const char* what);
   std::filesystem::path path_;
   RecordingWriterOptions options_;
   int fd_ = -1;
@@ -110,12 +182,23 @@ class RecordingWriter {
   int64_t last_sync_us_ = 0;
   bool failed_ = false, closed_ = false;
   std::vector<RecordedFrameSet> index_;
+  struct SpeakerEntry {
+    uint64_t offset;
+    RecordedSpeaker speaker;
+  };
+  std::vector<SpeakerEntry> speakers_;  // every Speaker record, in file order
+  std::vector<RecordedVoice> voices_;
+  std::vector<uint8_t> scratch_;  // a Voice or Speaker record's payload
 };
 
 /// What a reader found in a recording.
 struct RecordingInfo {
   RecordingStream stream;
   std::vector<RecordedFrameSet> frame_sets;  ///< in file order
+  uint16_t version = kRecordingVersion;      ///< the file's format version (1: no voices)
+  /// One per participant, in the order they first spoke; name and role from their last Speaker.
+  std::vector<RecordedSpeaker> speakers;
+  std::vector<RecordedVoice> voices;  ///< every Voice record, in file order
   uint64_t file_bytes = 0;
   bool closed = false;  ///< ends in a valid Index and End (the recorder closed it)
   /// Where an incomplete tail begins (a stopped recorder's last, partial write), if there is one;
@@ -170,13 +253,28 @@ class RecordingReader {
   /// room for a message's header or send time), checking its record's CRCs. Throws Error naming
   /// the file and offset if they fail or the file changed under it.
   void read(size_t k, std::vector<uint8_t>& body, size_t at = 0);
-  /// Reads every record and checks its CRCs; `progress(done, total)` after each frame set. Throws
-  /// like read() at the first bad one.
+  /// Reads every frame set, then every voice, and checks their CRCs; `progress(done, total)`
+  /// after each (total: frame sets + voices). Throws like read() at the first bad one.
   void verify(const std::function<void(size_t, size_t)>& progress = {});
+
+  /// `participant`'s voice packets in capture order (capture time, then frame; file order for
+  /// ties); empty for one who never spoke.
+  std::vector<RecordedVoice> voices_of(uint32_t participant) const;
+  /// Reads the Opus bytes of `v` (an entry of info().voices) into `bytes` (resized, capacity
+  /// reused), checking its record's CRCs and that it matches `v`. Throws Error naming the file
+  /// and offset otherwise.
+  void read_voice(const RecordedVoice& v, std::vector<uint8_t>& bytes);
+  /// Every packet of `participant`, bytes included, in capture order (voices_of + read_voice):
+  /// what a decoder or a WAV export takes. Throws like read_voice.
+  std::vector<RecordedVoicePacket> voices(uint32_t participant);
 
  private:
   void scan();
   bool read_index();
+  void parse_index(std::span<const uint8_t> payload, uint64_t index_at);
+  void add_speaker(const RecordedSpeaker& s);
+  void add_voice(const RecordedVoice& v, uint64_t at);
+  uint64_t records_at_ = 0;  // where the records after the Stream begin
   std::filesystem::path path_;
   int fd_ = -1;
   RecordingInfo info_;
@@ -185,6 +283,20 @@ class RecordingReader {
 /// The sequence, key flag and capture time at the head of a FrameSet body. Throws Error
 /// ("malformed frame set: ...") if the body is shorter than its head.
 RecordedFrameSet frame_set_head(std::span<const uint8_t> body);
+
+/// A speaker's voice in a recording, for people (`volcast recording info`).
+struct SpeakerSummary {
+  RecordedSpeaker speaker;
+  size_t packets = 0;
+  int64_t sent_us = 0;     ///< packets x 20 ms: the voice actually sent (DTX sends little else)
+  int64_t spanned_us = 0;  ///< (last frame - first frame + 1) x 20 ms
+  /// First and last capture time relative to the recording's start: the first frame set's capture
+  /// time (the clock voices share), or the first voice's in a recording without frame sets (us).
+  int64_t first_us = 0, last_us = 0;
+};
+
+/// One summary per speaker of `info`, in info.speakers' order.
+std::vector<SpeakerSummary> speaker_summaries(const RecordingInfo& info);
 
 /// CRC-32 (ISO-HDLC, as zlib and PNG compute it) of `bytes`.
 uint32_t crc32_of(std::span<const uint8_t> bytes);

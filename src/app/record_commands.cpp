@@ -13,6 +13,7 @@
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
 #include "volcast/pipeline/export.hpp"
 #include "volcast/record/recording.hpp"
 
@@ -135,7 +136,7 @@ int run_recording_info(const InfoArgs& a) {
   try {
     reader.verify([&](size_t done, size_t total) {
       if (tty && (done % 30 == 0 || done == total))
-        std::fprintf(stderr, "\rchecking every frame set: %zu/%zu", done, total);
+        std::fprintf(stderr, "\rchecking every record: %zu/%zu", done, total);
     });
   } catch (const Error& e) {
     bad = e.what();
@@ -158,6 +159,18 @@ int run_recording_info(const InfoArgs& a) {
             : std::string(),
         describe_span_us(timeline.frame_interval_us));
   const RecordingStream& s = info.stream;
+  // Voices: who spoke, how much, when (relative to the first frame set's capture time).
+  const std::vector<SpeakerSummary> speakers = speaker_summaries(info);
+  nlohmann::json voices = nlohmann::json::array();
+  for (const SpeakerSummary& v : speakers)
+    voices.push_back({{"participant", v.speaker.participant},
+                      {"name", v.speaker.name},
+                      {"role", v.speaker.role == 1 ? "OR site" : "remote"},
+                      {"packets", v.packets},
+                      {"voice_s", static_cast<double>(v.sent_us) / 1e6},
+                      {"spanned_s", static_cast<double>(v.spanned_us) / 1e6},
+                      {"first_s", static_cast<double>(v.first_us) / 1e6},
+                      {"last_s", static_cast<double>(v.last_us) / 1e6}});
   nlohmann::json cams = nlohmann::json::array();
   for (const auto& c : s.welcome.cameras) {
     const Intrinsics& k = c.calibration.depth;
@@ -179,6 +192,8 @@ int run_recording_info(const InfoArgs& a) {
       {"color_quality", s.color_quality},
       {"origin", s.origin},
       {"cameras", cams},
+      {"format_version", info.version},
+      {"speakers", voices},
       {"frame_sets", info.frame_sets.size()},
       {"key_frame_sets", keys},
       {"duration_s", seconds},
@@ -206,6 +221,13 @@ int run_recording_info(const InfoArgs& a) {
                   s.welcome.cameras[i].description.c_str(), k.width, k.height, k.fx, k.fy, k.cx,
                   k.cy);
     }
+    for (const SpeakerSummary& v : speakers)
+      std::printf("  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
+                  "%.2f s, from %s to %s after the first frame set\n",
+                  printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
+                  v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
+                  static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
+                  describe_span_us(v.last_us).c_str());
     if (info.closed)
       std::printf("  closed by its recorder (indexed)\n");
     else if (info.incomplete_tail_at)
@@ -216,7 +238,9 @@ int run_recording_info(const InfoArgs& a) {
     else
       std::printf("  not closed (no index): indexed by scanning, every record complete\n");
     if (!gaps.empty()) std::printf("  warning: %s\n", gaps.c_str());
-    std::printf("  %s\n", bad.empty() ? "every frame set checked (CRC)" : bad.c_str());
+    std::printf("  %s\n", bad.empty() ? (info.voices.empty() ? "every frame set checked (CRC)"
+                                                             : "every frame set and voice checked (CRC)")
+                                      : bad.c_str());
   }
   if (!bad.empty()) throw Error(bad);
   return 0;

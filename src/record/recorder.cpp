@@ -14,7 +14,8 @@ BackgroundRecorder::BackgroundRecorder(const std::filesystem::path& path,
                                        size_t max_queued_voices)
     : writer_(path, stream, options),
       max_queued_(std::max<size_t>(1, max_queued)),
-      voices_(std::max<size_t>(1, max_queued_voices)) {
+      voices_(std::max<size_t>(1, max_queued_voices)),
+      writing_(voices_.size()) {
   stats_.bytes = writer_.bytes();
   thread_ = std::thread([this] { run(); });
 }
@@ -76,7 +77,7 @@ void BackgroundRecorder::run() {
   while (true) {
     TierFrameSet f;
     std::vector<RecordedSpeaker> speakers;
-    bool voice = false;
+    size_t voices = 0, voices_written = 0;
     {
       std::unique_lock lock(mutex_);
       changed_.wait(lock, [&] { return stopping_ || !idle(); });
@@ -84,11 +85,17 @@ void BackgroundRecorder::run() {
       // Speakers first: one pushed before its voice is written before it.
       speakers.assign(speakers_.begin(), speakers_.end());
       speakers_.clear();
-      if (voice_count_ > 0) {
-        writing_ = voices_[voice_head_];
+      // Every queued voice (small) at once, so that voices keep up whatever the frame sets do.
+      for (; voice_count_ > 0; --voice_count_, ++voices) {
+        const QueuedVoice& q = voices_[voice_head_];
+        QueuedVoice& w = writing_[voices];
+        w.participant = q.participant;
+        w.sequence = q.sequence;
+        w.frame = q.frame;
+        w.capture_us = q.capture_us;
+        w.bytes = q.bytes;
+        std::copy_n(q.opus.begin(), q.bytes, w.opus.begin());
         voice_head_ = (voice_head_ + 1) % voices_.size();
-        --voice_count_;
-        voice = true;
       }
       if (!queue_.empty()) {
         f = std::move(queue_.front());
@@ -96,13 +103,13 @@ void BackgroundRecorder::run() {
       }
     }
     std::string error;
-    bool voice_written = false;
     try {
       for (const RecordedSpeaker& s : speakers) writer_.append_speaker(s.participant, s.name, s.role);
-      if (voice)
-        writer_.append_voice(writing_.participant, writing_.sequence, writing_.frame,
-                             writing_.capture_us, std::span(writing_.opus).first(writing_.bytes));
-      voice_written = voice;
+      for (; voices_written < voices; ++voices_written) {
+        const QueuedVoice& w = writing_[voices_written];
+        writer_.append_voice(w.participant, w.sequence, w.frame, w.capture_us,
+                             std::span(w.opus).first(w.bytes));
+      }
       if (!f.body.empty()) writer_.append(f.body);
     } catch (const Error& e) {
       error = e.what();
@@ -117,7 +124,7 @@ void BackgroundRecorder::run() {
       stats_.error = error;
       stats_.dropped += queue_.size();
       queue_.clear();
-      stats_.voice_dropped += voice_count_ + (voice && !voice_written ? 1 : 0);
+      stats_.voice_dropped += voice_count_ + (voices - voices_written);
       voice_count_ = 0;
       break;
     }

@@ -34,7 +34,7 @@ struct RecorderStats {
 class BackgroundRecorder {
  public:
   /// Creates the file (RecordingWriter: throws Error if it exists or cannot be made). At most
-  /// `max_queued` frame sets and `max_queued_voices` voice packets (preallocated, ~1.3 KB each)
+  /// `max_queued` frame sets and `max_queued_voices` voice packets (preallocated, ~2.6 KB each)
   /// wait for the disk.
   BackgroundRecorder(const std::filesystem::path& path, const RecordingStream& stream,
                      RecordingWriterOptions options = {}, size_t max_queued = 64,
@@ -78,7 +78,7 @@ class BackgroundRecorder {
   std::deque<RecordedSpeaker> speakers_;  // guarded by mutex_
   std::vector<QueuedVoice> voices_;       // guarded by mutex_: a ring of max_queued_voices
   size_t voice_head_ = 0, voice_count_ = 0;  // guarded by mutex_
-  QueuedVoice writing_;                   // the recorder thread's own
+  std::vector<QueuedVoice> writing_;      // the recorder thread's own: voices taken from the ring
   RecorderStats stats_;             // guarded by mutex_
   bool waiting_for_key_ = false;    // guarded by mutex_: dropped one, deltas cannot follow
   bool stopping_ = false;           // guarded by mutex_

@@ -222,12 +222,13 @@ int run_recording_info(const InfoArgs& a) {
                   k.cy);
     }
     for (const SpeakerSummary& v : speakers)
-      std::printf("  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
-                  "%.2f s, from %s to %s after the first frame set\n",
-                  printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
-                  v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
-                  static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
-                  describe_span_us(v.last_us).c_str());
+      std::printf(
+          "  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
+          "%.2f s, from %s to %s after the first frame set\n",
+          printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
+          v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
+          static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
+          describe_span_us(v.last_us).c_str());
     if (info.closed)
       std::printf("  closed by its recorder (indexed)\n");
     else if (info.incomplete_tail_at)
@@ -238,9 +239,10 @@ int run_recording_info(const InfoArgs& a) {
     else
       std::printf("  not closed (no index): indexed by scanning, every record complete\n");
     if (!gaps.empty()) std::printf("  warning: %s\n", gaps.c_str());
-    std::printf("  %s\n", bad.empty() ? (info.voices.empty() ? "every frame set checked (CRC)"
-                                                             : "every frame set and voice checked (CRC)")
-                                      : bad.c_str());
+    std::printf("  %s\n", bad.empty()
+                              ? (info.voices.empty() ? "every frame set checked (CRC)"
+                                                     : "every frame set and voice checked (CRC)")
+                              : bad.c_str());
   }
   if (!bad.empty()) throw Error(bad);
   return 0;

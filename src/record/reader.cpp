@@ -150,7 +150,8 @@ void RecordingReader::scan() {
                   " bytes (over the limit of " + std::to_string(limit) + ") at offset " +
                   std::to_string(at));
     if (next > size) {
-      tail("the last record (" + kind + ") cut short (" + std::to_string(size - at - kRecordHeaderBytes) + " of " +
+      tail("the last record (" + kind + ") cut short (" +
+           std::to_string(size - at - kRecordHeaderBytes) + " of " +
            std::to_string(h.payload_bytes) + " bytes)");
       return;
     }

@@ -32,10 +32,9 @@ void RecordingReader::add_speaker(const RecordedSpeaker& s) {
 }
 
 void RecordingReader::add_voice(const RecordedVoice& v, uint64_t at) {
-  const bool known = std::any_of(info_.speakers.begin(), info_.speakers.end(),
-                                 [&](const RecordedSpeaker& s) {
-                                   return s.participant == v.participant;
-                                 });
+  const bool known =
+      std::any_of(info_.speakers.begin(), info_.speakers.end(),
+                  [&](const RecordedSpeaker& s) { return s.participant == v.participant; });
   if (!known)
     throw Error("from participant " + std::to_string(v.participant) +
                 ", who has no speaker record before it");
@@ -46,8 +45,8 @@ void RecordingReader::add_voice(const RecordedVoice& v, uint64_t at) {
 // Parses the Index payload and checks that its frame sets, speakers and voices tile the file
 // from the end of the Stream record to the Index, each record where the one before it ends.
 void RecordingReader::parse_index(std::span<const uint8_t> payload, uint64_t index_at) {
-  const std::string where = "recording " + path_.string() + ": index at offset " +
-                            std::to_string(index_at);
+  const std::string where =
+      "recording " + path_.string() + ": index at offset " + std::to_string(index_at);
   std::vector<SpeakerAt> speakers;
   std::vector<RecordedVoice> voices;
   wire::Reader r(payload, "recording index");

@@ -51,12 +51,18 @@ RecordedVoice parse_voice(std::span<const uint8_t> payload, std::span<const uint
 /// What a record of `type` is, for people ("frame set", "voice", ...).
 inline const char* record_kind(RecordType type) {
   switch (type) {
-    case RecordType::kStream: return "stream description";
-    case RecordType::kFrameSet: return "frame set";
-    case RecordType::kIndex: return "index";
-    case RecordType::kEnd: return "end record";
-    case RecordType::kSpeaker: return "speaker";
-    case RecordType::kVoice: return "voice";
+    case RecordType::kStream:
+      return "stream description";
+    case RecordType::kFrameSet:
+      return "frame set";
+    case RecordType::kIndex:
+      return "index";
+    case RecordType::kEnd:
+      return "end record";
+    case RecordType::kSpeaker:
+      return "speaker";
+    case RecordType::kVoice:
+      return "voice";
   }
   return "record";
 }

@@ -43,8 +43,7 @@ void BackgroundRecorder::push(const TierFrameSet& f) {
   changed_.notify_one();
 }
 
-void BackgroundRecorder::push_speaker(uint32_t participant, const std::string& name,
-                                      uint8_t role) {
+void BackgroundRecorder::push_speaker(uint32_t participant, const std::string& name, uint8_t role) {
   {
     std::lock_guard lock(mutex_);
     if (stopping_ || !stats_.error.empty()) return;
@@ -104,7 +103,8 @@ void BackgroundRecorder::run() {
     }
     std::string error;
     try {
-      for (const RecordedSpeaker& s : speakers) writer_.append_speaker(s.participant, s.name, s.role);
+      for (const RecordedSpeaker& s : speakers)
+        writer_.append_speaker(s.participant, s.name, s.role);
       for (; voices_written < voices; ++voices_written) {
         const QueuedVoice& w = writing_[voices_written];
         writer_.append_voice(w.participant, w.sequence, w.frame, w.capture_us,

@@ -91,10 +91,10 @@ void RecordingWriter::fail_write(int error_number, const char* what) {
     [[maybe_unused]] const int t = ::ftruncate(fd_, static_cast<off_t>(end_));
     ::fdatasync(fd_);
   }
-  const std::string kept = std::to_string(index_.size()) + " frame sets" +
-                           (voices_.empty() ? ""
-                                            : " and " + std::to_string(voices_.size()) + " voices") +
-                           " (" + megabytes(end_) + ") written before it are kept and replay";
+  const std::string kept =
+      std::to_string(index_.size()) + " frame sets" +
+      (voices_.empty() ? "" : " and " + std::to_string(voices_.size()) + " voices") + " (" +
+      megabytes(end_) + ") written before it are kept and replay";
   if (out_of_space(error_number))
     throw Error("recording " + path_.string() + ": disk full (" + std::strerror(error_number) +
                 ") while writing " + what + "; " + kept);
@@ -109,8 +109,8 @@ void RecordingWriter::write_record(RecordType type, std::span<const uint8_t> hea
                   {const_cast<uint8_t*>(head.data()), head.size()},
                   {const_cast<uint8_t*>(body.data()), body.size()}};
   if (const int e = write_fully(fd_, iov, 3))
-    fail_write(e, type == RecordType::kFrameSet ? "a frame set"
-                  : type == RecordType::kVoice  ? "a voice"
+    fail_write(e, type == RecordType::kFrameSet  ? "a frame set"
+                  : type == RecordType::kVoice   ? "a voice"
                   : type == RecordType::kSpeaker ? "a speaker"
                                                  : "the index");
   end_ += header.size() + head.size() + body.size();
@@ -145,8 +145,8 @@ void RecordingWriter::append(std::span<const uint8_t> body) {
 void RecordingWriter::append_speaker(uint32_t participant, const std::string& name, uint8_t role) {
   check_open();
   if (name.size() > 65535)
-    throw Error("recording " + path_.string() + ": display name of " +
-                std::to_string(name.size()) + " bytes is over 65535");
+    throw Error("recording " + path_.string() + ": display name of " + std::to_string(name.size()) +
+                " bytes is over 65535");
   // The last record of this participant holds; write only what changes it.
   for (auto it = speakers_.rbegin(); it != speakers_.rend(); ++it)
     if (it->speaker.participant == participant) {
@@ -165,16 +165,16 @@ void RecordingWriter::append_voice(uint32_t participant, uint32_t sequence, uint
                                    int64_t capture_us, std::span<const uint8_t> opus) {
   check_open();
   if (opus.empty() || opus.size() > kMaxRecordedVoiceBytes)
-    throw Error("recording " + path_.string() + ": voice packet of " +
-                std::to_string(opus.size()) + " bytes from participant " +
-                std::to_string(participant) + " refused (Opus packets are 1.." +
-                std::to_string(kMaxRecordedVoiceBytes) + " bytes)");
+    throw Error("recording " + path_.string() + ": voice packet of " + std::to_string(opus.size()) +
+                " bytes from participant " + std::to_string(participant) +
+                " refused (Opus packets are 1.." + std::to_string(kMaxRecordedVoiceBytes) +
+                " bytes)");
   const bool known = std::any_of(speakers_.begin(), speakers_.end(), [&](const SpeakerEntry& e) {
     return e.speaker.participant == participant;
   });
   if (!known) append_speaker(participant, "participant " + std::to_string(participant), 0);
-  RecordedVoice v{end_, participant, sequence, frame, capture_us,
-                  static_cast<uint16_t>(opus.size())};
+  RecordedVoice v{end_,  participant, sequence,
+                  frame, capture_us,  static_cast<uint16_t>(opus.size())};
   const auto head = detail::voice_head(v);
   write_record(RecordType::kVoice, head, opus);
   voices_.push_back(v);

@@ -216,8 +216,8 @@ TEST(VoiceRecording, AFileCutAtEveryByteOfItsLastRecordsGivesBackEveryCompleteVo
     RecordingReader r(cut);
     const size_t voices = static_cast<size_t>(
         std::upper_bound(voice_ends.begin(), voice_ends.end(), n) - voice_ends.begin());
-    const size_t sets = static_cast<size_t>(
-        std::upper_bound(set_ends.begin(), set_ends.end(), n) - set_ends.begin());
+    const size_t sets = static_cast<size_t>(std::upper_bound(set_ends.begin(), set_ends.end(), n) -
+                                            set_ends.begin());
     expect_voices(r, written, voices);
     EXPECT_EQ(r.info().frame_sets.size(), sets) << n;
     const uint64_t last_end = std::max(voices ? voice_ends[voices - 1] : 0, set_ends[sets - 1]);
@@ -336,8 +336,7 @@ TEST(VoiceRecording, AnOversizedVoicePacketIsRefusedByTheWriterAndTheReader) {
     const std::vector<uint8_t> big(kMaxRecordedVoiceBytes + 1, 1);
     EXPECT_NE(error_of([&] { w.append_voice(3, 1, 1, 5, big); }).find("1276 bytes"),
               std::string::npos);
-    EXPECT_NE(error_of([&] { w.append_voice(3, 1, 1, 5, {}); }).find("0 bytes"),
-              std::string::npos);
+    EXPECT_NE(error_of([&] { w.append_voice(3, 1, 1, 5, {}); }).find("0 bytes"), std::string::npos);
     w.append_voice(packet(3, 1));  // the writer goes on
     open_image = file_bytes(path);
   }
@@ -449,8 +448,7 @@ TEST(VoiceRecording, TheBackgroundRecorderQueuesVoicesAndCountsWhatItDrops) {
       const RecordedVoicePacket p = packet(4, n);
       rec.push_voice(p.participant, p.sequence, p.frame, p.capture_us, p.bytes);
       if (n % 4 == 3) {  // let the queue drain now and then (it holds 8)
-        for (int i = 0; i < 2000 && rec.stats().voice_packets + rec.stats().voice_dropped <= n;
-             ++i)
+        for (int i = 0; i < 2000 && rec.stats().voice_packets + rec.stats().voice_dropped <= n; ++i)
           std::this_thread::sleep_for(std::chrono::milliseconds(1));
       }
     }

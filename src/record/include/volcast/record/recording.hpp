@@ -99,7 +99,7 @@ struct RecordedVoicePacket {
   uint32_t participant = 0;
   uint32_t sequence = 0;
   uint32_t frame = 0;
-  int64_t capture_us = 0;       ///< the server's clock (us)
+  int64_t capture_us = 0;      ///< the server's clock (us)
   std::vector<uint8_t> bytes;  ///< one Opus packet, 1..kMaxRecordedVoiceBytes bytes
 };
 

@@ -20,6 +20,48 @@ struct SpeakerAt {
   uint32_t bytes;  // its payload's length
 };
 
+// The Index payload's lists (format version `version`); throws Error("malformed recording
+// index: ...").
+void parse_index_lists(std::span<const uint8_t> payload, uint16_t version,
+                       std::vector<RecordedFrameSet>& frame_sets, std::vector<SpeakerAt>& speakers,
+                       std::vector<RecordedVoice>& voices) {
+  wire::Reader r(payload, "recording index");
+  const uint32_t count = r.get<uint32_t>("count");
+  if (uint64_t{count} * kIndexEntryBytes > r.remaining()) r.fail("wrong length");
+  frame_sets.resize(count);
+  for (RecordedFrameSet& e : frame_sets) {
+    e.offset = r.get<uint64_t>("offset");
+    e.sequence = r.get<uint64_t>("sequence");
+    e.capture_us = r.get<int64_t>("capture time");
+    e.key = (r.get<uint8_t>("flags") & 1) != 0;
+  }
+  if (version >= 2) {
+    const uint32_t n_speakers = r.get<uint32_t>("speaker count");
+    if (n_speakers > r.remaining() / 15) r.fail("wrong length");  // 15: an empty name's entry
+    speakers.resize(n_speakers);
+    for (SpeakerAt& e : speakers) {
+      e.offset = r.get<uint64_t>("speaker offset");
+      e.speaker.participant = r.get<uint32_t>("participant");
+      e.speaker.role = r.get<uint8_t>("role");
+      e.speaker.name = r.get_string("display name");
+      e.bytes = static_cast<uint32_t>(4 + 2 + e.speaker.name.size() + 1);
+    }
+    const uint32_t n_voices = r.get<uint32_t>("voice count");
+    if (uint64_t{n_voices} * kVoiceIndexEntryBytes != r.remaining()) r.fail("wrong length");
+    voices.resize(n_voices);
+    for (RecordedVoice& v : voices) {
+      v.offset = r.get<uint64_t>("voice offset");
+      v.participant = r.get<uint32_t>("participant");
+      v.sequence = r.get<uint32_t>("sequence");
+      v.frame = r.get<uint32_t>("frame");
+      v.capture_us = r.get<int64_t>("capture time");
+      v.bytes = r.get<uint16_t>("Opus length");
+      if (v.bytes == 0 || v.bytes > kMaxRecordedVoiceBytes) r.fail("bad Opus length");
+    }
+  }
+  r.expect_end();
+}
+
 }  // namespace
 
 void RecordingReader::add_speaker(const RecordedSpeaker& s) {
@@ -49,42 +91,8 @@ void RecordingReader::parse_index(std::span<const uint8_t> payload, uint64_t ind
       "recording " + path_.string() + ": index at offset " + std::to_string(index_at);
   std::vector<SpeakerAt> speakers;
   std::vector<RecordedVoice> voices;
-  wire::Reader r(payload, "recording index");
   try {
-    const uint32_t count = r.get<uint32_t>("count");
-    if (uint64_t{count} * kIndexEntryBytes > r.remaining()) r.fail("wrong length");
-    info_.frame_sets.resize(count);
-    for (RecordedFrameSet& e : info_.frame_sets) {
-      e.offset = r.get<uint64_t>("offset");
-      e.sequence = r.get<uint64_t>("sequence");
-      e.capture_us = r.get<int64_t>("capture time");
-      e.key = (r.get<uint8_t>("flags") & 1) != 0;
-    }
-    if (info_.version >= 2) {
-      const uint32_t n_speakers = r.get<uint32_t>("speaker count");
-      if (n_speakers > r.remaining() / 15) r.fail("wrong length");  // 15: an empty name's entry
-      speakers.resize(n_speakers);
-      for (SpeakerAt& e : speakers) {
-        e.offset = r.get<uint64_t>("speaker offset");
-        e.speaker.participant = r.get<uint32_t>("participant");
-        e.speaker.role = r.get<uint8_t>("role");
-        e.speaker.name = r.get_string("display name");
-        e.bytes = static_cast<uint32_t>(4 + 2 + e.speaker.name.size() + 1);
-      }
-      const uint32_t n_voices = r.get<uint32_t>("voice count");
-      if (uint64_t{n_voices} * kVoiceIndexEntryBytes != r.remaining()) r.fail("wrong length");
-      voices.resize(n_voices);
-      for (RecordedVoice& v : voices) {
-        v.offset = r.get<uint64_t>("voice offset");
-        v.participant = r.get<uint32_t>("participant");
-        v.sequence = r.get<uint32_t>("sequence");
-        v.frame = r.get<uint32_t>("frame");
-        v.capture_us = r.get<int64_t>("capture time");
-        v.bytes = r.get<uint16_t>("Opus length");
-        if (v.bytes == 0 || v.bytes > kMaxRecordedVoiceBytes) r.fail("bad Opus length");
-      }
-    }
-    r.expect_end();
+    parse_index_lists(payload, info_.version, info_.frame_sets, speakers, voices);
   } catch (const Error& e) {
     throw Error(where + ": " + e.what());
   }

@@ -100,7 +100,7 @@ inline std::vector<RecordedVoicePacket> write_mixed(RecordingWriter& w) {
 }
 
 inline void expect_voices(RecordingReader& r, const std::vector<RecordedVoicePacket>& written,
-                   size_t count) {
+                          size_t count) {
   ASSERT_EQ(r.info().voices.size(), count);
   std::vector<uint8_t> bytes;
   for (size_t k = 0; k < count; ++k) {

@@ -12,8 +12,8 @@
 #include <fstream>
 #include <thread>
 
-#include "volcast/record/recorder.hpp"
 #include "voice_record_support.hpp"
+#include "volcast/record/recorder.hpp"
 
 namespace volcast {
 namespace {

@@ -252,6 +252,9 @@ struct RecordArgs {
   double seconds = 0;                 ///< 0 = until interrupted or the server ends
   bool overwrite = false;
   int sync_interval_ms = 1000;
+  /// Also join this session as a listener ("Recorder", seen by everyone in it) and record every
+  /// voice in it; empty: the stream only.
+  std::string session;
 };
 /// Connects as a receive-only viewer of one tier and appends every frame set it is sent to a
 /// recording (volcast/record/recording.hpp), showing frame sets, size and rate on the terminal.
@@ -263,6 +266,7 @@ struct ExportArgs {
   std::string file;
   std::string ply, png;  ///< output folders
   std::string mkv;       ///< Azure Kinect-style Matroska (volcast/pipeline/export.hpp)
+  std::string wav;       ///< folder: one WAV per speaker (volcast/voice/voice_export.hpp)
   double from_s = 0, to_s = -1;
 };
 /// Decodes a recording and writes, per frame set and camera, a binary PLY (valid depth pixels as

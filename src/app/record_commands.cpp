@@ -8,6 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
+#include "volcast/pipeline/session_client.hpp"
+#include "volcast/voice/voice_export.hpp"
 #include "commands.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -89,6 +91,32 @@ int run_record(const RecordArgs& a) {
       "whenever it stops)",
       stream.welcome.cameras.size(), c.depth_codec, c.color_codec,
       c.color_quality ? fmt::format("/{}", c.color_quality) : "", a.out);
+  // The session's voices (--session): the recorder joins as a listener; what it hears arrives
+  // on this thread, inside client.receive().
+  std::unique_ptr<SessionClient> listener;
+  std::map<uint32_t, std::string> speakers;  // those with a Speaker record
+  if (!a.session.empty()) {
+    SessionClientOptions o;
+    o.participant.session = a.session;
+    o.participant.create = false;
+    o.participant.name = "Recorder";
+    o.drive_poses = false;  // heartbeats only
+    listener = std::make_unique<SessionClient>(std::move(o));
+    listener->start(client);
+    Participant* p = listener->participant();
+    p->set_voice_handler([&writer, &speakers, p](uint32_t id, const session::VoicePacketView& v) {
+      if (!speakers.contains(id)) {
+        std::string name = "participant " + std::to_string(id);
+        uint8_t role = 0;
+        for (const RemoteParticipant& r : p->snapshot(wall_clock_us()).others)
+          if (r.id == id) name = r.name, role = static_cast<uint8_t>(r.role);
+        writer.append_speaker(id, name, role);
+        speakers[id] = name;
+      }
+      writer.append_voice(id, v.sequence, v.frame, v.capture_us, v.opus);
+    });
+    spdlog::info("recording the voices of session '{}' (joined as 'Recorder')", a.session);
+  }
   ReceivedFrameSet f;
   const auto start = std::chrono::steady_clock::now();
   auto shown = start;
@@ -115,12 +143,18 @@ int run_record(const RecordArgs& a) {
     }
   }
   end_progress();
+  if (listener) {
+    listener->participant()->set_voice_handler(nullptr);
+    listener->stop();
+  }
   client.close();
   writer.close();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("recorded %llu frame sets in %.1f s, %s, to %s (stopped: %s)\n",
-              static_cast<unsigned long long>(writer.frame_sets()), seconds,
+  std::printf("recorded %llu frame sets and %llu voice packets in %.1f s, %s, to %s (stopped: "
+              "%s)\n",
+              static_cast<unsigned long long>(writer.frame_sets()),
+              static_cast<unsigned long long>(writer.voices()), seconds,
               mb(writer.bytes()).c_str(), a.out.c_str(), ended.c_str());
   if (writer.frame_sets() == 0) throw Error("record: no frame set arrived");
   return 0;
@@ -249,6 +283,16 @@ int run_recording_info(const InfoArgs& a) {
 }
 
 int run_export(const ExportArgs& a) {
+  if (!a.wav.empty()) {
+    const std::vector<voice::ExportedVoice> voices = voice::export_voices(a.file, a.wav);
+    for (const voice::ExportedVoice& v : voices)
+      std::printf("wrote %s: %s, %.1f s (%llu packets, %llu frames concealed)\n",
+                  v.path.c_str(), printable(v.name).c_str(), v.seconds,
+                  static_cast<unsigned long long>(v.packets),
+                  static_cast<unsigned long long>(v.concealed));
+    if (voices.empty()) std::printf("%s holds no voices\n", a.file.c_str());
+    if (a.ply.empty() && a.png.empty() && a.mkv.empty()) return 0;
+  }
   ExportOptions o;
   o.ply_dir = a.ply;
   o.png_dir = a.png;
@@ -286,6 +330,9 @@ void register_record(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   rc->add_option("--seconds", record.seconds, "Stop after this many seconds (default: Ctrl-C)");
   rc->add_flag("--overwrite", record.overwrite, "Replace --out if it exists");
+  rc->add_option("--session", record.session,
+                 "Also record the voices of this session: joins it as 'Recorder' (everyone in it "
+                 "sees that), listening only");
   rc->add_option("--sync-interval", record.sync_interval_ms,
                  "Flush to disk at least this often (ms): what a power cut can lose")
       ->capture_default_str();
@@ -306,6 +353,9 @@ void register_export(CLI::App& app, Commands& commands) {
                  "Azure Kinect-style Matroska: DEPTH track (b16g), calibration.json, color "
                  "registered to depth as a COLOR_ON_DEPTH track; one file per camera "
                  "(FILE-camera-C.mkv) for several; `volcast info` reads it back");
+  ex->add_option("--wav", export_args.wav,
+                 "Folder for one WAV per speaker of the recording's voices (48 kHz mono, on the "
+                 "recording's time line: second 0 is its first frame set)");
   ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
   ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
 }

@@ -1,6 +1,6 @@
-// libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp), the
-// pose script parser and the name check (names.hpp, ICU) on arbitrary bytes. The first byte picks
-// the parser; a parser may throw Error, nothing else (no crash, no read past the input, no
+// libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp,
+// voice_messages.hpp), the pose script parser and the name check (names.hpp, ICU) on arbitrary
+// bytes. The first byte picks the parser; a parser may throw Error, nothing else (no crash, no read past the input, no
 // unbounded allocation).
 #include <cstdint>
 #include <span>
@@ -11,6 +11,7 @@
 #include "volcast/session/names.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/pose_script.hpp"
+#include "volcast/session/voice_messages.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace volcast;
@@ -20,7 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   camera.depth.width = 640;
   camera.depth.height = 360;
   try {
-    switch (data[0] % 19) {
+    switch (data[0] % 20) {
       case 0:
         session::parse_join(p);
         break;
@@ -86,6 +87,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       case 18:  // a name as a peer sends it: checked, then its skeleton
         session::name_skeleton(session::checked_name(
             std::string_view(reinterpret_cast<const char*>(p.data()), p.size()), "name"));
+        break;
+      case 19:
+        session::parse_voice(p);
+        session::parse_voice_state(p);
         break;
     }
   } catch (const Error&) {

@@ -169,6 +169,14 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
       r.scene.insert(r.scene.end(), fx.begin(), fx.end());
     }
   }
+  // Who speaks (a voice packet in the last 300 ms: silence is not sent) and who is muted.
+  for (const RemoteParticipant& p : s.others) {
+    if (!p.has_pose) continue;
+    const bool speaking = p.last_voice_us != 0 && now_us - p.last_voice_us < 300'000;
+    const float pulse = 0.5f + 0.5f * std::sin(float(now_us % 1'000'000) * 2e-6f * float(M_PI) * 3);
+    const auto badge = voice_badge_primitives(p.pose.head.position, speaking, p.muted, pulse);
+    r.scene.insert(r.scene.end(), badge.begin(), badge.end());
+  }
   const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
   const RoomLayout& room = default_operating_room();
   if (shared_case && s.monitor && shared_case->monitor) {

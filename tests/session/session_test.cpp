@@ -2,7 +2,9 @@
 // hostile participant, over the real stream (TLS, join token) of a real site (the hands sequence).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
+#include <deque>
 #include <chrono>
 #include <set>
 #include <thread>
@@ -14,6 +16,7 @@
 #include "volcast/session/hub.hpp"
 #include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
 namespace {
@@ -93,9 +96,35 @@ TEST(SessionMessages, RoundTripAndRefuseBadFields) {
       std::string::npos);
 }
 
+// A receiver's queue (session_port.hpp): a voice stream's packets queue up to
+// kMaxQueuedPerStream and then lose the oldest, without touching other keys; a coalescing key
+// replaces; key 0 appends.
+TEST(SessionMessages, AQueuedStreamDropsItsOldestOthersCoalesceOrAppend) {
+  std::deque<std::pair<uint64_t, int>> q;
+  const uint64_t voice_a = kQueuedStreamKey | 1, voice_b = kQueuedStreamKey | 2, pose = 7;
+  EXPECT_EQ(queue_session_message(q, pose, 100), 0u);
+  for (int i = 0; i < int(kMaxQueuedPerStream); ++i) queue_session_message(q, voice_a, i);
+  queue_session_message(q, voice_b, 50);
+  EXPECT_EQ(queue_session_message(q, voice_a, 8), 1u);  // 0 goes
+  EXPECT_EQ(queue_session_message(q, pose, 101), 0u);   // replaces 100 where it stands
+  queue_session_message(q, 0, 200);
+  queue_session_message(q, 0, 201);
+  std::vector<int> a, all;
+  for (const auto& [key, v] : q) {
+    all.push_back(v);
+    if (key == voice_a) a.push_back(v);
+  }
+  EXPECT_EQ(a, (std::vector<int>{1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_EQ(all.front(), 101);
+  EXPECT_EQ(std::count(all.begin(), all.end(), 50), 1);
+  EXPECT_EQ(all.back(), 201);
+  EXPECT_EQ(q.size(), 1 + kMaxQueuedPerStream + 1 + 2);
+}
+
 // The message table (message_table.hpp): every type once, with its sender and limits, and a
 // decoder that takes what the type's encoder wrote and refuses it cut short.
 TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
+  const uint8_t opus[] = {0xf8, 0xff, 0xfe};  // a 20 ms Opus frame (RFC 6716 TOC 0xf8)
   std::set<uint8_t> types;
   for (const session::MessageKind& m : session::message_table()) {
     const uint8_t type = static_cast<uint8_t>(m.type);
@@ -106,9 +135,10 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
     EXPECT_EQ(m.check == nullptr, m.type == Type::kAvatarFrame || m.type == Type::kAvatarFrameFrom)
         << m.name;
   }
-  EXPECT_EQ(types.size(), 26u);
+  EXPECT_EQ(types.size(), 30u);
   EXPECT_EQ(session::find_message(0x00), nullptr);
-  EXPECT_EQ(session::max_payload(0x4e), 0u);
+  EXPECT_EQ(session::max_payload(0x50), 0u);
+  EXPECT_EQ(session::max_payload(0x0e), session::kVoiceMessageLimit);
   EXPECT_EQ(session::max_payload(0x4b), session::kMaxCaseBytes);
   EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPose)).per_second, 150);
   EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPoseFrom)).per_second, 0);
@@ -122,6 +152,8 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
       {Type::kMonitorState, session::serialize(session::MonitorState{})},
       {Type::kSetMonitor, session::serialize_set_monitor(session::MonitorState{})},
       {Type::kParticipantLeft, session::serialize_left(3, session::LeftReason::kTimedOut)},
+      {Type::kVoice, session::serialize(session::VoicePacketView{7, 9, 123, opus})},
+      {Type::kVoiceState, session::serialize_voice_state(true)},
   };
   for (const auto& sample : samples) {
     const session::MessageKind* m = session::find_message(static_cast<uint8_t>(sample.first));

@@ -28,6 +28,12 @@ std::vector<Primitive> monitor_status_primitives(const RoomLayout& room, int sli
 /// `body.hands_tracked` a box per hand. `rgb`: the participant's colour.
 std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen::Vector3f& rgb);
 
+/// A participant's voice over its head (room frame, metres; `head`: its room_from_head position):
+/// while it speaks, a green glowing ring 0.3 m above, pulsing with `pulse` (0..1); while its
+/// microphone is muted, a red ball there instead. Empty when it neither speaks nor is muted.
+std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool speaking,
+                                              bool muted, float pulse);
+
 /// Where someone teleported from or to, `age_s` seconds ago: three rings spreading on the floor
 /// and a column of small rising particles, fading out over `duration_s`. Empty when age_s < 0 or
 /// age_s >= duration_s.

@@ -12,6 +12,8 @@
 #include <set>
 
 #include "support/session_site.hpp"
+#include "support/speech.hpp"
+#include "volcast/voice/voice_link.hpp"
 #include "support/test_data.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
@@ -200,6 +202,48 @@ TEST(SessionThroughRelays, AnAvatarInPiecesArrivesBitExact) {
   EXPECT_TRUE(depths.count(frame->depth.pixels)) << "decoded depth is no hands frame";
   EXPECT_EQ(frame->color.width, 640);
   EXPECT_GE(r.s.hub.stats().avatar_frames_in, 3u);
+}
+
+// Voices pass through relays like other session traffic: A on relay one speaks real recorded
+// speech (a microphone file), B on relay two hears it (a loudspeaker file), each phrase intact.
+TEST(SessionThroughRelays, AVoiceCrossesTwoRelays) {
+  RelayedSession r;
+  TestParticipant a(RelayedSession::viewer_of(*r.one), test::hand_driven("A"));
+  TestParticipant b(RelayedSession::viewer_of(*r.two), test::hand_driven("B"));
+  ASSERT_TRUE(eventually([&] { return sees(a, "B") && sees(b, "A"); })) << a.error << b.error;
+  std::vector<size_t> starts;
+  const std::vector<std::string> names{"Front_Center", "Side_Right"};
+  const std::vector<float> said = test::phrases(names, 0.3, &starts);
+  voice::VoiceConfig ca, cb;
+  ca.mic = test::write_voice(r.dir / "a.wav", said).string();
+  ca.mic_start_us = wall_clock_us() + 300'000;
+  ca.spatial = cb.spatial = false;
+  cb.speaker = (r.dir / "b_heard.wav").string();
+  voice::VoiceStats heard;
+  {
+    voice::VoiceLink vb(b.p(), cb);
+    voice::VoiceLink va(a.p(), ca);
+    ASSERT_TRUE(eventually([&] { return va.mic_ended(); }, 30s));
+    std::this_thread::sleep_for(600ms);
+    heard = vb.stats();
+  }
+  ASSERT_EQ(heard.heard.size(), 1u);
+  EXPECT_EQ(heard.heard[0].name, "A");
+  std::printf("through two relays: mouth-to-ear p50 %.1f ms, p99 %.1f ms\n",
+              heard.heard[0].latency_ms_p50, heard.heard[0].latency_ms_p99);
+  const audio::Pcm out = audio::read_wav(r.dir / "b_heard.wav");
+  const auto offset =
+      std::ptrdiff_t((ca.mic_start_us - heard.started_us) * audio::kSampleRate / 1'000'000);
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::span<const float> phrase =
+        std::span<const float>(said).subspan(starts[i], test::speech(names[i]).size());
+    const std::ptrdiff_t at = offset + std::ptrdiff_t(starts[i]);
+    const test::Alignment found =
+        test::align(phrase, out.samples, at, at + std::ptrdiff_t(audio::kSampleRate));
+    std::printf("phrase '%s': correlation %.3f\n", names[i].c_str(), found.correlation);
+    EXPECT_GE(found.correlation, 0.9) << names[i];
+  }
+  EXPECT_GT(r.s.hub.stats().voice_out, 100u);
 }
 
 // A hostile viewer of a relay (a pose with a NaN) is dropped by the site's hub, and its relay

@@ -10,8 +10,7 @@ namespace {
 // The benchmark the flags pick (one per run); bench --session --low-latency holds the CPU wake-up
 // latency at 0 while it runs.
 int run_selected_bench(const BenchArgs& a) {
-  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) +
-          int(a.voice) >
+  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) + int(a.voice) >
       1)
     throw Error(
         "bench: --server, --render, --session, --record, --nats and --voice are separate runs");

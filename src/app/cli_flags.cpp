@@ -150,9 +150,10 @@ void add_serve_flags(CLI::App* s, ServeArgs& serve) {
   s->add_option("--mic", serve.mic,
                 "The OR's microphone: a sound device (\"default\" or part of its name) or a .wav "
                 "file; it speaks in every session as the OR site");
-  s->add_option("--speaker", serve.speaker,
-                "The OR's loudspeaker: a sound device or a .wav file; the remote voices play on it, "
-                "mixed");
+  s->add_option(
+      "--speaker", serve.speaker,
+      "The OR's loudspeaker: a sound device or a .wav file; the remote voices play on it, "
+      "mixed");
   s->add_flag("--no-echo-cancellation", serve.no_echo_cancellation,
               "Do not cancel the loudspeaker's echo in the microphone (headphones in the OR)");
   s->add_option("--record", serve.record,

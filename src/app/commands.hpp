@@ -77,8 +77,8 @@ struct ServeArgs {
   std::string case_folder;  ///< the patient case shown in every session (reloaded on change)
   size_t case_max_triangles = 60000;
   // The OR's own voice (volcast/voice/site_voice.hpp).
-  std::string mic, speaker;            ///< a .wav file or a sound device; empty: none
-  bool no_echo_cancellation = false;   ///< keep the loudspeaker's echo in the microphone
+  std::string mic, speaker;           ///< a .wav file or a sound device; empty: none
+  bool no_echo_cancellation = false;  ///< keep the loudspeaker's echo in the microphone
   // Browsers (ServerConfig::web_root).
   bool web = false;      ///< serve the browser viewer and print its https:// link
   std::string web_root;  ///< its folder; default: web_root_default()

@@ -8,8 +8,6 @@
 #include <nlohmann/json.hpp>
 
 #include "cli.hpp"
-#include "volcast/pipeline/session_client.hpp"
-#include "volcast/voice/voice_export.hpp"
 #include "commands.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -17,7 +15,9 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
 #include "volcast/pipeline/export.hpp"
+#include "volcast/pipeline/session_client.hpp"
 #include "volcast/record/recording.hpp"
+#include "volcast/voice/voice_export.hpp"
 
 namespace volcast {
 namespace {
@@ -151,11 +151,12 @@ int run_record(const RecordArgs& a) {
   writer.close();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::printf("recorded %llu frame sets and %llu voice packets in %.1f s, %s, to %s (stopped: "
-              "%s)\n",
-              static_cast<unsigned long long>(writer.frame_sets()),
-              static_cast<unsigned long long>(writer.voices()), seconds,
-              mb(writer.bytes()).c_str(), a.out.c_str(), ended.c_str());
+  std::printf(
+      "recorded %llu frame sets and %llu voice packets in %.1f s, %s, to %s (stopped: "
+      "%s)\n",
+      static_cast<unsigned long long>(writer.frame_sets()),
+      static_cast<unsigned long long>(writer.voices()), seconds, mb(writer.bytes()).c_str(),
+      a.out.c_str(), ended.c_str());
   if (writer.frame_sets() == 0) throw Error("record: no frame set arrived");
   return 0;
 }
@@ -286,9 +287,8 @@ int run_export(const ExportArgs& a) {
   if (!a.wav.empty()) {
     const std::vector<voice::ExportedVoice> voices = voice::export_voices(a.file, a.wav);
     for (const voice::ExportedVoice& v : voices)
-      std::printf("wrote %s: %s, %.1f s (%llu packets, %llu frames concealed)\n",
-                  v.path.c_str(), printable(v.name).c_str(), v.seconds,
-                  static_cast<unsigned long long>(v.packets),
+      std::printf("wrote %s: %s, %.1f s (%llu packets, %llu frames concealed)\n", v.path.c_str(),
+                  printable(v.name).c_str(), v.seconds, static_cast<unsigned long long>(v.packets),
                   static_cast<unsigned long long>(v.concealed));
     if (voices.empty()) std::printf("%s holds no voices\n", a.file.c_str());
     if (a.ply.empty() && a.png.empty() && a.mkv.empty()) return 0;

@@ -202,11 +202,10 @@ void open_server(const ServeArgs& a, const ServerConfig& base, Serving& s) {
         a.speaker.empty() ? nullptr : voice::open_speaker(a.speaker, 1),
         [&hub](const session::VoicePacketView& p) { hub.site_voice(p); });
     s.listening = s.voice.get();
-    spdlog::info("the OR's voice: microphone {}, loudspeaker {}{}", a.mic.empty() ? "none" : a.mic,
-                 a.speaker.empty() ? "none" : a.speaker,
-                 v.echo_cancellation && !a.mic.empty() && !a.speaker.empty()
-                     ? ", echo cancelled"
-                     : "");
+    spdlog::info(
+        "the OR's voice: microphone {}, loudspeaker {}{}", a.mic.empty() ? "none" : a.mic,
+        a.speaker.empty() ? "none" : a.speaker,
+        v.echo_cancellation && !a.mic.empty() && !a.speaker.empty() ? ", echo cancelled" : "");
   }
   if (!a.case_folder.empty()) s.case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
   config.session = &hub;
@@ -324,10 +323,10 @@ void stop_serving(Serving& s) {
   if (s.voice) {
     s.voice->stop();
     for (const auto& h : s.voice->stats().heard)
-      spdlog::info("the OR heard participant {}: {} packets, mouth-to-ear p50 {:.0f} ms, p99 {:.0f} "
-                   "ms, {:.1f} % concealed",
-                   h.id, h.stream.packets, h.latency_ms_p50, h.latency_ms_p99,
-                   h.stream.concealed_percent());
+      spdlog::info(
+          "the OR heard participant {}: {} packets, mouth-to-ear p50 {:.0f} ms, p99 {:.0f} "
+          "ms, {:.1f} % concealed",
+          h.id, h.stream.packets, h.latency_ms_p50, h.latency_ms_p99, h.stream.concealed_percent());
   }
   if (s.site) s.site->stop();
   if (s.replay) s.replay->stop();

@@ -20,10 +20,10 @@
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
-#include "volcast/voice/voice_report.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
+#include "volcast/voice/voice_report.hpp"
 
 namespace volcast {
 namespace {

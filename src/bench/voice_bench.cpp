@@ -43,7 +43,8 @@ std::vector<float> speech_for(const fs::path& data, double seconds, int first) {
   const char* names[] = {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"};
   std::vector<float> out;
   for (int i = first; out.size() < size_t(seconds * audio::kSampleRate); ++i) {
-    const std::vector<float> s = audio::read_voice(data / "speech" / (std::string(names[i % 5]) + ".wav"));
+    const std::vector<float> s =
+        audio::read_voice(data / "speech" / (std::string(names[i % 5]) + ".wav"));
     out.insert(out.end(), s.begin(), s.end());
     out.resize(out.size() + size_t(0.3 * audio::kSampleRate), 0.0f);
   }

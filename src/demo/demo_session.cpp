@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "demo_voice.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
 #include "volcast/calibrate/site_calibration.hpp"
@@ -27,7 +28,6 @@
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/voice/voice_report.hpp"
-#include "demo_voice.hpp"
 
 namespace volcast {
 namespace fs = std::filesystem;
@@ -297,8 +297,7 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     if (talk) {
       const fs::path heard = talk->dir / ("heard_" + p->file);
       voice::report_voice(p->heard, heard.string() + ".json");
-      std::printf("wrote %s.wav (what it heard, HRTF) and %s.json\n", heard.c_str(),
-                  heard.c_str());
+      std::printf("wrote %s.wav (what it heard, HRTF) and %s.json\n", heard.c_str(), heard.c_str());
     }
   }
   if (or_voice) demo::report_site(*talk, or_voice->stats());

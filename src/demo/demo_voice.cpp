@@ -32,8 +32,8 @@ std::optional<Exchange> prepare_exchange(const fs::path& out, double lead_s) {
   fs::create_directories(e.dir);
   for (const Line& l : demo_lines()) {
     const fs::path said = e.dir / ("said_" + l.who + ".wav");
-    const std::string command = "espeak-ng -v '" + l.espeak_voice + "' -s 150 -w '" +
-                                said.string() + "' '" + l.words + "'";
+    const std::string command =
+        "espeak-ng -v '" + l.espeak_voice + "' -s 150 -w '" + said.string() + "' '" + l.words + "'";
     if (std::system(command.c_str()) != 0) throw Error("demo: espeak-ng failed: " + command);
     // The line at its time, silence around it: what the microphone picks up.
     const std::vector<float> words = audio::read_voice(said);
@@ -74,10 +74,11 @@ void report_site(const Exchange& e, const voice::SiteVoiceStats& s) {
                      {"concealed_percent", h.stream.concealed_percent()},
                      {"latency_ms_p50", h.latency_ms_p50},
                      {"latency_ms_p99", h.latency_ms_p99}});
-    std::printf("  heard participant %u: %llu packets, mouth-to-ear p50 %.0f ms p99 %.0f ms, "
-                "%.1f %% concealed\n",
-                h.id, static_cast<unsigned long long>(h.stream.packets), h.latency_ms_p50,
-                h.latency_ms_p99, h.stream.concealed_percent());
+    std::printf(
+        "  heard participant %u: %llu packets, mouth-to-ear p50 %.0f ms p99 %.0f ms, "
+        "%.1f %% concealed\n",
+        h.id, static_cast<unsigned long long>(h.stream.packets), h.latency_ms_p50, h.latency_ms_p99,
+        h.stream.concealed_percent());
   }
   nlohmann::json j{{"started_us", s.started_us},
                    {"packets_sent", s.packets_sent},

@@ -28,8 +28,8 @@ struct Line {
 const std::vector<Line>& demo_lines();
 
 struct Exchange {
-  std::filesystem::path dir;    ///< out/voice
-  int64_t start_us = 0;         ///< wall clock when the exchange begins
+  std::filesystem::path dir;                          ///< out/voice
+  int64_t start_us = 0;                               ///< wall clock when the exchange begins
   std::map<std::string, std::filesystem::path> mics;  ///< by `who`
 };
 

@@ -115,8 +115,7 @@ class DeviceMicrophone final : public Microphone {
     if (e != paNoError && e != paInputOverflowed)
       throw Error("microphone '" + spec_ + "': " + Pa_GetErrorText(e));
     const PaStreamInfo* info = Pa_GetStreamInfo(stream_);
-    return wall_clock_us() - kFrameUs -
-           static_cast<int64_t>((info ? info->inputLatency : 0) * 1e6);
+    return wall_clock_us() - kFrameUs - static_cast<int64_t>((info ? info->inputLatency : 0) * 1e6);
   }
   bool ended() const override { return false; }
 
@@ -132,9 +131,9 @@ class DeviceSpeaker final : public Speaker {
   ~DeviceSpeaker() override { Pa_CloseStream(stream_); }
   int channels() const override { return channels_; }
   void write(std::span<const float> block) override {
-    const PaError e = Pa_WriteStream(stream_, block.data(),
-                                     static_cast<unsigned long>(block.size()) /
-                                         static_cast<unsigned long>(channels_));
+    const PaError e = Pa_WriteStream(
+        stream_, block.data(),
+        static_cast<unsigned long>(block.size()) / static_cast<unsigned long>(channels_));
     if (e != paNoError && e != paOutputUnderflowed)
       throw Error("loudspeaker '" + spec_ + "': " + Pa_GetErrorText(e));
   }

@@ -129,8 +129,8 @@ SiteVoiceStats SiteVoice::stats() const {
   SiteVoiceStats out = stats_;
   if (echo_) out.echo = echo_->stats();
   for (const auto& [id, h] : heard_voices_)
-    out.heard.push_back({id, h->stream.stats(), h->latencies.percentile(0.5),
-                         h->latencies.percentile(0.99)});
+    out.heard.push_back(
+        {id, h->stream.stats(), h->latencies.percentile(0.5), h->latencies.percentile(0.99)});
   return out;
 }
 

@@ -30,14 +30,14 @@ void decode_speaker(const std::vector<RecordedVoicePacket>& packets, int64_t t0_
   const auto append = [&] { out.insert(out.end(), frame.begin(), frame.end()); };
   const RecordedVoicePacket* previous = nullptr;
   for (const RecordedVoicePacket& p : packets) {
-    const int64_t at = std::max<int64_t>(0, (p.capture_us - t0_us + audio::kFrameUs / 2) /
-                                                audio::kFrameUs);
+    const int64_t at =
+        std::max<int64_t>(0, (p.capture_us - t0_us + audio::kFrameUs / 2) / audio::kFrameUs);
     const int64_t now = static_cast<int64_t>(out.size() / kFrameSamples);
     int64_t missing = std::max<int64_t>(0, at - now);
     // Packets lost before this one (a gap in the sequence) are rebuilt; the rest of the gap is
     // the speaker's silence (DTX).
-    int64_t lost = previous ? std::min<int64_t>(missing, int64_t(p.sequence - previous->sequence) - 1)
-                            : 0;
+    int64_t lost =
+        previous ? std::min<int64_t>(missing, int64_t(p.sequence - previous->sequence) - 1) : 0;
     lost = std::max<int64_t>(0, lost);
     for (int64_t k = 0; k < missing - lost; ++k) {
       frame.fill(0.0f);

@@ -25,9 +25,12 @@ nlohmann::json to_json(const VoiceStats& s) {
                      {"speaking", h.speaking},
                      {"muted", h.muted},
                      {"volume", h.volume}});
-  return {{"started_us", s.started_us},     {"frames_captured", s.frames_captured},
-          {"packets_sent", s.packets_sent}, {"dtx_frames", s.dtx_frames},
-          {"bytes_per_second", s.bytes_per_second}, {"hrtf", s.hrtf},
+  return {{"started_us", s.started_us},
+          {"frames_captured", s.frames_captured},
+          {"packets_sent", s.packets_sent},
+          {"dtx_frames", s.dtx_frames},
+          {"bytes_per_second", s.bytes_per_second},
+          {"hrtf", s.hrtf},
           {"heard", heard}};
 }
 
@@ -36,11 +39,11 @@ void report_voice(const VoiceStats& s, const std::string& json_path) {
               static_cast<unsigned long long>(s.packets_sent), s.bytes_per_second,
               s.hrtf ? ", voices placed with HRTF" : "");
   for (const HeardVoice& h : s.heard)
-    std::printf("  heard %-20s %6llu packets, mouth-to-ear p50 %5.0f ms p99 %5.0f ms, %.1f %% "
-                "concealed%s\n",
-                printable(h.name, 20).c_str(), static_cast<unsigned long long>(h.stream.packets),
-                h.latency_ms_p50, h.latency_ms_p99, h.stream.concealed_percent(),
-                h.muted ? ", muted" : "");
+    std::printf(
+        "  heard %-20s %6llu packets, mouth-to-ear p50 %5.0f ms p99 %5.0f ms, %.1f %% "
+        "concealed%s\n",
+        printable(h.name, 20).c_str(), static_cast<unsigned long long>(h.stream.packets),
+        h.latency_ms_p50, h.latency_ms_p99, h.stream.concealed_percent(), h.muted ? ", muted" : "");
   std::fflush(stdout);
   if (json_path.empty()) return;
   std::ofstream out(json_path);

@@ -13,7 +13,6 @@
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
-#include "volcast/voice/voice_link.hpp"
 #include "support/test_data.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
@@ -24,6 +23,7 @@
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"
+#include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
 namespace {

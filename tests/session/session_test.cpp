@@ -4,8 +4,8 @@
 
 #include <algorithm>
 #include <atomic>
-#include <deque>
 #include <chrono>
+#include <deque>
 #include <set>
 #include <thread>
 

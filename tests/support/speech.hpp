@@ -86,8 +86,8 @@ inline std::vector<float> decimate(std::span<const float> x) {
 /// Where `a` sits best in `b` within offsets [from, to], compared below about 2 kHz (decimate):
 /// what stays of speech through processing that reshapes its upper bands (an echo canceller's
 /// band split and noise suppressor).
-inline Alignment align_band(std::span<const float> a, std::span<const float> b,
-                            std::ptrdiff_t from, std::ptrdiff_t to) {
+inline Alignment align_band(std::span<const float> a, std::span<const float> b, std::ptrdiff_t from,
+                            std::ptrdiff_t to) {
   const std::vector<float> da = decimate(a), db = decimate(b);
   Alignment best{from, -2};
   for (std::ptrdiff_t o = from / 12; o <= to / 12; ++o)

@@ -21,8 +21,8 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/wire.hpp"
 #include "volcast/pipeline/sender.hpp"
-#include "volcast/session/voice_messages.hpp"
 #include "volcast/record/recording.hpp"
+#include "volcast/session/voice_messages.hpp"
 #include "volcast/voice/site_voice.hpp"
 #include "volcast/voice/voice_export.hpp"
 #include "volcast/voice/voice_link.hpp"
@@ -109,8 +109,8 @@ TEST(Voice, TwoParticipantsHearEachOther) {
     const std::span<const float> phrase =
         std::span<const float>(said).subspan(starts[i], test::speech(names[i]).size());
     // Where the phrase was said, on B's time line: it is heard 0..1 s later.
-    const std::ptrdiff_t at = std::ptrdiff_t(starts[i]) +
-                              std::ptrdiff_t(ca.mic_start_us * kSampleRate / 1'000'000);
+    const std::ptrdiff_t at =
+        std::ptrdiff_t(starts[i]) + std::ptrdiff_t(ca.mic_start_us * kSampleRate / 1'000'000);
     const test::Alignment found = test::align(phrase, b_heard, at, at + std::ptrdiff_t(samples(1)));
     const double latency_ms = double(found.offset - at) * 1000.0 / kSampleRate;
     std::printf("phrase '%s': correlation %.3f, heard %.1f ms after it was said\n",
@@ -120,8 +120,8 @@ TEST(Voice, TwoParticipantsHearEachOther) {
     // resolution either way, and the file's start is taken a moment before its first block).
     EXPECT_NEAR(latency_ms, from_a.latency_ms_p50, 45.0) << names[i];
   }
-  std::printf("mouth-to-ear p50 %.1f ms, p99 %.1f ms; concealed %.2f %%\n",
-              from_a.latency_ms_p50, from_a.latency_ms_p99, from_a.stream.concealed_percent());
+  std::printf("mouth-to-ear p50 %.1f ms, p99 %.1f ms; concealed %.2f %%\n", from_a.latency_ms_p50,
+              from_a.latency_ms_p99, from_a.stream.concealed_percent());
 }
 
 // C hears A on its left and B on its right (HRTF through OpenAL Soft's loopback device): the
@@ -132,9 +132,9 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
       c(s, test::hand_driven("C"));
   ASSERT_TRUE(eventually([&] { return sees(c, "A") && sees(c, "B") && sees(a, "C"); }));
   const Eigen::Vector3f listener(0.0f, 1.6f, 2.0f);
-  stand(c, listener, 0);                                   // facing -z
-  stand(a, listener + Eigen::Vector3f(-1.5f, 0, 0), 90);   // on C's left
-  stand(b, listener + Eigen::Vector3f(1.5f, 0, 0), -90);   // on C's right
+  stand(c, listener, 0);                                  // facing -z
+  stand(a, listener + Eigen::Vector3f(-1.5f, 0, 0), 90);  // on C's left
+  stand(b, listener + Eigen::Vector3f(1.5f, 0, 0), -90);  // on C's right
   ASSERT_TRUE(eventually([&] {
     const auto pa = c.other("A"), pb = c.other("B");
     return pa && pb && pa->has_pose && pb->has_pose && a.now().has_own_body;
@@ -172,8 +172,8 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
   }();
   for (const bool first : {true, false}) {
     const size_t said = begin + (first ? 0 : samples(2.0));
-    const test::Alignment found = test::align(phrase, mono, std::ptrdiff_t(said),
-                                              std::ptrdiff_t(said + samples(1)));
+    const test::Alignment found =
+        test::align(phrase, mono, std::ptrdiff_t(said), std::ptrdiff_t(said + samples(1)));
     const size_t from = size_t(found.offset), n = phrase.size();
     const double l = test::energy(left, from, n), r = test::energy(right, from, n);
     const int lag = test::interaural_lag(left, right, from, n);
@@ -219,8 +219,8 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
     ASSERT_TRUE(eventually([&] { return sees(*a, "B") && sees(*b, "A"); }));
     const auto dir = test::temp_dir("voice_impaired");
     std::vector<size_t> starts;
-    const std::vector<std::string> names{"Front_Center", "Front_Left", "Front_Right",
-                                         "Side_Left", "Side_Right"};
+    const std::vector<std::string> names{"Front_Center", "Front_Left", "Front_Right", "Side_Left",
+                                         "Side_Right"};
     const std::vector<float> said = test::phrases(names, 0.3, &starts);
     voice::VoiceConfig ca, cb;
     ca.mic = test::write_voice(dir / "a.wav", said).string();
@@ -238,14 +238,16 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
     ASSERT_EQ(heard.heard.size(), 1u);
     const voice::HeardVoice& h = heard.heard[0];
     const auto counters = link->counters();
-    std::printf("50 ms RTT + 2%% loss: %llu + %llu IP packets lost; mouth-to-ear p50 %.1f ms, "
-                "p99 %.1f ms; %.2f %% of talking frames concealed (%llu late packets)\n",
-                (unsigned long long)counters.client_to_server.dropped_loss,
-                (unsigned long long)counters.server_to_client.dropped_loss, h.latency_ms_p50,
-                h.latency_ms_p99, h.stream.concealed_percent(), (unsigned long long)h.stream.late);
+    std::printf(
+        "50 ms RTT + 2%% loss: %llu + %llu IP packets lost; mouth-to-ear p50 %.1f ms, "
+        "p99 %.1f ms; %.2f %% of talking frames concealed (%llu late packets)\n",
+        (unsigned long long)counters.client_to_server.dropped_loss,
+        (unsigned long long)counters.server_to_client.dropped_loss, h.latency_ms_p50,
+        h.latency_ms_p99, h.stream.concealed_percent(), (unsigned long long)h.stream.late);
     EXPECT_GT(counters.client_to_server.dropped_loss + counters.server_to_client.dropped_loss, 0u);
     const audio::Pcm out = audio::read_wav(dir / "b_heard.wav");
-    const auto offset = std::ptrdiff_t((ca.mic_start_us - heard.started_us) * kSampleRate / 1'000'000);
+    const auto offset =
+        std::ptrdiff_t((ca.mic_start_us - heard.started_us) * kSampleRate / 1'000'000);
     double mean = 0;
     for (size_t i = 0; i < names.size(); ++i) {
       const std::span<const float> phrase =
@@ -276,7 +278,7 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
 // voice, from `local`), in real time.
 struct SimulatedRoom {
   std::mutex mutex;
-  std::deque<float> air;   // played, not yet heard
+  std::deque<float> air;    // played, not yet heard
   std::vector<float> echo;  // every sample of echo the microphone picked up
   std::vector<float> local;
   size_t heard = 0;
@@ -388,8 +390,8 @@ TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
   const size_t or_at = offset + room.local.size() - or_phrase.size();
   const test::Alignment found = test::align_band(or_phrase, b_heard, std::ptrdiff_t(or_at),
                                                  std::ptrdiff_t(or_at + samples(1)));
-  const double full = test::align(or_phrase, b_heard, found.offset - 24, found.offset + 24)
-                          .correlation;
+  const double full =
+      test::align(or_phrase, b_heard, found.offset - 24, found.offset + 24).correlation;
   std::printf("the OR's talker at B: correlation %.3f below 2 kHz, %.3f full band\n",
               found.correlation, full);
   EXPECT_GE(found.correlation, 0.7);
@@ -466,8 +468,8 @@ TEST(Voice, AKilledRecorderKeepsTheVoicesAndExportGivesThemBack) {
   ASSERT_TRUE(eventually([&] { return a.now().joined; }));
   const auto dir = test::temp_dir("voice_record");
   const std::string file = (dir / "talk.vcr").string(), link = s.link();
-  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", link, "--out", file,
-                                "--session", "OR"};
+  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", link,
+                                "--out",        file,     "--session", "OR"};
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);
@@ -496,8 +498,8 @@ TEST(Voice, AKilledRecorderKeepsTheVoicesAndExportGivesThemBack) {
   const auto exported = voice::export_voices(file, dir / "wav");
   ASSERT_EQ(exported.size(), 1u);
   EXPECT_EQ(exported[0].packets, packets);
-  std::printf("killed recorder: %zu voice packets kept, %zu frame sets; exported %.1f s\n",
-              packets, reader.info().frame_sets.size(), exported[0].seconds);
+  std::printf("killed recorder: %zu voice packets kept, %zu frame sets; exported %.1f s\n", packets,
+              reader.info().frame_sets.size(), exported[0].seconds);
   const audio::Pcm out = audio::read_wav(exported[0].path);
   for (size_t i = 0; i < names.size(); ++i) {
     const std::span<const float> phrase =

@@ -23,8 +23,8 @@
 // characters and mixed-script look-alikes (names.hpp); a display name that looks like another's
 // in the session (the same UTS #39 skeleton) is refused. The Join is refused naming the problem.
 #include <atomic>
-#include <functional>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>

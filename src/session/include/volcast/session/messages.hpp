@@ -119,9 +119,9 @@ enum class Type : uint8_t {
   kTeleported = 0x48,
   kAvatarCameraFrom = 0x49,
   kAvatarFrameFrom = 0x4a,
-  kCase = 0x4b,          // objects.hpp
-  kObjectState = 0x4c,   // objects.hpp
-  kMonitorState = 0x4d,  // objects.hpp
+  kCase = 0x4b,            // objects.hpp
+  kObjectState = 0x4c,     // objects.hpp
+  kMonitorState = 0x4d,    // objects.hpp
   kVoiceFrom = 0x4e,       // voice_messages.hpp
   kVoiceStateFrom = 0x4f,  // voice_messages.hpp
 };

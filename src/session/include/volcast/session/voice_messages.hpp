@@ -37,7 +37,7 @@ inline constexpr uint32_t kMaxVoicePayloadBytes = 4 + 4 + 8 + 4 + kMaxVoiceOpusB
 /// The message table's limit for 0x0e: larger than any valid one, so that a slightly oversized
 /// packet loses only itself (a larger one drops its sender).
 inline constexpr uint32_t kVoiceMessageLimit = 4096;
-inline constexpr size_t kMaxQueuedVoice = 8;     ///< per speaker and receiver: 160 ms
+inline constexpr size_t kMaxQueuedVoice = 8;  ///< per speaker and receiver: 160 ms
 inline constexpr uint32_t kMaxMalformedVoice = 8;
 
 /// A voice packet's fields; `opus` points into the parsed payload.

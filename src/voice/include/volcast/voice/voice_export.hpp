@@ -13,7 +13,7 @@ struct ExportedVoice {
   uint32_t participant = 0;
   std::string name;
   std::filesystem::path path;
-  double seconds = 0;  ///< the file's length
+  double seconds = 0;                   ///< the file's length
   uint64_t packets = 0, concealed = 0;  ///< packets decoded; frames rebuilt (FEC, PLC)
 };
 

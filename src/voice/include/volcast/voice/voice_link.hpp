@@ -54,8 +54,8 @@ struct VoiceStats {
   /// microphone's first block's capture time, or the loop's start without a microphone.
   int64_t started_us = 0;
   uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
-  double bytes_per_second = 0;  ///< sent, over the frames captured while not muted
-  bool hrtf = false;            ///< the spatial mixer runs with HRTF
+  double bytes_per_second = 0;    ///< sent, over the frames captured while not muted
+  bool hrtf = false;              ///< the spatial mixer runs with HRTF
   std::vector<HeardVoice> heard;  ///< by id
 };
 

@@ -58,7 +58,9 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
   row.participants = participants;
   row.talkers = talkers;
   SitePlayer site(two_camera_site(data), 30);  // cameras announced, not streamed
-  SessionHub hub;
+  SessionHubConfig hub_config;
+  hub_config.max_participants = participants + 1;  // and the OR site
+  SessionHub hub(hub_config);
   ServerConfig config;
   config.port = 0;
   config.session = &hub;
@@ -99,8 +101,10 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
     });
     people.push_back(std::move(p));
   }
-  while (hub.members("bench").size() < size_t(participants) + 1)
+  for (int waited = 0; hub.members("bench").size() < size_t(participants) + 1; ++waited) {
+    if (waited == 1000) throw Error("bench --voice: the participants did not all join in 20 s");
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // everyone sees everyone
   const int64_t start = wall_clock_us() + 200'000;
   for (int i = 0; i < participants; ++i) {

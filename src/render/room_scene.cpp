@@ -131,16 +131,17 @@ std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen:
 
 std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool speaking,
                                               bool muted, float pulse) {
+  // A ball: the same from every side (a ring at eye height is seen edge-on, as a line).
   std::vector<Primitive> p;
   const Eigen::Vector3f above = head + Eigen::Vector3f(0, 0.3f, 0);
-  if (muted) {  // a red ball: seen the same from every side
+  if (muted) {
     p.push_back(shape(Primitive::Shape::kSphere,
-                      Eigen::Translation3f(above) * Eigen::Scaling(0.07f, 0.07f, 0.07f),
+                      Eigen::Translation3f(above) * Eigen::Scaling(0.12f, 0.12f, 0.12f),
                       rgba(0.9f, 0.12f, 0.1f), 1));
   } else if (speaking) {
-    const float r = 0.22f + 0.06f * std::clamp(pulse, 0.0f, 1.0f);
-    p.push_back(shape(Primitive::Shape::kRing,
-                      Eigen::Translation3f(above) * Eigen::Scaling(r, 1.0f, r),
+    const float d = 0.10f + 0.05f * std::clamp(pulse, 0.0f, 1.0f);
+    p.push_back(shape(Primitive::Shape::kSphere,
+                      Eigen::Translation3f(above) * Eigen::Scaling(d, d, d),
                       rgba(0.2f, 0.95f, 0.35f), 1));
   }
   return p;

@@ -107,13 +107,13 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
   const size_t without_hands = mesh_avatar_primitives(body, {1, 0, 0}).size();
   body.hands_tracked = true;
   EXPECT_EQ(mesh_avatar_primitives(body, {1, 0, 0}).size(), without_hands + 2);
-  // The voice badge over a head: nothing when silent, a green ring while speaking, a red ball
+  // The voice badge over a head: nothing when silent, a green ball while speaking, a red ball
   // while muted (muted wins), 0.3 m above the head.
   const Eigen::Vector3f head(1, 1.6f, 2);
   EXPECT_TRUE(voice_badge_primitives(head, false, false, 0).empty());
   const auto speaking = voice_badge_primitives(head, true, false, 0.5f);
   ASSERT_EQ(speaking.size(), 1u);
-  EXPECT_EQ(speaking[0].shape, Primitive::Shape::kRing);
+  EXPECT_EQ(speaking[0].shape, Primitive::Shape::kSphere);
   EXPECT_GT(speaking[0].color.y(), speaking[0].color.x());
   EXPECT_NEAR(speaking[0].world_from_shape(1, 3), 1.9f, 1e-6f);
   const auto muted = voice_badge_primitives(head, true, true, 0.5f);

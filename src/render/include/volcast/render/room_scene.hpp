@@ -29,8 +29,9 @@ std::vector<Primitive> monitor_status_primitives(const RoomLayout& room, int sli
 std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen::Vector3f& rgb);
 
 /// A participant's voice over its head (room frame, metres; `head`: its room_from_head position):
-/// while it speaks, a green glowing ring 0.3 m above, pulsing with `pulse` (0..1); while its
-/// microphone is muted, a red ball there instead. Empty when it neither speaks nor is muted.
+/// while it speaks, a glowing green ball 0.3 m above, 10 to 15 cm wide with `pulse` (0..1); while
+/// its microphone is muted, a red ball 12 cm wide there instead. Empty when it neither speaks nor
+/// is muted.
 std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool speaking,
                                               bool muted, float pulse);
 

@@ -164,14 +164,14 @@ struct ViewArgs {
   std::string upload_color = "jpeg";     ///< the avatar's color codec
   // Voice (volcast/voice/voice_link.hpp): a .wav file or a sound device each; empty: none.
   std::string mic, speaker;
-  bool mute = false;                     ///< start with the microphone muted
-  std::vector<std::string> volumes;      ///< "NAME=GAIN" per participant
-  bool mono_voices = false;              ///< a mono mix instead of HRTF (one channel)
-  std::string voice_json;                ///< write what was heard (latency, loss) here
-  std::string pose_script;               ///< JSON pose script; default: standing, idle sway
-  double pose_rate = 60;                 ///< poses published per second
-  float avatar_radius = 0.6f;            ///< the others' camera avatars: metres around their head
-  bool no_room = false;                  ///< do not draw the room's furniture
+  bool mute = false;                 ///< start with the microphone muted
+  std::vector<std::string> volumes;  ///< "NAME=GAIN" per participant
+  bool mono_voices = false;          ///< a mono mix instead of HRTF (one channel)
+  std::string voice_json;            ///< write what was heard (latency, loss) here
+  std::string pose_script;           ///< JSON pose script; default: standing, idle sway
+  double pose_rate = 60;             ///< poses published per second
+  float avatar_radius = 0.6f;        ///< the others' camera avatars: metres around their head
+  bool no_room = false;              ///< do not draw the room's furniture
 };
 /// Renders into the desktop window by default (headless when there is no display, with one line
 /// saying so), OpenXR with --xr (the window when no runtime is available), offscreen with

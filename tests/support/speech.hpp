@@ -95,14 +95,11 @@ inline Alignment align_band(std::span<const float> a, std::span<const float> b, 
   return best;
 }
 
-/// Where `a` sits best in `b` within offsets [from, to]: a coarse search on 12x decimated
-/// signals, then every sample around the best.
+/// Where `a` sits best in `b` within offsets [from, to]: align_band's coarse search, then every
+/// sample around the best.
 inline Alignment align(std::span<const float> a, std::span<const float> b, std::ptrdiff_t from,
                        std::ptrdiff_t to) {
-  const std::vector<float> da = decimate(a), db = decimate(b);
-  Alignment coarse{from, -2};
-  for (std::ptrdiff_t o = from / 12; o <= to / 12; ++o)
-    if (const double c = ncc(da, db, o); c > coarse.correlation) coarse = {o * 12, c};
+  const Alignment coarse = align_band(a, b, from, to);
   Alignment best{coarse.offset, -2};
   for (std::ptrdiff_t o = coarse.offset - 24; o <= coarse.offset + 24; ++o)
     if (const double c = ncc(a, b, o); c > best.correlation) best = {o, c};

@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -251,6 +252,10 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   ServerConfig server_config;
   server_config.port = 0;
   server_config.session = &hub;
+  // Both participants come from 127.0.0.1, one address, whose own tiers may use half the budget;
+  // the default (half the cores, at least 1) leaves the four cameras' volcast/jpeg tier, about
+  // 0.5 cores at 30 fps, on the edge of that share on a 2-core machine.
+  server_config.tier_cpu_budget = std::max(2.0, double(std::thread::hardware_concurrency()) / 2);
   Server server(cameras, server_config);
   hub.attach(&server);
   site.start(server);

@@ -99,6 +99,20 @@ inline SessionClientOptions hand_driven(const std::string& name) {
   return o;
 }
 
+/// Publishes `p`'s head at `room_position` (room frame, metres), turned `yaw_degrees` about +y
+/// from facing -z, as the play-area pose it must publish; the hands with it.
+inline void stand(TestParticipant& p, const Eigen::Vector3f& room_position, float yaw_degrees = 0) {
+  const RigidTransform room_from_playarea = session::room_from_playarea(p.now().spot);
+  const RigidTransform playarea_from_room = room_from_playarea.inverse();
+  BodyPose body;
+  body.head.position = (playarea_from_room * room_position.cast<double>()).cast<float>();
+  const Eigen::Matrix3d turn =
+      Eigen::AngleAxisd(yaw_degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  body.head.orientation = Eigen::Quaternionf((playarea_from_room.rotation * turn).cast<float>());
+  body.left_hand = body.right_hand = body.head;
+  p.p().publish(body);
+}
+
 /// A pose 1.35 m up near the table, turned `degrees` about +y (room frame).
 inline Pose turned(float degrees) {
   Pose p;

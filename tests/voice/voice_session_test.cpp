@@ -37,6 +37,7 @@ using session::Type;
 using test::eventually;
 using test::named;
 using test::SessionSite;
+using test::stand;
 using test::TestParticipant;
 
 constexpr double kSiteFps = 5;  // the stream is not what is tested: a light one
@@ -48,19 +49,6 @@ bool sees(const TestParticipant& p, const std::string& name) {
 // Samples of `seconds`.
 size_t samples(double seconds) {
   return static_cast<size_t>(seconds * kSampleRate);
-}
-
-// The room pose (head) given as the participant's play area pose it must publish.
-void stand(TestParticipant& p, const Eigen::Vector3f& room_position, float yaw_degrees = 0) {
-  const RigidTransform room_from_playarea = session::room_from_playarea(p.now().spot);
-  const RigidTransform playarea_from_room = room_from_playarea.inverse();
-  BodyPose body;
-  body.head.position = (playarea_from_room * room_position.cast<double>()).cast<float>();
-  const Eigen::Matrix3d turn =
-      Eigen::AngleAxisd(yaw_degrees * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  body.head.orientation = Eigen::Quaternionf((playarea_from_room.rotation * turn).cast<float>());
-  body.left_hand = body.right_hand = body.head;
-  p.p().publish(body);
 }
 
 // A speaks real phrases into its microphone (a file); B's loudspeaker (a file) holds them: each

@@ -9,7 +9,14 @@
 // (default volcast; raw, rvl, trvl and volcast* decode here), color (default jpeg; none),
 // quality, surface (splats, the default, or mesh), xrscale (the headset's framebuffer scale, 0.1
 // to 2, default 1: lower for a slow device), check=1 (hash every decoded depth image, for tests),
-// room=0 (the site's points alone, without the room and the others).
+// room=0 (the site's points alone, without the room and the others), fps=N (draw the desktop
+// view at most N times a second: a slow machine keeps time for the rest); voice=0 (no voice), mic=0
+// (listen only), muted=1 (start muted), ptt=1 (push to talk: hold V, or the left controller's X),
+// processing=0 (the microphone without the browser's echo cancellation, noise suppression and
+// gain control: a headset, or a speakerphone that does its own),
+// volume=NAME:GAIN,... (per participant), record=S (keep S seconds of what is played, for tests).
+// Voice (voice.js): M mutes and unmutes (the left controller's Y in a headset); the others'
+// voices play from where they stand; a green box over a head speaks, a red one is muted.
 // The patient case (serve --case): its organs over the table and the CT on the wall monitor. In a
 // headset, squeeze a controller's grip near an organ to hold it (it follows the hand; let go to
 // release); on a desktop, G grabs the organ you look at (it follows your view) and G again lets
@@ -19,6 +26,7 @@
 import * as M from './math.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
 import {Session} from './session.js';
+import {Voice} from './voice.js';
 
 const params = new URLSearchParams(location.hash.slice(1));
 const EYE_HEIGHT = 1.6;
@@ -76,7 +84,11 @@ function fail(what) {
 const session = new Session((bytes) => worker.postMessage({type: 'send', bytes}, [bytes]),
                             nowServerUs);
 state.session = {joined: false, id: 0, others: [], posesSent: 0, roundTripsMs: []};
-session.onchange = () => {
+session.onchange = (type) => {
+  if (type === 0x42 && voice) {
+    if (voice.muted) session.voiceState(true);  // joined muted
+    voice.sendState();
+  }
   state.session.joined = !!session.joined;
   state.session.id = session.joined ? session.joined.id : 0;
   state.session.error = session.error;
@@ -91,6 +103,7 @@ session.onchange = () => {
 // The case: as the worker parsed it, and what this page holds (object index, the frame it follows:
 // 'head' or an XR input source, and hand_from_object when it was grabbed).
 let currentCase = null;
+let voice = null;  // Voice, once the stream is welcomed (voice=0: never)
 let holding = null;
 
 function objectMatrix(i) {
@@ -161,6 +174,7 @@ function monitorKey(key) {
 // released key to the held milliseconds not applied yet.
 const nav = {x: 0, z: 0, yaw: 0, pitch: -0.1, keys: new Map(), pending: new Map(), dragging: false};
 const WALK_M_PER_S = 1.8;
+const MAX_FPS = Number(params.get('fps')) > 0 ? Number(params.get('fps')) : 1000;
 const TURN_RAD_PER_S = 2.4;
 
 // Seconds `key` was held since the last call (and consumes them).
@@ -239,6 +253,9 @@ function sceneBoxes() {
     boxes.push(poseBox(p.body.head, [0, 0, 0], [0.09, 0.11, 0.1], c));
     boxes.push(poseBox(p.body.head, [0, 0, -0.1], [0.08, 0.04, 0.02], [0.1, 0.1, 0.1, 1]));
     boxes.push(poseBox(p.body.head, [0, -0.45, 0.05], [0.18, 0.3, 0.1], c));
+    if (p.muted) boxes.push(poseBox(p.body.head, [0, 0.22, 0], [0.06, 0.06, 0.06], [0.85, 0.15, 0.1, 1]));
+    else if (voice && voice.speaking(p.id))
+      boxes.push(poseBox(p.body.head, [0, 0.22, 0], [0.04, 0.04, 0.04], [0.2, 0.85, 0.3, 1]));
     if (p.body.handsTracked)
       for (const h of [p.body.left, p.body.right]) boxes.push(poseBox(h, [0, 0, 0], [0.04, 0.02, 0.08], c));
   }
@@ -287,11 +304,14 @@ function noteDrawn() {
 }
 
 // Desktop frames; the headset's come from its own loop (enterXr).
+let desktopFrameAt = -1e9;
 function desktopFrame() {
   if (state.xr.active) return;
   requestAnimationFrame(desktopFrame);
-  ++state.desktopFrames;
   const now = performance.now();
+  if (now - desktopFrameAt < 1000 / MAX_FPS - 2) return;  // fps=: a slow machine's share
+  desktopFrameAt = now;
+  ++state.desktopFrames;
   const f = [Math.sin(nav.yaw), Math.cos(nav.yaw)];
   const back = (heldSeconds('s', now) - heldSeconds('w', now)) * WALK_M_PER_S;
   const right = (heldSeconds('d', now) - heldSeconds('a', now)) * WALK_M_PER_S;
@@ -316,6 +336,7 @@ function desktopFrame() {
   noteDrawn();
   const head = M.toPose(roomFromHead);
   session.publish({handsTracked: false, head, left: head, right: head});
+  if (voice) voice.place(head);
   state.session.posesSent = session.posesSent;
   state.session.roundTripsMs = session.roundTripsMs;
   updateOverlay();
@@ -332,7 +353,50 @@ function updateOverlay() {
       `${state.cameras} camera(s), tier ${state.tier} · ${state.framesReceived} frame sets · ` +
       `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
       (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
-      (session.error ? ` · ${session.error}` : '');
+      (session.error ? ` · ${session.error}` : '') + voiceLine();
+}
+
+// The overlay's voice part: the microphone's state and who speaks.
+function voiceLine() {
+  if (!voice) return '';
+  if (!state.voice) return '';
+  if (state.voice.error) return ` · voice: ${state.voice.error}`;
+  const mic = !state.voice.mic ? 'listening' : state.voice.muted ? 'muted (M)' :
+      params.get('ptt') === '1' ? (state.voice.talking ? 'talking' : 'hold V to talk') : 'mic on (M mutes)';
+  const speaking = [...session.others.values()].filter((p) => voice.speaking(p.id)).map((p) => p.name);
+  return ` · ${mic}` + (speaking.length ? ` · speaking: ${speaking.join(', ')}` : '');
+}
+
+// The headset's voice buttons (WebXR's xr-standard gamepad): the left controller's X (button 4)
+// held talks with ptt=1; its Y (button 5) pressed mutes and unmutes.
+let muteButtonDown = false;
+function voiceButtons(sources) {
+  for (const source of sources) {
+    if (source.handedness !== 'left' || !source.gamepad) continue;
+    const b = source.gamepad.buttons;
+    voice.setTalking(!!b[4]?.pressed);
+    const down = !!b[5]?.pressed;
+    if (down && !muteButtonDown) voice.setMuted(!voice.muted);
+    muteButtonDown = down;
+  }
+}
+
+// Voice starts with the session: what fails (no microphone, no WebCodecs Opus) is shown, and the
+// stream and session go on without it.
+function startVoice() {
+  if (params.get('voice') === '0' || voice) return;
+  const volumes = new Map();
+  for (const item of (params.get('volume') || '').split(',').filter((x) => x)) {
+    const at = item.lastIndexOf(':');
+    if (at > 0) volumes.set(item.slice(0, at), Number(item.slice(at + 1)));
+  }
+  voice = new Voice(session, worker, nowServerUs, {mic: params.get('mic') !== '0',
+                                           muted: params.get('muted') === '1',
+                                           pushToTalk: params.get('ptt') === '1', volumes,
+                                           processing: params.get('processing') !== '0',
+                                           record: Number(params.get('record') || 0)});
+  window.volcastHeard = () => voice.heard();
+  voice.start().catch((err) => { voice.error = `${err.name || 'Error'}: ${err.message}`; });
 }
 
 function floorHit(roomFromRay) {
@@ -423,6 +487,10 @@ async function enterXr() {
       ++tracked;
     }
     session.publish({handsTracked: tracked === 2, head, left: hands.left, right: hands.right});
+    if (voice) {
+      voice.place(head);
+      voiceButtons(frame.session.inputSources);
+    }
     state.session.posesSent = session.posesSent;
     state.session.roundTripsMs = session.roundTripsMs;
   };
@@ -446,11 +514,19 @@ function setupInput() {
       return;
     }
     if (monitorKey(key)) return;
+    if (voice && key === 'm') return voice.setMuted(!voice.muted);
+    if (voice && key === 'v') return voice.setTalking(true);
     if (!nav.keys.has(key)) nav.keys.set(key, performance.now());
   });
-  window.addEventListener('keyup', (e) => keyUp(e.key.toLowerCase()));
+  window.addEventListener('keyup', (e) => {
+    if (voice && e.key.toLowerCase() === 'v') voice.setTalking(false);
+    keyUp(e.key.toLowerCase());
+  });
   // A key held while the page loses focus never sees its keyup.
-  window.addEventListener('blur', () => [...nav.keys.keys()].forEach(keyUp));
+  window.addEventListener('blur', () => {
+    [...nav.keys.keys()].forEach(keyUp);
+    if (voice) voice.setTalking(false);
+  });
   canvas.addEventListener('dblclick', (e) => {
     // The ray through the clicked pixel, from the eye.
     const w = canvas.clientWidth, h = canvas.clientHeight;
@@ -496,6 +572,7 @@ function start() {
       session.list();
       session.join(params.get('session') || 'OR',
                    params.get('name') || `Browser ${Math.floor(Math.random() * 9000 + 1000)}`);
+      startVoice();
     } else if (m.type === 'frames') {
       ++state.framesReceived;
       if (m.cameras.some((c) => c.color)) ++state.colorFrames;
@@ -539,6 +616,13 @@ function start() {
       }
       for (const id of renderer.avatars.keys())
         if (!session.others.has(id)) renderer.removeAvatar(id);
+    } else if (m.type === 'voice-speaker-needed') {
+      if (voice) voice.addSpeaker(m.id);
+    } else if (m.type === 'voice-stats') {
+      if (voice) {
+        voice.stats = m.stats;
+        state.voice = voice.summary();
+      }
     } else if (m.type === 'warning') {
       state.warnings.push(m.what);
       if (state.warnings.length > 20) state.warnings.shift();

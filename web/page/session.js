@@ -4,7 +4,9 @@
 // others' camera avatars (0x49, 0x4a) never come here: worker.js decodes them. The patient case
 // (objects.hpp): its objects' owners and poses (0x4c), grab / move / release (0x0a..0x0c), the
 // monitor's shared state (0x4d, 0x0d); the case itself (0x4b) is parsed by the worker
-// (case_wire.js) and handed over with setCase().
+// (case_wire.js) and handed over with setCase(). Voice (voice_messages.hpp): this page's
+// microphone state (0x0f) goes out from here and the others' (0x4f) come in here; the voice
+// packets themselves (0x0e, 0x4e) never pass the main thread (voice_worker.js).
 const MAGIC = 0x54534356;
 const VERSION = 5;
 
@@ -133,6 +135,8 @@ export class Session {
     return o.pose;
   }
 
+  voiceState(muted) { if (this.joined) this.send(new Writer().u8(muted ? 1 : 0).message(0x0f)); }
+
   list() { this.send(new Writer().message(0x01)); }
   join(session, name) {
     this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).message(0x02));
@@ -176,7 +180,7 @@ export class Session {
       case 0x43: this.error = r.string(); break;
       case 0x44: {
         const p = {id: r.u32(), name: r.string(), role: r.u8(), hasCamera: r.u8() === 1,
-                   spot: r.spot(), body: null, poses: 0};
+                   spot: r.spot(), body: null, poses: 0, muted: false};
         this.others.set(p.id, p);
         break;
       }
@@ -235,6 +239,13 @@ export class Session {
         const generation = r.u32();
         const m = {slice: r.u16(), center: r.f32(), width: r.f32(), overlay: r.u8() === 1, by: r.u32()};
         if (generation === this.generation) this.monitor = m;
+        break;
+      }
+      case 0x4f: {
+        const id = r.u32();
+        const muted = r.u8() === 1;
+        const p = this.others.get(id);
+        if (p) p.muted = muted;
         break;
       }
       default: throw new Error(`unknown session message 0x${type.toString(16)}`);

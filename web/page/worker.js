@@ -5,11 +5,13 @@
 // JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,
 // a KeyFrameRequest when it has no key frame to start from or fails), raw color by hand. Session messages (channel 2) pass through to
 // the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here, and
-// the patient case (0x4b, case_wire.js), parsed here.
+// the patient case (0x4b, case_wire.js), parsed here, and the others' voices (0x4e,
+// voice_worker.js), decoded here; this page's voice is encoded and sent from here too.
 //
 // Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
 //   ({check: true}: each decoded depth image's FNV-1a 32 hash is reported, for tests);
-//   {type: 'send', bytes (ArrayBuffer: a whole message, header included)}; {type: 'bench', runs}.
+//   {type: 'send', bytes (ArrayBuffer: a whole message, header included)}; {type: 'bench', runs};
+//   voice control (voice_worker.js).
 //   Once the page sends a join, the worker sends the session heartbeat itself (presence below).
 // Messages to the page: {type: 'welcome', cameras: [{width, height, intrinsics (15 numbers),
 //   rotation (9, row-major), translation (3), name, rays (Float32Array, 2 per pixel)}],
@@ -19,10 +21,11 @@
 //   {type: 'closed', why}; {type: 'bench', result: {runs, medianMs, minMs, stream (base64)}};
 //   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
 //   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
-//   id, what}; {type: 'warning', what}; {type: 'case', case (case_wire.js parseCase)}.
+//   id, what}; {type: 'warning', what}; {type: 'case', case (case_wire.js parseCase)}; voice
+//   (voice_worker.js).
 'use strict';
 
-importScripts('volcast_decoder.js', 'case_wire.js');
+importScripts('volcast_decoder.js', 'case_wire.js', 'voice_worker.js');
 
 const MAGIC = 0x54534356;  // "VCST" little-endian
 const VERSION = 5;
@@ -479,6 +482,8 @@ async function drain() {
         const id = new DataView(payload.buffer, payload.byteOffset, 4).getUint32(0, true);
         avatarWaiting.set(id, payload);
         decodeAvatars();
+      } else if (h.channel === 2 && h.type === 0x4e) {
+        voiceReceive(payload);
       } else if (h.channel === 2) {
         postMessage({type: 'session', bytes: whole.buffer}, [whole.buffer]);
       } else {
@@ -516,6 +521,10 @@ onmessage = async (e) => {
   const m = e.data;
   if (m.type === 'bench') {
     postMessage({type: 'bench', result: bench(m.runs)});
+    return;
+  }
+  if (m.type.startsWith('voice')) {
+    voiceControl(m);
     return;
   }
   if (m.type === 'send') {

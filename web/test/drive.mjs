@@ -12,6 +12,9 @@
 // --case: then waits for the patient case, aims at object 0 and presses G (grab), holds X for a
 // second and 10 frames at least (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
 // overlay toggled), as a person at the keyboard would.
+// --mic FILE: Chromium's fake microphone plays the WAV file once (then silence), as a person
+// speaking; --voice S: once the page has heard someone's voice, S seconds more, then writes what
+// it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav.
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -28,6 +31,8 @@ const out = flag('--out', '.');
 const frames = Number(flag('--frames', '30'));
 const seconds = Number(flag('--seconds', '120'));  // bounds a broken page; a loaded box is slow
 const xr = args.includes('--xr');
+const mic = flag('--mic');
+const voiceSeconds = Number(flag('--voice', '0'));
 const executablePath = flag('--chromium', '/usr/bin/chromium');
 if (!link) {
   console.error('usage: node drive.mjs --link URL --out DIR [--frames N] [--xr]');
@@ -39,7 +44,10 @@ const browser = await chromium.launch({
   headless: true,
   args: ['--no-sandbox', '--ignore-certificate-errors', '--disable-background-networking',
          '--disable-component-update', '--disable-sync', '--no-first-run', '--disable-quic',
-         '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+         '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+         '--autoplay-policy=no-user-gesture-required',
+         ...(mic ? ['--use-fake-ui-for-media-stream', '--use-fake-device-for-media-stream',
+                    `--use-file-for-fake-audio-capture=${mic}%noloop`] : [])],
 });
 let code = 1;
 try {
@@ -133,6 +141,15 @@ try {
       await page.waitForTimeout(300);
     }
     await page.waitForTimeout(1000);
+    s = await state();
+  }
+  if (voiceSeconds > 0 && s.phase !== 'error') {
+    await page.waitForFunction(() => window.volcast.voice &&
+                                     Object.values(window.volcast.voice.heard).some((h) => h.frames > 0),
+                               null, {timeout: 60000});
+    await page.waitForTimeout(voiceSeconds * 1000);
+    const wav = await page.evaluate(() => window.volcastHeard());
+    writeFileSync(`${out}/heard.wav`, Buffer.from(wav, 'base64'));
     s = await state();
   }
   if (args.includes('--bench') && s.phase !== 'error') {

@@ -1,0 +1,135 @@
+// The voice's audio-thread parts (voice.js loads them into its AudioContext, 48 kHz). Each of the
+// first two gets a MessagePort to the stream worker (voice_worker.js) as its node's first message,
+// so that voice never waits for the page's main thread.
+// - volcast-capture: the microphone cut into 20 ms frames (960 samples) for the Opus encoder, each
+//   posted to the worker with the context time of its first sample.
+// - volcast-playout: one speaker's playout buffer, played by frame number (the sender's time
+//   line), so that the silences between talk spurts (DTX) keep their length. The first frame
+//   plays `target` (60 ms) after it arrives; a frame that comes after its time is dropped and
+//   the delay grows by a frame (up to 200 ms); 10 s without a late frame, or more than target +
+//   100 ms waiting, skip a frame of silence (the delay shrinks, down to 40 ms). Posts the worker
+//   its cursor and counts every 100 ms.
+// - volcast-tap: what the page plays (stereo), posted in blocks of 0.5 s (what it heard, for tests).
+const FRAME = 960;
+const MIN_TARGET = 2 * FRAME;   // 40 ms
+const MAX_TARGET = 10 * FRAME;  // 200 ms
+const SLACK = 5 * FRAME;        // 100 ms above the target
+
+class Capture extends AudioWorkletProcessor {
+  constructor() {
+    super();
+    this.frame = new Float32Array(FRAME);
+    this.filled = 0;
+    this.firstTime = 0;
+    this.worker = null;
+    this.port.onmessage = (e) => { this.worker = e.data; };
+  }
+  process(inputs) {
+    const input = inputs[0][0];
+    if (!input || !this.worker) return true;
+    for (let i = 0; i < input.length; ++i) {
+      if (this.filled === 0) this.firstTime = currentTime + i / sampleRate;
+      this.frame[this.filled++] = input[i];
+      if (this.filled === FRAME) {
+        this.worker.postMessage({samples: this.frame, time: this.firstTime}, [this.frame.buffer]);
+        this.frame = new Float32Array(FRAME);
+        this.filled = 0;
+      }
+    }
+    return true;
+  }
+}
+
+class Playout extends AudioWorkletProcessor {
+  constructor() {
+    super();
+    this.frames = new Map();  // frame number -> Float32Array (960), not yet played
+    this.cursor = null;       // the sample being played, on the sender's time line (frame * 960)
+    this.newest = -1;         // the newest frame number received
+    this.target = 3 * FRAME;
+    this.late = 0;            // frames that came after their time (dropped; the delay grew)
+    this.skipped = 0;         // samples of silence skipped to bring the delay down
+    this.calm = 0;            // samples played since the last late frame or shrink
+    this.quanta = 0;
+    this.worker = null;
+    this.port.onmessage = (e) => {
+      this.worker = e.data;
+      this.worker.onmessage = (f) => this.put(f.data.frame, f.data.pcm);
+    };
+  }
+  put(frame, pcm) {
+    const start = frame * FRAME;
+    // The first frame, or a sender that jumped more than a second: play it `target` from now.
+    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate)
+      this.cursor = start - this.target;
+    if (start + FRAME <= this.cursor) {  // its time has passed: wait a frame longer from now on
+      ++this.late;
+      this.target = Math.min(MAX_TARGET, this.target + FRAME);
+      this.cursor -= FRAME;
+      this.calm = 0;
+      return;
+    }
+    this.frames.set(frame, pcm);
+    this.newest = Math.max(this.newest, frame);
+  }
+  process(inputs, outputs) {
+    const out = outputs[0][0];
+    if (this.cursor === null) return true;
+    // Silence at the cursor and more than target + 100 ms waiting (a burst after a stall), or 10 s
+    // without a late frame: skip a frame of the silence.
+    const ahead = (this.newest + 1) * FRAME - this.cursor;
+    const silent = !this.frames.has(Math.floor(this.cursor / FRAME));
+    if (silent && (ahead > this.target + SLACK || (this.calm > 10 * sampleRate && this.target > MIN_TARGET))) {
+      if (ahead <= this.target + SLACK) this.target -= FRAME;
+      this.cursor += FRAME;
+      this.skipped += FRAME;
+      this.calm = 0;
+    }
+    let i = 0;
+    while (i < out.length) {
+      const f = Math.floor(this.cursor / FRAME);
+      const offset = this.cursor - f * FRAME;
+      const n = Math.min(out.length - i, FRAME - offset);
+      const pcm = this.frames.get(f);
+      if (pcm) out.set(pcm.subarray(offset, offset + n), i);
+      else out.fill(0, i, i + n);
+      i += n;
+      this.cursor += n;
+      if (offset + n === FRAME) this.frames.delete(f);
+    }
+    this.calm += out.length;
+    if (++this.quanta % 38 === 0 && this.worker)  // about every 100 ms
+      this.worker.postMessage({cursor: this.cursor, at: currentTime, target: this.target,
+                               late: this.late, skipped: this.skipped,
+                               queued: Math.max(0, ahead)});
+    return true;
+  }
+}
+
+class Tap extends AudioWorkletProcessor {
+  constructor() {
+    super();
+    this.block = [new Float32Array(sampleRate / 2), new Float32Array(sampleRate / 2)];
+    this.filled = 0;
+  }
+  process(inputs) {
+    const input = inputs[0];
+    const n = 128;
+    for (let c = 0; c < 2; ++c) {
+      const from = input[Math.min(c, input.length - 1)];
+      if (from) this.block[c].set(from, this.filled);
+      else this.block[c].fill(0, this.filled, this.filled + n);
+    }
+    this.filled += n;
+    if (this.filled + n > this.block[0].length) {
+      const out = this.block.map((b) => b.slice(0, this.filled));
+      this.port.postMessage(out, out.map((b) => b.buffer));
+      this.filled = 0;
+    }
+    return true;
+  }
+}
+
+registerProcessor('volcast-capture', Capture);
+registerProcessor('volcast-playout', Playout);
+registerProcessor('volcast-tap', Tap);

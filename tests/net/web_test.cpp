@@ -491,8 +491,10 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   // (test::piecewise_correlation): on a loaded 2-core machine packets reach the listener up to
   // 250 ms apart (a native talker's too), and its jitter buffer moves later speech by whole
   // frames as it adapts. Through Chromium's echo canceller, noise suppressor and gain control,
-  // 0.6-0.9 per phrase here; a wrong or silent stream stays below 0.3.
+  // 0.56-0.78 per phrase at load 8 (0.88-0.94 whole-phrase without them); a wrong or silent
+  // stream stays below 0.3.
   const audio::Pcm at_listener = audio::read_wav(dir / "listener_heard.wav");
+  double sum = 0;
   for (const std::string& name : web_names) {
     const std::vector<float> phrase = test::speech(name);
     const test::Alignment found = test::align(
@@ -500,8 +502,10 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     const double pieces = test::piecewise_correlation(phrase, at_listener.samples, found.offset);
     std::printf("browser -> native '%s': correlation %.3f, piecewise %.3f\n", name.c_str(),
                 found.correlation, pieces);
-    EXPECT_GE(pieces, 0.5) << name;
+    EXPECT_GE(pieces, 0.4) << name;
+    sum += pieces;
   }
+  EXPECT_GE(sum / double(web_names.size()), 0.55);
   // The page played what the talker said, louder on its left.
   const voice::VoiceStats heard_by_listener = listening.stats();
   const auto from_web = std::find_if(heard_by_listener.heard.begin(), heard_by_listener.heard.end(),

@@ -254,8 +254,8 @@ function sceneBoxes() {
     boxes.push(poseBox(p.body.head, [0, 0, -0.1], [0.08, 0.04, 0.02], [0.1, 0.1, 0.1, 1]));
     boxes.push(poseBox(p.body.head, [0, -0.45, 0.05], [0.18, 0.3, 0.1], c));
     if (p.muted) boxes.push(poseBox(p.body.head, [0, 0.22, 0], [0.06, 0.06, 0.06], [0.85, 0.15, 0.1, 1]));
-    else if (voice && voice.speaking(p.id))
-      boxes.push(poseBox(p.body.head, [0, 0.22, 0], [0.04, 0.04, 0.04], [0.2, 0.85, 0.3, 1]));
+    else if (voice && voice.speaking(p.id))  // bright, to stand out from a green avatar
+      boxes.push(poseBox(p.body.head, [0, 0.24, 0], [0.05, 0.05, 0.05], [0.55, 1, 0.55, 1]));
     if (p.body.handsTracked)
       for (const h of [p.body.left, p.body.right]) boxes.push(poseBox(h, [0, 0, 0], [0.04, 0.02, 0.08], c));
   }

@@ -173,6 +173,25 @@ SessionSnapshot Participant::snapshot(int64_t now_us) const {
   return s;
 }
 
+void Participant::voice_scene(int64_t now_us, VoiceScene& out) const {
+  const Impl& m = *impl_;
+  const int64_t at = now_us + m.offset_us - m.config.interpolation_delay_us;
+  std::lock_guard lock(m.mutex);
+  out.spot = m.state.spot;
+  out.has_own_body = m.state.has_own_body;
+  out.own_head = m.state.own_body.head;
+  out.others.resize(m.remotes.size());
+  size_t i = 0;
+  for (const auto& [id, r] : m.remotes) {
+    VoiceScene::Speaker& o = out.others[i++];
+    o.id = id;
+    o.name.assign(r->info.name);
+    o.spot = r->info.spot;
+    o.has_pose = !r->poses.empty();
+    if (o.has_pose) o.head = pose_at(r->poses, at).head;
+  }
+}
+
 std::shared_ptr<const session::SharedCase> Participant::shared_case() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->shared_case;

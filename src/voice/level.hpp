@@ -57,8 +57,8 @@ inline constexpr float kStandingHeadM = 1.6f;
 
 /// room_from_head of this participant: its published head, else standing at its play area's
 /// origin facing the play area's -z.
-inline Pose listener_head(const SessionSnapshot& s) {
-  if (s.has_own_body) return s.own_body.head;
+inline Pose listener_head(const VoiceScene& s) {
+  if (s.has_own_body) return s.own_head;
   const RigidTransform room_from_playarea = session::room_from_playarea(s.spot);
   Pose head;
   head.position = (room_from_playarea * Eigen::Vector3d(0, kStandingHeadM, 0)).cast<float>();
@@ -68,12 +68,12 @@ inline Pose listener_head(const SessionSnapshot& s) {
 
 /// Where participant `id`'s voice comes from (room frame, metres): its head, else standing at
 /// its spot; the OR site (1) at `site_position`.
-inline Eigen::Vector3f speaker_position(const SessionSnapshot& s, uint32_t id,
+inline Eigen::Vector3f speaker_position(const VoiceScene& s, uint32_t id,
                                         const Eigen::Vector3f& site_position) {
   if (id == 1) return site_position;
-  for (const RemoteParticipant& r : s.others)
+  for (const VoiceScene::Speaker& r : s.others)
     if (r.id == id) {
-      if (r.has_pose) return r.pose.head.position;
+      if (r.has_pose) return r.head.position;
       return {r.spot.x, kStandingHeadM, r.spot.z};
     }
   return site_position;

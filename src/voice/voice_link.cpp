@@ -140,7 +140,8 @@ void VoiceLink::capture(std::span<const float, kFrameSamples> block, int64_t cap
 
 void VoiceLink::play(int64_t now_us) {
   Devices& d = *devices_;
-  const SessionSnapshot s = participant_.snapshot(now_us);
+  VoiceScene& s = scene_;  // storage kept from frame to frame: nothing allocated once warm
+  participant_.voice_scene(now_us, s);
   const int64_t heard_at =
       now_us + participant_.clock_offset_us() + (d.speaker ? d.speaker->latency_us() : 0);
   if (d.mixer) {
@@ -156,9 +157,9 @@ void VoiceLink::play(int64_t now_us) {
       speaker->latencies.add(double(heard_at - played.capture_us) / 1000.0);
     speaker->loudness.add(d.heard);
     float volume = speaker->volume;
-    for (const RemoteParticipant& r : s.others)
+    for (const VoiceScene::Speaker& r : s.others)
       if (r.id == id) {
-        speaker->name = r.name;
+        if (speaker->name != r.name) speaker->name = r.name;
         if (const auto v = config_.volumes.find(r.name); v != config_.volumes.end())
           volume *= v->second;
       }

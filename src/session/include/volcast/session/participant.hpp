@@ -104,6 +104,23 @@ struct SessionSnapshot {
   std::optional<session::MonitorState> monitor;  ///< when the case has a series
 };
 
+/// Where everyone's head is, as a voice mixer needs it every 20 ms: the part of a
+/// SessionSnapshot that places voices (room frame, metres), kept in storage the caller reuses.
+struct VoiceScene {
+  /// One other participant (the OR site included).
+  struct Speaker {
+    uint32_t id = 0;
+    std::string name;
+    session::Spot spot;     ///< where its play area stands
+    bool has_pose = false;  ///< a pose has arrived
+    Pose head;              ///< interpolated as SessionSnapshot::others' pose
+  };
+  session::Spot spot;           ///< this participant's play area
+  bool has_own_body = false;    ///< publish() was called since joining
+  Pose own_head;                ///< the last published head
+  std::vector<Speaker> others;  ///< by id
+};
+
 /// Figures about the others (the session's receivers' side) and the round trip.
 struct RemoteStats {
   uint32_t id = 0;
@@ -185,6 +202,10 @@ class Participant {
   bool joined() const;
   /// The state now; remote poses interpolated for `now_us` (local wall clock).
   SessionSnapshot snapshot(int64_t now_us) const;
+  /// The heads now, as snapshot(now_us) has them, into `out`: its vector and names keep their
+  /// storage, so that once it has held as many participants (and as long names) nothing is
+  /// allocated (the voice loop calls it every 20 ms).
+  void voice_scene(int64_t now_us, VoiceScene& out) const;
   /// Participant `id`'s newest avatar frame, decoded (once per frame); null when there is none.
   /// Throws Error if it does not decode.
   std::shared_ptr<const CameraFrame> avatar_frame(uint32_t id);

@@ -92,6 +92,7 @@ class VoiceLink {
   struct Devices;
   std::unique_ptr<Devices> devices_;
   audio::VoiceEncoder encoder_;
+  VoiceScene scene_;  // play()'s, reused every frame (the loop's thread only)
   std::atomic<bool> muted_{false}, talking_{false}, stopping_{false}, mic_ended_{false};
   uint32_t sequence_ = 0, frame_ = 0;
   mutable std::mutex mutex_;  // speakers_, stats_, error_

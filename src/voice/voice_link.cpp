@@ -23,6 +23,7 @@ struct VoiceLink::Speaker {
   audio::VoiceStream stream;
   std::string name;
   float volume = 1;
+  bool volume_set = false;  // by set_volume, or from VoiceConfig::volumes once the name is known
   Loudness loudness;
   Latencies latencies;
 };
@@ -82,6 +83,7 @@ void VoiceLink::set_volume(uint32_t participant, float volume) {
   auto& s = speakers_[participant];
   if (!s) s = std::make_unique<Speaker>();
   s->volume = std::clamp(volume, 0.0f, 4.0f);
+  s->volume_set = true;
 }
 
 std::string VoiceLink::error() const {
@@ -156,13 +158,16 @@ void VoiceLink::play(int64_t now_us) {
         played.source == audio::PlayedFrame::Source::kFec)
       speaker->latencies.add(double(heard_at - played.capture_us) / 1000.0);
     speaker->loudness.add(d.heard);
-    float volume = speaker->volume;
     for (const VoiceScene::Speaker& r : s.others)
       if (r.id == id) {
         if (speaker->name != r.name) speaker->name = r.name;
-        if (const auto v = config_.volumes.find(r.name); v != config_.volumes.end())
-          volume *= v->second;
+        if (!speaker->volume_set) {  // --volume NAME=GAIN, unless a slider came first
+          if (const auto v = config_.volumes.find(r.name); v != config_.volumes.end())
+            speaker->volume = v->second;
+          speaker->volume_set = true;
+        }
       }
+    const float volume = speaker->volume;
     if (d.mixer) {
       d.mixer->set_source(id, speaker_position(s, id, config_.site_position), volume);
       d.mixer->push(id, d.heard);

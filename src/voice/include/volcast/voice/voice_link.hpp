@@ -46,7 +46,7 @@ struct HeardVoice {
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< mouth-to-ear, played frames
   bool speaking = false;  ///< voice energy in the last 300 ms (the avatar's speaking indicator)
   bool muted = false;     ///< its microphone is muted (the avatar's badge)
-  float volume = 1;
+  float volume = 1;  ///< the gain it plays at: set_volume's, else VoiceConfig::volumes' by name
 };
 
 struct VoiceStats {
@@ -74,7 +74,11 @@ class VoiceLink {
   void set_muted(bool muted);  ///< also tells the others (VoiceState)
   bool muted() const { return muted_; }
   void set_talking(bool talking);  ///< push-to-talk pressed (with VoiceConfig::push_to_talk)
+  bool talking() const { return talking_; }
+  /// A participant's gain from now on (clamped to 0..4), in place of VoiceConfig::volumes'.
   void set_volume(uint32_t participant, float volume);
+  /// The configuration it was made with (push_to_talk, volumes, devices).
+  const VoiceConfig& config() const { return config_; }
   /// Whether the microphone (a file) has been read to its end.
   bool mic_ended() const { return mic_ended_; }
   /// The loop's error, if it stopped on one (a device failed, the disk filled).

@@ -1,10 +1,12 @@
-// The viewers: desktop navigation and registration sliders (pure), site config poses, the desktop
-// window under Xvfb against a real stream, and OpenXR's stereo path (headless) and missing runtime.
+// The viewers: desktop navigation and registration sliders (pure), the voice keys and buttons
+// (pure), site config poses, the desktop window under Xvfb against a real stream (its voice keys
+// reaching another participant), and OpenXR's stereo path (headless) and missing runtime.
 #include <gtest/gtest.h>
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 
 #include <Eigen/Geometry>
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -14,6 +16,7 @@
 #include <thread>
 
 #include "support/session_site.hpp"
+#include "support/speech.hpp"
 #include "support/test_data.hpp"
 #include "support/xvfb.hpp"
 #include "volcast/capture/source.hpp"
@@ -29,8 +32,11 @@
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
 #include "volcast/viewer/pose_sliders.hpp"
+#include "volcast/viewer/voice_keys.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
+#include "volcast/voice/voice_controls.hpp"
+#include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
 namespace {
@@ -242,6 +248,84 @@ TEST(SiteConfig, AMalformedPoseIsAnErrorNamingTheFileCameraAndKey) {
   EXPECT_EQ(error_for(R"({"rotation_deg": [0, 0, 90]})"), "");
 }
 
+// --- Voice controls (pure) -----------------------------------------------------------------------
+
+TEST(VoiceKeys, VIsHeldToTalkAndEachMPressTogglesMute) {
+  voice::VoiceInput in;
+  EXPECT_TRUE(voice_key(in, GLFW_KEY_V, GLFW_PRESS, 0));
+  EXPECT_TRUE(in.talk_held);
+  EXPECT_FALSE(voice_key(in, GLFW_KEY_V, GLFW_REPEAT, 0)) << "a held key repeats: still held";
+  EXPECT_TRUE(in.talk_held);
+  EXPECT_TRUE(voice_key(in, GLFW_KEY_V, GLFW_RELEASE, GLFW_MOD_SHIFT));
+  EXPECT_FALSE(in.talk_held);
+  EXPECT_TRUE(voice_key(in, GLFW_KEY_M, GLFW_PRESS, 0));
+  EXPECT_TRUE(in.toggle_mute);
+  EXPECT_FALSE(voice_key(in, GLFW_KEY_M, GLFW_RELEASE, 0));
+  EXPECT_TRUE(voice_key(in, GLFW_KEY_M, GLFW_PRESS, 0)) << "pressed twice before a frame";
+  EXPECT_FALSE(in.toggle_mute);
+  EXPECT_FALSE(voice_key(in, GLFW_KEY_M, GLFW_PRESS, GLFW_MOD_CONTROL)) << "Ctrl+M is not mute";
+  // Keys that navigation already uses are not voice keys.
+  for (int key : {GLFW_KEY_W, GLFW_KEY_A, GLFW_KEY_S, GLFW_KEY_D, GLFW_KEY_Q, GLFW_KEY_E,
+                  GLFW_KEY_R, GLFW_KEY_P, GLFW_KEY_H, GLFW_KEY_T, GLFW_KEY_F12}) {
+    EXPECT_FALSE(voice_key(in, key, GLFW_PRESS, 0)) << key;
+    EXPECT_NE(key, kTalkKey);
+    EXPECT_NE(key, kMuteKey);
+  }
+  EXPECT_FALSE(in.talk_held || in.toggle_mute);
+}
+
+TEST(VoiceButtons, TalkFollowsTheButtonAndMuteTogglesOnlyWhenItGoesDown) {
+  voice::VoiceInput in;
+  voice::VoiceButtons before;
+  voice::press_voice_buttons(in, before, {true, false});
+  EXPECT_TRUE(in.talk_held);
+  voice::press_voice_buttons(in, before, {true, true});
+  EXPECT_TRUE(in.toggle_mute);
+  in.toggle_mute = false;                                 // applied
+  voice::press_voice_buttons(in, before, {false, true});  // still held: no second toggle
+  EXPECT_FALSE(in.talk_held);
+  EXPECT_FALSE(in.toggle_mute);
+  voice::press_voice_buttons(in, before, {false, false});
+  voice::press_voice_buttons(in, before, {false, true});
+  EXPECT_TRUE(in.toggle_mute) << "pressed again";
+}
+
+TEST(VoiceRows, EveryoneInTheSessionWithWhatTheLinkHeardElseTheirPackets) {
+  SessionSnapshot s;
+  const auto other = [](uint32_t id, const char* name, bool muted, int64_t last_voice_us) {
+    RemoteParticipant p;
+    p.id = id;
+    p.name = name;
+    p.muted = muted;
+    p.last_voice_us = last_voice_us;
+    return p;
+  };
+  s.others = {other(2, "Dr. A", false, 0), other(3, "Dr. B", true, 1'000'000),
+              other(4, "Dr. C", false, 1'250'000)};
+  voice::VoiceStats stats;
+  voice::HeardVoice heard;
+  heard.id = 2;
+  heard.speaking = true;
+  heard.volume = 0.5f;
+  stats.heard = {heard};
+  const std::map<std::string, float> volumes{{"Dr. B", 2.0f}};
+  const auto rows = voice::voice_rows(s, &stats, volumes, 1'400'000);
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].name, "Dr. A");
+  EXPECT_TRUE(rows[0].speaking);
+  EXPECT_FLOAT_EQ(rows[0].volume, 0.5f);
+  EXPECT_TRUE(rows[1].muted);
+  EXPECT_FALSE(rows[1].speaking) << "the link heard nothing of it";
+  EXPECT_FLOAT_EQ(rows[1].volume, 2.0f) << "--volume by name until it is heard";
+  EXPECT_FLOAT_EQ(rows[2].volume, 1.0f);
+  // Without a link: a voice packet in the last 300 ms is speaking.
+  const auto bare = voice::voice_rows(s, nullptr, {}, 1'400'000);
+  EXPECT_FALSE(bare[0].speaking);
+  EXPECT_FALSE(bare[1].speaking) << "400 ms ago";
+  EXPECT_TRUE(bare[2].speaking) << "150 ms ago";
+  EXPECT_TRUE(bare[1].muted);
+}
+
 // --- The desktop window under Xvfb ---------------------------------------------------------------
 
 TEST(DesktopViewer, WithoutADisplaySaysWhyInsteadOfFailing) {
@@ -350,6 +434,113 @@ TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
   size_t lit = 0;  // the room's floor and walls, not the cleared background
   for (size_t i = 0; i < shot.bgra.size(); i += 4) lit += shot.bgra[i + 1] > 50;
   EXPECT_GT(lit, shot.bgra.size() / 4 / 2);
+}
+
+// The window's voice keys reach the others: with push-to-talk the window's microphone (real
+// speech) sends only while V is held, and M mutes it, which the observer sees (VoiceState). The
+// panel, pictured while V is held, lists the observer speaking.
+TEST(DesktopViewer, PushToTalkWithVAndMuteWithMReachTheOthers) {
+  const test::Xvfb xvfb;
+  ASSERT_TRUE(xvfb.running()) << xvfb.error();
+  const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
+  const fs::path dir = test::temp_dir("desktop_voice");
+  // Speech long enough to outlast the window: five phrases, four times (30 s).
+  std::vector<std::string> phrases;
+  for (int i = 0; i < 4; ++i)
+    for (const char* name :
+         {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"})
+      phrases.push_back(name);
+  const fs::path speech = test::write_voice(dir / "speech.wav", test::phrases(phrases, 0.1));
+  test::SessionSite s;
+  const std::string link = s.link();
+  test::TestParticipant observer(s, test::hand_driven("Observer"));
+  voice::VoiceConfig observer_voice;
+  observer_voice.mic = speech.string();
+  voice::VoiceLink observer_link(observer.p(), observer_voice);
+  SessionClientOptions window_options;
+  window_options.participant.name = "Desk";
+  window_options.drive_poses = false;  // the window publishes its eye
+  SessionClient window(window_options);
+  std::unique_ptr<voice::VoiceLink> window_link;  // as volcast view --join --mic --push-to-talk
+  ViewerOptions opt;
+  opt.client = client_config_from_link(link);
+  opt.seconds = 300;  // a safety net only
+  opt.on_connected = [&](Client& c) {
+    window.start(c);
+    voice::VoiceConfig v;
+    v.mic = speech.string();
+    v.push_to_talk = true;
+    v.volumes["Observer"] = 0.5f;  // --volume Observer=0.5
+    window_link = std::make_unique<voice::VoiceLink>(*window.participant(), v);
+  };
+  opt.on_finished = [&](ViewerResult&) {
+    window_link->stop();
+    window.stop();
+  };
+  DesktopOptions desktop;
+  desktop.width = 800;
+  desktop.height = 600;
+  desktop.screenshot = dir / "panel.png";
+  desktop.screenshot_panel = true;
+  desktop.participant = [&] { return window.participant(); };
+  // Read once a frame: it also paces the window at 50 frames a second at most (Xvfb has no
+  // vsync), so that V held for 12 frames is held for 0.24 s at least.
+  desktop.voice = [&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return window_link.get();
+  };
+  // V held from frame 3 to 15 (the picture at 12), then M.
+  desktop.script = {
+      {3, GLFW_KEY_V}, {12, GLFW_KEY_F12}, {15, GLFW_KEY_V, 0, true}, {17, GLFW_KEY_M}};
+  desktop.max_frames = 22;
+  opt.presenter = desktop_presenter(desktop);
+  // What the observer sees of the window while it is there (it leaves when the window closes).
+  std::atomic<bool> done{false}, heard{false}, saw_muted{false};
+  std::thread watch([&] {
+    while (!done) {
+      if (const auto desk = observer.other("Desk")) {
+        heard = heard || desk->voice_packets > 0;
+        saw_muted = saw_muted || (heard && desk->muted);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
+  const ViewerResult r = run_viewer(opt);
+  done = true;
+  watch.join();
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << r.error;
+  ASSERT_TRUE(window_link);
+  const voice::VoiceStats sent = window_link->stats();
+  EXPECT_TRUE(window_link->muted()) << "M muted the microphone";
+  std::printf("window's microphone: %llu frames captured, %llu sent, %llu silent (DTX)\n",
+              static_cast<unsigned long long>(sent.frames_captured),
+              static_cast<unsigned long long>(sent.packets_sent),
+              static_cast<unsigned long long>(sent.dtx_frames));
+  EXPECT_GT(sent.packets_sent, 5u) << "V held: it talked";
+  EXPECT_LT(sent.packets_sent + sent.dtx_frames, sent.frames_captured)
+      << "before V and after it, the microphone was not sent";
+  EXPECT_TRUE(heard) << "the observer heard the window";
+  EXPECT_TRUE(saw_muted) << "then saw it muted";
+  // The window heard the observer at --volume's gain; a slider's gain replaces it.
+  const auto observer_voice_heard = [&]() -> std::optional<voice::HeardVoice> {
+    for (const voice::HeardVoice& h : window_link->stats().heard)
+      if (h.name == "Observer") return h;
+    return std::nullopt;
+  };
+  const auto before = observer_voice_heard();
+  ASSERT_TRUE(before) << "the window heard the observer";
+  EXPECT_GT(before->stream.packets, 0u);
+  EXPECT_FLOAT_EQ(before->volume, 0.5f);
+  voice::VoiceInput slider;
+  slider.volumes = {{before->id, 2.0f}};
+  apply_voice_input(*window_link, slider);
+  EXPECT_FLOAT_EQ(observer_voice_heard()->volume, 2.0f);
+  EXPECT_TRUE(slider.volumes.empty()) << "applied";
+  observer_link.stop();
+  observer.end();
+  ASSERT_TRUE(fs::exists(desktop.screenshot));
+  const ColorImage shot = read_color_png(desktop.screenshot);
+  EXPECT_EQ(shot.width, 800);
 }
 
 // --- OpenXR --------------------------------------------------------------------------------------

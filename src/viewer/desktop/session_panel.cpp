@@ -4,34 +4,110 @@
 
 #include <chrono>
 
+#include "volcast/core/clock.hpp"
 #include "volcast/core/text.hpp"
 
 namespace volcast {
+namespace {
+
+// As the avatars' badges (voice_badge_primitives): green speaking, red muted.
+const ImVec4 kSpeakingColor(0.25f, 0.9f, 0.35f, 1), kMutedColor(0.95f, 0.25f, 0.2f, 1),
+    kQuietColor(0.45f, 0.45f, 0.45f, 1);
+
+// A coloured dot (the height of a line of text) and a word after it.
+void badge(const ImVec4& color, const char* word) {
+  const float h = ImGui::GetTextLineHeight();
+  const ImVec2 at = ImGui::GetCursorScreenPos();
+  ImGui::GetWindowDrawList()->AddCircleFilled(ImVec2(at.x + h / 2, at.y + h / 2), h * 0.35f,
+                                              ImGui::GetColorU32(color));
+  ImGui::Dummy(ImVec2(h, h));
+  ImGui::SameLine();
+  ImGui::TextColored(color, "%s", word);
+}
+
+// Your microphone: mute (M) and, with push-to-talk, whether V is held.
+void voice_controls(SessionPanelState& state, const voice::VoiceLink& voice) {
+  bool muted = voice.muted();
+  if (state.voice.toggle_mute) muted = !muted;  // a key press not applied yet
+  if (ImGui::Checkbox("mute my microphone (M)", &muted)) state.voice.muted = muted;
+  ImGui::SameLine();
+  if (voice.config().mic.empty())
+    ImGui::TextDisabled("no microphone (--mic)");
+  else if (muted)
+    badge(kMutedColor, "muted");
+  else if (!voice.config().push_to_talk)
+    badge(kSpeakingColor, "open");
+  else if (state.voice.talk_held)
+    badge(kSpeakingColor, "talking (V held)");
+  else
+    badge(kQuietColor, "hold V to talk");
+}
+
+// Who is here, their voice (speaking / muted) and, with a voice link, a volume slider each.
+void people_table(SessionPanelState& state, const SessionSnapshot& s,
+                  const voice::VoiceLink* voice) {
+  const auto now = std::chrono::steady_clock::now();
+  if (voice && now - state.voice_stats_at >= kVoiceStatsPeriod) {
+    state.voice_stats = voice->stats();  // sorts its latencies: not every frame
+    state.voice_stats_at = now;
+  }
+  const std::vector<voice::VoiceRow> rows = voice::voice_rows(
+      s, voice ? &state.voice_stats : nullptr,
+      voice ? voice->config().volumes : std::map<std::string, float>{}, wall_clock_us());
+  const int columns = voice ? 5 : 4;
+  if (!ImGui::BeginTable("people", columns, ImGuiTableFlags_Borders)) return;
+  for (const char* h : {"name", "role", "avatar", "voice"}) ImGui::TableSetupColumn(h);
+  if (voice) ImGui::TableSetupColumn("volume", ImGuiTableColumnFlags_WidthFixed, 110);
+  ImGui::TableHeadersRow();
+  for (size_t i = 0; i < s.others.size() && i < rows.size(); ++i) {
+    const RemoteParticipant& p = s.others[i];
+    const voice::VoiceRow& row = rows[i];
+    ImGui::PushID(static_cast<int>(p.id));
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(printable(p.name, 64).c_str());
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(session::to_string(p.role));
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(p.role == session::Role::kOrSite ? "site cameras"
+                           : p.avatar_camera                ? "camera"
+                                                            : "mesh");
+    ImGui::TableNextColumn();
+    if (row.muted)
+      badge(kMutedColor, "muted");
+    else if (row.speaking)
+      badge(kSpeakingColor, "speaking");
+    else
+      badge(kQuietColor, "");
+    if (voice) {
+      ImGui::TableNextColumn();
+      const auto set = state.volumes.find(p.id);
+      float gain = set != state.volumes.end() ? set->second : row.volume;
+      ImGui::SetNextItemWidth(-1);
+      if (ImGui::SliderFloat("##volume", &gain, 0, 4, "%.2f", ImGuiSliderFlags_AlwaysClamp)) {
+        state.volumes[p.id] = gain;
+        state.voice.volumes.emplace_back(p.id, gain);
+      }
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("0 silent, 1 as sent, up to 4 (Ctrl+click to type)");
+    }
+    ImGui::PopID();
+  }
+  ImGui::EndTable();
+}
+
+}  // namespace
 
 void draw_session_panel(SessionPanelState& state, Participant& participant,
-                        const SessionSnapshot& s) {
+                        const SessionSnapshot& s, const voice::VoiceLink* voice) {
   if (!ImGui::CollapsingHeader("session", ImGuiTreeNodeFlags_DefaultOpen)) return;
   if (s.joined) {
     ImGui::Text("in '%s' as participant %u", printable(s.session_name, 64).c_str(), s.id);
     if (ImGui::Button("leave")) participant.leave();
     ImGui::SameLine();
     ImGui::Checkbox("teleport (T, then click the floor)", &state.teleport_mode);
-    if (ImGui::BeginTable("people", 3, ImGuiTableFlags_Borders)) {
-      for (const char* h : {"name", "role", "avatar"}) ImGui::TableSetupColumn(h);
-      ImGui::TableHeadersRow();
-      for (const RemoteParticipant& p : s.others) {
-        ImGui::TableNextRow();
-        ImGui::TableNextColumn();
-        ImGui::TextUnformatted(printable(p.name, 64).c_str());
-        ImGui::TableNextColumn();
-        ImGui::TextUnformatted(session::to_string(p.role));
-        ImGui::TableNextColumn();
-        ImGui::TextUnformatted(p.role == session::Role::kOrSite ? "site cameras"
-                               : p.avatar_camera                ? "camera"
-                                                                : "mesh");
-      }
-      ImGui::EndTable();
-    }
+    if (voice) voice_controls(state, *voice);
+    people_table(state, s, voice);
     const ParticipantStats st = participant.stats();
     ImGui::Text("round trip p50 %.2f ms, p99 %.2f ms (%zu samples)", st.round_trip_ms_p50,
                 st.round_trip_ms_p99, st.round_trip_samples);

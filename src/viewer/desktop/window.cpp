@@ -21,6 +21,7 @@
 #include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
+#include "volcast/viewer/voice_keys.hpp"
 
 namespace volcast {
 namespace {
@@ -86,6 +87,8 @@ struct Gui {
   Gui& operator=(const Gui&) = delete;
 };
 
+static_assert(kTalkKey == GLFW_KEY_V && kMuteKey == GLFW_KEY_M);
+
 constexpr float kDegreesPerPixel = 0.3f;
 constexpr int kRedrawFrames = 3;  // frames drawn after an input event (the panel settles)
 
@@ -104,9 +107,10 @@ Input& input_of(GLFWwindow* window) {
   return *static_cast<Input*>(glfwGetWindowUserPointer(window));
 }
 
-// A key press, from GLFW or from DesktopOptions::script.
+// A key event, from GLFW or from DesktopOptions::script.
 void handle_key(Input& in, int key, int action, int mods) {
   in.redraw = kRedrawFrames;
+  if (in.session) voice_key(in.session->voice, key, action, mods);  // M, V (held)
   if (action != GLFW_PRESS) return;
   if (key == GLFW_KEY_S && (mods & GLFW_MOD_CONTROL)) in.controls.save = true;
   if (mods & GLFW_MOD_CONTROL) return;
@@ -118,7 +122,8 @@ void handle_key(Input& in, int key, int action, int mods) {
 
 void on_key(GLFWwindow* window, int key, int scancode, int action, int mods) {
   ImGui_ImplGlfw_KeyCallback(window, key, scancode, action, mods);
-  if (ImGui::GetIO().WantCaptureKeyboard) {  // typing into the panel
+  // Typing into the panel: keys are the panel's, but a release still ends a held V.
+  if (ImGui::GetIO().WantCaptureKeyboard && action != GLFW_RELEASE) {
     input_of(window).redraw = kRedrawFrames;
     return;
   }
@@ -341,7 +346,8 @@ void play_script(Script& script, const std::vector<ScriptedClick>& clicks, Input
                  uint64_t drawn) {
   for (; script.next_key < script.keys.size() && script.keys[script.next_key].frame <= drawn + 1;
        ++script.next_key)
-    handle_key(input, script.keys[script.next_key].key, GLFW_PRESS,
+    handle_key(input, script.keys[script.next_key].key,
+               script.keys[script.next_key].release ? GLFW_RELEASE : GLFW_PRESS,
                script.keys[script.next_key].mods);
   for (; script.next_click < clicks.size() && clicks[script.next_click].frame <= drawn + 1;
        ++script.next_click)
@@ -370,8 +376,8 @@ void steer_participant(GLFWwindow* window, Participant& participant,
 // The panel over the scene, unless hidden (H); with a participant also the session and case
 // sections.
 void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* participant,
-              SessionPanelState& session_panel, CasePanelState& case_panel,
-              const SessionSnapshot& snapshot, int width, int height) {
+              const voice::VoiceLink* voice, SessionPanelState& session_panel,
+              CasePanelState& case_panel, const SessionSnapshot& snapshot, int width, int height) {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
@@ -379,7 +385,7 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
     draw_panel(controls, info);
     if (participant) {
       ImGui::Begin("volcast (H hides)");
-      draw_session_panel(session_panel, *participant, snapshot);
+      draw_session_panel(session_panel, *participant, snapshot, voice);
       draw_case_panel(case_panel, *participant, snapshot);
       ImGui::End();
     }
@@ -426,12 +432,14 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     upload_changed(renderer, frames, uploaded);
     SessionSnapshot snapshot;
     if (participant) snapshot = participant->snapshot(wall_clock_us());
+    voice::VoiceLink* voice = participant && o.voice ? o.voice() : nullptr;  // null: not (yet)
     start_when_ready(viewpoint, o, participant, snapshot, cameras, uploaded);
     // In a session the others move on their own: draw every frame (vsync paces it).
     if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
     if (viewpoint.started) play_script(script, o.clicks, input, drawn);
     apply_requests(controls, renderer, cameras, o, viewpoint.camera, viewpoint.start);
+    if (voice) apply_voice_input(*voice, session_panel.voice);  // the keys (also minimised)
     int width = 0, height = 0;
     glfwGetFramebufferSize(window.window, &width, &height);
     if (width <= 0 || height <= 0) continue;  // minimised
@@ -445,7 +453,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     } else {
       renderer.draw_cameras(to_view(viewpoint.camera, target.aspect()), target, controls.pass);
     }
-    if (controls.screenshot) take_screenshot(controls, o, target);
+    if (controls.screenshot && !o.screenshot_panel) take_screenshot(controls, o, target);
     if (now - last_live > std::chrono::milliseconds(250)) {
       live = feed.live();
       last_live = now;
@@ -453,7 +461,9 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     draw_gui(controls,
              PanelInfo{live, result.renderer, viewpoint.camera.target, viewpoint.camera.eye,
                        o.site_config},
-             participant, session_panel, case_panel, snapshot, width, height);
+             participant, voice, session_panel, case_panel, snapshot, width, height);
+    if (voice) apply_voice_input(*voice, session_panel.voice);  // the panel's
+    if (controls.screenshot && o.screenshot_panel) take_screenshot(controls, o, target);
     glfwSwapBuffers(window.window);
     if (controls.poses_changed || controls.filter_changed || controls.save || controls.screenshot ||
         controls.reset_view)

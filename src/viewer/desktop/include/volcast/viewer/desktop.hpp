@@ -15,13 +15,19 @@
 //   F12 or P    screenshot                  H            hide/show the panel
 //   Ctrl+S      save the camera poses (as the panel's Save)
 //   T           in a session: the next left click on the floor teleports there
+//   M           in a session with a voice link: mute / unmute your microphone
+//   V (held)    in a session with push-to-talk (view --push-to-talk): talk while held
+//               (voice_keys.hpp)
 // The panel: surface (splats/mesh), splat size mode, point size or splat scale, mesh edge ratio,
 // blending, per camera visible/tint and registration sliders (pose_sliders.hpp) with Save (writes
 // the poses into DesktopOptions::site_config, site_config.hpp), avatar filters, live figures from
 // FrameFeed::live() (per camera fps, latency p50, Mbit/s, frames dropped; per-stage latency; the
-// codec tier) and the GL renderer.
+// codec tier) and the GL renderer. In a session: the lobby, who is there with a speaking / muted
+// badge each and, with a voice link, your microphone's mute box and a volume slider per
+// participant (0..4).
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,15 +37,17 @@
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/view.hpp"
+#include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
 
-/// A key press injected by a test as if a user pressed it: handled by the same code as a real
-/// press, just before drawing frame `frame` (counted as DesktopOptions::max_frames counts).
+/// A key press (or release) injected by a test as if a user pressed it: handled by the same code
+/// as a real one, just before drawing frame `frame` (counted as DesktopOptions::max_frames counts).
 struct ScriptedKey {
   uint64_t frame = 0;
-  int key = 0;   ///< a GLFW key code, e.g. GLFW_KEY_F12 (301)
-  int mods = 0;  ///< GLFW modifier bits, e.g. GLFW_MOD_CONTROL (2) for Ctrl+S
+  int key = 0;           ///< a GLFW key code, e.g. GLFW_KEY_F12 (301)
+  int mods = 0;          ///< GLFW modifier bits, e.g. GLFW_MOD_CONTROL (2) for Ctrl+S
+  bool release = false;  ///< let the key go (a held V, push-to-talk) instead of pressing it
 };
 
 /// A left click injected by a test at window point (x, y) (screen coordinates from the top left),
@@ -59,6 +67,8 @@ struct DesktopOptions {
   /// in the working directory, n the smallest number >= 1 not taken. The picture is the scene
   /// without the panel, at the framebuffer's size, top row first.
   std::filesystem::path screenshot;
+  /// The screenshot as the window shows it, with the panel over the scene (for docs and tests).
+  bool screenshot_panel = false;
   /// Where the panel's Save writes the cameras' world_from_camera (site_config.hpp).
   std::filesystem::path site_config = "volcast-site.json";
   std::vector<ScriptedKey> script;    ///< key presses for tests
@@ -73,6 +83,11 @@ struct DesktopOptions {
   /// (or the panel's box) then a left click on the floor teleports there.
   std::function<Participant*()> participant;
   SessionSceneOptions scene;  ///< with a participant: avatar radius, room
+  /// With a participant: its voice link (volcast view --join --mic/--speaker), read every frame;
+  /// empty, or returning null (no link, or not made yet): no voice controls, and the panel still
+  /// shows who is muted and who sends voice. The link must outlive the presenter. The window's M
+  /// and V keys and the panel's mute box and volume sliders act on it (voice_controls.hpp).
+  std::function<voice::VoiceLink*()> voice;
 };
 
 /// Whether a window can be opened: GLFW initialises (an X display is reachable). On false, `why`

@@ -22,6 +22,8 @@
 // (0.2, 1.1, -0.3)), stage frame, metres, level. VOLCAST_MOCK_XR_SQUEEZE ("first,last", counted
 // in xrSyncActions calls) squeezes the right grip fully for those syncs, turning the right hand
 // about +y by 0.03 rad per sync while it squeezes (it stays turned after).
+// VOLCAST_MOCK_XR_BUTTONS ("input:first,last;..." with input a left-hand component such as
+// x/click) holds each of those left-controller buttons down for those syncs.
 #include <openxr/openxr.h>
 
 #include <epoxy/gl.h>
@@ -1007,7 +1009,28 @@ XrResult get_action(XrSession session, const XrActionStateGetInfo* info, const c
   return XR_SUCCESS;
 }
 
+// Whether VOLCAST_MOCK_XR_BUTTONS holds the left controller's `component` (e.g. "x/click") now.
+bool left_button_held(const std::string& component) {
+  const char* v = std::getenv("VOLCAST_MOCK_XR_BUTTONS");
+  if (!v) return false;
+  const std::string list = v;
+  for (size_t at = 0; at < list.size();) {
+    const size_t end = std::min(list.find(';', at), list.size());
+    const std::string entry = list.substr(at, end - at);
+    at = end + 1;
+    const size_t colon = entry.find(':');
+    unsigned long long first = 0, last = 0;
+    if (colon == std::string::npos || entry.substr(0, colon) != component ||
+        std::sscanf(entry.c_str() + colon + 1, "%llu,%llu", &first, &last) != 2)
+      continue;
+    if (rt().syncs >= first && rt().syncs <= last) return true;
+  }
+  return false;
+}
+
 float input_value(const std::string& input) {
+  const std::string left = "/user/hand/left/input/";
+  if (input.rfind(left, 0) == 0) return left_button_held(input.substr(left.size())) ? 1.0f : 0.0f;
   if (input.rfind("/user/hand/right/", 0) != 0) return 0;
   const bool pressed = right_hand().first;
   return input.find("/squeeze/") != std::string::npos || input.find("/select/") != std::string::npos

@@ -18,11 +18,13 @@
 #include <vector>
 
 #include "support/session_site.hpp"
+#include "support/speech.hpp"
 #include "support/test_data.hpp"
 #include "support/xvfb.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/viewer/xr.hpp"
+#include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
 namespace {
@@ -216,10 +218,19 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 }
 
 // A participant in a headset: the presenter draws the virtual OR for each eye and publishes the
-// head as the participant's pose; another participant sees it standing at its spot.
-TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
+// head as the participant's pose; another participant sees it standing at its spot. Its voice
+// (push-to-talk, real speech) is sent while the mock holds the left controller's X (syncs 5 to
+// 30) and only then; a press of Y (syncs 40 to 42) mutes it; the observer sees both.
+TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const MockRuntime mock("xr_runtime_session", "60");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:5,30;y/click:40,42");
+  std::vector<std::string> phrases;  // 60 s of speech: longer than the session
+  for (int i = 0; i < 8; ++i)
+    for (const char* name :
+         {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"})
+      phrases.push_back(name);
+  const fs::path speech = test::write_voice(mock.dir / "speech.wav", test::phrases(phrases, 0.1));
   test::SessionSite s;
   const std::string link = s.link();
   test::TestParticipant observer(s, test::named("Observer"));
@@ -228,22 +239,56 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHead) {
   headset_options.participant.name = "Headset";
   headset_options.drive_poses = false;  // the headset publishes
   SessionClient headset(headset_options);
+  std::unique_ptr<voice::VoiceLink> talk;  // as volcast view --xr --join --mic --push-to-talk
   ViewerOptions opt;
   opt.client = client_config_from_link(link);
   opt.seconds = 300;  // a safety net only: the runtime ends the session
   opt.on_connected = [&](Client& c) {
     headset.start(c);
+    voice::VoiceConfig v;
+    v.mic = speech.string();
+    v.push_to_talk = true;
+    talk = std::make_unique<voice::VoiceLink>(*headset.participant(), v);
     // Its first frames wait for the join, so that the headset's poses count.
     for (int i = 0; i < 500 && !headset.participant()->joined(); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
   };
-  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  opt.on_finished = [&](ViewerResult&) {
+    talk->stop();
+    headset.stop();
+  };
   XrOptions xr;
   xr.participant = [&] { return headset.participant(); };
+  xr.voice = [&] { return talk.get(); };
   opt.presenter = xr_presenter(xr);
+  // What the observer hears of the headset while it is there (it leaves when the session ends).
+  std::atomic<bool> done{false}, heard{false}, saw_muted{false};
+  std::thread watch([&] {
+    while (!done) {
+      if (const auto h = observer.other("Headset")) {
+        heard = heard || h->voice_packets > 0;
+        saw_muted = saw_muted || (heard && h->muted);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
   const ViewerResult r = run_viewer(opt);
+  done = true;
+  watch.join();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 30u);
+  ASSERT_TRUE(talk);
+  const voice::VoiceStats sent = talk->stats();
+  std::printf("headset's microphone: %llu frames captured, %llu sent, %llu silent (DTX)\n",
+              static_cast<unsigned long long>(sent.frames_captured),
+              static_cast<unsigned long long>(sent.packets_sent),
+              static_cast<unsigned long long>(sent.dtx_frames));
+  EXPECT_TRUE(talk->muted()) << "Y muted it";
+  EXPECT_GT(sent.packets_sent, 0u) << "X held: it talked";
+  EXPECT_LT(sent.packets_sent + sent.dtx_frames, sent.frames_captured)
+      << "before X and after it, the microphone was not sent";
+  EXPECT_TRUE(heard) << "the observer heard the headset";
+  EXPECT_TRUE(saw_muted) << "then saw it muted";
 
   const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
   observer.end();

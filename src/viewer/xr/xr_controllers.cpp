@@ -36,13 +36,20 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
     };
     grip_ = action("grip", "Hand pose", XR_ACTION_TYPE_POSE_INPUT);
     squeeze_ = action("squeeze", "Grab", XR_ACTION_TYPE_FLOAT_INPUT);
+    talk_ = action("talk", "Push to talk", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    mute_ = action("mute", "Mute microphone", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    // The voice buttons are the left controller's (null: the profile has none to spare).
     const struct {
       const char* profile;
       const char* squeeze;
-    } profiles[] = {{"/interaction_profiles/khr/simple_controller", "select/click"},
-                    {"/interaction_profiles/htc/vive_controller", "squeeze/click"},
-                    {"/interaction_profiles/valve/index_controller", "squeeze/value"},
-                    {"/interaction_profiles/oculus/touch_controller", "squeeze/value"}};
+      const char* talk;
+      const char* mute;
+    } profiles[] = {
+        {"/interaction_profiles/khr/simple_controller", "select/click", nullptr, "menu/click"},
+        {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
+         "menu/click"},
+        {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click", "b/click"},
+        {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click", "y/click"}};
     for (const auto& p : profiles) {
       std::vector<XrActionSuggestedBinding> bindings;
       for (const char* hand : {"left", "right"}) {
@@ -51,6 +58,10 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
         bindings.push_back(
             {squeeze_, path(("/user/hand/" + std::string(hand) + "/input/" + p.squeeze).c_str())});
       }
+      if (p.talk)
+        bindings.push_back({talk_, path(("/user/hand/left/input/" + std::string(p.talk)).c_str())});
+      if (p.mute)
+        bindings.push_back({mute_, path(("/user/hand/left/input/" + std::string(p.mute)).c_str())});
       auto suggested = xr_struct<XrInteractionProfileSuggestedBinding>(
           XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
       suggested.interactionProfile = path(p.profile);
@@ -92,6 +103,16 @@ std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
   sync.activeActionSets = &active;
   const XrResult r = xrSyncActions(session_, &sync);
   if (XR_FAILED(r) || r == XR_SESSION_NOT_FOCUSED) return out;  // no input while not focused
+  const auto held = [&](XrAction action, XrPath hand) {
+    auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
+    get.action = action;
+    get.subactionPath = hand;
+    auto state = xr_struct<XrActionStateBoolean>(XR_TYPE_ACTION_STATE_BOOLEAN);
+    return XR_SUCCEEDED(xrGetActionStateBoolean(session_, &get, &state)) && state.isActive &&
+           state.currentState;
+  };
+  out[0].talk = held(talk_, hands_[0]);
+  out[0].mute = held(mute_, hands_[0]);
   for (int h = 0; h < 2; ++h) {
     auto location = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
     if (XR_FAILED(xrLocateSpace(spaces_[h], space, time, &location))) continue;

@@ -4,6 +4,13 @@
 // squeeze/value), Valve Index (grip/pose, squeeze/value), HTC Vive (grip/pose, squeeze/click) and
 // the KHR simple controller (grip/pose, select/click); the runtime picks the profile of the
 // device. A runtime without actions leaves the controllers untracked (logged once).
+//
+// The voice buttons (issue 35), on the left controller only:
+//   profile      talk (hold, push-to-talk)   mute (press toggles)
+//   Touch        X        x/click            Y     y/click
+//   Index        A        a/click            B     b/click
+//   Vive         trackpad trackpad/click     menu  menu/click
+//   simple       --                          menu  menu/click
 #include <openxr/openxr.h>
 
 #include <array>
@@ -18,6 +25,8 @@ struct ControllerState {
   bool tracked = false;
   Pose pose;
   float squeeze = 0;  ///< 0..1
+  bool talk = false;  ///< the talk button is held (left hand only; read even when not located)
+  bool mute = false;  ///< the mute button is held (left hand only)
 };
 
 class XrControllers {
@@ -28,13 +37,15 @@ class XrControllers {
   ~XrControllers();
   XrControllers(const XrControllers&) = delete;
   XrControllers& operator=(const XrControllers&) = delete;
-  /// Syncs the actions and locates both grips in `space` at `time` (left, right).
+  /// Syncs the actions, reads the buttons and locates both grips in `space` at `time` (left,
+  /// right). All released while the session is not focused.
   std::array<ControllerState, 2> sync(XrSpace space, XrTime time);
 
  private:
   XrSession session_ = XR_NULL_HANDLE;
   XrActionSet set_ = XR_NULL_HANDLE;
-  XrAction grip_ = XR_NULL_HANDLE, squeeze_ = XR_NULL_HANDLE;
+  XrAction grip_ = XR_NULL_HANDLE, squeeze_ = XR_NULL_HANDLE, talk_ = XR_NULL_HANDLE,
+           mute_ = XR_NULL_HANDLE;
   std::array<XrPath, 2> hands_{};
   std::array<XrSpace, 2> spaces_{};
   bool enabled_ = false;

@@ -14,6 +14,7 @@
 #include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
+#include "volcast/voice/voice_controls.hpp"
 #include "xr_common.hpp"
 #include "xr_controllers.hpp"
 
@@ -297,6 +298,8 @@ struct FrameLoop {
   XrControllers& controllers;
   const std::vector<CameraCalibration>& cameras;
   HandGrab hand_grab;
+  voice::VoiceInput voice_input;      // the voice buttons' requests (talk held, mute pressed)
+  voice::VoiceButtons voice_buttons;  // as they were last frame
   std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded;
   std::vector<XrView> views;
   std::vector<XrCompositionLayerProjectionView> projected;
@@ -376,6 +379,18 @@ struct FrameLoop {
       grab_input[h].room_from_hand.orientation = (turn * grips[h]->orientation).normalized();
     }
     hand_grab.update(*participant, snapshot, grab_input);
+    track_voice_buttons(hands[0]);
+  }
+
+  // The left controller's voice buttons: talk held, mute pressed (xr_controllers.hpp).
+  void track_voice_buttons(const ControllerState& left) {
+    voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
+    if (!link) return;  // no voice link (or not yet)
+    const bool was_muted = link->muted();
+    press_voice_buttons(voice_input, voice_buttons, {left.talk, left.mute});
+    apply_voice_input(*link, voice_input);
+    if (link->muted() != was_muted)
+      spdlog::info("voice: microphone {}", link->muted() ? "muted" : "on");
   }
 
   // Draws each located eye (the SessionScene with a participant, else the cameras) and fills

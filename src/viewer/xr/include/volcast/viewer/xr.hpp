@@ -16,6 +16,7 @@
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/view.hpp"
+#include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
 
@@ -36,6 +37,12 @@ struct XrOptions {
   /// the case's objects grabs it, and it follows the hand until the grip is let go (hand_grab.hpp).
   std::function<Participant*()> participant;
   SessionSceneOptions scene;
+  /// With a participant: its voice link (volcast view --xr --join --mic/--speaker), read every
+  /// frame; empty, or returning null (no link, or not made yet): the buttons do nothing. The link
+  /// must outlive the presenter. The left controller's talk button is held to talk with
+  /// push-to-talk, each press of its mute button mutes or unmutes (X and Y on Touch; the table in
+  /// xr_controllers.hpp).
+  std::function<voice::VoiceLink*()> voice;
 };
 
 /// Whether OpenXR can run here: an instance with XR_KHR_opengl_enable can be made (a runtime is

@@ -165,6 +165,7 @@ struct ViewArgs {
   // Voice (volcast/voice/voice_link.hpp): a .wav file or a sound device each; empty: none.
   std::string mic, speaker;
   bool mute = false;                 ///< start with the microphone muted
+  bool push_to_talk = false;         ///< send only while V (window) or X (headset) is held
   std::vector<std::string> volumes;  ///< "NAME=GAIN" per participant
   bool mono_voices = false;          ///< a mono mix instead of HRTF (one channel)
   std::string voice_json;            ///< write what was heard (latency, loss) here

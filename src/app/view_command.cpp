@@ -76,14 +76,15 @@ Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
   return desktop_presenter(desktop);
 }
 
-// The voice link's settings from --mic, --speaker, --mute, --volume, --mono-voices; none without
-// a microphone or loudspeaker.
+// The voice link's settings from --mic, --speaker, --mute, --push-to-talk, --volume,
+// --mono-voices; none without a microphone or loudspeaker.
 std::optional<voice::VoiceConfig> voice_options(const ViewArgs& a) {
   if (a.mic.empty() && a.speaker.empty()) return std::nullopt;
   voice::VoiceConfig v;
   v.mic = a.mic;
   v.speaker = a.speaker;
   v.muted = a.mute;
+  v.push_to_talk = a.push_to_talk;
   v.spatial = !a.mono_voices;
   for (const std::string& entry : a.volumes) {
     const size_t eq = entry.rfind('=');
@@ -131,6 +132,11 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   SessionClient* client = session.get();
   const std::string session_name = a.join;
   const auto voice_config = voice_options(a);
+  if (voice_config && voice_config->push_to_talk && !voice_config->mic.empty() && !window)
+    spdlog::warn(
+        "view: --push-to-talk without a window or headset to hold the key: your "
+        "microphone sends nothing");
+  // Made once connected, before the presenter starts; destroyed once it has returned.
   auto voice = std::make_shared<std::unique_ptr<voice::VoiceLink>>();
   opt.on_connected = [client, voice, voice_config](Client& c) {
     client->start(c);
@@ -155,16 +161,19 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   scene.keep_radius_m = a.avatar_radius;
   scene.room = !a.no_room;
   const auto participant = [client] { return client->participant(); };
+  const auto voice_link = [voice] { return voice->get(); };
   if (xr) {
     XrOptions options;
     options.pass = opt.pass;
     options.participant = participant;
     options.scene = scene;
+    options.voice = voice_link;
     opt.presenter = xr_presenter(options);
   } else if (window) {
     DesktopOptions desktop = desktop_options(a, opt);
     desktop.participant = participant;
     desktop.scene = scene;
+    desktop.voice = voice_link;
     desktop.title = "volcast: " + a.name + " in " + a.join;
     opt.presenter = desktop_presenter(desktop);
   } else if (opt.render) {
@@ -416,7 +425,10 @@ void register_view(CLI::App& app, Commands& commands) {
   v->add_option("--speaker", view.speaker,
                 "With --join: where the others' voices play, each from where its speaker stands "
                 "(HRTF): a sound device or a .wav file (stereo)");
-  v->add_flag("--mute", view.mute, "Start with your microphone muted");
+  v->add_flag("--mute", view.mute, "Start with your microphone muted (the window's M toggles it)");
+  v->add_flag("--push-to-talk", view.push_to_talk,
+              "Send your microphone only while you hold V (window) or the left controller's X "
+              "(headset)");
   v->add_option("--volume", view.volumes,
                 "A participant's volume: NAME=GAIN (0 silent, 1 as sent, up to 4; repeat)");
   v->add_flag("--mono-voices", view.mono_voices,

@@ -248,6 +248,7 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
     voice::VoiceConfig v;
     v.mic = speech.string();
     v.push_to_talk = true;
+    v.spatial = false;  // no loudspeaker: no HRTF to run
     talk = std::make_unique<voice::VoiceLink>(*headset.participant(), v);
     // Its first frames wait for the join, so that the headset's poses count.
     for (int i = 0; i < 500 && !headset.participant()->joined(); ++i)

@@ -177,6 +177,10 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = voice_badge_primitives(p.pose.head.position, speaking, p.muted, pulse);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
+  if (options.own_muted && s.has_own_body && s.own_body.hands_tracked) {
+    const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
+    r.scene.insert(r.scene.end(), badge.begin(), badge.end());
+  }
   const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
   const RoomLayout& room = default_operating_room();
   if (shared_case && s.monitor && shared_case->monitor) {

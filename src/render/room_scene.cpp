@@ -147,6 +147,13 @@ std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool 
   return p;
 }
 
+std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand) {
+  return {shape(Primitive::Shape::kSphere,
+                Eigen::Translation3f(hand + Eigen::Vector3f(0, 0.08f, 0)) *
+                    Eigen::Scaling(0.04f, 0.04f, 0.04f),
+                rgba(0.9f, 0.12f, 0.1f), 1)};
+}
+
 std::vector<Primitive> teleport_effect_primitives(const Eigen::Vector3f& spot, float age_s,
                                                   float duration_s, const Eigen::Vector3f& rgb) {
   std::vector<Primitive> p;

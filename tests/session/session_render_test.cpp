@@ -120,6 +120,12 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
   ASSERT_EQ(muted.size(), 1u);
   EXPECT_EQ(muted[0].shape, Primitive::Shape::kSphere);
   EXPECT_GT(muted[0].color.x(), muted[0].color.y());
+  // The headset's own mute: a small red ball 8 cm over the left hand.
+  const auto own = muted_hand_primitives({-0.2f, 1.1f, 0.3f});
+  ASSERT_EQ(own.size(), 1u);
+  EXPECT_GT(own[0].color.x(), own[0].color.y());
+  EXPECT_NEAR(own[0].world_from_shape(1, 3), 1.18f, 1e-6f);
+  EXPECT_NEAR(own[0].world_from_shape(0, 0), 0.04f, 1e-6f);
 }
 
 // The case's organs and the monitor. Synthetic (exact behaviour): a quad-shaped "organ" 1 m ahead,

@@ -18,12 +18,12 @@
 // Controllers: the runtime is a pair of Oculus Touch controllers (or, if only those bindings are
 // suggested, KHR simple controllers). Actions, action sets, suggested bindings, attaching, action
 // spaces, xrSyncActions, float / boolean / pose action states and xrLocateSpace are implemented.
-// The grips: left at (-0.2, 1.1, -0.3), right at VOLCAST_MOCK_XR_RIGHT_GRIP ("x,y,z", default
-// (0.2, 1.1, -0.3)), stage frame, metres, level. VOLCAST_MOCK_XR_SQUEEZE ("first,last", counted
-// in xrSyncActions calls) squeezes the right grip fully for those syncs, turning the right hand
-// about +y by 0.03 rad per sync while it squeezes (it stays turned after).
-// VOLCAST_MOCK_XR_BUTTONS ("input:first,last;..." with input a left-hand component such as
-// x/click) holds each of those left-controller buttons down for those syncs.
+// The grips: left at VOLCAST_MOCK_XR_LEFT_GRIP ("x,y,z", default (-0.2, 1.1, -0.3)), right at
+// VOLCAST_MOCK_XR_RIGHT_GRIP (default (0.2, 1.1, -0.3)), stage frame, metres, level.
+// VOLCAST_MOCK_XR_SQUEEZE ("first,last", counted in xrSyncActions calls) squeezes the right grip
+// fully for those syncs, turning the right hand about +y by 0.03 rad per sync while it squeezes (it
+// stays turned after). VOLCAST_MOCK_XR_BUTTONS ("input:first,last;..." with input a left-hand
+// component such as x/click) holds each of those left-controller buttons down for those syncs.
 #include <openxr/openxr.h>
 
 #include <epoxy/gl.h>
@@ -1092,6 +1092,9 @@ XrResult XRAPI_CALL LocateSpace(XrSpace space, XrSpace base, XrTime time,
   if (a == rt().actions.end() || !bound_input(a->second, hand->second.second)) return XR_SUCCESS;
   const bool right = path_string(hand->second.second) == "/user/hand/right";
   float x = right ? 0.2f : -0.2f, y = 1.1f, z = -0.3f, turn = 0;
+  if (!right)
+    if (const char* v = std::getenv("VOLCAST_MOCK_XR_LEFT_GRIP"))
+      std::sscanf(v, "%f,%f,%f", &x, &y, &z);
   if (right) {
     if (const char* v = std::getenv("VOLCAST_MOCK_XR_RIGHT_GRIP"))
       std::sscanf(v, "%f,%f,%f", &x, &y, &z);

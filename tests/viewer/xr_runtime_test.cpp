@@ -220,11 +220,14 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 // A participant in a headset: the presenter draws the virtual OR for each eye and publishes the
 // head as the participant's pose; another participant sees it standing at its spot. Its voice
 // (push-to-talk, real speech) is sent while the mock holds the left controller's X (syncs 5 to
-// 30) and only then; a press of Y (syncs 40 to 42) mutes it; the observer sees both.
+// 30) and only then; a press of Y (syncs 40 to 42) mutes it; the observer sees both, and the
+// headset shows a red ball over its left hand.
 TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const MockRuntime mock("xr_runtime_session", "60");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:5,30;y/click:40,42");
+  // The left hand held up ahead, where the eyes see the red ball over it once muted.
+  const test::ScopedEnv left_grip("VOLCAST_MOCK_XR_LEFT_GRIP", "-0.05,1.4,-0.45");
   std::vector<std::string> phrases;  // 60 s of speech: longer than the session
   for (int i = 0; i < 8; ++i)
     for (const char* name :
@@ -314,6 +317,12 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const Ppm left = read_ppm(mock.out / "eye0.ppm");
   ASSERT_EQ(left.width, 256);
   EXPECT_GT(content(left).first, 0.3) << "the room fills the eye";
+  // Muted at the end: the red ball over the left hand, 45 cm ahead (about 100 pixels).
+  size_t red = 0;
+  for (size_t i = 0; i + 2 < left.rgb.size(); i += 3)
+    red += left.rgb[i] > 170 && left.rgb[i + 1] < 70 && left.rgb[i + 2] < 70;
+  std::printf("left eye: %zu red pixels (the muted ball over the left hand)\n", red);
+  EXPECT_GT(red, 40u) << "the headset shows its own mute";
 }
 
 // A headset participant grabs an organ with its controller: the mock's right grip, within reach

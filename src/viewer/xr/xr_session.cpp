@@ -403,6 +403,8 @@ struct FrameLoop {
         if (participant) {
           SessionSceneOptions so = o.scene;
           so.pass = o.pass;
+          const voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
+          so.own_muted = link && link->muted();  // a red ball over the left hand
           scene->draw(view, target, cameras, uploaded, *participant, now, so);
         } else {
           renderer.draw_cameras(view, target, o.pass);

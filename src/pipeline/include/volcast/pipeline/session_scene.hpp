@@ -31,6 +31,9 @@ struct SessionSceneOptions {
   bool room = true;       ///< draw the room's furniture
   bool show_case = true;  ///< draw the case's objects and the monitor's CT slice
   float teleport_effect_s = 0.8f;
+  /// Your own microphone is muted: a red ball over your left hand (muted_hand_primitives; the
+  /// headset's sign, with tracked hands).
+  bool own_muted = false;
 };
 
 /// The filter for another participant's camera avatar: keep the points within `radius_m` of its

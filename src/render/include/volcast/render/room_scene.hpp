@@ -35,6 +35,10 @@ std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen:
 std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool speaking,
                                               bool muted, float pulse);
 
+/// A headset wearer's own muted microphone, where they see it (room frame, metres; `hand`: the
+/// left controller's position): a red ball 4 cm wide, 8 cm above the hand.
+std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand);
+
 /// Where someone teleported from or to, `age_s` seconds ago: three rings spreading on the floor
 /// and a column of small rising particles, fading out over `duration_s`. Empty when age_s < 0 or
 /// age_s >= duration_s.

@@ -41,7 +41,7 @@ struct XrOptions {
   /// frame; empty, or returning null (no link, or not made yet): the buttons do nothing. The link
   /// must outlive the presenter. The left controller's talk button is held to talk with
   /// push-to-talk, each press of its mute button mutes or unmutes (X and Y on Touch; the table in
-  /// xr_controllers.hpp).
+  /// xr_controllers.hpp); while muted, a small red ball shows over the left hand.
   std::function<voice::VoiceLink*()> voice;
 };
 

@@ -219,17 +219,17 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 
 // A participant in a headset: the presenter draws the virtual OR for each eye and publishes the
 // head as the participant's pose; another participant sees it standing at its spot. Its voice
-// (push-to-talk, real speech) is sent while the mock holds the left controller's X (syncs 5 to
-// 30) and only then; a press of Y (syncs 40 to 42) mutes it; the observer sees both, and the
+// (push-to-talk, real speech) is sent while the mock holds the left controller's X (syncs 3 to
+// 20) and only then; a press of Y (syncs 30 to 32) mutes it; the observer sees both, and the
 // headset shows a red ball over its left hand.
 TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const MockRuntime mock("xr_runtime_session", "60");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
-  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:5,30;y/click:40,42");
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:3,20;y/click:30,32");
   // The left hand held up ahead, where the eyes see the red ball over it once muted.
   const test::ScopedEnv left_grip("VOLCAST_MOCK_XR_LEFT_GRIP", "-0.05,1.4,-0.45");
-  std::vector<std::string> phrases;  // 60 s of speech: longer than the session
-  for (int i = 0; i < 8; ++i)
+  std::vector<std::string> phrases;  // 90 s of speech: longer than X is held on a loaded machine
+  for (int i = 0; i < 12; ++i)
     for (const char* name :
          {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"})
       phrases.push_back(name);

@@ -61,7 +61,12 @@ TEST(Voice, TwoParticipantsHearEachOther) {
   const auto dir = test::temp_dir("voice_two");
   std::vector<size_t> starts;
   const std::vector<std::string> names{"Front_Center", "Front_Left", "Side_Right"};
-  const std::vector<float> said = test::phrases(names, 0.4, &starts);
+  // A first phrase, not measured, lets B's jitter buffer find its delay: on a loaded machine it
+  // may grow in the middle of the first phrase, which then no longer matches as a whole.
+  std::vector<std::string> said_names = names;
+  said_names.insert(said_names.begin(), "Front_Right");
+  const std::vector<float> said = test::phrases(said_names, 0.4, &starts);
+  starts.erase(starts.begin());
   voice::VoiceConfig ca;
   ca.mic = test::write_voice(dir / "a_mic.wav", said).string();
   ca.mic_start_us = wall_clock_us() + 300'000;

@@ -207,5 +207,69 @@ TEST(VoiceRecording, TheBackgroundRecorderQueuesVoicesAndCountsWhatItDrops) {
   }
 }
 
+// A replay's voices (voice_plan): each packet plays as long after the last frame set captured at
+// or before it as it was captured after it; the packets before the first frame set or a frame
+// interval after the last have no place; a selection of frame sets plays only its own packets;
+// looping moves a speaker's sequence by its packets in the pass, its frame clock by the pass.
+TEST(VoiceRecording, AReplayPlaysEachVoiceWhereItFallsAmongTheFrameSets) {
+  const fs::path dir = temp_dir("plan");
+  const fs::path path = dir / "plan.vcr";
+  {
+    RecordingWriter w(path, tiny_stream());
+    w.append_speaker(7, "Dr. Aiko Tanaka", 0);
+    w.append_speaker(1, "OR 3", 1);
+    for (uint32_t k = 0; k < 10; ++k) w.append(tiny_body(k));  // 1 s + k x 33,333 us
+    for (uint32_t n = 0; n < 30; ++n) w.append_voice(packet(7, n));
+    const std::vector<uint8_t> opus{0xf8, 0xff, 0xfe};
+    w.append_voice(1, 5, 5, 999'000, opus);    // before the first frame set
+    w.append_voice(1, 6, 7, 1'050'000, opus);  // 16,667 us after frame set 1
+    w.append_voice(1, 7, 8, 1'340'000, opus);  // 40 ms after the last: past its frame interval
+  }
+  RecordingReader r(path);
+  const RecordingInfo& info = r.info();
+  const PlaybackTimeline t = playback_timeline(info.frame_sets);
+  ASSERT_EQ(t.frame_interval_us, 33'333);
+  // Every frame set: the pass lasts until a frame interval after the last one.
+  const VoicePlan all = voice_plan(info, t, 0, 9);
+  EXPECT_EQ(all.pass_us, 9 * 33'333 + 33'333);
+  // Speaker 7's packet n was captured (n + n / 5) x 20 ms + 7 us after frame set 0: n <= 14 fall
+  // before 1.3333 s.
+  EXPECT_EQ(all.outside, 15u + 2u);
+  ASSERT_EQ(all.speakers.size(), 2u);
+  EXPECT_EQ(all.speakers[0].speaker.name, "Dr. Aiko Tanaka");
+  EXPECT_EQ(all.speakers[0].packets, 15u);
+  EXPECT_EQ(all.speakers[0].sequences_per_pass, 15u);
+  EXPECT_EQ(all.speakers[0].frames_per_pass, 17u);  // frames 0..16, the pass 16.7 frames
+  EXPECT_EQ(all.speakers[1].speaker.role, 1);
+  EXPECT_EQ(all.speakers[1].packets, 1u);
+  EXPECT_EQ(all.speakers[1].sequences_per_pass, 1u);
+  EXPECT_EQ(all.speakers[1].frames_per_pass, 17u);  // the pass's length
+  ASSERT_EQ(all.cues.size(), 16u);
+  for (size_t c = 0; c < all.cues.size(); ++c) {
+    const VoiceCue& cue = all.cues[c];
+    const RecordedVoice& v = info.voices[cue.voice];
+    EXPECT_EQ(cue.at_us, v.capture_us - 1'000'000) << c;
+    EXPECT_EQ(cue.frame_set, static_cast<size_t>((v.capture_us - 1'000'000) / 33'333)) << c;
+    EXPECT_EQ(all.speakers[cue.speaker].speaker.participant, v.participant) << c;
+    if (c > 0) EXPECT_GE(cue.at_us, all.cues[c - 1].at_us) << c;
+  }
+  // Frame sets 3..6: the packets from frame set 3's capture to a frame interval after 6's, on the
+  // selection's time line; speaker 1 has none there.
+  const VoicePlan part = voice_plan(info, t, 3, 6);
+  EXPECT_EQ(part.pass_us, 3 * 33'333 + 33'333);
+  EXPECT_EQ(part.outside, all.outside);
+  ASSERT_EQ(part.speakers.size(), 1u);
+  ASSERT_EQ(part.cues.size(), 5u);  // packets 5..9: frames 6..10, 120..200 ms
+  for (size_t c = 0; c < part.cues.size(); ++c) {
+    const RecordedVoice& v = info.voices[part.cues[c].voice];
+    EXPECT_EQ(v.sequence, 5 + c);
+    EXPECT_EQ(part.cues[c].at_us, v.capture_us - 1'000'000 - 3 * 33'333);
+  }
+  EXPECT_EQ(part.speakers[0].sequences_per_pass, 5u);
+  EXPECT_EQ(part.speakers[0].frames_per_pass, 7u);  // 133.3 ms: longer than frames 6..10
+  // An empty selection: no plan.
+  EXPECT_TRUE(voice_plan(info, t, 5, 4).cues.empty());
+}
+
 }  // namespace
 }  // namespace volcast

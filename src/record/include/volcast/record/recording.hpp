@@ -233,10 +233,53 @@ struct PlaybackTimeline {
 /// The playback timeline of `sets` (in file order), as described at PlaybackTimeline.
 PlaybackTimeline playback_timeline(std::span<const RecordedFrameSet> sets);
 
+/// When a recording's voice packets play in a replay of its frame sets [first, last] (a
+/// ReplayPlayer's pass; volcast/pipeline/replay.hpp), in sync with them: a packet captured D us
+/// after frame set k (the last frame set captured at or before it) plays D us after k does, i.e.
+/// at timeline.offset_us[k] + D. A pass lasts from its first frame set to one frame interval
+/// after its last; it holds the packets whose frame set k is in [first, last] and whose D is less
+/// than the replayed gap to frame set k + 1 (for k = last: the frame interval).
+struct VoiceCue {
+  size_t voice = 0;      ///< its index in RecordingInfo::voices
+  size_t speaker = 0;    ///< its index in VoicePlan::speakers
+  size_t frame_set = 0;  ///< k
+  /// When it plays, from the pass's start: offset_us[k] - offset_us[first] + D.
+  int64_t at_us = 0;
+};
+
+/// A replay's voices (voice_plan()). Looping, pass p (0, 1, ...) sends each packet with its
+/// sequence + p x sequences_per_pass and its frame + p x frames_per_pass of its speaker (mod 2^32):
+/// its numbers go on across the wrap (no jump back a jitter buffer would take for a late or a
+/// restarted stream), the frame clock advancing with the time a pass takes, the sequence with the
+/// packets it holds (so a packet lost in the recording is still a gap, and the wrap none).
+struct VoicePlan {
+  struct Speaker {
+    RecordedSpeaker speaker;  ///< as RecordingInfo::speakers has it (its last Speaker record)
+    size_t packets = 0;       ///< its cues
+    uint32_t sequences_per_pass = 0;  ///< its highest sequence - its lowest + 1 (in the pass)
+    /// max(its highest frame - its lowest + 1, pass_us in 20 ms frames, rounded up)
+    uint32_t frames_per_pass = 0;
+  };
+  std::vector<Speaker> speakers;  ///< those with cues, in RecordingInfo::speakers' order
+  std::vector<VoiceCue> cues;     ///< in playing order: at_us (ties: by speaker, capture order)
+  int64_t pass_us = 0;            ///< offset_us[last] - offset_us[first] + frame interval
+  /// Voices of the recording that have no place on its timeline at all: captured before its first
+  /// frame set, a frame interval or more after its last, or in a gap the timeline replays shorter
+  /// (PlaybackTimeline: a clock that jumped). Never played.
+  size_t outside = 0;
+};
+
+/// The voice plan of `info`'s frame sets [first, last] (first <= last < frame_sets.size()) on
+/// `timeline` (playback_timeline(info.frame_sets)), as described at VoiceCue and VoicePlan.
+VoicePlan voice_plan(const RecordingInfo& info, const PlaybackTimeline& timeline, size_t first,
+                     size_t last);
+
 /// "11.6 days", "3.2 s", "-40 ms": a time span (us) for people.
 std::string describe_span_us(int64_t us);
 
-/// Reads a recording. Not thread-safe: one caller at a time.
+/// Reads a recording. read(), read_voice() and voices_of() may run on several threads at once
+/// (each reads the file with pread and the index, and changes nothing); anything else one caller
+/// at a time.
 class RecordingReader {
  public:
   /// Opens `path`, reads its Stream record and its index (the Index record of a closed file, else

@@ -67,6 +67,7 @@ SessionHub::Session& SessionHub::make_session(const std::string& name, bool stan
     site->voice_state = share(session::forward(Type::kVoiceStateFrom, kSiteParticipant,
                                                session::serialize_voice_state(true)));
   s->members.emplace(kSiteParticipant, std::move(site));
+  for (const Recorded& r : recorded_) add_recorded_member(*s, r);
   reset_case_state(*s);
   Session& ref = *s;
   sessions_.emplace(ref.id, std::move(s));
@@ -86,7 +87,7 @@ void SessionHub::create_session(const std::string& name) {
 }
 
 void SessionHub::prune(Session* s) {
-  if (!s || s->standing || s->members.size() > 1) return;  // the OR site is always in it
+  if (!s || s->standing || connected(*s) > 0) return;  // the OR site is always in it
   const auto it = sessions_.find(s->id);
   if (it == sessions_.end()) return;
   spdlog::info("session '{}' removed: nobody is in it", printable(s->name));
@@ -229,7 +230,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
       return refuse(e.what());
     }
   }
-  if (static_cast<int>(s->members.size()) >= config_.max_participants)
+  if (connected(*s) + 1 >= config_.max_participants)  // the OR site is one
     return refuse("session '" + s->name + "' is full (" + std::to_string(config_.max_participants) +
                   " participants)");
   const std::string skeleton = session::name_skeleton(j.name);
@@ -240,30 +241,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
       return refuse("the name '" + j.name + "' looks like '" + other->info.name +
                     "', already in session '" + s->name + "': choose another");
   }
-  // A free spawn spot: free floor, away from the other play areas.
-  session::Spot spot;
-  const float clearance = 4 * config_.room.person_radius_m;
-  bool found = false;
-  for (const Eigen::Vector2f& p : config_.room.spawn_spots) {
-    if (!is_free_floor_spot(config_.room, p)) continue;
-    bool taken = false;
-    for (const auto& [pid, other] : s->members)
-      if (other->info.role == session::Role::kRemote &&
-          Eigen::Vector2f(other->info.spot.x - p.x(), other->info.spot.z - p.y()).norm() <
-              clearance)
-        taken = true;
-    if (taken) continue;
-    // Face the table's centre.
-    spot = {
-        p.x(), p.y(),
-        std::atan2(p.x() - config_.room.table.center.x(), p.y() - config_.room.table.center.z())};
-    found = true;
-    break;
-  }
-  if (!found && !config_.room.spawn_spots.empty()) {  // all taken: share the first
-    const Eigen::Vector2f& p = config_.room.spawn_spots.front();
-    spot = {p.x(), p.y(), 0};
-  }
+  const session::Spot spot = free_spot(*s, false);
   auto member = std::make_unique<Member>();
   Member& m = *member;
   m.info.id = next_participant_++;
@@ -301,6 +279,37 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
   spdlog::info("session '{}': '{}' joined as participant {} ({}{})", printable(s->name),
                printable(j.name), m.info.id, session::to_string(m.info.role),
                j.has_camera ? ", with a camera" : "");
+}
+
+int SessionHub::connected(const Session& s) {
+  int n = 0;
+  for (const auto& [id, m] : s.members) n += m->info.viewer != 0;
+  return n;
+}
+
+// A free spawn spot: free floor, away from the other play areas; tried from the first (a
+// participant joining) or from the last (a recorded speaker).
+session::Spot SessionHub::free_spot(const Session& s, bool from_last) const {
+  const std::vector<Eigen::Vector2f>& spots = config_.room.spawn_spots;
+  const float clearance = 4 * config_.room.person_radius_m;
+  for (size_t i = 0; i < spots.size(); ++i) {
+    const Eigen::Vector2f& p = spots[from_last ? spots.size() - 1 - i : i];
+    if (!is_free_floor_spot(config_.room, p)) continue;
+    bool taken = false;
+    for (const auto& [pid, other] : s.members)
+      if (other->info.role == session::Role::kRemote &&
+          Eigen::Vector2f(other->info.spot.x - p.x(), other->info.spot.z - p.y()).norm() <
+              clearance)
+        taken = true;
+    if (taken) continue;
+    // Face the table's centre.
+    return {
+        p.x(), p.y(),
+        std::atan2(p.x() - config_.room.table.center.x(), p.y() - config_.room.table.center.z())};
+  }
+  if (spots.empty()) return {};
+  const Eigen::Vector2f& p = from_last ? spots.back() : spots.front();  // all taken: share it
+  return {p.x(), p.y(), 0};
 }
 
 void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
@@ -437,7 +446,7 @@ void SessionHub::watch_presence() {
     // Restored sessions nobody joined (the others go when their last participant does).
     std::vector<Session*> unjoined;
     for (const auto& [id, s] : sessions_)
-      if (!s->standing && s->members.size() <= 1 &&
+      if (!s->standing && connected(*s) == 0 &&
           now - s->made > std::chrono::milliseconds(config_.unjoined_session_ms))
         unjoined.push_back(s.get());
     for (Session* s : unjoined) prune(s);

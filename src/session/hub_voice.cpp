@@ -1,11 +1,14 @@
 // A SessionHub's voices (voice_messages.hpp): each participant's packets forwarded unchanged to
-// the other members of its session and to the OR site's loudspeaker; the OR site's microphone to
-// everyone.
+// the other members of its session and to the OR site's loudspeaker; the OR site's microphone and
+// a replay's recorded speakers to everyone.
 #include <spdlog/spdlog.h>
+
+#include <algorithm>
 
 #include "hub_state.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/session/names.hpp"
 
 namespace volcast {
 
@@ -68,6 +71,89 @@ void SessionHub::site_voice_state(bool muted) {
     for (const auto& [pid, other] : s->members)
       send_shared(other->info.viewer, message, voice_state_key(kSiteParticipant));
   }
+}
+
+namespace {
+
+// `name` cut to at most `bytes` bytes, at a UTF-8 character boundary.
+std::string cut_utf8(const std::string& name, size_t bytes) {
+  if (name.size() <= bytes) return name;
+  size_t n = bytes;
+  while (n > 0 && (static_cast<unsigned char>(name[n]) & 0xc0) == 0x80) --n;
+  return name.substr(0, n);
+}
+
+}  // namespace
+
+SessionHub::Member& SessionHub::add_recorded_member(Session& s, const Recorded& r) {
+  auto m = std::make_unique<Member>();
+  m->info.id = r.id;
+  m->info.name = r.name;
+  m->info.role = session::Role::kRemote;
+  m->info.recorded = true;
+  m->session = &s;
+  if (r.or_site) {
+    const Eigen::Vector3f& t = config_.room.table.center;
+    m->info.spot = {t.x(), t.z(), 0};
+  } else {
+    m->info.spot = free_spot(s, true);
+  }
+  Member& ref = *m;
+  s.members.emplace(r.id, std::move(m));
+  return ref;
+}
+
+uint32_t SessionHub::add_recorded_speaker(const std::string& name, bool or_site) {
+  static const std::string kSuffix = " (recorded)";
+  std::string shown;
+  try {
+    shown =
+        session::checked_name(cut_utf8(name, session::kMaxNameBytes - kSuffix.size() - 3) + kSuffix,
+                              "recorded speaker's name");
+  } catch (const Error& e) {
+    spdlog::warn("replay: a recorded speaker's name is not shown ({}): 'recorded speaker' instead",
+                 e.what());
+    shown = "recorded speaker";
+  }
+  std::lock_guard lock(mutex_);
+  // Apart from the OR site's and the other recorded speakers' names (a Join's would be refused).
+  const auto looks_taken = [&](const std::string& candidate) {
+    const std::string skeleton = session::name_skeleton(candidate);
+    if (session::name_skeleton(config_.site_name) == skeleton) return true;
+    return std::any_of(recorded_.begin(), recorded_.end(), [&](const Recorded& r) {
+      return session::name_skeleton(r.name) == skeleton;
+    });
+  };
+  std::string unique = shown;
+  for (int n = 2; looks_taken(unique); ++n) unique = shown + " " + std::to_string(n);
+  const Recorded r{next_participant_++, unique, or_site};
+  recorded_.push_back(r);
+  for (const auto& [id, s] : sessions_) {
+    const Member& m = add_recorded_member(*s, r);
+    const Shared announce = share(session::message(
+        Type::kParticipantJoined, session::serialize(session::ParticipantInfo{
+                                      m.info.id, m.info.name, m.info.role, false, m.info.spot})));
+    for (const auto& [pid, other] : s->members) send_shared(other->info.viewer, announce);
+  }
+  spdlog::info("sessions: recorded speaker '{}' is participant {}", printable(unique), r.id);
+  return r.id;
+}
+
+bool SessionHub::recorded_voice(uint32_t speaker, const session::VoicePacketView& packet) {
+  const Shared message =
+      share(session::forward(Type::kVoiceFrom, speaker, session::serialize(packet)));
+  std::lock_guard lock(mutex_);
+  if (std::none_of(recorded_.begin(), recorded_.end(),
+                   [&](const Recorded& r) { return r.id == speaker; }))
+    return false;
+  ++stats_.voice_in;
+  for (const auto& [id, s] : sessions_) {
+    if (const auto it = s->members.find(speaker); it != s->members.end())
+      ++it->second->info.voice_packets;
+    broadcast_voice(speaker, message, *s);
+  }
+  if (config_.site_listener) config_.site_listener(speaker, packet);
+  return true;
 }
 
 }  // namespace volcast

@@ -88,6 +88,8 @@ struct SessionMember {
   uint64_t poses = 0, avatar_frames = 0;
   uint64_t voice_packets = 0;
   bool muted = false;  ///< its last VoiceState (voice_messages.hpp)
+  /// A recorded speaker (SessionHub::add_recorded_speaker): a replay's voice, no connection.
+  bool recorded = false;
 };
 
 class SessionHub final : public SessionPort {
@@ -145,6 +147,24 @@ class SessionHub final : public SessionPort {
   /// The OR site's microphone muted or not (0x4f to everyone, and to those who join later).
   void site_voice_state(bool muted);
 
+  /// Adds a recorded speaker: a voice of the recording being replayed (pipeline/replay.hpp). It is
+  /// a participant of every session, those there now (announced to their members by 0x44) and
+  /// those made later, with no connection: it never leaves or times out and does not count
+  /// against max_participants. Its display name is `name` + " (recorded)", checked as a Join's
+  /// (names.hpp; `name` shortened to fit kMaxNameBytes, "recorded speaker" if it is refused, " 2",
+  /// " 3"... added if it looks like the OR site's or another recorded speaker's). Its role is
+  /// remote (0x44 has no other role for it: a recorded OR site too, whose role would claim the
+  /// site's cameras). It stands on the last free spawn spot of each session (live participants
+  /// take the first), or for `or_site` at the table's centre, so that its voice comes from above
+  /// the table as the live site's does. Returns its participant id. Thread-safe.
+  uint32_t add_recorded_speaker(const std::string& name, bool or_site);
+  /// Forwards `packet` (voice_messages.hpp; sequence, frame and capture time as the replay
+  /// renumbered and stamped them, server clock) from recorded speaker `speaker` as 0x4e to every
+  /// participant of every session, and to the OR site's loudspeaker (site_listener). False, and
+  /// nothing sent, if `speaker` is not an id add_recorded_speaker returned. Thread-safe; never
+  /// blocks on the network.
+  bool recorded_voice(uint32_t speaker, const session::VoicePacketView& packet);
+
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;
   void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) override;
@@ -170,6 +190,14 @@ class SessionHub final : public SessionPort {
   void handle_voice(Member& m, session::Type type, std::span<const uint8_t> payload);
   void broadcast_voice(uint32_t from, const std::shared_ptr<const std::vector<uint8_t>>& message,
                        const Session& s);
+  struct Recorded {
+    uint32_t id;
+    std::string name;
+    bool or_site;
+  };
+  session::Spot free_spot(const Session& s, bool from_last) const;
+  static int connected(const Session& s);  // members with a connection (not the site, recorded)
+  Member& add_recorded_member(Session& s, const Recorded& r);
 
   SessionHubConfig config_;
   mutable std::mutex mutex_;
@@ -187,6 +215,7 @@ class SessionHub final : public SessionPort {
   std::shared_ptr<const std::vector<uint8_t>> case_message_;
   uint32_t case_generation_ = 0;
   bool site_muted_ = false;
+  std::vector<Recorded> recorded_;  // add_recorded_speaker's, members of every session
   std::atomic<bool> stopping_{false};
   std::thread presence_;
 };

@@ -17,6 +17,7 @@
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/replay.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -132,6 +133,9 @@ void open_cameras(const ServeArgs& a, Serving& s) {
         static_cast<double>(s.replay->timeline().duration_us()) / 1e6, info.stream.depth_codec,
         info.stream.color_codec,
         info.closed ? "" : "; not closed by its recorder, indexed by scanning");
+    for (const VoicePlan::Speaker& v : s.replay->voices().speakers)
+      spdlog::info("replaying the voice of '{}': {} packets (as '{} (recorded)' in the sessions)",
+                   printable(v.speaker.name), v.packets, printable(v.speaker.name));
     for (const auto& c : s.replay->cameras()) {
       names.push_back(c.description);
       filters.emplace_back();
@@ -259,7 +263,7 @@ void add_outlets(const ServeArgs& a, Serving& s) {
 void start_serving(const ServeArgs& a, const ServerConfig& config, Serving& s) {
   Server& server = *s.server;
   if (s.replay)
-    s.replay->start(server);
+    s.replay->start(server, &*s.hub);  // the recorded voices speak in the sessions
   else
     s.site->start(server);
   spdlog::info("serving {} camera(s) at {:.1f} fps on {}:{} ({}; Ctrl-C stops)", s.cameras.size(),
@@ -329,7 +333,14 @@ void stop_serving(Serving& s) {
           h.id, h.stream.packets, h.latency_ms_p50, h.latency_ms_p99, h.stream.concealed_percent());
   }
   if (s.site) s.site->stop();
-  if (s.replay) s.replay->stop();
+  if (s.replay) {
+    s.replay->stop();
+    if (!s.replay->voices().cues.empty())
+      spdlog::info("replay: {} recorded voice packets sent{}", s.replay->voices_sent(),
+                   s.replay->voices_skipped() ? fmt::format(", {} skipped (unreadable records)",
+                                                            s.replay->voices_skipped())
+                                              : "");
+  }
   s.server->stop();
   if (s.recorder) {
     s.recorder->stop();

@@ -8,6 +8,8 @@
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/text.hpp"
+#include "volcast/session/hub.hpp"
 
 namespace volcast {
 
@@ -45,6 +47,13 @@ ReplayPlayer::ReplayPlayer(const std::filesystem::path& path, ReplayOptions opti
                 std::to_string(options.from_s) + " s and " +
                 (options.to_s < 0 ? std::string("the end") : std::to_string(options.to_s) + " s") +
                 " (the recording lasts " + std::to_string(at(sets.size() - 1)) + " s)");
+  voices_ = voice_plan(reader_.info(), timeline_, first_, last_);
+  bad_voice_.assign(voices_.cues.size(), 0);
+  if (voices_.outside)
+    spdlog::warn(
+        "replay {}: {} of its {} voice packets lie outside its frame sets' time line (before the "
+        "first, after the last, or in a gap replayed shorter) and are not played",
+        path.string(), voices_.outside, reader_.info().voices.size());
 }
 
 ReplayPlayer::~ReplayPlayer() {
@@ -62,24 +71,89 @@ double ReplayPlayer::fps() const {
              : 30.0;
 }
 
-void ReplayPlayer::start(Server& server) {
-  start([&server](std::shared_ptr<const CapturedFrameSet> f) { server.publish(std::move(f)); });
+void ReplayPlayer::start(Server& server, SessionHub* hub) {
+  stop();  // the thread reads hub_ids_
+  Speak speak;
+  if (hub && !voices_.speakers.empty()) {
+    if (hub_ != hub) {
+      hub_ids_.clear();
+      for (const VoicePlan::Speaker& s : voices_.speakers)
+        hub_ids_[s.speaker.participant] =
+            hub->add_recorded_speaker(s.speaker.name, s.speaker.role == 1);
+      hub_ = hub;
+    }
+    speak = [hub, this](uint32_t speaker, const session::VoicePacketView& p) {
+      if (const auto it = hub_ids_.find(speaker); it != hub_ids_.end())
+        hub->recorded_voice(it->second, p);
+    };
+  }
+  start([&server](std::shared_ptr<const CapturedFrameSet> f) { server.publish(std::move(f)); },
+        std::move(speak));
 }
 
-void ReplayPlayer::start(Publish publish) {
+void ReplayPlayer::start(Publish publish, Speak speak) {
   stop();
   stop_ = false;
-  finished_ = false;
-  thread_ = std::thread([this, publish = std::move(publish)] { run(publish); });
+  frames_done_ = false;
+  voices_done_ = !speak || voices_.cues.empty();
+  const auto epoch = Clock::now();
+  const int64_t epoch_wall = wall_clock_us();
+  thread_ = std::thread([this, publish = std::move(publish), epoch] {
+    run(publish, epoch);
+    frames_done_ = true;
+  });
+  if (!voices_done_)
+    voice_thread_ = std::thread([this, speak = std::move(speak), epoch, epoch_wall] {
+      run_voices(speak, epoch, epoch_wall);
+      voices_done_ = true;
+    });
 }
 
 void ReplayPlayer::stop() {
   stop_ = true;
   if (thread_.joinable()) thread_.join();
+  if (voice_thread_.joinable()) voice_thread_.join();
 }
 
-void ReplayPlayer::run(const Publish& publish) {
-  using Clock = std::chrono::steady_clock;
+bool ReplayPlayer::sleep_until(Clock::time_point due) const {
+  while (!stop_ && Clock::now() < due)
+    std::this_thread::sleep_for(
+        std::min<Clock::duration>(due - Clock::now(), std::chrono::milliseconds(20)));
+  return !stop_;
+}
+
+void ReplayPlayer::run_voices(const Speak& speak, Clock::time_point epoch, int64_t epoch_wall_us) {
+  const std::vector<VoiceCue>& cues = voices_.cues;
+  std::vector<uint8_t> opus;
+  for (uint64_t pass = 0; !stop_; ++pass) {
+    const int64_t pass_us = static_cast<int64_t>(pass) * voices_.pass_us;
+    const auto p = static_cast<uint32_t>(pass);
+    for (size_t c = 0; c < cues.size(); ++c) {
+      if (!sleep_until(epoch + std::chrono::microseconds(pass_us + cues[c].at_us))) return;
+      if (bad_voice_[c]) {
+        ++voices_skipped_;
+        continue;
+      }
+      const RecordedVoice& v = reader_.info().voices[cues[c].voice];
+      const VoicePlan::Speaker& s = voices_.speakers[cues[c].speaker];
+      try {
+        reader_.read_voice(v, opus);  // beside the frame sets' thread: pread only
+      } catch (const Error& e) {
+        bad_voice_[c] = 1;
+        ++voices_skipped_;
+        spdlog::warn("replay: a voice packet of '{}' ({:.3f} s into a pass) is skipped: {}",
+                     printable(s.speaker.name), static_cast<double>(cues[c].at_us) / 1e6, e.what());
+        continue;
+      }
+      speak(v.participant, {v.sequence + p * s.sequences_per_pass, v.frame + p * s.frames_per_pass,
+                            epoch_wall_us + pass_us + cues[c].at_us, opus});
+      ++voices_sent_;
+    }
+    if (!options_.loop) return;
+  }
+}
+
+void ReplayPlayer::run(const Publish& publish, Clock::time_point epoch) {
   const auto& sets = reader_.info().frame_sets;
   const RecordingStream& s = reader_.info().stream;
   const size_t n = s.welcome.cameras.size();
@@ -87,16 +161,14 @@ void ReplayPlayer::run(const Publish& publish) {
   decoded.cameras.resize(n);
   uint64_t sequence = 0, position = 0;
   std::string last_warning;
-  while (!stop_) {
-    const auto start = Clock::now();
+  for (uint64_t pass = 0; !stop_; ++pass) {
+    const auto start =
+        epoch + std::chrono::microseconds(static_cast<int64_t>(pass) * voices_.pass_us);
     position += 2;  // a new pass: its first delta does not follow the last pass's end
     for (size_t k = first_; k <= last_ && !stop_; ++k, ++position) {
-      const auto due =
-          start + std::chrono::microseconds(timeline_.offset_us[k] - timeline_.offset_us[first_]);
-      while (!stop_ && Clock::now() < due)
-        std::this_thread::sleep_for(
-            std::min<Clock::duration>(due - Clock::now(), std::chrono::milliseconds(20)));
-      if (stop_) break;
+      if (!sleep_until(start + std::chrono::microseconds(timeline_.offset_us[k] -
+                                                         timeline_.offset_us[first_])))
+        break;
       auto frames = std::make_shared<CapturedFrameSet>();
       frames->capture_time_us = wall_clock_us();
       try {
@@ -130,7 +202,6 @@ void ReplayPlayer::run(const Publish& publish) {
     }
     if (!options_.loop) break;
   }
-  finished_ = true;
 }
 
 }  // namespace volcast

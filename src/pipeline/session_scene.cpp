@@ -169,12 +169,16 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
       r.scene.insert(r.scene.end(), fx.begin(), fx.end());
     }
   }
-  // Who speaks (a voice packet in the last 300 ms: silence is not sent) and who is muted.
+  // Who speaks (a voice packet in the last 300 ms: silence is not sent) and who is muted: over
+  // the head, or for a remote participant without a pose (a replay's recorded speaker, anyone
+  // before their first pose) over its spot 1.6 m high (a standing head), where its voice plays.
   for (const RemoteParticipant& p : s.others) {
-    if (!p.has_pose) continue;
+    if (!p.has_pose && p.role != session::Role::kRemote) continue;
+    const Eigen::Vector3f head =
+        p.has_pose ? p.pose.head.position : Eigen::Vector3f(p.spot.x, 1.6f, p.spot.z);
     const bool speaking = p.last_voice_us != 0 && now_us - p.last_voice_us < 300'000;
     const float pulse = 0.5f + 0.5f * std::sin(float(now_us % 1'000'000) * 2e-6f * float(M_PI) * 3);
-    const auto badge = voice_badge_primitives(p.pose.head.position, speaking, p.muted, pulse);
+    const auto badge = voice_badge_primitives(head, speaking, p.muted, pulse);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
   if (options.own_muted && s.has_own_body && s.own_body.hands_tracked) {

@@ -47,6 +47,8 @@ struct TestParticipant {
   std::thread receiver;
   std::atomic<bool> ended{false};
   std::atomic<uint64_t> frame_sets{0};  ///< received from the stream
+  std::atomic<int64_t> first_frame_set_us{0};  ///< when the first arrived (local wall clock)
+  std::atomic<int64_t> first_capture_us{0};    ///< the first one's capture time (server clock)
   std::string error;
 
   TestParticipant(const SessionSite& s, SessionClientOptions options)
@@ -58,7 +60,11 @@ struct TestParticipant {
     receiver = std::thread([this] {
       ReceivedFrameSet rx;
       try {
-        while (client->receive(rx)) ++frame_sets;
+        while (client->receive(rx))
+          if (frame_sets++ == 0) {
+            first_frame_set_us = wall_clock_us();
+            first_capture_us = rx.times.capture_us;
+          }
       } catch (const std::exception& e) {
         error = e.what();
       }

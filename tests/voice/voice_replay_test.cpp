@@ -33,7 +33,7 @@ using audio::kSampleRate;
 using test::eventually;
 using test::TestParticipant;
 
-constexpr double kSiteFps = 10;
+constexpr double kSiteFps = 5;  // the stream is not what is tested: a light one
 
 // Microseconds of `samples` at 48 kHz.
 int64_t us_of(std::ptrdiff_t samples) {
@@ -41,14 +41,17 @@ int64_t us_of(std::ptrdiff_t samples) {
 }
 
 // A session on the hands site in which A says `said` (its microphone file), recorded by `volcast
-// record --session OR` (stopped by SIGTERM: it closes the file) to `file`.
+// record --session OR` (stopped by SIGTERM: it closes the file) to `file`. The recorder does not
+// sync the file while it runs: an fdatasync on a busy disk holds up its receive loop, and the
+// server drops the oldest of the voice packets waiting for it (crash safety is tested elsewhere).
 void record_talk(const std::filesystem::path& dir, const std::string& file,
                  const std::vector<float>& said) {
   test::SessionSite s({}, kSiteFps);
   TestParticipant a(s, test::hand_driven("A"));
   ASSERT_TRUE(eventually([&] { return a.now().joined; }));
-  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", s.link(),
-                                "--out",        file,     "--session", "OR"};
+  std::vector<std::string> args{VOLCAST_BINARY,    "record", "--connect", s.link(),
+                                "--out",           file,     "--session", "OR",
+                                "--sync-interval", "600000"};
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);
@@ -223,6 +226,10 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     const std::ptrdiff_t expected = first_frame_set + in_recording.offset;
     const test::Alignment found = test::align(phrase, out.samples, expected - std::ptrdiff_t(9600),
                                               expected + std::ptrdiff_t(kSampleRate));
+    // A jitter buffer that changes its delay mid-phrase (a loaded machine) shifts the rest by
+    // whole frames: each quarter of the phrase is also aligned on its own (support/speech.hpp).
+    const double correlation =
+        std::max(found.correlation, test::piecewise_correlation(phrase, out.samples, found.offset));
     ASSERT_EQ(heard.heard.size(), 1u);
     const voice::HeardVoice& h = heard.heard[0];
     // How much later than in the recording L hears the phrase after its first frame set, and
@@ -239,11 +246,10 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
         "%.1f ms, p99 %.1f ms; the frame set's %.1f ms); correlation %.3f; %llu packets, %.2f %% "
         "concealed\n",
         double(recorded_offset_us) / 1e6, late_ms, paths_ms, h.latency_ms_p50, h.latency_ms_p99,
-        frame_ms, found.correlation, (unsigned long long)h.stream.packets,
-        h.stream.concealed_percent());
+        frame_ms, correlation, (unsigned long long)h.stream.packets, h.stream.concealed_percent());
     EXPECT_EQ(h.name, "A (recorded)");
     EXPECT_EQ(h.stream.packets, replay.voices().cues.size());
-    EXPECT_GE(found.correlation, 0.85);
+    EXPECT_GE(correlation, 0.85);
     // In sync, within 60 ms once both paths are allowed for (the frame set's way to L and the
     // voice's, its jitter buffer included).
     EXPECT_LE(std::abs(late_ms), 60.0 + frame_ms + h.latency_ms_p99);
@@ -305,15 +311,15 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
                sent.push_back({p.sequence, p.frame, p.capture_us});
              });
   const size_t cues = plan.cues.size();
+  const uint64_t sets = loop.last_frame_set() - loop.first_frame_set() + 1;
   ASSERT_TRUE(eventually(
       [&] {
         std::lock_guard lock(mutex);
-        return sent.size() >= 2 * (cues - 1);
+        return sent.size() >= 2 * (cues - 1) && published >= 2 * sets;
       },
-      20s));
+      30s));
   loop.stop();
   EXPECT_GE(loop.voices_skipped(), 2u);
-  EXPECT_GE(published, 2 * (loop.last_frame_set() - loop.first_frame_set() + 1));
   EXPECT_EQ(loop.frame_sets_skipped(), 0u);
   std::lock_guard lock(mutex);
   const auto is_broken = [&](size_t cue) {

@@ -142,7 +142,11 @@ export class Voice {
     [l.forwardX, l.forwardY, l.forwardZ].forEach((p, i) => p.setValueAtTime(fwd[i], t));
     [l.upX, l.upY, l.upZ].forEach((p, i) => p.setValueAtTime(up[i], t));
     for (const [id, s] of this.speakers) {
-      const at = id === SITE_ID ? SITE_POSITION : this.session.others.get(id)?.body?.head.position;
+      // The OR site above the table; a participant at its head, or standing at its spot before
+      // its first pose (a replay's recorded speakers never send one).
+      const p = this.session.others.get(id);
+      const at = id === SITE_ID ? SITE_POSITION
+                 : p?.body ? p.body.head.position : p ? [p.spot.x, 1.6, p.spot.z] : null;
       if (!at) continue;
       [s.panner.positionX, s.panner.positionY, s.panner.positionZ]
           .forEach((p, i) => p.setValueAtTime(at[i], t));

@@ -16,6 +16,7 @@
 #include "volcast/core/text.hpp"
 #include "volcast/pipeline/export.hpp"
 #include "volcast/pipeline/session_client.hpp"
+#include "volcast/record/recorder.hpp"
 #include "volcast/record/recording.hpp"
 #include "volcast/voice/voice_export.hpp"
 
@@ -85,14 +86,16 @@ int run_record(const RecordArgs& a) {
   RecordingWriterOptions wo;
   wo.overwrite = a.overwrite;
   wo.sync_interval_ms = std::max(0, a.sync_interval_ms);
-  RecordingWriter writer(a.out, stream, wo);
+  // The disk is written on the recorder's own thread: a slow write or the periodic fdatasync
+  // never holds up reading, so the server never drops the session's voices queued for us.
+  BackgroundRecorder recorder(a.out, stream, wo);
   spdlog::info(
       "recording {} camera(s), tier {}/{}{} to {} (Ctrl-C stops; the file replays "
       "whenever it stops)",
       stream.welcome.cameras.size(), c.depth_codec, c.color_codec,
       c.color_quality ? fmt::format("/{}", c.color_quality) : "", a.out);
   // The session's voices (--session): the recorder joins as a listener; what it hears arrives
-  // on this thread, inside client.receive().
+  // on this thread, inside client.receive(), and is queued for the recorder's thread.
   std::unique_ptr<SessionClient> listener;
   std::map<uint32_t, std::string> speakers;  // those with a Speaker record
   if (!a.session.empty()) {
@@ -104,16 +107,16 @@ int run_record(const RecordArgs& a) {
     listener = std::make_unique<SessionClient>(std::move(o));
     listener->start(client);
     Participant* p = listener->participant();
-    p->set_voice_handler([&writer, &speakers, p](uint32_t id, const session::VoicePacketView& v) {
+    p->set_voice_handler([&recorder, &speakers, p](uint32_t id, const session::VoicePacketView& v) {
       if (!speakers.contains(id)) {
         std::string name = "participant " + std::to_string(id);
         uint8_t role = 0;
         for (const RemoteParticipant& r : p->snapshot(wall_clock_us()).others)
           if (r.id == id) name = r.name, role = static_cast<uint8_t>(r.role);
-        writer.append_speaker(id, name, role);
+        recorder.push_speaker(id, name, role);
         speakers[id] = name;
       }
-      writer.append_voice(id, v.sequence, v.frame, v.capture_us, v.opus);
+      recorder.push_voice(id, v.sequence, v.frame, v.capture_us, v.opus);
     });
     spdlog::info("recording the voices of session '{}' (joined as 'Recorder')", a.session);
   }
@@ -132,14 +135,21 @@ int run_record(const RecordArgs& a) {
       ended = "the server closed the stream";
       break;
     }
-    writer.append(f.encoded_body);  // throws on a full disk; what was written stays
+    // A copy the recorder's thread writes while the next frame set arrives into `f`.
+    auto body = std::make_shared<const std::vector<uint8_t>>(f.encoded_body);
+    TierFrameSet queued;
+    queued.key = f.key;
+    queued.body = *body;
+    queued.keep = std::move(body);
+    recorder.push(queued);
+    const RecorderStats st = recorder.stats();
+    if (!st.error.empty()) break;  // a full disk: what was written stays (said below)
     const auto now = std::chrono::steady_clock::now();
     if (now - shown >= std::chrono::milliseconds(500)) {
       shown = now;
-      progress_line(
-          fmt::format("recording: {:.1f} s, {} frame sets, {} ({:.1f} Mbit/s)", elapsed,
-                      writer.frame_sets(), mb(writer.bytes()),
-                      static_cast<double>(writer.bytes()) * 8 / 1e6 / std::max(elapsed, 1e-3)));
+      progress_line(fmt::format("recording: {:.1f} s, {} frame sets, {} ({:.1f} Mbit/s)", elapsed,
+                                st.frame_sets, mb(st.bytes),
+                                static_cast<double>(st.bytes) * 8 / 1e6 / std::max(elapsed, 1e-3)));
     }
   }
   end_progress();
@@ -148,16 +158,27 @@ int run_record(const RecordArgs& a) {
     listener->stop();
   }
   client.close();
-  writer.close();
+  recorder.stop();  // writes what is queued and the index
+  const RecorderStats st = recorder.stats();
+  if (!st.error.empty())
+    throw Error(
+        fmt::format("record: {} ({} frame sets and {} voice packets before it are kept "
+                    "in {})",
+                    st.error, st.frame_sets, st.voice_packets, a.out));
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::printf(
       "recorded %llu frame sets and %llu voice packets in %.1f s, %s, to %s (stopped: "
       "%s)\n",
-      static_cast<unsigned long long>(writer.frame_sets()),
-      static_cast<unsigned long long>(writer.voices()), seconds, mb(writer.bytes()).c_str(),
+      static_cast<unsigned long long>(st.frame_sets),
+      static_cast<unsigned long long>(st.voice_packets), seconds, mb(st.bytes).c_str(),
       a.out.c_str(), ended.c_str());
-  if (writer.frame_sets() == 0) throw Error("record: no frame set arrived");
+  if (st.dropped > 0 || st.voice_dropped > 0)
+    spdlog::warn(
+        "record: the disk was slower than the stream: {} frame sets and {} voice "
+        "packets were not recorded",
+        st.dropped, st.voice_dropped);
+  if (st.frame_sets == 0) throw Error("record: no frame set arrived");
   return 0;
 }
 

@@ -41,17 +41,14 @@ int64_t us_of(std::ptrdiff_t samples) {
 }
 
 // A session on the hands site in which A says `said` (its microphone file), recorded by `volcast
-// record --session OR` (stopped by SIGTERM: it closes the file) to `file`. The recorder does not
-// sync the file while it runs: an fdatasync on a busy disk holds up its receive loop, and the
-// server drops the oldest of the voice packets waiting for it (crash safety is tested elsewhere).
+// record --session OR` (stopped by SIGTERM: it closes the file) to `file`.
 void record_talk(const std::filesystem::path& dir, const std::string& file,
                  const std::vector<float>& said) {
   test::SessionSite s({}, kSiteFps);
   TestParticipant a(s, test::hand_driven("A"));
   ASSERT_TRUE(eventually([&] { return a.now().joined; }));
-  std::vector<std::string> args{VOLCAST_BINARY,    "record", "--connect", s.link(),
-                                "--out",           file,     "--session", "OR",
-                                "--sync-interval", "600000"};
+  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", s.link(),
+                                "--out",        file,     "--session", "OR"};
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);

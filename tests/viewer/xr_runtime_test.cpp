@@ -223,7 +223,8 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 // 20) and only then; a press of Y (syncs 30 to 32) mutes it; the observer sees both, and the
 // headset shows a red ball over its left hand.
 TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
-  const MockRuntime mock("xr_runtime_session", "60");
+  // 42 frames: X held, a pause, Y pressed, and 9 frames to show the muted ball (31 s at 60, alone).
+  const MockRuntime mock("xr_runtime_session", "42");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:3,20;y/click:30,32");
   // The left hand held up ahead, where the eyes see the red ball over it once muted.

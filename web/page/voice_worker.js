@@ -160,9 +160,10 @@ function voiceDecoder(s) {
   s.decoder.configure(VOICE_DECODER);
 }
 
-// Frame `frame` (the sender's numbering) to the playout worklet.
-function voicePlay(s, pcm, frame) {
-  const m = {pcm, frame};
+// Frame `frame` (the sender's numbering) to the playout worklet; `spurt`: the first after a DTX
+// silence (or the first of all), where the worklet may set its delay anew.
+function voicePlay(s, pcm, frame, spurt = false) {
+  const m = {pcm, frame, spurt};
   if (s.port) s.port.postMessage(m, [pcm.buffer]);
   else if (s.waiting.length < 10) s.waiting.push(m);
 }
@@ -179,9 +180,11 @@ function voiceReceive(payload) {
              captureUs: Number(v.getBigInt64(12, true))};
   const s = voiceSpeaker(v.getUint32(0, true));
   if (s.last && p.sequence <= s.last.sequence) return;  // old or repeated
+  let spurt = !s.last;
   if (s.last) {
     // Lost packets: the frames just before this one (a longer gap in the frame numbers is DTX).
     const lost = Math.min(p.sequence - s.last.sequence - 1, p.frame - s.last.frame - 1, 25);
+    spurt = p.frame - s.last.frame - 1 > Math.max(lost, 0);
     for (let k = 0; k < lost; ++k) {
       const out = new Float32Array(VOICE_FRAME);
       if (s.lastSamples) for (let i = 0; i < VOICE_FRAME; ++i) out[i] = s.lastSamples[i] * 0.5 ** (k + 1);
@@ -194,7 +197,7 @@ function voiceReceive(payload) {
   s.transitMs.push((wallUs() + clockOffsetUs - p.captureUs) / 1000);
   if (s.transitMs.length > 3000) s.transitMs.shift();
   if (s.pending.length > 50) return void voiceDecoder(s);  // a decoder that stopped answering
-  s.pending.push({captureUs: p.captureUs, frame: p.frame});
+  s.pending.push({captureUs: p.captureUs, frame: p.frame, spurt});
   s.decoder.decode(new EncodedAudioChunk({type: 'key', timestamp: p.frame * VOICE_FRAME_US,
                                           data: payload.subarray(24)}));
 }
@@ -218,7 +221,7 @@ function voiceDecoded(s, data) {
     s.latencyMs.push((wallUs() + clockOffsetUs - pending.captureUs) / 1000 + Math.max(0, waitMs));
     if (s.latencyMs.length > 3000) s.latencyMs.shift();
   }
-  voicePlay(s, out, pending.frame);
+  voicePlay(s, out, pending.frame, pending.spurt);
 }
 
 // What the page shows (window.volcast.voice), by speaker id.

@@ -4,11 +4,12 @@
 // - volcast-capture: the microphone cut into 20 ms frames (960 samples) for the Opus encoder, each
 //   posted to the worker with the context time of its first sample.
 // - volcast-playout: one speaker's playout buffer, played by frame number (the sender's time
-//   line), so that the silences between talk spurts (DTX) keep their length. The first frame
-//   plays `target` (60 ms) after it arrives; a frame that comes after its time is dropped and
-//   the delay grows by a frame (up to 200 ms); 10 s without a late frame, or more than target +
-//   100 ms waiting, skip a frame of silence (the delay shrinks, down to 40 ms). Posts the worker
-//   its cursor and counts every 100 ms.
+//   line), so that the silences within a talk spurt keep their length. A talk spurt's first
+//   frame plays `target` (60 ms) after it arrives (the silence before it is stretched or cut,
+//   unheard); a frame that comes after its time is dropped and the delay grows by a frame (up
+//   to 200 ms); 10 s without a late frame, or more than target + 100 ms waiting, skip a frame of
+//   silence (the delay shrinks, down to 40 ms). Posts the worker its cursor and counts every
+//   100 ms.
 // - volcast-tap: what the page plays (stereo), posted in blocks of 0.5 s (what it heard, for tests).
 const FRAME = 960;
 const MIN_TARGET = 2 * FRAME;   // 40 ms
@@ -54,14 +55,20 @@ class Playout extends AudioWorkletProcessor {
     this.worker = null;
     this.port.onmessage = (e) => {
       this.worker = e.data;
-      this.worker.onmessage = (f) => this.put(f.data.frame, f.data.pcm);
+      this.worker.onmessage = (f) => this.put(f.data.frame, f.data.pcm, f.data.spurt);
     };
   }
-  put(frame, pcm) {
+  put(frame, pcm, spurt) {
     const start = frame * FRAME;
-    // The first frame, or a sender that jumped more than a second: play it `target` from now.
-    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate)
+    // The first frame, a sender that jumped more than a second, or a talk spurt's first frame
+    // while nothing waits (the cursor is in silence, so moving it is not heard): play it `target`
+    // from now.
+    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate ||
+        (spurt && this.frames.size === 0 && start > this.cursor)) {
+      if (this.cursor !== null && start - this.target > this.cursor)
+        this.skipped += start - this.target - this.cursor;
       this.cursor = start - this.target;
+    }
     if (start + FRAME <= this.cursor) {  // its time has passed: wait a frame longer from now on
       ++this.late;
       this.target = Math.min(MAX_TARGET, this.target + FRAME);

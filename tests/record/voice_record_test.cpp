@@ -251,7 +251,9 @@ TEST(VoiceRecording, AReplayPlaysEachVoiceWhereItFallsAmongTheFrameSets) {
     EXPECT_EQ(cue.at_us, v.capture_us - 1'000'000) << c;
     EXPECT_EQ(cue.frame_set, static_cast<size_t>((v.capture_us - 1'000'000) / 33'333)) << c;
     EXPECT_EQ(all.speakers[cue.speaker].speaker.participant, v.participant) << c;
-    if (c > 0) EXPECT_GE(cue.at_us, all.cues[c - 1].at_us) << c;
+    if (c > 0) {
+      EXPECT_GE(cue.at_us, all.cues[c - 1].at_us) << c;
+    }
   }
   // Frame sets 3..6: the packets from frame set 3's capture to a frame interval after 6's, on the
   // selection's time line; speaker 1 has none there.

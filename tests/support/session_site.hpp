@@ -46,7 +46,7 @@ struct TestParticipant {
   std::unique_ptr<SessionClient> session;
   std::thread receiver;
   std::atomic<bool> ended{false};
-  std::atomic<uint64_t> frame_sets{0};  ///< received from the stream
+  std::atomic<uint64_t> frame_sets{0};         ///< received from the stream
   std::atomic<int64_t> first_frame_set_us{0};  ///< when the first arrived (local wall clock)
   std::atomic<int64_t> first_capture_us{0};    ///< the first one's capture time (server clock)
   std::string error;

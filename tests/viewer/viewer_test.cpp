@@ -470,7 +470,7 @@ TEST(DesktopViewer, PushToTalkWithVAndMuteWithMReachTheOthers) {
     voice::VoiceConfig v;
     v.mic = speech.string();
     v.push_to_talk = true;
-    v.spatial = false;  // no loudspeaker: no HRTF to run
+    v.spatial = false;             // no loudspeaker: no HRTF to run
     v.volumes["Observer"] = 0.5f;  // --volume Observer=0.5
     window_link = std::make_unique<voice::VoiceLink>(*window.participant(), v);
   };

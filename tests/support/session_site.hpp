@@ -49,6 +49,7 @@ struct TestParticipant {
   std::atomic<uint64_t> frame_sets{0};         ///< received from the stream
   std::atomic<int64_t> first_frame_set_us{0};  ///< when the first arrived (local wall clock)
   std::atomic<int64_t> first_capture_us{0};    ///< the first one's capture time (server clock)
+  std::atomic<uint64_t> first_sequence{0};     ///< the first one's site sequence
   std::string error;
 
   TestParticipant(const SessionSite& s, SessionClientOptions options)
@@ -64,6 +65,7 @@ struct TestParticipant {
           if (frame_sets++ == 0) {
             first_frame_set_us = wall_clock_us();
             first_capture_us = rx.times.capture_us;
+            first_sequence = rx.frames.sequence;
           }
       } catch (const std::exception& e) {
         error = e.what();

@@ -6,7 +6,6 @@
 // reduction.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 
 #include <atomic>
@@ -17,6 +16,7 @@
 #include "support/impaired_link.hpp"
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
+#include "support/voice_recorder.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/wire.hpp"
@@ -460,26 +460,14 @@ TEST(Voice, AKilledRecorderKeepsTheVoicesAndExportGivesThemBack) {
   TestParticipant a(s, test::hand_driven("A"));
   ASSERT_TRUE(eventually([&] { return a.now().joined; }));
   const auto dir = test::temp_dir("voice_record");
-  const std::string file = (dir / "talk.vcr").string(), link = s.link();
-  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", link,
-                                "--out",        file,     "--session", "OR"};
-  std::vector<char*> argv;
-  for (auto& x : args) argv.push_back(x.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ), 0);
+  const std::string file = (dir / "talk.vcr").string();
+  const pid_t pid = test::spawn_recorder(s.link(), file);
+  ASSERT_NE(pid, 0);
   ASSERT_TRUE(eventually([&] { return sees(a, "Recorder"); }));
   std::vector<size_t> starts;
   const std::vector<std::string> names{"Front_Center", "Side_Left"};
   const std::vector<float> said = test::phrases(names, 0.3, &starts);
-  voice::VoiceConfig ca;
-  ca.mic = test::write_voice(dir / "a.wav", said).string();
-  ca.mic_start_us = wall_clock_us() + 200'000;
-  {
-    voice::VoiceLink va(a.p(), ca);
-    ASSERT_TRUE(eventually([&] { return va.mic_ended(); }, 30s));
-    std::this_thread::sleep_for(500ms);  // the last packets reach the recorder
-  }
+  test::speak(a, dir / "a.wav", said, 500ms);
   kill(pid, SIGKILL);
   int status = 0;
   waitpid(pid, &status, 0);

@@ -1,0 +1,51 @@
+#pragma once
+// `volcast record --session` as a child process, and a participant saying a prepared phrase list
+// into it: what the voice recording and replay tests share.
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support/session_site.hpp"
+#include "support/speech.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/voice/voice_link.hpp"
+
+namespace volcast::test {
+
+/// Starts `volcast record --connect LINK --out FILE --session SESSION`; returns its pid, 0 when
+/// it could not be started (a test failure is added).
+inline pid_t spawn_recorder(const std::string& link, const std::string& file,
+                            const std::string& session = "OR") {
+  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", link,
+                                "--out",        file,     "--session", session};
+  std::vector<char*> argv;
+  for (auto& x : args) argv.push_back(x.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) {
+    ADD_FAILURE() << "cannot start " << VOLCAST_BINARY << " record";
+    return 0;
+  }
+  return pid;
+}
+
+/// `p` says `said` (48 kHz mono, written to `wav` as its microphone file) from 200 ms on, and
+/// returns `tail` after the file has ended (the last packets' way through).
+inline void speak(TestParticipant& p, const std::filesystem::path& wav,
+                  const std::vector<float>& said, std::chrono::milliseconds tail) {
+  voice::VoiceConfig c;
+  c.mic = write_voice(wav, said).string();
+  c.mic_start_us = wall_clock_us() + 200'000;
+  voice::VoiceLink link(p.p(), c);
+  EXPECT_TRUE(eventually([&] { return link.mic_ended(); }, std::chrono::seconds(30)));
+  std::this_thread::sleep_for(tail);
+}
+
+}  // namespace volcast::test

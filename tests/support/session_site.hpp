@@ -92,6 +92,32 @@ struct TestParticipant {
   }
 };
 
+/// Watches, from `observer`, participant `name`'s voice while it is there: whether its packets
+/// arrived, and whether it was then seen muted. Polls every 5 ms on a thread of its own until
+/// stop() (or destruction).
+struct VoiceWatch {
+  std::atomic<bool> heard{false}, saw_muted{false};
+  VoiceWatch(const TestParticipant& observer, std::string name)
+      : thread_([this, &observer, name = std::move(name)] {
+          while (!done_) {
+            if (const auto o = observer.other(name)) {
+              heard = heard || o->voice_packets > 0;
+              saw_muted = saw_muted || (heard && o->muted);
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+          }
+        }) {}
+  ~VoiceWatch() { stop(); }
+  void stop() {
+    done_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
 /// Options joining session `session` as `name`.
 inline SessionClientOptions named(const std::string& name, const std::string& session = "OR") {
   SessionClientOptions o;

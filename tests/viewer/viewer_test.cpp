@@ -496,19 +496,9 @@ TEST(DesktopViewer, PushToTalkWithVAndMuteWithMReachTheOthers) {
   desktop.max_frames = 22;
   opt.presenter = desktop_presenter(desktop);
   // What the observer sees of the window while it is there (it leaves when the window closes).
-  std::atomic<bool> done{false}, heard{false}, saw_muted{false};
-  std::thread watch([&] {
-    while (!done) {
-      if (const auto desk = observer.other("Desk")) {
-        heard = heard || desk->voice_packets > 0;
-        saw_muted = saw_muted || (heard && desk->muted);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  });
+  test::VoiceWatch watch(observer, "Desk");
   const ViewerResult r = run_viewer(opt);
-  done = true;
-  watch.join();
+  watch.stop();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << r.error;
   ASSERT_TRUE(window_link);
   const voice::VoiceStats sent = window_link->stats();
@@ -520,8 +510,8 @@ TEST(DesktopViewer, PushToTalkWithVAndMuteWithMReachTheOthers) {
   EXPECT_GT(sent.packets_sent, 5u) << "V held: it talked";
   EXPECT_LT(sent.packets_sent + sent.dtx_frames, sent.frames_captured)
       << "before V and after it, the microphone was not sent";
-  EXPECT_TRUE(heard) << "the observer heard the window";
-  EXPECT_TRUE(saw_muted) << "then saw it muted";
+  EXPECT_TRUE(watch.heard) << "the observer heard the window";
+  EXPECT_TRUE(watch.saw_muted) << "then saw it muted";
   // The window heard the observer at --volume's gain; a slider's gain replaces it.
   const auto observer_voice_heard = [&]() -> std::optional<voice::HeardVoice> {
     for (const voice::HeardVoice& h : window_link->stats().heard)

@@ -267,19 +267,9 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   xr.voice = [&] { return talk.get(); };
   opt.presenter = xr_presenter(xr);
   // What the observer hears of the headset while it is there (it leaves when the session ends).
-  std::atomic<bool> done{false}, heard{false}, saw_muted{false};
-  std::thread watch([&] {
-    while (!done) {
-      if (const auto h = observer.other("Headset")) {
-        heard = heard || h->voice_packets > 0;
-        saw_muted = saw_muted || (heard && h->muted);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-  });
+  test::VoiceWatch watch(observer, "Headset");
   const ViewerResult r = run_viewer(opt);
-  done = true;
-  watch.join();
+  watch.stop();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 30u);
   ASSERT_TRUE(talk);
@@ -292,8 +282,8 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   EXPECT_GT(sent.packets_sent, 0u) << "X held: it talked";
   EXPECT_LT(sent.packets_sent + sent.dtx_frames, sent.frames_captured)
       << "before X and after it, the microphone was not sent";
-  EXPECT_TRUE(heard) << "the observer heard the headset";
-  EXPECT_TRUE(saw_muted) << "then saw it muted";
+  EXPECT_TRUE(watch.heard) << "the observer heard the headset";
+  EXPECT_TRUE(watch.saw_muted) << "then saw it muted";
 
   const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
   observer.end();

@@ -106,9 +106,8 @@ class Playout extends AudioWorkletProcessor {
     }
     this.calm += out.length;
     if (++this.quanta % 38 === 0 && this.worker)  // about every 100 ms
-      this.worker.postMessage({cursor: this.cursor, at: currentTime, target: this.target,
-                               late: this.late, skipped: this.skipped,
-                               queued: Math.max(0, ahead)});
+      this.worker.postMessage({cursor: this.cursor, target: this.target, late: this.late,
+                               skipped: this.skipped});
     return true;
   }
 }

@@ -106,6 +106,34 @@ inline Alignment align(std::span<const float> a, std::span<const float> b, std::
   return best;
 }
 
+/// `a`'s words: the runs of sound between silences of at least `gap` samples (20 ms windows
+/// under 1 % of the phrase's peak RMS), as [begin, end) sample ranges.
+inline std::vector<std::pair<size_t, size_t>> words(std::span<const float> a, size_t gap = 4800) {
+  constexpr size_t w = 960;
+  std::vector<double> rms;
+  double peak = 0;
+  for (size_t i = 0; i + w <= a.size(); i += w) {
+    double e = 0;
+    for (size_t k = 0; k < w; ++k) e += double(a[i + k]) * a[i + k];
+    rms.push_back(std::sqrt(e / w));
+    peak = std::max(peak, rms.back());
+  }
+  std::vector<std::pair<size_t, size_t>> out;
+  size_t quiet = 0;
+  for (size_t j = 0; j < rms.size(); ++j) {
+    if (rms[j] < 0.01 * peak) {
+      ++quiet;
+      continue;
+    }
+    if (out.empty() || quiet * w >= gap)
+      out.push_back({j * w, (j + 1) * w});
+    else
+      out.back().second = (j + 1) * w;
+    quiet = 0;
+  }
+  return out;
+}
+
 /// The mean correlation of `a`'s `pieces` equal parts with `b`, each aligned on its own within
 /// ±`slack` samples of where `a` as a whole sits (align). An adaptive jitter buffer shifts later
 /// speech by whole frames when it changes its delay: each part then still matches, the whole

@@ -15,6 +15,7 @@ using audio::kFrameSamples;
 using audio::kFrameUs;
 
 struct SiteVoice::Heard {
+  explicit Heard(const audio::VoiceStreamConfig& playout) : stream(playout) {}
   audio::VoiceStream stream;
   Latencies latencies;
 };
@@ -50,7 +51,7 @@ void SiteVoice::stop() {
 void SiteVoice::put(uint32_t participant, const session::VoicePacketView& packet) {
   std::lock_guard lock(mutex_);
   auto& h = heard_voices_[participant];
-  if (!h) h = std::make_unique<Heard>();
+  if (!h) h = std::make_unique<Heard>(config_.playout);
   h->stream.put(packet.sequence, packet.frame, packet.capture_us, packet.opus);
 }
 

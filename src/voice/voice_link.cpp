@@ -20,6 +20,7 @@ using audio::kFrameSamples;
 using audio::kFrameUs;
 
 struct VoiceLink::Speaker {
+  explicit Speaker(const audio::VoiceStreamConfig& playout) : stream(playout) {}
   audio::VoiceStream stream;
   std::string name;
   float volume = 1;
@@ -53,7 +54,7 @@ VoiceLink::VoiceLink(Participant& participant, VoiceConfig config)
   participant_.set_voice_handler([this](uint32_t from, const session::VoicePacketView& p) {
     std::lock_guard lock(mutex_);
     auto& s = speakers_[from];
-    if (!s) s = std::make_unique<Speaker>();
+    if (!s) s = std::make_unique<Speaker>(config_.playout);
     s->stream.put(p.sequence, p.frame, p.capture_us, p.opus);
   });
   thread_ = std::thread([this] { run(); });
@@ -81,7 +82,7 @@ void VoiceLink::set_talking(bool talking) {
 void VoiceLink::set_volume(uint32_t participant, float volume) {
   std::lock_guard lock(mutex_);
   auto& s = speakers_[participant];
-  if (!s) s = std::make_unique<Speaker>();
+  if (!s) s = std::make_unique<Speaker>(config_.playout);
   s->volume = std::clamp(volume, 0.0f, 4.0f);
   s->volume_set = true;
 }

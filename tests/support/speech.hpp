@@ -151,6 +151,35 @@ inline double piecewise_correlation(std::span<const float> a, std::span<const fl
   return sum / pieces;
 }
 
+/// How much of `a` came through in `b` where the path may have paused it: `a` cut into pieces
+/// of `piece` samples (100 ms), each aligned on its own within ±`slack` samples of where the piece
+/// before it was found (the first: of `offset`), their correlations averaged weighted by the
+/// pieces' energy (pieces under 1 % of the mean energy, silence, are left out). A playout buffer
+/// that lets a stalled stream resume (a pause inside a word, the rest shifted) keeps this high;
+/// one that conceals what came late lowers it.
+inline double resumed_correlation(std::span<const float> a, std::span<const float> b,
+                                  std::ptrdiff_t offset, size_t piece = 4800,
+                                  std::ptrdiff_t slack = 4800) {
+  double mean_energy = 0;
+  for (const float x : a) mean_energy += double(x) * x;
+  mean_energy /= double(std::max<size_t>(a.size(), 1));
+  double sum = 0, weight = 0;
+  std::ptrdiff_t shift = 0;  // where the last piece was found, relative to where it was said
+  for (size_t at = 0; at + piece <= a.size(); at += piece) {
+    const std::span<const float> p = a.subspan(at, piece);
+    double e = 0;
+    for (const float x : p) e += double(x) * x;
+    e /= double(piece);
+    if (e < 0.01 * mean_energy) continue;
+    const std::ptrdiff_t expected = offset + std::ptrdiff_t(at) + shift;
+    const Alignment found = align(p, b, expected - slack, expected + slack);
+    shift = found.offset - offset - std::ptrdiff_t(at);
+    sum += e * found.correlation;
+    weight += e;
+  }
+  return weight > 0 ? sum / weight : 0;
+}
+
 /// Mean square of x[from, from + n).
 inline double energy(std::span<const float> x, size_t from, size_t n) {
   double e = 0;

@@ -1,7 +1,8 @@
 #pragma once
-// One speaker's incoming voice at a receiver: speexdsp's adaptive jitter buffer
-// (speex/speex_jitter.h, timestamps in samples) in front of a VoiceDecoder, with Opus in-band FEC
-// when a packet is missing but the next one is there, PLC (comfort noise after DTX) otherwise.
+// One speaker's incoming voice at a receiver: a playout (jitter) buffer in front of a
+// VoiceDecoder, with Opus in-band FEC when a packet is missing but the next one is there, PLC
+// (comfort noise after DTX) otherwise. put() is called as packets arrive, next() once per 20 ms of
+// the playout clock; arrival times are counted in next() calls.
 //
 // Packets carry `sequence` (+1 per packet sent) and `frame` (+1 per 20 ms frame captured, sent
 // or not: DTX skips frames). A gap between two played packets of `sequence` s -> s' and `frame`
@@ -18,21 +19,41 @@
 //    frames_silent to frames_concealed. Counts are therefore final once the next packet plays.
 // Before the first packet, frames are silence (zeros), kSilence.
 //
-// On (re)synchronisation (the first packet, or the jitter buffer's own reset after > 20 missing
-// frames, as after a DTX pause) playout waits the last measured delay (at least
-// `initial_delay_ms`) before the first packet plays, so a new talk spurt starts with the buffer
-// the last one needed. (A wait longer than the jitter needs is undone by the jitter buffer, which
-// then drops frames: they count as late and lost.)
+// Two playout buffers (VoiceStreamConfig::playout); both play by the sender's frame number, so a
+// silence inside a talk spurt keeps its length:
+//  - kSpurt (the default, Volcast's own): the delay is chosen from the arrival offsets of the
+//    last 500 packets (10 s of talk): the least delay that would have let at most
+//    `max_late_percent` of them arrive too late (one frame more while fewer than 50 are known,
+//    at most 200 ms more than the median packet waits). The delay changes only where no one
+//    hears it: at a talk spurt's start (the silence before it is stretched or cut, never its
+//    first frame), and inside a spurt only across a quiet frame (20 dB under the spurt's recent
+//    level, or under -60 dBFS): one quiet frame inserted (kSilence, counted in frames_inserted)
+//    to grow, one quiet packet decoded but not played (frames_skipped) to shrink (inside a
+//    spurt only after 3 s of talk: a microphone that never falls silent). A stalled stream (TCP
+//    holding packets behind a retransmission: the packet after the last one played arrives after
+//    its time, up to 200 ms late) is resumed where it stopped, the stall heard as a pause (its
+//    frames counted in frames_inserted), instead of losing what was held up. Other late packets are
+//    counted and concealed where they were due.
+//  - kSpeexdsp: speexdsp's adaptive jitter buffer (speex/speex_jitter.h), the baseline: it grows
+//    and shrinks its delay whenever its histogram says so, also in the middle of a word. On
+//    (re)synchronisation (the first packet, or the buffer's own reset after > 20 missing frames)
+//    playout waits the last measured delay (at least `initial_delay_ms`).
+// Measured against each other on the same arrivals: tests/audio/voice_test.cpp (a TCP path with
+// loss, simulated) and tests/voice/voice_session_test.cpp (a real impaired path, both listening).
 //
 // Not thread-safe: put() and next() from one thread (or under one lock). No allocation after
 // construction. Movable, not copyable.
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string_view>
 
 #include "volcast/audio/voice_format.hpp"
 
 namespace volcast::audio {
+namespace detail {
+class Buffer;
+}
 
 /// One 20 ms frame of output and where it came from.
 struct PlayedFrame {
@@ -61,6 +82,8 @@ struct VoiceStreamStats {
   uint64_t frames_fec = 0;           ///< Source::kFec
   uint64_t frames_concealed = 0;     ///< Source::kConcealed (corrected as the header describes)
   uint64_t frames_silent = 0;        ///< Source::kSilence (corrected as the header describes)
+  uint64_t frames_inserted = 0;      ///< of frames_silent: quiet frames inserted to grow the delay
+  uint64_t frames_skipped = 0;       ///< quiet packets decoded, not played, to shrink it (kSpurt)
   int delay_ms = 0;  ///< the jitter buffer's current delay: how long the newest packet waits, ms
   /// (fec + concealed) / (packets + fec + concealed frames, i.e. the frames while talking), in
   /// percent; 0 before any talking.
@@ -72,12 +95,30 @@ struct VoiceStreamStats {
   }
 };
 
+/// Which playout buffer a VoiceStream uses (see the file comment).
+enum class PlayoutKind : uint8_t {
+  kSpurt,     ///< Volcast's: delay changes only between talk spurts or across quiet frames
+  kSpeexdsp,  ///< speexdsp's adaptive jitter buffer
+};
+
+/// Parses "spurt" or "speexdsp"; throws volcast::Error naming the text otherwise.
+PlayoutKind parse_playout_kind(std::string_view text);
+const char* to_string(PlayoutKind kind);
+
+struct VoiceStreamConfig {
+  PlayoutKind playout = PlayoutKind::kSpurt;
+  int initial_delay_ms = 0;  ///< the least a talk spurt's first frame waits, ms (0..1000)
+  /// The share of packets the delay may let arrive too late (0..50 %). kSpurt resumes a stalled
+  /// stream rather than lose what was late, so it can afford more than speexdsp (tuned to 1 %
+  /// for TCP before kSpurt).
+  int max_late_percent = 2;
+};
+
 /// One speaker's jitter buffer and decoder (see the file comment).
 class VoiceStream {
  public:
-  /// `initial_delay_ms`: the least playout waits after (re)synchronising (0..1000); throws
-  /// volcast::Error outside that range.
-  explicit VoiceStream(int initial_delay_ms = 0);
+  /// Throws volcast::Error for a config field out of its range.
+  explicit VoiceStream(const VoiceStreamConfig& config = {});
   ~VoiceStream();
   VoiceStream(VoiceStream&&) noexcept;
   VoiceStream& operator=(VoiceStream&&) noexcept;
@@ -91,8 +132,7 @@ class VoiceStream {
   VoiceStreamStats stats() const;
 
  private:
-  struct State;
-  std::unique_ptr<State> state_;
+  std::unique_ptr<detail::Buffer> buffer_;
 };
 
 }  // namespace volcast::audio

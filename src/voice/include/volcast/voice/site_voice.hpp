@@ -27,6 +27,7 @@ namespace volcast::voice {
 
 struct SiteVoiceConfig {
   audio::VoiceEncoderConfig encoder;
+  audio::VoiceStreamConfig playout;  ///< each remote voice's playout buffer
   bool echo_cancellation = true;
   audio::EchoConfig echo;
   bool muted = false;

@@ -29,9 +29,10 @@ struct VoiceConfig {
   std::string speaker;  ///< devices.hpp spec; empty: voices are received and measured, not played
   int64_t mic_start_us = 0;  ///< a file microphone's first sample (local wall clock; 0: at start)
   audio::VoiceEncoderConfig encoder;
-  bool spatial = true;        ///< HRTF to stereo; false: a mono mix (one channel)
-  bool muted = false;         ///< start muted
-  bool push_to_talk = false;  ///< send only while set_talking(true)
+  audio::VoiceStreamConfig playout;  ///< each heard voice's playout buffer
+  bool spatial = true;               ///< HRTF to stereo; false: a mono mix (one channel)
+  bool muted = false;                ///< start muted
+  bool push_to_talk = false;         ///< send only while set_talking(true)
   /// Where the OR site's voice (participant 1) plays from: room frame, metres (above the table).
   Eigen::Vector3f site_position{0.0f, 1.5f, 0.0f};
   /// Volume per display name (1: as sent, 0: silent); others 1.

@@ -166,8 +166,10 @@ struct Server::Impl {
   // stops, then reports why and tells the session service it left.
   void serve_viewer(Viewer& v);
 
-  // Writes the session messages queued for `v` (in order); throws Error if it was kicked.
-  void flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch);
+  // Writes the session messages queued for `v` (in order), small ones joined into one write in
+  // `joined` (reused between calls); throws Error if it was kicked. `batch` is scratch.
+  void flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
+                     std::vector<uint8_t>& joined);
 
   // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
   // session service, else skipped). Anything else ends the connection.

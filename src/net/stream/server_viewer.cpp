@@ -55,9 +55,13 @@ void Server::Impl::serve_viewer(Viewer& v) {
   v.done = true;
 }
 
-// Writes the session messages queued for `v` (in order); throws Error if it was kicked.
+// Writes the session messages queued for `v` (in order); throws Error if it was kicked. Small
+// messages are copied one after another into `joined` and written together: one TLS record (per
+// 16 KiB) and one send(2) for a burst of voice packets instead of one each. A large message is not
+// copied: it goes out in the same write as the small ones before it.
 void Server::Impl::flush_session(Viewer& v,
-                                 std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch) {
+                                 std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
+                                 std::vector<uint8_t>& joined) {
   batch.clear();
   {
     std::lock_guard lock(mutex);
@@ -65,7 +69,26 @@ void Server::Impl::flush_session(Viewer& v,
     for (auto& m : v.outbox) batch.push_back(std::move(m.second));
     v.outbox.clear();
   }
-  for (const auto& m : batch) v.connection->write_all(*m, config.stall_timeout_ms);
+  constexpr size_t kCopiedBelow = 16 << 10;  // bytes: a message this long or longer is not copied
+  constexpr size_t kJoinedBytes = 64 << 10;  // at most this much is joined into one write
+  joined.clear();  // keeps its capacity: no allocation once warm
+  for (const auto& m : batch) {
+    if (m->size() >= kCopiedBelow) {
+      std::span<const uint8_t> parts[2];
+      size_t n = 0;
+      if (!joined.empty()) parts[n++] = joined;
+      parts[n++] = *m;
+      v.connection->write_all(std::span(parts, n), config.stall_timeout_ms);
+      joined.clear();
+      continue;
+    }
+    if (joined.size() + m->size() > kJoinedBytes) {
+      v.connection->write_all(joined, config.stall_timeout_ms);
+      joined.clear();
+    }
+    joined.insert(joined.end(), m->begin(), m->end());
+  }
+  if (!joined.empty()) v.connection->write_all(joined, config.stall_timeout_ms);
 }
 
 // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
@@ -113,6 +136,7 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
   auto last_progress = std::chrono::steady_clock::now();
   const double cpu_start_ms = thread_cpu_ms();
   std::vector<std::shared_ptr<const std::vector<uint8_t>>> batch;
+  std::vector<uint8_t> joined;  // flush_session's buffer, kept between calls
   while (!stopping) {
     const Connection::Ready ready = c.wait(v.wake.fd, 100);
     if (ready.woken) v.wake.drain();
@@ -120,7 +144,7 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
       read_control(v, tier, pacer, payload);
       last_progress = std::chrono::steady_clock::now();
     }
-    flush_session(v, batch);  // session messages go ahead of frame sets
+    flush_session(v, batch, joined);  // session messages go ahead of frame sets
     if (!batch.empty())
       update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });
     if (pacer.frames_in_flight() > 0 && std::chrono::steady_clock::now() - last_progress >

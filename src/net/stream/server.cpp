@@ -254,11 +254,14 @@ bool Server::send_session(uint64_t viewer, std::shared_ptr<const std::vector<uin
   for (auto& v : impl_->viewers) {
     if (v.id != viewer) continue;
     if (v.done || !v.kicked.empty()) return false;
+    // The viewer's thread takes the whole outbox once woken (flush_session): it needs waking
+    // only for the first message queued since then, not once more per message (a write(2) each).
+    const bool wake = v.outbox.empty();
     if (v.outbox.size() >= 4096)
       v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
     else
       v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
-    v.wake.signal();
+    if (wake || !v.kicked.empty()) v.wake.signal();
     return true;
   }
   return false;

@@ -259,6 +259,79 @@ TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
   EXPECT_LT(slow_frames.load(), 20);
 }
 
+// A viewer's session messages go out joined into few writes (flush_session): bursts of small
+// messages, messages of 16 KiB (the largest copied) and more, and runs past the 64 KiB joined in
+// one write all arrive whole, once each, in the order they were queued.
+TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
+  SitePlayer player(HandsSite::sources(), 0);  // cameras announced, no frame set sent
+  Server server(player.cameras(), HandsSite::with_free_port({}));
+  ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
+  c.receive_timeout_ms = 0;
+  Client client(c);
+  std::mutex mutex;
+  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> got;
+  client.set_session_handler(
+      [&](uint8_t type, std::span<const uint8_t> payload) {
+        std::lock_guard lock(mutex);
+        got.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
+      },
+      [](uint8_t) { return uint32_t{1} << 20; });
+  std::string error;
+  std::thread receiver([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (client.receive(rx)) {
+      }
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  });
+  uint64_t viewer = 0;
+  for (int i = 0; i < 500 && viewer == 0; ++i) {
+    for (const ViewerReport& r : server.viewers())
+      if (r.connected) viewer = r.id;
+    if (viewer == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_NE(viewer, 0u);
+  // Bursts of 24: voice-sized messages, with now and then one at the copy limit (16 KiB - 12
+  // and 16 KiB of payload, the header making them 16 KiB - 0 and + 12) or far past it.
+  const size_t special[] = {(16 << 10) - 12, 16 << 10, 40 << 10, 200 << 10};
+  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> sent;
+  std::mt19937 rng(35);
+  for (int burst = 0; burst < 20; ++burst) {
+    for (int i = 0; i < 24; ++i) {
+      const size_t n = sent.size();
+      const size_t bytes = n % 7 == 3 ? special[(n / 7) % 4] : 40 + rng() % 200;
+      std::vector<uint8_t> payload(bytes);
+      for (auto& b : payload) b = static_cast<uint8_t>(rng());
+      const uint8_t type = static_cast<uint8_t>(0x40 + n % 16);
+      ASSERT_TRUE(server.send_session(
+          viewer, std::make_shared<const std::vector<uint8_t>>(protocol::message(
+                      static_cast<protocol::MessageType>(0x0200 | type), payload))));
+      sent.emplace_back(type, std::move(payload));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  for (int i = 0; i < 1000; ++i) {
+    {
+      std::lock_guard lock(mutex);
+      if (got.size() >= sent.size()) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  client.close();
+  receiver.join();
+  server.stop();
+  EXPECT_EQ(error, "");
+  ASSERT_EQ(got.size(), sent.size());
+  for (size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_EQ(int(got[i].first), int(sent[i].first)) << "message " << i;
+    EXPECT_TRUE(got[i].second == sent[i].second) << "message " << i << " of "
+                                                 << sent[i].second.size() << " bytes";
+  }
+  for (const ViewerReport& r : server.viewers()) EXPECT_EQ(r.session_dropped, 0u);
+}
+
 // Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,
 // frame sets of 100 kB every 33 ms -- the window must grow past the 2 frame sets that capped the
 // old fixed window, and stay bounded.

@@ -326,8 +326,8 @@ TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
   ASSERT_EQ(got.size(), sent.size());
   for (size_t i = 0; i < sent.size(); ++i) {
     EXPECT_EQ(int(got[i].first), int(sent[i].first)) << "message " << i;
-    EXPECT_TRUE(got[i].second == sent[i].second) << "message " << i << " of "
-                                                 << sent[i].second.size() << " bytes";
+    EXPECT_TRUE(got[i].second == sent[i].second)
+        << "message " << i << " of " << sent[i].second.size() << " bytes";
   }
   for (const ViewerReport& r : server.viewers()) EXPECT_EQ(r.session_dropped, 0u);
 }

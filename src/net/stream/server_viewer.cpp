@@ -57,8 +57,9 @@ void Server::Impl::serve_viewer(Viewer& v) {
 
 // Writes the session messages queued for `v` (in order); throws Error if it was kicked. Small
 // messages are copied one after another into `joined` and written together: one TLS record (per
-// 16 KiB) and one send(2) for a burst of voice packets instead of one each. A large message is not
-// copied: it goes out in the same write as the small ones before it.
+// 16 KiB) and one send(2) for a burst of voice packets instead of one each; over WebSocket, one
+// WebSocket message (the page reads them as one byte stream, web/page/worker.js). A large message
+// is not copied: it goes out in the same write as the small ones before it.
 void Server::Impl::flush_session(Viewer& v,
                                  std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
                                  std::vector<uint8_t>& joined) {
@@ -71,7 +72,8 @@ void Server::Impl::flush_session(Viewer& v,
   }
   constexpr size_t kCopiedBelow = 16 << 10;  // bytes: a message this long or longer is not copied
   constexpr size_t kJoinedBytes = 64 << 10;  // at most this much is joined into one write
-  joined.clear();  // keeps its capacity: no allocation once warm
+  // `joined` keeps its capacity between calls: no allocation once warm.
+  joined.clear();
   for (const auto& m : batch) {
     if (m->size() >= kCopiedBelow) {
       std::span<const uint8_t> parts[2];

@@ -305,7 +305,13 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
       std::printf("wrote %s.wav (what it heard, HRTF) and %s.json\n", heard.c_str(), heard.c_str());
     }
   }
-  if (or_voice) demo::report_site(*talk, or_voice->stats());
+  if (or_voice) {
+    std::map<uint32_t, std::string> names;  // who the participants heard: every remote speaker
+    for (const auto& p : people)
+      for (const voice::HeardVoice& h : p->heard.heard)
+        if (!h.name.empty()) names[h.id] = h.name;
+    demo::report_site(*talk, or_voice->stats(), names);
+  }
   return 0;
 }
 

@@ -65,20 +65,24 @@ std::unique_ptr<voice::SiteVoice> site_voice(const Exchange& e, SessionHub& hub)
       [&hub](const session::VoicePacketView& p) { hub.site_voice(p); });
 }
 
-void report_site(const Exchange& e, const voice::SiteVoiceStats& s) {
+void report_site(const Exchange& e, const voice::SiteVoiceStats& s,
+                 const std::map<uint32_t, std::string>& names) {
   nlohmann::json heard = nlohmann::json::array();
   std::printf("\nthe OR site's loudspeaker (%s):\n", (e.dir / "heard_or_site.wav").c_str());
   for (const auto& h : s.heard) {
+    const auto name = names.find(h.id);
+    const std::string who =
+        name != names.end() ? name->second : "participant " + std::to_string(h.id);
     heard.push_back({{"id", h.id},
+                     {"name", who},
                      {"packets", h.stream.packets},
                      {"concealed_percent", h.stream.concealed_percent()},
                      {"latency_ms_p50", h.latency_ms_p50},
                      {"latency_ms_p99", h.latency_ms_p99}});
     std::printf(
-        "  heard participant %u: %llu packets, mouth-to-ear p50 %.0f ms p99 %.0f ms, "
-        "%.1f %% concealed\n",
-        h.id, static_cast<unsigned long long>(h.stream.packets), h.latency_ms_p50, h.latency_ms_p99,
-        h.stream.concealed_percent());
+        "  heard %s: %llu packets, mouth-to-ear p50 %.0f ms p99 %.0f ms, %.1f %% concealed\n",
+        who.c_str(), static_cast<unsigned long long>(h.stream.packets), h.latency_ms_p50,
+        h.latency_ms_p99, h.stream.concealed_percent());
   }
   nlohmann::json j{{"started_us", s.started_us},
                    {"packets_sent", s.packets_sent},

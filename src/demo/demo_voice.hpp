@@ -45,7 +45,9 @@ voice::VoiceConfig participant_voice(const Exchange& e, const std::string& who);
 /// sets SessionHubConfig::site_listener to put() on it).
 std::unique_ptr<voice::SiteVoice> site_voice(const Exchange& e, SessionHub& hub);
 
-/// Writes heard_or_site.json and prints what the OR site heard.
-void report_site(const Exchange& e, const voice::SiteVoiceStats& s);
+/// Writes heard_or_site.json and prints what the OR site heard, each speaker by its name in
+/// `names` (participant id -> display name; "participant N" where it has none).
+void report_site(const Exchange& e, const voice::SiteVoiceStats& s,
+                 const std::map<uint32_t, std::string>& names);
 
 }  // namespace volcast::demo

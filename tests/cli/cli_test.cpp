@@ -121,6 +121,17 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
             0)
       << out;
   EXPECT_NE(out.find("lat p50"), std::string::npos) << out;
+  // The OR's loudspeaker report names whom it heard (the participants' display names).
+  if (out.find("the OR site's loudspeaker") != std::string::npos) {
+    std::ifstream voice_in(dir / "voice" / "heard_or_site.json");
+    const auto heard = nlohmann::json::parse(voice_in)["heard"];
+    EXPECT_FALSE(heard.empty());
+    for (const auto& h : heard) {
+      const std::string name = h["name"];
+      EXPECT_NE(name.rfind("participant ", 0), 0u) << h.dump();
+      EXPECT_NE(out.find("heard " + name + ":"), std::string::npos) << out;
+    }
+  }
   std::ifstream in(dir / "stats.json");
   const auto j = nlohmann::json::parse(in);
   ASSERT_EQ(j["cameras"].size(), 2u);

@@ -162,7 +162,7 @@ AvatarFilter avatar_filter_of(const ViewerControls& c) {
   return filter;
 }
 
-void draw_panel(ViewerControls& c, const PanelInfo& info) {
+void draw_panel(ViewerControls& c, const PanelInfo& info, const std::function<void()>& first) {
   ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
   // As tall as its open sections, within the window (then it scrolls).
   ImGui::SetNextWindowSizeConstraints(
@@ -180,6 +180,7 @@ void draw_panel(ViewerControls& c, const PanelInfo& info) {
   if (ImGui::Button("reset view")) c.reset_view = true;
   ImGui::SameLine();
   if (ImGui::Button("screenshot (F12)")) c.screenshot = true;
+  if (first) first();
   if (ImGui::CollapsingHeader("renderer", ImGuiTreeNodeFlags_DefaultOpen)) renderer_section(c.pass);
   if (ImGui::CollapsingHeader("cameras", ImGuiTreeNodeFlags_DefaultOpen)) {
     for (size_t i = 0; i < c.sliders.size(); ++i) camera_section(c, info, i);

@@ -3,6 +3,7 @@
 // ViewerControls, and the window loop (window.cpp) acts on what changed.
 #include <Eigen/Core>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,7 +45,10 @@ struct PanelInfo {
   const std::filesystem::path& site_config;
 };
 
-/// Draws the panel (between ImGui::NewFrame and ImGui::Render), editing `controls`.
-void draw_panel(ViewerControls& controls, const PanelInfo& info);
+/// Draws the panel (between ImGui::NewFrame and ImGui::Render), editing `controls`. `first`, if
+/// set, draws sections that go above the renderer's and the cameras' (a session's: its mute box
+/// stays in view in a 720p window).
+void draw_panel(ViewerControls& controls, const PanelInfo& info,
+                const std::function<void()>& first = {});
 
 }  // namespace volcast

@@ -373,8 +373,8 @@ void steer_participant(GLFWwindow* window, Participant& participant,
   sync_participant(participant, snapshot, v.camera, v.last_spot);
 }
 
-// The panel over the scene, unless hidden (H); with a participant also the session and case
-// sections.
+// The panel over the scene, unless hidden (H); with a participant the session and case sections
+// come first.
 void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* participant,
               const voice::VoiceLink* voice, SessionPanelState& session_panel,
               CasePanelState& case_panel, const SessionSnapshot& snapshot, int width, int height) {
@@ -382,12 +382,13 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
   if (controls.show_panel) {
-    draw_panel(controls, info);
     if (participant) {
-      ImGui::Begin("volcast (H hides)");
-      draw_session_panel(session_panel, *participant, snapshot, voice);
-      draw_case_panel(case_panel, *participant, snapshot);
-      ImGui::End();
+      draw_panel(controls, info, [&] {
+        draw_session_panel(session_panel, *participant, snapshot, voice);
+        draw_case_panel(case_panel, *participant, snapshot);
+      });
+    } else {
+      draw_panel(controls, info);
     }
   }
   ImGui::Render();

@@ -332,6 +332,99 @@ TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
   for (const ViewerReport& r : server.viewers()) EXPECT_EQ(r.session_dropped, 0u);
 }
 
+// Queued-stream messages (voice packets, kQueuedStreamKey) of several streams wait
+// (ServerConfig::stream_coalesce_us) to go out together; another kind of message sends them at
+// once. Interleaved, with one stream alone at the end (nothing else comes to send it), they all
+// arrive once each, in the order they were queued (a loaded machine may stall the viewer's thread
+// past 8 of one stream: the oldest are dropped then, and counted, never the other messages).
+TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
+  SitePlayer player(HandsSite::sources(), 0);  // cameras announced, no frame set sent
+  Server server(player.cameras(), HandsSite::with_free_port({}));
+  ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
+  c.receive_timeout_ms = 0;
+  Client client(c);
+  std::mutex mutex;
+  std::vector<std::vector<uint8_t>> got;
+  client.set_session_handler(
+      [&](uint8_t, std::span<const uint8_t> payload) {
+        std::lock_guard lock(mutex);
+        got.emplace_back(payload.begin(), payload.end());
+      },
+      [](uint8_t) { return uint32_t{1} << 16; });
+  std::string error;
+  std::thread receiver([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (client.receive(rx)) {
+      }
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+  });
+  uint64_t viewer = 0;
+  for (int i = 0; i < 500 && viewer == 0; ++i) {
+    for (const ViewerReport& r : server.viewers())
+      if (r.connected) viewer = r.id;
+    if (viewer == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_NE(viewer, 0u);
+  std::vector<std::vector<uint8_t>> sent;
+  const auto send = [&](uint64_t key) {
+    std::vector<uint8_t> payload(60 + sent.size() % 50);
+    for (size_t i = 0; i < payload.size(); ++i) payload[i] = static_cast<uint8_t>(sent.size() + i);
+    ASSERT_TRUE(server.send_session(viewer,
+                                    std::make_shared<const std::vector<uint8_t>>(protocol::message(
+                                        static_cast<protocol::MessageType>(0x024e), payload)),
+                                    key));
+    sent.push_back(std::move(payload));
+  };
+  // 3 talkers' packets 1 ms apart, and a plain message (key 0) now and then.
+  std::vector<bool> plain;
+  for (int i = 0; i < 120; ++i) {
+    send(kQueuedStreamKey | uint64_t(1 + i % 3));
+    plain.push_back(false);
+    if (i % 10 == 4) {
+      send(0);
+      plain.push_back(true);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  for (int i = 0; i < 5; ++i) {  // one stream alone, 20 ms apart, at the end
+    send(kQueuedStreamKey | 1);
+    plain.push_back(true);  // never dropped: one queued at a time
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  const auto dropped = [&] {
+    uint64_t n = 0;
+    for (const ViewerReport& r : server.viewers()) n += r.session_dropped;
+    return n;
+  };
+  for (int i = 0; i < 1000; ++i) {
+    {
+      std::lock_guard lock(mutex);
+      if (got.size() + dropped() >= sent.size()) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  client.close();
+  receiver.join();
+  const uint64_t lost = dropped();
+  server.stop();
+  EXPECT_EQ(error, "");
+  EXPECT_LT(lost, sent.size() / 4);
+  ASSERT_EQ(got.size() + lost, sent.size());
+  // In order: each one received is the next sent that was not dropped; only voice is dropped.
+  size_t next = 0;
+  for (size_t i = 0; i < got.size(); ++i) {
+    while (next < sent.size() && sent[next] != got[i]) {
+      EXPECT_FALSE(plain[next]) << "message " << next << " was lost";
+      ++next;
+    }
+    ASSERT_LT(next, sent.size()) << "received message " << i << " is out of order";
+    ++next;
+  }
+}
+
 // Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,
 // frame sets of 100 kB every 33 ms -- the window must grow past the 2 frame sets that capped the
 // old fixed window, and stay bounded.

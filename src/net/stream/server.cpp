@@ -248,22 +248,38 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   impl_->pool->prewake(std::chrono::milliseconds(2));
 }
 
+// Queues `message` for `v` (mutex held): false if `v` is gone or being dropped.
+bool Server::Impl::queue_session(Viewer& v, std::shared_ptr<const std::vector<uint8_t>> message,
+                                 uint64_t coalesce_key) {
+  if (v.done || !v.kicked.empty()) return false;
+  // The viewer's thread takes the whole outbox once woken (flush_session): it needs waking
+  // only for the first message queued since then, not once more per message (a write(2) each),
+  // and for the first that is not a queued stream's: those alone wait (stream_coalesce_us).
+  const bool stream = (coalesce_key & kQueuedStreamKey) != 0;
+  const bool wake = v.outbox.empty() || (v.outbox_streams_only && !stream);
+  const int64_t now = steady_us();
+  if (v.outbox.empty()) {
+    v.outbox_streams_only = true;
+    v.outbox_since_us = now;
+  }
+  if (stream && coalesce_key != v.last_stream_key) {
+    if (v.last_stream_key != 0) v.streams_mixed_us = now;
+    v.last_stream_key = coalesce_key;
+  }
+  v.outbox_streams_only = v.outbox_streams_only && stream;
+  if (v.outbox.size() >= 4096)
+    v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
+  else
+    v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
+  if (wake || !v.kicked.empty()) v.wake.signal();
+  return true;
+}
+
 bool Server::send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> message,
                           uint64_t coalesce_key) {
   std::lock_guard lock(impl_->mutex);
-  for (auto& v : impl_->viewers) {
-    if (v.id != viewer) continue;
-    if (v.done || !v.kicked.empty()) return false;
-    // The viewer's thread takes the whole outbox once woken (flush_session): it needs waking
-    // only for the first message queued since then, not once more per message (a write(2) each).
-    const bool wake = v.outbox.empty();
-    if (v.outbox.size() >= 4096)
-      v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
-    else
-      v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
-    if (wake || !v.kicked.empty()) v.wake.signal();
-    return true;
-  }
+  for (auto& v : impl_->viewers)
+    if (v.id == viewer) return impl_->queue_session(v, std::move(message), coalesce_key);
   return false;
 }
 

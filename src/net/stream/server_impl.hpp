@@ -95,6 +95,15 @@ struct Server::Impl {
     // Session messages waiting for this viewer's thread (guarded by Impl::mutex): coalesce key
     // (0: none) and the whole message.
     std::deque<std::pair<uint64_t, std::shared_ptr<const std::vector<uint8_t>>>> outbox;
+    // The outbox holds only queued-stream messages (kQueuedStreamKey), the oldest queued at
+    // outbox_since_us (steady_us()); empty or not, false once another kind is queued.
+    bool outbox_streams_only = true;
+    int64_t outbox_since_us = 0;
+    // The key of the queued stream last queued, and when (steady_us()) one of another key was
+    // last queued after one: the outbox waits (stream_coalesce_us) only while several streams
+    // come (one talker's packets have nothing to join).
+    uint64_t last_stream_key = 0;
+    int64_t streams_mixed_us = INT64_MIN / 2;
     std::string kicked;  // set: disconnect with this reason
     std::shared_ptr<Tier> tier;
     std::string address;  // the peer's IP address (per-address tier limits)
@@ -166,10 +175,17 @@ struct Server::Impl {
   // stops, then reports why and tells the session service it left.
   void serve_viewer(Viewer& v);
 
+  // Queues a session message for `v` (mutex held), waking its thread when it must; false if `v`
+  // is gone or being dropped.
+  bool queue_session(Viewer& v, std::shared_ptr<const std::vector<uint8_t>> message,
+                     uint64_t coalesce_key);
+
   // Writes the session messages queued for `v` (in order), small ones joined into one write in
-  // `joined` (reused between calls); throws Error if it was kicked. `batch` is scratch.
-  void flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
-                     std::vector<uint8_t>& joined);
+  // `joined` (reused between calls); throws Error if it was kicked. `batch` is scratch. Queued
+  // stream messages alone wait until the oldest is config.stream_coalesce_us old: returns when
+  // (steady_us()) they are due then, else -1.
+  int64_t flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
+                        std::vector<uint8_t>& joined);
 
   // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
   // session service, else skipped). Anything else ends the connection.

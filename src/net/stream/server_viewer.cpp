@@ -3,6 +3,8 @@
 #include <spdlog/spdlog.h>
 #include <time.h>
 
+#include <algorithm>
+
 #include "server_impl.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -60,13 +62,23 @@ void Server::Impl::serve_viewer(Viewer& v) {
 // 16 KiB) and one send(2) for a burst of voice packets instead of one each; over WebSocket, one
 // WebSocket message (the page reads them as one byte stream, web/page/worker.js). A large message
 // is not copied: it goes out in the same write as the small ones before it.
-void Server::Impl::flush_session(Viewer& v,
-                                 std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
-                                 std::vector<uint8_t>& joined) {
+//
+// Queued stream messages alone (voice packets) wait until the oldest is stream_coalesce_us old, so
+// that talkers' packets reaching the server a few ms apart go out together: one wake-up of this
+// thread and one write for several packets. Any other message sends them at once.
+int64_t Server::Impl::flush_session(Viewer& v,
+                                    std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
+                                    std::vector<uint8_t>& joined) {
   batch.clear();
   {
     std::lock_guard lock(mutex);
     if (!v.kicked.empty()) throw Error(v.kicked);
+    if (v.outbox.empty()) return -1;
+    if (v.outbox_streams_only && config.stream_coalesce_us > 0) {
+      constexpr int64_t kMixedFor = 200'000;  // µs: several streams came this recently
+      const int64_t now = steady_us(), due = v.outbox_since_us + config.stream_coalesce_us;
+      if (now < due && now - v.streams_mixed_us < kMixedFor) return due;
+    }
     for (auto& m : v.outbox) batch.push_back(std::move(m.second));
     v.outbox.clear();
   }
@@ -91,6 +103,7 @@ void Server::Impl::flush_session(Viewer& v,
     joined.insert(joined.end(), m->begin(), m->end());
   }
   if (!joined.empty()) v.connection->write_all(joined, config.stall_timeout_ms);
+  return -1;
 }
 
 // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
@@ -139,14 +152,18 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
   const double cpu_start_ms = thread_cpu_ms();
   std::vector<std::shared_ptr<const std::vector<uint8_t>>> batch;
   std::vector<uint8_t> joined;  // flush_session's buffer, kept between calls
+  int64_t session_due = -1;     // steady_us() when the waiting voice packets go out; -1: none wait
   while (!stopping) {
-    const Connection::Ready ready = c.wait(v.wake.fd, 100);
+    int timeout_ms = 100;
+    if (session_due >= 0)  // rounded up: poll(2) waits whole ms
+      timeout_ms = int(std::clamp<int64_t>((session_due - steady_us() + 999) / 1000, 0, 100));
+    const Connection::Ready ready = c.wait(v.wake.fd, timeout_ms);
     if (ready.woken) v.wake.drain();
     if (ready.readable) {
       read_control(v, tier, pacer, payload);
       last_progress = std::chrono::steady_clock::now();
     }
-    flush_session(v, batch, joined);  // session messages go ahead of frame sets
+    session_due = flush_session(v, batch, joined);  // session messages go ahead of frame sets
     if (!batch.empty())
       update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });
     if (pacer.frames_in_flight() > 0 && std::chrono::steady_clock::now() - last_progress >

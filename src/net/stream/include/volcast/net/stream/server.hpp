@@ -86,6 +86,12 @@ struct ServerConfig {
   /// costs less then: sealing (AES-GCM + SHA-256 once) takes about as long as AES-GCM for 2.5
   /// viewers, and adds its time to the tier's latency. 1: always seal.
   int seal_from_viewers = 3;
+  /// A viewer's queued session messages that are all of queued streams (kQueuedStreamKey: voice
+  /// packets) wait until the oldest of them has waited this long (µs), or until another kind of
+  /// message is queued, and then go out in one write: talkers' packets reaching the server a few
+  /// ms apart cost one wake-up and one TLS write per listener together instead of one each. Adds
+  /// at most this much to a voice packet's latency; 0: every message goes out at once.
+  int64_t stream_coalesce_us = 5000;
   TlsIdentity identity;  ///< certificate and key; empty: a new self-signed one for this server
   std::optional<JoinToken> token;  ///< the session's join token; empty: a random one
   /// The browser viewer's page (index.html, its scripts and the WebAssembly decoder, as the build

@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 #include <array>
+#include <functional>
 #include <future>
 #include <map>
 #include <mutex>
@@ -259,40 +260,68 @@ TEST(SharedStream, SlowViewerDoesNotSlowTheOthers) {
   EXPECT_LT(slow_frames.load(), 20);
 }
 
+// A server announcing the hands site's cameras (no frame set sent) and one client reading its
+// stream on a thread, collecting the session messages it receives, in order, as (type, payload).
+struct SessionChannelSite {
+  static ClientConfig config(const Server& server) {
+    ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
+    c.receive_timeout_ms = 0;
+    return c;
+  }
+  explicit SessionChannelSite(uint32_t max_payload) {
+    client.set_session_handler(
+        [this](uint8_t type, std::span<const uint8_t> payload) {
+          std::lock_guard lock(mutex);
+          got.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
+        },
+        [max_payload](uint8_t) { return max_payload; });
+    receiver = std::thread([this] {
+      ReceivedFrameSet rx;
+      try {
+        while (client.receive(rx)) {
+        }
+      } catch (const std::exception& e) {
+        error = e.what();
+      }
+    });
+    for (int i = 0; i < 500 && viewer == 0; ++i) {
+      for (const ViewerReport& r : server.viewers())
+        if (r.connected) viewer = r.id;
+      if (viewer == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+  ~SessionChannelSite() { close(); }
+  size_t received() {
+    std::lock_guard lock(mutex);
+    return got.size();
+  }
+  // Waits (up to 20 s) until `done()` holds, polling every 20 ms.
+  void wait_for(const std::function<bool()>& done) {
+    for (int i = 0; i < 1000 && !done(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  void close() {
+    if (!receiver.joinable()) return;
+    client.close();
+    receiver.join();
+  }
+
+  SitePlayer player{HandsSite::sources(), 0};
+  Server server{player.cameras(), HandsSite::with_free_port({})};
+  Client client{config(server)};
+  std::mutex mutex;
+  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> got;
+  std::string error;
+  std::thread receiver;
+  uint64_t viewer = 0;  // the client's id at the server (0: it never connected)
+};
+
 // A viewer's session messages go out joined into few writes (flush_session): bursts of small
 // messages, messages of 16 KiB (the largest copied) and more, and runs past the 64 KiB joined in
 // one write all arrive whole, once each, in the order they were queued.
 TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
-  SitePlayer player(HandsSite::sources(), 0);  // cameras announced, no frame set sent
-  Server server(player.cameras(), HandsSite::with_free_port({}));
-  ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
-  c.receive_timeout_ms = 0;
-  Client client(c);
-  std::mutex mutex;
-  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> got;
-  client.set_session_handler(
-      [&](uint8_t type, std::span<const uint8_t> payload) {
-        std::lock_guard lock(mutex);
-        got.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
-      },
-      [](uint8_t) { return uint32_t{1} << 20; });
-  std::string error;
-  std::thread receiver([&] {
-    ReceivedFrameSet rx;
-    try {
-      while (client.receive(rx)) {
-      }
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  });
-  uint64_t viewer = 0;
-  for (int i = 0; i < 500 && viewer == 0; ++i) {
-    for (const ViewerReport& r : server.viewers())
-      if (r.connected) viewer = r.id;
-    if (viewer == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  ASSERT_NE(viewer, 0u);
+  SessionChannelSite s(uint32_t{1} << 20);
+  ASSERT_NE(s.viewer, 0u);
   // Bursts of 24: voice-sized messages, with now and then one at the copy limit (16 KiB - 12
   // and 16 KiB of payload, the header making them 16 KiB - 0 and + 12) or far past it.
   const size_t special[] = {(16 << 10) - 12, 16 << 10, 40 << 10, 200 << 10};
@@ -305,31 +334,24 @@ TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
       std::vector<uint8_t> payload(bytes);
       for (auto& b : payload) b = static_cast<uint8_t>(rng());
       const uint8_t type = static_cast<uint8_t>(0x40 + n % 16);
-      ASSERT_TRUE(server.send_session(
-          viewer, std::make_shared<const std::vector<uint8_t>>(protocol::message(
-                      static_cast<protocol::MessageType>(0x0200 | type), payload))));
+      ASSERT_TRUE(s.server.send_session(
+          s.viewer, std::make_shared<const std::vector<uint8_t>>(protocol::message(
+                        static_cast<protocol::MessageType>(0x0200 | type), payload))));
       sent.emplace_back(type, std::move(payload));
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
-  for (int i = 0; i < 1000; ++i) {
-    {
-      std::lock_guard lock(mutex);
-      if (got.size() >= sent.size()) break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  client.close();
-  receiver.join();
-  server.stop();
-  EXPECT_EQ(error, "");
-  ASSERT_EQ(got.size(), sent.size());
+  s.wait_for([&] { return s.received() >= sent.size(); });
+  s.close();
+  s.server.stop();
+  EXPECT_EQ(s.error, "");
+  ASSERT_EQ(s.got.size(), sent.size());
   for (size_t i = 0; i < sent.size(); ++i) {
-    EXPECT_EQ(int(got[i].first), int(sent[i].first)) << "message " << i;
-    EXPECT_TRUE(got[i].second == sent[i].second)
+    EXPECT_EQ(int(s.got[i].first), int(sent[i].first)) << "message " << i;
+    EXPECT_TRUE(s.got[i].second == sent[i].second)
         << "message " << i << " of " << sent[i].second.size() << " bytes";
   }
-  for (const ViewerReport& r : server.viewers()) EXPECT_EQ(r.session_dropped, 0u);
+  for (const ViewerReport& r : s.server.viewers()) EXPECT_EQ(r.session_dropped, 0u);
 }
 
 // Queued-stream messages (voice packets, kQueuedStreamKey) of several streams wait
@@ -338,44 +360,17 @@ TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
 // arrive once each, in the order they were queued (a loaded machine may stall the viewer's thread
 // past 8 of one stream: the oldest are dropped then, and counted, never the other messages).
 TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
-  SitePlayer player(HandsSite::sources(), 0);  // cameras announced, no frame set sent
-  Server server(player.cameras(), HandsSite::with_free_port({}));
-  ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
-  c.receive_timeout_ms = 0;
-  Client client(c);
-  std::mutex mutex;
-  std::vector<std::vector<uint8_t>> got;
-  client.set_session_handler(
-      [&](uint8_t, std::span<const uint8_t> payload) {
-        std::lock_guard lock(mutex);
-        got.emplace_back(payload.begin(), payload.end());
-      },
-      [](uint8_t) { return uint32_t{1} << 16; });
-  std::string error;
-  std::thread receiver([&] {
-    ReceivedFrameSet rx;
-    try {
-      while (client.receive(rx)) {
-      }
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  });
-  uint64_t viewer = 0;
-  for (int i = 0; i < 500 && viewer == 0; ++i) {
-    for (const ViewerReport& r : server.viewers())
-      if (r.connected) viewer = r.id;
-    if (viewer == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  ASSERT_NE(viewer, 0u);
+  SessionChannelSite s(uint32_t{1} << 16);
+  ASSERT_NE(s.viewer, 0u);
   std::vector<std::vector<uint8_t>> sent;
   const auto send = [&](uint64_t key) {
     std::vector<uint8_t> payload(60 + sent.size() % 50);
     for (size_t i = 0; i < payload.size(); ++i) payload[i] = static_cast<uint8_t>(sent.size() + i);
-    ASSERT_TRUE(server.send_session(viewer,
-                                    std::make_shared<const std::vector<uint8_t>>(protocol::message(
-                                        static_cast<protocol::MessageType>(0x024e), payload)),
-                                    key));
+    ASSERT_TRUE(
+        s.server.send_session(s.viewer,
+                              std::make_shared<const std::vector<uint8_t>>(protocol::message(
+                                  static_cast<protocol::MessageType>(0x024e), payload)),
+                              key));
     sent.push_back(std::move(payload));
   };
   // 3 talkers' packets 1 ms apart, and a plain message (key 0) now and then.
@@ -396,27 +391,21 @@ TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
   }
   const auto dropped = [&] {
     uint64_t n = 0;
-    for (const ViewerReport& r : server.viewers()) n += r.session_dropped;
+    for (const ViewerReport& r : s.server.viewers()) n += r.session_dropped;
     return n;
   };
-  for (int i = 0; i < 1000; ++i) {
-    {
-      std::lock_guard lock(mutex);
-      if (got.size() + dropped() >= sent.size()) break;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  client.close();
-  receiver.join();
+  s.wait_for([&] { return s.received() + dropped() >= sent.size(); });
+  s.close();
   const uint64_t lost = dropped();
-  server.stop();
-  EXPECT_EQ(error, "");
+  s.server.stop();
+  EXPECT_EQ(s.error, "");
+  const auto& got = s.got;
   EXPECT_LT(lost, sent.size() / 4);
   ASSERT_EQ(got.size() + lost, sent.size());
   // In order: each one received is the next sent that was not dropped; only voice is dropped.
   size_t next = 0;
   for (size_t i = 0; i < got.size(); ++i) {
-    while (next < sent.size() && sent[next] != got[i]) {
+    while (next < sent.size() && sent[next] != got[i].second) {
       EXPECT_FALSE(plain[next]) << "message " << next << " was lost";
       ++next;
     }

@@ -487,11 +487,14 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   EXPECT_GT(v["packetsSent"].get<int>(), 100) << "three phrases of 1.4 s, 20 ms a packet";
   EXPECT_GT(v["dtxFrames"].get<int>(), 10) << "the silences are not sent (DTX)";
   EXPECT_EQ(v["badPackets"], 0);
-  // The listener's loudspeaker holds what the page's microphone said. Measured piecewise
-  // (test::piecewise_correlation): on a loaded 2-core machine packets reach the listener up to
-  // 250 ms apart (a native talker's too), and its jitter buffer moves later speech by whole
-  // frames as it adapts. Through Chromium's echo canceller, noise suppressor and gain control,
-  // 0.56-0.78 per phrase at load 8 (0.88-0.94 whole-phrase without them); a wrong or silent
+  // The listener's loudspeaker holds what the page's microphone said. Measured in 100 ms pieces,
+  // each found after the one before (test::resumed_correlation): on a loaded 2-core machine
+  // packets reach the listener up to 250 ms apart (a native talker's too), and a playout buffer
+  // resumes such a stall as a pause inside a phrase, which lowers its correlation as a whole
+  // (CI: 0.37-0.84) but not the pieces'. Through Chromium's echo canceller, noise suppressor and
+  // gain control, 0.72-0.76 per phrase, unloaded and mostly with 6 busy loops beside, where
+  // Chromium's capture may stall longer than a playout buffer waits (once 0.52: the listener
+  // heard the page up to 408 ms late); 0.88-0.94 as a whole without them. A wrong or silent
   // stream stays below 0.3.
   const audio::Pcm at_listener = audio::read_wav(dir / "listener_heard.wav");
   double sum = 0;
@@ -500,17 +503,24 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     const test::Alignment found = test::align(
         phrase, at_listener.samples, 0, std::ptrdiff_t(at_listener.samples.size() - phrase.size()));
     const double pieces = test::piecewise_correlation(phrase, at_listener.samples, found.offset);
-    std::printf("browser -> native '%s': correlation %.3f, piecewise %.3f\n", name.c_str(),
-                found.correlation, pieces);
-    EXPECT_GE(pieces, 0.4) << name;
-    sum += pieces;
+    const double resumed = test::resumed_correlation(phrase, at_listener.samples, found.offset);
+    std::printf("browser -> native '%s': correlation %.3f, piecewise %.3f, resumed %.3f\n",
+                name.c_str(), found.correlation, pieces, resumed);
+    EXPECT_GE(resumed, 0.45) << name;
+    sum += resumed;
   }
   EXPECT_GE(sum / double(web_names.size()), 0.55);
-  // The page played what the talker said, louder on its left.
   const voice::VoiceStats heard_by_listener = listening.stats();
   const auto from_web = std::find_if(heard_by_listener.heard.begin(), heard_by_listener.heard.end(),
                                      [](const voice::HeardVoice& h) { return h.name == "Web"; });
   ASSERT_NE(from_web, heard_by_listener.heard.end());
+  const audio::VoiceStreamStats& w = from_web->stream;
+  std::printf(
+      "the listener heard the page: %llu frames played, %llu concealed, %llu late, %llu "
+      "paused (resumed stalls)\n",
+      (unsigned long long)w.frames_played, (unsigned long long)w.frames_concealed,
+      (unsigned long long)w.late, (unsigned long long)w.frames_inserted);
+  // The page played what the talker said, louder on its left.
   const audio::Pcm played = audio::read_wav(out / "heard.wav");
   ASSERT_EQ(played.channels, 2);
   const std::vector<float> left = test::channel(played, 0), right = test::channel(played, 1);
@@ -526,16 +536,19 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     const test::Alignment found =
         test::align(phrase, both, 0, std::ptrdiff_t(both.size() - phrase.size()));
     const double pieces = test::piecewise_correlation(phrase, both, found.offset);
+    const double resumed = test::resumed_correlation(phrase, both, found.offset);
     const size_t at = size_t(std::max<std::ptrdiff_t>(found.offset, 0));
     const double ratio =
         test::db(test::energy(left, at, phrase.size()) / test::energy(right, at, phrase.size()));
     const int phrase_lag = test::interaural_lag(left, right, at, phrase.size());
     std::printf(
-        "native -> browser '%s': correlation %.3f, piecewise %.3f; left ear %.1f dB louder, "
-        "%d us earlier\n",
-        name.c_str(), found.correlation, pieces, ratio, phrase_lag * 1'000'000 / kRate);
-    // Chromium's HRTF colours the voice (equal-power panning gives 0.92 on the same run).
-    EXPECT_GE(pieces, 0.6) << name;
+        "native -> browser '%s': correlation %.3f, piecewise %.3f, resumed %.3f; left ear %.1f "
+        "dB louder, %d us earlier\n",
+        name.c_str(), found.correlation, pieces, resumed, ratio, phrase_lag * 1'000'000 / kRate);
+    // Chromium's HRTF colours the voice (equal-power panning gives 0.92 on the same run): 0.81-0.87
+    // unloaded and with 6 busy loops beside, where the page's worklet resumed up to 5 stalls (CI
+    // failed on the phrase as a whole: 0.46 in 4 pieces).
+    EXPECT_GE(resumed, 0.7) << name;
     EXPECT_GT(ratio, 1.5) << name << ": the talker stands on the page's left";
     EXPECT_GT(phrase_lag, 10) << name << ": the left ear hears it first (about 0.8 ms)";
   }
@@ -545,9 +558,11 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   EXPECT_GT(h["frames"].get<int>(), 100);
   std::printf(
       "mouth-to-ear: browser -> native p50 %.1f ms, p99 %.1f ms; native -> browser p50 %.1f "
-      "ms, p99 %.1f ms (%d frames late, %.2f %% concealed); the page sent %.0f bytes/s\n",
+      "ms, p99 %.1f ms (%d frames late, %d stalls resumed as %.0f ms of pause, %.2f %% "
+      "concealed); the page sent %.0f bytes/s\n",
       from_web->latency_ms_p50, from_web->latency_ms_p99, h["latencyMsP50"].get<double>(),
-      h["latencyMsP99"].get<double>(), h["late"].get<int>(), h["concealedPercent"].get<double>(),
+      h["latencyMsP99"].get<double>(), h["late"].get<int>(), h["resumed"].get<int>(),
+      h["insertedMs"].get<double>(), h["concealedPercent"].get<double>(),
       v["bytesPerSecond"].get<double>());
   EXPECT_GT(h["latencyMsP50"].get<double>(), 0.0);
 }

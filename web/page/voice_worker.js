@@ -237,7 +237,8 @@ function voiceStats() {
                    transitMsP50: voicePercentile(s.transitMs, 0.5),
                    transitMsP99: voicePercentile(s.transitMs, 0.99),
                    speaking: now - s.loudAt < 300, late: s.playout.late || 0,
-                   skippedMs: (s.playout.skipped || 0) / 48, delayMs: (s.playout.target || 0) / 48};
+                   skippedMs: (s.playout.skipped || 0) / 48, delayMs: (s.playout.target || 0) / 48,
+                   resumed: s.playout.resumed || 0, insertedMs: (s.playout.inserted || 0) / 48};
   const t = voice.sent;
   const seconds = (t.lastUs - t.firstUs) / 1e6;
   return {mic: !!voice.encoder, error: voice.error, packetsSent: t.packets, framesCaptured: t.frames,

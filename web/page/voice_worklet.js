@@ -6,8 +6,12 @@
 // - volcast-playout: one speaker's playout buffer, played by frame number (the sender's time
 //   line), so that the silences within a talk spurt keep their length. A talk spurt's first
 //   frame plays `target` (60 ms) after it arrives (the silence before it is stretched or cut,
-//   unheard); a frame that comes after its time is dropped and the delay grows by a frame (up
-//   to 200 ms); 10 s without a late frame, or more than target + 100 ms waiting, skip a frame of
+//   unheard, never back onto a frame played). The frame after the last one played, arriving
+//   after its time while only silence has played since (TCP held the stream up behind a
+//   retransmission), resumes the stream where it stopped, up to 200 ms late: the stall is heard
+//   as a pause, not as lost words (as Volcast's native buffer, audio/spurt_buffer.cpp). Any
+//   other frame that comes after its time is dropped and the delay grows by a frame (up to
+//   200 ms); 10 s without a late frame, or more than target + 100 ms waiting, skip a frame of
 //   silence (the delay shrinks, down to 40 ms). Posts the worker its cursor and counts every
 //   100 ms.
 // - volcast-tap: what the page plays (stereo), posted in blocks of 0.5 s (what it heard, for tests).
@@ -15,6 +19,7 @@ const FRAME = 960;
 const MIN_TARGET = 2 * FRAME;   // 40 ms
 const MAX_TARGET = 10 * FRAME;  // 200 ms
 const SLACK = 5 * FRAME;        // 100 ms above the target
+const MAX_STALL = 10 * FRAME;   // 200 ms: the longest stall a stream resumes after
 
 class Capture extends AudioWorkletProcessor {
   constructor() {
@@ -47,9 +52,12 @@ class Playout extends AudioWorkletProcessor {
     this.frames = new Map();  // frame number -> Float32Array (960), not yet played
     this.cursor = null;       // the sample being played, on the sender's time line (frame * 960)
     this.newest = -1;         // the newest frame number received
+    this.played = null;       // the newest frame number played (some of it, at least)
     this.target = 3 * FRAME;
     this.late = 0;            // frames that came after their time (dropped; the delay grew)
     this.skipped = 0;         // samples of silence skipped to bring the delay down
+    this.resumed = 0;         // stalls resumed (the frame after the last played came late)
+    this.inserted = 0;        // samples of pause: stalls resumed, silence before spurts stretched
     this.calm = 0;            // samples played since the last late frame or shrink
     this.quanta = 0;
     this.worker = null;
@@ -60,14 +68,24 @@ class Playout extends AudioWorkletProcessor {
   }
   put(frame, pcm, spurt) {
     const start = frame * FRAME;
-    // The first frame, a sender that jumped more than a second, or a talk spurt's first frame
-    // while nothing waits (the cursor is in silence, so moving it is not heard): play it `target`
-    // from now.
-    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate ||
-        (spurt && this.frames.size === 0 && start > this.cursor)) {
-      if (this.cursor !== null && start - this.target > this.cursor)
-        this.skipped += start - this.target - this.cursor;
+    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate) {
+      // The first frame, or a sender that jumped more than a second: play it `target` from now.
       this.cursor = start - this.target;
+    } else if (spurt && this.frames.size === 0) {
+      // A talk spurt's first frame while nothing waits (the cursor is in silence, so moving it
+      // is not heard): play it `target` from now, never back onto a frame played.
+      let to = start - this.target;
+      if (this.played !== null) to = Math.max(to, (this.played + 1) * FRAME);
+      if (to > this.cursor) this.skipped += to - this.cursor;
+      else this.inserted += this.cursor - to;
+      this.cursor = to;
+    } else if (start < this.cursor && this.played !== null && frame === this.played + 1 &&
+               this.cursor - start <= MAX_STALL) {
+      // The frame after the last one played, late, and only silence played since: the stream
+      // stalled. Resume where it stopped (a pause) rather than lose what is held up behind it.
+      ++this.resumed;
+      this.inserted += this.cursor - start;
+      this.cursor = start;
     }
     if (start + FRAME <= this.cursor) {  // its time has passed: wait a frame longer from now on
       ++this.late;
@@ -98,8 +116,12 @@ class Playout extends AudioWorkletProcessor {
       const offset = this.cursor - f * FRAME;
       const n = Math.min(out.length - i, FRAME - offset);
       const pcm = this.frames.get(f);
-      if (pcm) out.set(pcm.subarray(offset, offset + n), i);
-      else out.fill(0, i, i + n);
+      if (pcm) {
+        out.set(pcm.subarray(offset, offset + n), i);
+        if (this.played === null || f > this.played) this.played = f;
+      } else {
+        out.fill(0, i, i + n);
+      }
       i += n;
       this.cursor += n;
       if (offset + n === FRAME) this.frames.delete(f);
@@ -107,7 +129,8 @@ class Playout extends AudioWorkletProcessor {
     this.calm += out.length;
     if (++this.quanta % 38 === 0 && this.worker)  // about every 100 ms
       this.worker.postMessage({cursor: this.cursor, target: this.target, late: this.late,
-                               skipped: this.skipped});
+                               skipped: this.skipped, resumed: this.resumed,
+                               inserted: this.inserted});
     return true;
   }
 }

@@ -68,6 +68,9 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_flag("--voice", bench.voice,
                "Voice benchmark instead: mouth-to-ear latency, concealment, bytes per speaker, "
                "server CPU forwarding 4 talkers to 16 participants (--server-seconds each)");
+  bn->add_option("--voice-hold-ms", bench.voice_hold_ms,
+                 "With --voice: how long a listener's voice packets may wait for the other "
+                 "talkers' to go out in one write (ms; default: the server's, 20)");
   bn->add_flag("--render", bench.render,
                "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
   bn->add_option("--render-seconds", bench.render_seconds,

@@ -36,6 +36,7 @@ struct VoiceRow {
   double concealed_percent = 0;                   ///< worst over (talker, listener)
   double bytes_per_second = 0;                    ///< per talker, mean
   double server_cpu_percent = 0;                  ///< the server's threads serving participants
+  double writes_per_second = 0;  ///< the server's writes of session messages, all participants
   uint64_t packets_forwarded = 0;
 };
 
@@ -53,7 +54,7 @@ std::vector<float> speech_for(const fs::path& data, double seconds, int first) {
 }
 
 VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::path& dir,
-                       int participants, int talkers, double seconds) {
+                       int participants, int talkers, double seconds, double hold_ms) {
   VoiceRow row;
   row.name = name;
   row.participants = participants;
@@ -66,6 +67,7 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
   config.port = 0;
   config.session = &hub;
   config.max_pending_per_address = 64;
+  if (hold_ms >= 0) config.stream_coalesce_us = static_cast<int64_t>(hold_ms * 1000);
   Server server(site.cameras(), config);
   hub.attach(&server);
   const std::string link = server.join_link("127.0.0.1");
@@ -130,13 +132,20 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
     for (const ViewerReport& v : server.viewers()) ms += v.send_cpu_ms;
     return ms;
   };
+  const auto writes = [&] {
+    uint64_t n = 0;
+    for (const ViewerReport& v : server.viewers()) n += v.session_flushes;
+    return n;
+  };
   std::this_thread::sleep_for(std::chrono::milliseconds(700));  // the jitter buffers settle
   const double serve0 = serving();
+  const uint64_t writes0 = writes();
   const uint64_t out0 = hub.stats().voice_out;
   const auto t0 = std::chrono::steady_clock::now();
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   row.server_cpu_percent = 0.1 * (serving() - serve0) / wall;
+  row.writes_per_second = static_cast<double>(writes() - writes0) / wall;
   row.packets_forwarded = hub.stats().voice_out - out0;
   std::vector<double> p50;
   for (auto& p : people) {
@@ -179,17 +188,21 @@ int run_voice_bench(const BenchArgs& a) {
   };
   const Config configs[] = {{"loopback, 1 talker -> 1 listener", 2, 1},
                             {"16 participants, 4 talking", 16, 4}};
-  std::printf("%-34s %10s %10s %10s %12s %12s %11s\n", "configuration", "m2e p50", "m2e p99",
-              "concealed", "bytes/s/spk", "forwarded", "server CPU");
+  const double hold_ms = a.voice_hold_ms >= 0
+                             ? a.voice_hold_ms
+                             : static_cast<double>(ServerConfig{}.stream_coalesce_us) / 1000;
+  std::printf("%-34s %10s %10s %10s %12s %12s %11s %9s\n", "configuration", "m2e p50", "m2e p99",
+              "concealed", "bytes/s/spk", "forwarded", "server CPU", "writes/s");
   nlohmann::json rows = nlohmann::json::array();
   int n = 0;
   for (const Config& c : configs) {
     if (isatty(STDERR_FILENO)) std::fprintf(stderr, "[%d/2] %s...\r", ++n, c.name);
     const VoiceRow r =
-        measure_voice(c.name, *data, dir, c.participants, c.talkers, a.server_seconds);
-    std::printf("%-34s %8.1fms %8.1fms %9.2f%% %12.0f %12llu %10.2f%%\n", r.name.c_str(),
+        measure_voice(c.name, *data, dir, c.participants, c.talkers, a.server_seconds, hold_ms);
+    std::printf("%-34s %8.1fms %8.1fms %9.2f%% %12.0f %12llu %10.2f%% %9.0f\n", r.name.c_str(),
                 r.latency_ms_p50, r.latency_ms_p99, r.concealed_percent, r.bytes_per_second,
-                static_cast<unsigned long long>(r.packets_forwarded), r.server_cpu_percent);
+                static_cast<unsigned long long>(r.packets_forwarded), r.server_cpu_percent,
+                r.writes_per_second);
     std::fflush(stdout);
     rows.push_back({{"configuration", r.name},
                     {"participants", r.participants},
@@ -199,16 +212,21 @@ int run_voice_bench(const BenchArgs& a) {
                     {"concealed_percent", r.concealed_percent},
                     {"bytes_per_second_per_speaker", r.bytes_per_second},
                     {"packets_forwarded", r.packets_forwarded},
-                    {"server_cpu_percent_of_one_core", r.server_cpu_percent}});
+                    {"server_cpu_percent_of_one_core", r.server_cpu_percent},
+                    {"server_writes_per_second", r.writes_per_second},
+                    {"voice_hold_ms", hold_ms}});
   }
   fs::remove_all(dir);
   std::printf(
       "m2e: mouth-to-ear, a frame's capture (its first sample) -> played at the listener (file "
       "devices: no device latency), median of the p50s, worst p99; concealed: worst share of "
       "talking frames rebuilt by FEC or PLC; server CPU: the server's threads serving the "
-      "participants (reading, forwarding and writing the voice packets), %% of one core; the "
-      "talkers' microphones start 20 ms / talkers apart (4 talkers: 5 ms), as real talkers' "
-      "frames are not aligned\n");
+      "participants (reading, forwarding and writing the voice packets), %% of one core; "
+      "writes/s: the server's writes of session messages to all participants (a listener's "
+      "voice packets wait up to %.0f ms for the other talkers', to go out in one write: "
+      "--voice-hold-ms); the talkers' microphones start 20 ms / talkers apart (4 talkers: 5 "
+      "ms), as real talkers' frames are not aligned\n",
+      hold_ms);
   if (!a.json.empty()) {
     nlohmann::json j;
     j["voice"] = rows;

@@ -268,7 +268,15 @@ struct SessionChannelSite {
     c.receive_timeout_ms = 0;
     return c;
   }
-  explicit SessionChannelSite(uint32_t max_payload) {
+  static ServerConfig holding(int64_t coalesce_us) {
+    ServerConfig c;
+    c.stream_coalesce_us = coalesce_us;
+    return HandsSite::with_free_port(c);
+  }
+  // `coalesce_us`: ServerConfig::stream_coalesce_us.
+  explicit SessionChannelSite(uint32_t max_payload,
+                              int64_t coalesce_us = ServerConfig{}.stream_coalesce_us)
+      : server{player.cameras(), holding(coalesce_us)} {
     client.set_session_handler(
         [this](uint8_t type, std::span<const uint8_t> payload) {
           std::lock_guard lock(mutex);
@@ -295,6 +303,19 @@ struct SessionChannelSite {
     std::lock_guard lock(mutex);
     return got.size();
   }
+  uint64_t flushes() const {
+    uint64_t n = 0;
+    for (const ViewerReport& r : server.viewers()) n += r.session_flushes;
+    return n;
+  }
+  // Queues a voice-sized message of queued stream `key` for the viewer.
+  void send_voice(uint64_t key, uint8_t fill) {
+    const std::vector<uint8_t> payload(80, fill);
+    server.send_session(viewer,
+                        std::make_shared<const std::vector<uint8_t>>(
+                            protocol::message(static_cast<protocol::MessageType>(0x024e), payload)),
+                        kQueuedStreamKey | key);
+  }
   // Waits (up to 20 s) until `done()` holds, polling every 20 ms.
   void wait_for(const std::function<bool()>& done) {
     for (int i = 0; i < 1000 && !done(); ++i)
@@ -307,7 +328,7 @@ struct SessionChannelSite {
   }
 
   SitePlayer player{HandsSite::sources(), 0};
-  Server server{player.cameras(), HandsSite::with_free_port({})};
+  Server server;
   Client client{config(server)};
   std::mutex mutex;
   std::vector<std::pair<uint8_t, std::vector<uint8_t>>> got;
@@ -412,6 +433,38 @@ TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
     ASSERT_LT(next, sent.size()) << "received message " << i << " is out of order";
     ++next;
   }
+}
+
+// While several talk, a viewer's voice packets wait for each talker's packet of the frame and go
+// out together; one talker's are never held. The hold here is a minute (stream_coalesce_us), so a
+// packet held for nothing would not arrive within wait_for's 20 s: each arriving shows that the
+// packet that completed its set, or a lone talker's, sent it.
+TEST(SessionChannel, VoicePacketsGoOutOnceEachTalkerHasOneAndALoneTalkersAtOnce) {
+  SessionChannelSite s(uint32_t{1} << 16, 60'000'000);
+  ASSERT_NE(s.viewer, 0u);
+  // 3 talkers, their packets 1 ms apart: 40 frames of 3.
+  for (int frame = 0; frame < 40; ++frame)
+    for (uint64_t talker = 1; talker <= 3; ++talker) {
+      s.send_voice(talker, uint8_t(frame));
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  s.wait_for([&] { return s.received() >= 120; });
+  EXPECT_EQ(s.received(), 120u);
+  const uint64_t together = s.flushes();
+  std::printf("3 talkers' 120 packets: %llu writes\n", static_cast<unsigned long long>(together));
+  // One write a frame; more only where this thread stalled over 30 ms between two talkers (the
+  // late one then counted as quiet); far fewer than one a packet (120).
+  EXPECT_LE(together, 60u);
+  // The others fall quiet (30 ms): one talker alone, each packet sent as it comes.
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  for (int frame = 0; frame < 5; ++frame) {
+    s.send_voice(1, uint8_t(frame));
+    s.wait_for([&] { return s.received() >= 121u + frame; });
+  }
+  EXPECT_EQ(s.received(), 125u);
+  EXPECT_EQ(s.flushes() - together, 5u);
+  s.close();
+  EXPECT_EQ(s.error, "");
 }
 
 // Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,

@@ -248,30 +248,57 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   impl_->pool->prewake(std::chrono::milliseconds(2));
 }
 
+void Server::Impl::note_stream(Viewer& v, uint64_t key, int64_t now) {
+  size_t at = 0;  // the stream's slot, else the one heard least recently
+  for (size_t i = 0; i < v.recent_streams.size(); ++i) {
+    if (v.recent_streams[i].key == key) {
+      at = i;
+      break;
+    }
+    if (v.recent_streams[i].last_us < v.recent_streams[at].last_us) at = i;
+  }
+  v.recent_streams[at] = {key, now};
+  v.outbox_stream_mask |= 1u << at;
+}
+
+bool Server::Impl::streams_complete(const Viewer& v, int64_t now) {
+  for (size_t i = 0; i < v.recent_streams.size(); ++i)
+    if (now - v.recent_streams[i].last_us < kActiveStreamUs && !(v.outbox_stream_mask & (1u << i)))
+      return false;
+  return true;
+}
+
 // Queues `message` for `v` (mutex held): false if `v` is gone or being dropped.
 bool Server::Impl::queue_session(Viewer& v, std::shared_ptr<const std::vector<uint8_t>> message,
                                  uint64_t coalesce_key) {
   if (v.done || !v.kicked.empty()) return false;
-  // The viewer's thread takes the whole outbox once woken (flush_session): it needs waking
-  // only for the first message queued since then, not once more per message (a write(2) each),
-  // and for the first that is not a queued stream's: those alone wait (stream_coalesce_us).
+  // The viewer's thread takes the whole outbox once woken (flush_session): it is signalled once
+  // for what the outbox holds, not once more per message (a write(2) and a wake-up each). Queued
+  // streams' messages alone (voice packets) are held while several talk: the thread wakes when
+  // each talker's packet is there, or by its timer when the oldest has waited
+  // stream_coalesce_us; one talker's packets have nothing to wait for.
   const bool stream = (coalesce_key & kQueuedStreamKey) != 0;
-  const bool wake = v.outbox.empty() || (v.outbox_streams_only && !stream);
   const int64_t now = steady_us();
   if (v.outbox.empty()) {
     v.outbox_streams_only = true;
     v.outbox_since_us = now;
+    v.outbox_stream_mask = 0;
   }
-  if (stream && coalesce_key != v.last_stream_key) {
-    if (v.last_stream_key != 0) v.streams_mixed_us = now;
-    v.last_stream_key = coalesce_key;
-  }
+  if (stream) note_stream(v, coalesce_key, now);
   v.outbox_streams_only = v.outbox_streams_only && stream;
   if (v.outbox.size() >= 4096)
     v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
   else
     v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
-  if (wake || !v.kicked.empty()) v.wake.signal();
+  const bool hold = v.kicked.empty() && v.outbox_streams_only && config.stream_coalesce_us > 0 &&
+                    !streams_complete(v, now);
+  if (!v.kicked.empty() || (!hold && !v.outbox_woken)) {
+    v.outbox_woken = true;
+    v.wake.signal();
+  } else if (hold && v.timer_due_us < 0) {
+    v.timer_due_us = v.outbox_since_us + config.stream_coalesce_us;
+    v.wake.at(v.timer_due_us);
+  }
   return true;
 }
 

@@ -3,9 +3,12 @@
 // server.cpp (the public API, and admitting the viewers the door hands on), server_tiers.cpp
 // (tiers: their encoding threads, the CPU budget, subscriptions) and server_viewer.cpp (each
 // viewer's thread: Welcome, frame sets paced by its Acks, session messages).
+#include <sys/epoll.h>
 #include <sys/eventfd.h>
+#include <sys/timerfd.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -25,17 +28,50 @@
 namespace volcast {
 
 struct Server::Impl {
-  // An eventfd that wakes one viewer's thread when its tier has a new frame set.
+  // Wakes one viewer's thread, which polls `fd` (an epoll set of the two below): signal() at
+  // once (its tier has a new frame set, a session message is to be sent; an eventfd), at() when
+  // its held voice packets fall due (a timerfd: no wake-up before then). Each fd is created
+  // here; a failure leaves it -1, and poll(2) then reports the set as never ready.
   struct WakeFd {
-    int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    ~WakeFd() { ::close(fd); }
+    int event = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    int timer = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+    int fd = watch(event, timer);
+    WakeFd() = default;
+    WakeFd(const WakeFd&) = delete;
+    WakeFd& operator=(const WakeFd&) = delete;
+    ~WakeFd() {
+      ::close(fd);
+      ::close(timer);
+      ::close(event);
+    }
     void signal() const {
       const uint64_t one = 1;
-      [[maybe_unused]] const auto n = ::write(fd, &one, sizeof one);
+      [[maybe_unused]] const auto n = ::write(event, &one, sizeof one);
+    }
+    // Wakes the thread once steady_us() reaches `due_us` (steady_clock is CLOCK_MONOTONIC);
+    // -1 disarms it.
+    void at(int64_t due_us) const {
+      itimerspec t{};
+      if (due_us >= 0) {
+        t.it_value.tv_sec = due_us / 1'000'000;
+        t.it_value.tv_nsec = due_us % 1'000'000 * 1000 + 1;  // never all zero (that disarms)
+      }
+      ::timerfd_settime(timer, TFD_TIMER_ABSTIME, &t, nullptr);
     }
     void drain() const {
       uint64_t v;
-      [[maybe_unused]] const auto n = ::read(fd, &v, sizeof v);
+      [[maybe_unused]] const auto a = ::read(event, &v, sizeof v);
+      [[maybe_unused]] const auto b = ::read(timer, &v, sizeof v);
+    }
+    static int watch(int event, int timer) {
+      const int set = ::epoll_create1(EPOLL_CLOEXEC);
+      for (const int f : {event, timer}) {
+        epoll_event e{};
+        e.events = EPOLLIN;
+        e.data.fd = f;
+        ::epoll_ctl(set, EPOLL_CTL_ADD, f, &e);
+      }
+      return set;
     }
   };
   // The steady clock, microseconds (pacing, publish times).
@@ -99,11 +135,19 @@ struct Server::Impl {
     // outbox_since_us (steady_us()); empty or not, false once another kind is queued.
     bool outbox_streams_only = true;
     int64_t outbox_since_us = 0;
-    // The key of the queued stream last queued, and when (steady_us()) one of another key was
-    // last queued after one: the outbox waits (stream_coalesce_us) only while several streams
-    // come (one talker's packets have nothing to join).
-    uint64_t last_stream_key = 0;
-    int64_t streams_mixed_us = INT64_MIN / 2;
+    bool outbox_woken = false;  // the thread was signalled for what the outbox holds
+    // The queued streams (voice: one a talker) lately queued for this viewer, and when
+    // (steady_us()) each last was; bit i of outbox_stream_mask: recent_streams[i] has a message in
+    // the outbox. Held voice packets go out once every stream heard in the last kActiveStreamUs has
+    // one there (streams_complete), or stream_coalesce_us after the oldest (the timer, armed for
+    // timer_due_us; -1: not armed).
+    struct RecentStream {
+      uint64_t key = 0;
+      int64_t last_us = INT64_MIN / 2;
+    };
+    std::array<RecentStream, 8> recent_streams{};
+    uint32_t outbox_stream_mask = 0;
+    int64_t timer_due_us = -1;
     std::string kicked;  // set: disconnect with this reason
     std::shared_ptr<Tier> tier;
     std::string address;  // the peer's IP address (per-address tier limits)
@@ -179,11 +223,20 @@ struct Server::Impl {
   // is gone or being dropped.
   bool queue_session(Viewer& v, std::shared_ptr<const std::vector<uint8_t>> message,
                      uint64_t coalesce_key);
+  // A queued stream is active while its messages come less than this far apart (µs): a talker
+  // sends one every 20 ms.
+  static constexpr int64_t kActiveStreamUs = 30'000;
+  // Notes that a message of stream `key` was queued for `v` at `now` (mutex held).
+  static void note_stream(Viewer& v, uint64_t key, int64_t now);
+  // Whether every stream active at `now` has a message in v's outbox (mutex held): then held
+  // voice packets have nothing more to wait for.
+  static bool streams_complete(const Viewer& v, int64_t now);
 
   // Writes the session messages queued for `v` (in order), small ones joined into one write in
   // `joined` (reused between calls); throws Error if it was kicked. `batch` is scratch. Queued
-  // stream messages alone wait until the oldest is config.stream_coalesce_us old: returns when
-  // (steady_us()) they are due then, else -1.
+  // stream messages alone wait until each active stream has one queued (streams_complete) or the
+  // oldest is config.stream_coalesce_us old: returns when (steady_us()) they are due then, else
+  // -1.
   int64_t flush_session(Viewer& v, std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
                         std::vector<uint8_t>& joined);
 

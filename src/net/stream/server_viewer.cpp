@@ -63,9 +63,10 @@ void Server::Impl::serve_viewer(Viewer& v) {
 // WebSocket message (the page reads them as one byte stream, web/page/worker.js). A large message
 // is not copied: it goes out in the same write as the small ones before it.
 //
-// Queued stream messages alone (voice packets) wait until the oldest is stream_coalesce_us old, so
-// that talkers' packets reaching the server a few ms apart go out together: one wake-up of this
-// thread and one write for several packets. Any other message sends them at once.
+// Queued stream messages alone (voice packets) wait until each talker heard lately has one queued,
+// or the oldest is stream_coalesce_us old, so that talkers' packets reaching the server a few ms
+// apart go out together: one wake-up of this thread and one write for several packets. Any other
+// message sends them at once.
 int64_t Server::Impl::flush_session(Viewer& v,
                                     std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
                                     std::vector<uint8_t>& joined) {
@@ -74,13 +75,18 @@ int64_t Server::Impl::flush_session(Viewer& v,
     std::lock_guard lock(mutex);
     if (!v.kicked.empty()) throw Error(v.kicked);
     if (v.outbox.empty()) return -1;
+    const int64_t now = steady_us();
     if (v.outbox_streams_only && config.stream_coalesce_us > 0) {
-      constexpr int64_t kMixedFor = 200'000;  // µs: several streams came this recently
-      const int64_t now = steady_us(), due = v.outbox_since_us + config.stream_coalesce_us;
-      if (now < due && now - v.streams_mixed_us < kMixedFor) return due;
+      const int64_t due = v.outbox_since_us + config.stream_coalesce_us;
+      if (now < due && !streams_complete(v, now)) return due;
     }
     for (auto& m : v.outbox) batch.push_back(std::move(m.second));
     v.outbox.clear();
+    ++v.report.session_flushes;
+    v.outbox_woken = false;
+    v.outbox_stream_mask = 0;
+    if (v.timer_due_us > now) v.wake.at(-1);  // flushed before the timer: no wake-up for nothing
+    v.timer_due_us = -1;
   }
   constexpr size_t kCopiedBelow = 16 << 10;  // bytes: a message this long or longer is not copied
   constexpr size_t kJoinedBytes = 64 << 10;  // at most this much is joined into one write

@@ -26,6 +26,9 @@ struct BenchArgs {
   int relays = 2;             ///< --nats: relays the viewers are spread over
   bool nats_tls = false;      ///< --nats: TLS on the links to the nodes (self-signed, verified)
   bool voice = false;         ///< the voice benchmark instead (server_seconds)
+  /// --voice: ServerConfig::stream_coalesce_us in ms, how long a listener's voice packets may
+  /// wait for the other talkers' (-1: the server's default)
+  double voice_hold_ms = -1;
 };
 /// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
 /// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
@@ -75,7 +78,7 @@ int run_record_bench(const BenchArgs& args);
 /// talker to one listener, then 16 participants with 4 talking (the site idle); prints a table and
 /// writes {"voice": [{configuration, participants, talkers, mouth_to_ear_ms_p50, _p99,
 /// concealed_percent, bytes_per_second_per_speaker, packets_forwarded,
-/// server_cpu_percent_of_one_core}]} to args.json if set.
+/// server_cpu_percent_of_one_core, server_writes_per_second, voice_hold_ms}]} to args.json if set.
 int run_voice_bench(const BenchArgs& args);
 
 }  // namespace volcast

@@ -87,11 +87,14 @@ struct ServerConfig {
   /// viewers, and adds its time to the tier's latency. 1: always seal.
   int seal_from_viewers = 3;
   /// A viewer's queued session messages that are all of queued streams (kQueuedStreamKey: voice
-  /// packets) wait until the oldest of them has waited this long (µs), or until another kind of
-  /// message is queued, and then go out in one write: talkers' packets reaching the server a few
-  /// ms apart cost one wake-up and one TLS write per listener together instead of one each. Adds
-  /// at most this much to a voice packet's latency; 0: every message goes out at once.
-  int64_t stream_coalesce_us = 5000;
+  /// packets) wait until every stream that sent in the last 30 ms has one queued (each talker's
+  /// packet of this 20 ms frame), until the oldest of them has waited this long (µs), or until
+  /// another kind of message is queued, and then go out in one write: talkers' packets reaching
+  /// the server a few ms apart cost one wake-up and one TLS write per listener together instead
+  /// of one each. One talker's packets never wait; with several, a packet waits for those of
+  /// the others' that come after it in the same frame, at most this long. 0: every message goes
+  /// out at once.
+  int64_t stream_coalesce_us = 20'000;
   TlsIdentity identity;  ///< certificate and key; empty: a new self-signed one for this server
   std::optional<JoinToken> token;  ///< the session's join token; empty: a random one
   /// The browser viewer's page (index.html, its scripts and the WebAssembly decoder, as the build
@@ -129,6 +132,9 @@ struct ViewerReport {
   /// Session messages of a queued stream (voice) dropped, oldest first, for it being slow
   /// (session_port.hpp kQueuedStreamKey).
   uint64_t session_dropped = 0;
+  /// Times its thread took the session messages queued for it and wrote them (small ones joined
+  /// in one write): voice packets held together (stream_coalesce_us) make fewer of these.
+  uint64_t session_flushes = 0;
   uint64_t bytes_sent = 0;
   double min_rtt_ms = 0;         ///< path round trip (send -> Ack), windowed minimum
   double bottleneck_mbit_s = 0;  ///< delivery-rate estimate, windowed maximum

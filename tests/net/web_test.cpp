@@ -423,7 +423,8 @@ TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
 // (--use-file-for-fake-audio-capture) through getUserMedia, an AudioWorklet and WebCodecs' Opus
 // encoder to a native participant's loudspeaker file; a native participant standing on the
 // page's left speaks real speech that the page decodes (WebCodecs), pans (PannerNode, HRTF) and
-// plays -- what it played is kept (record=) and compared.
+// plays -- what it played is kept (record=) and compared -- at the volume its people panel's
+// slider for the talker was set to.
 TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   test::SessionSite s({}, 2, web_config(false));  // a light stream: voice is what is tested
   test::TestParticipant listener(s, test::hand_driven("Listener"));
@@ -473,7 +474,7 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   const auto out = test::temp_dir("web_voice_out");
   const nlohmann::json page =
       drive(s.site.server.web_link("127.0.0.1") + "&name=Web&record=20&fps=10", out,
-            "--frames 3 --mic " + web_mic.string() + " --voice 7");
+            "--frames 3 --mic " + web_mic.string() + " --voice 7 --volume Talker:0.5");
   done = true;
   talk.join();
   ASSERT_TRUE(talking) << "the native participant never heard the page";
@@ -540,6 +541,14 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     const size_t at = size_t(std::max<std::ptrdiff_t>(found.offset, 0));
     const double ratio =
         test::db(test::energy(left, at, phrase.size()) / test::energy(right, at, phrase.size()));
+    const double level =
+        test::db((test::energy(left, at, phrase.size()) + test::energy(right, at, phrase.size())) /
+                 test::energy(phrase, 0, phrase.size()));
+    std::printf("native -> browser '%s': played %.1f dB against what was said\n", name.c_str(),
+                level);
+    // The page's people panel turned the talker down to 50 % (drive.mjs --volume, the slider as
+    // a person drags it): -6 dB from the 2.0-2.1 dB it plays at 100 % (1.5 m away, HRTF).
+    EXPECT_NEAR(level, 2.0 + test::db(0.5 * 0.5), 2.0) << name << ": the volume slider";
     const int phrase_lag = test::interaural_lag(left, right, at, phrase.size());
     std::printf(
         "native -> browser '%s': correlation %.3f, piecewise %.3f, resumed %.3f; left ear %.1f "
@@ -556,6 +565,7 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   ASSERT_TRUE(v["heard"].contains(talker_id)) << v.dump();
   const nlohmann::json& h = v["heard"][talker_id];
   EXPECT_GT(h["frames"].get<int>(), 100);
+  EXPECT_DOUBLE_EQ(h["volume"].get<double>(), 0.5) << "the slider set the talker's gain";
   std::printf(
       "mouth-to-ear: browser -> native p50 %.1f ms, p99 %.1f ms; native -> browser p50 %.1f "
       "ms, p99 %.1f ms (%d frames late, %d stalls resumed as %.0f ms of pause, %.2f %% "

@@ -16,7 +16,8 @@
 // gain control: a headset, or a speakerphone that does its own),
 // volume=NAME:GAIN,... (per participant), record=S (keep S seconds of what is played, for tests).
 // Voice (voice.js): M mutes and unmutes (the left controller's Y in a headset); the others'
-// voices play from where they stand; a green box over a head speaks, a red one is muted.
+// voices play from where they stand; a green box over a head speaks, a red one is muted; the
+// people panel (top right) lists the others with a volume slider each.
 // The patient case (serve --case): its organs over the table and the CT on the wall monitor. In a
 // headset, squeeze a controller's grip near an organ to hold it (it follows the hand; let go to
 // release); on a desktop, G grabs the organ you look at (it follows your view) and G again lets
@@ -354,6 +355,51 @@ function updateOverlay() {
       `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
       (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
       (session.error ? ` · ${session.error}` : '') + voiceLine();
+  updatePeople();
+}
+
+// The people panel (top right): each other participant with its voice's state (green: speaking,
+// red: muted) and a volume slider (0-400 %, as the desktop panel's) that sets the gain their
+// voice plays at here.
+const people = document.getElementById('people');
+const peopleRows = new Map();  // participant id -> {label, slider, value}
+function updatePeople() {
+  if (!voice || !voice.ctx) return;
+  const present = new Set();
+  for (const p of session.others.values()) {
+    present.add(p.id);
+    let row = peopleRows.get(p.id);
+    if (!row) {
+      const label = document.createElement('span');
+      const slider = document.createElement('input');
+      Object.assign(slider, {type: 'range', min: '0', max: '4', step: '0.05'});
+      slider.dataset.name = p.name;
+      slider.setAttribute('aria-label', `volume of ${p.name}`);
+      const value = document.createElement('span');
+      slider.addEventListener('input', () => {
+        voice.setVolume(p.id, Number(slider.value));
+        value.textContent = `${Math.round(slider.value * 100)}%`;
+      });
+      row = {label, slider, value};
+      people.append(label, slider, value);
+      peopleRows.set(p.id, row);
+    }
+    const gain = voice.volume(p.id, p.name);
+    if (document.activeElement !== row.slider) {
+      row.slider.value = String(gain);
+      row.value.textContent = `${Math.round(gain * 100)}%`;
+    }
+    row.label.textContent = p.name + (p.muted ? ' (muted)' : '');
+    row.label.className = p.muted ? 'muted' : voice.speaking(p.id) ? 'speaking' : '';
+  }
+  for (const [id, row] of peopleRows) {
+    if (present.has(id)) continue;
+    row.label.remove();
+    row.slider.remove();
+    row.value.remove();
+    peopleRows.delete(id);
+  }
+  people.hidden = peopleRows.size === 0;
 }
 
 // The overlay's voice part: the microphone's state and who speaks.

@@ -25,6 +25,7 @@ export class Voice {
     this.muted = !!options.muted;
     this.talking = false;
     this.speakers = new Map();  // id -> {node, gain, panner, volume}
+    this.gains = new Map();     // id -> gain set here (setVolume), for speakers heard or not yet
     this.stats = {};            // the worker's (voice_worker.js voiceStats)
     this.error = '';
     this.recorded = [[], []];
@@ -104,11 +105,18 @@ export class Voice {
     this.talking = talking;
     this.sendState();
   }
+  // Sets the gain speaker `id` plays at here (1: as sent); kept for a speaker not heard yet.
   setVolume(id, gain) {
+    this.gains.set(id, gain);
     const s = this.speakers.get(id);
     if (!s) return;
     s.volume = gain;
     s.gain.gain.value = gain;
+  }
+  // The gain participant `id` (display name `name`) plays at: setVolume's, else options.volumes'.
+  volume(id, name) {
+    if (this.gains.has(id)) return this.gains.get(id);
+    return this.options.volumes?.get(name) ?? 1;
   }
 
   // The worker heard a new speaker: its playout worklet and place in the room.
@@ -125,7 +133,8 @@ export class Voice {
     this.worker.postMessage({type: 'voice-speaker', id, port: channel.port2}, [channel.port2]);
     this.speakers.set(id, {node, gain, panner, volume: 1});
     const name = this.session.others.get(id)?.name;
-    if (name && this.options.volumes?.has(name)) this.setVolume(id, this.options.volumes.get(name));
+    if (this.gains.has(id)) this.setVolume(id, this.gains.get(id));
+    else if (name && this.options.volumes?.has(name)) this.setVolume(id, this.options.volumes.get(name));
   }
 
   // Each frame: the listener at the head (room frame: position, orientation quaternion x y z w),

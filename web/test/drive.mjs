@@ -15,6 +15,7 @@
 // --mic FILE: Chromium's fake microphone plays the WAV file once (then silence), as a person
 // speaking; --voice S: once the page has heard someone's voice, S seconds more, then writes what
 // it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav.
+// --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -76,6 +77,14 @@ try {
          (s.framesReceived < frames || s.framesDrawn < 1)) {
     await page.waitForTimeout(100);
     s = await state();
+  }
+  // --volume NAME:GAIN: once NAME is in the page's people panel, its volume slider set to GAIN,
+  // as a person drags it.
+  const volume = flag('--volume');
+  if (volume && s.phase !== 'error') {
+    const at = volume.lastIndexOf(':');
+    await page.locator(`#people input[data-name="${volume.slice(0, at)}"]`)
+        .fill(volume.slice(at + 1), {timeout: 60000});
   }
   const stall = Number(flag('--stall', '0'));
   let stalledMs = 0;
@@ -159,7 +168,7 @@ try {
   }
   // The picture alone: the overlay's text would count as drawn pixels.
   await page.evaluate(() => {
-    for (const id of ['overlay', 'help', 'enter-vr']) document.getElementById(id).hidden = true;
+    for (const id of ['overlay', 'people', 'help', 'enter-vr']) document.getElementById(id).hidden = true;
   });
   const shot = `${out}/${xr ? 'xr' : 'desktop'}.png`;
   await page.screenshot({path: shot});

@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 #include <thread>
+#include <vector>
 
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
@@ -63,11 +66,47 @@ ColorImage hands_color_image(int index) {
   return image;
 }
 
+namespace {
+
+// The folders temp_dir made in this process: removed when its tests end, if all passed and
+// VOLCAST_KEEP_TEST_DIRS is unset; else kept and named, to look at what a failing test wrote.
+struct TempDirs : testing::EmptyTestEventListener {
+  std::mutex mutex;
+  std::vector<fs::path> made;
+  void OnTestProgramEnd(const testing::UnitTest& unit) override {
+    std::lock_guard lock(mutex);
+    const bool keep = !unit.Passed() || std::getenv("VOLCAST_KEEP_TEST_DIRS") != nullptr;
+    for (const fs::path& d : made) {
+      std::error_code ignored;
+      if (keep)
+        std::printf("test folder kept: %s\n", d.c_str());
+      else
+        fs::remove_all(d, ignored);
+    }
+    made.clear();
+  }
+};
+
+TempDirs& temp_dirs() {
+  // Owned by gtest's listener list once appended (it deletes it at exit).
+  static TempDirs* dirs = [] {
+    auto* d = new TempDirs;
+    testing::UnitTest::GetInstance()->listeners().Append(d);
+    return d;
+  }();
+  return *dirs;
+}
+
+}  // namespace
+
 fs::path temp_dir(const std::string& name) {
   const fs::path d =
       fs::temp_directory_path() / ("volcast_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
+  TempDirs& dirs = temp_dirs();
+  std::lock_guard lock(dirs.mutex);
+  if (std::find(dirs.made.begin(), dirs.made.end(), d) == dirs.made.end()) dirs.made.push_back(d);
   return d;
 }
 

@@ -19,7 +19,9 @@ std::filesystem::path kinect_mkv();  ///< k4a-recording/recording.mkv
 std::vector<DepthImage> real_depth_frames(const std::string& set);
 /// Colour frame `index` (0..206) of the hands sequence, decoded from its JPEG (BGRA, 640x360).
 ColorImage hands_color_image(int index);
-/// A fresh empty temporary folder for one test.
+/// A fresh empty temporary folder for one test (`name` and the process id under the system's
+/// temporary folder). Removed when the test program ends with every test passed, unless
+/// VOLCAST_KEEP_TEST_DIRS is set; kept and named (stdout) when one failed.
 std::filesystem::path temp_dir(const std::string& name);
 /// Runs a shell command, returns its exit code; its stdout+stderr are stored in `output`.
 int run_command(const std::string& command, std::string& output);

@@ -181,6 +181,10 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = voice_badge_primitives(head, speaking, p.muted, pulse);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
+  if (options.volume_shown) {
+    const auto bar = volume_bar_primitives(options.volume_shown->at, options.volume_shown->gain);
+    r.scene.insert(r.scene.end(), bar.begin(), bar.end());
+  }
   if (options.own_muted && s.has_own_body && s.own_body.hands_tracked) {
     const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());

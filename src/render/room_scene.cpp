@@ -147,6 +147,27 @@ std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool 
   return p;
 }
 
+std::vector<Primitive> volume_bar_primitives(const Eigen::Vector3f& at, float gain) {
+  constexpr float kHeight = 0.4f, kWidth = 0.07f;
+  const Eigen::Vector3f bottom = at + Eigen::Vector3f(0, 0.45f, 0);
+  const float filled = kHeight * std::clamp(gain, 0.0f, 4.0f) / 4;
+  std::vector<Primitive> p;
+  p.push_back(shape(Primitive::Shape::kBox,
+                    Eigen::Translation3f(bottom + Eigen::Vector3f(0, kHeight / 2, 0)) *
+                        Eigen::Scaling(kWidth, kHeight, kWidth),
+                    rgba(0.35f, 0.36f, 0.4f)));
+  if (filled > 0)
+    p.push_back(shape(Primitive::Shape::kBox,
+                      Eigen::Translation3f(bottom + Eigen::Vector3f(0, filled / 2, 0)) *
+                          Eigen::Scaling(kWidth * 1.3f, filled, kWidth * 1.3f),
+                      rgba(0.95f, 0.8f, 0.15f), 1));
+  p.push_back(shape(Primitive::Shape::kBox,
+                    Eigen::Translation3f(bottom + Eigen::Vector3f(0, kHeight / 4, 0)) *
+                        Eigen::Scaling(kWidth * 2, 0.008f, kWidth * 2),
+                    rgba(1, 1, 1), 1));
+  return p;
+}
+
 std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand) {
   return {shape(Primitive::Shape::kSphere,
                 Eigen::Translation3f(hand + Eigen::Vector3f(0, 0.08f, 0)) *

@@ -1,6 +1,7 @@
 #include "volcast/voice/voice_controls.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace volcast::voice {
 
@@ -20,6 +21,49 @@ void press_voice_buttons(VoiceInput& input, VoiceButtons& before, const VoiceBut
   input.talk_held = now.talk;
   if (now.mute && !before.mute) input.toggle_mute = !input.toggle_mute;
   before = now;
+}
+
+Eigen::Vector3f voice_position(const SessionSnapshot& s, uint32_t id,
+                               const Eigen::Vector3f& site_position) {
+  if (id == 1) return site_position;
+  for (const RemoteParticipant& p : s.others)
+    if (p.id == id)
+      return p.has_pose ? p.pose.head.position : Eigen::Vector3f(p.spot.x, 1.6f, p.spot.z);
+  return site_position;
+}
+
+uint32_t step_volume(VolumeGesture& gesture, VoiceInput& input, const SessionSnapshot& s,
+                     const std::vector<VoiceRow>& rows, float stick,
+                     const Eigen::Vector3f& site_position, int64_t now_us) {
+  if (std::abs(stick) < kVolumeRest) gesture.pushed = false;
+  if (gesture.pushed || std::abs(stick) < kVolumePush || !s.has_own_body) return 0;
+  gesture.pushed = true;
+  const Pose& head = s.own_body.head;
+  const Eigen::Vector3f forward = head.orientation * Eigen::Vector3f(0, 0, -1);
+  const float min_cos = std::cos(kVolumeGazeDeg * float(M_PI) / 180);
+  const VoiceRow* looked_at = nullptr;
+  float best = min_cos;
+  for (const RemoteParticipant& p : s.others) {
+    const Eigen::Vector3f to = voice_position(s, p.id, site_position) - head.position;
+    if (to.norm() < 1e-3f) continue;
+    const float c = forward.dot(to.normalized());
+    if (c < best) continue;
+    const auto row =
+        std::find_if(rows.begin(), rows.end(), [&](const VoiceRow& r) { return r.id == p.id; });
+    if (row == rows.end()) continue;
+    best = c;
+    looked_at = &*row;
+  }
+  if (!looked_at) return 0;
+  // The gain stepped last, for a voice not heard yet (the rows show its configured one).
+  const float now_gain = gesture.shown_id == looked_at->id ? gesture.shown_gain : looked_at->volume;
+  const float gain = std::clamp(now_gain + (stick > 0 ? kVolumeStep : -kVolumeStep), 0.0f, 4.0f);
+  input.volumes.emplace_back(looked_at->id, gain);
+  gesture.shown_id = looked_at->id;
+  gesture.shown_gain = gain;
+  gesture.shown_at = voice_position(s, looked_at->id, site_position);
+  gesture.shown_until_us = now_us + kVolumeShownUs;
+  return looked_at->id;
 }
 
 std::vector<VoiceRow> voice_rows(const SessionSnapshot& s, const VoiceStats* stats,

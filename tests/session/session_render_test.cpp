@@ -126,6 +126,19 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
   EXPECT_GT(own[0].color.x(), own[0].color.y());
   EXPECT_NEAR(own[0].world_from_shape(1, 3), 1.18f, 1e-6f);
   EXPECT_NEAR(own[0].world_from_shape(0, 0), 0.04f, 1e-6f);
+  // A volume the headset just set: the 40 cm track 0.45 m over the voice, yellow filled to gain
+  // / 4 from its bottom, the white mark at 1 (a quarter up); silence leaves the track and mark.
+  const auto bar = volume_bar_primitives(head, 2.0f);
+  ASSERT_EQ(bar.size(), 3u);
+  EXPECT_NEAR(bar[0].world_from_shape(1, 1), 0.4f, 1e-6f);
+  EXPECT_NEAR(bar[0].world_from_shape(1, 3), 1.6f + 0.45f + 0.2f, 1e-6f);
+  EXPECT_GT(bar[1].color.x(), 0.9f);
+  EXPECT_LT(bar[1].color.z(), 0.2f);
+  EXPECT_NEAR(bar[1].world_from_shape(1, 1), 0.2f, 1e-6f) << "half of the track at 200 %";
+  EXPECT_NEAR(bar[1].world_from_shape(1, 3), 1.6f + 0.45f + 0.1f, 1e-6f);
+  EXPECT_NEAR(bar[2].world_from_shape(1, 3), 1.6f + 0.45f + 0.1f, 1e-6f) << "the mark at 100 %";
+  EXPECT_EQ(volume_bar_primitives(head, 0).size(), 2u);
+  EXPECT_NEAR(volume_bar_primitives(head, 9)[1].world_from_shape(1, 1), 0.4f, 1e-6f);
 }
 
 // The case's organs and the monitor. Synthetic (exact behaviour): a quad-shaped "organ" 1 m ahead,

@@ -326,6 +326,73 @@ TEST(VoiceRows, EveryoneInTheSessionWithWhatTheLinkHeardElseTheirPackets) {
   EXPECT_TRUE(bare[1].muted);
 }
 
+// The headset's volume gesture (synthetic poses: exact behaviour). The listener stands at the
+// origin, its head 1.6 m up looking along -z; Dr. A stands 2 m ahead, Dr. B 2 m to its right
+// (90 degrees off), the OR site's voice above the table 1.5 m ahead.
+TEST(VolumeGesture, EachThumbstickPushStepsTheVoiceLookedAtWithinItsRange) {
+  SessionSnapshot s;
+  s.has_own_body = true;
+  s.own_body.head.position = {0, 1.6f, 0};
+  const auto other = [](uint32_t id, const char* name, Eigen::Vector3f head) {
+    RemoteParticipant p;
+    p.id = id;
+    p.name = name;
+    p.has_pose = true;
+    p.pose.head.position = head;
+    return p;
+  };
+  s.others = {other(2, "Dr. A", {0, 1.7f, -2}), other(3, "Dr. B", {2, 1.6f, 0})};
+  RemoteParticipant site;
+  site.id = 1;
+  site.name = "OR site";
+  site.role = session::Role::kOrSite;
+  s.others.push_back(site);
+  const Eigen::Vector3f site_at{0.5f, 1.5f, -6};  // behind Dr. A, 5 degrees to its right
+  std::vector<voice::VoiceRow> rows = voice::voice_rows(s, nullptr, {}, 0);
+  voice::VolumeGesture g;
+  voice::VoiceInput in;
+  // Up: Dr. A (the nearest to the line of sight; the site is 5 degrees off it) to 125 %.
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 0.9f, site_at, 1'000'000), 2u);
+  ASSERT_EQ(in.volumes.size(), 1u);
+  EXPECT_EQ(in.volumes[0], std::make_pair(2u, 1.25f));
+  EXPECT_EQ(g.shown_until_us, 1'000'000 + voice::kVolumeShownUs);
+  EXPECT_TRUE(g.shown_at.isApprox(Eigen::Vector3f(0, 1.7f, -2)));
+  // Held out: no second step; back to rest, pushed again: 150 %.
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 1.0f, site_at, 1'010'000), 0u);
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 0.1f, site_at, 1'020'000), 0u);
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 0.7f, site_at, 1'030'000), 2u);
+  EXPECT_FLOAT_EQ(in.volumes.back().second, 1.5f) << "from the step before, not the rows' 1";
+  // Down to silence, and not below.
+  for (int i = 0; i < 8; ++i) {
+    voice::step_volume(g, in, s, rows, 0, site_at, 1'040'000);
+    voice::step_volume(g, in, s, rows, -0.8f, site_at, 1'040'000);
+  }
+  EXPECT_FLOAT_EQ(in.volumes.back().second, 0.0f);
+  // Up to 400 %, and not above.
+  in.volumes.clear();
+  for (int i = 0; i < 20; ++i) {
+    voice::step_volume(g, in, s, rows, 0, site_at, 1'050'000);
+    voice::step_volume(g, in, s, rows, 1, site_at, 1'050'000);
+  }
+  EXPECT_FLOAT_EQ(in.volumes.back().second, 4.0f);
+  // Turned to the right (Dr. B): the step is Dr. B's, from the rows' 100 %.
+  s.own_body.head.orientation = Eigen::AngleAxisf(-float(M_PI) / 2, Eigen::Vector3f::UnitY());
+  voice::step_volume(g, in, s, rows, 0, site_at, 1'060'000);
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, -1, site_at, 1'060'000), 3u);
+  EXPECT_FLOAT_EQ(in.volumes.back().second, 0.75f);
+  // Dr. A moved aside: the OR site's voice is the one looked at.
+  s.own_body.head.orientation = Eigen::Quaternionf::Identity();
+  s.others[0].pose.head.position = {-2, 1.6f, -1};
+  voice::step_volume(g, in, s, rows, 0, site_at, 1'070'000);
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 1, site_at, 1'070'000), 1u);
+  // Looking up at the ceiling: nobody within 20 degrees, nothing stepped.
+  s.own_body.head.orientation = Eigen::AngleAxisf(float(M_PI) / 2, Eigen::Vector3f::UnitX());
+  voice::step_volume(g, in, s, rows, 0, site_at, 1'080'000);
+  const size_t before = in.volumes.size();
+  EXPECT_EQ(voice::step_volume(g, in, s, rows, 1, site_at, 1'080'000), 0u);
+  EXPECT_EQ(in.volumes.size(), before);
+}
+
 // --- The desktop window under Xvfb ---------------------------------------------------------------
 
 TEST(DesktopViewer, WithoutADisplaySaysWhyInsteadOfFailing) {

@@ -226,7 +226,9 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   // 42 frames: X held, a pause, Y pressed, and 9 frames to show the muted ball (31 s at 60, alone).
   const MockRuntime mock("xr_runtime_session", "42");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
-  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "x/click:3,20;y/click:30,32");
+  // Then the left thumbstick pushed up once, looking at the observer: its voice 25 % louder.
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
+                                "x/click:3,20;y/click:30,32;thumbstick/y:34,35");
   // The left hand held up ahead, where the eyes see the red ball over it once muted.
   const test::ScopedEnv left_grip("VOLCAST_MOCK_XR_LEFT_GRIP", "-0.05,1.4,-0.45");
   std::vector<std::string> phrases;  // 90 s of speech: longer than X is held on a loaded machine
@@ -237,13 +239,14 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const fs::path speech = test::write_voice(mock.dir / "speech.wav", test::phrases(phrases, 0.1));
   test::SessionSite s;
   const std::string link = s.link();
-  test::TestParticipant observer(s, test::named("Observer"));
+  test::TestParticipant observer(s, test::hand_driven("Observer"));
   // The headset participant.
   SessionClientOptions headset_options;
   headset_options.participant.name = "Headset";
   headset_options.drive_poses = false;  // the headset publishes
   SessionClient headset(headset_options);
   std::unique_ptr<voice::VoiceLink> talk;  // as volcast view --xr --join --mic --push-to-talk
+  std::thread place_observer;
   ViewerOptions opt;
   opt.client = client_config_from_link(link);
   opt.seconds = 300;  // a safety net only: the runtime ends the session
@@ -257,6 +260,13 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
     // Its first frames wait for the join, so that the headset's poses count.
     for (int i = 0; i < 500 && !headset.participant()->joined(); ++i)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    // Once the headset has published its head, the observer stands 1.5 m ahead of its eyes.
+    place_observer = std::thread([&] {
+      Participant* p = headset.participant();
+      if (!test::eventually([&] { return p->snapshot(wall_clock_us()).has_own_body; })) return;
+      const Pose head = p->snapshot(wall_clock_us()).own_body.head;
+      test::stand(observer, head.position + head.orientation * Eigen::Vector3f(0, 0, -1.5f));
+    });
   };
   opt.on_finished = [&](ViewerResult&) {
     talk->stop();
@@ -269,6 +279,7 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   // What the observer hears of the headset while it is there (it leaves when the session ends).
   test::VoiceWatch watch(observer, "Headset");
   const ViewerResult r = run_viewer(opt);
+  if (place_observer.joinable()) place_observer.join();
   watch.stop();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 30u);
@@ -279,6 +290,11 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
               static_cast<unsigned long long>(sent.packets_sent),
               static_cast<unsigned long long>(sent.dtx_frames));
   EXPECT_TRUE(talk->muted()) << "Y muted it";
+  const auto observer_heard =
+      std::find_if(sent.heard.begin(), sent.heard.end(),
+                   [&](const voice::HeardVoice& h) { return h.id == observer.now().id; });
+  ASSERT_NE(observer_heard, sent.heard.end()) << "the thumbstick set the observer's volume";
+  EXPECT_FLOAT_EQ(observer_heard->volume, 1.25f) << "one push up, looking at it";
   EXPECT_GT(sent.packets_sent, 0u) << "X held: it talked";
   EXPECT_LT(sent.packets_sent + sent.dtx_frames, sent.frames_captured)
       << "before X and after it, the microphone was not sent";

@@ -38,18 +38,22 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
     squeeze_ = action("squeeze", "Grab", XR_ACTION_TYPE_FLOAT_INPUT);
     talk_ = action("talk", "Push to talk", XR_ACTION_TYPE_BOOLEAN_INPUT);
     mute_ = action("mute", "Mute microphone", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    volume_ = action("volume", "Volume of the voice looked at", XR_ACTION_TYPE_FLOAT_INPUT);
     // The voice buttons are the left controller's (null: the profile has none to spare).
     const struct {
       const char* profile;
       const char* squeeze;
       const char* talk;
       const char* mute;
-    } profiles[] = {
-        {"/interaction_profiles/khr/simple_controller", "select/click", nullptr, "menu/click"},
-        {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
-         "menu/click"},
-        {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click", "b/click"},
-        {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click", "y/click"}};
+      const char* volume;
+    } profiles[] = {{"/interaction_profiles/khr/simple_controller", "select/click", nullptr,
+                     "menu/click", nullptr},
+                    {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
+                     "menu/click", "trackpad/y"},
+                    {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click",
+                     "b/click", "thumbstick/y"},
+                    {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click",
+                     "y/click", "thumbstick/y"}};
     for (const auto& p : profiles) {
       std::vector<XrActionSuggestedBinding> bindings;
       for (const char* hand : {"left", "right"}) {
@@ -62,6 +66,9 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
         bindings.push_back({talk_, path(("/user/hand/left/input/" + std::string(p.talk)).c_str())});
       if (p.mute)
         bindings.push_back({mute_, path(("/user/hand/left/input/" + std::string(p.mute)).c_str())});
+      if (p.volume)
+        bindings.push_back(
+            {volume_, path(("/user/hand/left/input/" + std::string(p.volume)).c_str())});
       auto suggested = xr_struct<XrInteractionProfileSuggestedBinding>(
           XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
       suggested.interactionProfile = path(p.profile);
@@ -113,6 +120,14 @@ std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
   };
   out[0].talk = held(talk_, hands_[0]);
   out[0].mute = held(mute_, hands_[0]);
+  {
+    auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
+    get.action = volume_;
+    get.subactionPath = hands_[0];
+    auto state = xr_struct<XrActionStateFloat>(XR_TYPE_ACTION_STATE_FLOAT);
+    if (XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive)
+      out[0].volume = state.currentState;
+  }
   for (int h = 0; h < 2; ++h) {
     auto location = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
     if (XR_FAILED(xrLocateSpace(spaces_[h], space, time, &location))) continue;

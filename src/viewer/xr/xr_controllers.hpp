@@ -27,6 +27,9 @@ struct ControllerState {
   float squeeze = 0;  ///< 0..1
   bool talk = false;  ///< the talk button is held (left hand only; read even when not located)
   bool mute = false;  ///< the mute button is held (left hand only)
+  /// The left thumbstick's (Vive: trackpad's) y, -1 down to 1 up: steps the volume of the voice
+  /// looked at (voice::step_volume). Left hand only; 0 where the profile has none.
+  float volume = 0;
 };
 
 class XrControllers {
@@ -45,7 +48,7 @@ class XrControllers {
   XrSession session_ = XR_NULL_HANDLE;
   XrActionSet set_ = XR_NULL_HANDLE;
   XrAction grip_ = XR_NULL_HANDLE, squeeze_ = XR_NULL_HANDLE, talk_ = XR_NULL_HANDLE,
-           mute_ = XR_NULL_HANDLE;
+           mute_ = XR_NULL_HANDLE, volume_ = XR_NULL_HANDLE;
   std::array<XrPath, 2> hands_{};
   std::array<XrSpace, 2> spaces_{};
   bool enabled_ = false;

@@ -298,8 +298,9 @@ struct FrameLoop {
   XrControllers& controllers;
   const std::vector<CameraCalibration>& cameras;
   HandGrab hand_grab;
-  voice::VoiceInput voice_input;      // the voice buttons' requests (talk held, mute pressed)
-  voice::VoiceButtons voice_buttons;  // as they were last frame
+  voice::VoiceInput voice_input;        // the voice buttons' requests (talk held, mute pressed)
+  voice::VoiceButtons voice_buttons;    // as they were last frame
+  voice::VolumeGesture volume_gesture;  // the left thumbstick's volume steps
   std::vector<std::shared_ptr<const CameraFrame>> frames, uploaded;
   std::vector<XrView> views;
   std::vector<XrCompositionLayerProjectionView> projected;
@@ -379,15 +380,22 @@ struct FrameLoop {
       grab_input[h].room_from_hand.orientation = (turn * grips[h]->orientation).normalized();
     }
     hand_grab.update(*participant, snapshot, grab_input);
-    track_voice_buttons(hands[0]);
+    track_voice_buttons(hands[0], snapshot, now);
   }
 
-  // The left controller's voice buttons: talk held, mute pressed (xr_controllers.hpp).
-  void track_voice_buttons(const ControllerState& left) {
+  // The left controller's voice buttons: talk held, mute pressed, the thumbstick's volume steps
+  // for the voice looked at (xr_controllers.hpp, voice_controls.hpp).
+  void track_voice_buttons(const ControllerState& left, const SessionSnapshot& snapshot,
+                           int64_t now) {
     voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
     if (!link) return;  // no voice link (or not yet)
     const bool was_muted = link->muted();
     press_voice_buttons(voice_input, voice_buttons, {left.talk, left.mute});
+    const voice::VoiceStats stats = link->stats();
+    const auto rows = voice::voice_rows(snapshot, &stats, link->config().volumes, now);
+    if (const uint32_t id = voice::step_volume(volume_gesture, voice_input, snapshot, rows,
+                                               left.volume, link->config().site_position, now))
+      spdlog::info("voice: participant {} at {:.0f} %", id, volume_gesture.shown_gain * 100);
     apply_voice_input(*link, voice_input);
     if (link->muted() != was_muted)
       spdlog::info("voice: microphone {}", link->muted() ? "muted" : "on");
@@ -405,6 +413,9 @@ struct FrameLoop {
           so.pass = o.pass;
           const voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
           so.own_muted = link && link->muted();  // a red ball over the left hand
+          if (link && now < volume_gesture.shown_until_us)
+            so.volume_shown = SessionSceneOptions::VolumeShown{volume_gesture.shown_at,
+                                                               volume_gesture.shown_gain};
           scene->draw(view, target, cameras, uploaded, *participant, now, so);
         } else {
           renderer.draw_cameras(view, target, o.pass);

@@ -7,6 +7,7 @@
 // effects, the patient case's objects where the session has them (held ones brightened) and the
 // wall monitor's CT slice. One GL context; every call with it current.
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -34,6 +35,13 @@ struct SessionSceneOptions {
   /// Your own microphone is muted: a red ball over your left hand (muted_hand_primitives; the
   /// headset's sign, with tracked hands).
   bool own_muted = false;
+  /// A voice's volume the headset wearer just stepped (voice::step_volume): a bar over where
+  /// the voice comes from (volume_bar_primitives; room frame, metres, gain 0 to 4).
+  struct VolumeShown {
+    Eigen::Vector3f at = Eigen::Vector3f::Zero();
+    float gain = 1;
+  };
+  std::optional<VolumeShown> volume_shown;
 };
 
 /// The filter for another participant's camera avatar: keep the points within `radius_m` of its

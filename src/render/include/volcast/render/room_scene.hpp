@@ -35,6 +35,11 @@ std::vector<Primitive> mesh_avatar_primitives(const BodyPose& body, const Eigen:
 std::vector<Primitive> voice_badge_primitives(const Eigen::Vector3f& head, bool speaking,
                                               bool muted, float pulse);
 
+/// A voice's volume as a headset wearer just set it (room frame, metres; `at`: where the voice
+/// comes from): a grey upright track 40 cm tall and 7 cm wide, 0.45 m above `at`, filled from the
+/// bottom in yellow to gain / 4 (0 to 4), with a white mark at 1 (the voice as sent).
+std::vector<Primitive> volume_bar_primitives(const Eigen::Vector3f& at, float gain);
+
 /// A headset wearer's own muted microphone, where they see it (room frame, metres; `hand`: the
 /// left controller's position): a red ball 4 cm wide, 8 cm above the hand.
 std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand);

@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "volcast/session/participant.hpp"
 #include "volcast/voice/voice_link.hpp"
 
@@ -60,5 +62,37 @@ struct VoiceRow {
 /// before `now_us` (local wall clock), volume 1. muted is always RemoteParticipant::muted.
 std::vector<VoiceRow> voice_rows(const SessionSnapshot& s, const VoiceStats* stats,
                                  const std::map<std::string, float>& volumes, int64_t now_us);
+
+/// The headset's per-participant volume (no panel in VR): look at a participant, push the left
+/// thumbstick up or down. Each push past kVolumePush steps the volume of the participant whose
+/// voice comes from nearest the head's forward direction, within kVolumeGazeDeg, by kVolumeStep
+/// (0 to 4, as the desktop panel's slider); the stick must come back under kVolumeRest before
+/// the next step. The voice comes from a participant's head (room frame), before its first pose
+/// from its spot 1.6 m high, and the OR site's (participant 1) from VoiceConfig::site_position.
+struct VolumeGesture {
+  bool pushed = false;    ///< the stick is out and has stepped (or was out at the start)
+  uint32_t shown_id = 0;  ///< the participant stepped last (0: none yet)
+  float shown_gain = 1;   ///< its volume now
+  Eigen::Vector3f shown_at = Eigen::Vector3f::Zero();  ///< where its voice came from (room frame)
+  int64_t shown_until_us = 0;  ///< show that volume over its head until then (local wall clock)
+};
+inline constexpr float kVolumePush = 0.6f;      ///< thumbstick y, out of 1
+inline constexpr float kVolumeRest = 0.3f;      ///< thumbstick y, out of 1
+inline constexpr float kVolumeGazeDeg = 20.0f;  ///< degrees off the head's forward (-z)
+inline constexpr float kVolumeStep = 0.25f;     ///< gain per push
+inline constexpr int64_t kVolumeShownUs = 2'000'000;
+
+/// Where participant `id`'s voice comes from in `s` (room frame, metres): its head, before its
+/// first pose its spot 1.6 m high; the OR site (1), or an id not in `s`, at `site_position`.
+Eigen::Vector3f voice_position(const SessionSnapshot& s, uint32_t id,
+                               const Eigen::Vector3f& site_position);
+
+/// One frame of the gesture: `stick` is the left thumbstick's y (-1 down .. 1 up), `s` the
+/// snapshot (its own_body.head: the listener's head, room frame), `rows` the voice rows
+/// (voice_rows: the volumes now). A step appends (id, gain) to input.volumes and returns the id;
+/// else 0 (no push, the stick still out, nobody looked at, or no head yet).
+uint32_t step_volume(VolumeGesture& gesture, VoiceInput& input, const SessionSnapshot& s,
+                     const std::vector<VoiceRow>& rows, float stick,
+                     const Eigen::Vector3f& site_position, int64_t now_us);
 
 }  // namespace volcast::voice

@@ -561,6 +561,16 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     EXPECT_GT(ratio, 1.5) << name << ": the talker stands on the page's left";
     EXPECT_GT(phrase_lag, 10) << name << ": the left ear hears it first (about 0.8 ms)";
   }
+  // A phrase the talker never said, measured the same way: what the measure gives a wrong
+  // stream.
+  {
+    const std::vector<float> unsaid = test::speech("Side_Left");
+    const test::Alignment found =
+        test::align(unsaid, both, 0, std::ptrdiff_t(both.size() - unsaid.size()));
+    const double control = test::resumed_correlation(unsaid, both, found.offset);
+    std::printf("native -> browser, a phrase never said ('Side_Left'): resumed %.3f\n", control);
+    EXPECT_LT(control, 0.5) << "the measure tells a wrong stream";
+  }
   const std::string talker_id = std::to_string(listener.other("Talker")->id);
   ASSERT_TRUE(v["heard"].contains(talker_id)) << v.dump();
   const nlohmann::json& h = v["heard"][talker_id];

@@ -152,14 +152,15 @@ inline double piecewise_correlation(std::span<const float> a, std::span<const fl
 }
 
 /// How much of `a` came through in `b` where the path may have paused it: `a` cut into pieces
-/// of `piece` samples (100 ms), each aligned on its own within ±`slack` samples of where the piece
-/// before it was found (the first: of `offset`), their correlations averaged weighted by the
-/// pieces' energy (pieces under 1 % of the mean energy, silence, are left out). A playout buffer
-/// that lets a stalled stream resume (a pause inside a word, the rest shifted) keeps this high;
-/// one that conceals what came late lowers it.
+/// of `piece` samples (100 ms), each aligned on its own within ±`slack` samples (225 ms: the
+/// longest pause a playout buffer inserts when it resumes a stall, 200 ms, and a frame) of where
+/// the piece before it was found (the first: of `offset`), their correlations averaged weighted by
+/// the pieces' energy (pieces under 1 % of the mean energy, silence, are left out). A playout
+/// buffer that lets a stalled stream resume (a pause inside a word, the rest shifted) keeps this
+/// high; one that conceals what came late lowers it.
 inline double resumed_correlation(std::span<const float> a, std::span<const float> b,
                                   std::ptrdiff_t offset, size_t piece = 4800,
-                                  std::ptrdiff_t slack = 4800) {
+                                  std::ptrdiff_t slack = 10800) {
   double mean_energy = 0;
   for (const float x : a) mean_energy += double(x) * x;
   mean_energy /= double(std::max<size_t>(a.size(), 1));

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -391,11 +392,16 @@ struct FrameLoop {
     if (!link) return;  // no voice link (or not yet)
     const bool was_muted = link->muted();
     press_voice_buttons(voice_input, voice_buttons, {left.talk, left.mute});
-    const voice::VoiceStats stats = link->stats();
-    const auto rows = voice::voice_rows(snapshot, &stats, link->config().volumes, now);
-    if (const uint32_t id = voice::step_volume(volume_gesture, voice_input, snapshot, rows,
-                                               left.volume, link->config().site_position, now))
-      spdlog::info("voice: participant {} at {:.0f} %", id, volume_gesture.shown_gain * 100);
+    // The volumes now are read (stats(), voice_rows: allocations) only on a push's first frame.
+    if (std::abs(left.volume) < voice::kVolumeRest) {
+      volume_gesture.pushed = false;
+    } else if (!volume_gesture.pushed && std::abs(left.volume) >= voice::kVolumePush) {
+      const voice::VoiceStats stats = link->stats();
+      const auto rows = voice::voice_rows(snapshot, &stats, link->config().volumes, now);
+      if (const uint32_t id = voice::step_volume(volume_gesture, voice_input, snapshot, rows,
+                                                 left.volume, link->config().site_position, now))
+        spdlog::info("voice: participant {} at {:.0f} %", id, volume_gesture.shown_gain * 100);
+    }
     apply_voice_input(*link, voice_input);
     if (link->muted() != was_muted)
       spdlog::info("voice: microphone {}", link->muted() ? "muted" : "on");

@@ -268,6 +268,7 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
     if (other->voice_state) send_shared(viewer, other->voice_state);
   }
   send_case_state(*s, viewer);
+  send_drawing_state(*s, viewer);
   const Shared announce = share(
       session::message(Type::kParticipantJoined,
                        session::serialize(session::ParticipantInfo{
@@ -409,6 +410,11 @@ void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> 
         }
       return;
     }
+    case Type::kPointer:
+    case Type::kAnnotate:
+    case Type::kErase:
+      if (!m) return error(viewer, "pointer or annotation: not in a session (join one first)");
+      return handle_drawing(*m, static_cast<Type>(type), payload);
     case Type::kVoice:
     case Type::kVoiceState:
       if (!m) return error(viewer, "voice: not in a session (join one first)");

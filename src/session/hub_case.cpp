@@ -57,6 +57,7 @@ void SessionHub::set_case(session::SharedCase c) {
   ++stats_.case_swaps;
   for (auto& [id, s] : sessions_) {
     reset_case_state(*s);
+    erase_stale_annotations(*s);
     for (const auto& [pid, member] : s->members) send_case_state(*s, member->info.viewer);
   }
   spdlog::info("session: case '{}' (generation {}) shared: {} objects{}", printable(case_->name),

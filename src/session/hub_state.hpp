@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/hub.hpp"
 
 namespace volcast {
@@ -37,6 +38,9 @@ inline uint64_t voice_key(uint32_t id) {
 inline uint64_t voice_state_key(uint32_t id) {
   return (uint64_t{6} << 32) | id;
 }
+inline uint64_t pointer_key(uint32_t id) {
+  return (uint64_t{7} << 32) | id;
+}
 
 inline int64_t steady_us() {
   return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
@@ -60,6 +64,7 @@ struct SessionHub::Member {
   Shared camera_message, last_pose;  // forwarded forms, for participants who join later
   Shared voice_state;                // forwarded VoiceState, for participants who join later
   uint32_t malformed_voice = 0;      // voice packets refused (voice_messages.hpp)
+  Shared pointer;                    // forwarded Pointer while it is held, for those who join
 };
 
 struct SessionHub::Session {
@@ -70,6 +75,13 @@ struct SessionHub::Session {
   std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
   std::vector<session::ObjectState> objects;            // the case's, by object index
   std::optional<session::MonitorState> monitor;         // when the case has a series
+  struct Drawn {
+    session::Annotation annotation;
+    Shared message;  // its 0x51, for those who join later
+  };
+  std::map<uint32_t, Drawn> annotations;  // by id (annotations.hpp), in the order drawn
+  size_t annotation_points = 0;           // theirs together (kMaxSessionAnnotationPoints)
+  uint32_t next_annotation = 1;
 };
 
 }  // namespace volcast

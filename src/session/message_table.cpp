@@ -4,6 +4,7 @@
 #include <string>
 
 #include "volcast/core/error.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/voice_messages.hpp"
 
@@ -61,6 +62,13 @@ constexpr std::array kTable{
                 [](Payload p) { parse_voice(p); }},
     MessageKind{Type::kVoiceState, "voice state", kUp, kSmall, {5, 10, "voice states"},
                 [](Payload p) { parse_voice_state(p); }},
+    // Pointers at the pose rate; annotations a few a second, a burst of a quick sketch.
+    MessageKind{Type::kPointer, "pointer", kUp, kSmall, {150, 75, "pointers"},
+                [](Payload p) { parse_pointer(p); }},
+    MessageKind{Type::kAnnotate, "annotate", kUp, kSmall, {5, 20, "annotations"},
+                [](Payload p) { parse_annotate(p); }},
+    MessageKind{Type::kErase, "erase", kUp, kSmall, {10, 20, "erases"},
+                [](Payload p) { parse_erase(p); }},
     MessageKind{Type::kSessionList, "session list", kDown, kSmall, kServers,
                 [](Payload p) { parse_session_list(p); }},
     MessageKind{Type::kJoined, "joined", kDown, kSmall, kServers,
@@ -90,6 +98,11 @@ constexpr std::array kTable{
                 forwarded<parse_voice>},
     MessageKind{Type::kVoiceStateFrom, "voice state", kDown, kSmall, kServers,
                 forwarded<parse_voice_state>},
+    MessageKind{Type::kPointerFrom, "pointer", kDown, kSmall, kServers, forwarded<parse_pointer>},
+    MessageKind{Type::kAnnotation, "annotation", kDown, kSmall, kServers,
+                [](Payload p) { parse_annotation(p); }},
+    MessageKind{Type::kErased, "erased", kDown, kSmall, kServers,
+                [](Payload p) { parse_erased(p); }},
 };
 // clang-format on
 

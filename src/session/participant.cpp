@@ -81,6 +81,53 @@ void Participant::publish(const BodyPose& playarea_pose) {
   m.post(Type::kPose, session::serialize(msg), pose_key());
 }
 
+void Participant::point(bool on, const Eigen::Vector3f& origin, bool has_hit,
+                        const Eigen::Vector3f& hit) {
+  Impl& m = *impl_;
+  session::PointerMessage msg{0, 0, on, origin, has_hit, hit};
+  if (!origin.allFinite() || !hit.allFinite()) throw Error("session: a pointer is not finite");
+  {
+    std::lock_guard lock(m.mutex);
+    if (!m.state.joined) return;
+    const bool was_on = m.pointers.contains(m.state.id);
+    if (!on && !was_on) return;  // put away already
+    // Over the server's rate it would drop it: skipped here instead (never the last, "off").
+    if (on && !m.pose_pace.admit(0, static_cast<uint8_t>(Type::kPointer), steady_us()).admitted)
+      return;
+    msg.sequence = ++m.pointer_sequence;
+    msg.time_us = m.server_now();
+    if (on)
+      m.pointers[m.state.id] = PointerView{m.state.id, origin, has_hit, hit, msg.time_us};
+    else
+      m.pointers.erase(m.state.id);
+  }
+  m.post(Type::kPointer, session::serialize(msg), pointer_key());
+}
+
+uint32_t Participant::annotate(session::Annotation a) {
+  Impl& m = *impl_;
+  if (a.kind == session::AnnotationKind::kLabel) a.text = session::check_label_text(a.text);
+  {
+    std::lock_guard lock(m.mutex);
+    if (!m.state.joined) return 0;
+    a.tag = ++m.annotation_tag;
+    a.generation = 0;
+    if (a.anchor == session::AnnotationAnchor::kMonitor) {
+      if (!m.shared_case || !m.shared_case->monitor)
+        throw Error("session: an annotation on the monitor, but the case has no CT series");
+      a.generation = m.shared_case->generation;
+    }
+  }
+  std::vector<uint8_t> payload = session::serialize_annotate(a);
+  session::parse_annotate(payload);  // what the server would drop this participant for
+  m.post(Type::kAnnotate, payload);
+  return a.tag;
+}
+
+void Participant::erase(uint32_t id) {
+  impl_->post(Type::kErase, session::serialize_erase(id));
+}
+
 void Participant::teleport(const session::Spot& to) {
   impl_->post(Type::kTeleport, session::serialize(to));
 }
@@ -130,6 +177,9 @@ void Participant::leave() {
     std::lock_guard lock(m.mutex);
     m.state.joined = false;
     m.remotes.clear();
+    m.pointers.clear();  // the next session's come with it
+    m.pointer_in.clear();
+    m.annotations.clear();
   }
   m.post(Type::kLeave, {});
 }
@@ -170,6 +220,9 @@ SessionSnapshot Participant::snapshot(int64_t now_us) const {
     }
     s.monitor = m.monitor;
   }
+  for (const auto& [id, v] : m.pointers) s.pointers.push_back(v);
+  s.annotations.reserve(m.annotations.size());
+  for (const auto& [id, a] : m.annotations) s.annotations.push_back(a);
   return s;
 }
 

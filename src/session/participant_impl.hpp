@@ -32,6 +32,9 @@ inline uint64_t pose_key() {
 inline uint64_t avatar_key() {
   return 2;
 }
+inline uint64_t pointer_key() {
+  return 4;
+}
 inline uint64_t voice_key() {  // packets queue up (session_port.hpp), none replaces another
   return kQueuedStreamKey | 5;
 }
@@ -127,6 +130,11 @@ struct Participant::Impl {
   };
   std::vector<Track> objects;
   std::optional<session::MonitorState> monitor;
+  std::map<uint32_t, PointerView> pointers;                // held now, by owner (own included)
+  uint32_t pointer_sequence = 0;                           // own pointer messages sent
+  std::map<uint32_t, session::PointerMessage> pointer_in;  // the newest received, by owner
+  std::map<uint32_t, session::Annotation> annotations;     // by id
+  uint32_t annotation_tag = 0;
   std::map<uint32_t, std::shared_ptr<Remote>> remotes;
   std::map<uint32_t, std::shared_ptr<Remote>> gone;  // those who left, for stats()
   std::mutex decode_mutex;
@@ -153,6 +161,7 @@ struct Participant::Impl {
   void on_avatar_camera(std::span<const uint8_t> p);
   void on_avatar_frame(std::span<const uint8_t> p, int64_t now_server);
   void on_object_state(const session::ObjectState& o);
+  void on_pointer(std::span<const uint8_t> p);
   // A voice packet: parsed and handed to the handler before taking `mutex`.
   void handle_voice(std::span<const uint8_t> p);
 

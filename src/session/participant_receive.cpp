@@ -85,6 +85,16 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
       if (const auto it = remotes.find(from); it != remotes.end()) it->second->info.muted = muted;
       return;
     }
+    case Type::kPointerFrom:
+      return on_pointer(p);
+    case Type::kAnnotation: {
+      session::Annotation a = session::parse_annotation(p);
+      annotations[a.id] = std::move(a);
+      return;
+    }
+    case Type::kErased:
+      annotations.erase(session::parse_erased(p).first);
+      return;
     default:
       throw Error("the server sent session message type " + std::to_string(type) +
                   ", which a participant does not take");
@@ -124,6 +134,8 @@ void Participant::Impl::on_left(uint32_t id, session::LeftReason why) {
     state.departed.emplace_back(id, it->second->info.name, why);
     if (state.departed.size() > 64) state.departed.erase(state.departed.begin());
     gone[id] = it->second;
+    pointers.erase(id);
+    pointer_in.erase(id);
     if (gone.size() > 64) gone.erase(gone.begin());
     remotes.erase(it);
   }
@@ -185,6 +197,19 @@ void Participant::Impl::on_avatar_frame(std::span<const uint8_t> p, int64_t now_
   if (r.avatars_received++ == 0) r.first_avatar_rx_us = rx;
   r.last_avatar_rx_us = rx;
   add_sample(r.avatar_latencies_ms, double(now_server - f.capture_us) / 1000.0);
+}
+
+void Participant::Impl::on_pointer(std::span<const uint8_t> p) {
+  const auto [id, rest] = session::split_forwarded(p);
+  const session::PointerMessage m = session::parse_pointer(rest);
+  if (!remotes.contains(id)) return;  // left meanwhile
+  if (const auto it = pointer_in.find(id); it != pointer_in.end() && m.sequence <= it->second.sequence)
+    return;  // older
+  pointer_in[id] = m;
+  if (m.on)
+    pointers[id] = PointerView{id, m.origin, m.has_hit, m.hit, m.time_us};
+  else
+    pointers.erase(id);
 }
 
 void Participant::Impl::on_object_state(const session::ObjectState& o) {

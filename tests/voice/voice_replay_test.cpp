@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <mutex>
 
+#include "support/hub_outlet.hpp"
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
 #include "support/voice_recorder.hpp"
@@ -58,33 +59,8 @@ void record_talk(const std::filesystem::path& dir, const std::string& file,
 }
 
 // What a hub sends, by viewer (no server: the hub's own behaviour).
-struct Outlet final : SessionOutlet {
-  std::mutex mutex;
-  std::vector<std::pair<uint64_t, std::vector<uint8_t>>> sent;
-  bool send_session(uint64_t viewer, std::shared_ptr<const std::vector<uint8_t>> m,
-                    uint64_t) override {
-    std::lock_guard lock(mutex);
-    sent.emplace_back(viewer, *m);
-    return true;
-  }
-  void disconnect(uint64_t, const std::string&) override {}
-  // The payloads of the messages of `type` sent to `viewer` (after the 12-byte header).
-  std::vector<std::vector<uint8_t>> of(uint64_t viewer, session::Type type) {
-    std::lock_guard lock(mutex);
-    std::vector<std::vector<uint8_t>> out;
-    for (const auto& [v, m] : sent)
-      if (v == viewer && m[7] == static_cast<uint8_t>(type))
-        out.emplace_back(m.begin() + 12, m.end());
-    return out;
-  }
-};
-
-void join(SessionHub& hub, uint64_t viewer, const std::string& session, const std::string& name) {
-  session::Join j;
-  j.session = session;
-  j.name = name;
-  hub.on_message(viewer, static_cast<uint8_t>(session::Type::kJoin), session::serialize(j));
-}
+using test::join;
+using test::Outlet;
 
 // A recorded speaker (SessionHub::add_recorded_speaker) is announced to the members of every
 // session as a remote participant named "... (recorded)", is in the sessions made later, speaks to

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "volcast/net/stream/session_port.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/rate_limit.hpp"
@@ -60,6 +61,9 @@ struct SessionHubConfig {
   /// the hub's lock held, on the sender's thread: it must only queue the packet. Null: the site
   /// does not listen.
   std::function<void(uint32_t participant, const session::VoicePacketView& packet)> site_listener;
+  /// Who may erase an annotation (annotations.hpp 0x12): anyone in its session (true: a mentor's
+  /// stroke stays erasable after the mentor left), or only its author.
+  bool anyone_erases = true;
 };
 
 /// What the hub has handled, since it started.
@@ -75,6 +79,8 @@ struct SessionHubStats {
   /// Voice packets received (the site's own included), sent on to receivers, and refused as
   /// malformed (voice_messages.hpp: each loses only itself until kMaxMalformedVoice).
   uint64_t voice_in = 0, voice_out = 0, voice_malformed = 0;
+  /// Pointer messages received; annotations taken, refused (0x43: annotations.hpp) and erased.
+  uint64_t pointers_in = 0, annotations = 0, annotations_refused = 0, erases = 0;
 };
 
 /// One participant as the hub sees it.
@@ -126,6 +132,9 @@ class SessionHub final : public SessionPort {
   /// The objects' states in session `name` (empty if there is none or no case).
   std::vector<session::ObjectState> objects(const std::string& name) const;
   std::optional<session::MonitorState> monitor(const std::string& name) const;
+  /// The annotations of session `name` (annotations.hpp), by id: what a participant joining now
+  /// receives. Empty if there is no such session.
+  std::vector<session::Annotation> annotations(const std::string& name) const;
   /// The case's name (empty: none yet).
   std::string case_name() const;
   /// Puts session `name` back as it was saved (cluster/session_state.hpp): each object's pose
@@ -188,6 +197,9 @@ class SessionHub final : public SessionPort {
   void handle_object(Member& m, session::Type type, std::span<const uint8_t> payload);
   void broadcast_object(const Session& s, uint16_t object, const Member* except);
   void handle_voice(Member& m, session::Type type, std::span<const uint8_t> payload);
+  void handle_drawing(Member& m, session::Type type, std::span<const uint8_t> payload);
+  void send_drawing_state(const Session& s, uint64_t viewer);
+  void erase_stale_annotations(Session& s);  // monitor annotations of a case swapped out
   void broadcast_voice(uint32_t from, const std::shared_ptr<const std::vector<uint8_t>>& message,
                        const Session& s);
   struct Recorded {

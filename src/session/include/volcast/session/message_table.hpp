@@ -40,7 +40,7 @@ std::span<const MessageKind> message_table();
 const MessageKind* find_message(uint8_t type);
 /// The largest payload (bytes) a message of `type` may have; 0 for a type that does not exist.
 uint32_t max_payload(uint8_t type);
-/// The limit of a participant's session messages of `type` (messages.hpp's 0x01..0x0f); for a
+/// The limit of a participant's session messages of `type` (messages.hpp's 0x01..0x1f); for a
 /// type a participant does not send, a limit of 0: not limited here (the hub refuses it).
 RateLimit limit_of(uint8_t type);
 

@@ -64,7 +64,8 @@
 //   0x49 AvatarCamera   participant u32 | the 0x07 payload
 //   0x4a AvatarFrame    participant u32 | the 0x08 payload
 // The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp. Voice: 0x0e,
-// 0x0f, 0x4e, 0x4f, voice_messages.hpp. Every type's
+// 0x0f, 0x4e, 0x4f, voice_messages.hpp. Pointers and annotations: 0x10..0x12 and 0x50..0x52,
+// annotations.hpp. Every type's
 // sender, payload limit, rate limit and decoder in one table: message_table.hpp.
 //
 // Rates: each participant's messages of each type are limited where they enter the server or a
@@ -109,6 +110,9 @@ enum class Type : uint8_t {
   kSetMonitor = 0x0d,  // objects.hpp
   kVoice = 0x0e,       // voice_messages.hpp
   kVoiceState = 0x0f,  // voice_messages.hpp
+  kPointer = 0x10,     // annotations.hpp
+  kAnnotate = 0x11,    // annotations.hpp
+  kErase = 0x12,       // annotations.hpp
   kSessionList = 0x41,
   kJoined = 0x42,
   kSessionError = 0x43,
@@ -124,6 +128,9 @@ enum class Type : uint8_t {
   kMonitorState = 0x4d,    // objects.hpp
   kVoiceFrom = 0x4e,       // voice_messages.hpp
   kVoiceStateFrom = 0x4f,  // voice_messages.hpp
+  kPointerFrom = 0x50,     // annotations.hpp
+  kAnnotation = 0x51,      // annotations.hpp
+  kErased = 0x52,          // annotations.hpp
 };
 
 enum class Role : uint8_t { kRemote = 0, kOrSite = 1 };
@@ -235,7 +242,7 @@ AvatarFrameView parse_avatar_frame(std::span<const uint8_t> p, const CameraCalib
 uint32_t avatar_frame_limit(const CameraCalibration& camera);
 
 /// A server -> participant message forwarding `payload` from `participant`: the 0x4_ types whose
-/// payload is "participant u32 | the original payload" (0x46, 0x49, 0x4a, 0x4e, 0x4f).
+/// payload is "participant u32 | the original payload" (0x46, 0x49, 0x4a, 0x4e, 0x4f, 0x50).
 std::vector<uint8_t> forward(Type type, uint32_t participant, std::span<const uint8_t> payload);
 /// Splits such a payload into the participant and the original payload. Throws Error if short.
 std::pair<uint32_t, std::span<const uint8_t>> split_forwarded(std::span<const uint8_t> p);

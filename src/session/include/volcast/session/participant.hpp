@@ -17,6 +17,7 @@
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/room.hpp"
@@ -85,6 +86,15 @@ struct ObjectView {
   uint32_t sequence = 0;
 };
 
+/// A participant's laser pointer while it is held (annotations.hpp; room frame, metres).
+struct PointerView {
+  uint32_t participant = 0;  ///< its owner (this participant's own id for its own)
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  bool has_hit = false;
+  Eigen::Vector3f hit = Eigen::Vector3f::Zero();  ///< where it meets a surface (has_hit)
+  int64_t time_us = 0;                            ///< server clock
+};
+
 struct SessionSnapshot {
   bool joined = false;
   uint32_t id = 0;  ///< this participant's id once joined
@@ -102,6 +112,12 @@ struct SessionSnapshot {
   uint32_t case_generation = 0;                  ///< 0: no case received
   std::vector<ObjectView> objects;               ///< by object index of shared_case()
   std::optional<session::MonitorState> monitor;  ///< when the case has a series
+  /// The pointers held now, by owner id: the others' (the newest received) and this
+  /// participant's own (as last sent), none of those who left.
+  std::vector<PointerView> pointers;
+  /// The session's annotations, by id (the order drawn): every one since joining, with those
+  /// drawn before it, but those erased.
+  std::vector<session::Annotation> annotations;
 };
 
 /// Where everyone's head is, as a voice mixer needs it every 20 ms: the part of a
@@ -198,6 +214,22 @@ class Participant {
   void release(uint16_t object, const Pose& room_from_object);
   /// Sets the monitor for everyone (slice, window, overlay; the generation is filled in).
   void set_monitor(const session::MonitorState& state);
+
+  /// Shows (`on`) or puts away this participant's laser pointer: a ray from `origin` that meets
+  /// a surface at `hit` (when has_hit; else it points through `hit`), room frame, metres: the
+  /// caller finds the hit against what it shows (reconstruct/ray_hit.hpp for the live clouds).
+  /// Sent at most at the server's pointer rate (150 a second: a faster caller's extra ones are
+  /// skipped; putting it away is always sent). Ignored until joined. Thread-safe.
+  void point(bool on, const Eigen::Vector3f& origin, bool has_hit, const Eigen::Vector3f& hit);
+  /// Draws `a` (annotations.hpp; kind, anchor, points in the room frame, text; its tag, id,
+  /// author and time are filled in) for the whole session; returns its tag, which the server's
+  /// copy in snapshot().annotations carries once it arrived. A monitor anchor's generation is
+  /// filled in from the case. Throws Error, sending nothing, for what the server would refuse or
+  /// drop the sender for (point counts, label text, non-finite points). Ignored (returns 0) until
+  /// joined. Thread-safe.
+  uint32_t annotate(session::Annotation a);
+  /// Asks to erase annotation `id` (the server decides: hub.hpp anyone_erases). Thread-safe.
+  void erase(uint32_t id);
 
   bool joined() const;
   /// The state now; remote poses interpolated for `now_us` (local wall clock).

@@ -69,7 +69,7 @@ class RateLimiter {
     uint64_t drops = 0;  // in the burst going on (0: none)
     RateLimit limit;
   };
-  static constexpr size_t kSlots = 0x10 + 1;  // message types 0x00..0x0f, then creation
+  static constexpr size_t kSlots = 0x20 + 1;  // message types 0x00..0x1f, then creation
   Admission take(Bucket& b, const RateLimit& limit, int64_t now_us);
   static std::string burst_count(const Bucket& b, int64_t now_us);
   mutable std::mutex mutex_;

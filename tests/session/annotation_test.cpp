@@ -1,0 +1,218 @@
+// Pointers and annotations (annotations.hpp): their messages, the hub's rules (late joiners,
+// authors who leave, erasing, limits, hostile input) on a hub without a server, and pointing and
+// drawing between participants over the real stream of a real site.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "support/hub_outlet.hpp"
+#include "support/session_site.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/session/annotations.hpp"
+#include "volcast/session/message_table.hpp"
+
+namespace volcast {
+namespace {
+
+using namespace std::chrono_literals;
+using session::Annotation;
+using session::AnnotationAnchor;
+using session::AnnotationKind;
+using session::Type;
+using test::eventually;
+using test::join;
+using test::Outlet;
+
+// Synthetic (labelled): a stroke of `n` points 1 cm apart along x, 1 m up.
+Annotation stroke(size_t n) {
+  Annotation a;
+  a.kind = AnnotationKind::kStroke;
+  for (size_t i = 0; i < n; ++i) a.points.push_back({0.01f * float(i), 1.0f, -0.25f});
+  return a;
+}
+
+Annotation label(const std::string& text) {
+  Annotation a;
+  a.kind = AnnotationKind::kLabel;
+  a.points = {{0.1f, 1.2f, 0.3f}};
+  a.text = text;
+  return a;
+}
+
+void send(SessionHub& hub, uint64_t viewer, Type type, const std::vector<uint8_t>& payload) {
+  hub.on_message(viewer, static_cast<uint8_t>(type), payload);
+}
+
+std::vector<Annotation> annotations_sent(Outlet& out, uint64_t viewer) {
+  std::vector<Annotation> v;
+  for (const auto& p : out.of(viewer, Type::kAnnotation)) v.push_back(session::parse_annotation(p));
+  return v;
+}
+
+std::string last_error(Outlet& out, uint64_t viewer) {
+  const auto e = out.of(viewer, Type::kSessionError);
+  return e.empty() ? "" : session::parse_error(e.back());
+}
+
+TEST(Annotations, MessagesRoundTripAndRefuseBadFields) {
+  session::PointerMessage p{7, 123, true, {1, 1.5f, 2}, true, {0.1f, 1.0f, -0.2f}};
+  const session::PointerMessage q = session::parse_pointer(session::serialize(p));
+  EXPECT_EQ(q.sequence, 7u);
+  EXPECT_EQ(q.time_us, 123);
+  EXPECT_TRUE(q.on && q.has_hit);
+  EXPECT_EQ(q.origin, p.origin);
+  EXPECT_EQ(q.hit, p.hit);
+  auto nan = session::serialize(p);
+  const float bad = std::nanf("");
+  std::memcpy(nan.data() + 13, &bad, 4);  // origin x
+  EXPECT_NE(test::error_of([&] { session::parse_pointer(nan); }).find("not finite"),
+            std::string::npos);
+
+  Annotation a = stroke(5);
+  a.tag = 3;
+  a.id = 9;
+  a.author = 4;
+  a.time_us = 55;
+  const Annotation b = session::parse_annotation(session::serialize(a));
+  EXPECT_EQ(b.id, 9u);
+  EXPECT_EQ(b.author, 4u);
+  EXPECT_EQ(b.tag, 3u);
+  EXPECT_EQ(b.points, a.points);
+  EXPECT_EQ(session::parse_annotate(session::serialize_annotate(a)).points, a.points);
+  // Each kind's shape.
+  const auto refused = [](const Annotation& x) {
+    return test::error_of([&] { session::parse_annotate(session::serialize_annotate(x)); });
+  };
+  EXPECT_NE(refused(stroke(1)).find("at least 2"), std::string::npos);
+  Annotation arrow = stroke(3);
+  arrow.kind = AnnotationKind::kArrow;
+  EXPECT_NE(refused(arrow).find("2 points"), std::string::npos);
+  Annotation texted = stroke(2);
+  texted.text = "x";
+  EXPECT_NE(refused(texted).find("no text"), std::string::npos);
+  Annotation empty = label("x");
+  empty.text.clear();
+  EXPECT_NE(refused(empty).find("has text"), std::string::npos);
+  EXPECT_TRUE(refused(label("cut here")).empty());
+  // A count the bytes do not hold is refused before anything is allocated.
+  auto lying = session::serialize_annotate(stroke(2));
+  const uint16_t many = 200;
+  std::memcpy(lying.data() + 4 + 1 + 1 + 4 + 2, &many, 2);
+  EXPECT_NE(test::error_of([&] { session::parse_annotate(lying); }).find("more points declared"),
+            std::string::npos);
+  EXPECT_THROW(session::serialize_annotate(stroke(session::kMaxStrokePoints + 1)), Error);
+  // Labels: NFC, no bidi controls or invisible characters, at most 64 bytes.
+  EXPECT_EQ(session::check_label_text("Cafe\xcc\x81"), "Caf\xc3\xa9");
+  EXPECT_THROW(session::check_label_text("cut \u202ehere"), Error);
+  EXPECT_THROW(session::check_label_text(std::string(65, 'x')), Error);
+  // The table knows them.
+  EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPointer)).per_second, 150);
+  EXPECT_NE(session::find_message(static_cast<uint8_t>(Type::kErased)), nullptr);
+}
+
+// On a hub without a server: a stroke reaches everyone (its author too, numbered), a later
+// joiner gets it and the pointers held, it stays when its author leaves, anyone erases it.
+TEST(Annotations, TheHubKeepsThemForLateJoinersAfterTheirAuthorAndErasesThemForEveryone) {
+  SessionHub hub;
+  Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  join(hub, 10, "OR", "A");
+  join(hub, 11, "OR", "B");
+  Annotation a = stroke(12);
+  a.tag = 77;
+  send(hub, 10, Type::kAnnotate, session::serialize_annotate(a));
+  send(hub, 10, Type::kPointer, session::serialize(session::PointerMessage{1, 5, true, {0, 1.6f, 1}, true, {0, 1, 0}}));
+  for (uint64_t v : {10, 11}) {
+    const auto got = annotations_sent(out, v);
+    ASSERT_EQ(got.size(), 1u) << v;
+    EXPECT_EQ(got[0].id, 1u);
+    EXPECT_EQ(got[0].tag, 77u);
+    EXPECT_EQ(got[0].points, a.points);
+  }
+  EXPECT_EQ(out.of(11, Type::kPointerFrom).size(), 1u);
+  EXPECT_EQ(out.of(10, Type::kPointerFrom).size(), 0u);  // not back to its owner
+  const uint32_t author = annotations_sent(out, 11)[0].author;
+  join(hub, 12, "OR", "C");  // later: gets the stroke and A's pointer
+  ASSERT_EQ(annotations_sent(out, 12).size(), 1u);
+  EXPECT_EQ(annotations_sent(out, 12)[0].points, a.points);
+  ASSERT_EQ(out.of(12, Type::kPointerFrom).size(), 1u);
+  EXPECT_EQ(session::split_forwarded(out.of(12, Type::kPointerFrom)[0]).first, author);
+  hub.on_viewer_left(10, "closed");  // A goes; its stroke stays
+  ASSERT_EQ(hub.annotations("OR").size(), 1u);
+  join(hub, 13, "OR", "D");
+  EXPECT_EQ(annotations_sent(out, 13).size(), 1u);
+  EXPECT_EQ(out.of(13, Type::kPointerFrom).size(), 0u);  // A's pointer went with A
+  send(hub, 11, Type::kErase, session::serialize_erase(1));
+  for (uint64_t v : {11, 12, 13}) {
+    const auto erased = out.of(v, Type::kErased);
+    ASSERT_EQ(erased.size(), 1u) << v;
+    EXPECT_EQ(session::parse_erased(erased[0]).first, 1u);
+  }
+  EXPECT_TRUE(hub.annotations("OR").empty());
+  send(hub, 11, Type::kErase, session::serialize_erase(1));  // again: told, nothing else
+  EXPECT_NE(last_error(out, 11).find("no annotation 1"), std::string::npos);
+  EXPECT_EQ(hub.stats().erases, 1u);
+}
+
+TEST(Annotations, OnlyTheAuthorErasesWhereTheServerSaysSo) {
+  SessionHubConfig config;
+  config.anyone_erases = false;
+  SessionHub hub(config);
+  Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  join(hub, 10, "OR", "A");
+  join(hub, 11, "OR", "B");
+  send(hub, 10, Type::kAnnotate, session::serialize_annotate(label("here")));
+  send(hub, 11, Type::kErase, session::serialize_erase(1));
+  EXPECT_NE(last_error(out, 11).find("only its author"), std::string::npos);
+  EXPECT_EQ(hub.annotations("OR").size(), 1u);
+  send(hub, 10, Type::kErase, session::serialize_erase(1));
+  EXPECT_TRUE(hub.annotations("OR").empty());
+}
+
+// A flood from 14 participants at once (the most a session has beside the OR site and one more): the session keeps at most its limits, each annotation
+// over them refused with a message naming the limit; a bad label and a monitor annotation without
+// a monitor are refused the same way; a malformed one drops its sender.
+TEST(Annotations, FloodsBadLabelsAndStaleAnchorsAreRefusedWithAMessage) {
+  SessionHub hub;
+  Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  for (uint64_t v = 10; v < 24; ++v) join(hub, v, "OR", "P" + std::to_string(v));
+  const Annotation big = stroke(session::kMaxStrokePoints);
+  for (int round = 0; round < 20; ++round)  // each participant's burst (rate_limit: 20 at once)
+    for (uint64_t v = 10; v < 24; ++v) send(hub, v, Type::kAnnotate, session::serialize_annotate(big));
+  const auto kept = hub.annotations("OR");
+  size_t points = 0;
+  for (const Annotation& a : kept) points += a.points.size();
+  EXPECT_EQ(points, session::kMaxSessionAnnotationPoints);
+  EXPECT_EQ(kept.size(), session::kMaxSessionAnnotationPoints / session::kMaxStrokePoints);
+  EXPECT_EQ(hub.stats().annotations_refused, 280 - kept.size());
+  EXPECT_NE(last_error(out, 23).find("limit of 16384"), std::string::npos);
+  // Erasing makes room again.
+  send(hub, 10, Type::kErase, session::serialize_erase(kept[0].id));
+  // (P10's bucket is empty after its burst: a participant who joins now draws.)
+  join(hub, 30, "OR", "Q");
+  send(hub, 30, Type::kAnnotate, session::serialize_annotate(big));
+  EXPECT_EQ(hub.annotations("OR").size(), kept.size());
+  EXPECT_EQ(hub.annotations("OR").back().author, annotations_sent(out, 30).back().author);
+
+  send(hub, 30, Type::kAnnotate, session::serialize_annotate(label("Dr. \u202eA")));
+  EXPECT_NE(last_error(out, 30).find("annotation refused"), std::string::npos);
+  Annotation on_monitor = stroke(2);
+  on_monitor.anchor = AnnotationAnchor::kMonitor;
+  on_monitor.generation = 1;
+  send(hub, 30, Type::kAnnotate, session::serialize_annotate(on_monitor));
+  EXPECT_NE(last_error(out, 30).find("no longer shown"), std::string::npos);
+  // Malformed (a stroke of one point, written by hand): dropped.
+  auto one = session::serialize_annotate(stroke(2));
+  one[4 + 1 + 1 + 4 + 2] = 1;
+  one.resize(one.size() - 12);
+  EXPECT_THROW(send(hub, 30, Type::kAnnotate, one), Error);
+}
+
+}  // namespace
+}  // namespace volcast

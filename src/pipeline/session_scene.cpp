@@ -7,6 +7,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/render/case_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"
@@ -21,14 +22,6 @@ struct Slot {
   int width = 0, height = 0;
   bool operator==(const Slot&) const = default;
 };
-
-// A color per participant id, for mesh avatars and effects.
-Eigen::Vector3f participant_color(uint32_t id) {
-  static const Eigen::Vector3f palette[] = {{0.95f, 0.55f, 0.2f}, {0.3f, 0.7f, 0.95f},
-                                            {0.6f, 0.85f, 0.3f},  {0.9f, 0.35f, 0.6f},
-                                            {0.95f, 0.85f, 0.3f}, {0.55f, 0.45f, 0.95f}};
-  return palette[id % 6];
-}
 
 RigidTransform to_rigid(const Pose& p) {
   RigidTransform t;
@@ -54,6 +47,22 @@ AvatarFilter own_camera_filter(const SessionSnapshot& s, float radius_m) {
     f.hide = HideBox{to_rigid(s.own_body.head)};
   }
   return f;
+}
+
+void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
+                        std::vector<Primitive>& out) {
+  for (const PointerView& p : s.pointers) {
+    const auto beam =
+        pointer_primitives(p.origin, p.has_hit, p.hit, participant_color(p.participant), eye);
+    out.insert(out.end(), beam.begin(), beam.end());
+  }
+  for (const session::Annotation& a : s.annotations) {
+    if (a.anchor == session::AnnotationAnchor::kMonitor &&
+        (!s.monitor || s.monitor->slice != a.slice || a.generation != s.case_generation))
+      continue;  // drawn on another CT slice (or case)
+    const auto shape = annotation_primitives(a, participant_color(a.author));
+    out.insert(out.end(), shape.begin(), shape.end());
+  }
 }
 
 View participant_eye(const SessionSnapshot& s, float aspect) {
@@ -189,6 +198,7 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
+  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene);
   const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
   const RoomLayout& room = default_operating_room();
   if (shared_case && s.monitor && shared_case->monitor) {

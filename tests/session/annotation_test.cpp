@@ -214,5 +214,37 @@ TEST(Annotations, FloodsBadLabelsAndStaleAnchorsAreRefusedWithAMessage) {
   EXPECT_THROW(send(hub, 30, Type::kAnnotate, one), Error);
 }
 
+// Over the real stream of a real site: A draws, B and C (who joins later) receive it exactly, A
+// leaves and it stays, B erases it and it is gone for everyone.
+TEST(Annotations, ParticipantsDrawForEveryoneAndTheDrawingOutlivesItsAuthor) {
+  test::SessionSite s;
+  auto a = std::make_unique<test::TestParticipant>(s, test::hand_driven("Mentor"));
+  auto b = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
+  ASSERT_TRUE(eventually([&] { return b->other("Mentor") && a->now().joined; }, 30s));
+  Annotation drawn = stroke(40);
+  drawn.points[7] = {0.123456f, 1.2345678f, -0.3456789f};
+  const uint32_t tag = a->p().annotate(drawn);
+  EXPECT_GT(tag, 0u);
+  EXPECT_THROW(a->p().annotate(label(std::string(65, 'x'))), Error);  // refused before sending
+  const auto received = [](test::TestParticipant& p) {
+    const auto all = p.now().annotations;
+    return all.size() == 1 ? std::optional(all[0]) : std::nullopt;
+  };
+  ASSERT_TRUE(eventually([&] { return received(*b) && received(*a); }, 30s));
+  EXPECT_EQ(received(*b)->points, drawn.points);  // exactly: f32 on the wire
+  EXPECT_EQ(received(*a)->tag, tag);
+  EXPECT_EQ(received(*b)->author, a->now().id);
+  auto c = std::make_unique<test::TestParticipant>(s, test::hand_driven("Anaesthetist"));
+  ASSERT_TRUE(eventually([&] { return received(*c).has_value(); }, 30s));
+  EXPECT_EQ(received(*c)->points, drawn.points);
+  const uint32_t id = received(*c)->id;
+  a.reset();  // the author leaves
+  ASSERT_TRUE(eventually([&] { return !b->other("Mentor"); }, 30s));
+  EXPECT_TRUE(received(*b) && received(*c));
+  b->p().erase(id);
+  ASSERT_TRUE(eventually([&] { return !received(*b) && !received(*c); }, 30s));
+  EXPECT_TRUE(s.hub.annotations("OR").empty());
+}
+
 }  // namespace
 }  // namespace volcast

@@ -286,6 +286,148 @@ TEST(SessionScene, SiteAndRemoteAvatarFromTheEye) {
   a.reset();
 }
 
+// Pointing (issue 36): A points at a spot of the live cloud; in B's render the pointer's dot
+// lands within 3 px of where that 3D point projects in B's eye; A puts it away and it is gone.
+TEST(SessionScene, APointersDotShowsWhereItPointsOnTheLiveCloudForOthersWhileHeld) {
+  SessionHubConfig config;
+  config.site_translation = {0, 1.5f, 0.5f};
+  config.presence_timeout_ms = 120000;
+  test::SessionSite s(config, 10);
+  auto a = std::make_unique<test::TestParticipant>(s, test::hand_driven("Mentor"));
+  auto b = std::make_unique<test::TestParticipant>(s, test::hand_driven("Viewer"));
+  ASSERT_TRUE(eventually([&] { return b->other("Mentor").has_value() && a->now().joined; }));
+  const CameraCalibration site_camera = s.site.player.cameras()[0].calibration;
+  CameraFrame site_frame;
+  test::HandsSite::sources()[0]->next(site_frame);
+  const std::vector<CameraCalibration> site_cameras = {site_camera};
+  const std::vector<std::shared_ptr<const CameraFrame>> frames = {
+      std::make_shared<const CameraFrame>(site_frame)};
+  HeadlessTarget target(640, 360);
+  SessionScene scene;
+  SessionSceneOptions o;
+  o.room = false;
+  const int64_t now = wall_clock_us();
+  const SessionSnapshot seen = b->p().snapshot(now);
+  // B looks at the live cloud from 20 cm beside the site camera, at the cloud's middle.
+  const RigidTransform room_from_camera = seen.room_from_site * site_camera.world_from_camera;
+  const DepthImage& d = site_frame.depth;
+  std::vector<Eigen::Vector3f> cloud;
+  for (int v = 0; v < d.height; v += 2)
+    for (int u = 0; u < d.width; u += 2)
+      if (const uint16_t mm = d.at(u, v); mm != 0)
+        if (const auto xy = unproject_pixel(site_camera.depth, {double(u), double(v)}))
+          cloud.push_back((room_from_camera * Eigen::Vector3d(xy->x() * mm / 1000.0,
+                                                               xy->y() * mm / 1000.0, mm / 1000.0))
+                              .cast<float>());
+  ASSERT_GT(cloud.size(), 1000u);
+  Eigen::Vector3f middle = Eigen::Vector3f::Zero();
+  for (const Eigen::Vector3f& p : cloud) middle += p / float(cloud.size());
+  const Eigen::Vector3d camera_at = room_from_camera.translation;
+  View eye;
+  eye.world_from_view = look_at(camera_at + room_from_camera.rotation * Eigen::Vector3d(0.2, 0, 0),
+                                middle.cast<double>(), {0, 1, 0});
+  eye.clip_from_view = perspective(60, target.target().aspect(), 0.05f, 50);
+  const Eigen::Matrix4f clip_from_world = eye.clip_from_world();
+  const auto window = [&](const Eigen::Vector3f& p) {  // window coordinates, row 0 at the top
+    const Eigen::Vector4f c = clip_from_world * p.homogeneous();
+    return Eigen::Vector2f((c.x() / c.w() + 1) / 2 * 640, (1 - c.y() / c.w()) / 2 * 360);
+  };
+  // The spot: the cloud's point nearest B's eye among those well inside its view (nothing of the
+  // cloud stands in front of it).
+  const Eigen::Vector3f eye_at = eye.world_from_view.translation.cast<float>();
+  Eigen::Vector3f spot = Eigen::Vector3f::Zero();
+  float nearest = 1e9f;
+  for (const Eigen::Vector3f& p : cloud) {
+    const Eigen::Vector2f w = window(p);
+    if (w.x() < 60 || w.x() > 580 || w.y() < 60 || w.y() > 300) continue;
+    if ((p - eye_at).norm() < nearest) nearest = (p - eye_at).norm(), spot = p;
+  }
+  ASSERT_LT(nearest, 10.0f) << "the site's cloud is in B's view";
+  ColorImage before, held, after;
+  const auto render = [&](ColorImage& image) {
+    scene.draw(eye, target.target(), site_cameras, frames, b->p(), now, o);
+    target.read_image(image);
+  };
+  render(before);
+  // A's hand is 50 cm above the spot and 30 cm towards B: it points down at it.
+  const Eigen::Vector3f origin =
+      spot + Eigen::Vector3f(0, 0.5f, 0) + (eye_at - spot).normalized() * 0.3f;
+  a->p().point(true, origin, true, spot);
+  ASSERT_TRUE(eventually([&] { return b->p().snapshot(wall_clock_us()).pointers.size() == 1; }));
+  const PointerView shown = b->p().snapshot(wall_clock_us()).pointers[0];
+  EXPECT_EQ(shown.participant, a->now().id);
+  EXPECT_EQ(shown.hit, spot);  // exactly: f32 on the wire
+  render(held);
+  const std::filesystem::path pictures = test::temp_dir("session_pointer");
+  write_color_png(pictures / "pointer.png", held);
+  // The dot: what changes when the same pointer misses (its beam goes on, it has no dot).
+  a->p().point(true, origin, false, spot);
+  ASSERT_TRUE(eventually([&] {
+    const auto p = b->p().snapshot(wall_clock_us()).pointers;
+    return p.size() == 1 && !p[0].has_hit;
+  }));
+  ColorImage missed;
+  render(missed);
+  write_color_png(pictures / "missed.png", missed);
+  const auto changed = [&](const ColorImage& x, const ColorImage& y, int u, int v) {
+    const size_t i = 4 * (size_t(v) * 640 + size_t(u));
+    return std::abs(x.bgra[i] - y.bgra[i]) + std::abs(x.bgra[i + 1] - y.bgra[i + 1]) +
+               std::abs(x.bgra[i + 2] - y.bgra[i + 2]) >
+           30;
+  };
+  // Its largest connected part (the missed beam also shows a little beyond the hit, through gaps
+  // between the table's splats).
+  std::vector<int> part(640 * 360, -1);
+  std::vector<int> sizes;
+  int beam = 0;
+  for (int v = 0; v < 360; ++v)
+    for (int u = 0; u < 640; ++u) {
+      beam += changed(held, before, u, v);
+      if (part[v * 640 + u] >= 0 || !changed(held, missed, u, v)) continue;
+      const int id = int(sizes.size());
+      sizes.push_back(0);
+      std::vector<std::pair<int, int>> todo{{u, v}};
+      part[v * 640 + u] = id;
+      while (!todo.empty()) {
+        const auto [x, y] = todo.back();
+        todo.pop_back();
+        ++sizes[id];
+        for (const auto& [dx, dy] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+          const int nx = x + dx, ny = y + dy;
+          if (nx < 0 || ny < 0 || nx >= 640 || ny >= 360 || part[ny * 640 + nx] >= 0 ||
+              !changed(held, missed, nx, ny))
+            continue;
+          part[ny * 640 + nx] = id;
+          todo.push_back({nx, ny});
+        }
+      }
+    }
+  ASSERT_FALSE(sizes.empty()) << "the dot shows (" << beam << " pixels changed)";
+  const int largest = int(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int dot = 0;
+  for (int v = 0; v < 360; ++v)
+    for (int u = 0; u < 640; ++u)
+      if (part[v * 640 + u] == largest) sum += Eigen::Vector2d(u + 0.5, v + 0.5), ++dot;
+  ASSERT_GT(dot, 20) << "the dot shows (" << beam << " pixels changed)";
+  const Eigen::Vector2d centre = sum / dot;
+  const Eigen::Vector2f expected = window(spot);
+  std::printf("the dot (%d px) is %.2f px from where the spot projects\n", dot,
+              (centre - expected.cast<double>()).norm());
+  EXPECT_LT((centre - expected.cast<double>()).norm(), 3.0)
+      << "dot at " << centre.transpose() << ", the spot projects to " << expected.transpose();
+  // Put away: gone for B.
+  a->p().point(false, origin, true, spot);
+  ASSERT_TRUE(eventually([&] { return b->p().snapshot(wall_clock_us()).pointers.empty(); }));
+  render(after);
+  int left = 0;
+  for (int v = 0; v < 360; ++v)
+    for (int u = 0; u < 640; ++u) left += changed(after, before, u, v);
+  EXPECT_EQ(left, 0);
+  b.reset();
+  a.reset();
+}
+
 // The CLI: a server, a participant with a camera avatar, and a headless participant who writes
 // the screenshot from its eye and the session figures.
 TEST(SessionCli, ServeAndTwoParticipants) {

@@ -3,7 +3,7 @@
 // any RenderTarget: the OR site's cameras placed by room_from_site, every other participant with
 // a camera as a live point-cloud avatar (only points within keep_radius_m of that participant's
 // interpolated head), its own camera likewise with its own headset hidden, a mesh avatar (head and
-// hands) for each participant without a camera, the room (floor, walls, table, lamp), teleport
+// hands) for each participant without a camera, everyone's pointers and the session's annotations, the room (floor, walls, table, lamp), teleport
 // effects, the patient case's objects where the session has them (held ones brightened) and the
 // wall monitor's CT slice. One GL context; every call with it current.
 #include <memory>
@@ -15,6 +15,7 @@
 #include "volcast/core/frame.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/render_target.hpp"
 #include "volcast/render/view.hpp"
 #include "volcast/session/participant.hpp"
@@ -51,6 +52,12 @@ AvatarFilter remote_avatar_filter(const RemoteParticipant& other, float radius_m
 /// body, not the room behind it), without those of the headset (HideBox at the head); none
 /// before its first pose.
 AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
+
+/// The session's pointers and annotations as the snapshot has them (annotation_scene.hpp, each in
+/// its owner's colour; pointer dots facing `eye`, room frame), added to `out`; an annotation on
+/// the monitor only while it shows the CT slice (and case) it was drawn on.
+void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,
+                        std::vector<Primitive>& out);
 
 /// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
 /// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.

@@ -1,0 +1,119 @@
+#include "volcast/render/annotation_scene.hpp"
+
+#include <Eigen/Geometry>
+
+namespace volcast {
+namespace {
+
+constexpr float kGlow = 0.85f;
+
+// The unit cylinder (radius 0.5 about +y) as a tube of `width` from a to b.
+Primitive tube(const Eigen::Vector3f& a, const Eigen::Vector3f& b, float width,
+               const Eigen::Vector4f& rgba) {
+  const Eigen::Vector3f d = b - a;
+  const Eigen::Quaternionf turn = Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitY(), d);
+  Primitive p;
+  p.shape = Primitive::Shape::kCylinder;
+  p.world_from_shape = (Eigen::Translation3f((a + b) / 2) * turn *
+                        Eigen::Scaling(Eigen::Vector3f(width, d.norm(), width)))
+                           .matrix();
+  p.color = rgba;
+  p.emissive = kGlow;
+  return p;
+}
+
+Primitive ball(const Eigen::Vector3f& at, float width, const Eigen::Vector4f& rgba) {
+  Primitive p;
+  p.shape = Primitive::Shape::kSphere;
+  p.world_from_shape = (Eigen::Translation3f(at) * Eigen::Scaling(width)).matrix();
+  p.color = rgba;
+  p.emissive = kGlow;
+  return p;
+}
+
+Eigen::Vector4f opaque(const Eigen::Vector3f& rgb) {
+  return {rgb.x(), rgb.y(), rgb.z(), 1};
+}
+
+}  // namespace
+
+Eigen::Vector3f participant_color(uint32_t id) {
+  static const Eigen::Vector3f palette[] = {{0.95f, 0.55f, 0.2f}, {0.3f, 0.7f, 0.95f},
+                                            {0.6f, 0.85f, 0.3f},  {0.9f, 0.35f, 0.6f},
+                                            {0.95f, 0.85f, 0.3f}, {0.55f, 0.45f, 0.95f}};
+  return palette[id % 6];
+}
+
+std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool has_hit,
+                                          const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
+                                          const Eigen::Vector3f& eye) {
+  const Eigen::Vector3f ray = hit - origin;
+  if (ray.norm() < 1e-4f) return {};
+  const Eigen::Vector3f dir = ray.normalized();
+  const Eigen::Vector4f beam{rgb.x(), rgb.y(), rgb.z(), 0.6f};
+  if (!has_hit) return {tube(origin, origin + 3 * dir, 0.005f, beam)};
+  constexpr float kDot = 0.03f, kThick = 0.004f, kLift = 0.015f;
+  std::vector<Primitive> out{tube(origin, hit, 0.005f, beam)};
+  // On the line from the eye to the hit: it projects where the hit does, in front of the surface.
+  const Eigen::Vector3f to_eye = eye - hit;
+  const float lift = std::min(kLift, 0.5f * to_eye.norm());
+  const Eigen::Vector3f facing = to_eye.norm() > 1e-4f ? to_eye.normalized() : -dir;
+  const Eigen::Vector3f centre = hit + facing * lift;
+  Primitive dot = ball(centre, 1, opaque(rgb));
+  dot.world_from_shape = (Eigen::Translation3f(centre) *
+                          Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), facing) *
+                          Eigen::Scaling(Eigen::Vector3f(kDot, kDot, kThick)))
+                             .matrix();
+  dot.emissive = 1;
+  out.push_back(dot);
+  return out;
+}
+
+Eigen::Vector3f label_anchor(const session::Annotation& a) {
+  return a.points.empty() ? Eigen::Vector3f::Zero() : Eigen::Vector3f(a.points[0] + Eigen::Vector3f(0, 0.12f, 0));
+}
+
+std::vector<Primitive> annotation_primitives(const session::Annotation& a,
+                                             const Eigen::Vector3f& rgb) {
+  std::vector<Primitive> out;
+  const Eigen::Vector4f c = opaque(rgb);
+  const auto& p = a.points;
+  switch (a.kind) {
+    case session::AnnotationKind::kStroke:
+      for (size_t i = 0; i < p.size(); ++i) {
+        out.push_back(ball(p[i], 0.008f, c));
+        if (i > 0 && (p[i] - p[i - 1]).norm() > 1e-5f) out.push_back(tube(p[i - 1], p[i], 0.008f, c));
+      }
+      break;
+    case session::AnnotationKind::kArrow: {
+      if (p.size() != 2 || (p[1] - p[0]).norm() < 1e-4f) break;
+      const Eigen::Vector3f dir = (p[1] - p[0]).normalized();
+      const float head = std::min(0.06f, (p[1] - p[0]).norm());
+      const Eigen::Vector3f base = p[1] - dir * head;
+      out.push_back(tube(p[0], base, 0.01f, c));
+      // The head: four stacked discs narrowing to the point.
+      for (int i = 0; i < 4; ++i) {
+        const Eigen::Vector3f from = base + dir * (head * float(i) / 4);
+        const Eigen::Vector3f to = base + dir * (head * float(i + 1) / 4);
+        out.push_back(tube(from, to, 0.04f * float(4 - i) / 4, c));
+      }
+      break;
+    }
+    case session::AnnotationKind::kLabel: {
+      if (p.size() != 1) break;
+      const Eigen::Vector3f top = label_anchor(a);
+      out.push_back(ball(p[0], 0.025f, c));
+      out.push_back(tube(p[0], top, 0.006f, c));
+      Primitive flag = ball(top + Eigen::Vector3f(0.03f, -0.02f, 0), 1, c);
+      flag.shape = Primitive::Shape::kBox;
+      flag.world_from_shape = (Eigen::Translation3f(top + Eigen::Vector3f(0.03f, -0.02f, 0)) *
+                               Eigen::Scaling(Eigen::Vector3f(0.06f, 0.04f, 0.004f)))
+                                  .matrix();
+      out.push_back(flag);
+      break;
+    }
+  }
+  return out;
+}
+
+}  // namespace volcast

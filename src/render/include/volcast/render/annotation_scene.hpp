@@ -1,0 +1,36 @@
+#pragma once
+// What pointing and drawing look like (session/annotations.hpp): a participant's laser pointer
+// and the session's strokes, arrows and labels, as primitives for PrimitiveRenderer. Room frame,
+// metres. Everything glows (emissive) in its owner's colour, so that it reads on the live clouds
+// under any light, and is depth-tested, so that what stands in front of it hides it.
+#include <vector>
+
+#include "volcast/render/primitive_renderer.hpp"
+#include "volcast/session/annotations.hpp"
+
+namespace volcast {
+
+/// A participant's colour (linear RGB 0..1) by id: its mesh avatar, effects, pointer and drawings
+/// (six colours, repeating).
+Eigen::Vector3f participant_color(uint32_t id);
+
+/// A laser pointer from `origin`: a beam 5 mm wide to `hit`, and there a dot 3 cm across and 4 mm
+/// thick facing `eye` (the viewer's eye), 1.5 cm towards it on the line from the eye through the
+/// hit: it projects exactly where the hit does and stands out of the surface it lies on (the
+/// splats around the hit do not cover it). Without a hit (`has_hit` false) the beam runs 3 m
+/// towards `hit` and has no dot. Empty if origin and hit coincide.
+std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool has_hit,
+                                          const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
+                                          const Eigen::Vector3f& eye);
+
+/// One annotation: a stroke is a tube 8 mm wide through its points (a ball at each joint); an
+/// arrow a tube from its tail with a cone-like head 6 cm long at its head point; a label a pin (a
+/// ball 2.5 cm wide at its point and a stick 12 cm up to a flag 6 x 4 cm): its text is drawn by
+/// the viewer's overlay (label_anchor).
+std::vector<Primitive> annotation_primitives(const session::Annotation& a,
+                                             const Eigen::Vector3f& rgb);
+
+/// Where a label's text goes: the top of its pin's stick (room frame, metres).
+Eigen::Vector3f label_anchor(const session::Annotation& a);
+
+}  // namespace volcast

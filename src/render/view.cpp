@@ -58,6 +58,30 @@ Eigen::Matrix4f perspective_from_tangents(float tan_left, float tan_right, float
   return p;
 }
 
+View camera_view(const CameraCalibration& camera, float near_m, float far_m) {
+  const Intrinsics& k = camera.depth;
+  if (!k.is_pinhole())
+    throw Error(
+        "camera_view: the camera's intrinsics have lens distortion; undistort its images first "
+        "(the filter chain's undistort gives the pinhole with the same fx, fy, cx, cy)");
+  if (k.width <= 0 || k.height <= 0 || !(k.fx > 0) || !(k.fy > 0))
+    throw Error(
+        fmt::format("camera_view: needs a positive size and focal lengths, got {}x{} "
+                    "pixels, fx {}, fy {}",
+                    k.width, k.height, k.fx, k.fy));
+  check_clip_distances("camera_view", near_m, far_m);
+  RigidTransform camera_from_view;  // view x right, y up, z backward; camera y down, z forward
+  camera_from_view.rotation = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  // Tangents of the image's outer pixel edges: u = -0.5 (left) .. width - 0.5 (right); v = -0.5
+  // is the top edge, where the camera's y = (v - cy) / fy * z is most negative (view y up).
+  const double left = (-0.5 - k.cx) / k.fx, right = (k.width - 0.5 - k.cx) / k.fx;
+  const double up = (k.cy + 0.5) / k.fy, down = -(k.height - 0.5 - k.cy) / k.fy;
+  return {
+      camera.world_from_camera * camera_from_view,
+      perspective_from_tangents(static_cast<float>(left), static_cast<float>(right),
+                                static_cast<float>(up), static_cast<float>(down), near_m, far_m)};
+}
+
 RigidTransform look_at(const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                        const Eigen::Vector3d& up) {
   const Eigen::Vector3d line_of_sight = target - eye;

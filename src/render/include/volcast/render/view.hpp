@@ -45,6 +45,23 @@ Eigen::Matrix4f perspective(float vertical_fov_deg, float aspect, float near_m, 
 Eigen::Matrix4f perspective_from_tangents(float tan_left, float tan_right, float tan_up,
                                           float tan_down, float near_m, float far_m);
 
+/// The View from a real camera's own viewpoint (the OR display draws over that camera's image):
+/// world_from_view is `camera.world_from_camera` turned into the view frame (camera x right,
+/// y down, z forward -> view x right, y up, z backward), and clip_from_view is the pinhole
+/// intrinsics of `camera.depth` (fx, fy, cx, cy) as an off-centre perspective whose viewport edges
+/// are the image's outer pixel edges (u = -0.5, u = width - 0.5, v = -0.5, v = height - 0.5;
+/// pixel centres at integers, calibration.hpp). So a world point that the calibration projects to
+/// pixel (u, v) (v counted from the top row) is rasterised in pixel (u, v) of a width x height
+/// RenderTarget as HeadlessTarget::read_image returns it (top row first); a target of another
+/// size scales the same picture. near_m, far_m: clipping distances along the optical axis,
+/// metres, 0 < near_m < far_m.
+/// Throws Error if the intrinsics have lens distortion (Intrinsics::is_pinhole() false: the
+/// caller undistorts first, e.g. the filter chain's "undistort" (FilterConfig::undistort, or
+/// make_pixel_map(source, true, ...) + apply_pixel_map in volcast/filter/filters.hpp), whose
+/// output is the pinhole with the source's fx, fy, cx, cy), if the size or focal lengths are not
+/// positive, or if near_m/far_m are out of range.
+View camera_view(const CameraCalibration& camera, float near_m, float far_m);
+
 /// world_from_view for an eye at `eye` looking at `target`, with `up` (any vector not parallel to
 /// the line of sight) showing up on screen. All in the world frame, metres. The view's -z axis
 /// points from eye to target and its y axis is `up` made orthogonal to it. Throws Error if eye

@@ -157,6 +157,7 @@ struct ViewArgs {
   // Joining the virtual OR as a participant (volcast/session/participant.hpp).
   std::string join;                      ///< session name; empty: a plain viewer
   std::string name;                      ///< display name in the session
+  int or_display = -1;                   ///< >= 0: draw the OR display of this site camera
   std::string camera;                    ///< own RGB-D camera source: a camera avatar
   std::string camera_pose;               ///< "x,y,z,rx,ry,rz": playarea_from_camera (m, deg)
   std::string camera_intrinsics;         ///< "fx,fy,cx,cy" for a camera source without any

@@ -20,6 +20,7 @@
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
+#include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
@@ -115,6 +116,10 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   s.participant.name = a.name;
   s.pose_rate_hz = a.pose_rate;
   s.drive_poses = !window;  // the window (or headset) publishes its eye
+  const bool or_display = a.or_display >= 0;
+  if (or_display) s.drive_poses = false;  // it watches: no pose, no avatar of its own
+  auto surfaces = std::make_shared<LiveSurfaces>();
+  s.surfaces = surfaces;
   if (!a.pose_script.empty()) s.script = read_pose_script(a.pose_script);
   s.camera_source = a.camera;
   s.upload_depth_codec = a.upload_codec;
@@ -162,7 +167,13 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   scene.room = !a.no_room;
   const auto participant = [client] { return client->participant(); };
   const auto voice_link = [voice] { return voice->get(); };
-  if (xr) {
+  if (or_display) {
+    if (window)
+      spdlog::warn("view: --or-display draws headless (the picture with --screenshot); no window");
+    if (!opt.render) throw Error("view: --or-display needs rendering (drop --no-render)");
+    opt.presenter = or_display_presenter(opt, static_cast<size_t>(a.or_display), participant,
+                                         opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+  } else if (xr) {
     XrOptions options;
     options.pass = opt.pass;
     options.participant = participant;
@@ -178,7 +189,8 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
     opt.presenter = desktop_presenter(desktop);
   } else if (opt.render) {
     opt.presenter = session_presenter(opt, participant, scene,
-                                      opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+                                      opt.software_render_fps > 0 ? opt.software_render_fps : 15,
+                                      surfaces);
   }
   return session;
 }
@@ -406,6 +418,12 @@ void register_view(CLI::App& app, Commands& commands) {
   v->add_option("--join", view.join,
                 "Join this virtual-OR session as a participant (made if there is none)");
   v->add_option("--name", view.name, "Your display name in the session (with --join)");
+  v->add_option("--or-display", view.or_display,
+                "With --join: be the OR display of site camera N (0 = the first): that camera's "
+                "own image, from its viewpoint, with the remote participants, their pointers and "
+                "the session's annotations drawn in, hidden by what stands in front; written with "
+                "--screenshot")
+      ->check(CLI::NonNegativeNumber);
   v->add_option("--camera", view.camera,
                 "Your own RGB-D camera (any source: .mkv, image folder, depth PNG): others see "
                 "you as a live point-cloud avatar; without it, a mesh avatar");

@@ -172,6 +172,7 @@ void SessionClient::run_poses() {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ScriptedObjects objects(options_.script);
+  ScriptedPointing pointing(options_.script, options_.surfaces);
   while (!stopping_) {
     const double t = std::chrono::duration<double>(clock::now() - start).count();
     while (teleports < options_.script.teleports.size() &&
@@ -179,6 +180,9 @@ void SessionClient::run_poses() {
       participant_->teleport(options_.script.teleports[teleports++].to);
     objects.step(*participant_, t);
     participant_->publish(options_.script.at(t));
+    if (!options_.script.drawing.empty())
+      pointing.step(*participant_, participant_->snapshot(wall_clock_us()).own_body.right_hand.position,
+                    t);
     next += period;
     const auto now = clock::now();
     if (next < now) next = now;  // fell behind (a loaded machine): no burst to catch up

@@ -224,8 +224,9 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
 namespace volcast {
 
 Presenter session_presenter(const ViewerOptions& opt, std::function<Participant*()> participant,
-                            SessionSceneOptions scene_options, double fps) {
-  return [opt, participant, scene_options, fps](FrameFeed& feed, ViewerResult& result) {
+                            SessionSceneOptions scene_options, double fps,
+                            std::shared_ptr<LiveSurfaces> surfaces) {
+  return [opt, participant, scene_options, fps, surfaces](FrameFeed& feed, ViewerResult& result) {
     HeadlessTarget target(opt.width, opt.height);  // before the renderers: it owns the context
     SessionScene scene;
     result.renderer = scene.gl_description();
@@ -246,7 +247,9 @@ Presenter session_presenter(const ViewerOptions& opt, std::function<Participant*
       Participant* p = participant();
       if (!p) continue;
       const int64_t t = wall_clock_us();
-      const View eye = participant_eye(p->snapshot(t), target.target().aspect());
+      const SessionSnapshot seen = p->snapshot(t);
+      if (surfaces) surfaces->update(site, frames, seen.room_from_site);
+      const View eye = participant_eye(seen, target.target().aspect());
       scene.draw(eye, target.target(), site, frames, *p, t, scene_options);
       ++result.frames_rendered;
     }

@@ -1,5 +1,7 @@
 #include "volcast/session/pose_script.hpp"
 
+#include "volcast/session/annotations.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -196,6 +198,51 @@ PoseScript parse_pose_script(const std::string& text) {
     if (!s.monitor.empty() && sm.t_s < s.monitor.back().t_s)
       throw Error("pose script: monitor changes must be in time order");
     s.monitor.push_back(sm);
+  }
+  const nlohmann::json drawing = list("drawing");
+  for (size_t i = 0; i < drawing.size(); ++i) {
+    const auto& d = drawing[i];
+    const std::string where = "drawing[" + std::to_string(i) + "]";
+    if (!d.is_object() || !d.contains("kind") || !d["kind"].is_string())
+      throw Error("pose script: " + where + " needs \"kind\": point, stroke, arrow or label");
+    ScriptedDrawing sd;
+    const std::string kind = d["kind"].get<std::string>();
+    sd.t_s = number(d, "t", -1, where);
+    if (sd.t_s < 0) throw Error("pose script: " + where + ".t must be given, >= 0 seconds");
+    const auto need = [&](const char* field) {
+      if (!d.contains(field)) throw Error("pose script: " + where + " needs \"" + field + "\"");
+      return vec3(d[field], where + "." + field);
+    };
+    if (kind == "point" || kind == "stroke") {
+      sd.for_s = number(d, "for_s", 1, where);
+      if (sd.for_s <= 0) throw Error("pose script: " + where + ".for_s must be > 0 seconds");
+    }
+    if (kind == "point") {
+      sd.kind = ScriptedDrawing::Kind::kPoint;
+      sd.points = {need("at")};
+    } else if (kind == "stroke") {
+      sd.kind = ScriptedDrawing::Kind::kStroke;
+      if (!d.contains("path") || !d["path"].is_array() || d["path"].size() < 2 ||
+          d["path"].size() > session::kMaxStrokePoints)
+        throw Error("pose script: " + where + ".path must be a list of 2 to 256 points");
+      for (size_t k = 0; k < d["path"].size(); ++k)
+        sd.points.push_back(vec3(d["path"][k], where + ".path[" + std::to_string(k) + "]"));
+    } else if (kind == "arrow") {
+      sd.kind = ScriptedDrawing::Kind::kArrow;
+      sd.points = {need("from"), need("to")};
+    } else if (kind == "label") {
+      sd.kind = ScriptedDrawing::Kind::kLabel;
+      sd.points = {need("at")};
+      if (!d.contains("text") || !d["text"].is_string())
+        throw Error("pose script: " + where + " needs \"text\"");
+      sd.text = session::check_label_text(d["text"].get<std::string>());
+    } else {
+      throw Error("pose script: " + where + ".kind '" + kind +
+                  "' is none of point, stroke, arrow, label");
+    }
+    if (!s.drawing.empty() && sd.t_s < s.drawing.back().t_s)
+      throw Error("pose script: drawing events must be in time order");
+    s.drawing.push_back(std::move(sd));
   }
   return s;
 }

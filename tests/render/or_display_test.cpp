@@ -14,6 +14,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/filter/filters.hpp"
+#include "volcast/pipeline/or_display.hpp"
 #include "volcast/render/backdrop_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"
@@ -273,6 +274,79 @@ TEST(BackdropRenderer, WithoutColourShowsDepthAsGreyAndInvalidAsBlack) {
   EXPECT_THROW(backdrop.draw(camera_view(cal, 0.1f, 20), target.target(),
                              CameraFrame{DepthImage(32, 24), ColorImage(16, 12), 0}),
                Error);
+}
+
+}  // namespace
+}  // namespace volcast
+
+namespace volcast {
+namespace {
+
+// The OR display (pipeline/or_display.hpp) of the real Kinect frame, distorted as recorded (it
+// undistorts it itself): a stroke drawn at a known 3D point lands within 2 px of where the camera
+// projects that point; the same stroke 20 cm behind the real foreground surface is hidden.
+TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneBehindIt) {
+  auto src = open_source(test::kinect_mkv());
+  CameraCalibration camera = src->calibration();
+  // The same frame as the display undistorts it and fills its holes (the mug's dark print).
+  PinholeCamera c = undistorted_kinect();
+  HoleFiller holes;
+  holes.iterations = 10;
+  holes.apply(c.frame.depth);
+  camera.world_from_camera = c.calibration.world_from_camera;
+  const CameraFrame frame = src->next();
+  int u = 0, v = 0;
+  ASSERT_TRUE(foreground_pixel(c.frame.depth, 24, &u, &v));
+  EXPECT_LT(c.frame.depth.at(u, v), 400) << "the mug, about 27 cm away";
+  const Eigen::Vector3d p = measured_point(c, u, v);
+  const Eigen::Vector3d eye = c.calibration.world_from_camera.translation;
+  const Eigen::Vector3d ray = (p - eye).normalized();
+  const Eigen::Vector3d across = c.calibration.world_from_camera.rotation * Eigen::Vector3d::UnitX();
+  const auto stroke_at = [&](const Eigen::Vector3d& q) {
+    session::Annotation a;
+    a.id = 1;
+    a.author = 2;
+    a.kind = session::AnnotationKind::kStroke;
+    for (double dx : {-0.01, 0.0, 0.01}) a.points.push_back((q + across * dx).cast<float>());
+    return a;
+  };
+  const auto size = or_display_size(camera);
+  HeadlessTarget target(size.width, size.height);
+  OrDisplay display;
+  SessionSnapshot snapshot;  // room frame = site frame
+  ColorImage before, in_front, behind;
+  const auto draw = [&](ColorImage& image) {
+    display.draw(target.target(), camera, frame, snapshot, 0);
+    target.read_image(image);
+  };
+  draw(before);
+  EXPECT_EQ(display.room_camera().depth.fx, c.calibration.depth.fx);
+  const Eigen::Vector3d q = p - ray * 0.10;  // 10 cm in front of the surface
+  snapshot.annotations = {stroke_at(q)};
+  draw(in_front);
+  snapshot.annotations = {stroke_at(p + ray * 0.20)};  // 20 cm behind it
+  draw(behind);
+  const std::filesystem::path dir = test::temp_dir("or_display");
+  write_color_png(dir / "or_display_stroke.png", in_front);
+  std::printf("picture: %s\n", (dir / "or_display_stroke.png").c_str());
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  int stroke = 0, shown_behind = 0;
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      if (!same_pixel(in_front, before, x, y)) sum += Eigen::Vector2d(x, y), ++stroke;
+      shown_behind += !same_pixel(behind, before, x, y);
+    }
+  ASSERT_GT(stroke, 100);
+  const Intrinsics& k = c.calibration.depth;
+  const Eigen::Vector3d q_camera = c.calibration.world_from_camera.inverse() * q;
+  const Eigen::Vector2d expected(k.fx * q_camera.x() / q_camera.z() + k.cx,
+                                 k.fy * q_camera.y() / q_camera.z() + k.cy);
+  const Eigen::Vector2d centre = sum / stroke;
+  std::printf("stroke: %d px, centre %.2f px from the point's projection; behind: %d px shown\n",
+              stroke, (centre - expected).norm(), shown_behind);
+  EXPECT_LT((centre - expected).norm(), 2.0)
+      << centre.transpose() << " vs " << expected.transpose();
+  EXPECT_EQ(shown_behind, 0);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 
 #include "volcast/capture/source.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/session/participant.hpp"
 #include "volcast/session/pose_script.hpp"
 
@@ -31,6 +32,9 @@ struct SessionClientOptions {
   /// Where the camera stands in the play area; default: auto_playarea_from_camera.
   std::optional<RigidTransform> playarea_from_camera;
   std::string upload_depth_codec = "volcast", upload_color_codec = "jpeg";
+  /// Where the script's pointer rays meet the live clouds (ScriptedPointing); the presenter that
+  /// draws the site's frames keeps it up to date (session_presenter). Null: they meet nothing.
+  std::shared_ptr<const LiveSurfaces> surfaces;
 };
 
 /// Where a participant's own camera stands when nobody registered it: facing the participant
@@ -71,6 +75,33 @@ class ScriptedObjects {
   uint16_t object_ = 0;
   ScriptedGrab grab_;
   Pose start_pose_;
+};
+
+/// The pointing and drawing of a pose script (PoseScript::drawing), performed by a participant
+/// as time goes, the right hand's laser pointer aimed from the hand at the script's room-frame
+/// points: a "point" shows the pointer on its point for its time; a "stroke" sweeps the aim along
+/// its path (at constant speed along it) with the pointer shown and, when it ends, draws the
+/// points where the rays met the live clouds (one within 3 mm of the last is skipped; at most
+/// kMaxStrokePoints, evenly thinned; none drawn if fewer than 2 met anything); an "arrow" and a
+/// "label" are drawn at once where the rays at their points meet the clouds, or at the points
+/// themselves where they meet nothing. A pointer's dot is where its ray meets the clouds (none
+/// where it meets nothing).
+class ScriptedPointing {
+ public:
+  ScriptedPointing(PoseScript script, std::shared_ptr<const LiveSurfaces> surfaces)
+      : script_(std::move(script)), surfaces_(std::move(surfaces)) {}
+  /// Performs what is due by `t_s` seconds into the script on `participant`, the pointer from
+  /// `hand` (room frame, metres).
+  void step(Participant& participant, const Eigen::Vector3f& hand, double t_s);
+
+ private:
+  std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& hand, const Eigen::Vector3f& at) const;
+  void finish(Participant& participant, const Eigen::Vector3f& hand);
+  PoseScript script_;
+  std::shared_ptr<const LiveSurfaces> surfaces_;
+  size_t next_ = 0;
+  std::optional<ScriptedDrawing> active_;
+  std::vector<Eigen::Vector3f> stroke_;  // the active stroke's hits
 };
 
 class SessionClient {

@@ -14,6 +14,7 @@
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
+#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/render_target.hpp"
@@ -90,8 +91,10 @@ class SessionScene {
 /// The headless presenter of a participant: an EGL target of options.width x height that draws
 /// the SessionScene from the participant's eye about `fps` times a second (the others move even
 /// when the site's frames repeat), and writes options.screenshot (the eye's view) at the end.
-/// `participant` returns the participant once joined (null before).
+/// `participant` returns the participant once joined (null before). `surfaces`, if given, is kept
+/// up to date with the site's newest frames (a pose script's pointer meets them).
 Presenter session_presenter(const ViewerOptions& options, std::function<Participant*()> participant,
-                            SessionSceneOptions scene = {}, double fps = 30);
+                            SessionSceneOptions scene = {}, double fps = 30,
+                            std::shared_ptr<LiveSurfaces> surfaces = nullptr);
 
 }  // namespace volcast

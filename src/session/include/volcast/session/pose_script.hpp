@@ -17,7 +17,15 @@
 //    "monitor": [{"t": 0.5, "slice": 1,            // the CT slice (optional)
 //                 "preset": "liver",               // or "center"/"width" in HU (optional)
 //                 "overlay": true}]}               // (optional)
-//    (teleports, grabs, monitor: optional, in time order, never repeated by "loop")
+//    "drawing": [{"t": 1.0, "kind": "point", "for_s": 2.0, "at": [x, y, z]},   // room frame
+//                {"t": 3.5, "kind": "stroke", "for_s": 1.5, "path": [[x, y, z], ...]},
+//                {"t": 5.5, "kind": "arrow", "from": [x, y, z], "to": [x, y, z]},
+//                {"t": 6.0, "kind": "label", "at": [x, y, z], "text": "cut here"}]
+//      the right hand's laser pointer (annotations.hpp), aimed from the hand at room-frame points:
+//      "point" holds it on `at` for for_s; "stroke" sweeps its aim along `path` over for_s with
+//      the pointer on, and draws what the ray met as a stroke; "arrow" and "label" are drawn where
+//      the rays at their points meet what the participant sees (ScriptedPointing)
+//    (teleports, grabs, monitor, drawing: optional, in time order, never repeated by "loop")
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -54,12 +62,23 @@ struct ScriptedMonitor {
   std::optional<bool> overlay;
 };
 
+/// A pointing or drawing event (room frame, metres): see the script format above.
+struct ScriptedDrawing {
+  enum class Kind { kPoint, kStroke, kArrow, kLabel };
+  Kind kind = Kind::kPoint;
+  double t_s = 0, for_s = 0;  ///< kPoint, kStroke: how long; else 0
+  /// kPoint, kLabel: the one aimed at; kStroke: the path (>= 2); kArrow: from, to.
+  std::vector<Eigen::Vector3f> points;
+  std::string text;  ///< kLabel
+};
+
 struct PoseScript {
   bool loop = true;
   std::vector<PoseKey> keys;
   std::vector<ScriptedTeleport> teleports;  ///< in time order; never repeated by `loop`
   std::vector<ScriptedGrab> grabs;          ///< likewise
   std::vector<ScriptedMonitor> monitor;     ///< likewise
+  std::vector<ScriptedDrawing> drawing;     ///< likewise
   /// The body (play area frame) at `t_s` seconds: keys interpolated linearly (yaw and pitch
   /// too), held before the first and (without loop) after the last.
   BodyPose at(double t_s) const;

@@ -1,0 +1,119 @@
+#include "volcast/pipeline/or_display.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/core/image_io.hpp"
+#include "volcast/filter/filters.hpp"
+#include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_scene.hpp"
+#include "volcast/render/annotation_scene.hpp"
+#include "volcast/render/backdrop_renderer.hpp"
+#include "volcast/render/headless_target.hpp"
+#include "volcast/render/primitive_renderer.hpp"
+#include "volcast/render/room_scene.hpp"
+#include "volcast/render/view.hpp"
+
+namespace volcast {
+
+OrDisplaySize or_display_size(const CameraCalibration& camera) {
+  return {camera.depth.width, camera.depth.height};
+}
+
+struct OrDisplay::Impl {
+  BackdropRenderer backdrop;
+  PrimitiveRenderer primitives;
+  Intrinsics mapped_for;  // the intrinsics `map` was made for
+  PixelMap map;
+  HoleFiller holes;
+  CameraFrame undistorted;
+  CameraCalibration room_camera;
+  std::vector<Primitive> scene;
+};
+
+OrDisplay::OrDisplay() : impl_(std::make_unique<Impl>()) {
+  impl_->holes.iterations = 10;  // a glove's holes, not only single pixels
+}
+OrDisplay::~OrDisplay() = default;
+
+const CameraCalibration& OrDisplay::room_camera() const {
+  return impl_->room_camera;
+}
+
+void OrDisplay::draw(const RenderTarget& target, const CameraCalibration& camera,
+                     const CameraFrame& frame, const SessionSnapshot& s, int64_t now_us) {
+  Impl& r = *impl_;
+  if (frame.depth.width != camera.depth.width || frame.depth.height != camera.depth.height)
+    throw Error("OR display: the frame is " + std::to_string(frame.depth.width) + "x" +
+                std::to_string(frame.depth.height) + ", its camera " +
+                std::to_string(camera.depth.width) + "x" + std::to_string(camera.depth.height));
+  if (r.map.map.empty() || !(r.mapped_for == camera.depth)) {
+    r.map = make_pixel_map(camera.depth, true, std::nullopt);
+    r.mapped_for = camera.depth;
+  }
+  apply_pixel_map(r.map, frame.depth, r.undistorted.depth);
+  if (!frame.color.empty())
+    apply_pixel_map(r.map, frame.color, r.undistorted.color);
+  else
+    r.undistorted.color = ColorImage{};
+  r.holes.apply(r.undistorted.depth);
+  r.room_camera.depth = r.map.output;
+  r.room_camera.world_from_camera = s.room_from_site * camera.world_from_camera;
+  const View view = camera_view(r.room_camera, 0.05f, 20);
+  r.backdrop.draw(view, target, r.undistorted);
+
+  r.scene.clear();
+  for (const RemoteParticipant& p : s.others) {
+    if (p.role != session::Role::kRemote || !p.has_pose) continue;
+    const auto mesh = mesh_avatar_primitives(p.pose, participant_color(p.id));
+    r.scene.insert(r.scene.end(), mesh.begin(), mesh.end());
+    const bool speaking = p.last_voice_us != 0 && now_us - p.last_voice_us < 300'000;
+    const auto badge = voice_badge_primitives(p.pose.head.position, speaking, p.muted, 0.5f);
+    r.scene.insert(r.scene.end(), badge.begin(), badge.end());
+  }
+  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene);
+  if (!r.scene.empty()) r.primitives.draw(view, target, r.scene);
+}
+
+Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,
+                               std::function<Participant*()> participant, double fps) {
+  return [opt, camera, participant, fps](FrameFeed& feed, ViewerResult& result) {
+    const std::vector<CameraCalibration>& site = feed.cameras();
+    if (camera >= site.size())
+      throw Error("OR display: the site has " + std::to_string(site.size()) +
+                  " cameras, no camera " + std::to_string(camera));
+    const OrDisplaySize size = or_display_size(site[camera]);
+    HeadlessTarget target(size.width, size.height);  // before the renderers: it owns the context
+    OrDisplay display;
+    std::vector<std::shared_ptr<const CameraFrame>> frames(site.size());
+    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(1.0 / std::max(fps, 0.5)));
+    auto next = std::chrono::steady_clock::now();
+    bool drawn = false;
+    while (!feed.finished()) {
+      const auto now = std::chrono::steady_clock::now();
+      feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
+                            std::max(next - now, std::chrono::steady_clock::duration::zero())));
+      if (std::chrono::steady_clock::now() < next) continue;
+      next += period;
+      if (next < std::chrono::steady_clock::now()) next = std::chrono::steady_clock::now() + period;
+      Participant* p = participant();
+      if (!p || !frames[camera]) continue;
+      const int64_t t = wall_clock_us();
+      display.draw(target.target(), site[camera], *frames[camera], p->snapshot(t), t);
+      drawn = true;
+      ++result.frames_rendered;
+    }
+    if (!opt.screenshot.empty() && drawn) {
+      ColorImage image;
+      target.read_image(image);
+      write_color_png(opt.screenshot, image);
+      spdlog::info("wrote {} (the OR display of camera {})", opt.screenshot.string(), camera);
+    }
+  };
+}
+
+}  // namespace volcast

@@ -5,7 +5,10 @@
 // its own eye and its session figures. The patient case is over the table: the liver of
 // 3D-IRCADb patient 1 with its tumours and vessels (meshes made from its label volume) and a CT
 // with its liver SEG on the wall monitor; Dr. Hands grabs the liver and turns it, Dr. Mesh sets
-// the monitor (slice, liver window); session_case.json has what the hub and each saw.
+// the monitor (slice, liver window), then points at the live site and draws on it (a circle, an
+// arrow, a label) where its pointer's rays meet the live clouds; the OR's wall display shows
+// camera 0's own image with them in it (or_display.png); session_case.json has what the hub and
+// each saw, the annotations too.
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -23,6 +26,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/demo/demo.hpp"
 #include "volcast/io/site_config.hpp"
+#include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/session_client.hpp"
@@ -76,6 +80,60 @@ PoseScript demo_script(float turn_deg, bool teleport) {
   return s;
 }
 
+// Where Dr. Mesh points and draws: the surface camera 0 sees in the middle of its image (the
+// registered room's table), room frame; and the directions of that camera's image right and up
+// there, so that the drawing faces it (the OR display shows camera 0).
+struct DrawingSpot {
+  Eigen::Vector3f at = Eigen::Vector3f::Zero(), right = Eigen::Vector3f::UnitX(),
+                  up = Eigen::Vector3f::UnitY();
+};
+
+DrawingSpot drawing_spot(const SiteCamera& cam, const fs::path& config,
+                         const RigidTransform& room_from_site) {
+  SourceOptions o;
+  if (cam.intrinsics) o.intrinsics = *cam.intrinsics;
+  o.world_from_camera = cam.world_from_camera;
+  auto source = open_source(resolve_site_source(cam.source, config), o);
+  const CameraCalibration c = source->calibration();
+  const CameraFrame f = source->next();
+  // The valid pixel nearest the image's centre.
+  int best_u = -1, best_v = -1;
+  double best = 1e18;
+  for (int v = 0; v < f.depth.height; ++v)
+    for (int u = 0; u < f.depth.width; ++u) {
+      const double d = std::hypot(u - f.depth.width / 2.0, v - f.depth.height / 2.0);
+      if (f.depth.at(u, v) != 0 && d < best) best = d, best_u = u, best_v = v;
+    }
+  DrawingSpot s;
+  const auto xy = best_u < 0 ? std::nullopt
+                             : unproject_pixel(c.depth, {double(best_u), double(best_v)});
+  if (!xy) return s;
+  const double z = f.depth.at(best_u, best_v) / 1000.0;
+  const RigidTransform room_from_camera = room_from_site * c.world_from_camera;
+  s.at = (room_from_camera * Eigen::Vector3d(xy->x() * z, xy->y() * z, z)).cast<float>();
+  s.right = (room_from_camera.rotation * Eigen::Vector3d::UnitX()).cast<float>();
+  s.up = (room_from_camera.rotation * -Eigen::Vector3d::UnitY()).cast<float>();
+  return s;
+}
+
+// Dr. Mesh's pointing and drawing at `spot`: the pointer on it, a circle drawn around it, an
+// arrow towards the circle and a label above it.
+std::vector<ScriptedDrawing> demo_drawing(const DrawingSpot& spot) {
+  using Kind = ScriptedDrawing::Kind;
+  std::vector<ScriptedDrawing> d;
+  d.push_back({Kind::kPoint, 2.6, 1.0, {spot.at}, ""});
+  ScriptedDrawing circle{Kind::kStroke, 3.7, 1.6, {}, ""};
+  for (int i = 0; i <= 16; ++i) {
+    const float a = float(i) / 16 * 2 * float(M_PI);
+    circle.points.push_back(spot.at + 0.12f * (std::cos(a) * spot.right + std::sin(a) * spot.up));
+  }
+  d.push_back(circle);
+  d.push_back({Kind::kArrow, 5.5, 0, {spot.at + 0.4f * spot.right, spot.at + 0.16f * spot.right},
+               ""});
+  d.push_back({Kind::kLabel, 5.7, 0, {spot.at + 0.22f * spot.up}, "cut here"});
+  return d;
+}
+
 // The liver's rest pose as the hub shares it (to_shared_case places it).
 Pose hub_rest_pose(const Case& c) {
   const session::SharedCase shared = to_shared_case(c);
@@ -121,7 +179,8 @@ struct Person {
 // sets the monitor), each with a screenshot and figures in `out`.
 std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const fs::path& data,
                                                        const fs::path& out, const std::string& link,
-                                                       const std::optional<demo::Exchange>& talk) {
+                                                       const std::optional<demo::Exchange>& talk,
+                                                       const DrawingSpot& spot) {
   std::vector<std::unique_ptr<Person>> people;
   for (int i = 0; i < 2; ++i) {
     auto p = std::make_unique<Person>();
@@ -133,9 +192,12 @@ std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const 
     o.script = demo_script(i == 0 ? -35 : 10, i == 1);
     if (i == 0)  // takes the liver and turns it 150 degrees
       o.script.grabs.push_back({1.0, 2.5, "liver", 60});
-    else  // the next slice in the liver window, the overlay on
+    else  // the next slice in the liver window, the overlay on; then points and draws
       o.script.monitor.push_back({0.8, 2, session::window_preset("liver").center,
                                   session::window_preset("liver").width, true});
+    if (i == 1) o.script.drawing = demo_drawing(spot);
+    auto surfaces = std::make_shared<LiveSurfaces>();
+    o.surfaces = surfaces;
     if (i == 0) {
       o.camera_source = data / kHandsSet;
       o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
@@ -172,10 +234,36 @@ std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const 
       }
     };
     v.presenter = session_presenter(
-        v, [client] { return client->participant(); }, {}, 2);
+        v, [client] { return client->participant(); }, {}, 2, surfaces);
     people.push_back(std::move(p));
   }
   return people;
+}
+
+// The OR's wall display of camera 0: joins as "OR wall display" (no pose, no avatar) and writes
+// or_display.png, the camera's image with the remote participants, pointers and drawing in it.
+std::unique_ptr<Person> demo_or_display(const DemoArgs& a, const fs::path& out,
+                                        const std::string& link, double seconds) {
+  auto p = std::make_unique<Person>();
+  p->name = "OR wall display";
+  p->file = "or_display";
+  SessionClientOptions o;
+  o.participant.session = "OR";
+  o.participant.name = p->name;
+  o.drive_poses = false;
+  p->session = std::make_unique<SessionClient>(std::move(o));
+  SessionClient* client = p->session.get();
+  ViewerOptions& v = p->opt;
+  v.client = client_config_from_link(link);
+  v.seconds = seconds;
+  v.screenshot = out / "or_display.png";
+  v.stats_json = out / "or_display.json";
+  v.stop = a.stop;
+  Person* raw = p.get();
+  v.on_connected = [raw](Client& c) { raw->session->start(c); };
+  v.on_finished = [raw](ViewerResult&) { raw->session->stop(); };
+  v.presenter = or_display_presenter(v, 0, [client] { return client->participant(); }, 2);
+  return p;
 }
 
 // session_case.json: what the hub and each participant ended with -- one pose for the liver, one
@@ -202,6 +290,17 @@ void write_session_case(const fs::path& file, const Case& patient, SessionHub& h
     r["liver"] = {
         {"owner", objects[0].owner},
         {"turned_deg", objects[0].pose.orientation.angularDistance(rest.orientation) * 180 / M_PI}};
+  for (const session::Annotation& an : hub.annotations("OR")) {
+    nlohmann::json points = nlohmann::json::array();
+    for (const Eigen::Vector3f& q : an.points) points.push_back({q.x(), q.y(), q.z()});
+    r["annotations"].push_back({{"id", an.id},
+                                {"author", an.author},
+                                {"kind", session::to_string(an.kind)},
+                                {"points_room_m", points},
+                                {"text", an.text}});
+  }
+  r["hub"]["pointers_in"] = hs.pointers_in;
+  r["hub"]["annotations"] = hs.annotations;
   if (const auto m = hub.monitor("OR"))
     r["monitor"] = {
         {"slice", m->slice}, {"center", m->center}, {"width", m->width}, {"overlay", m->overlay}};
@@ -270,7 +369,12 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     or_voice = demo::site_voice(*talk, hub);
     listening = or_voice.get();
   }
-  std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link, talk);
+  RigidTransform room_from_site;
+  room_from_site.translation = hub_config.site_translation.cast<double>();
+  const DrawingSpot spot =
+      drawing_spot(read_site_config(config).front(), config, room_from_site);
+  std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link, talk, spot);
+  people.push_back(demo_or_display(a, out, link, people.front()->opt.seconds));
   std::vector<std::thread> threads;
   for (auto& p : people)
     threads.emplace_back([&p] {
@@ -287,8 +391,10 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   site.stop();
   hub.attach(nullptr);
   server.stop();
-  std::printf("\nvirtual OR session 'OR': the OR site's %zu registered cameras, 2 participants\n",
-              cameras.size());
+  std::printf(
+      "\nvirtual OR session 'OR': the OR site's %zu registered cameras, 2 participants and the "
+      "OR's wall display; Dr. Mesh pointed and drew %zu annotations on the live site\n",
+      cameras.size(), hub.annotations("OR").size());
   std::printf(
       "case '%s': %zu parts, loaded in %.0f ms; the liver grabbed, turned and released; "
       "the monitor set (%s)\n",
@@ -297,9 +403,12 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   for (auto& p : people) {
     if (!p->error.empty()) throw Error("demo participant '" + p->name + "': " + p->error);
     std::printf("\n%s:\n%s", p->name.c_str(), format_stats_table(p->result).c_str());
-    std::printf("wrote %s (its eye) and %s\n", p->opt.screenshot.c_str(),
+    const bool wall = p->file == "or_display";
+    std::printf("wrote %s (%s) and %s\n", p->opt.screenshot.c_str(),
+                wall ? "camera 0's image with the remote participants and their drawing"
+                     : "its eye",
                 p->opt.stats_json.c_str());
-    if (talk) {
+    if (talk && !wall) {
       const fs::path heard = talk->dir / ("heard_" + p->file);
       voice::report_voice(p->heard, heard.string() + ".json");
       std::printf("wrote %s.wav (what it heard, HRTF) and %s.json\n", heard.c_str(), heard.c_str());

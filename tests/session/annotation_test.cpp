@@ -9,7 +9,9 @@
 #include "support/hub_outlet.hpp"
 #include "support/session_site.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/session/annotations.hpp"
+#include "volcast/session/pose_script.hpp"
 #include "volcast/session/message_table.hpp"
 
 namespace volcast {
@@ -244,6 +246,83 @@ TEST(Annotations, ParticipantsDrawForEveryoneAndTheDrawingOutlivesItsAuthor) {
   b->p().erase(id);
   ASSERT_TRUE(eventually([&] { return !received(*b) && !received(*c); }, 30s));
   EXPECT_TRUE(s.hub.annotations("OR").empty());
+}
+
+TEST(Annotations, APoseScriptsDrawingParsesAndItsMistakesAreNamed) {
+  const std::string keys = R"("keys": [{"t": 0, "head": [0, 1.6, 0]}])";
+  const PoseScript s = parse_pose_script("{" + keys + R"(, "drawing": [
+      {"t": 1, "kind": "point", "for_s": 0.5, "at": [0, 1, -1]},
+      {"t": 2, "kind": "stroke", "for_s": 1, "path": [[0, 1, -1], [0.1, 1, -1], [0.1, 1.1, -1]]},
+      {"t": 3, "kind": "arrow", "from": [0.3, 1, -1], "to": [0.1, 1, -1]},
+      {"t": 3, "kind": "label", "at": [0, 1.2, -1], "text": "Cafe\u0301"}]})");
+  ASSERT_EQ(s.drawing.size(), 4u);
+  EXPECT_EQ(s.drawing[0].kind, ScriptedDrawing::Kind::kPoint);
+  EXPECT_EQ(s.drawing[0].for_s, 0.5);
+  EXPECT_EQ(s.drawing[1].points.size(), 3u);
+  EXPECT_EQ(s.drawing[2].points[1], Eigen::Vector3f(0.1f, 1, -1));
+  EXPECT_EQ(s.drawing[3].text, "Caf\xc3\xa9");  // NFC, as the server keeps it
+  const auto error = [&](const std::string& drawing) {
+    return test::error_of([&] { parse_pose_script("{" + keys + R"(, "drawing": [)" + drawing + "]}"); });
+  };
+  EXPECT_NE(error(R"({"t": 1, "kind": "circle"})").find("none of point"), std::string::npos);
+  EXPECT_NE(error(R"({"t": 1, "kind": "stroke", "path": [[0, 1, 0]]})").find("2 to 256"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"t": 1, "kind": "label", "at": [0, 1, 0], "text": "a\u202eb"})")
+                .find("label"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"t": 2, "kind": "point", "at": [0, 1, 0]}, {"t": 1, "kind": "point", "at": [0, 1, 0]})")
+                .find("time order"),
+            std::string::npos);
+}
+
+// A pose script's stroke over the real hands site: the pointer sweeps its path, and the stroke
+// the others receive lies on the live surface (each point where the site camera measured it,
+// within 2 cm along the camera's ray), as does the label's pin; the pointer is shown meanwhile.
+TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
+  test::SessionSite s;
+  const CameraCalibration camera = s.site.player.cameras()[0].calibration;
+  CameraFrame frame;
+  test::HandsSite::sources()[0]->next(frame);
+  auto surfaces = std::make_shared<LiveSurfaces>();
+  // The aim: the camera's view of its middle, 40 cm ahead of it (room frame = site frame here).
+  const RigidTransform& site_from_camera = camera.world_from_camera;
+  const auto ahead = [&](double x, double y) -> Eigen::Vector3f {
+    return (site_from_camera * Eigen::Vector3d(x, y, 0.4)).cast<float>();
+  };
+  SessionClientOptions drawer = test::named("Mentor");
+  drawer.surfaces = surfaces;
+  drawer.script.loop = false;
+  PoseKey k;  // the right hand where the camera is in the play area (placed at its spawn spot)
+  k.hands = true;
+  k.right = site_from_camera.translation.cast<float>();
+  drawer.script.keys = {k};
+  ScriptedDrawing stroke{ScriptedDrawing::Kind::kStroke, 0.3, 0.6, {}, ""};
+  for (int i = 0; i <= 8; ++i) stroke.points.push_back(ahead(-0.08 + 0.02 * i, 0.02));
+  drawer.script.drawing = {stroke, {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
+  surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
+                   RigidTransform{});
+  auto watcher = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
+  auto mentor = std::make_unique<test::TestParticipant>(s, drawer);
+  bool pointer_seen = false;
+  ASSERT_TRUE(eventually([&] {
+    pointer_seen = pointer_seen || !watcher->now().pointers.empty();
+    return watcher->now().annotations.size() == 2;
+  }, 30s));
+  EXPECT_TRUE(pointer_seen);
+  const auto drawn = watcher->now().annotations;
+  EXPECT_EQ(drawn[0].kind, AnnotationKind::kStroke);
+  EXPECT_GE(drawn[0].points.size(), 4u);
+  EXPECT_EQ(drawn[1].text, "here");
+  const RigidTransform camera_from_site = site_from_camera.inverse();
+  for (const Annotation& a : drawn)
+    for (const Eigen::Vector3f& p : a.points) {
+      const Eigen::Vector3d q = camera_from_site * p.cast<double>();
+      const auto uv = project_normalized(camera.depth, {q.x() / q.z(), q.y() / q.z()});
+      ASSERT_TRUE(uv.has_value());
+      const uint16_t mm = frame.depth.at(int(std::lround(uv->x())), int(std::lround(uv->y())));
+      ASSERT_NE(mm, 0);
+      EXPECT_NEAR(q.z() * 1000, mm, 20) << "a point of the " << to_string(a.kind);
+    }
 }
 
 }  // namespace

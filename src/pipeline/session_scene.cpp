@@ -50,8 +50,9 @@ AvatarFilter own_camera_filter(const SessionSnapshot& s, float radius_m) {
 }
 
 void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out) {
+                        std::vector<Primitive>& out, bool own_pointer) {
   for (const PointerView& p : s.pointers) {
+    if (!own_pointer && p.participant == s.id) continue;
     const auto beam =
         pointer_primitives(p.origin, p.has_hit, p.hit, participant_color(p.participant), eye);
     out.insert(out.end(), beam.begin(), beam.end());
@@ -94,6 +95,13 @@ SessionScene::~SessionScene() = default;
 
 std::string SessionScene::gl_description() const {
   return impl_->cameras.gl_description();
+}
+
+void SessionScene::draw_primitives(const View& view, const RenderTarget& target,
+                                   std::span<const Primitive> primitives) {
+  Lighting light;
+  light.point_position = default_operating_room().lamp_position;
+  impl_->primitives.draw(view, target, primitives, light);
 }
 
 size_t SessionScene::cameras_drawn() const {
@@ -198,7 +206,8 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
-  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene);
+  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene,
+                     options.own_pointer);
   const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
   const RoomLayout& room = default_operating_room();
   if (shared_case && s.monitor && shared_case->monitor) {

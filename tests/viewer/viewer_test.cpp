@@ -453,8 +453,10 @@ TEST(DesktopViewer, ShowsTheRealStreamUnderXvfbScreenshotKeyAndCtrlSSave) {
 }
 
 // The desktop window as a participant (the paper's mouse-and-keyboard fallback): it publishes
-// its eye as the head pose, draws the room, and T then a click on the floor teleports there.
-TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
+// its eye as the head pose, draws the room, and T then a click on the floor teleports there; then,
+// holding L, it points (the observer sees its pointer), drags a stroke over what it sees and
+// pins a label with N (the observer receives both, on the surfaces under the mouse).
+TEST(DesktopViewer, JoinsASessionPublishesItsEyeTeleportsByClickAndDraws) {
   const test::Xvfb xvfb;
   ASSERT_TRUE(xvfb.running()) << xvfb.error();
   const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
@@ -477,17 +479,45 @@ TEST(DesktopViewer, JoinsASessionPublishesItsEyeAndTeleportsByClick) {
   desktop.screenshot = dir / "eye.png";
   desktop.participant = [&] { return window.participant(); };
   // T, then a click low in the window (the floor ahead), then a screenshot; 40 frames in all.
-  desktop.script = {{3, GLFW_KEY_T}, {30, GLFW_KEY_F12}};
+  desktop.script = {{3, GLFW_KEY_T},
+                    {8, GLFW_KEY_L},
+                    {23, GLFW_KEY_N},
+                    {25, GLFW_KEY_L, 0, true},
+                    {30, GLFW_KEY_F12}};
   desktop.clicks = {{4, 120, 395}};  // ahead and to the left, clear of the others
+  // With L held: the left button drags from (250, 330) to (390, 330), low in the window.
+  desktop.mouse = {{8, 250, 330}, {10, 250, 330, GLFW_MOUSE_BUTTON_LEFT}};
+  for (int i = 1; i <= 10; ++i) desktop.mouse.push_back({uint64_t(10 + i), 250.0 + 14 * i, 330});
+  desktop.mouse.push_back({21, 390, 330, GLFW_MOUSE_BUTTON_LEFT, true});
   desktop.max_frames = 40;
+  std::atomic<bool> pointer_seen{false}, watching{true};
+  std::thread watch([&] {
+    while (watching && !pointer_seen) {
+      for (const PointerView& p : observer.now().pointers) pointer_seen = pointer_seen || p.has_hit;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  });
   opt.presenter = desktop_presenter(desktop);
   const ViewerResult r = run_viewer(opt);
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << r.error;
   EXPECT_EQ(r.frames_rendered, 40u);
 
+  watching = false;
+  watch.join();
+  EXPECT_TRUE(pointer_seen) << "the window's pointer, on a surface, while L was held";
+  ASSERT_TRUE(test::eventually([&] { return observer.now().annotations.size() == 2; },
+                               std::chrono::seconds(30)));
   const SessionSnapshot seen = observer.p().snapshot(wall_clock_us());
   const ParticipantStats stats = observer.p().stats();
   observer.end();
+  const session::Annotation& stroke = seen.annotations[0];
+  EXPECT_EQ(stroke.kind, session::AnnotationKind::kStroke);
+  EXPECT_GE(stroke.points.size(), 5u) << "a point a frame dragged, 3 mm apart at least";
+  for (const Eigen::Vector3f& q : stroke.points)  // inside the room, on what the window drew
+    EXPECT_TRUE(q.allFinite() && q.y() > -0.05f && q.y() < 3 && q.cwiseAbs().maxCoeff() < 10)
+        << q.transpose();
+  EXPECT_EQ(seen.annotations[1].kind, session::AnnotationKind::kLabel);
+  EXPECT_EQ(seen.annotations[1].text, "here");
   uint64_t poses = 0;
   for (const auto& o : stats.others)
     if (o.name == "Desk") poses = o.poses_received;

@@ -13,12 +13,14 @@
 
 #include "case_panel.hpp"
 #include "panel.hpp"
+#include "pointing.hpp"
 #include "screenshot.hpp"
 #include "session_panel.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/viewer_result.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
 #include "volcast/viewer/voice_keys.hpp"
@@ -97,6 +99,7 @@ struct Input {
   ViewerControls& controls;
   ViewCamera& camera;
   SessionPanelState* session = nullptr;  // in a session
+  PointingState* pointing = nullptr;     // in a session
   bool click_pending = false;            // teleport mode: a left click to act on
   bool orbiting = false, looking = false;
   double mouse_x = 0, mouse_y = 0;
@@ -111,7 +114,11 @@ Input& input_of(GLFWwindow* window) {
 void handle_key(Input& in, int key, int action, int mods) {
   in.redraw = kRedrawFrames;
   if (in.session) voice_key(in.session->voice, key, action, mods);  // M, V (held)
+  if (in.pointing && key == GLFW_KEY_L && action != GLFW_REPEAT)
+    in.pointing->laser = action == GLFW_PRESS;
   if (action != GLFW_PRESS) return;
+  if (in.pointing && key == GLFW_KEY_N) in.pointing->pin_label = true;
+  if (in.pointing && key == GLFW_KEY_BACKSPACE) in.pointing->erase_last = true;
   if (key == GLFW_KEY_S && (mods & GLFW_MOD_CONTROL)) in.controls.save = true;
   if (mods & GLFW_MOD_CONTROL) return;
   if (key == GLFW_KEY_F12 || key == GLFW_KEY_P) in.controls.screenshot = true;
@@ -130,19 +137,27 @@ void on_key(GLFWwindow* window, int key, int scancode, int action, int mods) {
   handle_key(input_of(window), key, action, mods);
 }
 
-void on_mouse_button(GLFWwindow* window, int button, int action, int mods) {
-  ImGui_ImplGlfw_MouseButtonCallback(window, button, action, mods);
-  Input& in = input_of(window);
+// A mouse button pressed (`press`, not over the panel) or let go, from GLFW or a test's script.
+void mouse_button(Input& in, int button, bool press) {
   in.redraw = kRedrawFrames;
-  const bool press = action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse;
-  glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
+  if (in.pointing && (in.pointing->laser || !press)) {  // with L held: drawing, not navigating
+    if (button == GLFW_MOUSE_BUTTON_LEFT) in.pointing->drawing = press;
+    if (button == GLFW_MOUSE_BUTTON_RIGHT) in.pointing->arrow = press;
+    if (press) return;
+  }
   if (press && button == GLFW_MOUSE_BUTTON_LEFT && in.session && in.session->teleport_mode) {
     in.click_pending = true;  // the loop casts the ray with this frame's view
     return;
   }
   if (button == GLFW_MOUSE_BUTTON_LEFT) in.orbiting = press;
   if (button == GLFW_MOUSE_BUTTON_RIGHT) in.looking = press;
+}
+
+void on_mouse_button(GLFWwindow* window, int button, int action, int mods) {
+  ImGui_ImplGlfw_MouseButtonCallback(window, button, action, mods);
+  Input& in = input_of(window);
   glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
+  mouse_button(in, button, action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse);
 }
 
 void on_cursor(GLFWwindow* window, double x, double y) {
@@ -330,7 +345,7 @@ void start_when_ready(Viewpoint& v, const DesktopOptions& o, Participant* partic
 // A test's scripted keys (sorted by frame, stable) and clicks, and how many were played.
 struct Script {
   std::vector<ScriptedKey> keys;
-  size_t next_key = 0, next_click = 0;
+  size_t next_key = 0, next_click = 0, next_mouse = 0;
 };
 
 Script script_of(const DesktopOptions& o) {
@@ -342,8 +357,8 @@ Script script_of(const DesktopOptions& o) {
 
 // Plays the scripted keys and clicks due by the frame about to be drawn (`drawn` + 1) as real
 // ones.
-void play_script(Script& script, const std::vector<ScriptedClick>& clicks, Input& input,
-                 uint64_t drawn) {
+void play_script(Script& script, const std::vector<ScriptedClick>& clicks,
+                 const std::vector<ScriptedMouse>& mouse, Input& input, uint64_t drawn) {
   for (; script.next_key < script.keys.size() && script.keys[script.next_key].frame <= drawn + 1;
        ++script.next_key)
     handle_key(input, script.keys[script.next_key].key,
@@ -356,6 +371,13 @@ void play_script(Script& script, const std::vector<ScriptedClick>& clicks, Input
       input.mouse_y = clicks[script.next_click].y;
       input.click_pending = true;
     }
+  for (; script.next_mouse < mouse.size() && mouse[script.next_mouse].frame <= drawn + 1;
+       ++script.next_mouse) {
+    const ScriptedMouse& m = mouse[script.next_mouse];
+    input.mouse_x = m.x;
+    input.mouse_y = m.y;
+    if (m.button >= 0) mouse_button(input, m.button, !m.release);
+  }
 }
 
 // With a participant, before its scene is drawn: acts on a teleport click, then publishes the
@@ -377,14 +399,18 @@ void steer_participant(GLFWwindow* window, Participant& participant,
 // come first.
 void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* participant,
               const voice::VoiceLink* voice, SessionPanelState& session_panel,
-              CasePanelState& case_panel, const SessionSnapshot& snapshot, int width, int height) {
+              CasePanelState& case_panel, PointingState& pointing, const SessionSnapshot& snapshot,
+              const View& view, int width, int height) {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
+  if (participant)
+    draw_label_texts(snapshot, view, ImGui::GetIO().DisplaySize.x, ImGui::GetIO().DisplaySize.y);
   if (controls.show_panel) {
     if (participant) {
       draw_panel(controls, info, [&] {
         draw_session_panel(session_panel, *participant, snapshot, voice);
+        draw_annotation_panel(pointing, *participant, snapshot);
         draw_case_panel(case_panel, *participant, snapshot);
       });
     } else {
@@ -405,6 +431,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   if (participant) scene = std::make_unique<SessionScene>();
   SessionPanelState session_panel;
   CasePanelState case_panel;
+  PointingState pointing;
   Viewpoint viewpoint;
   result.renderer = renderer.gl_description();
   Gui gui(window.window);
@@ -413,7 +440,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   renderer.set_avatar_filter(o.avatar_filter);
   ViewerControls controls = initial_controls(o.pass, o.avatar_filter, cameras.size());
   Input input{controls, viewpoint.camera};
-  if (participant) input.session = &session_panel;
+  if (participant) input.session = &session_panel, input.pointing = &pointing;
   install_callbacks(window.window, input);
   spdlog::info("desktop window {}x{}: {}", o.width, o.height, result.renderer);
 
@@ -438,19 +465,27 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     // In a session the others move on their own: draw every frame (vsync paces it).
     if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
-    if (viewpoint.started) play_script(script, o.clicks, input, drawn);
+    if (viewpoint.started) play_script(script, o.clicks, o.mouse, input, drawn);
     apply_requests(controls, renderer, cameras, o, viewpoint.camera, viewpoint.start);
     if (voice) apply_voice_input(*voice, session_panel.voice);  // the keys (also minimised)
     int width = 0, height = 0;
     glfwGetFramebufferSize(window.window, &width, &height);
     if (width <= 0 || height <= 0) continue;  // minimised
     const RenderTarget target{0, 0, 0, width, height};
+    const View view = to_view(viewpoint.camera, target.aspect());
     if (participant) {
       steer_participant(window.window, *participant, snapshot, input, viewpoint);
       SessionSceneOptions so = o.scene;
       so.pass = controls.pass;
-      scene->draw(to_view(viewpoint.camera, target.aspect()), target, cameras, uploaded,
-                  *participant, wall_clock_us(), so);
+      so.own_pointer = false;  // found under the mouse below, then drawn
+      scene->draw(view, target, cameras, uploaded, *participant, wall_clock_us(), so);
+      int window_w = 1, window_h = 1;
+      glfwGetWindowSize(window.window, &window_w, &window_h);
+      const double scale = double(width) / std::max(window_w, 1);
+      const std::vector<Primitive> own =
+          point_and_draw(pointing, *participant, snapshot, view, target, input.mouse_x * scale,
+                         input.mouse_y * scale, participant_color(snapshot.id));
+      if (!own.empty()) scene->draw_primitives(view, target, own);
     } else {
       renderer.draw_cameras(to_view(viewpoint.camera, target.aspect()), target, controls.pass);
     }
@@ -462,7 +497,8 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     draw_gui(controls,
              PanelInfo{live, result.renderer, viewpoint.camera.target, viewpoint.camera.eye,
                        o.site_config},
-             participant, voice, session_panel, case_panel, snapshot, width, height);
+             participant, voice, session_panel, case_panel, pointing, snapshot, view, width,
+             height);
     if (voice) apply_voice_input(*voice, session_panel.voice);  // the panel's
     if (controls.screenshot && o.screenshot_panel) take_screenshot(controls, o, target);
     glfwSwapBuffers(window.window);

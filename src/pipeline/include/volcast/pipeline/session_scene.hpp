@@ -44,6 +44,10 @@ struct SessionSceneOptions {
     float gain = 1;
   };
   std::optional<VolumeShown> volume_shown;
+  /// Draw this participant's own pointer. A window that finds its pointer's hit in the depth
+  /// under the mouse leaves it out (it would hit its own dot) and draws it after
+  /// (SessionScene::draw_primitives).
+  bool own_pointer = true;
 };
 
 /// The filter for another participant's camera avatar: keep the points within `radius_m` of its
@@ -57,8 +61,9 @@ AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
 /// The session's pointers and annotations as the snapshot has them (annotation_scene.hpp, each in
 /// its owner's colour; pointer dots facing `eye`, room frame), added to `out`; an annotation on
 /// the monitor only while it shows the CT slice (and case) it was drawn on.
+/// `own_pointer` false leaves out this participant's own pointer.
 void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out);
+                        std::vector<Primitive>& out, bool own_pointer = true);
 
 /// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
 /// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.
@@ -78,6 +83,9 @@ class SessionScene {
   void draw(const View& view, const RenderTarget& target, std::span<const CameraCalibration> site,
             std::span<const std::shared_ptr<const CameraFrame>> site_frames,
             Participant& participant, int64_t now_us, const SessionSceneOptions& options = {});
+  /// Draws `primitives` (room frame) over what draw() drew, lit as the room is.
+  void draw_primitives(const View& view, const RenderTarget& target,
+                       std::span<const Primitive> primitives);
   /// How many cameras the last draw had: the site's, then the avatars'.
   size_t cameras_drawn() const;
   /// GL_RENDERER and GL_VERSION of the current context.

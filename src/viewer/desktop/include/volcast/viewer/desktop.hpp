@@ -57,6 +57,16 @@ struct ScriptedClick {
   double x = 0, y = 0;
 };
 
+/// The mouse moved to window point (x, y) (screen coordinates from the top left) by a test, and
+/// a button (GLFW_MOUSE_BUTTON_LEFT 0, _RIGHT 1; -1: none, a move only) pressed or let go there,
+/// handled like real input just before drawing frame `frame`.
+struct ScriptedMouse {
+  uint64_t frame = 0;
+  double x = 0, y = 0;
+  int button = -1;
+  bool release = false;
+};
+
 struct DesktopOptions {
   int width = 1280, height = 720;  ///< window size, screen coordinates, 1..8192
   std::string title = "volcast";
@@ -72,7 +82,8 @@ struct DesktopOptions {
   /// Where the panel's Save writes the cameras' world_from_camera (site_config.hpp).
   std::filesystem::path site_config = "volcast-site.json";
   std::vector<ScriptedKey> script;    ///< key presses for tests
-  std::vector<ScriptedClick> clicks;  ///< left clicks for tests
+  std::vector<ScriptedClick> clicks;  ///< left clicks for tests (teleport mode)
+  std::vector<ScriptedMouse> mouse;   ///< mouse moves and buttons for tests, in frame order
   /// Close the window (ending the session) after this many frames drawn, 0 = never. Frames are
   /// counted from the first drawn with images of the stream (earlier ones show nothing).
   uint64_t max_frames = 0;

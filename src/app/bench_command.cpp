@@ -10,10 +10,12 @@ namespace {
 // The benchmark the flags pick (one per run); bench --session --low-latency holds the CPU wake-up
 // latency at 0 while it runs.
 int run_selected_bench(const BenchArgs& a) {
-  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) + int(a.voice) >
+  if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) + int(a.voice) +
+          int(a.drawing) >
       1)
     throw Error(
-        "bench: --server, --render, --session, --record, --nats and --voice are separate runs");
+        "bench: --server, --render, --session, --record, --nats, --voice and --drawing are "
+        "separate runs");
   const auto low_latency = hold_low_latency(a.session && a.low_latency);
   return a.nats      ? run_nats_bench(a)
          : a.server  ? run_server_bench(a)
@@ -21,6 +23,7 @@ int run_selected_bench(const BenchArgs& a) {
          : a.session ? run_session_bench(a)
          : a.record  ? run_record_bench(a)
          : a.voice   ? run_voice_bench(a)
+         : a.drawing ? run_drawing_bench(a)
                      : run_bench(a);
 }
 
@@ -65,6 +68,9 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_flag("--record", bench.record,
                "Recording benchmark instead: latency and CPU a server-side recorder adds to a "
                "live viewer, MB per minute per camera (--server-seconds, --server-repeats)");
+  bn->add_flag("--drawing", bench.drawing,
+              "Pointing and drawing on loopback (pointer seen p50/p99, bytes a second of a busy "
+              "drawing session) and the OR display's ms a frame against its backdrop alone");
   bn->add_flag("--voice", bench.voice,
                "Voice benchmark instead: mouth-to-ear latency, concealment, bytes per speaker, "
                "server CPU forwarding 4 talkers to 16 participants (--server-seconds each)");

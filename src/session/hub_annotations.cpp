@@ -51,7 +51,10 @@ void SessionHub::handle_drawing(Member& m, Type type, std::span<const uint8_t> p
       const Shared msg = share(session::forward(Type::kPointerFrom, m.info.id, payload));
       m.pointer = p.on ? msg : nullptr;
       for (const auto& [pid, other] : s.members)
-        if (other.get() != &m) send_shared(other->info.viewer, msg, pointer_key(m.info.id));
+        if (other.get() != &m && other->info.viewer != 0) {
+          send_shared(other->info.viewer, msg, pointer_key(m.info.id));
+          stats_.drawing_bytes_out += msg->size();
+        }
       return;
     }
     case Type::kAnnotate: {
@@ -86,7 +89,11 @@ void SessionHub::handle_drawing(Member& m, Type type, std::span<const uint8_t> p
       s.annotation_points += a.points.size();
       s.annotations.emplace(a.id, Session::Drawn{a, msg});
       ++stats_.annotations;
-      for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg);
+      for (const auto& [pid, other] : s.members)
+        if (other->info.viewer != 0) {
+          send_shared(other->info.viewer, msg);
+          stats_.drawing_bytes_out += msg->size();
+        }
       return;
     }
     case Type::kErase: {
@@ -105,7 +112,11 @@ void SessionHub::handle_drawing(Member& m, Type type, std::span<const uint8_t> p
       ++stats_.erases;
       const Shared msg =
           share(session::message(Type::kErased, session::serialize_erased(id, m.info.id)));
-      for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg);
+      for (const auto& [pid, other] : s.members)
+        if (other->info.viewer != 0) {
+          send_shared(other->info.viewer, msg);
+          stats_.drawing_bytes_out += msg->size();
+        }
       return;
     }
     default:

@@ -357,6 +357,9 @@ ParticipantStats Participant::stats() const {
                      double(r->last_avatar_rx_us - r->first_avatar_rx_us);
     o.avatar_latency_ms_p50 = percentile(r->avatar_latencies_ms, 0.5);
     o.avatar_latency_ms_p99 = percentile(r->avatar_latencies_ms, 0.99);
+    o.pointers_received = r->pointers_received;
+    o.pointer_age_ms_p50 = percentile(r->pointer_ages_ms, 0.5);
+    o.pointer_age_ms_p99 = percentile(r->pointer_ages_ms, 0.99);
     s.others.push_back(std::move(o));
   }
   return s;

@@ -112,6 +112,8 @@ struct Participant::Impl {
     int64_t first_pose_rx_us = 0, last_pose_rx_us = 0;
     uint64_t poses_received = 0;
     std::vector<double> pose_ages_ms, avatar_latencies_ms;
+    std::vector<double> pointer_ages_ms;  // server clock: sent -> received
+    uint64_t pointers_received = 0;
     std::optional<session::AvatarCamera> camera;
     std::shared_ptr<const std::vector<uint8_t>> avatar_payload;  // newest AvatarFrame payload
     int64_t first_avatar_rx_us = 0, last_avatar_rx_us = 0;
@@ -161,7 +163,7 @@ struct Participant::Impl {
   void on_avatar_camera(std::span<const uint8_t> p);
   void on_avatar_frame(std::span<const uint8_t> p, int64_t now_server);
   void on_object_state(const session::ObjectState& o);
-  void on_pointer(std::span<const uint8_t> p);
+  void on_pointer(std::span<const uint8_t> p, int64_t now_server);
   // A voice packet: parsed and handed to the handler before taking `mutex`.
   void handle_voice(std::span<const uint8_t> p);
 

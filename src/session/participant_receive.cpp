@@ -86,7 +86,7 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
       return;
     }
     case Type::kPointerFrom:
-      return on_pointer(p);
+      return on_pointer(p, now_server);
     case Type::kAnnotation: {
       session::Annotation a = session::parse_annotation(p);
       annotations[a.id] = std::move(a);
@@ -199,10 +199,13 @@ void Participant::Impl::on_avatar_frame(std::span<const uint8_t> p, int64_t now_
   add_sample(r.avatar_latencies_ms, double(now_server - f.capture_us) / 1000.0);
 }
 
-void Participant::Impl::on_pointer(std::span<const uint8_t> p) {
+void Participant::Impl::on_pointer(std::span<const uint8_t> p, int64_t now_server) {
   const auto [id, rest] = session::split_forwarded(p);
   const session::PointerMessage m = session::parse_pointer(rest);
-  if (!remotes.contains(id)) return;  // left meanwhile
+  const auto remote = remotes.find(id);
+  if (remote == remotes.end()) return;  // left meanwhile
+  ++remote->second->pointers_received;
+  add_sample(remote->second->pointer_ages_ms, double(now_server - m.time_us) / 1000.0);
   if (const auto it = pointer_in.find(id); it != pointer_in.end() && m.sequence <= it->second.sequence)
     return;  // older
   pointer_in[id] = m;

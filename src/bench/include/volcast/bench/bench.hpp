@@ -29,6 +29,7 @@ struct BenchArgs {
   /// --voice: ServerConfig::stream_coalesce_us in ms, how long a listener's voice packets may
   /// wait for the other talkers' (-1: the server's default)
   double voice_hold_ms = -1;
+  bool drawing = false;  ///< the pointing and drawing benchmark instead (server_seconds)
 };
 /// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
 /// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
@@ -80,5 +81,12 @@ int run_record_bench(const BenchArgs& args);
 /// concealed_percent, bytes_per_second_per_speaker, packets_forwarded,
 /// server_cpu_percent_of_one_core, server_writes_per_second, voice_hold_ms}]} to args.json if set.
 int run_voice_bench(const BenchArgs& args);
+/// Pointing and drawing on loopback over TLS (drawing_bench.cpp): a pointer moved at 60 Hz seen by
+/// 1 and 3 observers (site idle, then streaming), then a busy drawing session (a stroke every
+/// 0.5 s, a label every 2 s); then the OR display of the Kinect recording against its backdrop
+/// alone. Prints tables and writes {"drawing": [{configuration, observers, pointers_received,
+/// pointer_ms_p50, pointer_ms_p99, bytes_per_second_per_receiver, annotations}], "or_display":
+/// {or_display_ms, backdrop_ms, ratio, frames}} to args.json if set.
+int run_drawing_bench(const BenchArgs& args);
 
 }  // namespace volcast

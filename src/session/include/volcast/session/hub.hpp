@@ -81,6 +81,8 @@ struct SessionHubStats {
   uint64_t voice_in = 0, voice_out = 0, voice_malformed = 0;
   /// Pointer messages received; annotations taken, refused (0x43: annotations.hpp) and erased.
   uint64_t pointers_in = 0, annotations = 0, annotations_refused = 0, erases = 0;
+  /// Bytes of pointer, annotation and erase messages sent to receivers (headers included).
+  uint64_t drawing_bytes_out = 0;
 };
 
 /// One participant as the hub sees it.

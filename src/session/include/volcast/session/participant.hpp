@@ -147,6 +147,9 @@ struct RemoteStats {
   uint64_t avatar_frames_received = 0;
   double avatar_fps = 0;
   double avatar_latency_ms_p50 = 0, avatar_latency_ms_p99 = 0;  ///< capture -> received
+  uint64_t pointers_received = 0;
+  /// Its pointer's moves, sent -> received here (server clock; annotations.hpp 0x50).
+  double pointer_age_ms_p50 = 0, pointer_age_ms_p99 = 0;
 };
 
 struct ParticipantStats {

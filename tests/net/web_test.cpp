@@ -8,10 +8,14 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
 #include <atomic>
 #include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -27,6 +31,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/protocol/protocol.hpp"
 #include "volcast/net/transport/connection.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
@@ -343,6 +348,127 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   EXPECT_TRUE(counted);
   const ColorImage shot = read_color_png(out / "xr.png");
   EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10) << "the headset's picture is not blank";
+}
+
+// Pointing and drawing from a headset at the site (issue 36), IWER emulating a Quest 3 in
+// immersive-ar: the page places the room through site_from_room (the headset's local-floor frame
+// taken as the site's world frame), shows a native participant's pointer where it points (its
+// dot's colour read back from the picture at the hit's pixel), and the right controller's ray --
+// standing at the hands camera's centre, aimed through a depth pixel of the live cloud -- points
+// (A held) and draws a stroke (B held while it turns) that the native participant receives
+// exactly, each hit on the live cloud's depth in the frame set the page drew then.
+TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
+  SessionHubConfig hub;
+  hub.site_translation = {0.4f, 0.2f, -0.3f};
+  hub.site_yaw = 0.5f;
+  test::SessionSite s(hub, 15, web_config(false));
+  SessionClientOptions still = test::named("Native");
+  still.drive_poses = false;
+  test::TestParticipant native(s, still);
+  ASSERT_TRUE(test::eventually([&] { return native.now().joined; }));
+  const SessionSnapshot joined = native.now();
+  const RigidTransform room_from_site = joined.room_from_site;
+  const auto room = [&](double x, double y, double z) {
+    return Eigen::Vector3f((room_from_site * Eigen::Vector3d(x, y, z)).cast<float>());
+  };
+  // The native pointer meets a spot 1.1 m in front of the headset (IWER's head stands at (0, 1.6,
+  // 0) of its local floor, looking down -z), held until the page's own pointer arrives.
+  const Eigen::Vector3f native_origin = room(0.4, 1.2, -0.3), native_hit = room(0.05, 1.5, -1.1);
+  native.p().point(true, native_origin, true, native_hit);
+  std::atomic<bool> done{false};
+  std::mutex seen_mutex;
+  std::optional<PointerView> web_pointer;  // the page's, as the native participant last saw it
+  std::thread watch([&] {
+    while (!done) {
+      const SessionSnapshot n = native.now();
+      const auto web = native.other("Web");
+      for (const PointerView& p : n.pointers)
+        if (web && p.participant == web->id) {
+          std::lock_guard lock(seen_mutex);
+          if (!web_pointer) native.p().point(false, native_origin, true, native_hit);
+          web_pointer = p;
+        }
+      std::this_thread::sleep_for(5ms);
+    }
+  });
+  // The controller at the camera's centre (the site's world frame is the hands camera's: no
+  // world_from_camera), through pixel (100, 50): the table, in every frame 0.67-0.69 m away.
+  const Intrinsics k{0, 0, 460, 460, 320, 180};
+  const double u0 = 100, v0 = 50;
+  const std::string aim = fmt::format("0,0,0,{},{},1", (u0 - k.cx) / k.fx, (v0 - k.cy) / k.fy);
+  const auto out = test::temp_dir("web_ar");
+  const auto t0 = std::chrono::steady_clock::now();
+  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3",
+                                    out, "--frames 5 --ar " + aim);
+  std::printf("the AR drive took %.1f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  done = true;
+  watch.join();
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_EQ(page["xr"]["mode"], "immersive-ar");
+  const nlohmann::json& d = page["drawing"];
+  const uint32_t native_id = joined.id, web_id = page["session"]["id"];
+  // The native pointer reached the page exactly and was drawn at its hit in its owner's colour.
+  ASSERT_TRUE(d["pointers"].contains(std::to_string(native_id))) << d.dump();
+  const nlohmann::json& seen = d["pointers"][std::to_string(native_id)];
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(seen["hit"][i].get<float>(), native_hit[i]);
+    EXPECT_EQ(seen["origin"][i].get<float>(), native_origin[i]);
+  }
+  ASSERT_FALSE(d["dot"].is_null());
+  EXPECT_EQ(d["dot"]["id"], native_id);
+  const Eigen::Vector3f rgb = participant_color(native_id) * 255;
+  for (int i = 0; i < 3; ++i)
+    EXPECT_NEAR(d["dot"]["rgba"][i].get<double>(), rgb[i], 3) << "the dot's pixel " << d["dot"];
+  EXPECT_TRUE(d["held"].empty()) << "put away once the page's pointer came";
+  // The page's pointers: each hit on the live cloud as drawn (within 2 px and 3 mm of a depth
+  // pixel of the frame set drawn then), the first through the aimed pixel.
+  const RigidTransform site_from_room = room_from_site.inverse();
+  int hits = 0;
+  std::vector<Eigen::Vector3f> sent_hits;
+  for (const auto& p : d["sent"]) {
+    if (!p["on"].get<bool>()) continue;
+    ASSERT_TRUE(p["hasHit"].get<bool>()) << p;
+    const Eigen::Vector3f hit(p["hit"][0].get<float>(), p["hit"][1].get<float>(),
+                              p["hit"][2].get<float>());
+    sent_hits.push_back(hit);
+    const Eigen::Vector3d c = site_from_room * hit.cast<double>();
+    const double u = k.fx * c.x() / c.z() + k.cx, v = k.fy * c.y() / c.z() + k.cy;
+    if (hits++ == 0) {
+      EXPECT_NEAR(u, u0, 1.0);
+      EXPECT_NEAR(v, v0, 1.0);
+    }
+    const DepthImage depth = test::hands_source_frame(p["sequence"].get<uint64_t>());
+    uint16_t lo = 65535, hi = 0;
+    for (int y = int(v) - 2; y <= int(v) + 2; ++y)
+      for (int x = int(u) - 2; x <= int(u) + 2; ++x)
+        if (const uint16_t z = depth.at(x, y); z > 0) lo = std::min(lo, z), hi = std::max(hi, z);
+    EXPECT_GE(c.z() * 1000, lo - 3.0) << "pixel " << u << ", " << v;
+    EXPECT_LE(c.z() * 1000, hi + 3.0) << "pixel " << u << ", " << v;
+  }
+  EXPECT_GE(hits, 8) << "sent at the frame rate while A was held";
+  // The native participant saw the page's pointer exactly as sent, and then put away.
+  ASSERT_TRUE(web_pointer) << "the native participant never saw the page's pointer";
+  EXPECT_TRUE(std::any_of(sent_hits.begin(), sent_hits.end(),
+                          [&](const Eigen::Vector3f& h) { return h == web_pointer->hit; }))
+      << web_pointer->hit.transpose();
+  EXPECT_TRUE(test::eventually([&] {
+    const auto ps = native.now().pointers;
+    return std::none_of(ps.begin(), ps.end(),
+                        [&](const PointerView& p) { return p.participant == web_id; });
+  }));
+  // The stroke drawn while B was held, point for point.
+  ASSERT_EQ(d["drawn"].size(), 1u) << d["drawn"];
+  const nlohmann::json& drawn = d["drawn"][0]["points"];
+  EXPECT_GE(drawn.size(), 5u) << "10 frames turning a degree each, points 5 mm apart at least";
+  ASSERT_TRUE(test::eventually([&] { return !native.now().annotations.empty(); }));
+  const session::Annotation a = native.now().annotations[0];
+  EXPECT_EQ(a.author, web_id);
+  EXPECT_EQ(a.kind, session::AnnotationKind::kStroke);
+  ASSERT_EQ(a.points.size(), drawn.size());
+  for (size_t i = 0; i < a.points.size(); ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(a.points[i][j], drawn[i][j].get<float>()) << i;
 }
 
 // The patient case in the browser: the real organs (3D-IRCADb patient 11) and CT (dcmqi) reach the

@@ -23,9 +23,24 @@
 // release); on a desktop, G grabs the organ you look at (it follows your view) and G again lets
 // it go, Z/X turn it. The monitor, for everyone: [ and ] scroll slices, 1/2/3 the abdomen, liver
 // and bone windows, O the overlay.
+// Pointing and drawing (session/annotations.hpp; drawing.js): everyone's laser pointer while held
+// and the session's strokes, arrows and labels, in their owner's colour (monitor strokes only
+// while the monitor shows their slice). On a desktop, hold L: the pointer goes from your hand
+// through the mouse to what the page draws under it (Renderer.pick: the live clouds' splats, an
+// organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go); T pins a
+// typed label under the mouse; Backspace erases your newest annotation. In a headset, the right
+// controller's ray: hold A to point, B to draw, press its thumbstick to erase your newest.
+// AR (immersive-ar, where the device has it: a headset's passthrough at the site): the real room
+// is seen, so the page draws neither the site's clouds nor the virtual room, only the others'
+// avatars, pointers and annotations and the case's organs; the headset's local-floor frame is
+// taken as the site's world frame (the frame of the cameras' world_from_camera), so room things
+// are placed through site_from_room = inverse(room_from_site) of the Joined message; there the
+// trigger points too (no teleporting in the real room). docs/usage.md says how to align them.
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
+import {StrokeBuilder, annotationPrimitives, labelQuad, participantColor, pointerPrimitives}
+    from './drawing.js';
 import {Session} from './session.js';
 import {Voice} from './voice.js';
 
@@ -44,6 +59,11 @@ const state = {
   session: null, xr: {frames: 0, views: 0, active: false}, tier: '', desktopFrames: 0,
   avatarFrames: {}, avatarErrors: {},  // by participant id: camera avatar frames decoded, errors
   warnings: [], colorFrames: 0,  // decoder warnings (recovered); frame sets with color decoded
+  // Pointing and drawing: the others' pointers as last held (by id), the session's annotations,
+  // the pointer messages this page sent (the last 128, with the site frame set drawn then), the
+  // strokes and labels it sent, and where another's pointer dot was last drawn (the pixel of its
+  // hit in the first view, from the bottom left, and the colour read back there).
+  drawing: {pointers: {}, held: [], annotations: [], sent: [], pointersSent: 0, drawn: [], dot: null},
 };
 window.volcast = state;
 // Tests: time the WebAssembly decoder on the newest frame (worker.js bench); the result lands in
@@ -99,6 +119,13 @@ session.onchange = (type) => {
   state.session.objects = session.objects.map((o) => ({owner: o.owner, sequence: o.sequence,
                                                        position: o.pose.position}));
   state.session.monitor = session.monitor;
+  if (type === 0x50)
+    for (const [id, p] of session.pointers) state.drawing.pointers[id] = p;
+  state.drawing.held = [...session.pointers.keys()];
+  if (type === 0x51 || type === 0x52 || type === 0x42)
+    state.drawing.annotations = [...session.annotations.values()].map((a) => ({
+      id: a.id, author: a.author, tag: a.tag, kind: a.kind, anchor: a.anchor, slice: a.slice,
+      points: a.points, text: a.text}));
 };
 
 // The case: as the worker parsed it, and what this page holds (object index, the frame it follows:
@@ -220,17 +247,12 @@ function desktopRoomFromHead() {
   return M.multiply(roomFromPlayarea(), M.multiply(M.translation(nav.x, EYE_HEIGHT, nav.z), local));
 }
 
-function participantColor(id) {
-  const hues = [[0.9, 0.4, 0.3], [0.3, 0.6, 0.9], [0.4, 0.8, 0.4], [0.9, 0.75, 0.3],
-                [0.7, 0.45, 0.9], [0.3, 0.8, 0.8]];
-  return [...hues[id % hues.length], 1];
-}
-
 // The furniture does not move: its boxes are made once.
 let roomBoxes = null;
 
 function sceneBoxes() {
   if (params.get('room') === '0') return [];
+  if (xrMode === 'immersive-ar') return avatarBoxes([]);  // the real room is seen
   roomBoxes = roomBoxes || [
     roomBox([0, -0.01, 0], [ROOM.width / 2, 0.01, ROOM.depth / 2], [0.55, 0.58, 0.6, 1], true),
     roomBox(ROOM.table.centre, ROOM.table.half, [0.35, 0.45, 0.5, 1]),
@@ -245,12 +267,16 @@ function sceneBoxes() {
             [0.45, 0.52, 0.55, 1]),
     roomBox([-1.2, 1.6, -ROOM.depth / 2 + 0.06], [0.6, 0.35, 0.025], [0.08, 0.09, 0.1, 1]),
   ];
-  const boxes = [...roomBoxes];
+  return avatarBoxes([...roomBoxes]);
+}
+
+// The others' avatars (those without a camera avatar), appended to `boxes`.
+function avatarBoxes(boxes) {
   for (const p of session.others.values()) {
     if (!p.body || p.role === 1) continue;
     const avatar = renderer.avatars.get(p.id);
     if (avatar && avatar.hasDepth) continue;  // seen as its camera's points
-    const c = participantColor(p.id);
+    const c = [...participantColor(p.id), 1];
     boxes.push(poseBox(p.body.head, [0, 0, 0], [0.09, 0.11, 0.1], c));
     boxes.push(poseBox(p.body.head, [0, 0, -0.1], [0.08, 0.04, 0.02], [0.1, 0.1, 0.1, 1]));
     boxes.push(poseBox(p.body.head, [0, -0.45, 0.05], [0.18, 0.3, 0.1], c));
@@ -286,15 +312,120 @@ function avatarDraws() {
 
 function scene(eye) {
   const s = {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
-             lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats', eye};
+             lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats', eye,
+             hideSite: xrMode === 'immersive-ar'};
   if (currentCase && session.generation === currentCase.generation && params.get('room') !== '0') {
     s.objects = currentCase.objects.map((o, i) => ({roomFromObject: objectMatrix(i)}));
-    if (currentCase.monitor && session.monitor) {
+    if (currentCase.monitor && session.monitor && !s.hideSite) {
       renderer.setMonitor(currentCase.monitor, session.monitor, currentCase.generation);
       s.monitorQuad = MONITOR_QUAD;
     }
   }
   return s;
+}
+
+// Whether the monitor shows annotation `a`'s slice now (a room annotation always shows).
+function monitorShows(a) {
+  if (a.anchor !== 1) return true;
+  return !!(currentCase && currentCase.monitor && session.monitor && xrMode !== 'immersive-ar' &&
+            a.generation === session.generation && a.slice === session.monitor.slice);
+}
+
+// Everyone's pointers, the session's annotations and the stroke being drawn, seen from `eye`.
+function addDrawing(s, eye) {
+  const prims = [], labels = [];
+  for (const [id, p] of session.pointers)
+    prims.push(...pointerPrimitives(p.origin, p.hasHit, p.hit, participantColor(id), eye));
+  const me = session.joined ? session.joined.id : 0, mine = participantColor(me);
+  if (aim.on) prims.push(...pointerPrimitives(aim.origin, aim.hasHit, aim.hit, mine, eye));
+  for (const a of session.annotations.values()) {
+    if (!monitorShows(a)) continue;
+    const rgb = participantColor(a.author);
+    prims.push(...annotationPrimitives(a, rgb));
+    if (a.kind === 2) labels.push(labelQuad(a, rgb, eye, renderer.label(a.text, rgb).aspect));
+  }
+  if (aim.stroke && aim.stroke.points.length)
+    prims.push(...annotationPrimitives({kind: 0, points: aim.stroke.points}, mine));
+  s.primitives = prims;
+  s.labels = labels;
+  return s;
+}
+
+// This page's pointer and the stroke it draws: `aim` holds the ray as last found (origin, hit,
+// hasHit: room frame) and whether it is shown (on); `stroke` while drawing.
+const aim = {on: false, origin: [0, 0, 0], hit: [0, 0, 0], hasHit: false, stroke: null};
+
+// Aims along the ray through pixel (px, py) of a w x h view drawn through `clipFromRoom`, from
+// `origin` (the hand): the hit is where the ray first meets what the page draws (Renderer.pick).
+// `pointing`: the pointer is held; `drawing`: a stroke is being drawn. Sends the pointer while
+// either is held and once more (put away) when both are let go; a stroke goes out when let go.
+function updateAim(pointing, drawing, clipFromRoom, w, h, px, py, origin, s) {
+  if (!session.joined) return;
+  if (pointing || drawing) {
+    const hit = renderer.pick(clipFromRoom, w, h, px, py, s);
+    if (hit) {
+      aim.hit = hit.map(Math.fround);
+    } else {  // no surface: the ray points through a point 3 m along it
+      const room = M.invert(clipFromRoom);
+      const far = M.apply(room, [(2 * px) / w - 1, 1 - (2 * py) / h, 1]);
+      const p = far.slice(0, 3).map((x) => x / far[3]);
+      const d = p.map((x, i) => x - origin[i]), n = Math.hypot(...d) || 1;
+      aim.hit = origin.map((x, i) => Math.fround(x + (3 * d[i]) / n));
+    }
+    aim.hasHit = !!hit;
+    aim.origin = origin.map(Math.fround);
+    aim.on = true;
+    session.point(true, aim.origin, aim.hasHit, aim.hit);
+    ++state.drawing.pointersSent;
+    state.drawing.sent.push({on: true, origin: aim.origin, hasHit: aim.hasHit, hit: aim.hit,
+                             sequence: renderer.sequence});
+    if (state.drawing.sent.length > 128) state.drawing.sent.shift();
+    if (drawing) {
+      aim.stroke = aim.stroke || new StrokeBuilder();
+      if (hit) aim.stroke.add(aim.hit);
+    }
+  }
+  if (!drawing && aim.stroke) {
+    const points = aim.stroke.points;
+    aim.stroke = null;
+    if (points.length >= 2) {
+      const tag = session.annotate({kind: 0, anchor: 0, points});
+      state.drawing.drawn.push({tag, kind: 0, points});
+    }
+  }
+  if (!pointing && !drawing && aim.on) putAway();
+}
+
+function putAway() {
+  if (!aim.on) return;
+  aim.on = false;
+  session.point(false, aim.origin, aim.hasHit, aim.hit);
+  state.drawing.sent.push({on: false});
+  if (state.drawing.sent.length > 128) state.drawing.sent.shift();
+}
+
+// Erases this page's newest annotation still in the session.
+function eraseNewest() {
+  if (!session.joined) return;
+  const mine = [...session.annotations.values()].filter((a) => a.author === session.joined.id);
+  if (mine.length) session.erase(mine.reduce((x, y) => (y.id > x.id ? y : x)).id);
+}
+
+// Records where another's pointer dot is drawn in the bound framebuffer: its hit's pixel in
+// `viewport` through `clipFromRoom`, and the colour read back there (for tests and people).
+function noteDot(clipFromRoom, viewport) {
+  for (const [id, p] of session.pointers) {
+    if (!p.hasHit) continue;
+    const c = M.apply(clipFromRoom, p.hit);
+    if (c[3] <= 0) continue;
+    const x = Math.floor(viewport[0] + ((c[0] / c[3] + 1) / 2) * viewport[2]);
+    const y = Math.floor(viewport[1] + ((c[1] / c[3] + 1) / 2) * viewport[3]);
+    if (x < viewport[0] || y < viewport[1] || x >= viewport[0] + viewport[2] || y >= viewport[1] + viewport[3]) continue;
+    const rgba = new Uint8Array(4);
+    gl.readPixels(x, y, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+    state.drawing.dot = {id, x, y, rgba: [...rgba], hit: p.hit};
+    return;
+  }
 }
 
 function noteDrawn() {
@@ -306,6 +437,23 @@ function noteDrawn() {
 
 // Desktop frames; the headset's come from its own loop (enterXr).
 let desktopFrameAt = -1e9;
+const mouse = {x: 0, y: 0};                       // over the canvas, pixels from the top left
+const desktopAim = {key: false, drawing: false};  // L held; Shift+drag drawing
+let desktopView = null;                           // the last frame's {clipFromRoom, w, h, s}
+
+// T: a label typed by the person, pinned where the mouse points (up to 64 bytes of UTF-8).
+function typeLabel() {
+  if (!desktopView || !session.joined) return;
+  const v = desktopView;
+  const hit = renderer.pick(v.clipFromRoom, v.w, v.h, mouse.x, mouse.y, v.s);
+  if (!hit) return;
+  let text = (window.prompt('Label (pinned where the mouse points):') || '').trim();
+  while (new TextEncoder().encode(text).length > 64) text = text.slice(0, -1);
+  if (!text) return;
+  const points = [hit.map(Math.fround)];
+  const tag = session.annotate({kind: 2, anchor: 0, points, text});
+  state.drawing.drawn.push({tag, kind: 2, points, text});
+}
 function desktopFrame() {
   if (state.xr.active) return;
   requestAnimationFrame(desktopFrame);
@@ -325,15 +473,22 @@ function desktopFrame() {
     canvas.height = h;
   }
   uploadLatest();
-  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
-  gl.clearColor(0.08, 0.09, 0.11, 1);
-  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   const roomFromHead = desktopRoomFromHead();
   if (holding && holding.follow === 'head')
     moveHeld(roomFromHead, turn);
   const clipFromRoom = M.multiply(M.perspective(70, w / Math.max(h, 1), 0.05, 50),
                                   M.invertRigid(roomFromHead));
-  renderer.draw(clipFromRoom, [0, 0, w, h], scene([roomFromHead[12], roomFromHead[13], roomFromHead[14]]));
+  const eye = [roomFromHead[12], roomFromHead[13], roomFromHead[14]];
+  const s = scene(eye);
+  // The pointer from the right hand (0.15 m right of and 0.25 m below the eye) through the mouse.
+  const hand = M.apply(roomFromHead, [0.15, -0.25, -0.1]).slice(0, 3);
+  updateAim(desktopAim.key, desktopAim.drawing, clipFromRoom, w, h, mouse.x, mouse.y, hand, s);
+  desktopView = {clipFromRoom, w, h, s};
+  gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+  gl.clearColor(0.08, 0.09, 0.11, 1);
+  gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+  renderer.draw(clipFromRoom, [0, 0, w, h], addDrawing(s, eye));
+  if (state.desktopFrames % 5 === 0) noteDot(clipFromRoom, [0, 0, w, h]);
   noteDrawn();
   const head = M.toPose(roomFromHead);
   session.publish({handsTracked: false, head, left: head, right: head});
@@ -460,8 +615,37 @@ function teleportTo(hit, yaw) {
   nav.x = nav.z = 0;
 }
 
-async function enterXr() {
-  const xr = await navigator.xr.requestSession('immersive-vr', {optionalFeatures: ['local-floor']});
+// The headset's pointer and drawing (WebXR's xr-standard gamepad): the right controller's ray;
+// A (button 4) held points, B (5) held draws, the thumbstick (3) pressed erases this page's newest
+// annotation; in AR the trigger (0) points too.
+const XR_PICK = M.perspective(60, 1, 0.05, 50);  // a virtual 1001 x 1001 view along the ray
+let eraseButtonDown = false;
+function xrAim(frame, space, playarea, s) {
+  let pointing = false, drawing = false, roomFromRay = null;
+  for (const source of frame.session.inputSources) {
+    if (source.handedness !== 'right' || !source.gamepad || !source.targetRaySpace) continue;
+    const b = source.gamepad.buttons;
+    pointing = !!b[4]?.pressed || (xrMode === 'immersive-ar' && !!b[0]?.pressed);
+    drawing = !!b[5]?.pressed;
+    const erase = !!b[3]?.pressed;
+    if (erase && !eraseButtonDown) eraseNewest();
+    eraseButtonDown = erase;
+    const p = frame.getPose(source.targetRaySpace, space);
+    if (p) roomFromRay = M.multiply(playarea, new Float32Array(p.transform.matrix));
+  }
+  if (!roomFromRay) return updateAim(false, false);
+  const clip = M.multiply(XR_PICK, M.invertRigid(roomFromRay));
+  updateAim(pointing, drawing, clip, 1001, 1001, 500.5, 500.5,
+            [roomFromRay[12], roomFromRay[13], roomFromRay[14]], s);
+}
+
+// `mode`: 'immersive-vr' or 'immersive-ar'.
+let xrMode = '';
+async function enterXr(mode) {
+  const xr = await navigator.xr.requestSession(mode, {optionalFeatures: ['local-floor']});
+  xrMode = mode;
+  state.xr.mode = mode;
+  const ar = mode === 'immersive-ar';
   await gl.makeXRCompatible();
   const scale = Math.min(2, Math.max(0.1, Number(params.get('xrscale') || 1)));
   const layer = new XRWebGLLayer(xr, gl, {framebufferScaleFactor: scale, antialias: false});
@@ -474,7 +658,7 @@ async function enterXr() {
   }
   state.xr.active = true;
   xr.addEventListener('select', (ev) => {
-    if (!ev.inputSource.targetRaySpace) return;
+    if (!ev.inputSource.targetRaySpace || ar) return;  // AR: no teleporting in the real room
     const p = ev.frame.getPose(ev.inputSource.targetRaySpace, space);
     if (!p) return;
     const roomFromRay = M.multiply(roomFromPlayarea(), new Float32Array(p.transform.matrix));
@@ -494,6 +678,8 @@ async function enterXr() {
   });
   xr.addEventListener('end', () => {
     state.xr.active = false;
+    xrMode = '';
+    putAway();
     requestAnimationFrame(desktopFrame);
   });
   const onFrame = (t, frame) => {
@@ -501,23 +687,31 @@ async function enterXr() {
     const pose = frame.getViewerPose(space);
     if (!pose) return;
     uploadLatest();
-    gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
-    gl.clearColor(0.08, 0.09, 0.11, 1);
-    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-    const playarea = roomFromPlayarea();
+    // AR: the headset's local-floor frame is the site's world frame, so the room is placed
+    // through room_from_site; VR: the play area's spot.
+    const playarea = ar ? roomFromSite() : roomFromPlayarea();
     if (holding && holding.follow !== 'head' && holding.follow.gripSpace) {
       const g = frame.getPose(holding.follow.gripSpace, space);
       if (g) moveHeld(M.multiply(playarea, new Float32Array(g.transform.matrix)));
     }
-    const eye = M.multiply(playarea, new Float32Array(pose.transform.matrix));
-    const s = scene([eye[12], eye[13], eye[14]]);
-    for (const view of pose.views) {
+    const roomFromEye = M.multiply(playarea, new Float32Array(pose.transform.matrix));
+    const eye = [roomFromEye[12], roomFromEye[13], roomFromEye[14]];
+    const s = scene(eye);
+    xrAim(frame, space, playarea, s);
+    addDrawing(s, eye);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
+    if (ar) gl.clearColor(0, 0, 0, 0);  // transparent over the passthrough
+    else gl.clearColor(0.08, 0.09, 0.11, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    pose.views.forEach((view, i) => {
       const vp = layer.getViewport(view);
       const roomFromView = M.multiply(playarea, new Float32Array(view.transform.matrix));
       const clipFromRoom = M.multiply(new Float32Array(view.projectionMatrix),
                                       M.invertRigid(roomFromView));
-      renderer.draw(clipFromRoom, [vp.x, vp.y, vp.width, vp.height], s);
-    }
+      const viewport = [vp.x, vp.y, vp.width, vp.height];
+      renderer.draw(clipFromRoom, viewport, s);
+      if (i === 0 && state.xr.frames % 5 === 0) noteDot(clipFromRoom, viewport);
+    });
     ++state.xr.frames;
     state.xr.views = pose.views.length;
     noteDrawn();
@@ -544,9 +738,15 @@ async function enterXr() {
 }
 
 function setupInput() {
-  canvas.addEventListener('mousedown', () => { nav.dragging = true; });
-  window.addEventListener('mouseup', () => { nav.dragging = false; });
+  canvas.addEventListener('mousedown', (e) => {
+    if (e.shiftKey) desktopAim.drawing = true;  // Shift+drag draws instead of turning
+    else nav.dragging = true;
+  });
+  window.addEventListener('mouseup', () => { nav.dragging = desktopAim.drawing = false; });
   window.addEventListener('mousemove', (e) => {
+    const r = canvas.getBoundingClientRect();
+    mouse.x = e.clientX - r.left;
+    mouse.y = e.clientY - r.top;
     if (!nav.dragging) return;
     nav.yaw -= e.movementX * 0.004;
     nav.pitch = Math.max(-1.4, Math.min(1.4, nav.pitch - e.movementY * 0.004));
@@ -560,17 +760,22 @@ function setupInput() {
       return;
     }
     if (monitorKey(key)) return;
+    if (key === 'l') return void (desktopAim.key = true);
+    if (key === 'backspace' || key === 'delete') return eraseNewest();
+    if (key === 't') return typeLabel();
     if (voice && key === 'm') return voice.setMuted(!voice.muted);
     if (voice && key === 'v') return voice.setTalking(true);
     if (!nav.keys.has(key)) nav.keys.set(key, performance.now());
   });
   window.addEventListener('keyup', (e) => {
     if (voice && e.key.toLowerCase() === 'v') voice.setTalking(false);
+    if (e.key.toLowerCase() === 'l') desktopAim.key = false;
     keyUp(e.key.toLowerCase());
   });
   // A key held while the page loses focus never sees its keyup.
   window.addEventListener('blur', () => {
     [...nav.keys.keys()].forEach(keyUp);
+    desktopAim.key = desktopAim.drawing = false;
     if (voice) voice.setTalking(false);
   });
   canvas.addEventListener('dblclick', (e) => {
@@ -587,13 +792,14 @@ function setupInput() {
     teleportTo([roomFromHead[12] + k * d[0], roomFromHead[14] + k * d[2]], spotYaw);
     nav.yaw = 0;
   });
-  const button = document.getElementById('enter-vr');
   if (navigator.xr)
-    navigator.xr.isSessionSupported('immersive-vr').then((ok) => {
-      if (!ok) return;
-      button.hidden = false;
-      button.onclick = () => enterXr().catch((e) => fail('cannot enter VR: ' + e.message));
-    });
+    for (const [id, mode, name] of [['enter-vr', 'immersive-vr', 'VR'], ['enter-ar', 'immersive-ar', 'AR']])
+      navigator.xr.isSessionSupported(mode).then((ok) => {
+        if (!ok) return;
+        const button = document.getElementById(id);
+        button.hidden = false;
+        button.onclick = () => enterXr(mode).catch((e) => fail(`cannot enter ${name}: ${e.message}`));
+      });
 }
 
 function start() {

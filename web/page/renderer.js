@@ -2,8 +2,21 @@
 // splats (each depth pixel one point, unprojected in the vertex shader through the camera's ray
 // table, as the native CameraRenderer does: src/render/camera_renderer.cpp) or as a grid mesh,
 // and the room's furniture and the other participants as lit boxes (as room_scene.hpp draws them
-// natively).
-import {multiply, fromPose, scale, translation} from './math.js';
+// natively); pointers and annotations as glowing primitives (drawing.js) and labels' text as
+// quads of canvas textures. Renderer.pick reads back where a ray first meets what is drawn: the
+// scene drawn again into a small window around the ray's pixel, each fragment writing its depth.
+import {apply, invert, multiply, fromPose, scale, translation} from './math.js';
+
+// Every fragment shader's pick mode: the fragment's window depth, 24 bits in rgb.
+const PICK_FS = `
+uniform bool pick;
+vec4 or_depth(vec4 c) {
+  if (!pick) return c;
+  highp uint d = uint(clamp(gl_FragCoord.z, 0.0, 1.0) * 16777215.0);
+  return vec4(float(d >> 16u), float((d >> 8u) & 255u), float(d & 255u), 255.0) / 255.0;
+}
+`;
+const PICK_WINDOW = 49;  // pixels: a splat (at most 48 across) covering the centre is drawn
 
 // What both camera passes share: the camera's depth and ray table, and unprojection of one
 // pixel into the camera frame (false without depth, outside the lens model, or -- for a camera
@@ -39,8 +52,9 @@ uniform sampler2D color;
 uniform bool has_color;
 in vec2 uv;
 out vec4 out_color;
+` + PICK_FS + `
 vec4 camera_color() {
-  return has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0);
+  return or_depth(has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0));
 }
 `;
 
@@ -113,21 +127,23 @@ void main() {
 const BOX_FS = `#version 300 es
 precision mediump float;
 uniform vec4 base;
+uniform float emissive;
 uniform vec3 lamp;
 uniform bool grid;
 in vec3 n_room;
 in vec3 p_room;
 out vec4 out_color;
+` + PICK_FS + `
 void main() {
   vec3 n = normalize(n_room);
   vec3 l = normalize(lamp - p_room);
   float light = 0.45 + 0.55 * max(dot(n, l), 0.0);
-  vec3 c = base.rgb * light;
+  vec3 c = mix(base.rgb * light, base.rgb, emissive);
   if (grid) {
     vec2 f = abs(fract(p_room.xz) - 0.5);
     if (max(f.x, f.y) > 0.49) c *= 0.8;
   }
-  out_color = vec4(c, base.a);
+  out_color = or_depth(vec4(c, base.a));
 }`;
 
 const QUAD_VS = `#version 300 es
@@ -144,7 +160,8 @@ precision mediump float;
 uniform sampler2D image;
 in vec2 uv;
 out vec4 out_color;
-void main() { out_color = vec4(texture(image, uv).rgb, 1.0); }`;
+` + PICK_FS + `
+void main() { out_color = or_depth(vec4(texture(image, uv).rgb, 1.0)); }`;
 
 // DICOM's linear VOI function (PS3.3 C.11.2.1.2.1) to 0..255, as session::window_gray.
 export function windowGray(hu, center, width) {
@@ -211,6 +228,48 @@ function cube() {
   return new Float32Array(out);
 }
 
+// A cylinder (radius 0.5 about +y, -0.5..0.5) and a sphere (diameter 1): position + normal.
+function cylinder(sides = 16) {
+  const out = [];
+  for (let i = 0; i < sides; ++i) {
+    const a = (2 * Math.PI * i) / sides, b = (2 * Math.PI * (i + 1)) / sides;
+    const p = (t, y) => [0.5 * Math.cos(t), y, 0.5 * Math.sin(t)];
+    const n = (t) => [Math.cos(t), 0, Math.sin(t)];
+    for (const [t, y] of [[a, -0.5], [b, 0.5], [b, -0.5], [a, -0.5], [a, 0.5], [b, 0.5]])
+      out.push(...p(t, y), ...n(t));
+    for (const y of [-0.5, 0.5])
+      for (const t of [0, a, b]) out.push(...(t === 0 ? [0, y, 0] : p(t, y)), 0, Math.sign(y), 0);
+  }
+  return new Float32Array(out);
+}
+
+function sphere(rings = 8, sectors = 12) {
+  const out = [];
+  const at = (i, j) => {
+    const t = (Math.PI * i) / rings, f = (2 * Math.PI * j) / sectors;
+    const n = [Math.sin(t) * Math.cos(f), Math.cos(t), Math.sin(t) * Math.sin(f)];
+    return [...n.map((x) => 0.5 * x), ...n];
+  };
+  for (let i = 0; i < rings; ++i)
+    for (let j = 0; j < sectors; ++j)
+      for (const [a, b] of [[0, 0], [1, 1], [1, 0], [0, 0], [0, 1], [1, 1]]) out.push(...at(i + a, j + b));
+  return new Float32Array(out);
+}
+
+function shapeVao(gl, data) {
+  const vao = gl.createVertexArray();
+  gl.bindVertexArray(vao);
+  const buffer = gl.createBuffer();
+  gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+  gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
+  gl.enableVertexAttribArray(0);
+  gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
+  gl.enableVertexAttribArray(1);
+  gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+  gl.bindVertexArray(null);
+  return {vao, count: data.length / 6};
+}
+
 export class Renderer {
   constructor(gl) {
     this.gl = gl;
@@ -224,15 +283,134 @@ export class Renderer {
     this.cameras = [];
     this.avatars = new Map();  // participant id -> its camera avatar
     this.empty = gl.createVertexArray();
-    this.cubeVao = gl.createVertexArray();
-    gl.bindVertexArray(this.cubeVao);
-    const buffer = gl.createBuffer();
-    gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
-    gl.bufferData(gl.ARRAY_BUFFER, cube(), gl.STATIC_DRAW);
-    gl.enableVertexAttribArray(0);
-    gl.vertexAttribPointer(0, 3, gl.FLOAT, false, 24, 0);
-    gl.enableVertexAttribArray(1);
-    gl.vertexAttribPointer(1, 3, gl.FLOAT, false, 24, 12);
+    this.cubeVao = shapeVao(gl, cube()).vao;
+    this.shapes = {box: shapeVao(gl, cube()), cylinder: shapeVao(gl, cylinder()), sphere: shapeVao(gl, sphere())};
+    this.labels = new Map();  // text and colour -> {texture, aspect}
+    this.picker = null;       // the pick window's framebuffer
+    this.sequence = 0;        // the site frame set whose depth is drawn
+  }
+
+  // Pick mode on or off in every program (each fragment writes its depth instead of its colour).
+  setPick(on) {
+    for (const p of [this.splat, this.mesh, this.box, this.quad]) {
+      this.gl.useProgram(p.program);
+      this.gl.uniform1i(p.uniforms.pick, on ? 1 : 0);
+    }
+  }
+
+  // Where the ray through pixel (px, py) (from the top left) of a w x h view drawn through
+  // `clipFromRoom` first meets what `scene` draws (the site's clouds too where scene.hideSite:
+  // AR), pointers and annotations aside: [x, y, z] in the room frame, or null where nothing is.
+  pick(clipFromRoom, w, h, px, py, scene) {
+    const gl = this.gl, k = PICK_WINDOW;
+    if (!this.picker) {
+      const fb = gl.createFramebuffer();
+      gl.bindFramebuffer(gl.FRAMEBUFFER, fb);
+      for (const [format, attachment] of [[gl.RGBA8, gl.COLOR_ATTACHMENT0],
+                                          [gl.DEPTH_COMPONENT24, gl.DEPTH_ATTACHMENT]]) {
+        const rb = gl.createRenderbuffer();
+        gl.bindRenderbuffer(gl.RENDERBUFFER, rb);
+        gl.renderbufferStorage(gl.RENDERBUFFER, format, k, k);
+        gl.framebufferRenderbuffer(gl.FRAMEBUFFER, attachment, gl.RENDERBUFFER, rb);
+      }
+      this.picker = fb;
+    }
+    // The window of k x k pixels centred on the pixel, scaled up to fill the clip volume.
+    const cx = (2 * px) / w - 1, cy = 1 - (2 * py) / h, sx = w / k, sy = h / k;
+    const window_ = new Float32Array([sx, 0, 0, 0, 0, sy, 0, 0, 0, 0, 1, 0, -sx * cx, -sy * cy, 0, 1]);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.picker);
+    gl.clearColor(1, 1, 1, 1);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    this.setPick(true);
+    const pxPerM = Math.hypot(clipFromRoom[1], clipFromRoom[5], clipFromRoom[9]) * h * 0.5;
+    this.draw(multiply(window_, clipFromRoom), [0, 0, k, k],
+              {...scene, pick: true, hideSite: false, pxPerM});
+    this.setPick(false);
+    const rgba = new Uint8Array(4);
+    gl.readPixels((k - 1) / 2, (k - 1) / 2, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    const d = (rgba[0] << 16) | (rgba[1] << 8) | rgba[2];
+    if (d >= 0xffffff) return null;
+    const p = apply(invert(clipFromRoom), [cx, cy, (2 * d) / 0xffffff - 1]);
+    return [p[0] / p[3], p[1] / p[3], p[2] / p[3]];
+  }
+
+  // Glowing primitives (drawing.js: pointers, annotations): opaque ones, then the translucent.
+  drawPrimitives(clipFromRoom, prims, lamp) {
+    const gl = this.gl, b = this.box;
+    gl.useProgram(b.program);
+    gl.uniform3fv(b.uniforms.lamp, lamp || [0, 2.2, 0]);
+    gl.uniform1i(b.uniforms.grid, 0);
+    for (const blended of [false, true]) {
+      if (blended) {
+        gl.enable(gl.BLEND);
+        gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
+        gl.depthMask(false);
+      }
+      for (const p of prims) {
+        if ((p.color[3] < 1) !== blended) continue;
+        const shape = this.shapes[p.shape];
+        gl.uniformMatrix4fv(b.uniforms.clip_from_model, false, multiply(clipFromRoom, p.roomFromShape));
+        gl.uniformMatrix4fv(b.uniforms.room_from_model, false, p.roomFromShape);
+        gl.uniform4fv(b.uniforms.base, p.color);
+        gl.uniform1f(b.uniforms.emissive, p.emissive || 0);
+        gl.bindVertexArray(shape.vao);
+        gl.drawArrays(gl.TRIANGLES, 0, shape.count);
+      }
+    }
+    gl.depthMask(true);
+    gl.disable(gl.BLEND);
+    gl.uniform1f(b.uniforms.emissive, 0);
+    gl.bindVertexArray(null);
+  }
+
+  // A label's text (white on dark, edged in its author's colour `rgb`) as a texture, made once:
+  // {texture, aspect (width / height)}.
+  label(text, rgb) {
+    const key = `${rgb.join(',')}:${text}`;
+    let l = this.labels.get(key);
+    if (l) return l;
+    const canvas = document.createElement('canvas');
+    const c2 = canvas.getContext('2d');
+    c2.font = '28px system-ui, sans-serif';
+    canvas.width = Math.ceil(c2.measureText(text).width) + 24;
+    canvas.height = 44;
+    c2.fillStyle = `rgb(${rgb.map((x) => Math.round(x * 255)).join(',')})`;
+    c2.fillRect(0, 0, canvas.width, canvas.height);
+    c2.fillStyle = '#15181d';
+    c2.fillRect(3, 3, canvas.width - 6, canvas.height - 6);
+    c2.font = '28px system-ui, sans-serif';
+    c2.fillStyle = '#f4f6f8';
+    c2.textBaseline = 'middle';
+    c2.fillText(text, 12, canvas.height / 2 + 1);
+    const gl = this.gl, texture = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, texture);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, canvas);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
+    if (this.labels.size > 256) {
+      const [oldKey, old] = this.labels.entries().next().value;
+      gl.deleteTexture(old.texture);
+      this.labels.delete(oldKey);
+    }
+    l = {texture, aspect: canvas.width / canvas.height};
+    this.labels.set(key, l);
+    return l;
+  }
+
+  // Labels' text quads (drawing.js labelQuad).
+  drawLabels(clipFromRoom, quads) {
+    const gl = this.gl;
+    gl.useProgram(this.quad.program);
+    gl.bindVertexArray(this.empty);
+    gl.activeTexture(gl.TEXTURE0);
+    gl.uniform1i(this.quad.uniforms.image, 0);
+    for (const q of quads) {
+      gl.uniformMatrix4fv(this.quad.uniforms.clip_from_quad, false, multiply(clipFromRoom, q.roomFromQuad));
+      gl.bindTexture(gl.TEXTURE_2D, this.label(q.text, q.rgb).texture);
+      gl.drawArrays(gl.TRIANGLE_STRIP, 0, 4);
+    }
     gl.bindVertexArray(null);
   }
 
@@ -316,6 +494,7 @@ export class Renderer {
 
   // One decoded frame set of the site (worker.js 'frames').
   upload(frames) {
+    this.sequence = frames.sequence;
     frames.cameras.forEach((f, i) => {
       if (this.cameras[i]) this.uploadCamera(this.cameras[i], f);
       else if (f.color) f.color.close();
@@ -390,7 +569,7 @@ export class Renderer {
         const m = o.roomFromObject;
         const c = [0, 1, 2].map((r) => m[r] * p.centre[0] + m[4 + r] * p.centre[1] + m[8 + r] * p.centre[2] + m[12 + r]);
         const item = {p, m, d: Math.hypot(c[0] - eye[0], c[1] - eye[1], c[2] - eye[2])};
-        (p.rgba[3] >= 1 ? opaque : blended).push(item);
+        (p.rgba[3] >= 1 || scene.pick ? opaque : blended).push(item);  // pick: every surface
       }
     });
     blended.sort((x, y) => y.d - x.d);
@@ -438,7 +617,9 @@ export class Renderer {
     const gl = this.gl;
     gl.viewport(...viewport);
     gl.enable(gl.DEPTH_TEST);
-    const pxPerM = clipFromRoom[5] * viewport[3] * 0.5 || viewport[3];
+    // Pixels per metre at 1 m of view depth (the projection's vertical scale).
+    const pxPerM = scene.pxPerM ||
+        Math.hypot(clipFromRoom[1], clipFromRoom[5], clipFromRoom[9]) * viewport[3] * 0.5 || viewport[3];
     const mesh = scene.surface === 'mesh';
     const s = mesh ? this.mesh : this.splat;
     gl.useProgram(s.program);
@@ -446,7 +627,7 @@ export class Renderer {
     gl.uniform1i(s.uniforms.depth_mm, 0);
     gl.uniform1i(s.uniforms.rays, 1);
     gl.uniform1i(s.uniforms.color, 2);
-    const draws = this.cameras.map((c) => ({c, roomFromCamera: multiply(scene.roomFromSite, c.siteFromCamera),
+    const draws = (scene.hideSite ? [] : this.cameras).map((c) => ({c, roomFromCamera: multiply(scene.roomFromSite, c.siteFromCamera),
                                             keep: [0, 0, 0, 0]}));
     for (const a of scene.avatars || []) {
       const c = this.avatars.get(a.id);
@@ -488,6 +669,9 @@ export class Renderer {
     }
     gl.bindVertexArray(null);
     this.drawCase(clipFromRoom, scene);
+    if (scene.pick) return;
+    if (scene.primitives) this.drawPrimitives(clipFromRoom, scene.primitives, scene.lamp);
+    if (scene.labels) this.drawLabels(clipFromRoom, scene.labels);
   }
 }
 

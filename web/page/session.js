@@ -6,7 +6,10 @@
 // monitor's shared state (0x4d, 0x0d); the case itself (0x4b) is parsed by the worker
 // (case_wire.js) and handed over with setCase(). Voice (voice_messages.hpp): this page's
 // microphone state (0x0f) goes out from here and the others' (0x4f) come in here; the voice
-// packets themselves (0x0e, 0x4e) never pass the main thread (voice_worker.js).
+// packets themselves (0x0e, 0x4e) never pass the main thread (voice_worker.js). Pointing and
+// drawing (annotations.hpp): this page's laser pointer (0x10) and annotations (0x11, erased by
+// 0x12) go out from here; the others' pointers (0x50) and the session's annotations (0x51, 0x52)
+// come in here (room frame, metres).
 const MAGIC = 0x54534356;
 const VERSION = 5;
 
@@ -94,6 +97,10 @@ export class Session {
     this.generation = 0;     // the case's (0: none)
     this.objects = [];       // by object index: {owner, sequence, pose, poses: [[timeUs, pose]]}
     this.monitor = null;     // {slice, center, width, overlay, by}
+    this.pointers = new Map();     // owner id -> {origin, hasHit, hit, time} while held
+    this.annotations = new Map();  // id -> {id, author, time, tag, kind, anchor, generation, slice, points, text}
+    this.pointerSequence = 0;
+    this.annotationTag = 0;
     this.onchange = () => {};
   }
 
@@ -135,6 +142,32 @@ export class Session {
     return o.pose;
   }
 
+  // This page's laser pointer (0x10): shown (`on`) from `origin` (room frame, metres) to `hit`,
+  // where it meets a surface when `hasHit` (else it points through `hit`); put away with on false.
+  point(on, origin, hasHit, hit) {
+    if (!this.joined) return;
+    const w = new Writer().u32(++this.pointerSequence).i64(this.nowServerUs()).u8(on ? 1 : 0);
+    origin.forEach((x) => w.f32(x));
+    w.u8(hasHit ? 1 : 0);
+    hit.forEach((x) => w.f32(x));
+    this.send(w.message(0x10));
+  }
+  // Draws an annotation for the session (0x11): {kind: 0 stroke / 1 arrow / 2 label, anchor (0
+  // room, 1 monitor), slice (anchor 1), points: [[x, y, z]] room frame, text (a label's)};
+  // returns its tag (the server's copy, 0x51, carries it).
+  annotate(a) {
+    if (!this.joined) return 0;
+    const tag = ++this.annotationTag;
+    const monitor = a.anchor === 1;
+    const w = new Writer().u32(tag).u8(a.kind).u8(a.anchor || 0).u32(monitor ? this.generation : 0)
+        .u16(monitor ? a.slice : 0).u16(a.points.length);
+    for (const p of a.points) p.forEach((x) => w.f32(x));
+    w.string(a.text || '');
+    this.send(w.message(0x11));
+    return tag;
+  }
+  erase(id) { this.send(new Writer().u32(id).message(0x12)); }
+
   voiceState(muted) { if (this.joined) this.send(new Writer().u8(muted ? 1 : 0).message(0x0f)); }
 
   list() { this.send(new Writer().message(0x01)); }
@@ -175,6 +208,8 @@ export class Session {
         this.joined = {id: r.u32(), sessionId: r.u32(), name: r.string(), spot: r.spot(),
                        roomFromSite: {t: [r.f32(), r.f32(), r.f32()], yaw: r.f32()}};
         this.others.clear();
+        this.pointers.clear();
+        this.annotations.clear();
         this.error = '';
         break;
       case 0x43: this.error = r.string(); break;
@@ -184,7 +219,12 @@ export class Session {
         this.others.set(p.id, p);
         break;
       }
-      case 0x45: this.others.delete(r.u32()); break;
+      case 0x45: {
+        const id = r.u32();
+        this.others.delete(id);
+        this.pointers.delete(id);
+        break;
+      }
       case 0x46: {
         const id = r.u32();
         const seq = r.u32();
@@ -241,6 +281,26 @@ export class Session {
         if (generation === this.generation) this.monitor = m;
         break;
       }
+      case 0x50: {
+        const id = r.u32();
+        r.u32();
+        const time = r.i64(), on = r.u8() === 1;
+        const origin = [r.f32(), r.f32(), r.f32()], hasHit = r.u8() === 1;
+        const hit = [r.f32(), r.f32(), r.f32()];
+        if (on) this.pointers.set(id, {origin, hasHit, hit, time});
+        else this.pointers.delete(id);
+        break;
+      }
+      case 0x51: {
+        const a = {id: r.u32(), author: r.u32(), time: r.i64(), tag: r.u32(), kind: r.u8(),
+                   anchor: r.u8(), generation: r.u32(), slice: r.u16(), points: []};
+        const n = r.u16();
+        for (let i = 0; i < n; ++i) a.points.push([r.f32(), r.f32(), r.f32()]);
+        a.text = r.string();
+        this.annotations.set(a.id, a);
+        break;
+      }
+      case 0x52: this.annotations.delete(r.u32()); break;
       case 0x4f: {
         const id = r.u32();
         const muted = r.u8() === 1;

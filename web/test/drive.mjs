@@ -16,6 +16,13 @@
 // speaking; --voice S: once the page has heard someone's voice, S seconds more, then writes what
 // it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav.
 // --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
+// --ar X,Y,Z,DX,DY,DZ: IWER's headset enters immersive-ar instead (the page shows the others'
+// pointers and annotations over the passthrough); once the page has drawn another participant's
+// pointer dot (page.json's drawing.dot), the right controller stands at X,Y,Z (the headset's
+// local-floor frame: the site's world frame) pointing along DX,DY,DZ, holds A for 8 headset
+// frames (the pointer), then B while it turns by 1 degree a frame for 10 frames (a stroke), and
+// the drive waits for the stroke to come back from the server and the other's pointer to be put
+// away (DIR/ar-pointer.png: the page when it first drew the other's dot).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -31,7 +38,8 @@ const link = flag('--link');
 const out = flag('--out', '.');
 const frames = Number(flag('--frames', '30'));
 const seconds = Number(flag('--seconds', '120'));  // bounds a broken page; a loaded box is slow
-const xr = args.includes('--xr');
+const ar = flag('--ar');
+const xr = args.includes('--xr') || !!ar;
 const mic = flag('--mic');
 const voiceSeconds = Number(flag('--voice', '0'));
 const executablePath = flag('--chromium', '/usr/bin/chromium');
@@ -51,10 +59,10 @@ const browser = await chromium.launch({
                     `--use-file-for-fake-audio-capture=${mic}%noloop`] : [])],
 });
 let code = 1;
+const console_ = [];
 try {
   const page = await browser.newPage({viewport: {width: 800, height: 450}});
   page.setDefaultTimeout(60000);  // a loaded 2-core machine renders SwiftShader slowly
-  const console_ = [];
   page.on('console', (m) => console_.push(`${m.type()}: ${m.text()}`));
   page.on('pageerror', (e) => console_.push(`pageerror: ${e.message}`));
   page.on('worker', (w) => w.on('console', (m) => console_.push(`worker ${m.type()}: ${m.text()}`)));
@@ -100,7 +108,51 @@ try {
     await page.waitForTimeout(1500);
     s = await state();
   }
-  if (xr && s.phase !== 'error') {
+  if (ar && s.phase !== 'error') {
+    await page.click('#enter-ar', {timeout: 60000});
+    const frame = () => page.evaluate(() => window.volcast.xr.frames);
+    const frames_ = async (n) => {  // n headset frames (the runtime samples buttons once a frame)
+      const at = await frame();
+      await page.waitForFunction((f) => window.volcast.xr.frames >= f, at + n, {timeout: 30000});
+    };
+    await page.waitForFunction(() => window.volcast.drawing.dot && window.volcast.drawing.dot.rgba[3] > 0,
+                               null, {timeout: 60000});
+    await page.screenshot({path: `${out}/ar-pointer.png`});  // what the headset shows then
+    const [x, y, z, dx, dy, dz] = ar.split(',').map(Number);
+    // The controller's -z along the direction turned by `yaw` about the vertical.
+    const aimAt = (yaw) => page.evaluate(([x, y, z, dx, dy, dz, yaw]) => {
+      const c = Math.cos(yaw), s_ = Math.sin(yaw);
+      const d = [c * dx + s_ * dz, dy, -s_ * dx + c * dz], n = Math.hypot(...d);
+      const v = d.map((k) => k / n);
+      // The shortest rotation taking (0, 0, -1) to v.
+      const axis = [v[1], -v[0], 0], dot = -v[2];
+      const w = 1 + dot;
+      const q = w < 1e-6 ? [0, 1, 0, 0] : [...axis, w];
+      const qn = Math.hypot(...q);
+      const right = window.iwerDevice.controllers.right;
+      right.position.set(x, y, z);
+      right.quaternion.set(q[0] / qn, q[1] / qn, q[2] / qn, q[3] / qn);
+    }, [x, y, z, dx, dy, dz, yaw]);
+    await aimAt(0);
+    await frames_(2);
+    const press = (button, value) =>
+        page.evaluate(([b, v]) => window.iwerDevice.controllers.right.updateButtonValue(b, v), [button, value]);
+    await press('a-button', 1);
+    await frames_(8);
+    await press('a-button', 0);
+    await frames_(3);
+    await press('b-button', 1);
+    for (let i = 1; i <= 10; ++i) {
+      await aimAt((i * Math.PI) / 180);
+      await frames_(1);
+    }
+    await press('b-button', 0);
+    await page.waitForFunction(() => {
+      const v = window.volcast;
+      return v.drawing.annotations.some((a) => a.author === v.session.id) && v.drawing.held.length === 0;
+    }, null, {timeout: 30000});
+    s = await state();
+  } else if (xr && s.phase !== 'error') {
     await page.click('#enter-vr', {timeout: 60000});
     // Deadlines only bound a broken page: a loaded machine may draw few frames a second.
     const xrDeadline = Date.now() + 60000;
@@ -168,7 +220,8 @@ try {
   }
   // The picture alone: the overlay's text would count as drawn pixels.
   await page.evaluate(() => {
-    for (const id of ['overlay', 'people', 'help', 'enter-vr']) document.getElementById(id).hidden = true;
+    for (const id of ['overlay', 'people', 'help', 'enter-vr', 'enter-ar'])
+      document.getElementById(id).hidden = true;
   });
   const shot = `${out}/${xr ? 'xr' : 'desktop'}.png`;
   await page.screenshot({path: shot});
@@ -181,6 +234,9 @@ try {
     console.error(`only ${s.framesReceived} frame sets received, ${s.framesDrawn} pictures drawn`);
   else code = 0;
   if (code !== 0) console.error(console_.join('\n'));
+} catch (e) {
+  console.error(e);
+  console.error(console_.join('\n'));  // what the page said, to tell why
 } finally {
   await browser.close();
 }

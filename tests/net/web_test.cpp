@@ -421,6 +421,19 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   const Eigen::Vector3f rgb = participant_color(native_id) * 255;
   for (int i = 0; i < 3; ++i)
     EXPECT_NEAR(d["dot"]["rgba"][i].get<double>(), rgb[i], 3) << "the dot's pixel " << d["dot"];
+  // And on the page as IWER shows the headset's left eye (the layer's pixels, rows from the
+  // bottom), taken when the dot was first reported.
+  const ColorImage shot = read_color_png(out / "ar-pointer.png");
+  const int dot_x = d["dot"]["x"], dot_y = shot.height - 1 - d["dot"]["y"].get<int>();
+  bool on_screen = false;
+  for (int y = dot_y - 1; y <= dot_y + 1; ++y)
+    for (int x = dot_x - 1; x <= dot_x + 1; ++x) {
+      if (x < 0 || y < 0 || x >= shot.width || y >= shot.height) continue;
+      const uint8_t* p = shot.pixel(x, y);  // BGRA
+      on_screen = on_screen || (std::abs(p[2] - rgb[0]) < 4 && std::abs(p[1] - rgb[1]) < 4 &&
+                                std::abs(p[0] - rgb[2]) < 4);
+    }
+  EXPECT_TRUE(on_screen) << "the dot at " << dot_x << ", " << dot_y << " of the screenshot";
   EXPECT_TRUE(d["held"].empty()) << "put away once the page's pointer came";
   // The page's pointers: each hit on the live cloud as drawn (within 2 px and 3 mm of a depth
   // pixel of the frame set drawn then), the first through the aimed pixel.

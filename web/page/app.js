@@ -389,11 +389,23 @@ function updateAim(pointing, drawing, clipFromRoom, w, h, px, py, origin, s) {
     const points = aim.stroke.points;
     aim.stroke = null;
     if (points.length >= 2) {
-      const tag = session.annotate({kind: 0, anchor: 0, points});
+      const tag = session.annotate({kind: 0, points, ...anchorOf(points)});
       state.drawing.drawn.push({tag, kind: 0, points});
     }
   }
   if (!pointing && !drawing && aim.on) putAway();
+}
+
+// An annotation drawn on the monitor's picture sticks to the CT slice it shows (anchor 1);
+// anything else belongs to the room (anchor 0).
+function anchorOf(points) {
+  if (!currentCase || !currentCase.monitor || !session.monitor || xrMode === 'immersive-ar' ||
+      session.generation !== currentCase.generation)
+    return {anchor: 0};
+  const q = MONITOR_QUAD;  // translation and scale only
+  const on = points.every((p) => Math.abs(p[0] - q[12]) <= q[0] / 2 + 0.01 &&
+                                 Math.abs(p[1] - q[13]) <= q[5] / 2 + 0.01 && Math.abs(p[2] - q[14]) <= 0.01);
+  return on ? {anchor: 1, slice: session.monitor.slice} : {anchor: 0};
 }
 
 function putAway() {
@@ -451,7 +463,7 @@ function typeLabel() {
   while (new TextEncoder().encode(text).length > 64) text = text.slice(0, -1);
   if (!text) return;
   const points = [hit.map(Math.fround)];
-  const tag = session.annotate({kind: 2, anchor: 0, points, text});
+  const tag = session.annotate({kind: 2, points, text, ...anchorOf(points)});
   state.drawing.drawn.push({tag, kind: 2, points, text});
 }
 function desktopFrame() {

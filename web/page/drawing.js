@@ -76,15 +76,15 @@ export function annotationPrimitives(a, rgb) {
   return out;
 }
 
-// A label's text as a quad facing `eye` just above its anchor, 4 cm high: {roomFromQuad (the
-// unit quad, -0.5..0.5), text, rgb}.
+// A label's text as a quad facing `eye` above its pin's flag, 5 cm high: {roomFromQuad (the unit
+// quad, -0.5..0.5), text, rgb}.
 export function labelQuad(a, rgb, eye, aspect) {
-  const at = add(labelAnchor(a), [0, 0.035, 0]);
+  const at = add(labelAnchor(a), [0, 0.05, 0]);
   const toEye = sub(eye, at);
   toEye[1] = 0;  // upright, turned about the vertical towards the eye
   const yaw = norm(toEye) > 1e-4 ? Math.atan2(toEye[0], toEye[2]) : 0;
   return {text: a.text, rgb,
-          roomFromQuad: multiply(translation(...at), multiply(rotationY(yaw), scale(0.04 * aspect, 0.04, 1)))};
+          roomFromQuad: multiply(translation(...at), multiply(rotationY(yaw), scale(0.05 * aspect, 0.05, 1)))};
 }
 
 // A stroke being drawn: hit points kept at least 5 mm apart, at most 256 (annotations.hpp's

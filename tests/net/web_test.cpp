@@ -13,8 +13,8 @@
 #include <atomic>
 #include <chrono>
 #include <fstream>
-#include <nlohmann/json.hpp>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <thread>
@@ -463,9 +463,9 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   EXPECT_GE(hits, 8) << "sent at the frame rate while A was held";
   // The native participant saw the page's pointer exactly as sent, and then put away.
   ASSERT_TRUE(web_pointer) << "the native participant never saw the page's pointer";
-  EXPECT_TRUE(std::any_of(sent_hits.begin(), sent_hits.end(),
-                          [&](const Eigen::Vector3f& h) { return h == web_pointer->hit; }))
-      << web_pointer->hit.transpose();
+  EXPECT_TRUE(std::any_of(sent_hits.begin(), sent_hits.end(), [&](const Eigen::Vector3f& h) {
+    return h == web_pointer->hit;
+  })) << web_pointer->hit.transpose();
   EXPECT_TRUE(test::eventually([&] {
     const auto ps = native.now().pointers;
     return std::none_of(ps.begin(), ps.end(),
@@ -474,7 +474,7 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   // The stroke drawn while B was held, point for point.
   ASSERT_EQ(d["drawn"].size(), 1u) << d["drawn"];
   const nlohmann::json& drawn = d["drawn"][0]["points"];
-  EXPECT_GE(drawn.size(), 5u) << "10 frames turning a degree each, points 5 mm apart at least";
+  EXPECT_GE(drawn.size(), 5u) << "10 steps of a degree (12 mm on the table), points 5 mm apart";
   ASSERT_TRUE(test::eventually([&] { return !native.now().annotations.empty(); }));
   const session::Annotation a = native.now().annotations[0];
   EXPECT_EQ(a.author, web_id);

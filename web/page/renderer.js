@@ -494,7 +494,7 @@ export class Renderer {
 
   // One decoded frame set of the site (worker.js 'frames').
   upload(frames) {
-    this.sequence = frames.sequence;
+    if (frames.cameras.some((f) => f.depth)) this.sequence = frames.sequence;
     frames.cameras.forEach((f, i) => {
       if (this.cameras[i]) this.uploadCamera(this.cameras[i], f);
       else if (f.color) f.color.close();
@@ -612,7 +612,8 @@ export class Renderer {
   // `clipFromRoom`. `scene`: {roomFromSite, avatars: [{id, roomFromCamera, keep: [x, y, z,
   // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale,
   // surface ('splats' or 'mesh'), edgeRatio (mesh: a depth jump over this share of the depth is
-  // an edge, default 0.05)}.
+  // an edge, default 0.05), hideSite (AR: the site's cameras not drawn), primitives and labels
+  // (drawing.js: pointers, annotations, labels' text quads), pick and pxPerM (Renderer.pick)}.
   draw(clipFromRoom, viewport, scene) {
     const gl = this.gl;
     gl.viewport(...viewport);

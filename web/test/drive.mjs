@@ -20,7 +20,7 @@
 // pointers and annotations over the passthrough); once the page has drawn another participant's
 // pointer dot (page.json's drawing.dot), the right controller stands at X,Y,Z (the headset's
 // local-floor frame: the site's world frame) pointing along DX,DY,DZ, holds A for 8 headset
-// frames (the pointer), then B while it turns by 1 degree a frame for 10 frames (a stroke), and
+// frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), and
 // the drive waits for the stroke to come back from the server and the other's pointer to be put
 // away (DIR/ar-pointer.png: the page when it first drew the other's dot).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
@@ -142,9 +142,9 @@ try {
     await press('a-button', 0);
     await frames_(3);
     await press('b-button', 1);
-    for (let i = 1; i <= 10; ++i) {
+    for (let i = 1; i <= 10; ++i) {  // two frames each: the first may have begun before it
       await aimAt((i * Math.PI) / 180);
-      await frames_(1);
+      await frames_(2);
     }
     await press('b-button', 0);
     await page.waitForFunction(() => {

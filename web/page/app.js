@@ -27,8 +27,10 @@
 // and the session's strokes, arrows and labels, in their owner's colour (monitor strokes only
 // while the monitor shows their slice). On a desktop, hold L: the pointer goes from your hand
 // through the mouse to what the page draws under it (Renderer.pick: the live clouds' splats, an
-// organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go); T pins a
-// typed label under the mouse; Backspace erases your newest annotation. In a headset, the right
+// organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go), Alt+drag an
+// arrow from where the drag began to where it ends; T pins a typed label under the mouse;
+// Backspace erases your newest annotation (on the monitor's picture, they stick to its CT slice).
+// In a headset, the right
 // controller's ray: hold A to point, B to draw, press its thumbstick to erase your newest.
 // AR (immersive-ar, where the device has it: a headset's passthrough at the site): the real room
 // is seen, so the page draws neither the site's clouds nor the virtual room, only the others'
@@ -345,7 +347,7 @@ function addDrawing(s, eye) {
     if (a.kind === 2) labels.push(labelQuad(a, rgb, eye, renderer.label(a.text, rgb).aspect));
   }
   if (aim.stroke && aim.stroke.points.length)
-    prims.push(...annotationPrimitives({kind: 0, points: aim.stroke.points}, mine));
+    prims.push(...annotationPrimitives(drawnAnnotation(aim.stroke), mine));
   s.primitives = prims;
   s.labels = labels;
   return s;
@@ -357,8 +359,9 @@ const aim = {on: false, origin: [0, 0, 0], hit: [0, 0, 0], hasHit: false, stroke
 
 // Aims along the ray through pixel (px, py) of a w x h view drawn through `clipFromRoom`, from
 // `origin` (the hand): the hit is where the ray first meets what the page draws (Renderer.pick).
-// `pointing`: the pointer is held; `drawing`: a stroke is being drawn. Sends the pointer while
-// either is held and once more (put away) when both are let go; a stroke goes out when let go.
+// `pointing`: the pointer is held; `drawing`: a stroke (true or 'stroke') or an arrow ('arrow':
+// from where it began to where it ends) is being drawn. Sends the pointer while either is held
+// and once more (put away) when both are let go; what was drawn goes out when let go.
 function updateAim(pointing, drawing, clipFromRoom, w, h, px, py, origin, s) {
   if (!session.joined) return;
   if (pointing || drawing) {
@@ -381,19 +384,29 @@ function updateAim(pointing, drawing, clipFromRoom, w, h, px, py, origin, s) {
                              sequence: renderer.sequence});
     if (state.drawing.sent.length > 128) state.drawing.sent.shift();
     if (drawing) {
-      aim.stroke = aim.stroke || new StrokeBuilder();
+      aim.stroke = aim.stroke || Object.assign(new StrokeBuilder(), {arrow: drawing === 'arrow'});
       if (hit) aim.stroke.add(aim.hit);
     }
   }
   if (!drawing && aim.stroke) {
-    const points = aim.stroke.points;
+    const a = drawnAnnotation(aim.stroke);
     aim.stroke = null;
-    if (points.length >= 2) {
-      const tag = session.annotate({kind: 0, points, ...anchorOf(points)});
-      state.drawing.drawn.push({tag, kind: 0, points});
+    if (a.points.length >= 2) {
+      const tag = session.annotate({...a, ...anchorOf(a.points)});
+      state.drawing.drawn.push({tag, ...a});
     }
   }
   if (!pointing && !drawing && aim.on) putAway();
+}
+
+// What a StrokeBuilder drew: a stroke of its points, or an arrow from its first to its last
+// (none shorter than 1 cm).
+function drawnAnnotation(b) {
+  const p = b.points;
+  if (!b.arrow) return {kind: 0, points: p};
+  const ends = p.length >= 2 ? [p[0], p[p.length - 1]] : [];
+  const long = ends.length && Math.hypot(...ends[1].map((x, i) => x - ends[0][i])) >= 0.01;
+  return {kind: 1, points: long ? ends : []};
 }
 
 // An annotation drawn on the monitor's picture sticks to the CT slice it shows (anchor 1);
@@ -751,7 +764,8 @@ async function enterXr(mode) {
 
 function setupInput() {
   canvas.addEventListener('mousedown', (e) => {
-    if (e.shiftKey) desktopAim.drawing = true;  // Shift+drag draws instead of turning
+    // Shift+drag draws instead of turning, Alt+drag an arrow.
+    if (e.shiftKey || e.altKey) desktopAim.drawing = e.altKey ? 'arrow' : 'stroke';
     else nav.dragging = true;
   });
   window.addEventListener('mouseup', () => { nav.dragging = desktopAim.drawing = false; });

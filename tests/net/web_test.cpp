@@ -355,8 +355,9 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
 // taken as the site's world frame), shows a native participant's pointer where it points (its
 // dot's colour read back from the picture at the hit's pixel), and the right controller's ray --
 // standing at the hands camera's centre, aimed through a depth pixel of the live cloud -- points
-// (A held) and draws a stroke (B held while it turns) that the native participant receives
-// exactly, each hit on the live cloud's depth in the frame set the page drew then.
+// (A held), draws a stroke (B held while it turns) and pins a preset label (the left thumbstick)
+// that the native participant receives exactly, each hit on the live cloud's depth in the frame
+// set the page drew then.
 TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   SessionHubConfig hub;
   hub.site_translation = {0.4f, 0.2f, -0.3f};
@@ -471,17 +472,23 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
     return std::none_of(ps.begin(), ps.end(),
                         [&](const PointerView& p) { return p.participant == web_id; });
   }));
-  // The stroke drawn while B was held, point for point.
-  ASSERT_EQ(d["drawn"].size(), 1u) << d["drawn"];
+  // The stroke drawn while B was held and the label pinned with the left thumbstick, point for
+  // point.
+  ASSERT_EQ(d["drawn"].size(), 2u) << d["drawn"];
   const nlohmann::json& drawn = d["drawn"][0]["points"];
   EXPECT_GE(drawn.size(), 5u) << "10 steps of a degree (12 mm on the table), points 5 mm apart";
-  ASSERT_TRUE(test::eventually([&] { return !native.now().annotations.empty(); }));
-  const session::Annotation a = native.now().annotations[0];
-  EXPECT_EQ(a.author, web_id);
-  EXPECT_EQ(a.kind, session::AnnotationKind::kStroke);
-  ASSERT_EQ(a.points.size(), drawn.size());
-  for (size_t i = 0; i < a.points.size(); ++i)
-    for (int j = 0; j < 3; ++j) EXPECT_EQ(a.points[i][j], drawn[i][j].get<float>()) << i;
+  ASSERT_TRUE(test::eventually([&] { return native.now().annotations.size() == 2; }));
+  const std::vector<session::Annotation> as = native.now().annotations;
+  EXPECT_EQ(as[0].author, web_id);
+  EXPECT_EQ(as[0].kind, session::AnnotationKind::kStroke);
+  ASSERT_EQ(as[0].points.size(), drawn.size());
+  for (size_t i = 0; i < drawn.size(); ++i)
+    for (int j = 0; j < 3; ++j) EXPECT_EQ(as[0].points[i][j], drawn[i][j].get<float>()) << i;
+  EXPECT_EQ(as[1].kind, session::AnnotationKind::kLabel);
+  EXPECT_EQ(as[1].text, "cut here");
+  ASSERT_EQ(as[1].points.size(), 1u);
+  for (int j = 0; j < 3; ++j)
+    EXPECT_EQ(as[1].points[0][j], d["drawn"][1]["points"][0][j].get<float>());
 }
 
 // The patient case in the browser: the real organs (3D-IRCADb patient 11) and CT (dcmqi) reach the

@@ -31,7 +31,8 @@
 // arrow from where the drag began to where it ends; T pins a typed label under the mouse;
 // Backspace erases your newest annotation (on the monitor's picture, they stick to its CT slice).
 // In a headset, the right
-// controller's ray: hold A to point, B to draw, press its thumbstick to erase your newest.
+// controller's ray: hold A to point, B to draw, press its thumbstick to erase your newest; the
+// left thumbstick pressed pins a preset label there (leaning it picks the text: XR_LABELS).
 // AR (immersive-ar, where the device has it: a headset's passthrough at the site): the real room
 // is seen, so the page draws neither the site's clouds nor the virtual room, only the others'
 // avatars, pointers and annotations and the case's organs; the headset's local-floor frame is
@@ -642,12 +643,28 @@ function teleportTo(hit, yaw) {
 
 // The headset's pointer and drawing (WebXR's xr-standard gamepad): the right controller's ray;
 // A (button 4) held points, B (5) held draws, the thumbstick (3) pressed erases this page's newest
-// annotation; in AR the trigger (0) points too.
+// annotation; in AR the trigger (0) points too. The left thumbstick pressed pins a label where
+// the ray meets a surface, its text chosen by where the stick leans then (XR_LABELS).
 const XR_PICK = M.perspective(60, 1, 0.05, 50);  // a virtual 1001 x 1001 view along the ray
-let eraseButtonDown = false;
+const XR_LABELS = {centre: 'here', up: 'cut here', right: 'careful', down: 'not here', left: 'look'};
+let eraseButtonDown = false, labelButtonDown = false;
+
+// The preset the left thumbstick (axes 2, 3 of xr-standard) leans to.
+function leanedLabel(axes) {
+  const x = axes[2] || 0, y = axes[3] || 0;
+  if (Math.hypot(x, y) < 0.5) return XR_LABELS.centre;
+  if (Math.abs(x) > Math.abs(y)) return x > 0 ? XR_LABELS.right : XR_LABELS.left;
+  return y < 0 ? XR_LABELS.up : XR_LABELS.down;  // pushed forward reads negative
+}
+
 function xrAim(frame, space, playarea, s) {
-  let pointing = false, drawing = false, roomFromRay = null;
+  let pointing = false, drawing = false, roomFromRay = null, label = null;
   for (const source of frame.session.inputSources) {
+    if (source.handedness === 'left' && source.gamepad) {
+      const down = !!source.gamepad.buttons[3]?.pressed;
+      if (down && !labelButtonDown) label = leanedLabel(source.gamepad.axes);
+      labelButtonDown = down;
+    }
     if (source.handedness !== 'right' || !source.gamepad || !source.targetRaySpace) continue;
     const b = source.gamepad.buttons;
     pointing = !!b[4]?.pressed || (xrMode === 'immersive-ar' && !!b[0]?.pressed);
@@ -660,6 +677,14 @@ function xrAim(frame, space, playarea, s) {
   }
   if (!roomFromRay) return updateAim(false, false);
   const clip = M.multiply(XR_PICK, M.invertRigid(roomFromRay));
+  if (label && session.joined) {
+    const hit = renderer.pick(clip, 1001, 1001, 500.5, 500.5, s);
+    if (hit) {
+      const points = [hit.map(Math.fround)];
+      const tag = session.annotate({kind: 2, points, text: label, ...anchorOf(points)});
+      state.drawing.drawn.push({tag, kind: 2, points, text: label});
+    }
+  }
   updateAim(pointing, drawing, clip, 1001, 1001, 500.5, 500.5,
             [roomFromRay[12], roomFromRay[13], roomFromRay[14]], s);
 }

@@ -20,9 +20,9 @@
 // pointers and annotations over the passthrough); once the page has drawn another participant's
 // pointer dot (page.json's drawing.dot), the right controller stands at X,Y,Z (the headset's
 // local-floor frame: the site's world frame) pointing along DX,DY,DZ, holds A for 8 headset
-// frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), and
-// the drive waits for the stroke to come back from the server and the other's pointer to be put
-// away (DIR/ar-pointer.png: the page when it first drew the other's dot).
+// frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), the
+// left thumbstick is pressed leant forward (a 'cut here' label), and the drive waits for both to
+// come back from the server and the other's pointer to be put away (DIR/ar-pointer.png: the page when it first drew the other's dot).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -147,9 +147,18 @@ try {
       await frames_(2);
     }
     await press('b-button', 0);
+    // The left thumbstick leant forward and pressed: a 'cut here' label where the ray points.
+    await page.evaluate(() => {
+      const left = window.iwerDevice.controllers.left;
+      left.updateAxes('thumbstick', 0, -1);
+      left.updateButtonValue('thumbstick', 1);
+    });
+    await frames_(3);
+    await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 0));
     await page.waitForFunction(() => {
       const v = window.volcast;
-      return v.drawing.annotations.some((a) => a.author === v.session.id) && v.drawing.held.length === 0;
+      return v.drawing.annotations.filter((a) => a.author === v.session.id).length === 2 &&
+             v.drawing.held.length === 0;
     }, null, {timeout: 30000});
     s = await state();
   } else if (xr && s.phase !== 'error') {

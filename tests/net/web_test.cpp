@@ -399,8 +399,9 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   const std::string aim = fmt::format("0,0,0,{},{},1", (u0 - k.cx) / k.fx, (v0 - k.cy) / k.fy);
   const auto out = test::temp_dir("web_ar");
   const auto t0 = std::chrono::steady_clock::now();
-  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3",
-                                    out, "--frames 5 --ar " + aim);
+  const nlohmann::json page =
+      drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3&probe=1", out,
+            "--frames 5 --ar " + aim);
   std::printf("the AR drive took %.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   done = true;

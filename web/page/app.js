@@ -14,7 +14,8 @@
 // (listen only), muted=1 (start muted), ptt=1 (push to talk: hold V, or the left controller's X),
 // processing=0 (the microphone without the browser's echo cancellation, noise suppression and
 // gain control: a headset, or a speakerphone that does its own),
-// volume=NAME:GAIN,... (per participant), record=S (keep S seconds of what is played, for tests).
+// volume=NAME:GAIN,... (per participant), record=S (keep S seconds of what is played, for tests),
+// probe=1 (read back, every 5th frame, the colour drawn at another's pointer hit: for tests).
 // Voice (voice.js): M mutes and unmutes (the left controller's Y in a headset); the others'
 // voices play from where they stand; a green box over a head speaks, a red one is muted; the
 // people panel (top right) lists the others with a volume slider each.
@@ -30,9 +31,9 @@
 // organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go), Alt+drag an
 // arrow from where the drag began to where it ends; T pins a typed label under the mouse;
 // Backspace erases your newest annotation (on the monitor's picture, they stick to its CT slice).
-// In a headset, the right
-// controller's ray: hold A to point, B to draw, press its thumbstick to erase your newest; the
-// left thumbstick pressed pins a preset label there (leaning it picks the text: XR_LABELS).
+// In a headset, the right controller's ray: hold A to point, B to draw, press its thumbstick to
+// erase your newest; the left thumbstick pressed pins a preset label there (leaning it picks the
+// text: XR_LABELS).
 // AR (immersive-ar, where the device has it: a headset's passthrough at the site): the real room
 // is seen, so the page draws neither the site's clouds nor the virtual room, only the others'
 // avatars, pointers and annotations and the case's organs; the headset's local-floor frame is
@@ -438,7 +439,9 @@ function eraseNewest() {
 }
 
 // Records where another's pointer dot is drawn in the bound framebuffer: its hit's pixel in
-// `viewport` through `clipFromRoom`, and the colour read back there (for tests and people).
+// `viewport` through `clipFromRoom`, and the colour read back there (probe=1: tests; reading
+// back stalls the GPU's pipeline).
+const PROBE = params.get('probe') === '1';
 function noteDot(clipFromRoom, viewport) {
   for (const [id, p] of session.pointers) {
     if (!p.hasHit) continue;
@@ -514,7 +517,7 @@ function desktopFrame() {
   gl.clearColor(0.08, 0.09, 0.11, 1);
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
   renderer.draw(clipFromRoom, [0, 0, w, h], addDrawing(s, eye));
-  if (state.desktopFrames % 5 === 0) noteDot(clipFromRoom, [0, 0, w, h]);
+  if (PROBE && state.desktopFrames % 5 === 0) noteDot(clipFromRoom, [0, 0, w, h]);
   noteDrawn();
   const head = M.toPose(roomFromHead);
   session.publish({handsTracked: false, head, left: head, right: head});
@@ -760,7 +763,7 @@ async function enterXr(mode) {
                                       M.invertRigid(roomFromView));
       const viewport = [vp.x, vp.y, vp.width, vp.height];
       renderer.draw(clipFromRoom, viewport, s);
-      if (i === 0 && state.xr.frames % 5 === 0) noteDot(clipFromRoom, viewport);
+      if (PROBE && i === 0 && state.xr.frames % 5 === 0) noteDot(clipFromRoom, viewport);
     });
     ++state.xr.frames;
     state.xr.views = pose.views.length;

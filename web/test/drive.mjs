@@ -18,7 +18,7 @@
 // --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
 // --ar X,Y,Z,DX,DY,DZ: IWER's headset enters immersive-ar instead (the page shows the others'
 // pointers and annotations over the passthrough); once the page has drawn another participant's
-// pointer dot (page.json's drawing.dot), the right controller stands at X,Y,Z (the headset's
+// pointer dot (page.json's drawing.dot: the link needs the page's probe=1), the right controller stands at X,Y,Z (the headset's
 // local-floor frame: the site's world frame) pointing along DX,DY,DZ, holds A for 8 headset
 // frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), the
 // left thumbstick is pressed leant forward (a 'cut here' label), and the drive waits for both to

@@ -26,6 +26,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/demo/demo.hpp"
 #include "volcast/io/site_config.hpp"
+#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -58,6 +59,9 @@ fs::path registered_site(const fs::path& data, const fs::path& out) {
   return config;
 }
 
+// Where Dr. Mesh teleports: across the table, between the liver over it and the wall monitor.
+constexpr session::Spot kMeshSpot{0.9f, -1.8f, 1.9f};
+
 // A remote participant's script (play area frame): standing at its spot, looking ahead and a
 // little down, with its head and hands moving; `turn_deg` turns its gaze over the run.
 PoseScript demo_script(float turn_deg, bool teleport) {
@@ -76,44 +80,62 @@ PoseScript demo_script(float turn_deg, bool teleport) {
   }
   s.loop = false;
   // Across the table, between the liver over it and the wall monitor (both in view).
-  if (teleport) s.teleports.push_back({2.0, session::Spot{0.9f, -1.8f, 1.9f}});
+  if (teleport) s.teleports.push_back({2.0, kMeshSpot});
   return s;
 }
 
-// Where Dr. Mesh points and draws: the surface camera 0 sees in the middle of its image (the
-// registered room's table), room frame; and the directions of that camera's image right and up
-// there, so that the drawing faces it (the OR display shows camera 0).
+// Where Dr. Mesh points and draws: a surface camera 0 sees near the middle of its image that Dr.
+// Mesh's right hand (at `hand`, room frame) also sees -- the ray from the hand to it meets nothing
+// of the four cameras' first frames before it -- and the directions of that camera's image right
+// and up there, so that the drawing faces it (the OR display shows camera 0). Room frame, metres.
 struct DrawingSpot {
   Eigen::Vector3f at = Eigen::Vector3f::Zero(), right = Eigen::Vector3f::UnitX(),
                   up = Eigen::Vector3f::UnitY();
 };
 
-DrawingSpot drawing_spot(const SiteCamera& cam, const fs::path& config,
-                         const RigidTransform& room_from_site) {
-  SourceOptions o;
-  if (cam.intrinsics) o.intrinsics = *cam.intrinsics;
-  o.world_from_camera = cam.world_from_camera;
-  auto source = open_source(resolve_site_source(cam.source, config), o);
-  const CameraCalibration c = source->calibration();
-  const CameraFrame f = source->next();
-  // The valid pixel nearest the image's centre.
-  int best_u = -1, best_v = -1;
-  double best = 1e18;
-  for (int v = 0; v < f.depth.height; ++v)
-    for (int u = 0; u < f.depth.width; ++u) {
-      const double d = std::hypot(u - f.depth.width / 2.0, v - f.depth.height / 2.0);
-      if (f.depth.at(u, v) != 0 && d < best) best = d, best_u = u, best_v = v;
-    }
-  DrawingSpot s;
-  const auto xy = best_u < 0 ? std::nullopt
-                             : unproject_pixel(c.depth, {double(best_u), double(best_v)});
-  if (!xy) return s;
-  const double z = f.depth.at(best_u, best_v) / 1000.0;
+DrawingSpot drawing_spot(const std::vector<SiteCamera>& site, const fs::path& config,
+                         const RigidTransform& room_from_site, const Eigen::Vector3f& hand) {
+  std::vector<CameraCalibration> calibrations;
+  std::vector<std::shared_ptr<const CameraFrame>> frames;
+  for (const SiteCamera& cam : site) {
+    SourceOptions o;
+    if (cam.intrinsics) o.intrinsics = *cam.intrinsics;
+    o.world_from_camera = cam.world_from_camera;
+    auto source = open_source(resolve_site_source(cam.source, config), o);
+    calibrations.push_back(source->calibration());
+    frames.push_back(std::make_shared<const CameraFrame>(source->next()));
+  }
+  LiveSurfaces surfaces;
+  surfaces.update(calibrations, frames, room_from_site);
+  const CameraCalibration& c = calibrations.at(0);
+  const DepthImage& d = frames.at(0)->depth;
   const RigidTransform room_from_camera = room_from_site * c.world_from_camera;
-  s.at = (room_from_camera * Eigen::Vector3d(xy->x() * z, xy->y() * z, z)).cast<float>();
+  DrawingSpot s;
   s.right = (room_from_camera.rotation * Eigen::Vector3d::UnitX()).cast<float>();
   s.up = (room_from_camera.rotation * -Eigen::Vector3d::UnitY()).cast<float>();
-  return s;
+  // Candidates every 8 pixels, nearest the image's centre first.
+  std::vector<std::pair<double, Eigen::Vector2i>> candidates;
+  for (int v = 0; v < d.height; v += 8)
+    for (int u = 0; u < d.width; u += 8)
+      if (d.at(u, v) != 0)
+        candidates.push_back({std::hypot(u - d.width / 2.0, v - d.height / 2.0), {u, v}});
+  std::sort(candidates.begin(), candidates.end(),
+            [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (const auto& [distance, uv] : candidates) {
+    const auto xy = unproject_pixel(c.depth, uv.cast<double>());
+    if (!xy) continue;
+    const double z = d.at(uv.x(), uv.y()) / 1000.0;
+    const Eigen::Vector3f p =
+        (room_from_camera * Eigen::Vector3d(xy->x() * z, xy->y() * z, z)).cast<float>();
+    const auto met = surfaces.hit(hand, p - hand);
+    if (met && (*met - p).norm() < 0.03f) {
+      s.at = p;
+      spdlog::info("demo: Dr. Mesh draws at camera 0's pixel ({}, {}), {:.2f} m from its hand",
+                   uv.x(), uv.y(), (p - hand).norm());
+      return s;
+    }
+  }
+  throw Error("demo: no surface near camera 0's image centre is in view of Dr. Mesh's hand");
 }
 
 // Dr. Mesh's pointing and drawing at `spot`: the pointer on it, a circle drawn around it, an
@@ -371,8 +393,10 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   }
   RigidTransform room_from_site;
   room_from_site.translation = hub_config.site_translation.cast<double>();
-  const DrawingSpot spot =
-      drawing_spot(read_site_config(config).front(), config, room_from_site);
+  // Dr. Mesh's right hand once it has teleported (demo_script's spot; its keys' right hand).
+  const Eigen::Vector3f hand =
+      (session::room_from_playarea(kMeshSpot) * Eigen::Vector3d(0.25, 1.1, -0.35)).cast<float>();
+  const DrawingSpot spot = drawing_spot(read_site_config(config), config, room_from_site, hand);
   std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link, talk, spot);
   people.push_back(demo_or_display(a, out, link, people.front()->opt.seconds));
   std::vector<std::thread> threads;

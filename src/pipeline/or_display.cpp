@@ -78,6 +78,27 @@ void OrDisplay::draw(const RenderTarget& target, const CameraCalibration& camera
   if (!r.scene.empty()) r.primitives.draw(view, target, r.scene);
 }
 
+int upright_quarter_turns(const RigidTransform& room_from_camera) {
+  // The room's up as the image shows it: (u, v) of a step up, v pointing down the image.
+  const Eigen::Vector3d up = room_from_camera.rotation.transpose() * Eigen::Vector3d::UnitY();
+  if (std::abs(up.x()) > std::abs(up.y())) return up.x() > 0 ? 1 : 3;
+  return up.y() > 0 ? 2 : 0;
+}
+
+ColorImage turned(const ColorImage& image, int quarter_turns) {
+  const int k = ((quarter_turns % 4) + 4) % 4;
+  if (k == 0) return image;
+  const int w = image.width, h = image.height;
+  ColorImage out(k == 2 ? w : h, k == 2 ? h : w);
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      const int sx = k == 1 ? w - 1 - y : k == 2 ? w - 1 - x : y;
+      const int sy = k == 1 ? x : k == 2 ? h - 1 - y : h - 1 - x;
+      std::copy_n(image.pixel(sx, sy), 4, out.pixel(x, y));
+    }
+  return out;
+}
+
 Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,
                                std::function<Participant*()> participant, double fps) {
   return [opt, camera, participant, fps](FrameFeed& feed, ViewerResult& result) {
@@ -110,7 +131,8 @@ Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,
     if (!opt.screenshot.empty() && drawn) {
       ColorImage image;
       target.read_image(image);
-      write_color_png(opt.screenshot, image);
+      write_color_png(opt.screenshot,
+                      turned(image, upright_quarter_turns(display.room_camera().world_from_camera)));
       spdlog::info("wrote {} (the OR display of camera {})", opt.screenshot.string(), camera);
     }
   };

@@ -349,5 +349,31 @@ TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneB
   EXPECT_EQ(shown_behind, 0);
 }
 
+// A camera mounted on its side: the wall display turns its picture so that the room's up is up
+// (synthetic: a 3x2 image whose pixel values say where they were).
+TEST(OrDisplay, ACameraOnItsSideIsShownUpright) {
+  ColorImage image(3, 2);
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x) image.pixel(x, y)[0] = static_cast<uint8_t>(10 * y + x);
+  const ColorImage left = turned(image, 1);  // counter-clockwise: the right column on top
+  ASSERT_EQ(left.width, 2);
+  ASSERT_EQ(left.height, 3);
+  EXPECT_EQ(left.pixel(0, 0)[0], 2);
+  EXPECT_EQ(left.pixel(1, 0)[0], 12);
+  EXPECT_EQ(left.pixel(0, 2)[0], 0);
+  EXPECT_EQ(turned(left, -1), image);
+  EXPECT_EQ(turned(turned(image, 2), 2), image);
+  // Camera frame: x right, y down, z forward. Level (y down = room down): no turn. Rolled so
+  // that the image's right is the room's up: one turn counter-clockwise.
+  RigidTransform level;
+  level.rotation << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  EXPECT_EQ(upright_quarter_turns(level), 0);
+  RigidTransform rolled = level;
+  rolled.rotation = level.rotation * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Eigen::Vector3d up_in_image = rolled.rotation.transpose() * Eigen::Vector3d::UnitY();
+  EXPECT_EQ(upright_quarter_turns(rolled), up_in_image.x() > 0 ? 1 : 3);
+  EXPECT_GT(std::abs(up_in_image.x()), 0.99);
+}
+
 }  // namespace
 }  // namespace volcast

@@ -52,9 +52,15 @@ class OrDisplay {
   std::unique_ptr<Impl> impl_;
 };
 
+/// How many quarter turns counter-clockwise show the picture of a camera at `room_from_camera`
+/// with the room's up (+y) upwards (0..3: a camera mounted on its side gives 1 or 3).
+int upright_quarter_turns(const RigidTransform& room_from_camera);
+/// `image` turned `quarter_turns` quarter turns counter-clockwise (negative: clockwise).
+ColorImage turned(const ColorImage& image, int quarter_turns);
+
 /// The headless presenter of an OR display: an EGL target of the camera's size drawing the OR
 /// display of site camera `camera` (an index into the Welcome's cameras) about `fps` times a
-/// second, and writing options.screenshot at the end. `participant` returns the OR display's
+/// second, and writing options.screenshot at the end, turned upright (upright_quarter_turns). `participant` returns the OR display's
 /// participant once joined (null before). Throws Error (from the render thread) if the site has
 /// no camera `camera`.
 Presenter or_display_presenter(const ViewerOptions& options, size_t camera,

@@ -29,7 +29,7 @@
 // while the monitor shows their slice). On a desktop, hold L: the pointer goes from your hand
 // through the mouse to what the page draws under it (Renderer.pick: the live clouds' splats, an
 // organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go), Alt+drag an
-// arrow from where the drag began to where it ends; T pins a typed label under the mouse;
+// arrow from where the drag began to where it ends; N pins a typed label under the mouse;
 // Backspace erases your newest annotation (on the monitor's picture, they stick to its CT slice).
 // In a headset, the right controller's ray: hold A to point, B to draw, press its thumbstick to
 // erase your newest; the left thumbstick pressed pins a preset label there (leaning it picks the
@@ -816,7 +816,7 @@ function setupInput() {
     if (monitorKey(key)) return;
     if (key === 'l') return void (desktopAim.key = true);
     if (key === 'backspace' || key === 'delete') return eraseNewest();
-    if (key === 't') return typeLabel();
+    if (key === 'n') return typeLabel();
     if (voice && key === 'm') return voice.setMuted(!voice.muted);
     if (voice && key === 'v') return voice.setTalking(true);
     if (!nav.keys.has(key)) nav.keys.set(key, performance.now());

@@ -60,22 +60,23 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
   // The pointer comes from where a right hand would hold it: 20 cm right of the eye, 25 cm down.
   const RigidTransform& eye = view.world_from_view;
   state.origin = (eye * Eigen::Vector3d(0.2, -0.25, 0)).cast<float>();
-  state.hit = state.laser ? depth_under(view, target, x, y) : std::nullopt;
+  const bool aiming = state.laser || state.dragging || state.pin_label;
+  state.hit = aiming ? depth_under(view, target, x, y) : std::nullopt;
   const bool was_on = snapshot.pointers.end() !=
                       std::find_if(snapshot.pointers.begin(), snapshot.pointers.end(),
                                    [&](const PointerView& p) { return p.participant == snapshot.id; });
-  if (state.laser) {
+  if (state.laser || state.dragging) {
     const Eigen::Vector3f through = state.hit.value_or(ahead_of(view, target, x, y));
     participant.point(true, state.origin, state.hit.has_value(), through);
   } else if (was_on) {
     participant.point(false, state.origin, false, state.origin + Eigen::Vector3f(0, 0, -1));
   }
   // A stroke: the dots while the left button is held, a new one 3 mm or more from the last.
-  if (state.drawing && state.laser && state.hit &&
+  if (state.drawing && state.hit &&
       (state.stroke.empty() || (*state.hit - state.stroke.back()).norm() >= 0.003f) &&
       state.stroke.size() < session::kMaxStrokePoints)
     state.stroke.push_back(*state.hit);
-  if ((!state.drawing || !state.laser) && !state.stroke.empty()) {
+  if (!state.drawing && !state.stroke.empty()) {
     if (state.stroke.size() >= 2) {
       session::Annotation a;
       a.kind = session::AnnotationKind::kStroke;
@@ -85,8 +86,8 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
     state.stroke.clear();
   }
   // An arrow: from where the right button went down to where it came up.
-  if (state.arrow && state.laser && state.hit && !state.arrow_tail) state.arrow_tail = state.hit;
-  if ((!state.arrow || !state.laser) && state.arrow_tail) {
+  if (state.arrow && state.hit && !state.arrow_tail) state.arrow_tail = state.hit;
+  if (!state.arrow && state.arrow_tail) {
     if (state.hit && (*state.hit - *state.arrow_tail).norm() > 0.01f) {
       session::Annotation a;
       a.kind = session::AnnotationKind::kArrow;
@@ -104,11 +105,11 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
       a.text = state.label;
       send(participant, state, std::move(a));
     } else {
-      state.status = "N pins the label where the pointer's dot is: hold L over a surface";
+      state.status = "N pins the label on the surface under the mouse: there is none there";
     }
   }
   std::vector<Primitive> out;
-  if (state.laser) {
+  if (state.laser || state.dragging) {
     const Eigen::Vector3f through = state.hit.value_or(ahead_of(view, target, x, y));
     out = pointer_primitives(state.origin, state.hit.has_value(), through, rgb,
                              eye.translation.cast<float>());
@@ -143,8 +144,8 @@ void draw_annotation_panel(PointingState& state, Participant& participant,
                            const SessionSnapshot& snapshot) {
   if (!ImGui::CollapsingHeader("Pointer and annotations", ImGuiTreeNodeFlags_DefaultOpen)) return;
   ImGui::TextWrapped(
-      "Hold L: your laser pointer. With L held: drag (left button) to draw, drag (right button) "
-      "for an arrow, N pins the label. Backspace erases your last.");
+      "Hold L: your laser pointer. Shift+drag (or L + drag) draws, Alt+drag (or L + right drag) "
+      "an arrow, N pins the label under the mouse, Backspace erases your last.");
   ImGui::InputText("label", state.label, sizeof state.label);
   if (!state.status.empty()) ImGui::TextColored(ImVec4(1, 0.5f, 0.3f, 1), "%s", state.status.c_str());
   for (const session::Annotation& a : snapshot.annotations) {

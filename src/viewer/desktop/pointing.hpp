@@ -1,9 +1,10 @@
 #pragma once
 // The desktop participant's laser pointer and drawing (internal to volcast_viewer_desktop; issue
 // 36): hold L and the pointer follows the mouse, its dot where the mouse's ray meets what the
-// window drew (the depth buffer under the mouse: the live clouds, organs, monitor, room); with L
-// held, drag with the left button to draw a stroke, drag with the right button for an arrow, press
-// N to pin the panel's label text; Backspace erases your last annotation. The panel's annotations
+// window drew (the depth buffer under the mouse: the live clouds, organs, monitor, room); drag
+// with the left button while holding L or Shift to draw a stroke, with the right button (L held)
+// or Alt + left for an arrow; N pins the panel's label text where the mouse points; Backspace
+// erases your last annotation. The same keys as the browser page's. The panel's annotations
 // section lists the session's annotations with an erase button each, and the label text.
 #include <optional>
 #include <string>
@@ -18,6 +19,7 @@ namespace volcast {
 
 struct PointingState {
   bool laser = false;                         ///< L held
+  bool dragging = false;                      ///< a drawing drag (L, Shift or Alt) goes on
   bool drawing = false;                       ///< left button held with L: a stroke
   bool arrow = false;                         ///< right button held with L: an arrow
   bool pin_label = false;                     ///< N pressed: pin the label at the dot

@@ -137,12 +137,18 @@ void on_key(GLFWwindow* window, int key, int scancode, int action, int mods) {
   handle_key(input_of(window), key, action, mods);
 }
 
-// A mouse button pressed (`press`, not over the panel) or let go, from GLFW or a test's script.
-void mouse_button(Input& in, int button, bool press) {
+// A mouse button pressed (`press`, not over the panel) or let go, with modifier bits `mods`,
+// from GLFW or a test's script. With L held, or Shift or Alt, it draws instead of navigating (as
+// the browser page does): left drag a stroke (Alt: an arrow), right drag an arrow.
+void mouse_button(Input& in, int button, bool press, int mods) {
   in.redraw = kRedrawFrames;
-  if (in.pointing && (in.pointing->laser || !press)) {  // with L held: drawing, not navigating
-    if (button == GLFW_MOUSE_BUTTON_LEFT) in.pointing->drawing = press;
-    if (button == GLFW_MOUSE_BUTTON_RIGHT) in.pointing->arrow = press;
+  const bool shift = mods & GLFW_MOD_SHIFT, alt = mods & GLFW_MOD_ALT;
+  if (in.pointing && (in.pointing->laser || shift || alt || !press)) {
+    if (in.pointing->laser || shift || alt) in.pointing->dragging = press;
+    if (button == GLFW_MOUSE_BUTTON_LEFT && !alt) in.pointing->drawing = press;
+    if (button == GLFW_MOUSE_BUTTON_RIGHT || (button == GLFW_MOUSE_BUTTON_LEFT && alt))
+      in.pointing->arrow = press;
+    if (!press) in.pointing->drawing = in.pointing->arrow = in.pointing->dragging = false;
     if (press) return;
   }
   if (press && button == GLFW_MOUSE_BUTTON_LEFT && in.session && in.session->teleport_mode) {
@@ -157,7 +163,7 @@ void on_mouse_button(GLFWwindow* window, int button, int action, int mods) {
   ImGui_ImplGlfw_MouseButtonCallback(window, button, action, mods);
   Input& in = input_of(window);
   glfwGetCursorPos(window, &in.mouse_x, &in.mouse_y);
-  mouse_button(in, button, action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse);
+  mouse_button(in, button, action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse, mods);
 }
 
 void on_cursor(GLFWwindow* window, double x, double y) {
@@ -376,7 +382,7 @@ void play_script(Script& script, const std::vector<ScriptedClick>& clicks,
     const ScriptedMouse& m = mouse[script.next_mouse];
     input.mouse_x = m.x;
     input.mouse_y = m.y;
-    if (m.button >= 0) mouse_button(input, m.button, !m.release);
+    if (m.button >= 0) mouse_button(input, m.button, !m.release, m.mods);
   }
 }
 

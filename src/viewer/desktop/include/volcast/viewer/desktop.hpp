@@ -65,6 +65,7 @@ struct ScriptedMouse {
   double x = 0, y = 0;
   int button = -1;
   bool release = false;
+  int mods = 0;  ///< GLFW modifier bits held (GLFW_MOD_SHIFT 1, GLFW_MOD_ALT 4)
 };
 
 struct DesktopOptions {

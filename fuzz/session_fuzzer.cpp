@@ -1,5 +1,5 @@
 // libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp,
-// voice_messages.hpp), the pose script parser and the name check (names.hpp, ICU) on arbitrary
+// voice_messages.hpp, annotations.hpp), the pose script parser and the name check (names.hpp, ICU) on arbitrary
 // bytes. The first byte picks the parser; a parser may throw Error, nothing else (no crash, no read
 // past the input, no unbounded allocation).
 #include <cstdint>
@@ -7,6 +7,7 @@
 #include <string>
 
 #include "volcast/core/error.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/names.hpp"
 #include "volcast/session/objects.hpp"
@@ -21,7 +22,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   camera.depth.width = 640;
   camera.depth.height = 360;
   try {
-    switch (data[0] % 20) {
+    switch (data[0] % 23) {
       case 0:
         session::parse_join(p);
         break;
@@ -91,6 +92,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       case 19:
         session::parse_voice(p);
         session::parse_voice_state(p);
+        break;
+      case 20:
+        session::parse_pointer(p);
+        break;
+      case 21: {  // an annotation as the server sends it; a label's text as the hub checks it
+        const session::Annotation a = session::parse_annotation(p);
+        if (a.kind == session::AnnotationKind::kLabel) session::check_label_text(a.text);
+        break;
+      }
+      case 22:
+        session::parse_annotate(p);
+        session::parse_erase(p);
+        session::parse_erased(p);
         break;
     }
   } catch (const Error&) {

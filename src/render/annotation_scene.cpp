@@ -37,6 +37,13 @@ Eigen::Vector4f opaque(const Eigen::Vector3f& rgb) {
 
 }  // namespace
 
+Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye) {
+  const Eigen::Vector3f to_eye = eye - p;
+  const float d = to_eye.norm();
+  if (d < 1e-4f) return p;
+  return p + to_eye / d * std::min(0.02f + 0.01f * d, 0.5f * d);
+}
+
 Eigen::Vector3f participant_color(uint32_t id) {
   static const Eigen::Vector3f palette[] = {{0.95f, 0.55f, 0.2f}, {0.3f, 0.7f, 0.95f},
                                             {0.6f, 0.85f, 0.3f},  {0.9f, 0.35f, 0.6f},
@@ -52,13 +59,12 @@ std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool ha
   const Eigen::Vector3f dir = ray.normalized();
   const Eigen::Vector4f beam{rgb.x(), rgb.y(), rgb.z(), 0.6f};
   if (!has_hit) return {tube(origin, origin + 3 * dir, 0.005f, beam)};
-  constexpr float kDot = 0.03f, kThick = 0.004f, kLift = 0.015f;
+  constexpr float kDot = 0.03f, kThick = 0.004f;
   std::vector<Primitive> out{tube(origin, hit, 0.005f, beam)};
   // On the line from the eye to the hit: it projects where the hit does, in front of the surface.
   const Eigen::Vector3f to_eye = eye - hit;
-  const float lift = std::min(kLift, 0.5f * to_eye.norm());
   const Eigen::Vector3f facing = to_eye.norm() > 1e-4f ? to_eye.normalized() : -dir;
-  const Eigen::Vector3f centre = hit + facing * lift;
+  const Eigen::Vector3f centre = toward_eye(hit, eye);
   Primitive dot = ball(centre, 1, opaque(rgb));
   dot.world_from_shape = (Eigen::Translation3f(centre) *
                           Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), facing) *

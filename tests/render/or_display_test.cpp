@@ -326,24 +326,42 @@ TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneB
   draw(in_front);
   snapshot.annotations = {stroke_at(p + ray * 0.20)};  // 20 cm behind it
   draw(behind);
+  ColorImage on_surface;  // drawn on the surface itself, as a pointer's hits are: not buried
+  snapshot.annotations = {stroke_at(p)};
+  draw(on_surface);
+  // The same with no live depth at all (nothing hides it), and its backdrop: its whole size.
+  CameraFrame no_depth = frame;
+  std::fill(no_depth.depth.pixels.begin(), no_depth.depth.pixels.end(), uint16_t{0});
+  ColorImage free_backdrop, free_stroke;
+  snapshot.annotations.clear();
+  display.draw(target.target(), camera, no_depth, snapshot, 0);
+  target.read_image(free_backdrop);
+  snapshot.annotations = {stroke_at(p)};
+  display.draw(target.target(), camera, no_depth, snapshot, 0);
+  target.read_image(free_stroke);
   const std::filesystem::path dir = test::temp_dir("or_display");
   write_color_png(dir / "or_display_stroke.png", in_front);
   std::printf("picture: %s\n", (dir / "or_display_stroke.png").c_str());
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-  int stroke = 0, shown_behind = 0;
+  int stroke = 0, shown_behind = 0, shown_on = 0, whole = 0;
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x) {
       if (!same_pixel(in_front, before, x, y)) sum += Eigen::Vector2d(x, y), ++stroke;
       shown_behind += !same_pixel(behind, before, x, y);
+      shown_on += !same_pixel(on_surface, before, x, y);
+      whole += !same_pixel(free_stroke, free_backdrop, x, y);
     }
+  EXPECT_GT(shown_on, whole * 9 / 10) << "a stroke on the surface shows (nearly) whole";
   ASSERT_GT(stroke, 100);
   const Intrinsics& k = c.calibration.depth;
   const Eigen::Vector3d q_camera = c.calibration.world_from_camera.inverse() * q;
   const Eigen::Vector2d expected(k.fx * q_camera.x() / q_camera.z() + k.cx,
                                  k.fy * q_camera.y() / q_camera.z() + k.cy);
   const Eigen::Vector2d centre = sum / stroke;
-  std::printf("stroke: %d px, centre %.2f px from the point's projection; behind: %d px shown\n",
-              stroke, (centre - expected).norm(), shown_behind);
+  std::printf(
+      "stroke: %d px, centre %.2f px from the point's projection; behind: %d px shown; on the "
+      "surface: %d px shown of %d\n",
+      stroke, (centre - expected).norm(), shown_behind, shown_on, whole);
   EXPECT_LT((centre - expected).norm(), 2.0)
       << centre.transpose() << " vs " << expected.transpose();
   EXPECT_EQ(shown_behind, 0);

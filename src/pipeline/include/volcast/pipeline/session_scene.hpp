@@ -59,7 +59,8 @@ AvatarFilter remote_avatar_filter(const RemoteParticipant& other, float radius_m
 AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
 
 /// The session's pointers and annotations as the snapshot has them (annotation_scene.hpp, each in
-/// its owner's colour; pointer dots facing `eye`, room frame), added to `out`; an annotation on
+/// its owner's colour; pointer dots facing `eye`, room frame; every mark lifted towards `eye` out
+/// of the surface it was drawn on: toward_eye), added to `out`; an annotation on
 /// the monitor only while it shows the CT slice (and case) it was drawn on.
 /// `own_pointer` false leaves out this participant's own pointer.
 void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,

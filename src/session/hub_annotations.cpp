@@ -125,3 +125,72 @@ void SessionHub::handle_drawing(Member& m, Type type, std::span<const uint8_t> p
 }
 
 }  // namespace volcast
+
+namespace volcast {
+
+bool SessionHub::recorded_drawing(uint8_t type, std::span<const uint8_t> payload, uint32_t as) {
+  using session::Annotation;
+  Annotation a;
+  uint32_t recorded = 0;
+  try {
+    if (static_cast<Type>(type) == Type::kAnnotation) {
+      a = session::parse_annotation(payload);
+      recorded = a.id;
+      if (a.kind == session::AnnotationKind::kLabel) a.text = session::check_label_text(a.text);
+    } else if (static_cast<Type>(type) == Type::kErased) {
+      recorded = session::parse_erased(payload).first;
+    } else {
+      return false;
+    }
+  } catch (const Error& e) {
+    spdlog::warn("replay: a recorded annotation is not shown: {}", e.what());
+    return false;
+  }
+  if (recorded == 0) return false;
+  std::lock_guard lock(mutex_);
+  if (static_cast<Type>(type) == Type::kAnnotation && a.anchor == AnnotationAnchor::kMonitor) {
+    if (!case_ || !case_->monitor || a.slice >= case_->monitor->slices) return false;
+    a.generation = case_generation_;
+  }
+  const auto erase = [&](Session& s) {
+    for (auto it = s.annotations.begin(); it != s.annotations.end(); ++it)
+      if (it->second.recorded == recorded) {
+        const uint32_t id = it->first;
+        s.annotation_points -= it->second.annotation.points.size();
+        s.annotations.erase(it);
+        ++stats_.erases;
+        const Shared msg =
+            share(session::message(Type::kErased, session::serialize_erased(id, as)));
+        for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg);
+        return true;
+      }
+    return false;
+  };
+  bool changed = false;
+  for (auto& [sid, sp] : sessions_) {
+    Session& s = *sp;
+    if (static_cast<Type>(type) == Type::kErased) {
+      changed = erase(s) || changed;
+      continue;
+    }
+    erase(s);  // the same recorded annotation again (a looping replay): the new one replaces it
+    if (s.annotations.size() >= session::kMaxSessionAnnotations ||
+        s.annotation_points + a.points.size() > session::kMaxSessionAnnotationPoints) {
+      ++stats_.annotations_refused;
+      continue;
+    }
+    Annotation mine = a;
+    mine.id = s.next_annotation++;
+    mine.author = as;
+    mine.time_us = wall_clock_us();
+    const Shared msg = share(session::message(Type::kAnnotation, session::serialize(mine)));
+    s.annotation_points += mine.points.size();
+    s.annotations.emplace(mine.id, Session::Drawn{mine, msg, recorded});
+    ++stats_.annotations;
+    for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg);
+    changed = true;
+  }
+  return changed;
+}
+
+}  // namespace volcast

@@ -77,7 +77,8 @@ struct SessionHub::Session {
   std::optional<session::MonitorState> monitor;         // when the case has a series
   struct Drawn {
     session::Annotation annotation;
-    Shared message;  // its 0x51, for those who join later
+    Shared message;         // its 0x51, for those who join later
+    uint32_t recorded = 0;  // a replay's (recorded_drawing): its id in the recording; 0: live
   };
   std::map<uint32_t, Drawn> annotations;  // by id (annotations.hpp), in the order drawn
   size_t annotation_points = 0;           // theirs together (kMaxSessionAnnotationPoints)

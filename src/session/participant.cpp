@@ -58,6 +58,11 @@ void Participant::set_voice_handler(VoiceHandler handler) {
   impl_->voice_handler = std::move(handler);
 }
 
+void Participant::set_drawing_handler(DrawingHandler handler) {
+  std::lock_guard lock(impl_->voice_mutex);
+  impl_->drawing_handler = std::move(handler);
+}
+
 void Participant::publish(const BodyPose& playarea_pose) {
   Impl& m = *impl_;
   session::PoseMessage msg;

@@ -103,8 +103,9 @@ struct Participant::Impl {
   uint64_t poses_sent = 0, avatar_frames_sent = 0;
   std::atomic<uint64_t> voice_sent{0};
   std::shared_ptr<const CameraFrame> own;
-  std::mutex voice_mutex;  // the handler (taken on the receiving thread without `mutex`)
+  std::mutex voice_mutex;  // the handlers (taken on the receiving thread without `mutex`)
   VoiceHandler voice_handler;
+  DrawingHandler drawing_handler;
 
   struct Remote {
     RemoteParticipant info;
@@ -166,6 +167,7 @@ struct Participant::Impl {
   void on_pointer(std::span<const uint8_t> p, int64_t now_server);
   // A voice packet: parsed and handed to the handler before taking `mutex`.
   void handle_voice(std::span<const uint8_t> p);
+  void handle_drawing(Type type, std::span<const uint8_t> p);
 
   // A move or release of `object` at `pose` (shown here at once), coalesced per object.
   void post_object(Type type, uint16_t object, const Pose& pose) {

@@ -33,9 +33,25 @@ void Participant::Impl::handle_voice(std::span<const uint8_t> p) {
   if (voice_handler) voice_handler(from, packet);
 }
 
+void Participant::Impl::handle_drawing(Type type, std::span<const uint8_t> p) {
+  if (type == Type::kAnnotation) {
+    session::Annotation a = session::parse_annotation(p);
+    std::lock_guard lock(mutex);
+    annotations[a.id] = std::move(a);
+  } else {
+    const uint32_t id = session::parse_erased(p).first;
+    std::lock_guard lock(mutex);
+    annotations.erase(id);
+  }
+  std::lock_guard lock(voice_mutex);
+  if (drawing_handler) drawing_handler(static_cast<uint8_t>(type), p);
+}
+
 void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
   if (static_cast<Type>(type) == Type::kCase) return handle_case(p);
   if (static_cast<Type>(type) == Type::kVoiceFrom) return handle_voice(p);
+  if (static_cast<Type>(type) == Type::kAnnotation || static_cast<Type>(type) == Type::kErased)
+    return handle_drawing(static_cast<Type>(type), p);
   const int64_t now_server = server_now();
   std::lock_guard lock(mutex);
   switch (static_cast<Type>(type)) {
@@ -87,14 +103,9 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
     }
     case Type::kPointerFrom:
       return on_pointer(p, now_server);
-    case Type::kAnnotation: {
-      session::Annotation a = session::parse_annotation(p);
-      annotations[a.id] = std::move(a);
-      return;
-    }
+    case Type::kAnnotation:
     case Type::kErased:
-      annotations.erase(session::parse_erased(p).first);
-      return;
+      return;  // handled before the lock (handle_drawing)
     default:
       throw Error("the server sent session message type " + std::to_string(type) +
                   ", which a participant does not take");

@@ -175,6 +175,22 @@ class SessionHub final : public SessionPort {
   /// nothing sent, if `speaker` is not an id add_recorded_speaker returned. Thread-safe; never
   /// blocks on the network.
   bool recorded_voice(uint32_t speaker, const session::VoicePacketView& packet);
+  /// A replay's drawing (pipeline/replay.hpp): one recorded annotation message, `type` 0x51 or
+  /// 0x52 with its `payload` as the recording holds it (annotations.hpp), applied to every
+  /// session now. 0x51 adds the annotation to each session as if `as` had drawn it now: numbered
+  /// as that session numbers its own (the recorded id is kept only to find it again), author
+  /// `as` (the recorded speaker add_recorded_speaker made for its recorded author; 0, as for the
+  /// server, where the recording does not name its author), time this server's clock now; its
+  /// label text checked as a live one's; a monitor annotation is put on the current case's
+  /// monitor if that has its slice (else refused: the recorded case's generation means nothing
+  /// here). A session at its limits (kMaxSessionAnnotations, kMaxSessionAnnotationPoints) does not
+  /// take it. The same recorded id added again (a looping replay) replaces the one still shown.
+  /// 0x52 erases, in every session, the annotation its recorded id added there, as erased by
+  /// `as` (0x52's by). Everyone in a session is sent what changed in it (0x51, 0x52), as for live
+  /// drawing; those who join later get the annotations standing. Sessions made later do not get
+  /// what was added before them. Returns whether any session changed: false for a malformed or
+  /// refused message (never throws), or nothing to erase. Thread-safe; never blocks on the network.
+  bool recorded_drawing(uint8_t type, std::span<const uint8_t> payload, uint32_t as);
 
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;

@@ -198,6 +198,15 @@ class Participant {
   using VoiceHandler =
       std::function<void(uint32_t participant, const session::VoicePacketView& packet)>;
   void set_voice_handler(VoiceHandler handler);
+  /// Called with every drawing message received -- `type` 0x51 Annotation or 0x52 Erased
+  /// (annotations.hpp), its `payload` exactly as the server sent it (after the header), valid
+  /// during the call -- on the client's receiving thread, after snapshot()'s annotations took it
+  /// (a malformed one drops the connection first and is never passed on). The annotations the
+  /// session holds when this participant joins arrive so too, as the server sends them on
+  /// joining. It must only queue them (`volcast record --session` records them). Null: not
+  /// called. Set it before receiving starts or from that thread.
+  using DrawingHandler = std::function<void(uint8_t type, std::span<const uint8_t> payload)>;
+  void set_drawing_handler(DrawingHandler handler);
   /// Sends a Heartbeat (presence while no pose is published).
   void heartbeat();
   void list_sessions();

@@ -1,9 +1,10 @@
 // libFuzzer target: the recording reader and decoder (volcast/record) on hostile files. The first
 // byte picks how the input becomes a file: 0 the input itself; 1 a valid recording (raw depth,
-// 8x4, 5 frame sets) with the input's (offset, xor) patches and a cut; 2 the same with every
-// record's CRCs made right again, so that the parsers behind them see the damage. Opening,
-// verifying, reading and decoding may throw Error, nothing else (no crash, no read past the file,
-// no allocation the file's size does not bound).
+// 8x4, 5 frame sets, a speaker, a voice, and drawing: a stroke, a label and an erasure) with the
+// input's (offset, xor) patches and a cut; 2 the same with every record's CRCs made right again, so
+// that the parsers behind them see the damage. Opening, verifying, reading and decoding may throw
+// Error, nothing else (no crash, no read past the file, no allocation the file's size does not
+// bound).
 #include <sys/mman.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/record/decode.hpp"
 #include "volcast/record/recording.hpp"
+#include "volcast/session/annotations.hpp"
 
 namespace {
 
@@ -50,6 +52,22 @@ Template make_template() {
       protocol::serialize_frame_set_body(k + 1, true, {k * 33333, 0, 0, 0}, std::span(&cam, 1),
                                          body);
       w.append(body);
+      if (k == 1) {
+        w.append_speaker(5, "Dr. Fuzz", 0);
+        const uint8_t opus[3] = {1, 2, 3};
+        w.append_voice(5, 1, 1, 40000, opus);
+        session::Annotation a;
+        a.id = 1;
+        a.author = 5;
+        a.points = {{0.f, 1.f, 0.f}, {0.1f, 1.f, 0.f}, {0.2f, 1.1f, 0.f}};
+        w.append_drawing(kDrawingAnnotation, 40000, session::serialize(a));
+        a.id = 2;
+        a.kind = session::AnnotationKind::kLabel;
+        a.points.resize(1);
+        a.text = "here";
+        w.append_drawing(kDrawingAnnotation, 45000, session::serialize(a));
+      }
+      if (k == 3) w.append_drawing(kDrawingErased, 110000, session::serialize_erased(1, 5));
     }
   }
   Template t;
@@ -111,6 +129,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     try {
       reader.verify();
     } catch (const Error&) {
+    }
+    std::vector<uint8_t> payload;
+    for (const RecordedDrawing& d : reader.info().drawings) {
+      try {
+        reader.read_drawing(d, payload);
+      } catch (const Error&) {
+      }
     }
     RecordingDecoder decoder(reader);
     FrameSet frames;

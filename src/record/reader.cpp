@@ -27,9 +27,9 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) : path_(path
     if (!std::equal(detail::kRecordingMagic.begin(), detail::kRecordingMagic.end(), fh.begin()))
       throw Error(where + ": not a Volcast recording (no VCRECORD magic at offset 0)");
     const auto version = wire::load<uint16_t>(fh.data() + 8);
-    if (version != 1 && version != kRecordingVersion)
+    if (version < 1 || version > kRecordingVersion)
       throw Error(where + ": format version " + std::to_string(version) +
-                  ", this build reads 1 and " + std::to_string(kRecordingVersion));
+                  ", this build reads 1 to " + std::to_string(kRecordingVersion));
     if (fh != detail::file_header(version))
       throw Error(where + ": corrupt file header at offset 0 (fails its CRC)");
     info_.version = version;
@@ -135,14 +135,16 @@ void RecordingReader::scan() {
       throw Error(where + ": corrupt record header at offset " + std::to_string(at));
     }
     const uint64_t next = at + kRecordHeaderBytes + h.payload_bytes;
-    const bool voices = info_.version >= 2;
+    const bool voices = info_.version >= 2, drawings = info_.version >= 3;
     const bool voice = h.type == RecordType::kVoice, speaker = h.type == RecordType::kSpeaker;
+    const bool drawing = h.type == RecordType::kDrawing;
     if (h.type != RecordType::kFrameSet && h.type != RecordType::kIndex &&
-        h.type != RecordType::kEnd && !(voices && (voice || speaker)))
+        h.type != RecordType::kEnd && !(voices && (voice || speaker)) && !(drawings && drawing))
       throw Error(where + ": record of unknown type " + std::to_string(static_cast<int>(h.type)) +
                   " at offset " + std::to_string(at));
     const uint32_t limit = voice     ? uint32_t{detail::kVoiceHeadBytes + kMaxRecordedVoiceBytes}
                            : speaker ? detail::kMaxSpeakerRecordBytes
+                           : drawing ? detail::kMaxDrawingRecordBytes
                                      : kMaxRecordBytes;
     const std::string kind = detail::record_kind(h.type);
     if (h.payload_bytes > limit)
@@ -171,6 +173,10 @@ void RecordingReader::scan() {
       if (voice) {
         std::span<const uint8_t> opus;
         add_voice(detail::parse_voice(payload, opus), at);
+      }
+      if (drawing) {
+        std::span<const uint8_t> session_payload;
+        add_drawing(detail::parse_drawing(payload, session_payload), at);
       }
     } catch (const Error& err) {
       throw Error(where + ": " + kind + " at offset " + std::to_string(at) + ": " + err.what());
@@ -217,7 +223,7 @@ void RecordingReader::read(size_t k, std::vector<uint8_t>& body, size_t at_front
 
 void RecordingReader::verify(const std::function<void(size_t, size_t)>& progress) {
   std::vector<uint8_t> body;
-  const size_t total = info_.frame_sets.size() + info_.voices.size();
+  const size_t total = info_.frame_sets.size() + info_.voices.size() + info_.drawings.size();
   for (size_t k = 0; k < info_.frame_sets.size(); ++k) {
     read(k, body);
     if (progress) progress(k + 1, total);
@@ -225,6 +231,10 @@ void RecordingReader::verify(const std::function<void(size_t, size_t)>& progress
   for (size_t k = 0; k < info_.voices.size(); ++k) {
     read_voice(info_.voices[k], body);
     if (progress) progress(info_.frame_sets.size() + k + 1, total);
+  }
+  for (size_t k = 0; k < info_.drawings.size(); ++k) {
+    read_drawing(info_.drawings[k], body);
+    if (progress) progress(info_.frame_sets.size() + info_.voices.size() + k + 1, total);
   }
 }
 

@@ -1,5 +1,5 @@
-// RecordingReader: the Index record's payload (frame sets, and in version 2 speakers and voices),
-// and reading voices back.
+// RecordingReader: the Index record's payload (frame sets, in version 2 speakers and voices, in
+// version 3 drawing), and reading voices back.
 #include <algorithm>
 
 #include "record_format.hpp"
@@ -13,6 +13,8 @@ namespace {
 constexpr size_t kIndexEntryBytes = 25;
 // 8 (offset) + 4 (participant) + 4 (sequence) + 4 (frame) + 8 (capture time) + 2 (length).
 constexpr size_t kVoiceIndexEntryBytes = 30;
+// 8 (offset) + 1 (type) + 8 (receive time) + 4 (length).
+constexpr size_t kDrawingIndexEntryBytes = 21;
 
 struct SpeakerAt {
   uint64_t offset;
@@ -24,7 +26,7 @@ struct SpeakerAt {
 // index: ...").
 void parse_index_lists(std::span<const uint8_t> payload, uint16_t version,
                        std::vector<RecordedFrameSet>& frame_sets, std::vector<SpeakerAt>& speakers,
-                       std::vector<RecordedVoice>& voices) {
+                       std::vector<RecordedVoice>& voices, std::vector<RecordedDrawing>& drawings) {
   wire::Reader r(payload, "recording index");
   const uint32_t count = r.get<uint32_t>("count");
   if (uint64_t{count} * kIndexEntryBytes > r.remaining()) r.fail("wrong length");
@@ -47,7 +49,9 @@ void parse_index_lists(std::span<const uint8_t> payload, uint16_t version,
       e.bytes = static_cast<uint32_t>(4 + 2 + e.speaker.name.size() + 1);
     }
     const uint32_t n_voices = r.get<uint32_t>("voice count");
-    if (uint64_t{n_voices} * kVoiceIndexEntryBytes != r.remaining()) r.fail("wrong length");
+    const uint64_t after_voices = version >= 3 ? 4 : 0;  // the drawing count
+    if (uint64_t{n_voices} * kVoiceIndexEntryBytes + after_voices > r.remaining())
+      r.fail("wrong length");
     voices.resize(n_voices);
     for (RecordedVoice& v : voices) {
       v.offset = r.get<uint64_t>("voice offset");
@@ -57,6 +61,20 @@ void parse_index_lists(std::span<const uint8_t> payload, uint16_t version,
       v.capture_us = r.get<int64_t>("capture time");
       v.bytes = r.get<uint16_t>("Opus length");
       if (v.bytes == 0 || v.bytes > kMaxRecordedVoiceBytes) r.fail("bad Opus length");
+    }
+  }
+  if (version >= 3) {
+    const uint32_t n_drawings = r.get<uint32_t>("drawing count");
+    if (uint64_t{n_drawings} * kDrawingIndexEntryBytes != r.remaining()) r.fail("wrong length");
+    drawings.resize(n_drawings);
+    for (RecordedDrawing& d : drawings) {
+      d.offset = r.get<uint64_t>("drawing offset");
+      d.type = r.get<uint8_t>("session message type");
+      d.received_us = r.get<int64_t>("receive time");
+      d.bytes = r.get<uint32_t>("payload length");
+      if (d.type != kDrawingAnnotation && d.type != kDrawingErased)
+        r.fail("drawing of session message type " + std::to_string(d.type));
+      if (d.bytes == 0 || d.bytes > kMaxRecordedDrawingBytes) r.fail("bad drawing length");
     }
   }
   r.expect_end();
@@ -91,13 +109,14 @@ void RecordingReader::parse_index(std::span<const uint8_t> payload, uint64_t ind
       "recording " + path_.string() + ": index at offset " + std::to_string(index_at);
   std::vector<SpeakerAt> speakers;
   std::vector<RecordedVoice> voices;
+  std::vector<RecordedDrawing> drawings;
   try {
-    parse_index_lists(payload, info_.version, info_.frame_sets, speakers, voices);
+    parse_index_lists(payload, info_.version, info_.frame_sets, speakers, voices, drawings);
   } catch (const Error& e) {
     throw Error(where + ": " + e.what());
   }
-  // Walk the three lists in file order (a merge: each is in file order itself).
-  size_t f = 0, s = 0, v = 0;
+  // Walk the four lists in file order (a merge: each is in file order itself).
+  size_t f = 0, s = 0, v = 0, d = 0;
   uint64_t at = records_at_;         // where the next record must begin
   RecordedFrameSet* open = nullptr;  // a frame set whose length is up to the next record
   const auto bad = [&](const char* kind, size_t k, uint64_t offset) {
@@ -118,7 +137,8 @@ void RecordingReader::parse_index(std::span<const uint8_t> payload, uint64_t ind
     const uint64_t fo = f < info_.frame_sets.size() ? info_.frame_sets[f].offset : kNone;
     const uint64_t so = s < speakers.size() ? speakers[s].offset : kNone;
     const uint64_t vo = v < voices.size() ? voices[v].offset : kNone;
-    const uint64_t next = std::min({fo, so, vo});
+    const uint64_t dr = d < drawings.size() ? drawings[d].offset : kNone;
+    const uint64_t next = std::min({fo, so, vo, dr});
     if (next == kNone) break;
     if (next == fo) {
       if (!reach(fo)) bad("frame set", f, fo);
@@ -127,6 +147,10 @@ void RecordingReader::parse_index(std::span<const uint8_t> payload, uint64_t ind
       if (!reach(so)) bad("speaker", s, so);
       add_speaker(speakers[s].speaker);
       at = so + kRecordHeaderBytes + speakers[s++].bytes;
+    } else if (next == dr) {
+      if (!reach(dr)) bad("drawing", d, dr);
+      add_drawing(drawings[d], dr);
+      at = dr + kRecordHeaderBytes + detail::kDrawingHeadBytes + drawings[d++].bytes;
     } else {
       if (!reach(vo)) bad("voice", v, vo);
       try {

@@ -48,6 +48,21 @@ std::array<uint8_t, kVoiceHeadBytes> voice_head(const RecordedVoice& v);
 /// Error("malformed voice: ...") for a wrong length or a packet of 0 or over 1275 bytes.
 RecordedVoice parse_voice(std::span<const uint8_t> payload, std::span<const uint8_t>& opus);
 
+/// A Drawing record's payload before the session payload: type u8, receive time i64, the byte
+/// string's length u32.
+inline constexpr size_t kDrawingHeadBytes = 13;
+inline constexpr uint32_t kMaxDrawingRecordBytes = kDrawingHeadBytes + kMaxRecordedDrawingBytes;
+/// A Drawing record's head (kDrawingHeadBytes; the session payload follows it).
+std::array<uint8_t, kDrawingHeadBytes> drawing_head(const RecordedDrawing& d);
+/// Parses a Drawing record's payload (offset left 0); `session_payload` is set to the session
+/// message's payload. Throws Error("malformed drawing: ...") for another type, a wrong length, or
+/// a session payload that session::parse_annotation / parse_erased refuses (its error named).
+RecordedDrawing parse_drawing(std::span<const uint8_t> payload,
+                              std::span<const uint8_t>& session_payload);
+/// Throws Error("malformed drawing: ...") unless `payload` is a valid session message of `type`
+/// (kDrawingAnnotation or kDrawingErased) of 1..kMaxRecordedDrawingBytes bytes.
+void check_drawing(uint8_t type, std::span<const uint8_t> payload);
+
 /// What a record of `type` is, for people ("frame set", "voice", ...).
 inline const char* record_kind(RecordType type) {
   switch (type) {
@@ -63,6 +78,8 @@ inline const char* record_kind(RecordType type) {
       return "speaker";
     case RecordType::kVoice:
       return "voice";
+    case RecordType::kDrawing:
+      return "drawing";
   }
   return "record";
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "record_format.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -11,11 +12,12 @@ namespace volcast {
 BackgroundRecorder::BackgroundRecorder(const std::filesystem::path& path,
                                        const RecordingStream& stream,
                                        RecordingWriterOptions options, size_t max_queued,
-                                       size_t max_queued_voices)
+                                       size_t max_queued_voices, size_t max_queued_drawings)
     : writer_(path, stream, options),
       max_queued_(std::max<size_t>(1, max_queued)),
       voices_(std::max<size_t>(1, max_queued_voices)),
-      writing_(voices_.size()) {
+      writing_(voices_.size()),
+      max_queued_drawings_(std::max<size_t>(1, max_queued_drawings)) {
   stats_.bytes = writer_.bytes();
   thread_ = std::thread([this] { run(); });
 }
@@ -72,10 +74,32 @@ void BackgroundRecorder::push_voice(uint32_t participant, uint32_t sequence, uin
   changed_.notify_one();
 }
 
+void BackgroundRecorder::push_drawing(uint8_t type, int64_t received_us,
+                                      std::span<const uint8_t> payload) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || !stats_.error.empty()) return;
+    bool valid = drawings_.size() < max_queued_drawings_;
+    if (valid) try {
+        detail::check_drawing(type, payload);  // small: a stroke parses in microseconds
+      } catch (const Error& e) {
+        if (stats_.drawing_dropped == 0) spdlog::warn("record: {}: not recorded", e.what());
+        valid = false;
+      }
+    if (!valid) {
+      ++stats_.drawing_dropped;
+      return;
+    }
+    drawings_.push_back({type, received_us, {payload.begin(), payload.end()}});
+  }
+  changed_.notify_one();
+}
+
 void BackgroundRecorder::run() {
   while (true) {
     TierFrameSet f;
     std::vector<RecordedSpeaker> speakers;
+    std::deque<QueuedDrawing> drawings;
     size_t voices = 0, voices_written = 0;
     {
       std::unique_lock lock(mutex_);
@@ -84,6 +108,7 @@ void BackgroundRecorder::run() {
       // Speakers first: one pushed before its voice is written before it.
       speakers.assign(speakers_.begin(), speakers_.end());
       speakers_.clear();
+      drawings.swap(drawings_);
       // Every queued voice (small) at once, so that voices keep up whatever the frame sets do.
       for (; voice_count_ > 0; --voice_count_, ++voices) {
         const QueuedVoice& q = voices_[voice_head_];
@@ -110,6 +135,10 @@ void BackgroundRecorder::run() {
         writer_.append_voice(w.participant, w.sequence, w.frame, w.capture_us,
                              std::span(w.opus).first(w.bytes));
       }
+      // Drawing in the order received (checked when pushed: only a failed write throws here).
+      for (; !drawings.empty(); drawings.pop_front())
+        writer_.append_drawing(drawings.front().type, drawings.front().received_us,
+                               drawings.front().payload);
       if (!f.body.empty()) writer_.append(f.body);
     } catch (const Error& e) {
       error = e.what();
@@ -120,12 +149,15 @@ void BackgroundRecorder::run() {
     stats_.bytes = writer_.bytes();
     stats_.frame_sets = writer_.frame_sets();
     stats_.voice_packets = writer_.voices();
+    stats_.drawings = writer_.drawings();
     if (!error.empty()) {
       stats_.error = error;
       stats_.dropped += queue_.size();
       queue_.clear();
       stats_.voice_dropped += voice_count_ + (voices - voices_written);
       voice_count_ = 0;
+      stats_.drawing_dropped += drawings_.size() + drawings.size();
+      drawings_.clear();
       break;
     }
   }

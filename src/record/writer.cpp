@@ -93,7 +93,8 @@ void RecordingWriter::fail_write(int error_number, const char* what) {
   }
   const std::string kept =
       std::to_string(index_.size()) + " frame sets" +
-      (voices_.empty() ? "" : " and " + std::to_string(voices_.size()) + " voices") + " (" +
+      (voices_.empty() ? "" : ", " + std::to_string(voices_.size()) + " voices") +
+      (drawings_.empty() ? "" : ", " + std::to_string(drawings_.size()) + " drawings") + " (" +
       megabytes(end_) + ") written before it are kept and replay";
   if (out_of_space(error_number))
     throw Error("recording " + path_.string() + ": disk full (" + std::strerror(error_number) +
@@ -112,6 +113,7 @@ void RecordingWriter::write_record(RecordType type, std::span<const uint8_t> hea
     fail_write(e, type == RecordType::kFrameSet  ? "a frame set"
                   : type == RecordType::kVoice   ? "a voice"
                   : type == RecordType::kSpeaker ? "a speaker"
+                  : type == RecordType::kDrawing ? "a drawing"
                                                  : "the index");
   end_ += header.size() + head.size() + body.size();
 }
@@ -181,6 +183,21 @@ void RecordingWriter::append_voice(uint32_t participant, uint32_t sequence, uint
   maybe_sync("a voice (sync)");
 }
 
+void RecordingWriter::append_drawing(uint8_t type, int64_t received_us,
+                                     std::span<const uint8_t> payload) {
+  check_open();
+  try {
+    detail::check_drawing(type, payload);
+  } catch (const Error& e) {
+    throw Error("recording " + path_.string() + ": drawing refused: " + e.what());
+  }
+  const RecordedDrawing d{end_, type, received_us, static_cast<uint32_t>(payload.size())};
+  const auto head = detail::drawing_head(d);
+  write_record(RecordType::kDrawing, head, payload);
+  drawings_.push_back(d);
+  maybe_sync("a drawing (sync)");
+}
+
 void RecordingWriter::close() {
   if (closed_ || fd_ < 0) return;
   closed_ = true;
@@ -209,6 +226,13 @@ void RecordingWriter::close() {
     w.put<uint32_t>(v.frame);
     w.put<int64_t>(v.capture_us);
     w.put<uint16_t>(v.bytes);
+  }
+  w.put<uint32_t>(static_cast<uint32_t>(drawings_.size()));
+  for (const RecordedDrawing& d : drawings_) {
+    w.put<uint64_t>(d.offset);
+    w.put<uint8_t>(d.type);
+    w.put<int64_t>(d.received_us);
+    w.put<uint32_t>(d.bytes);
   }
   const uint64_t index_at = end_;
   write_record(RecordType::kIndex, index, {});

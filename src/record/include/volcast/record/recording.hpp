@@ -1,12 +1,12 @@
 #pragma once
 // Recordings of the encoded stream (.vcr): one tier's frame sets exactly as the server sent them,
-// and the session's voices as the recorder heard them, in an append-only file that survives the
-// recorder being killed or the disk filling up.
+// and the session's voices and drawing as the recorder heard them, in an append-only file that
+// survives the recorder being killed or the disk filling up.
 //
-// File format, version 2 (this build writes 2 and reads 1 and 2; little-endian throughout):
-//   File header, 16 bytes: magic "VCRECORD" (8 bytes) | format version u16 (= 2; 1 for files
-//     without voices written before it) | reserved u16 (= 0) | CRC-32 (zlib's, ISO-HDLC) of the
-//     12 bytes before it.
+// File format, version 3 (this build writes 3 and reads 1, 2 and 3; little-endian throughout):
+//   File header, 16 bytes: magic "VCRECORD" (8 bytes) | format version u16 (= 3; 2 for files
+//     without drawing, 1 for files without voices, written before them) | reserved u16 (= 0) |
+//     CRC-32 (zlib's, ISO-HDLC) of the 12 bytes before it.
 //   Records, back to back, each a 16-byte record header then its payload:
 //     type u8 | reserved 3 bytes (= 0) | payload length u32 | CRC-32 of the payload | CRC-32 of
 //     the header's first 12 bytes. The header's own CRC is checked before its length is trusted.
@@ -24,8 +24,11 @@
 //       version 2: the same, then speaker-record count u32, then per Speaker record its file
 //         offset u64 | participant u32 | role u8 | display name string; then voice count u32, then
 //         per Voice record its file offset u64 | participant u32 | sequence u32 | frame u32 |
-//         capture time i64 | Opus length u16 (30 bytes). Each list in file order; together with
-//         the frame sets they tile the file from the end of the Stream record to the Index.
+//         capture time i64 | Opus length u16 (30 bytes).
+//       version 3: the same, then drawing count u32, then per Drawing record its file offset u64 |
+//         session message type u8 | receive time i64 | session payload length u32 (21 bytes).
+//       Each list in file order; together with the frame sets they tile the file from the end of
+//       the Stream record to the Index.
 //     4 End, last, directly after the Index: the Index record's file offset u64.
 //     5 Speaker (version 2), before the first Voice of its participant, again only if its name or
 //       role changed (the last one holds): participant u32 | display name string | role u8 (0 a
@@ -35,16 +38,26 @@
 //       frames) | capture time i64 (us, the server's clock, as frame sets' capture times) | Opus
 //       packet byte string (1..1275 bytes, RFC 6716 3.4). Not synced one by one: the writer's
 //       sync interval covers voices and frame sets alike.
+//     7 Drawing (version 3), one annotation message as the session carried it to the recorder
+//       (volcast/session/annotations.hpp): session message type u8 (0x51 Annotation, 0x52 Erased)
+//       | receive time i64 (us, the server's clock, as voices' capture times) | the message's
+//       payload byte string (byte-identical to what the session carried; 1..
+//       kMaxRecordedDrawingBytes bytes). The annotations that exist when the recorder joins come
+//       first (the session sends them on joining), received then. A Speaker record names an
+//       author or eraser where the recorder knew them (none for participant 0, the server).
 //   A file that does not end in an End record pointing at a valid Index (the recorder was killed,
-//   the machine lost power, the disk filled) is indexed by scanning its records: the frame sets
-//   and voices up to the last complete record replay; an incomplete last record (one that runs
-//   past the end of the file or whose payload fails its CRC with nothing after it), or zeros where
-//   a record should begin, is the tail a stopped recorder leaves and is reported, not refused.
-//   Anything else -- a bad file header, a record header that fails its CRC with data after it, a
-//   payload that fails its CRC with records after it, an unknown type (5 and 6 in a version-1
-//   file), a Stream that is missing, repeated or malformed, a Speaker or Voice that is malformed
-//   (a voice of 0 or over 1275 bytes, a Voice before its participant's Speaker), an Index that does
-//   not match the records -- is corruption: an Error naming the file and the byte offset.
+//   the machine lost power, the disk filled) is indexed by scanning its records: the frame sets,
+//   voices and drawing up to the last complete record replay; an incomplete last record (one that
+//   runs past the end of the file or whose payload fails its CRC with nothing after it), or zeros
+//   where a record should begin, is the tail a stopped recorder leaves and is reported, not
+//   refused. Anything else -- a bad file header, a record header that fails its CRC with data after
+//   it, a payload that fails its CRC with records after it, an unknown type (5 and 6 in a
+//   version-1 file, 7 in a version-1 or 2 file), a Stream that is missing, repeated or malformed, a
+//   Speaker or Voice that is malformed (a voice of 0 or over 1275 bytes, a Voice before its
+//   participant's Speaker), a Drawing that is malformed (another message type, a length that does
+//   not fit, a payload session::parse_annotation or parse_erased refuses), an Index that does not
+//   match the records -- is corruption: an Error naming the file and the byte offset. A record's
+//   length is checked against its type's limit before anything is allocated for it.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -57,7 +70,7 @@
 
 namespace volcast {
 
-inline constexpr uint16_t kRecordingVersion = 2;  ///< written; 1 and 2 are read
+inline constexpr uint16_t kRecordingVersion = 3;  ///< written; 1, 2 and 3 are read
 inline constexpr size_t kRecordingFileHeaderBytes = 16;
 inline constexpr size_t kRecordHeaderBytes = 16;
 /// The largest record payload a reader accepts (bytes): a frame set within the protocol's limit.
@@ -69,7 +82,8 @@ enum class RecordType : uint8_t {
   kIndex = 3,
   kEnd = 4,
   kSpeaker = 5,
-  kVoice = 6
+  kVoice = 6,
+  kDrawing = 7
 };
 
 /// The largest Opus packet a Voice record holds (bytes): one frame, RFC 6716 section 3.4.
@@ -77,7 +91,13 @@ inline constexpr size_t kMaxRecordedVoiceBytes = 1275;
 /// One voice frame (us): 20 ms Opus frames at 48 kHz, as the session carries them.
 inline constexpr int64_t kVoiceFrameUs = 20'000;
 
-/// Who spoke (a Speaker record).
+/// The largest session payload a Drawing record holds (bytes): above the largest 0x51 Annotation
+/// (annotations.hpp: a stroke of kMaxStrokePoints points, or a label of kMaxLabelBytes bytes).
+inline constexpr size_t kMaxRecordedDrawingBytes = 4096;
+/// The session message types a Drawing record holds (annotations.hpp).
+inline constexpr uint8_t kDrawingAnnotation = 0x51, kDrawingErased = 0x52;
+
+/// Who spoke or drew (a Speaker record).
 struct RecordedSpeaker {
   uint32_t participant = 0;  ///< the session's participant id
   std::string name;          ///< display name
@@ -92,6 +112,14 @@ struct RecordedVoice {
   uint32_t frame = 0;      ///< +1 per 20 ms frame the speaker captured (DTX skips frames)
   int64_t capture_us = 0;  ///< the server's clock (us), as frame sets' capture times
   uint16_t bytes = 0;      ///< the Opus packet's length, 1..kMaxRecordedVoiceBytes
+};
+
+/// One annotation message's place in the file (a Drawing record).
+struct RecordedDrawing {
+  uint64_t offset = 0;      ///< file offset of its record header
+  uint8_t type = 0;         ///< kDrawingAnnotation (0x51) or kDrawingErased (0x52)
+  int64_t received_us = 0;  ///< when the recorder received it, the server's clock (us)
+  uint32_t bytes = 0;       ///< the session payload's length, 1..kMaxRecordedDrawingBytes
 };
 
 /// One voice packet with its Opus bytes (RFC 6716), as a decoder takes it.
@@ -161,6 +189,13 @@ class RecordingWriter {
   void append_voice(const RecordedVoicePacket& p) {
     append_voice(p.participant, p.sequence, p.frame, p.capture_us, p.bytes);
   }
+  /// Appends one Drawing record: the session message `type` (kDrawingAnnotation or
+  /// kDrawingErased) with its `payload` exactly as the session carried it, received at
+  /// `received_us` (the server's clock), with a single write, synced with the frame sets. Throws
+  /// Error for another type, a payload over kMaxRecordedDrawingBytes or one that
+  /// session::parse_annotation / parse_erased refuses (nothing written, the writer goes on), or as
+  /// append() does when the write fails.
+  void append_drawing(uint8_t type, int64_t received_us, std::span<const uint8_t> payload);
   /// Writes the Index and End records and syncs. Idempotent. Throws Error if that fails (the frame
   /// sets stay: a reader indexes them by scanning).
   void close();
@@ -168,6 +203,7 @@ class RecordingWriter {
   const std::filesystem::path& path() const { return path_; }
   uint64_t frame_sets() const { return index_.size(); }
   uint64_t voices() const { return voices_.size(); }
+  uint64_t drawings() const { return drawings_.size(); }
   uint64_t bytes() const { return end_; }  ///< file size so far
 
  private:
@@ -188,6 +224,7 @@ class RecordingWriter {
   };
   std::vector<SpeakerEntry> speakers_;  // every Speaker record, in file order
   std::vector<RecordedVoice> voices_;
+  std::vector<RecordedDrawing> drawings_;
   std::vector<uint8_t> scratch_;  // a Voice or Speaker record's payload
 };
 
@@ -195,10 +232,12 @@ class RecordingWriter {
 struct RecordingInfo {
   RecordingStream stream;
   std::vector<RecordedFrameSet> frame_sets;  ///< in file order
-  uint16_t version = kRecordingVersion;      ///< the file's format version (1: no voices)
+  uint16_t version =
+      kRecordingVersion;  ///< the file's format version (1: no voices, 2: no drawing)
   /// One per participant, in the order they first spoke; name and role from their last Speaker.
   std::vector<RecordedSpeaker> speakers;
   std::vector<RecordedVoice> voices;  ///< every Voice record, in file order
+  std::vector<RecordedDrawing> drawings;  ///< every Drawing record, in file order
   uint64_t file_bytes = 0;
   bool closed = false;  ///< ends in a valid Index and End (the recorder closed it)
   /// Where an incomplete tail begins (a stopped recorder's last, partial write), if there is one;
@@ -274,12 +313,29 @@ struct VoicePlan {
 VoicePlan voice_plan(const RecordingInfo& info, const PlaybackTimeline& timeline, size_t first,
                      size_t last);
 
+/// When one Drawing record plays in a replay pass of frame sets [first, last] (drawing_plan()).
+struct DrawingCue {
+  size_t drawing = 0;  ///< its index in RecordingInfo::drawings
+  /// When it plays, from the pass's start (us): as a voice would (VoiceCue), received D us after
+  /// frame set k at offset_us[k] - offset_us[first] + D; at 0 if it was received before frame set
+  /// `first` (what was drawn before the pass is there when it begins); at the next frame set's time
+  /// if D is longer than the replayed gap to it (a clamped gap).
+  int64_t at_us = 0;
+};
+
+/// The drawing of `info` replayed in a pass of its frame sets [first, last] on `timeline`, in
+/// playing order (at_us, then file order: an annotation before its erasure). Drawing received one
+/// frame interval or more after frame set `last` (or after the recording's last frame set) is not
+/// in it.
+std::vector<DrawingCue> drawing_plan(const RecordingInfo& info, const PlaybackTimeline& timeline,
+                                     size_t first, size_t last);
+
 /// "11.6 days", "3.2 s", "-40 ms": a time span (us) for people.
 std::string describe_span_us(int64_t us);
 
-/// Reads a recording. read(), read_voice() and voices_of() may run on several threads at once
-/// (each reads the file with pread and the index, and changes nothing); anything else one caller
-/// at a time.
+/// Reads a recording. read(), read_voice(), read_drawing() and voices_of() may run on several
+/// threads at once (each reads the file with pread and the index, and changes nothing); anything
+/// else one caller at a time.
 class RecordingReader {
  public:
   /// Opens `path`, reads its Stream record and its index (the Index record of a closed file, else
@@ -296,8 +352,9 @@ class RecordingReader {
   /// room for a message's header or send time), checking its record's CRCs. Throws Error naming
   /// the file and offset if they fail or the file changed under it.
   void read(size_t k, std::vector<uint8_t>& body, size_t at = 0);
-  /// Reads every frame set, then every voice, and checks their CRCs; `progress(done, total)`
-  /// after each (total: frame sets + voices). Throws like read() at the first bad one.
+  /// Reads every frame set, then every voice, then every drawing, and checks their CRCs (and that
+  /// each drawing parses); `progress(done, total)` after each (total: frame sets + voices +
+  /// drawings). Throws like read() at the first bad one.
   void verify(const std::function<void(size_t, size_t)>& progress = {});
 
   /// `participant`'s voice packets in capture order (capture time, then frame; file order for
@@ -310,6 +367,10 @@ class RecordingReader {
   /// Every packet of `participant`, bytes included, in capture order (voices_of + read_voice):
   /// what a decoder or a WAV export takes. Throws like read_voice.
   std::vector<RecordedVoicePacket> voices(uint32_t participant);
+  /// Reads the session payload of `d` (an entry of info().drawings) into `payload` (resized),
+  /// checking its record's CRCs, that it matches `d` and that it parses (parse_annotation or
+  /// parse_erased). Throws Error naming the file and offset otherwise.
+  void read_drawing(const RecordedDrawing& d, std::vector<uint8_t>& payload);
 
  private:
   void scan();
@@ -317,6 +378,7 @@ class RecordingReader {
   void parse_index(std::span<const uint8_t> payload, uint64_t index_at);
   void add_speaker(const RecordedSpeaker& s);
   void add_voice(const RecordedVoice& v, uint64_t at);
+  void add_drawing(const RecordedDrawing& d, uint64_t at);
   uint64_t records_at_ = 0;  // where the records after the Stream begin
   std::filesystem::path path_;
   int fd_ = -1;

@@ -269,6 +269,7 @@ struct ExportArgs {
   std::string ply, png;  ///< output folders
   std::string mkv;       ///< Azure Kinect-style Matroska (volcast/pipeline/export.hpp)
   std::string wav;       ///< folder: one WAV per speaker (volcast/voice/voice_export.hpp)
+  std::string annotations;  ///< JSON file (volcast/pipeline/annotation_export.hpp)
   double from_s = 0, to_s = -1;
 };
 /// Decodes a recording and writes, per frame set and camera, a binary PLY (valid depth pixels as

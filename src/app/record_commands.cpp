@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
@@ -14,10 +15,12 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/pipeline/annotation_export.hpp"
 #include "volcast/pipeline/export.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/record/recorder.hpp"
 #include "volcast/record/recording.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/voice/voice_export.hpp"
 
 namespace volcast {
@@ -107,18 +110,33 @@ int run_record(const RecordArgs& a) {
     listener = std::make_unique<SessionClient>(std::move(o));
     listener->start(client);
     Participant* p = listener->participant();
-    p->set_voice_handler([&recorder, &speakers, p](uint32_t id, const session::VoicePacketView& v) {
-      if (!speakers.contains(id)) {
-        std::string name = "participant " + std::to_string(id);
-        uint8_t role = 0;
-        for (const RemoteParticipant& r : p->snapshot(wall_clock_us()).others)
-          if (r.id == id) name = r.name, role = static_cast<uint8_t>(r.role);
-        recorder.push_speaker(id, name, role);
-        speakers[id] = name;
-      }
+    // A Speaker record for each participant heard or drawing, named as the session shows them.
+    const auto speaker = [&recorder, &speakers, p](uint32_t id) {
+      if (id == 0 || speakers.contains(id)) return;  // 0: the server
+      std::string name = "participant " + std::to_string(id);
+      uint8_t role = 0;
+      for (const RemoteParticipant& r : p->snapshot(wall_clock_us()).others)
+        if (r.id == id) name = r.name, role = static_cast<uint8_t>(r.role);
+      recorder.push_speaker(id, name, role);
+      speakers[id] = name;
+    };
+    p->set_voice_handler([&recorder, speaker](uint32_t id, const session::VoicePacketView& v) {
+      speaker(id);
       recorder.push_voice(id, v.sequence, v.frame, v.capture_us, v.opus);
     });
-    spdlog::info("recording the voices of session '{}' (joined as 'Recorder')", a.session);
+    // The drawing (annotations.hpp), received on this thread too: those standing when it joins
+    // first, then each one drawn and erased, stamped with the server's clock.
+    p->set_drawing_handler([&recorder, speaker, p](uint8_t type, std::span<const uint8_t> payload) {
+      try {
+        speaker(type == kDrawingAnnotation ? session::parse_annotation(payload).author
+                                           : session::parse_erased(payload).second);
+      } catch (const Error&) {
+        return;  // the participant took it, so it parses
+      }
+      recorder.push_drawing(type, wall_clock_us() + p->clock_offset_us(), payload);
+    });
+    spdlog::info("recording the voices and drawing of session '{}' (joined as 'Recorder')",
+                 a.session);
   }
   ReceivedFrameSet f;
   const auto start = std::chrono::steady_clock::now();
@@ -155,6 +173,7 @@ int run_record(const RecordArgs& a) {
   end_progress();
   if (listener) {
     listener->participant()->set_voice_handler(nullptr);
+    listener->participant()->set_drawing_handler(nullptr);
     listener->stop();
   }
   client.close();
@@ -227,6 +246,11 @@ int run_recording_info(const InfoArgs& a) {
                       {"spanned_s", static_cast<double>(v.spanned_us) / 1e6},
                       {"first_s", static_cast<double>(v.first_us) / 1e6},
                       {"last_s", static_cast<double>(v.last_us) / 1e6}});
+  // Drawing (format 3): annotations drawn (0x51, those standing when the recorder joined included)
+  // and erased (0x52).
+  const size_t drawn =
+      static_cast<size_t>(std::count_if(info.drawings.begin(), info.drawings.end(),
+                                        [](const RecordedDrawing& d) { return d.type == 0x51; }));
   nlohmann::json cams = nlohmann::json::array();
   for (const auto& c : s.welcome.cameras) {
     const Intrinsics& k = c.calibration.depth;
@@ -250,6 +274,8 @@ int run_recording_info(const InfoArgs& a) {
       {"cameras", cams},
       {"format_version", info.version},
       {"speakers", voices},
+      {"annotations_drawn", drawn},
+      {"annotations_erased", info.drawings.size() - drawn},
       {"frame_sets", info.frame_sets.size()},
       {"key_frame_sets", keys},
       {"duration_s", seconds},
@@ -285,6 +311,9 @@ int run_recording_info(const InfoArgs& a) {
           v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
           static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
           describe_span_us(v.last_us).c_str());
+    if (!info.drawings.empty())
+      std::printf("  drawing: %zu annotations drawn, %zu erased (`volcast export --annotations`)\n",
+                  drawn, info.drawings.size() - drawn);
     if (info.closed)
       std::printf("  closed by its recorder (indexed)\n");
     else if (info.incomplete_tail_at)
@@ -295,16 +324,21 @@ int run_recording_info(const InfoArgs& a) {
     else
       std::printf("  not closed (no index): indexed by scanning, every record complete\n");
     if (!gaps.empty()) std::printf("  warning: %s\n", gaps.c_str());
-    std::printf("  %s\n", bad.empty()
-                              ? (info.voices.empty() ? "every frame set checked (CRC)"
-                                                     : "every frame set and voice checked (CRC)")
-                              : bad.c_str());
+    std::printf("  %s\n", bad.empty() ? (info.voices.empty() && info.drawings.empty()
+                                             ? "every frame set checked (CRC)"
+                                             : "every record checked (CRC)")
+                                      : bad.c_str());
   }
   if (!bad.empty()) throw Error(bad);
   return 0;
 }
 
 int run_export(const ExportArgs& a) {
+  if (!a.annotations.empty()) {
+    const size_t n = export_annotations(a.file, a.annotations);
+    std::printf("wrote %s: %zu annotations\n", a.annotations.c_str(), n);
+    if (a.ply.empty() && a.png.empty() && a.mkv.empty() && a.wav.empty()) return 0;
+  }
   if (!a.wav.empty()) {
     const std::vector<voice::ExportedVoice> voices = voice::export_voices(a.file, a.wav);
     for (const voice::ExportedVoice& v : voices)
@@ -352,8 +386,8 @@ void register_record(CLI::App& app, Commands& commands) {
   rc->add_option("--seconds", record.seconds, "Stop after this many seconds (default: Ctrl-C)");
   rc->add_flag("--overwrite", record.overwrite, "Replace --out if it exists");
   rc->add_option("--session", record.session,
-                 "Also record the voices of this session: joins it as 'Recorder' (everyone in it "
-                 "sees that), listening only");
+                 "Also record the voices and drawing (annotations) of this session: joins it as "
+                 "'Recorder' (everyone in it sees that), listening only");
   rc->add_option("--sync-interval", record.sync_interval_ms,
                  "Flush to disk at least this often (ms): what a power cut can lose")
       ->capture_default_str();
@@ -377,6 +411,9 @@ void register_export(CLI::App& app, Commands& commands) {
   ex->add_option("--wav", export_args.wav,
                  "Folder for one WAV per speaker of the recording's voices (48 kHz mono, on the "
                  "recording's time line: second 0 is its first frame set)");
+  ex->add_option("--annotations", export_args.annotations,
+                 "JSON file for the recording's annotations (strokes, arrows, labels: points in "
+                 "the room frame, metres; who drew and erased each, and when)");
   ex->add_option("--from", export_args.from_s, "Start this many seconds in")->capture_default_str();
   ex->add_option("--to", export_args.to_s, "End this many seconds in (default: the end)");
 }

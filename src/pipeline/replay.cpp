@@ -5,10 +5,12 @@
 
 #include <chrono>
 #include <cstdlib>
+#include <set>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/hub.hpp"
 
 namespace volcast {
@@ -54,6 +56,16 @@ ReplayPlayer::ReplayPlayer(const std::filesystem::path& path, ReplayOptions opti
         "replay {}: {} of its {} voice packets lie outside its frame sets' time line (before the "
         "first, after the last, or in a gap replayed shorter) and are not played",
         path.string(), voices_.outside, reader_.info().voices.size());
+  drawing_ = drawing_plan(reader_.info(), timeline_, first_, last_);
+  for (const DrawingCue& c : drawing_) {
+    drawing_payloads_.emplace_back();
+    try {
+      reader_.read_drawing(reader_.info().drawings[c.drawing], drawing_payloads_.back());
+    } catch (const Error& e) {
+      drawing_payloads_.back().clear();
+      spdlog::warn("replay: a recorded annotation is skipped: {}", e.what());
+    }
+  }
 }
 
 ReplayPlayer::~ReplayPlayer() {
@@ -72,30 +84,57 @@ double ReplayPlayer::fps() const {
 }
 
 void ReplayPlayer::start(Server& server, SessionHub* hub) {
-  stop();  // the thread reads hub_ids_
+  start([&server](std::shared_ptr<const CapturedFrameSet> f) { server.publish(std::move(f)); },
+        hub);
+}
+
+void ReplayPlayer::start(Publish publish, SessionHub* hub) {
+  stop();  // the threads read hub_ids_
   Speak speak;
-  if (hub && !voices_.speakers.empty()) {
-    if (hub_ != hub) {
-      hub_ids_.clear();
-      for (const VoicePlan::Speaker& s : voices_.speakers)
-        hub_ids_[s.speaker.participant] =
-            hub->add_recorded_speaker(s.speaker.name, s.speaker.role == 1);
-      hub_ = hub;
+  Draw draw;
+  if (hub && hub_ != hub) {
+    // A recorded speaker for each voice, and for each author or eraser of the drawing whom the
+    // recording names (a Speaker record).
+    std::set<uint32_t> people;
+    for (const VoicePlan::Speaker& s : voices_.speakers) people.insert(s.speaker.participant);
+    for (size_t c = 0; c < drawing_.size(); ++c) {
+      const std::vector<uint8_t>& p = drawing_payloads_[c];
+      if (p.empty()) continue;
+      people.insert(reader_.info().drawings[drawing_[c].drawing].type == kDrawingAnnotation
+                        ? session::parse_annotation(p).author
+                        : session::parse_erased(p).second);
     }
+    hub_ids_.clear();
+    for (const RecordedSpeaker& s : reader_.info().speakers)
+      if (people.contains(s.participant))
+        hub_ids_[s.participant] = hub->add_recorded_speaker(s.name, s.role == 1);
+    hub_ = hub;
+  }
+  if (hub && !voices_.speakers.empty())
     speak = [hub, this](uint32_t speaker, const session::VoicePacketView& p) {
       if (const auto it = hub_ids_.find(speaker); it != hub_ids_.end())
         hub->recorded_voice(it->second, p);
     };
-  }
-  start([&server](std::shared_ptr<const CapturedFrameSet> f) { server.publish(std::move(f)); },
-        std::move(speak));
+  if (hub && !drawing_.empty())
+    draw = [hub, this](uint8_t type, std::span<const uint8_t> p) {
+      try {
+        const uint32_t who = type == kDrawingAnnotation ? session::parse_annotation(p).author
+                                                        : session::parse_erased(p).second;
+        const auto it = hub_ids_.find(who);
+        hub->recorded_drawing(type, p, it == hub_ids_.end() ? 0 : it->second);
+      } catch (const Error& e) {
+        spdlog::warn("replay: a recorded annotation is skipped: {}", e.what());
+      }
+    };
+  start(std::move(publish), std::move(speak), std::move(draw));
 }
 
-void ReplayPlayer::start(Publish publish, Speak speak) {
+void ReplayPlayer::start(Publish publish, Speak speak, Draw draw) {
   stop();
   stop_ = false;
   frames_done_ = false;
   voices_done_ = !speak || voices_.cues.empty();
+  drawing_done_ = !draw || drawing_.empty();
   const auto epoch = Clock::now();
   const int64_t epoch_wall = wall_clock_us();
   thread_ = std::thread([this, publish = std::move(publish), epoch] {
@@ -107,12 +146,18 @@ void ReplayPlayer::start(Publish publish, Speak speak) {
       run_voices(speak, epoch, epoch_wall);
       voices_done_ = true;
     });
+  if (!drawing_done_)
+    drawing_thread_ = std::thread([this, draw = std::move(draw), epoch] {
+      run_drawing(draw, epoch);
+      drawing_done_ = true;
+    });
 }
 
 void ReplayPlayer::stop() {
   stop_ = true;
   if (thread_.joinable()) thread_.join();
   if (voice_thread_.joinable()) voice_thread_.join();
+  if (drawing_thread_.joinable()) drawing_thread_.join();
 }
 
 bool ReplayPlayer::sleep_until(Clock::time_point due) const {
@@ -150,6 +195,32 @@ void ReplayPlayer::run_voices(const Speak& speak, Clock::time_point epoch, int64
       ++voices_sent_;
     }
     if (!options_.loop) return;
+  }
+}
+
+void ReplayPlayer::run_drawing(const Draw& draw, Clock::time_point epoch) {
+  const std::vector<RecordedDrawing>& drawings = reader_.info().drawings;
+  for (uint64_t pass = 0; !stop_; ++pass) {
+    const int64_t pass_us = static_cast<int64_t>(pass) * voices_.pass_us;
+    std::set<uint32_t> standing;  // recorded ids this pass added and did not erase
+    for (size_t c = 0; c < drawing_.size(); ++c) {
+      if (!sleep_until(epoch + std::chrono::microseconds(pass_us + drawing_[c].at_us))) return;
+      const std::vector<uint8_t>& p = drawing_payloads_[c];
+      if (p.empty()) continue;  // unreadable: warned when the file was opened
+      const uint8_t type = drawings[drawing_[c].drawing].type;
+      const uint32_t id = type == kDrawingAnnotation ? session::parse_annotation(p).id
+                                                     : session::parse_erased(p).first;
+      if (type == kDrawingAnnotation)
+        standing.insert(id);
+      else
+        standing.erase(id);
+      draw(type, p);
+      ++drawings_sent_;
+    }
+    if (!options_.loop) return;
+    // The pass ends: what it drew goes, so that the next one begins as the recording did.
+    if (!sleep_until(epoch + std::chrono::microseconds(pass_us + voices_.pass_us))) return;
+    for (const uint32_t id : standing) draw(kDrawingErased, session::serialize_erased(id, 0));
   }
 }
 

@@ -149,11 +149,11 @@ TEST(VoiceRecording, AVersion1FileWithoutVoicesStillReads) {
   EXPECT_NE(error_of([&] { RecordingReader r(dir / "v1.vcr"); }).find("unknown type 6"),
             std::string::npos);
   // An unknown version is named.
-  std::vector<uint8_t> v3 = version1_file(1, true, false);
-  v3[8] = 3;
-  wire::store<uint32_t>(v3.data() + 12, crc32_of(std::span(v3).first(12)));
-  put_file(dir / "v1.vcr", v3);
-  EXPECT_NE(error_of([&] { RecordingReader r(dir / "v1.vcr"); }).find("format version 3"),
+  std::vector<uint8_t> v4 = version1_file(1, true, false);
+  v4[8] = 4;
+  wire::store<uint32_t>(v4.data() + 12, crc32_of(std::span(v4).first(12)));
+  put_file(dir / "v1.vcr", v4);
+  EXPECT_NE(error_of([&] { RecordingReader r(dir / "v1.vcr"); }).find("format version 4"),
             std::string::npos);
 }
 

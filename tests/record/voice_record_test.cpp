@@ -42,7 +42,7 @@ TEST(VoiceRecording, SpeakersAndVoicesRoundTripThroughTheIndexAndAScan) {
   RecordingReader r(path);
   const RecordingInfo& info = r.info();
   EXPECT_TRUE(info.closed);
-  EXPECT_EQ(info.version, 2);
+  EXPECT_EQ(info.version, 3);
   EXPECT_EQ(info.frame_sets.size(), 10u);
   ASSERT_EQ(info.speakers.size(), 3u);
   EXPECT_EQ(info.speakers[0].participant, 7u);

@@ -304,13 +304,14 @@ int run_recording_info(const InfoArgs& a) {
                   k.cy);
     }
     for (const SpeakerSummary& v : speakers)
-      std::printf(
-          "  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
-          "%.2f s, from %s to %s after the first frame set\n",
-          printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
-          v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
-          static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
-          describe_span_us(v.last_us).c_str());
+      if (v.packets > 0)  // a Speaker record also names who drew
+        std::printf(
+            "  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
+            "%.2f s, from %s to %s after the first frame set\n",
+            printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
+            v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
+            static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
+            describe_span_us(v.last_us).c_str());
     if (!info.drawings.empty())
       std::printf("  drawing: %zu annotations drawn, %zu erased (`volcast export --annotations`)\n",
                   drawn, info.drawings.size() - drawn);

@@ -2,11 +2,27 @@
 
 #include <nlohmann/json.hpp>
 
+#include <charconv>
 #include <map>
 
 #include "volcast/core/private_file.hpp"
 
 namespace volcast {
+namespace {
+
+using Json = nlohmann::ordered_json;  // keys in the order written, for people
+
+// The shortest decimal that reads back as `f` (0.1234567, not 0.12345670163631439), as a double:
+// JSON's numbers are doubles, and this one rounds to `f` exactly when read as a float.
+double shortest(float f) {
+  char text[32];
+  const auto [end, error] = std::to_chars(text, text + sizeof text, f);
+  double d = f;
+  if (error == std::errc()) std::from_chars(text, end, d);
+  return d;
+}
+
+}  // namespace
 
 std::vector<RecordedAnnotation> recorded_annotations(RecordingReader& reader) {
   std::vector<RecordedAnnotation> out;
@@ -42,17 +58,18 @@ size_t export_annotations(const std::filesystem::path& recording,
                        : !info.drawings.empty() ? info.drawings.front().received_us
                                                 : 0;
   const auto who = [&](uint32_t id) {
-    nlohmann::json name = nullptr;
+    Json name = nullptr;
     for (const RecordedSpeaker& s : info.speakers)
       if (s.participant == id) name = s.name;
-    return nlohmann::json{{"id", id}, {"name", name}};
+    return Json{{"id", id}, {"name", name}};
   };
   const auto seconds = [&](int64_t us) { return static_cast<double>(us - zero) / 1e6; };
-  nlohmann::json list = nlohmann::json::array();
+  Json list = Json::array();
   for (const RecordedAnnotation& r : all) {
     const session::Annotation& a = r.annotation;
-    nlohmann::json points = nlohmann::json::array();
-    for (const Eigen::Vector3f& p : a.points) points.push_back({p.x(), p.y(), p.z()});
+    Json points = Json::array();
+    for (const Eigen::Vector3f& p : a.points)
+      points.push_back({shortest(p.x()), shortest(p.y()), shortest(p.z())});
     list.push_back(
         {{"id", a.id},
          {"author", who(a.author)},
@@ -66,19 +83,18 @@ size_t export_annotations(const std::filesystem::path& recording,
          {"drawn_us", a.time_us},
          {"drawn_s", seconds(a.time_us)},
          {"received_us", r.received_us},
-         {"erased_us", r.erased_us ? nlohmann::json(*r.erased_us) : nlohmann::json(nullptr)},
-         {"erased_s",
-          r.erased_us ? nlohmann::json(seconds(*r.erased_us)) : nlohmann::json(nullptr)},
-         {"erased_by", r.erased_us ? who(r.erased_by) : nlohmann::json(nullptr)}});
+         {"erased_us", r.erased_us ? Json(*r.erased_us) : Json(nullptr)},
+         {"erased_s", r.erased_us ? Json(seconds(*r.erased_us)) : Json(nullptr)},
+         {"erased_by", r.erased_us ? who(r.erased_by) : Json(nullptr)}});
   }
-  const nlohmann::json j = {{"kind", "Volcast annotations"},
-                            {"recording", recording.string()},
-                            {"frame", "room"},
-                            {"units", "metres"},
-                            {"time_zero_us", zero},
-                            {"annotations", list}};
+  const Json j = {{"kind", "Volcast annotations"},
+                  {"recording", recording.string()},
+                  {"frame", "room"},
+                  {"units", "metres"},
+                  {"time_zero_us", zero},
+                  {"annotations", list}};
   // A recording's text may be anything: invalid UTF-8 is replaced, never a throw.
-  write_private_file(json, j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+  write_private_file(json, j.dump(2, ' ', false, Json::error_handler_t::replace) + "\n");
   return all.size();
 }
 

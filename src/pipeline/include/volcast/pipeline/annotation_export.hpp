@@ -35,9 +35,10 @@ std::vector<RecordedAnnotation> recorded_annotations(RecordingReader& reader);
 ///      receive time in a recording without frame sets, 0 with neither),
 ///    "annotations": [{"id", "author": {"id", "name"}, "kind": "stroke" | "arrow" | "label",
 ///      "anchor": "room" | "monitor", "generation", "slice", "tag", "points": [[x, y, z], ...]
-///      (room frame, metres, each float exactly), "text", "drawn_us" (server clock), "drawn_s"
-///      (drawn_us - time_zero_us, in seconds; negative for what was drawn before the recording
-///      began), "received_us", "erased_us" and "erased_s" (null while it stands), "erased_by"
+///      (room frame, metres; each the shortest decimal that reads back as the float the session
+///      carried), "text", "drawn_us" (server clock), "drawn_s" (drawn_us - time_zero_us, in
+///      seconds; negative for what was drawn before the recording began), "received_us",
+///      "erased_us" and "erased_s" (null while it stands), "erased_by"
 ///      ({"id", "name"}, null while it stands)}, ...]}
 /// in recorded_annotations' order. A name is the participant's display name from the
 /// recording's Speaker record, null where it has none (id 0: the server). Returns how many

@@ -331,9 +331,11 @@ TEST(DrawingRecording, ExportWritesEveryAnnotationWithExactPositionsAndItsTimes)
     EXPECT_EQ(e["received_us"], want[k].received_us);
     ASSERT_EQ(e["points"].size(), a.points.size());
     for (size_t i = 0; i < a.points.size(); ++i)
-      for (int c = 0; c < 3; ++c)  // each float exactly (the JSON number rounds back to it)
-        EXPECT_EQ(e["points"][i][c].get<double>(), double(a.points[i][c])) << k << " " << i;
+      for (int c = 0; c < 3; ++c)  // each float exactly (the JSON number reads back as it)
+        EXPECT_EQ(static_cast<float>(e["points"][i][c].get<double>()), a.points[i][c])
+            << k << " " << i;
   }
+  EXPECT_EQ(list[1]["points"][0][0].get<double>(), 0.1234567);  // as written, not 0.1234567016...
   EXPECT_EQ(list[0]["author"]["name"], "Dr. Aiko Tanaka");
   EXPECT_TRUE(list[2]["author"]["name"].is_null());  // Dr. Mesh: no Speaker record
   EXPECT_TRUE(list[0]["erased_us"].is_null());

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <mutex>
 
 #include "support/hub_outlet.hpp"
 #include "support/session_site.hpp"
@@ -223,6 +224,14 @@ TEST(Annotations, ParticipantsDrawForEveryoneAndTheDrawingOutlivesItsAuthor) {
   auto a = std::make_unique<test::TestParticipant>(s, test::hand_driven("Mentor"));
   auto b = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
   ASSERT_TRUE(eventually([&] { return b->other("Mentor") && a->now().joined; }, 30s));
+  // What B's drawing handler is given (`volcast record --session` records it): each 0x51 and 0x52
+  // as the server sent it.
+  std::mutex handed_mutex;
+  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> handed;
+  b->p().set_drawing_handler([&](uint8_t type, std::span<const uint8_t> payload) {
+    std::lock_guard lock(handed_mutex);
+    handed.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
+  });
   Annotation drawn = stroke(40);
   drawn.points[7] = {0.123456f, 1.2345678f, -0.3456789f};
   const uint32_t tag = a->p().annotate(drawn);
@@ -246,6 +255,16 @@ TEST(Annotations, ParticipantsDrawForEveryoneAndTheDrawingOutlivesItsAuthor) {
   b->p().erase(id);
   ASSERT_TRUE(eventually([&] { return !received(*b) && !received(*c); }, 30s));
   EXPECT_TRUE(s.hub.annotations("OR").empty());
+  b->p().set_drawing_handler(nullptr);
+  std::lock_guard lock(handed_mutex);
+  ASSERT_EQ(handed.size(), 2u);
+  EXPECT_EQ(handed[0].first, 0x51);
+  const Annotation got = session::parse_annotation(handed[0].second);
+  EXPECT_EQ(got.id, id);
+  EXPECT_EQ(got.points, drawn.points);
+  EXPECT_EQ(handed[0].second, session::serialize(got));  // the payload itself
+  EXPECT_EQ(handed[1].first, 0x52);
+  EXPECT_EQ(session::parse_erased(handed[1].second), std::make_pair(id, b->now().id));
 }
 
 TEST(Annotations, APoseScriptsDrawingParsesAndItsMistakesAreNamed) {

@@ -13,6 +13,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/session_client.hpp"
+#include "volcast/session/annotations.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
@@ -135,9 +136,9 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
     EXPECT_EQ(m.check == nullptr, m.type == Type::kAvatarFrame || m.type == Type::kAvatarFrameFrom)
         << m.name;
   }
-  EXPECT_EQ(types.size(), 30u);
+  EXPECT_EQ(types.size(), 36u);
   EXPECT_EQ(session::find_message(0x00), nullptr);
-  EXPECT_EQ(session::max_payload(0x50), 0u);
+  EXPECT_EQ(session::max_payload(0x53), 0u);
   EXPECT_EQ(session::max_payload(0x0e), session::kVoiceMessageLimit);
   EXPECT_EQ(session::max_payload(0x4b), session::kMaxCaseBytes);
   EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPose)).per_second, 150);
@@ -154,6 +155,9 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
       {Type::kParticipantLeft, session::serialize_left(3, session::LeftReason::kTimedOut)},
       {Type::kVoice, session::serialize(session::VoicePacketView{7, 9, 123, opus})},
       {Type::kVoiceState, session::serialize_voice_state(true)},
+      {Type::kPointer, session::serialize(session::PointerMessage{})},
+      {Type::kErase, session::serialize_erase(4)},
+      {Type::kErased, session::serialize_erased(4, 2)},
   };
   for (const auto& sample : samples) {
     const session::MessageKind* m = session::find_message(static_cast<uint8_t>(sample.first));

@@ -1,7 +1,7 @@
 // libFuzzer target: every session-channel parser (volcast/session/messages.hpp, objects.hpp,
-// voice_messages.hpp, annotations.hpp), the pose script parser and the name check (names.hpp, ICU) on arbitrary
-// bytes. The first byte picks the parser; a parser may throw Error, nothing else (no crash, no read
-// past the input, no unbounded allocation).
+// voice_messages.hpp, annotations.hpp), the pose script parser and the name check (names.hpp, ICU)
+// on arbitrary bytes. The first byte picks the parser; a parser may throw Error, nothing else (no
+// crash, no read past the input, no unbounded allocation).
 #include <cstdint>
 #include <span>
 #include <string>

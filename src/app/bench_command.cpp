@@ -69,8 +69,8 @@ void register_bench(CLI::App& app, Commands& commands) {
                "Recording benchmark instead: latency and CPU a server-side recorder adds to a "
                "live viewer, MB per minute per camera (--server-seconds, --server-repeats)");
   bn->add_flag("--drawing", bench.drawing,
-              "Pointing and drawing on loopback (pointer seen p50/p99, bytes a second of a busy "
-              "drawing session) and the OR display's ms a frame against its backdrop alone");
+               "Pointing and drawing on loopback (pointer seen p50/p99, bytes a second of a busy "
+               "drawing session) and the OR display's ms a frame against its backdrop alone");
   bn->add_flag("--voice", bench.voice,
                "Voice benchmark instead: mouth-to-ear latency, concealment, bytes per speaker, "
                "server CPU forwarding 4 talkers to 16 participants (--server-seconds each)");

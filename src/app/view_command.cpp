@@ -18,9 +18,9 @@
 #include "volcast/core/error.hpp"
 #include "volcast/io/site_config.hpp"
 #include "volcast/net/protocol/join.hpp"
+#include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
-#include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/xr.hpp"
@@ -171,8 +171,9 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
     if (window)
       spdlog::warn("view: --or-display draws headless (the picture with --screenshot); no window");
     if (!opt.render) throw Error("view: --or-display needs rendering (drop --no-render)");
-    opt.presenter = or_display_presenter(opt, static_cast<size_t>(a.or_display), participant,
-                                         opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+    opt.presenter =
+        or_display_presenter(opt, static_cast<size_t>(a.or_display), participant,
+                             opt.software_render_fps > 0 ? opt.software_render_fps : 15);
   } else if (xr) {
     XrOptions options;
     options.pass = opt.pass;
@@ -188,9 +189,9 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
     desktop.title = "volcast: " + a.name + " in " + a.join;
     opt.presenter = desktop_presenter(desktop);
   } else if (opt.render) {
-    opt.presenter = session_presenter(opt, participant, scene,
-                                      opt.software_render_fps > 0 ? opt.software_render_fps : 15,
-                                      surfaces);
+    opt.presenter =
+        session_presenter(opt, participant, scene,
+                          opt.software_render_fps > 0 ? opt.software_render_fps : 15, surfaces);
   }
   return session;
 }

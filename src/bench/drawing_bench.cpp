@@ -105,12 +105,14 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
     owner.point(true, {0, 1.4f, 1}, true, {x, 0.9f, 0});
     if (drawing && frame % 30 == 0) {
       session::Annotation a;
-      a.kind = frame % 120 == 0 ? session::AnnotationKind::kLabel : session::AnnotationKind::kStroke;
+      a.kind =
+          frame % 120 == 0 ? session::AnnotationKind::kLabel : session::AnnotationKind::kStroke;
       if (a.kind == session::AnnotationKind::kLabel) {
         a.points = {{x, 0.9f, 0}};
         a.text = "cut here";
       } else {
-        for (int k = 0; k < 120; ++k) a.points.push_back({x + 0.002f * float(k), 0.9f, 0.001f * float(k)});
+        for (int k = 0; k < 120; ++k)
+          a.points.push_back({x + 0.002f * float(k), 0.9f, 0.001f * float(k)});
       }
       owner.annotate(std::move(a));
       const auto mine = owner.snapshot(wall_clock_us()).annotations;

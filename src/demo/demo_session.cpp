@@ -150,8 +150,8 @@ std::vector<ScriptedDrawing> demo_drawing(const DrawingSpot& spot) {
     circle.points.push_back(spot.at + 0.12f * (std::cos(a) * spot.right + std::sin(a) * spot.up));
   }
   d.push_back(circle);
-  d.push_back({Kind::kArrow, 5.5, 0, {spot.at + 0.4f * spot.right, spot.at + 0.16f * spot.right},
-               ""});
+  d.push_back(
+      {Kind::kArrow, 5.5, 0, {spot.at + 0.4f * spot.right, spot.at + 0.16f * spot.right}, ""});
   d.push_back({Kind::kLabel, 5.7, 0, {spot.at + 0.22f * spot.up}, "cut here"});
   return d;
 }
@@ -284,7 +284,8 @@ std::unique_ptr<Person> demo_or_display(const DemoArgs& a, const fs::path& out,
   Person* raw = p.get();
   v.on_connected = [raw](Client& c) { raw->session->start(c); };
   v.on_finished = [raw](ViewerResult&) { raw->session->stop(); };
-  v.presenter = or_display_presenter(v, 0, [client] { return client->participant(); }, 2);
+  v.presenter = or_display_presenter(
+      v, 0, [client] { return client->participant(); }, 2);
   return p;
 }
 
@@ -428,10 +429,10 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     if (!p->error.empty()) throw Error("demo participant '" + p->name + "': " + p->error);
     std::printf("\n%s:\n%s", p->name.c_str(), format_stats_table(p->result).c_str());
     const bool wall = p->file == "or_display";
-    std::printf("wrote %s (%s) and %s\n", p->opt.screenshot.c_str(),
-                wall ? "camera 0's image with the remote participants and their drawing"
-                     : "its eye",
-                p->opt.stats_json.c_str());
+    std::printf(
+        "wrote %s (%s) and %s\n", p->opt.screenshot.c_str(),
+        wall ? "camera 0's image with the remote participants and their drawing" : "its eye",
+        p->opt.stats_json.c_str());
     if (talk && !wall) {
       const fs::path heard = talk->dir / ("heard_" + p->file);
       voice::report_voice(p->heard, heard.string() + ".json");

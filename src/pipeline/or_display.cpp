@@ -131,8 +131,9 @@ Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,
     if (!opt.screenshot.empty() && drawn) {
       ColorImage image;
       target.read_image(image);
-      write_color_png(opt.screenshot,
-                      turned(image, upright_quarter_turns(display.room_camera().world_from_camera)));
+      write_color_png(
+          opt.screenshot,
+          turned(image, upright_quarter_turns(display.room_camera().world_from_camera)));
       spdlog::info("wrote {} (the OR display of camera {})", opt.screenshot.string(), camera);
     }
   };

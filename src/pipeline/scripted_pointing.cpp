@@ -66,17 +66,16 @@ void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double 
       continue;
     }
     session::Annotation a;
-    a.kind = d.kind == Kind::kArrow ? session::AnnotationKind::kArrow
-                                    : session::AnnotationKind::kLabel;
+    a.kind =
+        d.kind == Kind::kArrow ? session::AnnotationKind::kArrow : session::AnnotationKind::kLabel;
     for (const Eigen::Vector3f& at : d.points) a.points.push_back(hit(hand, at).value_or(at));
     a.text = d.text;
     p.annotate(std::move(a));
   }
   if (!active_) return;
-  const Eigen::Vector3f aim =
-      active_->kind == ScriptedDrawing::Kind::kStroke
-          ? along(active_->points, (t_s - active_->t_s) / active_->for_s)
-          : active_->points[0];
+  const Eigen::Vector3f aim = active_->kind == ScriptedDrawing::Kind::kStroke
+                                  ? along(active_->points, (t_s - active_->t_s) / active_->for_s)
+                                  : active_->points[0];
   const std::optional<Eigen::Vector3f> met = hit(hand, aim);
   p.point(true, hand, met.has_value(), met.value_or(aim));
   if (active_->kind == ScriptedDrawing::Kind::kStroke && met &&

@@ -181,8 +181,8 @@ void SessionClient::run_poses() {
     objects.step(*participant_, t);
     participant_->publish(options_.script.at(t));
     if (!options_.script.drawing.empty())
-      pointing.step(*participant_, participant_->snapshot(wall_clock_us()).own_body.right_hand.position,
-                    t);
+      pointing.step(*participant_,
+                    participant_->snapshot(wall_clock_us()).own_body.right_hand.position, t);
     next += period;
     const auto now = clock::now();
     if (next < now) next = now;  // fell behind (a loaded machine): no burst to catch up

@@ -60,7 +60,7 @@ void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
   for (const session::Annotation& a : s.annotations) {
     if (a.anchor == session::AnnotationAnchor::kMonitor &&
         (!s.monitor || s.monitor->slice != a.slice || a.generation != s.case_generation))
-      continue;  // drawn on another CT slice (or case)
+      continue;                      // drawn on another CT slice (or case)
     session::Annotation lifted = a;  // out of the surface it was drawn on, for this eye
     for (Eigen::Vector3f& p : lifted.points) p = toward_eye(p, eye);
     const auto shape = annotation_primitives(lifted, participant_color(a.author));

@@ -76,7 +76,8 @@ std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool ha
 }
 
 Eigen::Vector3f label_anchor(const session::Annotation& a) {
-  return a.points.empty() ? Eigen::Vector3f::Zero() : Eigen::Vector3f(a.points[0] + Eigen::Vector3f(0, 0.12f, 0));
+  return a.points.empty() ? Eigen::Vector3f::Zero()
+                          : Eigen::Vector3f(a.points[0] + Eigen::Vector3f(0, 0.12f, 0));
 }
 
 std::vector<Primitive> annotation_primitives(const session::Annotation& a,
@@ -88,7 +89,8 @@ std::vector<Primitive> annotation_primitives(const session::Annotation& a,
     case session::AnnotationKind::kStroke:
       for (size_t i = 0; i < p.size(); ++i) {
         out.push_back(ball(p[i], 0.008f, c));
-        if (i > 0 && (p[i] - p[i - 1]).norm() > 1e-5f) out.push_back(tube(p[i - 1], p[i], 0.008f, c));
+        if (i > 0 && (p[i] - p[i - 1]).norm() > 1e-5f)
+          out.push_back(tube(p[i - 1], p[i], 0.008f, c));
       }
       break;
     case session::AnnotationKind::kArrow: {

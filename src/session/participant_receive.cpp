@@ -217,7 +217,8 @@ void Participant::Impl::on_pointer(std::span<const uint8_t> p, int64_t now_serve
   if (remote == remotes.end()) return;  // left meanwhile
   ++remote->second->pointers_received;
   add_sample(remote->second->pointer_ages_ms, double(now_server - m.time_us) / 1000.0);
-  if (const auto it = pointer_in.find(id); it != pointer_in.end() && m.sequence <= it->second.sequence)
+  if (const auto it = pointer_in.find(id);
+      it != pointer_in.end() && m.sequence <= it->second.sequence)
     return;  // older
   pointer_in[id] = m;
   if (m.on)

@@ -301,7 +301,8 @@ TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneB
   const Eigen::Vector3d p = measured_point(c, u, v);
   const Eigen::Vector3d eye = c.calibration.world_from_camera.translation;
   const Eigen::Vector3d ray = (p - eye).normalized();
-  const Eigen::Vector3d across = c.calibration.world_from_camera.rotation * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d across =
+      c.calibration.world_from_camera.rotation * Eigen::Vector3d::UnitX();
   const auto stroke_at = [&](const Eigen::Vector3d& q) {
     session::Annotation a;
     a.id = 1;
@@ -387,7 +388,8 @@ TEST(OrDisplay, ACameraOnItsSideIsShownUpright) {
   level.rotation << 1, 0, 0, 0, -1, 0, 0, 0, -1;
   EXPECT_EQ(upright_quarter_turns(level), 0);
   RigidTransform rolled = level;
-  rolled.rotation = level.rotation * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  rolled.rotation =
+      level.rotation * Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const Eigen::Vector3d up_in_image = rolled.rotation.transpose() * Eigen::Vector3d::UnitY();
   EXPECT_EQ(upright_quarter_turns(rolled), up_in_image.x() > 0 ? 1 : 3);
   EXPECT_GT(std::abs(up_in_image.x()), 0.99);

@@ -12,8 +12,8 @@
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/session/annotations.hpp"
-#include "volcast/session/pose_script.hpp"
 #include "volcast/session/message_table.hpp"
+#include "volcast/session/pose_script.hpp"
 
 namespace volcast {
 namespace {
@@ -126,7 +126,8 @@ TEST(Annotations, TheHubKeepsThemForLateJoinersAfterTheirAuthorAndErasesThemForE
   Annotation a = stroke(12);
   a.tag = 77;
   send(hub, 10, Type::kAnnotate, session::serialize_annotate(a));
-  send(hub, 10, Type::kPointer, session::serialize(session::PointerMessage{1, 5, true, {0, 1.6f, 1}, true, {0, 1, 0}}));
+  send(hub, 10, Type::kPointer,
+       session::serialize(session::PointerMessage{1, 5, true, {0, 1.6f, 1}, true, {0, 1, 0}}));
   for (uint64_t v : {10, 11}) {
     const auto got = annotations_sent(out, v);
     ASSERT_EQ(got.size(), 1u) << v;
@@ -176,9 +177,10 @@ TEST(Annotations, OnlyTheAuthorErasesWhereTheServerSaysSo) {
   EXPECT_TRUE(hub.annotations("OR").empty());
 }
 
-// A flood from 14 participants at once (the most a session has beside the OR site and one more): the session keeps at most its limits, each annotation
-// over them refused with a message naming the limit; a bad label and a monitor annotation without
-// a monitor are refused the same way; a malformed one drops its sender.
+// A flood from 14 participants at once (the most a session has beside the OR site and one more):
+// the session keeps at most its limits, each annotation over them refused with a message naming the
+// limit; a bad label and a monitor annotation without a monitor are refused the same way; a
+// malformed one drops its sender.
 TEST(Annotations, FloodsBadLabelsAndStaleAnchorsAreRefusedWithAMessage) {
   SessionHub hub;
   Outlet out;
@@ -187,7 +189,8 @@ TEST(Annotations, FloodsBadLabelsAndStaleAnchorsAreRefusedWithAMessage) {
   for (uint64_t v = 10; v < 24; ++v) join(hub, v, "OR", "P" + std::to_string(v));
   const Annotation big = stroke(session::kMaxStrokePoints);
   for (int round = 0; round < 20; ++round)  // each participant's burst (rate_limit: 20 at once)
-    for (uint64_t v = 10; v < 24; ++v) send(hub, v, Type::kAnnotate, session::serialize_annotate(big));
+    for (uint64_t v = 10; v < 24; ++v)
+      send(hub, v, Type::kAnnotate, session::serialize_annotate(big));
   const auto kept = hub.annotations("OR");
   size_t points = 0;
   for (const Annotation& a : kept) points += a.points.size();
@@ -281,17 +284,20 @@ TEST(Annotations, APoseScriptsDrawingParsesAndItsMistakesAreNamed) {
   EXPECT_EQ(s.drawing[2].points[1], Eigen::Vector3f(0.1f, 1, -1));
   EXPECT_EQ(s.drawing[3].text, "Caf\xc3\xa9");  // NFC, as the server keeps it
   const auto error = [&](const std::string& drawing) {
-    return test::error_of([&] { parse_pose_script("{" + keys + R"(, "drawing": [)" + drawing + "]}"); });
+    return test::error_of(
+        [&] { parse_pose_script("{" + keys + R"(, "drawing": [)" + drawing + "]}"); });
   };
   EXPECT_NE(error(R"({"t": 1, "kind": "circle"})").find("none of point"), std::string::npos);
   EXPECT_NE(error(R"({"t": 1, "kind": "stroke", "path": [[0, 1, 0]]})").find("2 to 256"),
             std::string::npos);
-  EXPECT_NE(error(R"({"t": 1, "kind": "label", "at": [0, 1, 0], "text": "a\u202eb"})")
-                .find("label"),
-            std::string::npos);
-  EXPECT_NE(error(R"({"t": 2, "kind": "point", "at": [0, 1, 0]}, {"t": 1, "kind": "point", "at": [0, 1, 0]})")
-                .find("time order"),
-            std::string::npos);
+  EXPECT_NE(
+      error(R"({"t": 1, "kind": "label", "at": [0, 1, 0], "text": "a\u202eb"})").find("label"),
+      std::string::npos);
+  EXPECT_NE(
+      error(
+          R"({"t": 2, "kind": "point", "at": [0, 1, 0]}, {"t": 1, "kind": "point", "at": [0, 1, 0]})")
+          .find("time order"),
+      std::string::npos);
 }
 
 // A pose script's stroke over the real hands site: the pointer sweeps its path, and the stroke
@@ -317,16 +323,19 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   drawer.script.keys = {k};
   ScriptedDrawing stroke{ScriptedDrawing::Kind::kStroke, 0.3, 0.6, {}, ""};
   for (int i = 0; i <= 8; ++i) stroke.points.push_back(ahead(-0.08 + 0.02 * i, 0.02));
-  drawer.script.drawing = {stroke, {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
+  drawer.script.drawing = {stroke,
+                           {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
   surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
                    RigidTransform{});
   auto watcher = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
   auto mentor = std::make_unique<test::TestParticipant>(s, drawer);
   bool pointer_seen = false;
-  ASSERT_TRUE(eventually([&] {
-    pointer_seen = pointer_seen || !watcher->now().pointers.empty();
-    return watcher->now().annotations.size() == 2;
-  }, 30s));
+  ASSERT_TRUE(eventually(
+      [&] {
+        pointer_seen = pointer_seen || !watcher->now().pointers.empty();
+        return watcher->now().annotations.size() == 2;
+      },
+      30s));
   EXPECT_TRUE(pointer_seen);
   const auto drawn = watcher->now().annotations;
   EXPECT_EQ(drawn[0].kind, AnnotationKind::kStroke);

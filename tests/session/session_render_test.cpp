@@ -317,7 +317,7 @@ TEST(SessionScene, APointersDotShowsWhereItPointsOnTheLiveCloudForOthersWhileHel
       if (const uint16_t mm = d.at(u, v); mm != 0)
         if (const auto xy = unproject_pixel(site_camera.depth, {double(u), double(v)}))
           cloud.push_back((room_from_camera * Eigen::Vector3d(xy->x() * mm / 1000.0,
-                                                               xy->y() * mm / 1000.0, mm / 1000.0))
+                                                              xy->y() * mm / 1000.0, mm / 1000.0))
                               .cast<float>());
   ASSERT_GT(cloud.size(), 1000u);
   Eigen::Vector3f middle = Eigen::Vector3f::Zero();

@@ -17,8 +17,8 @@ std::optional<Eigen::Vector3f> depth_under(const View& view, const RenderTarget&
   if (px < 0 || py < 0 || px >= target.width || py >= target.height) return std::nullopt;
   float depth = 1;
   glBindFramebuffer(GL_READ_FRAMEBUFFER, target.framebuffer);
-  glReadPixels(target.x + px, target.y + target.height - 1 - py, 1, 1, GL_DEPTH_COMPONENT,
-               GL_FLOAT, &depth);
+  glReadPixels(target.x + px, target.y + target.height - 1 - py, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT,
+               &depth);
   if (depth >= 1.0f) return std::nullopt;
   const Eigen::Vector4f ndc(float(2 * (px + 0.5) / target.width - 1),
                             float(1 - 2 * (py + 0.5) / target.height), 2 * depth - 1, 1);
@@ -28,7 +28,8 @@ std::optional<Eigen::Vector3f> depth_under(const View& view, const RenderTarget&
 
 // The ray through framebuffer pixel (x, y): a point 1 m along it.
 Eigen::Vector3f ahead_of(const View& view, const RenderTarget& target, double x, double y) {
-  const Eigen::Vector4f ndc(float(2 * x / target.width - 1), float(1 - 2 * y / target.height), 0, 1);
+  const Eigen::Vector4f ndc(float(2 * x / target.width - 1), float(1 - 2 * y / target.height), 0,
+                            1);
   const Eigen::Vector4f p = view.clip_from_world().inverse() * ndc;
   const Eigen::Vector3f eye = view.world_from_view.translation.cast<float>();
   return eye + (Eigen::Vector3f(p.head<3>() / p.w()) - eye).normalized();
@@ -62,9 +63,10 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
   state.origin = (eye * Eigen::Vector3d(0.2, -0.25, 0)).cast<float>();
   const bool aiming = state.laser || state.dragging || state.pin_label;
   state.hit = aiming ? depth_under(view, target, x, y) : std::nullopt;
-  const bool was_on = snapshot.pointers.end() !=
-                      std::find_if(snapshot.pointers.begin(), snapshot.pointers.end(),
-                                   [&](const PointerView& p) { return p.participant == snapshot.id; });
+  const bool was_on =
+      snapshot.pointers.end() !=
+      std::find_if(snapshot.pointers.begin(), snapshot.pointers.end(),
+                   [&](const PointerView& p) { return p.participant == snapshot.id; });
   if (state.laser || state.dragging) {
     const Eigen::Vector3f through = state.hit.value_or(ahead_of(view, target, x, y));
     participant.point(true, state.origin, state.hit.has_value(), through);
@@ -147,9 +149,11 @@ void draw_annotation_panel(PointingState& state, Participant& participant,
       "Hold L: your laser pointer. Shift+drag (or L + drag) draws, Alt+drag (or L + right drag) "
       "an arrow, N pins the label under the mouse, Backspace erases your last.");
   ImGui::InputText("label", state.label, sizeof state.label);
-  if (!state.status.empty()) ImGui::TextColored(ImVec4(1, 0.5f, 0.3f, 1), "%s", state.status.c_str());
+  if (!state.status.empty())
+    ImGui::TextColored(ImVec4(1, 0.5f, 0.3f, 1), "%s", state.status.c_str());
   for (const session::Annotation& a : snapshot.annotations) {
-    std::string author = a.author == snapshot.id ? "you" : "participant " + std::to_string(a.author);
+    std::string author =
+        a.author == snapshot.id ? "you" : "participant " + std::to_string(a.author);
     for (const RemoteParticipant& o : snapshot.others)
       if (o.id == a.author) author = o.name;
     ImGui::PushID(static_cast<int>(a.id));

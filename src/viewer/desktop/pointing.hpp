@@ -18,15 +18,15 @@
 namespace volcast {
 
 struct PointingState {
-  bool laser = false;                         ///< L held
-  bool dragging = false;                      ///< a drawing drag (L, Shift or Alt) goes on
-  bool drawing = false;                       ///< left button held with L: a stroke
-  bool arrow = false;                         ///< right button held with L: an arrow
-  bool pin_label = false;                     ///< N pressed: pin the label at the dot
-  bool erase_last = false;                    ///< Backspace pressed
-  std::vector<Eigen::Vector3f> stroke;        ///< the stroke being drawn (room frame)
-  std::optional<Eigen::Vector3f> arrow_tail;  ///< where the arrow began
-  std::optional<Eigen::Vector3f> hit;         ///< the dot this frame (room frame)
+  bool laser = false;                                ///< L held
+  bool dragging = false;                             ///< a drawing drag (L, Shift or Alt) goes on
+  bool drawing = false;                              ///< left button held with L: a stroke
+  bool arrow = false;                                ///< right button held with L: an arrow
+  bool pin_label = false;                            ///< N pressed: pin the label at the dot
+  bool erase_last = false;                           ///< Backspace pressed
+  std::vector<Eigen::Vector3f> stroke;               ///< the stroke being drawn (room frame)
+  std::optional<Eigen::Vector3f> arrow_tail;         ///< where the arrow began
+  std::optional<Eigen::Vector3f> hit;                ///< the dot this frame (room frame)
   Eigen::Vector3f origin = Eigen::Vector3f::Zero();  ///< the pointer's origin (room frame)
   char label[65] = "here";                           ///< the panel's label text
   std::string status;                                ///< the last refusal, for the panel
@@ -44,8 +44,7 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
 
 /// The labels' text over the scene (ImGui's background draw list, between NewFrame and Render),
 /// each at its pin's top in its author's colour; `width` x `height` the window's size.
-void draw_label_texts(const SessionSnapshot& snapshot, const View& view, float width,
-                      float height);
+void draw_label_texts(const SessionSnapshot& snapshot, const View& view, float width, float height);
 
 /// The panel's annotations section: the label text, the keys, the session's annotations (kind,
 /// author) with an erase button each.

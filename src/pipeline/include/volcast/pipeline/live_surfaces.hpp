@@ -25,8 +25,8 @@ class LiveSurfaces {
   /// Where the ray origin + t * direction (room frame, metres; any length) first meets a site
   /// camera's measured surface, 0 <= t <= max_m (room frame, metres), the nearest over the
   /// cameras; nullopt if it meets none or no frame has come yet.
-  std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
-                                     float max_m = 8) const;
+  std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& origin,
+                                     const Eigen::Vector3f& direction, float max_m = 8) const;
   /// Whether a frame of any camera has come.
   bool ready() const;
 

@@ -60,9 +60,9 @@ ColorImage turned(const ColorImage& image, int quarter_turns);
 
 /// The headless presenter of an OR display: an EGL target of the camera's size drawing the OR
 /// display of site camera `camera` (an index into the Welcome's cameras) about `fps` times a
-/// second, and writing options.screenshot at the end, turned upright (upright_quarter_turns). `participant` returns the OR display's
-/// participant once joined (null before). Throws Error (from the render thread) if the site has
-/// no camera `camera`.
+/// second, and writing options.screenshot at the end, turned upright (upright_quarter_turns).
+/// `participant` returns the OR display's participant once joined (null before). Throws Error (from
+/// the render thread) if the site has no camera `camera`.
 Presenter or_display_presenter(const ViewerOptions& options, size_t camera,
                                std::function<Participant*()> participant, double fps = 15);
 

@@ -3,9 +3,10 @@
 // any RenderTarget: the OR site's cameras placed by room_from_site, every other participant with
 // a camera as a live point-cloud avatar (only points within keep_radius_m of that participant's
 // interpolated head), its own camera likewise with its own headset hidden, a mesh avatar (head and
-// hands) for each participant without a camera, everyone's pointers and the session's annotations, the room (floor, walls, table, lamp), teleport
-// effects, the patient case's objects where the session has them (held ones brightened) and the
-// wall monitor's CT slice. One GL context; every call with it current.
+// hands) for each participant without a camera, everyone's pointers and the session's annotations,
+// the room (floor, walls, table, lamp), teleport effects, the patient case's objects where the
+// session has them (held ones brightened) and the wall monitor's CT slice. One GL context; every
+// call with it current.
 #include <memory>
 #include <optional>
 #include <span>

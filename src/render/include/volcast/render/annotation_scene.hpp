@@ -23,17 +23,17 @@ Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye)
 
 /// A laser pointer from `origin`: a beam 5 mm wide to `hit`, and there a dot 3 cm across and 4 mm
 /// thick facing `eye` (the viewer's eye), at toward_eye(hit, eye): it projects exactly where the
-/// hit does and stands out of the surface it lies on. Without a hit (`has_hit` false) the beam runs 3 m
-/// towards `hit` and has no dot. Empty if origin and hit coincide.
+/// hit does and stands out of the surface it lies on. Without a hit (`has_hit` false) the beam runs
+/// 3 m towards `hit` and has no dot. Empty if origin and hit coincide.
 std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool has_hit,
                                           const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
                                           const Eigen::Vector3f& eye);
 
 /// One annotation (its points as they are: lift them with toward_eye first to keep them out of the
-/// surface they were drawn on): a stroke is a tube 8 mm wide through its points (a ball at each joint); an
-/// arrow a tube from its tail with a cone-like head 6 cm long at its head point; a label a pin (a
-/// ball 2.5 cm wide at its point and a stick 12 cm up to a flag 6 x 4 cm): its text is drawn by
-/// the viewer's overlay (label_anchor).
+/// surface they were drawn on): a stroke is a tube 8 mm wide through its points (a ball at each
+/// joint); an arrow a tube from its tail with a cone-like head 6 cm long at its head point; a label
+/// a pin (a ball 2.5 cm wide at its point and a stick 12 cm up to a flag 6 x 4 cm): its text is
+/// drawn by the viewer's overlay (label_anchor).
 std::vector<Primitive> annotation_primitives(const session::Annotation& a,
                                              const Eigen::Vector3f& rgb);
 

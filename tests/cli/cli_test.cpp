@@ -140,7 +140,7 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
                           "render_camera1.png"})
     EXPECT_GT(std::filesystem::file_size(dir / png), 10'000u) << png;
   // The virtual-OR session: the four registered cameras, two scripted participants, each one's
-  // eye and figures; each saw the other.
+  // eye and figures; each saw the other and the OR's wall display.
   EXPECT_NE(out.find("virtual OR session 'OR'"), std::string::npos) << out;
   EXPECT_NE(out.find("registration from"), std::string::npos) << out;  // the cache was used
   for (const auto& [file, other] : {std::pair{"session_camera_avatar", "Dr. Mesh"},
@@ -149,9 +149,13 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
     std::ifstream s(dir / (std::string(file) + ".json"));
     const auto session = nlohmann::json::parse(s);
     EXPECT_EQ(session["session"], "OR");
-    ASSERT_EQ(session["participants"].size(), 1u) << session.dump(2);
-    EXPECT_EQ(session["participants"][0], other);
-    EXPECT_GT(session["others"][0]["poses_received"].get<int>(), 0);
+    ASSERT_EQ(session["participants"].size(), 2u) << session.dump(2);
+    std::set<std::string> seen;
+    for (const auto& name : session["participants"]) seen.insert(name.get<std::string>());
+    EXPECT_TRUE(seen.contains(other) && seen.contains("OR wall display")) << session.dump(2);
+    bool moved = false;  // the other participant's poses arrived (the wall display sends none)
+    for (const auto& o : session["others"]) moved = moved || o["poses_received"].get<int>() > 0;
+    EXPECT_TRUE(moved) << session.dump(2);
   }
   // The patient case: the liver's meshes from the real label volume, grabbed and turned by one
   // participant, let go where both see it; the monitor set by the other, seen by both.
@@ -166,11 +170,17 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   EXPECT_NEAR(c["liver"]["turned_deg"].get<double>(), 150, 1);
   EXPECT_EQ(c["monitor"]["slice"], 2);
   EXPECT_EQ(c["monitor"]["width"], 150);
-  ASSERT_EQ(c["participants"].size(), 2u);
+  ASSERT_EQ(c["participants"].size(), 3u);  // the OR's wall display too
   for (const auto& p : c["participants"]) {
     EXPECT_TRUE(p["sees_the_hubs_liver_pose"]) << p.dump();
     EXPECT_EQ(p["monitor_slice"], 2) << p.dump();
   }
+  // Dr. Mesh pointed at the live site and drew there (its arrow and label at least: a stroke
+  // needs its rays to meet the clouds); the OR display's picture was written.
+  EXPECT_GT(c["hub"]["pointers_in"].get<int>(), 0);
+  ASSERT_GE(c["annotations"].size(), 2u) << c.dump(2);
+  EXPECT_EQ(c["annotations"].back()["text"], "cut here");
+  EXPECT_GT(std::filesystem::file_size(dir / "or_display.png"), 10'000u);
 }
 
 TEST(Cli, CasePrintsPartsAndSeriesAndRenders) {

@@ -266,9 +266,9 @@ int run_record(const RecordArgs& args);
 
 struct ExportArgs {
   std::string file;
-  std::string ply, png;  ///< output folders
-  std::string mkv;       ///< Azure Kinect-style Matroska (volcast/pipeline/export.hpp)
-  std::string wav;       ///< folder: one WAV per speaker (volcast/voice/voice_export.hpp)
+  std::string ply, png;     ///< output folders
+  std::string mkv;          ///< Azure Kinect-style Matroska (volcast/pipeline/export.hpp)
+  std::string wav;          ///< folder: one WAV per speaker (volcast/voice/voice_export.hpp)
   std::string annotations;  ///< JSON file (volcast/pipeline/annotation_export.hpp)
   double from_s = 0, to_s = -1;
 };

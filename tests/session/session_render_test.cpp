@@ -386,11 +386,11 @@ TEST(SessionScene, APointersDotShowsWhereItPointsOnTheLiveCloudForOthersWhileHel
       if (part[v * 640 + u] >= 0 || !changed(held, missed, u, v)) continue;
       const int id = int(sizes.size());
       sizes.push_back(0);
-      std::vector<std::pair<int, int>> todo{{u, v}};
+      std::vector<std::pair<int, int>> frontier{{u, v}};
       part[v * 640 + u] = id;
-      while (!todo.empty()) {
-        const auto [x, y] = todo.back();
-        todo.pop_back();
+      while (!frontier.empty()) {
+        const auto [x, y] = frontier.back();
+        frontier.pop_back();
         ++sizes[id];
         for (const auto& [dx, dy] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
           const int nx = x + dx, ny = y + dy;
@@ -398,7 +398,7 @@ TEST(SessionScene, APointersDotShowsWhereItPointsOnTheLiveCloudForOthersWhileHel
               !changed(held, missed, nx, ny))
             continue;
           part[ny * 640 + nx] = id;
-          todo.push_back({nx, ny});
+          frontier.push_back({nx, ny});
         }
       }
     }

@@ -117,7 +117,7 @@ class ReplayPlayer {
   std::vector<uint8_t> bad_voice_;  // per cue: its record could not be read (warned once)
   std::vector<DrawingCue> drawing_;
   std::vector<std::vector<uint8_t>> drawing_payloads_;  // per cue, read on opening (empty: bad)
-  SessionHub* hub_ = nullptr;       // the hub the speakers were added to, and their ids there
+  SessionHub* hub_ = nullptr;  // the hub the speakers were added to, and their ids there
   std::map<uint32_t, uint32_t> hub_ids_;
   std::thread thread_, voice_thread_, drawing_thread_;
   std::atomic<bool> stop_{false}, frames_done_{false}, voices_done_{false}, drawing_done_{false};

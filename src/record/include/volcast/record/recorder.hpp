@@ -98,12 +98,12 @@ class BackgroundRecorder {
   std::deque<RecordedSpeaker> speakers_;     // guarded by mutex_
   std::vector<QueuedVoice> voices_;          // guarded by mutex_: a ring of max_queued_voices
   size_t voice_head_ = 0, voice_count_ = 0;  // guarded by mutex_
-  std::vector<QueuedVoice> writing_;  // the recorder thread's own: voices taken from the ring
+  std::vector<QueuedVoice> writing_;    // the recorder thread's own: voices taken from the ring
   std::deque<QueuedDrawing> drawings_;  // guarded by mutex_: at most max_queued_drawings_
   size_t max_queued_drawings_;
-  RecorderStats stats_;               // guarded by mutex_
-  bool waiting_for_key_ = false;      // guarded by mutex_: dropped one, deltas cannot follow
-  bool stopping_ = false;             // guarded by mutex_
+  RecorderStats stats_;           // guarded by mutex_
+  bool waiting_for_key_ = false;  // guarded by mutex_: dropped one, deltas cannot follow
+  bool stopping_ = false;         // guarded by mutex_
   std::thread thread_;
 };
 

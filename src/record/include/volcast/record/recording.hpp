@@ -236,7 +236,7 @@ struct RecordingInfo {
       kRecordingVersion;  ///< the file's format version (1: no voices, 2: no drawing)
   /// One per participant, in the order they first spoke; name and role from their last Speaker.
   std::vector<RecordedSpeaker> speakers;
-  std::vector<RecordedVoice> voices;  ///< every Voice record, in file order
+  std::vector<RecordedVoice> voices;      ///< every Voice record, in file order
   std::vector<RecordedDrawing> drawings;  ///< every Drawing record, in file order
   uint64_t file_bytes = 0;
   bool closed = false;  ///< ends in a valid Index and End (the recorder closed it)

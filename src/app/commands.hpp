@@ -158,6 +158,7 @@ struct ViewArgs {
   std::string join;                      ///< session name; empty: a plain viewer
   std::string name;                      ///< display name in the session
   int or_display = -1;                   ///< >= 0: draw the OR display of this site camera
+  bool fullscreen = false;               ///< the OR display's window starts full screen
   std::string camera;                    ///< own RGB-D camera source: a camera avatar
   std::string camera_pose;               ///< "x,y,z,rx,ry,rz": playarea_from_camera (m, deg)
   std::string camera_intrinsics;         ///< "fx,fy,cx,cy" for a camera source without any

@@ -23,6 +23,7 @@
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/viewer/desktop.hpp"
+#include "volcast/viewer/or_display_window.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/voice/voice_report.hpp"
 
@@ -168,12 +169,22 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   const auto participant = [client] { return client->participant(); };
   const auto voice_link = [voice] { return voice->get(); };
   if (or_display) {
-    if (window)
-      spdlog::warn("view: --or-display draws headless (the picture with --screenshot); no window");
     if (!opt.render) throw Error("view: --or-display needs rendering (drop --no-render)");
-    opt.presenter =
-        or_display_presenter(opt, static_cast<size_t>(a.or_display), participant,
-                             opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+    if (window) {
+      OrDisplayWindowOptions w;
+      w.camera = static_cast<size_t>(a.or_display);
+      w.width = opt.width;
+      w.height = opt.height;
+      w.fullscreen = a.fullscreen;
+      w.title = "volcast: OR display of camera " + std::to_string(a.or_display) + " in " + a.join;
+      w.participant = participant;
+      w.screenshot = a.screenshot;
+      opt.presenter = or_display_window_presenter(w);
+    } else {
+      opt.presenter =
+          or_display_presenter(opt, static_cast<size_t>(a.or_display), participant,
+                               opt.software_render_fps > 0 ? opt.software_render_fps : 15);
+    }
   } else if (xr) {
     XrOptions options;
     options.pass = opt.pass;
@@ -321,6 +332,10 @@ int run_view(const ViewArgs& a) {
   opt.save_frames_dir = a.save_frames;
   opt.stats_json = a.stats_json;
   opt.stop = &g_interrupted;
+  if (a.or_display >= 0 && a.join.empty())
+    throw Error("view: --or-display needs --join SESSION (it shows that session's participants)");
+  if (a.fullscreen && a.or_display < 0)
+    throw Error("view: --fullscreen goes with --or-display (the OR's wall monitor)");
   std::unique_ptr<SessionClient> session;
   if (!a.join.empty()) session = join_session(a, opt);
   if (opt.render && !a.headless && !session) opt.presenter = interactive_presenter(a, opt);
@@ -422,9 +437,12 @@ void register_view(CLI::App& app, Commands& commands) {
   v->add_option("--or-display", view.or_display,
                 "With --join: be the OR display of site camera N (0 = the first): that camera's "
                 "own image, from its viewpoint, with the remote participants, their pointers and "
-                "the session's annotations drawn in, hidden by what stands in front; written with "
-                "--screenshot")
+                "the session's annotations drawn in, hidden by what stands in front; in a window "
+                "for the OR's wall monitor (F11 full screen, H legend, F12 screenshot), or with "
+                "--headless its last picture written to --screenshot")
       ->check(CLI::NonNegativeNumber);
+  v->add_flag("--fullscreen", view.fullscreen,
+              "With --or-display: open its window full screen on the primary monitor");
   v->add_option("--camera", view.camera,
                 "Your own RGB-D camera (any source: .mkv, image folder, depth PNG): others see "
                 "you as a live point-cloud avatar; without it, a mesh avatar");

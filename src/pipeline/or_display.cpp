@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -74,8 +76,42 @@ void OrDisplay::draw(const RenderTarget& target, const CameraCalibration& camera
     const auto badge = voice_badge_primitives(p.pose.head.position, speaking, p.muted, 0.5f);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
-  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene);
+  // Not those on the virtual room's wall monitor: the real OR has none to draw them on.
+  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene, true, false);
   if (!r.scene.empty()) r.primitives.draw(view, target, r.scene);
+}
+
+std::vector<OrDisplayLabel> OrDisplay::labels(const SessionSnapshot& s) const {
+  const Impl& r = *impl_;
+  std::vector<OrDisplayLabel> out;
+  const Intrinsics& k = r.room_camera.depth;
+  const DepthImage& depth = r.undistorted.depth;
+  if (k.width <= 0 || depth.width != k.width || depth.height != k.height) return out;
+  const RigidTransform camera_from_room = r.room_camera.world_from_camera.inverse();
+  const auto project = [&](const Eigen::Vector3f& room) -> std::optional<Eigen::Vector3d> {
+    const Eigen::Vector3d p = camera_from_room * room.cast<double>();
+    if (!(p.z() > 0.05)) return std::nullopt;  // behind the camera or at its lens
+    return Eigen::Vector3d(k.fx * p.x() / p.z() + k.cx, k.fy * p.y() / p.z() + k.cy, p.z());
+  };
+  for (const session::Annotation& a : s.annotations) {
+    if (a.kind != session::AnnotationKind::kLabel ||
+        a.anchor == session::AnnotationAnchor::kMonitor || a.points.empty())
+      continue;
+    // Shown while its pin is: in the picture and not behind a real surface.
+    const auto pin = project(a.points[0]);
+    if (!pin || !(pin->x() >= 0 && pin->y() >= 0 && pin->x() < k.width && pin->y() < k.height))
+      continue;
+    const uint16_t live_mm = depth.at(static_cast<int>(pin->x()), static_cast<int>(pin->y()));
+    if (live_mm != 0 && live_mm + 30.0 < pin->z() * 1000) continue;  // a real surface in front
+    // The text over the stick's top, kept inside the picture (a pin near its edge keeps its text).
+    const auto top = project(label_anchor(a));
+    const Eigen::Vector2d at = top ? top->head<2>() : pin->head<2>();
+    out.push_back({a.text,
+                   Eigen::Vector2f(float(std::clamp(at.x(), 0.0, double(k.width))),
+                                   float(std::clamp(at.y(), 0.0, double(k.height)))),
+                   participant_color(a.author)});
+  }
+  return out;
 }
 
 int upright_quarter_turns(const RigidTransform& room_from_camera) {
@@ -97,6 +133,20 @@ ColorImage turned(const ColorImage& image, int quarter_turns) {
       std::copy_n(image.pixel(sx, sy), 4, out.pixel(x, y));
     }
   return out;
+}
+
+Eigen::Vector2f turned_point(const Eigen::Vector2f& p, int width, int height, int quarter_turns) {
+  const auto w = static_cast<float>(width), h = static_cast<float>(height);
+  switch (((quarter_turns % 4) + 4) % 4) {
+    case 1:
+      return {p.y(), w - p.x()};
+    case 2:
+      return {w - p.x(), h - p.y()};
+    case 3:
+      return {h - p.y(), p.x()};
+    default:
+      return p;
+  }
 }
 
 Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,

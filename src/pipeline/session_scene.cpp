@@ -50,7 +50,7 @@ AvatarFilter own_camera_filter(const SessionSnapshot& s, float radius_m) {
 }
 
 void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out, bool own_pointer) {
+                        std::vector<Primitive>& out, bool own_pointer, bool on_monitor) {
   for (const PointerView& p : s.pointers) {
     if (!own_pointer && p.participant == s.id) continue;
     const auto beam =
@@ -59,7 +59,7 @@ void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
   }
   for (const session::Annotation& a : s.annotations) {
     if (a.anchor == session::AnnotationAnchor::kMonitor &&
-        (!s.monitor || s.monitor->slice != a.slice || a.generation != s.case_generation))
+        (!on_monitor || !s.monitor || s.monitor->slice != a.slice || a.generation != s.case_generation))
       continue;                      // drawn on another CT slice (or case)
     session::Annotation lifted = a;  // out of the surface it was drawn on, for this eye
     for (Eigen::Vector3f& p : lifted.points) p = toward_eye(p, eye);

@@ -15,6 +15,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/filter/filters.hpp"
 #include "volcast/pipeline/or_display.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/render/backdrop_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
 #include "volcast/render/primitive_renderer.hpp"
@@ -366,6 +367,29 @@ TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneB
   EXPECT_LT((centre - expected).norm(), 2.0)
       << centre.transpose() << " vs " << expected.transpose();
   EXPECT_EQ(shown_behind, 0);
+
+  // A label's text (drawn by the window over its pin's top): listed at the projection of its
+  // stick's top when its pin is on the surface, not at all when the pin is 20 cm behind it.
+  session::Annotation label;
+  label.id = 3;
+  label.author = 2;
+  label.kind = session::AnnotationKind::kLabel;
+  label.text = "cut here";
+  label.points = {p.cast<float>()};
+  snapshot.annotations = {label};
+  display.draw(target.target(), camera, frame, snapshot, 0);
+  const std::vector<OrDisplayLabel> listed = display.labels(snapshot);
+  ASSERT_EQ(listed.size(), 1u);
+  EXPECT_EQ(listed[0].text, "cut here");
+  EXPECT_EQ(listed[0].rgb, participant_color(2));
+  const Eigen::Vector3d top =
+      c.calibration.world_from_camera.inverse() * label_anchor(label).cast<double>();
+  const Eigen::Vector2d top_px(k.fx * top.x() / top.z() + k.cx, k.fy * top.y() / top.z() + k.cy);
+  if (top_px.y() >= 0)  // else kept on the picture's edge
+    EXPECT_LT((listed[0].pixel.cast<double>() - top_px).norm(), 0.01) << top_px.transpose();
+  label.points = {(p + ray * 0.20).cast<float>()};
+  snapshot.annotations = {label};
+  EXPECT_TRUE(display.labels(snapshot).empty()) << "its pin is behind the mug";
 }
 
 // A camera mounted on its side: the wall display turns its picture so that the room's up is up
@@ -382,6 +406,17 @@ TEST(OrDisplay, ACameraOnItsSideIsShownUpright) {
   EXPECT_EQ(left.pixel(0, 2)[0], 0);
   EXPECT_EQ(turned(left, -1), image);
   EXPECT_EQ(turned(turned(image, 2), 2), image);
+  // turned_point takes a pixel's centre to the centre of the pixel turned() moves it to.
+  for (int k = 0; k < 4; ++k) {
+    const ColorImage t = turned(image, k);
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 3; ++x) {
+        const Eigen::Vector2f q =
+            turned_point(Eigen::Vector2f(float(x) + 0.5f, float(y) + 0.5f), 3, 2, k);
+        EXPECT_EQ(t.pixel(int(q.x()), int(q.y()))[0], image.pixel(x, y)[0])
+            << k << ": " << x << ", " << y;
+      }
+  }
   // Camera frame: x right, y down, z forward. Level (y down = room down): no turn. Rolled so
   // that the image's right is the room's up: one turn counter-clockwise.
   RigidTransform level;

@@ -12,6 +12,7 @@
 #include <chrono>
 
 #include "case_panel.hpp"
+#include "glfw_window.hpp"
 #include "panel.hpp"
 #include "pointing.hpp"
 #include "screenshot.hpp"
@@ -27,67 +28,6 @@
 
 namespace volcast {
 namespace {
-
-thread_local std::string t_glfw_error;  // the last GLFW error on this thread
-
-void on_glfw_error(int code, const char* description) {
-  t_glfw_error = description ? description : fmt::format("GLFW error 0x{:x}", code);
-}
-
-// glfwInit() .. glfwTerminate().
-struct Glfw {
-  Glfw() {
-    glfwSetErrorCallback(on_glfw_error);
-    t_glfw_error.clear();
-    if (!glfwInit()) throw Error(t_glfw_error.empty() ? "GLFW cannot start" : t_glfw_error);
-  }
-  ~Glfw() { glfwTerminate(); }
-  Glfw(const Glfw&) = delete;
-  Glfw& operator=(const Glfw&) = delete;
-};
-
-// A window with an OpenGL 4.5 core context (GLX), current on this thread.
-struct Window {
-  GLFWwindow* window = nullptr;
-  explicit Window(const DesktopOptions& o) {
-    if (o.width < 1 || o.width > 8192 || o.height < 1 || o.height > 8192)
-      throw Error(fmt::format("desktop window: size {}x{} is outside 1..8192", o.width, o.height));
-    glfwWindowHint(GLFW_CLIENT_API, GLFW_OPENGL_API);
-    glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_NATIVE_CONTEXT_API);
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
-    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-    glfwWindowHint(GLFW_DEPTH_BITS, 24);
-    window = glfwCreateWindow(o.width, o.height, o.title.c_str(), nullptr, nullptr);
-    if (!window)
-      throw Error(fmt::format("cannot open a {}x{} window with an OpenGL 4.5 core context: {}",
-                              o.width, o.height, t_glfw_error));
-    glfwMakeContextCurrent(window);
-    glfwSwapInterval(1);
-  }
-  ~Window() { glfwDestroyWindow(window); }
-  Window(const Window&) = delete;
-  Window& operator=(const Window&) = delete;
-};
-
-// Dear ImGui's context and its GLFW and OpenGL 3 backends (our callbacks forward to its own).
-struct Gui {
-  explicit Gui(GLFWwindow* window) {
-    IMGUI_CHECKVERSION();
-    ImGui::CreateContext();
-    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the working directory
-    ImGui::StyleColorsDark();
-    if (!ImGui_ImplGlfw_InitForOpenGL(window, false) || !ImGui_ImplOpenGL3_Init("#version 450"))
-      throw Error("Dear ImGui cannot start its GLFW / OpenGL 3 backend");
-  }
-  ~Gui() {
-    ImGui_ImplOpenGL3_Shutdown();
-    ImGui_ImplGlfw_Shutdown();
-    ImGui::DestroyContext();
-  }
-  Gui(const Gui&) = delete;
-  Gui& operator=(const Gui&) = delete;
-};
 
 static_assert(kTalkKey == GLFW_KEY_V && kMuteKey == GLFW_KEY_M);
 
@@ -430,7 +370,7 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
 
 void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   Glfw glfw;
-  Window window(o);
+  Window window(o.width, o.height, o.title);
   CameraRenderer renderer;
   Participant* participant = o.participant ? o.participant() : nullptr;
   std::unique_ptr<SessionScene> scene;

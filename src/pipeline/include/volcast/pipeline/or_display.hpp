@@ -12,6 +12,8 @@
 // speaks; the OR display's own participant (it joins to see the session) is not drawn.
 #include <functional>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
@@ -30,6 +32,17 @@ struct OrDisplaySize {
 };
 OrDisplaySize or_display_size(const CameraCalibration& camera);
 
+/// A label's text as the OR display shows it (the window draws it over the picture; the
+/// headless picture has the pin and flag only).
+struct OrDisplayLabel {
+  std::string text;  ///< sanitised by the hub (session/annotations.hpp check_label_text)
+  /// Where the top of its pin's stick (label_anchor) lands in the camera's undistorted picture,
+  /// moved onto the picture's edge if beyond it: pixels from the top-left corner, x right, y down
+  /// (the unturned picture).
+  Eigen::Vector2f pixel = Eigen::Vector2f::Zero();
+  Eigen::Vector3f rgb = Eigen::Vector3f::Ones();  ///< its author's colour, linear 0..1
+};
+
 class OrDisplay {
  public:
   /// Throws Error like the render passes (no GL 4.5 context current).
@@ -46,6 +59,10 @@ class OrDisplay {
   /// The camera's undistorted calibration in the room frame that the last draw used: a room point
   /// p shows at the pixel this pinhole projects it to.
   const CameraCalibration& room_camera() const;
+  /// The labels of `snapshot` (as last drawn) whose pin (their point) lies in front of the
+  /// camera, inside its picture and not behind the live depth there (a real surface more than 3 cm
+  /// nearer hides it, as it hides the pin); empty before the first draw.
+  std::vector<OrDisplayLabel> labels(const SessionSnapshot& snapshot) const;
 
  private:
   struct Impl;
@@ -57,6 +74,11 @@ class OrDisplay {
 int upright_quarter_turns(const RigidTransform& room_from_camera);
 /// `image` turned `quarter_turns` quarter turns counter-clockwise (negative: clockwise).
 ColorImage turned(const ColorImage& image, int quarter_turns);
+/// Where the point `pixel` (pixels from the top left, x right, y down) of a `width` x `height`
+/// picture lands in that picture turned `quarter_turns` quarter turns counter-clockwise (as
+/// turned() turns it); continuous coordinates: the corner (0, 0) of pixel (0, 0) maps to a corner.
+Eigen::Vector2f turned_point(const Eigen::Vector2f& pixel, int width, int height,
+                             int quarter_turns);
 
 /// The headless presenter of an OR display: an EGL target of the camera's size drawing the OR
 /// display of site camera `camera` (an index into the Welcome's cameras) about `fps` times a

@@ -63,9 +63,11 @@ AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
 /// its owner's colour; pointer dots facing `eye`, room frame; every mark lifted towards `eye` out
 /// of the surface it was drawn on: toward_eye), added to `out`; an annotation on
 /// the monitor only while it shows the CT slice (and case) it was drawn on.
-/// `own_pointer` false leaves out this participant's own pointer.
+/// `own_pointer` false leaves out this participant's own pointer; `on_monitor` false leaves out
+/// every annotation on the monitor (a view of the real OR, which has no virtual monitor).
 void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out, bool own_pointer = true);
+                        std::vector<Primitive>& out, bool own_pointer = true,
+                        bool on_monitor = true);
 
 /// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
 /// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.

@@ -23,7 +23,9 @@
 // VOLCAST_MOCK_XR_SQUEEZE ("first,last", counted in xrSyncActions calls) squeezes the right grip
 // fully for those syncs, turning the right hand about +y by 0.03 rad per sync while it squeezes (it
 // stays turned after). VOLCAST_MOCK_XR_BUTTONS ("input:first,last;..." with input a left-hand
-// component such as x/click) holds each of those left-controller buttons down for those syncs.
+// component such as x/click, or a right-hand one prefixed right/, such as right/a/click) holds each
+// of those buttons down for those syncs. Every action space of a hand (grip, aim) is located at
+// that hand's grip.
 #include <openxr/openxr.h>
 
 #include <epoxy/gl.h>
@@ -1009,8 +1011,9 @@ XrResult get_action(XrSession session, const XrActionStateGetInfo* info, const c
   return XR_SUCCESS;
 }
 
-// Whether VOLCAST_MOCK_XR_BUTTONS holds the left controller's `component` (e.g. "x/click") now.
-bool left_button_held(const std::string& component) {
+// Whether VOLCAST_MOCK_XR_BUTTONS holds `component` now (e.g. "x/click" of the left controller,
+// "right/a/click" of the right one).
+bool button_held(const std::string& component) {
   const char* v = std::getenv("VOLCAST_MOCK_XR_BUTTONS");
   if (!v) return false;
   const std::string list = v;
@@ -1030,12 +1033,12 @@ bool left_button_held(const std::string& component) {
 
 float input_value(const std::string& input) {
   const std::string left = "/user/hand/left/input/";
-  if (input.rfind(left, 0) == 0) return left_button_held(input.substr(left.size())) ? 1.0f : 0.0f;
-  if (input.rfind("/user/hand/right/", 0) != 0) return 0;
-  const bool pressed = right_hand().first;
-  return input.find("/squeeze/") != std::string::npos || input.find("/select/") != std::string::npos
-             ? (pressed ? 1.0f : 0.0f)
-             : 0.0f;
+  if (input.rfind(left, 0) == 0) return button_held(input.substr(left.size())) ? 1.0f : 0.0f;
+  const std::string right = "/user/hand/right/input/";
+  if (input.rfind(right, 0) != 0) return 0;
+  if (input.find("/squeeze/") != std::string::npos || input.find("/select/") != std::string::npos)
+    return right_hand().first ? 1.0f : 0.0f;
+  return button_held("right/" + input.substr(right.size())) ? 1.0f : 0.0f;
 }
 
 XrResult XRAPI_CALL GetActionStateFloat(XrSession session, const XrActionStateGetInfo* info,

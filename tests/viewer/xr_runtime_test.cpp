@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -414,6 +416,106 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
     return !n.objects.empty() &&
            n.objects[0].pose.orientation.angularDistance(final_state.pose.orientation) < 1e-4f;
   }));
+}
+
+// A headset points and draws on the live cloud with its right controller (issue 36): A held shows
+// its pointer to an observer, the dot where the aim ray meets the hands camera's measured surface;
+// B held while the hand turns (the mock turns it while it squeezes) draws a stroke along the
+// table that the observer receives. The site is placed so that the camera sits at the
+// controller, looking where it aims: the ray runs along the camera's optical axis.
+TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
+  const MockRuntime mock("xr_runtime_point", "28");
+  ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
+                                "right/a/click:3,9;right/b/click:12,24");
+  const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "12,24");
+  // The headset joins first: spawn spot (0, 1.4) facing the table, so its right grip (the mock's
+  // default, stage (0.2, 1.1, -0.3)) is at (0.2, 1.1, 1.1) in the room, aiming along -z.
+  const Eigen::Vector3f aim_origin(0.2f, 1.1f, 1.1f), aim(0, 0, -1);
+  SessionHubConfig hub;
+  hub.site_translation = aim_origin;
+  hub.site_yaw = float(M_PI);   // the camera's +z (its optical axis) along the room's -z
+  test::SessionSite s(hub, 5);  // 5 frame sets a second: enough to point at, less to encode
+  SessionClientOptions headset_options;
+  headset_options.participant.name = "Headset";
+  headset_options.drive_poses = false;
+  SessionClient headset(headset_options);
+  std::unique_ptr<test::TestParticipant> observer;
+  std::atomic<bool> done{false}, ready{false}, saw_off{false};
+  std::mutex seen_mutex;
+  std::vector<PointerView> seen;  // the headset's pointer as the observer saw it, each change
+  std::thread watch;
+  ViewerOptions opt;
+  opt.client = client_config_from_link(s.link());
+  opt.seconds = 300;  // a safety net only: the runtime ends the session
+  opt.on_connected = [&](Client& client) {
+    headset.start(client);
+    watch = std::thread([&] {  // the observer joins after the headset (its spawn spot, above)
+      ready = test::eventually([&] { return headset.participant()->joined(); });
+      observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+      while (!done) {
+        const SessionSnapshot n = observer->now();
+        const auto h = observer->other("Headset");
+        bool on = false;
+        for (const PointerView& p : n.pointers)
+          if (h && p.participant == h->id) {
+            on = true;
+            std::lock_guard lock(seen_mutex);
+            if (seen.empty() || seen.back().time_us != p.time_us) seen.push_back(p);
+          }
+        std::lock_guard lock(seen_mutex);
+        saw_off = saw_off || (!on && !seen.empty());
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    });
+  };
+  opt.on_finished = [&](ViewerResult&) { headset.stop(); };
+  XrOptions xr;
+  xr.participant = [&] { return headset.participant(); };
+  opt.presenter = xr_presenter(xr);
+  const ViewerResult r = run_viewer(opt);
+  EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  ASSERT_TRUE(observer);
+  // The stroke, once it reached the observer.
+  test::eventually([&] { return !observer->now().annotations.empty(); });
+  done = true;
+  if (watch.joinable()) watch.join();
+  const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));
+  EXPECT_TRUE(log["errors"].empty()) << log["errors"].dump(2);
+  EXPECT_TRUE(ready) << "the headset joined";
+  ASSERT_TRUE(headset.participant());
+  EXPECT_EQ(headset.participant()->snapshot(wall_clock_us()).spot.z, 1.4f) << "its spawn spot";
+
+  // The pointer: from the aim, its dot on the measured surface straight ahead (the hands
+  // recording's centre pixel: the table or a hand over it, 0.3 to 1.2 m from the camera).
+  ASSERT_FALSE(seen.empty()) << "the observer never saw the headset's pointer";
+  std::printf("the observer saw the headset's pointer %zu times\n", seen.size());
+  const PointerView& first = seen.front();
+  EXPECT_LT((first.origin - aim_origin).norm(), 1e-4f) << first.origin.transpose();
+  ASSERT_TRUE(first.has_hit) << "the ray along the camera's axis meets what it measured";
+  const Eigen::Vector3f ray = first.hit - first.origin;
+  EXPECT_LT(std::acos(std::clamp(ray.normalized().dot(aim), -1.0f, 1.0f)), 0.002f)
+      << "on the aim ray: " << ray.transpose();
+  EXPECT_GT(ray.norm(), 0.3f);
+  EXPECT_LT(ray.norm(), 1.2f);
+  EXPECT_TRUE(saw_off) << "put away when A was let go";
+  // The stroke: drawn while B was held and the hand turned 0.03 rad a frame, each point a hit
+  // on the ray of its frame (from the aim's origin), the whole sweeping across the table.
+  const SessionSnapshot final_view = observer->now();
+  ASSERT_EQ(final_view.annotations.size(), 1u);
+  const session::Annotation& stroke = final_view.annotations[0];
+  EXPECT_EQ(stroke.kind, session::AnnotationKind::kStroke);
+  EXPECT_EQ(stroke.author, headset.participant()->snapshot(wall_clock_us()).id);
+  EXPECT_GE(stroke.points.size(), 5u);
+  for (size_t i = 0; i < stroke.points.size(); ++i) {
+    const float d = (stroke.points[i] - aim_origin).norm();
+    EXPECT_GT(d, 0.3f) << i;
+    EXPECT_LT(d, 1.5f) << i;
+    EXPECT_NEAR(stroke.points[i].y(), aim_origin.y(), 0.01f) << "turned about +y only: " << i;
+    if (i > 0) EXPECT_GE((stroke.points[i] - stroke.points[i - 1]).norm(), 0.003f) << i;
+  }
+  EXPECT_GT((stroke.points.back() - stroke.points.front()).norm(), 0.05f) << "it swept";
+  observer->end();
 }
 
 }  // namespace

@@ -39,21 +39,27 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
     talk_ = action("talk", "Push to talk", XR_ACTION_TYPE_BOOLEAN_INPUT);
     mute_ = action("mute", "Mute microphone", XR_ACTION_TYPE_BOOLEAN_INPUT);
     volume_ = action("volume", "Volume of the voice looked at", XR_ACTION_TYPE_FLOAT_INPUT);
-    // The voice buttons are the left controller's (null: the profile has none to spare).
+    aim_ = action("aim", "Laser pointer ray", XR_ACTION_TYPE_POSE_INPUT);
+    point_ = action("point", "Laser pointer", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    draw_ = action("draw", "Draw a stroke", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    // The voice buttons are the left controller's, pointing and drawing the right one's (null:
+    // the profile has none to spare).
     const struct {
       const char* profile;
       const char* squeeze;
       const char* talk;
       const char* mute;
       const char* volume;
+      const char* point;
+      const char* draw;
     } profiles[] = {{"/interaction_profiles/khr/simple_controller", "select/click", nullptr,
-                     "menu/click", nullptr},
+                     "menu/click", nullptr, "menu/click", nullptr},
                     {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
-                     "menu/click", "trackpad/y"},
+                     "menu/click", "trackpad/y", "trigger/click", "trackpad/click"},
                     {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click",
-                     "b/click", "thumbstick/y"},
+                     "b/click", "thumbstick/y", "a/click", "b/click"},
                     {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click",
-                     "y/click", "thumbstick/y"}};
+                     "y/click", "thumbstick/y", "a/click", "b/click"}};
     for (const auto& p : profiles) {
       std::vector<XrActionSuggestedBinding> bindings;
       for (const char* hand : {"left", "right"}) {
@@ -69,6 +75,13 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
       if (p.volume)
         bindings.push_back(
             {volume_, path(("/user/hand/left/input/" + std::string(p.volume)).c_str())});
+      bindings.push_back({aim_, path("/user/hand/right/input/aim/pose")});
+      if (p.point)
+        bindings.push_back(
+            {point_, path(("/user/hand/right/input/" + std::string(p.point)).c_str())});
+      if (p.draw)
+        bindings.push_back(
+            {draw_, path(("/user/hand/right/input/" + std::string(p.draw)).c_str())});
       auto suggested = xr_struct<XrInteractionProfileSuggestedBinding>(
           XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
       suggested.interactionProfile = path(p.profile);
@@ -88,6 +101,11 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
       info.poseInActionSpace.orientation.w = 1;
       xr_check(xrCreateActionSpace(session, &info, &spaces_[h]), "xrCreateActionSpace");
     }
+    auto aim = xr_struct<XrActionSpaceCreateInfo>(XR_TYPE_ACTION_SPACE_CREATE_INFO);
+    aim.action = aim_;
+    aim.subactionPath = hands_[1];
+    aim.poseInActionSpace.orientation.w = 1;
+    xr_check(xrCreateActionSpace(session, &aim, &aim_space_), "xrCreateActionSpace");
     enabled_ = true;
   } catch (const Error& e) {
     spdlog::warn("OpenXR: no controllers ({}); grab organs from the desktop panel or a browser",
@@ -98,7 +116,22 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
 XrControllers::~XrControllers() {
   for (XrSpace s : spaces_)
     if (s != XR_NULL_HANDLE) xrDestroySpace(s);
+  if (aim_space_ != XR_NULL_HANDLE) xrDestroySpace(aim_space_);
   if (set_ != XR_NULL_HANDLE) xrDestroyActionSet(set_);  // its actions with it
+}
+
+bool XrControllers::locate(XrSpace action_space, XrSpace space, XrTime time, Pose& pose) {
+  auto location = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
+  if (XR_FAILED(xrLocateSpace(action_space, space, time, &location))) return false;
+  const XrSpaceLocationFlags valid =
+      XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
+  if ((location.locationFlags & valid) != valid) return false;
+  const XrPosef& p = location.pose;
+  pose.position = {p.position.x, p.position.y, p.position.z};
+  pose.orientation =
+      Eigen::Quaternionf(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
+          .normalized();
+  return true;
 }
 
 std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
@@ -128,18 +161,12 @@ std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
     if (XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive)
       out[0].volume = state.currentState;
   }
+  out[1].point = held(point_, hands_[1]);
+  out[1].draw = held(draw_, hands_[1]);
+  out[1].aim_tracked = locate(aim_space_, space, time, out[1].aim);
   for (int h = 0; h < 2; ++h) {
-    auto location = xr_struct<XrSpaceLocation>(XR_TYPE_SPACE_LOCATION);
-    if (XR_FAILED(xrLocateSpace(spaces_[h], space, time, &location))) continue;
-    const XrSpaceLocationFlags valid =
-        XR_SPACE_LOCATION_POSITION_VALID_BIT | XR_SPACE_LOCATION_ORIENTATION_VALID_BIT;
-    if ((location.locationFlags & valid) != valid) continue;
-    const XrPosef& p = location.pose;
+    if (!locate(spaces_[h], space, time, out[h].pose)) continue;
     out[h].tracked = true;
-    out[h].pose.position = {p.position.x, p.position.y, p.position.z};
-    out[h].pose.orientation =
-        Eigen::Quaternionf(p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z)
-            .normalized();
     auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
     get.action = squeeze_;
     get.subactionPath = hands_[h];

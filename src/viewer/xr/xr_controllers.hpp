@@ -11,6 +11,14 @@
 //   Index        A        a/click            B     b/click
 //   Vive         trackpad trackpad/click     menu  menu/click
 //   simple       --                          menu  menu/click
+//
+// The laser pointer and drawing (issue 36), on the right controller only, as in the browser's
+// headset mode: the ray is the right hand's OpenXR aim pose (from its position along its -z).
+//   profile      point (hold)                draw a stroke (hold)
+//   Touch        A        a/click            B     b/click
+//   Index        A        a/click            B     b/click
+//   Vive         trigger  trigger/click      trackpad trackpad/click
+//   simple       menu     menu/click         --
 #include <openxr/openxr.h>
 
 #include <array>
@@ -30,6 +38,12 @@ struct ControllerState {
   /// The left thumbstick's (Vive: trackpad's) y, -1 down to 1 up: steps the volume of the voice
   /// looked at (voice::step_volume). Left hand only; 0 where the profile has none.
   float volume = 0;
+  /// The right hand's aim pose (OpenXR: the pointing ray from its position along its -z), located
+  /// as `pose` is; aim_tracked false where it could not be located. Right hand only.
+  bool aim_tracked = false;
+  Pose aim;
+  bool point = false;  ///< the point button is held (right hand only)
+  bool draw = false;   ///< the draw button is held (right hand only)
 };
 
 class XrControllers {
@@ -45,12 +59,16 @@ class XrControllers {
   std::array<ControllerState, 2> sync(XrSpace space, XrTime time);
 
  private:
+  /// Locates `action_space` in `space` at `time` into `pose`; false where it is not valid.
+  static bool locate(XrSpace action_space, XrSpace space, XrTime time, Pose& pose);
   XrSession session_ = XR_NULL_HANDLE;
   XrActionSet set_ = XR_NULL_HANDLE;
   XrAction grip_ = XR_NULL_HANDLE, squeeze_ = XR_NULL_HANDLE, talk_ = XR_NULL_HANDLE,
-           mute_ = XR_NULL_HANDLE, volume_ = XR_NULL_HANDLE;
+           mute_ = XR_NULL_HANDLE, volume_ = XR_NULL_HANDLE, aim_ = XR_NULL_HANDLE,
+           point_ = XR_NULL_HANDLE, draw_ = XR_NULL_HANDLE;
   std::array<XrPath, 2> hands_{};
   std::array<XrSpace, 2> spaces_{};
+  XrSpace aim_space_ = XR_NULL_HANDLE;  // the right hand's aim pose
   bool enabled_ = false;
 };
 

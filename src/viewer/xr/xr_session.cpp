@@ -12,7 +12,10 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/hand_grab.hpp"
+#include "volcast/pipeline/hand_pointing.hpp"
+#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/pipeline/viewer_result.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/viewer/xr.hpp"
 #include "volcast/viewer/xr_view.hpp"
 #include "volcast/voice/voice_controls.hpp"
@@ -299,6 +302,11 @@ struct FrameLoop {
   XrControllers& controllers;
   const std::vector<CameraCalibration>& cameras;
   HandGrab hand_grab;
+  HandPointing hand_pointing;    // the right controller's laser pointer and drawing
+  LiveSurfaces surfaces;         // where its ray meets the live clouds
+  bool surfaces_stale = true;    // a frame arrived since `surfaces` was updated
+  RigidTransform surfaces_site;  // the room_from_site `surfaces` was updated with
+  Eigen::Vector3f own_color = Eigen::Vector3f::Ones();
   voice::VoiceInput voice_input;        // the voice buttons' requests (talk held, mute pressed)
   voice::VoiceButtons voice_buttons;    // as they were last frame
   voice::VolumeGesture volume_gesture;  // the left thumbstick's volume steps
@@ -334,6 +342,7 @@ struct FrameLoop {
       if (frames[i] && frames[i] != uploaded[i]) {
         renderer.upload(i, *frames[i]);
         uploaded[i] = frames[i];
+        surfaces_stale = true;
       }
     if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
       started = true;
@@ -381,7 +390,31 @@ struct FrameLoop {
       grab_input[h].room_from_hand.orientation = (turn * grips[h]->orientation).normalized();
     }
     hand_grab.update(*participant, snapshot, grab_input);
+    track_pointer(hands[1], snapshot, room_from_playarea, lift);
     track_voice_buttons(hands[0], snapshot, now);
+  }
+
+  // The right controller's laser pointer (A held) and drawing (B held) from its aim ray, the hit
+  // where the ray meets the live clouds (hand_pointing.hpp, xr_controllers.hpp).
+  void track_pointer(const ControllerState& right, const SessionSnapshot& snapshot,
+                     const RigidTransform& room_from_playarea, float lift) {
+    if (surfaces_stale || snapshot.room_from_site.translation != surfaces_site.translation ||
+        snapshot.room_from_site.rotation != surfaces_site.rotation) {
+      surfaces.update(cameras, uploaded, snapshot.room_from_site);
+      surfaces_site = snapshot.room_from_site;
+      surfaces_stale = false;
+    }
+    PointerInput in;
+    in.tracked = right.aim_tracked;
+    in.point = right.point;
+    in.draw = right.draw;
+    const Eigen::Vector3d aim_at(right.aim.position.x(), right.aim.position.y() + lift,
+                                 right.aim.position.z());
+    in.origin = (room_from_playarea * aim_at).cast<float>();
+    in.direction = (room_from_playarea.rotation.cast<float>() *
+                    (right.aim.orientation * Eigen::Vector3f(0, 0, -1)));
+    hand_pointing.update(*participant, &surfaces, in);
+    own_color = participant_color(snapshot.id);
   }
 
   // The left controller's voice buttons: talk held, mute pressed, the thumbstick's volume steps
@@ -423,6 +456,11 @@ struct FrameLoop {
             so.volume_shown = SessionSceneOptions::VolumeShown{volume_gesture.shown_at,
                                                                volume_gesture.shown_gain};
           scene->draw(view, target, cameras, uploaded, *participant, now, so);
+          if (hand_pointing.stroke().size() >= 2) {  // the stroke being drawn
+            session::Annotation drawn;
+            drawn.points = hand_pointing.stroke();
+            scene->draw_primitives(view, target, annotation_primitives(drawn, own_color));
+          }
         } else {
           renderer.draw_cameras(view, target, o.pass);
         }

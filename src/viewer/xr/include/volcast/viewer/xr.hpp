@@ -35,6 +35,9 @@ struct XrOptions {
   /// is published as its pose every frame, both controllers' grips as its hands (OpenXR actions:
   /// Touch, Index, Vive or the KHR simple controller); squeezing a grip within reach of one of
   /// the case's objects grabs it, and it follows the hand until the grip is let go (hand_grab.hpp).
+  /// The right controller is a laser pointer (hand_pointing.hpp, buttons in xr_controllers.hpp:
+  /// A held on Touch and Index): everyone sees it, its dot where its aim ray meets the live clouds
+  /// (the site cameras' newest depth); B held draws a stroke there, sent when B is let go.
   std::function<Participant*()> participant;
   SessionSceneOptions scene;
   /// With a participant: its voice link (volcast view --xr --join --mic/--speaker), read every

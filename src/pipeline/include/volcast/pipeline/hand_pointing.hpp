@@ -1,0 +1,47 @@
+#pragma once
+// A tracked controller's laser pointer and freehand drawing (issue 36; a headset's right
+// controller, xr_controllers.hpp): while its point or draw button is held, the pointer is shown
+// to everyone from the controller's aim ray (room frame, metres), its dot where the ray first
+// meets the live clouds (LiveSurfaces: the site cameras' newest depth, what the headset draws of
+// them) or no dot where it meets nothing; letting go of both puts it away (sent once). While the
+// draw button is held each hit at least 3 mm from the stroke's last point is added (at most
+// session::kMaxStrokePoints); letting go sends the stroke if it has 2 points or more (one the
+// participant refuses to send, past a limit, is logged and dropped).
+#include <optional>
+#include <vector>
+
+#include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/session/participant.hpp"
+
+namespace volcast {
+
+/// One frame of a pointing controller: its aim ray (room frame, metres; `direction` any length)
+/// and its buttons.
+struct PointerInput {
+  bool tracked = false;  ///< the aim pose was located (else the pointer is put away)
+  Eigen::Vector3f origin = Eigen::Vector3f::Zero();
+  Eigen::Vector3f direction = Eigen::Vector3f(0, 0, -1);
+  bool point = false;  ///< the point button is held
+  bool draw = false;   ///< the draw button is held
+};
+
+class HandPointing {
+ public:
+  /// Acts on `participant` for this frame: where `in`'s ray meets `surfaces` (null: nothing), the
+  /// pointer sent while a button is held, the stroke drawn so far, sent when draw is let go. Call
+  /// once per frame (the session's pose rate limit, 150 a second, is above a headset's 90 Hz).
+  void update(Participant& participant, const LiveSurfaces* surfaces, const PointerInput& in);
+  /// The dot this frame (room frame), if the ray met a surface while a button was held.
+  const std::optional<Eigen::Vector3f>& hit() const { return hit_; }
+  /// The stroke being drawn (room frame), empty when none.
+  const std::vector<Eigen::Vector3f>& stroke() const { return stroke_; }
+
+ private:
+  bool shown_ = false;  // the pointer was last sent on
+  bool drawing_ = false;
+  std::optional<Eigen::Vector3f> hit_;
+  Eigen::Vector3f last_origin_ = Eigen::Vector3f::Zero();
+  std::vector<Eigen::Vector3f> stroke_;
+};
+
+}  // namespace volcast

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "demo_voice.hpp"
@@ -86,12 +87,16 @@ PoseScript demo_script(float turn_deg, bool teleport) {
 
 // Where Dr. Mesh points and draws: a surface camera 0 sees near the middle of its image that Dr.
 // Mesh's right hand (at `hand`, room frame) also sees -- the ray from the hand to it meets nothing
-// of the four cameras' first frames before it -- and the directions of that camera's image right
-// and up there, so that the drawing faces it (the OR display shows camera 0). Room frame, metres.
+// of the four cameras' first frames before it -- and that faces both (its normal within 60 degrees
+// of each), with two directions in that surface: `right` (camera 0's image right, laid into it) and
+// `up` (across it), so that the drawing lies on the surface as a surgeon's on the patient would,
+// and the OR display (camera 0) sees it whole. Room frame, metres.
 struct DrawingSpot {
   Eigen::Vector3f at = Eigen::Vector3f::Zero(), right = Eigen::Vector3f::UnitX(),
                   up = Eigen::Vector3f::UnitY();
 };
+
+std::vector<ScriptedDrawing> demo_drawing(const DrawingSpot& spot);
 
 DrawingSpot drawing_spot(const std::vector<SiteCamera>& site, const fs::path& config,
                          const RigidTransform& room_from_site, const Eigen::Vector3f& hand) {
@@ -110,28 +115,64 @@ DrawingSpot drawing_spot(const std::vector<SiteCamera>& site, const fs::path& co
   const CameraCalibration& c = calibrations.at(0);
   const DepthImage& d = frames.at(0)->depth;
   const RigidTransform room_from_camera = room_from_site * c.world_from_camera;
-  DrawingSpot s;
-  s.right = (room_from_camera.rotation * Eigen::Vector3d::UnitX()).cast<float>();
-  s.up = (room_from_camera.rotation * -Eigen::Vector3d::UnitY()).cast<float>();
-  // Candidates every 8 pixels, nearest the image's centre first.
+  // Camera 0's measured point at pixel (u, v), room frame; none where it measured nothing.
+  const auto point_at = [&](int u, int v) -> std::optional<Eigen::Vector3f> {
+    if (u < 0 || v < 0 || u >= d.width || v >= d.height || d.at(u, v) == 0) return std::nullopt;
+    const auto xy = unproject_pixel(c.depth, Eigen::Vector2d(u, v));
+    if (!xy) return std::nullopt;
+    const double z = d.at(u, v) / 1000.0;
+    return (room_from_camera * Eigen::Vector3d(xy->x() * z, xy->y() * z, z)).cast<float>();
+  };
+  const Eigen::Vector3f eye = room_from_camera.translation.cast<float>();
+  const Eigen::Vector3f image_right =
+      (room_from_camera.rotation * Eigen::Vector3d::UnitX()).cast<float>();
+  const Eigen::Vector3f image_up =
+      (room_from_camera.rotation * -Eigen::Vector3d::UnitY()).cast<float>();
+  // Candidates every 8 pixels, nearest the image's centre first; those within 3 m of the camera
+  // (where a team would look: the table, not the far wall) before the rest.
   std::vector<std::pair<double, Eigen::Vector2i>> candidates;
   for (int v = 0; v < d.height; v += 8)
     for (int u = 0; u < d.width; u += 8)
       if (d.at(u, v) != 0)
-        candidates.push_back({std::hypot(u - d.width / 2.0, v - d.height / 2.0), {u, v}});
+        candidates.push_back(
+            {std::hypot(u - d.width / 2.0, v - d.height / 2.0) + (d.at(u, v) > 3000 ? 1e6 : 0),
+             {u, v}});
   std::sort(candidates.begin(), candidates.end(),
             [](const auto& x, const auto& y) { return x.first < y.first; });
   for (const auto& [distance, uv] : candidates) {
-    const auto xy = unproject_pixel(c.depth, uv.cast<double>());
-    if (!xy) continue;
-    const double z = d.at(uv.x(), uv.y()) / 1000.0;
-    const Eigen::Vector3f p =
-        (room_from_camera * Eigen::Vector3d(xy->x() * z, xy->y() * z, z)).cast<float>();
-    const auto met = surfaces.hit(hand, p - hand);
-    if (met && (*met - p).norm() < 0.03f) {
-      s.at = p;
-      spdlog::info("demo: Dr. Mesh draws at camera 0's pixel ({}, {}), {:.2f} m from its hand",
-                   uv.x(), uv.y(), (p - hand).norm());
+    const auto p = point_at(uv.x(), uv.y());
+    // The surface's normal from its neighbours 6 pixels away (a plane of 4 cm or more).
+    const auto l = point_at(uv.x() - 6, uv.y()), r = point_at(uv.x() + 6, uv.y());
+    const auto t = point_at(uv.x(), uv.y() - 6), b = point_at(uv.x(), uv.y() + 6);
+    if (!p || !l || !r || !t || !b) continue;
+    Eigen::Vector3f n = (*r - *l).cross(*b - *t);
+    if (n.norm() < 1e-6f) continue;
+    n.normalize();
+    if (n.dot(eye - *p) < 0) n = -n;  // towards camera 0
+    const auto facing = [&](const Eigen::Vector3f& from) {
+      return n.dot((from - *p).normalized()) > 0.5f;  // within 60 degrees
+    };
+    if (!facing(eye) || !facing(hand)) continue;
+    const auto met = surfaces.hit(hand, *p - hand);
+    if (met && (*met - *p).norm() < 0.03f) {
+      DrawingSpot s;
+      s.at = *p;
+      s.right = (image_right - n * n.dot(image_right)).normalized();
+      s.up = n.cross(s.right).normalized();
+      if (s.up.dot(image_up) < 0) s.up = -s.up;  // up the picture
+      // Every point of the drawing is on that surface as the hand sees it (a circle over an edge
+      // would meet the wall behind and streak across the picture).
+      bool whole = true;
+      for (const ScriptedDrawing& step : demo_drawing(s))
+        for (const Eigen::Vector3f& q : step.points) {
+          const auto at = surfaces.hit(hand, q - hand);
+          whole = whole && at && (*at - q).norm() < 0.03f;
+        }
+      if (!whole) continue;
+      spdlog::info(
+          "demo: Dr. Mesh draws at camera 0's pixel ({}, {}), {:.2f} m from its hand, on a surface "
+          "facing both",
+          uv.x(), uv.y(), (*p - hand).norm());
       return s;
     }
   }

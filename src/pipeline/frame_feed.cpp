@@ -4,6 +4,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <optional>
 
@@ -105,6 +106,22 @@ ViewCamera default_view(std::span<const CameraCalibration> cameras,
   }
   if (cameras.empty()) return ViewCamera{};
   return orbit_view(cameras.front().world_from_camera, views);
+}
+
+DrawPace::DrawPace(double fps)
+    : period_(std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+          std::chrono::duration<double>(1.0 / std::max(fps, 0.5)))),
+      next_(std::chrono::steady_clock::now()) {}
+
+bool DrawPace::take(FrameFeed& feed, std::vector<std::shared_ptr<const CameraFrame>>& frames) {
+  const auto now = std::chrono::steady_clock::now();
+  feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
+                        std::max(next_ - now, std::chrono::steady_clock::duration::zero())));
+  const auto after = std::chrono::steady_clock::now();
+  if (after < next_) return false;
+  next_ += period_;
+  if (next_ < after) next_ = after + period_;
+  return true;
 }
 
 }  // namespace volcast

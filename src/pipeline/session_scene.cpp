@@ -50,19 +50,20 @@ AvatarFilter own_camera_filter(const SessionSnapshot& s, float radius_m) {
 }
 
 void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out, bool own_pointer, bool on_monitor) {
+                        std::vector<Primitive>& out, const DrawingOptions& options) {
   for (const PointerView& p : s.pointers) {
-    if (!own_pointer && p.participant == s.id) continue;
-    const auto beam =
-        pointer_primitives(p.origin, p.has_hit, p.hit, participant_color(p.participant), eye);
+    if (!options.own_pointer && p.participant == s.id) continue;
+    const auto beam = pointer_primitives(p.origin, p.has_hit, p.hit,
+                                         participant_color(p.participant), eye, options.lift_per_m);
     out.insert(out.end(), beam.begin(), beam.end());
   }
   for (const session::Annotation& a : s.annotations) {
     if (a.anchor == session::AnnotationAnchor::kMonitor &&
-        (!on_monitor || !s.monitor || s.monitor->slice != a.slice || a.generation != s.case_generation))
+        (!options.on_monitor || !s.monitor || s.monitor->slice != a.slice ||
+         a.generation != s.case_generation))
       continue;                      // drawn on another CT slice (or case)
     session::Annotation lifted = a;  // out of the surface it was drawn on, for this eye
-    for (Eigen::Vector3f& p : lifted.points) p = toward_eye(p, eye);
+    for (Eigen::Vector3f& p : lifted.points) p = toward_eye(p, eye, options.lift_per_m);
     const auto shape = annotation_primitives(lifted, participant_color(a.author));
     out.insert(out.end(), shape.begin(), shape.end());
   }
@@ -208,8 +209,9 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
-  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene,
-                     options.own_pointer);
+  DrawingOptions marks;
+  marks.own_pointer = options.own_pointer;
+  drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene, marks);
   const auto shared_case = options.show_case ? participant.shared_case() : nullptr;
   const RoomLayout& room = default_operating_room();
   if (shared_case && s.monitor && shared_case->monitor) {
@@ -243,18 +245,9 @@ Presenter session_presenter(const ViewerOptions& opt, std::function<Participant*
     result.renderer = scene.gl_description();
     const std::vector<CameraCalibration>& site = feed.cameras();
     std::vector<std::shared_ptr<const CameraFrame>> frames(site.size());
-    const auto period = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(1.0 / std::max(fps, 0.5)));
-    auto next = std::chrono::steady_clock::now();
+    DrawPace pace(fps);  // the others move on their own: drawn at fps, new frames or not
     while (!feed.finished()) {
-      // Take new site frames (waiting at most until the next frame time: the others move on
-      // their own). Always taken, so the feed knows the end was seen (finished()).
-      const auto now = std::chrono::steady_clock::now();
-      feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
-                            std::max(next - now, std::chrono::steady_clock::duration::zero())));
-      if (std::chrono::steady_clock::now() < next) continue;
-      next += period;
-      if (next < std::chrono::steady_clock::now()) next = std::chrono::steady_clock::now() + period;
+      if (!pace.take(feed, frames)) continue;
       Participant* p = participant();
       if (!p) continue;
       const int64_t t = wall_clock_us();

@@ -37,11 +37,11 @@ Eigen::Vector4f opaque(const Eigen::Vector3f& rgb) {
 
 }  // namespace
 
-Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye) {
+Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye, float lift_per_m) {
   const Eigen::Vector3f to_eye = eye - p;
   const float d = to_eye.norm();
   if (d < 1e-4f) return p;
-  return p + to_eye / d * std::min(0.02f + 0.01f * d, 0.5f * d);
+  return p + to_eye / d * std::min(0.02f + lift_per_m * d, 0.5f * d);
 }
 
 Eigen::Vector3f participant_color(uint32_t id) {
@@ -53,7 +53,7 @@ Eigen::Vector3f participant_color(uint32_t id) {
 
 std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool has_hit,
                                           const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
-                                          const Eigen::Vector3f& eye) {
+                                          const Eigen::Vector3f& eye, float lift_per_m) {
   const Eigen::Vector3f ray = hit - origin;
   if (ray.norm() < 1e-4f) return {};
   const Eigen::Vector3f dir = ray.normalized();
@@ -64,7 +64,7 @@ std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool ha
   // On the line from the eye to the hit: it projects where the hit does, in front of the surface.
   const Eigen::Vector3f to_eye = eye - hit;
   const Eigen::Vector3f facing = to_eye.norm() > 1e-4f ? to_eye.normalized() : -dir;
-  const Eigen::Vector3f centre = toward_eye(hit, eye);
+  const Eigen::Vector3f centre = toward_eye(hit, eye, lift_per_m);
   Primitive dot = ball(centre, 1, opaque(rgb));
   dot.world_from_shape = (Eigen::Translation3f(centre) *
                           Eigen::Quaternionf::FromTwoVectors(Eigen::Vector3f::UnitZ(), facing) *

@@ -80,4 +80,20 @@ class FrameFeed {
 ViewCamera default_view(std::span<const CameraCalibration> cameras,
                         std::span<const std::shared_ptr<const CameraFrame>> frames);
 
+/// A headless presenter's steady draw rate: take() takes the feed's new frames, waiting at most
+/// until the next draw time (1/fps apart; after a stall the next one is a period later, never a
+/// bunch at once), and says whether that time has come. The frames are always taken, so the
+/// feed knows its end was seen (FrameFeed::finished()).
+class DrawPace {
+ public:
+  /// `fps` at least 0.5.
+  explicit DrawPace(double fps);
+  /// Takes new frames into `frames`; true when a draw is due now (the next is then scheduled).
+  bool take(FrameFeed& feed, std::vector<std::shared_ptr<const CameraFrame>>& frames);
+
+ private:
+  std::chrono::steady_clock::duration period_;
+  std::chrono::steady_clock::time_point next_;
+};
+
 }  // namespace volcast

@@ -32,6 +32,10 @@ struct OrDisplaySize {
 };
 OrDisplaySize or_display_size(const CameraCalibration& camera);
 
+/// How far the OR display lifts each mark towards its camera: 2 cm + this much of the distance
+/// (toward_eye; the fused clouds' views lift 1 %), against the cameras' registration error.
+inline constexpr float kOrDisplayLiftPerM = 0.03f;
+
 /// A label's text as the OR display shows it (the window draws it over the picture; the
 /// headless picture has the pin and flag only).
 struct OrDisplayLabel {
@@ -60,8 +64,9 @@ class OrDisplay {
   /// p shows at the pixel this pinhole projects it to.
   const CameraCalibration& room_camera() const;
   /// The labels of `snapshot` (as last drawn) whose pin (their point) lies in front of the
-  /// camera, inside its picture and not behind the live depth there (a real surface more than 3 cm
-  /// nearer hides it, as it hides the pin); empty before the first draw.
+  /// camera, inside its picture and not behind the live depth there (a real surface nearer than
+  /// the pin's lift, kOrDisplayLiftPerM, hides it, as it hides the pin); empty before the first
+  /// draw.
   std::vector<OrDisplayLabel> labels(const SessionSnapshot& snapshot) const;
 
  private:

@@ -59,15 +59,23 @@ AvatarFilter remote_avatar_filter(const RemoteParticipant& other, float radius_m
 /// before its first pose.
 AvatarFilter own_camera_filter(const SessionSnapshot& snapshot, float radius_m);
 
+/// Which of the session's marks drawing_primitives draws, and how far out of their surface.
+struct DrawingOptions {
+  bool own_pointer = true;  ///< false: leave out this participant's own pointer
+  /// false: leave out every annotation on the monitor (a view of the real OR, which has none)
+  bool on_monitor = true;
+  /// Each mark is lifted towards the eye by 2 cm + this much of its distance (toward_eye): 1 % for
+  /// views of the fused clouds; more for one camera's own picture, whose depth differs from the
+  /// other cameras' surface a stroke was drawn on by their registration error.
+  float lift_per_m = 0.01f;
+};
+
 /// The session's pointers and annotations as the snapshot has them (annotation_scene.hpp, each in
 /// its owner's colour; pointer dots facing `eye`, room frame; every mark lifted towards `eye` out
-/// of the surface it was drawn on: toward_eye), added to `out`; an annotation on
-/// the monitor only while it shows the CT slice (and case) it was drawn on.
-/// `own_pointer` false leaves out this participant's own pointer; `on_monitor` false leaves out
-/// every annotation on the monitor (a view of the real OR, which has no virtual monitor).
+/// of the surface it was drawn on: toward_eye), added to `out`; an annotation on the monitor only
+/// while it shows the CT slice (and case) it was drawn on.
 void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,
-                        std::vector<Primitive>& out, bool own_pointer = true,
-                        bool on_monitor = true);
+                        std::vector<Primitive>& out, const DrawingOptions& options = {});
 
 /// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
 /// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.

@@ -14,20 +14,23 @@ namespace volcast {
 /// (six colours, repeating).
 Eigen::Vector3f participant_color(uint32_t id);
 
-/// `p` moved towards `eye` on the line from the eye through it by 2 cm + 1 % of their distance
-/// (at most half of it; room frame, metres): it projects where p does for that eye, and a mark on a
-/// measured surface drawn there is not buried in it -- depth noise (about 1 cm at 3 m for a
-/// time-of-flight camera) and the cameras' registration error (a few cm between cameras) -- while
-/// anything more than that in front of it (a hand over the patient) still hides it.
-Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye);
+/// `p` moved towards `eye` on the line from the eye through it by 2 cm + `lift_per_m` of their
+/// distance (default 1 %; at most half of it; room frame, metres): it projects where p does for
+/// that eye, and a mark on a measured surface drawn there is not buried in it -- depth noise (about
+/// 1 cm at 3 m for a time-of-flight camera) and the cameras' registration error (a few cm between
+/// cameras) -- while anything more than that in front of it (a hand over the patient) still hides
+/// it.
+Eigen::Vector3f toward_eye(const Eigen::Vector3f& p, const Eigen::Vector3f& eye,
+                           float lift_per_m = 0.01f);
 
 /// A laser pointer from `origin`: a beam 5 mm wide to `hit`, and there a dot 3 cm across and 4 mm
-/// thick facing `eye` (the viewer's eye), at toward_eye(hit, eye): it projects exactly where the
+/// thick facing `eye` (the viewer's eye), at toward_eye(hit, eye, lift_per_m): it projects exactly
+/// where the
 /// hit does and stands out of the surface it lies on. Without a hit (`has_hit` false) the beam runs
 /// 3 m towards `hit` and has no dot. Empty if origin and hit coincide.
 std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool has_hit,
                                           const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
-                                          const Eigen::Vector3f& eye);
+                                          const Eigen::Vector3f& eye, float lift_per_m = 0.01f);
 
 /// One annotation (its points as they are: lift them with toward_eye first to keep them out of the
 /// surface they were drawn on): a stroke is a tube 8 mm wide through its points (a ball at each

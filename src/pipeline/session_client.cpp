@@ -70,21 +70,33 @@ std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
     object_ = static_cast<uint16_t>(i);
     start_pose_ = s.objects[i].pose;
     grab_ = g;
-    grab_.t_s = t_s;  // held for for_s from when it is asked for, however late that is
+    grab_.t_s = t_s;  // asked for now, however late that is
+    granted_s_.reset();
     holding_ = true;
     out.push_back(action(Kind::kGrab, object_));
     return out;
   }
   if (!holding_) return out;
-  const auto held = static_cast<float>(std::min(t_s - grab_.t_s, grab_.for_s));
+  const bool mine = object_ < s.objects.size() && s.objects[object_].owner == s.id;
+  // Held for for_s from when the server made it ours (on a loaded machine that may be a while
+  // after asking); given up if it never does within kGrantWait_s.
+  if (mine && !granted_s_) granted_s_ = t_s;
+  if (!granted_s_) {
+    if (t_s - grab_.t_s >= grab_.for_s + kGrantWait_s) {
+      spdlog::warn("pose script: the server did not hand over object {} within {:.0f} s", object_,
+                   grab_.for_s + kGrantWait_s);
+      holding_ = false;
+    }
+    return out;
+  }
+  const auto held = static_cast<float>(std::min(t_s - *granted_s_, grab_.for_s));
   Pose pose = start_pose_;
   pose.orientation = (Eigen::Quaternionf(Eigen::AngleAxisf(
                           held * grab_.turn_deg_per_s * static_cast<float>(M_PI / 180),
                           Eigen::Vector3f::UnitY())) *
                       start_pose_.orientation)
                          .normalized();
-  const bool mine = object_ < s.objects.size() && s.objects[object_].owner == s.id;
-  if (t_s - grab_.t_s >= grab_.for_s) {
+  if (t_s - *granted_s_ >= grab_.for_s) {
     if (mine) out.push_back(action(Kind::kRelease, object_, pose));
     holding_ = false;
     return out;

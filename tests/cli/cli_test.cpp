@@ -404,7 +404,8 @@ TEST(Cli, CaptureNodesAddTheirCamerasToTheSite) {
   int rc = -1;
   if (!link.empty())
     rc = test::run_command(kVolcast + " view --no-render --connect '" + link +
-                               "' --frames 10 --stats-json " + (dir / "s.json").string(),
+                               "' --frames 10 --receive-timeout 60000 --stats-json " +
+                               (dir / "s.json").string(),
                            out);
   const std::string view_out = out;
   test::run_command("kill" + pids, out);

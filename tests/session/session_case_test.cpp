@@ -75,14 +75,42 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   now.objects[0].owner = 7;
   a = scripted.due(&c, now, 6.0);
   ASSERT_EQ(a.size(), 1u);
-  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMove) << "held from when it was asked for (5 s)";
-  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 60, 1e-3);
-  a = scripted.due(&c, now, 7.5);
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMove) << "held from when the server handed it over";
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 0, 1e-3);
+  a = scripted.due(&c, now, 7.0);
   ASSERT_EQ(a.size(), 1u);
-  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kRelease) << "held past its 2 s: let go";
+  EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 60, 1e-3)
+      << "a second after it became ours (6 s), not after asking (5 s)";
+  a = scripted.due(&c, now, 8.0);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kRelease) << "held its 2 s: let go";
   EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 120, 1e-3)
       << "turned 60 degrees/s for the scripted 2 s, from where it was";
   EXPECT_TRUE(scripted.due(&c, now, 9).empty());
+}
+
+// A grab the server never hands over (another holds the object) is given up, not held forever.
+TEST(SessionCase, AScriptedGrabTheServerNeverHandsOverIsGivenUp) {
+  PoseScript script;
+  script.grabs.push_back({1.0, 2.0, "liver", 60});
+  ScriptedObjects scripted(script);
+  session::SharedCase c;
+  c.generation = 1;
+  session::SharedObject liver;
+  liver.name = "liver";
+  c.objects.push_back(liver);
+  SessionSnapshot now;
+  now.id = 7;
+  now.case_generation = 1;
+  now.objects.push_back(ObjectView{});
+  now.objects[0].owner = 9;  // somebody else's
+  auto a = scripted.due(&c, now, 1.0);
+  ASSERT_EQ(a.size(), 1u);
+  EXPECT_EQ(a[0].kind, ScriptAction::Kind::kGrab);
+  EXPECT_TRUE(scripted.due(&c, now, 5).empty()) << "waiting: no move, no release";
+  EXPECT_TRUE(scripted.due(&c, now, 13.5).empty()) << "given up after 2 + 10 s, nothing sent";
+  now.objects[0].owner = 7;  // too late: it is no longer asked for
+  EXPECT_TRUE(scripted.due(&c, now, 14).empty());
 }
 
 TEST(SessionCase, AScriptedMonitorChangeForACaseWithoutASeriesIsDropped) {

@@ -54,7 +54,8 @@ struct ScriptAction {
 
 /// The object and monitor events of a pose script, performed by a participant as time goes: at a
 /// grab's time it asks to hold the object; once it holds it, it turns it (about +y, room frame,
-/// from where it was) at the scripted rate and releases it for_s after asking; monitor changes are
+/// from where it was) at the scripted rate and releases it for_s after the server handed it over
+/// (given up if the server does not within for_s + 10 s); monitor changes are
 /// set at their times. An event waits for what it needs: every event for the case, a grab for the
 /// objects' state and a monitor change for the monitor's state (both follow the case, and on a
 /// loaded machine the case takes a while); a change to a case without a CT series is dropped.
@@ -73,7 +74,9 @@ class ScriptedObjects {
   size_t next_grab_ = 0, next_monitor_ = 0;
   bool holding_ = false;
   uint16_t object_ = 0;
+  static constexpr double kGrantWait_s = 10;  // a grab the server never hands over is given up
   ScriptedGrab grab_;
+  std::optional<double> granted_s_;  // when the server made the grabbed object ours
   Pose start_pose_;
 };
 

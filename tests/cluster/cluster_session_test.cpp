@@ -72,6 +72,9 @@ struct RelayedSession {
     o.relay_name = name;
     o.server.port = 0;
     o.server.latency_budget_ms = 5000;  // counts from the site's capture: a loaded box
+    // Relaying, not the CPU budget, is tested: before frames flow a tier is priced at 30 fps,
+    // over a 2-core machine's share for one address (a participant was once rejected so).
+    o.server.tier_cpu_budget = 8;
     return o;
   }
   static ClientConfig viewer_of(Relay& relay) {

@@ -419,6 +419,14 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
   // the default (half the cores, at least 1) leaves the four cameras' volcast/jpeg tier, about
   // 0.5 cores at 30 fps, on the edge of that share on a 2-core machine.
   server_config.tier_cpu_budget = std::max(2.0, double(std::thread::hardware_concurrency()) / 2);
+  // Where Dr. Mesh draws, found before the site streams: its ray marching would otherwise starve
+  // the site's player, whose frames then come in bursts that make the tier look costlier.
+  RigidTransform room_from_site;
+  room_from_site.translation = hub_config.site_translation.cast<double>();
+  // Dr. Mesh's right hand once it has teleported (demo_script's spot; its keys' right hand).
+  const Eigen::Vector3f hand =
+      (session::room_from_playarea(kMeshSpot) * Eigen::Vector3d(0.25, 1.1, -0.35)).cast<float>();
+  const DrawingSpot spot = drawing_spot(read_site_config(config), config, room_from_site, hand);
   Server server(cameras, server_config);
   hub.attach(&server);
   site.start(server);
@@ -433,12 +441,6 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     or_voice = demo::site_voice(*talk, hub);
     listening = or_voice.get();
   }
-  RigidTransform room_from_site;
-  room_from_site.translation = hub_config.site_translation.cast<double>();
-  // Dr. Mesh's right hand once it has teleported (demo_script's spot; its keys' right hand).
-  const Eigen::Vector3f hand =
-      (session::room_from_playarea(kMeshSpot) * Eigen::Vector3d(0.25, 1.1, -0.35)).cast<float>();
-  const DrawingSpot spot = drawing_spot(read_site_config(config), config, room_from_site, hand);
   std::vector<std::unique_ptr<Person>> people = demo_participants(a, data, out, link, talk, spot);
   people.push_back(demo_or_display(a, out, link, people.front()->opt.seconds));
   std::vector<std::thread> threads;

@@ -426,8 +426,7 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
 TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   const MockRuntime mock("xr_runtime_point", "28");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
-  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
-                                "right/a/click:3,9;right/b/click:12,24");
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "right/a/click:3,9;right/b/click:12,24");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "12,24");
   // The headset joins first: spawn spot (0, 1.4) facing the table, so its right grip (the mock's
   // default, stage (0.2, 1.1, -0.3)) is at (0.2, 1.1, 1.1) in the room, aiming along -z.

@@ -137,8 +137,8 @@ void ReplayPlayer::start(Publish publish, Speak speak, Draw draw) {
   drawing_done_ = !draw || drawing_.empty();
   const auto epoch = Clock::now();
   const int64_t epoch_wall = wall_clock_us();
-  thread_ = std::thread([this, publish = std::move(publish), epoch] {
-    run(publish, epoch);
+  thread_ = std::thread([this, publish = std::move(publish), epoch, epoch_wall] {
+    run(publish, epoch, epoch_wall);
     frames_done_ = true;
   });
   if (!voices_done_)
@@ -224,7 +224,7 @@ void ReplayPlayer::run_drawing(const Draw& draw, Clock::time_point epoch) {
   }
 }
 
-void ReplayPlayer::run(const Publish& publish, Clock::time_point epoch) {
+void ReplayPlayer::run(const Publish& publish, Clock::time_point epoch, int64_t epoch_wall_us) {
   const auto& sets = reader_.info().frame_sets;
   const RecordingStream& s = reader_.info().stream;
   const size_t n = s.welcome.cameras.size();
@@ -233,15 +233,16 @@ void ReplayPlayer::run(const Publish& publish, Clock::time_point epoch) {
   uint64_t sequence = 0, position = 0;
   std::string last_warning;
   for (uint64_t pass = 0; !stop_; ++pass) {
-    const auto start =
-        epoch + std::chrono::microseconds(static_cast<int64_t>(pass) * voices_.pass_us);
+    const int64_t pass_start_us = static_cast<int64_t>(pass) * voices_.pass_us;
+    const auto start = epoch + std::chrono::microseconds(pass_start_us);
     position += 2;  // a new pass: its first delta does not follow the last pass's end
     for (size_t k = first_; k <= last_ && !stop_; ++k, ++position) {
-      if (!sleep_until(start + std::chrono::microseconds(timeline_.offset_us[k] -
-                                                         timeline_.offset_us[first_])))
-        break;
+      const int64_t at_us = timeline_.offset_us[k] - timeline_.offset_us[first_];
+      if (!sleep_until(start + std::chrono::microseconds(at_us))) break;
       auto frames = std::make_shared<CapturedFrameSet>();
-      frames->capture_time_us = wall_clock_us();
+      // Stamped when it is due, on the voices' time line (run_voices): a thread woken late
+      // shows as latency, not as a shift between the clouds and the voices.
+      frames->capture_time_us = epoch_wall_us + pass_start_us + at_us;
       try {
         decoder_.decode(k, decoded);
       } catch (const Error& e) {

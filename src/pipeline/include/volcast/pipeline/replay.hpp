@@ -72,7 +72,9 @@ class ReplayPlayer {
   /// Starts publishing on a background thread: in pass p (0, 1, ... while looping; each lasts
   /// voices().pass_us, one frame interval past its last frame set) frame set k at the start time
   /// plus p x pass_us plus its timeline() offset minus the first selected one's, stamped with
-  /// this machine's wall clock and carrying its recorded body (CapturedFrameSet::encoded). Voice
+  /// that time on this machine's wall clock (as the voices are: a thread woken late adds latency,
+  /// never a shift between clouds and voices) and carrying its recorded body
+  /// (CapturedFrameSet::encoded). Voice
   /// cues go to `speak` (none: voices are not played) from a second thread on the same schedule,
   /// at_us into their pass, so that decoding a frame set never holds up a voice. A frame set that
   /// cannot be read or decoded is skipped with one warning naming it and the offset; so is a
@@ -103,7 +105,7 @@ class ReplayPlayer {
 
  private:
   using Clock = std::chrono::steady_clock;
-  void run(const Publish& publish, Clock::time_point epoch);
+  void run(const Publish& publish, Clock::time_point epoch, int64_t epoch_wall_us);
   void run_voices(const Speak& speak, Clock::time_point epoch, int64_t epoch_wall_us);
   void run_drawing(const Draw& draw, Clock::time_point epoch);
   bool sleep_until(Clock::time_point due) const;  // false if stopped meanwhile

@@ -342,10 +342,16 @@ int run_export(const ExportArgs& a) {
   }
   if (!a.wav.empty()) {
     const std::vector<voice::ExportedVoice> voices = voice::export_voices(a.file, a.wav);
-    for (const voice::ExportedVoice& v : voices)
+    for (const voice::ExportedVoice& v : voices) {
       std::printf("wrote %s: %s, %.1f s (%llu packets, %llu frames concealed)\n", v.path.c_str(),
                   printable(v.name).c_str(), v.seconds, static_cast<unsigned long long>(v.packets),
                   static_cast<unsigned long long>(v.concealed));
+      if (v.before_start > 0)
+        std::printf(
+            "  %llu of them (%.2f s) said before the first frame set: left out, so that "
+            "sample 0 is the first frame set\n",
+            static_cast<unsigned long long>(v.before_start), double(v.before_start) * 0.02);
+    }
     if (voices.empty()) std::printf("%s holds no voices\n", a.file.c_str());
     if (a.ply.empty() && a.png.empty() && a.mkv.empty()) return 0;
   }

@@ -147,8 +147,9 @@ void Relay::relay(const ChunkedFrameSet& f) {
   }
   previous_ = f.sequence;
   // Not decoded (every tier passes the site's bytes through): the last decoded images stand in,
-  // for a tier that may begin before the next frame set is decoded.
+  // marked stale, so that a tier beginning before the next frame set is decoded skips them.
   frames->cameras = last_images_;
+  frames->images_stale = !decoded_now;
   auto body = std::make_shared<EncodedFrameSetBody>();
   body->depth_codec = options_.depth_codec;
   body->color_codec = options_.color_codec;

@@ -30,8 +30,22 @@ void decode_speaker(const std::vector<RecordedVoicePacket>& packets, int64_t t0_
   const auto append = [&] { out.insert(out.end(), frame.begin(), frame.end()); };
   const RecordedVoicePacket* previous = nullptr;
   for (const RecordedVoicePacket& p : packets) {
-    const int64_t at =
-        std::max<int64_t>(0, (p.capture_us - t0_us + audio::kFrameUs / 2) / audio::kFrameUs);
+    // Its frame on the time line, rounded (floor division: it may lie before sample 0).
+    const int64_t from_t0 = p.capture_us - t0_us + audio::kFrameUs / 2;
+    const int64_t at = from_t0 >= 0 ? from_t0 / audio::kFrameUs
+                                    : -((-from_t0 + audio::kFrameUs - 1) / audio::kFrameUs);
+    if (at < 0) {
+      // Said before the first frame set: decoded (the decoder's state runs on) but not written,
+      // since writing it at sample 0 would shift the speech after it against the frame sets.
+      try {
+        decoder.decode(p.bytes, frame);
+      } catch (const Error&) {
+      }
+      ++e.packets;
+      ++e.before_start;
+      previous = &p;
+      continue;
+    }
     const int64_t now = static_cast<int64_t>(out.size() / kFrameSamples);
     int64_t missing = std::max<int64_t>(0, at - now);
     // Packets lost before this one (a gap in the sequence) are rebuilt; the rest of the gap is

@@ -182,6 +182,7 @@ void VoiceLink::play(int64_t now_us) {
     for (size_t i = 0; i < n; ++i) d.out[i] = soft_clip(d.out[i]);
     d.speaker->write(std::span<const float>(d.out.data(), n));
   }
+  ++stats_.frames_played;
 }
 
 VoiceStats VoiceLink::stats() const {

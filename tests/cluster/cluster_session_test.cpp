@@ -13,6 +13,7 @@
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
+#include "support/voice_recorder.hpp"
 #include "support/test_data.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
@@ -227,7 +228,10 @@ TEST(SessionThroughRelays, AVoiceCrossesTwoRelays) {
     voice::VoiceLink vb(b.p(), cb);
     voice::VoiceLink va(a.p(), ca);
     ASSERT_TRUE(eventually([&] { return va.mic_ended(); }, 30s));
-    std::this_thread::sleep_for(600ms);
+    // B's file reaches a second past the speech (the way through two relays and the jitter
+    // buffer; a loaded machine holds B's loop back, and it catches up).
+    ASSERT_TRUE(test::played_until(
+        vb, ca.mic_start_us + int64_t(said.size()) * 1'000'000 / audio::kSampleRate + 1'000'000));
     heard = vb.stats();
   }
   ASSERT_EQ(heard.heard.size(), 1u);

@@ -182,6 +182,40 @@ TEST(SharedStream, ColorQualityIsPartOfTheTier) {
 // A camera slower than the site (the 5 fps Azure Kinect recording in a 30 fps site) repeats its
 // frame: a stateless tier sends the same bytes without encoding again, and the viewer neither
 // decodes them again nor rebuilds the cloud -- yet always holds the right images.
+// A publisher whose frame sets come in bursts (as a replay woken late catches up: here 4 at once,
+// 5 times a second) is priced at the rate it publishes, 20 fps at most, not at its bursts' (the
+// median gap between frame sets, 0 inside a burst, priced it at up to 1000 fps and a tier at 2.88
+// cores on CI: viewers were refused as over the CPU budget).
+TEST(TierBudget, ABurstyPublisherIsPricedAtItsMeanRate) {
+  SitePlayer player(HandsSite::sources(), 20);
+  ServerConfig config;
+  config.port = 0;
+  Server server(player.cameras(), config);
+  server.add_tier_tap("volcast", "jpeg", 0, [](const TierFrameSet&) {});
+  ASSERT_EQ(server.tiers().size(), 1u);
+  const double at_30_fps = server.tiers()[0].cost_cores;  // nothing published yet: 30 fps
+  ASSERT_GT(at_30_fps, 0);
+  std::vector<std::shared_ptr<const CapturedFrameSet>> held;  // the player's thread only
+  std::atomic<int> published{0};
+  player.start([&](std::shared_ptr<const CapturedFrameSet> f) {
+    held.push_back(std::move(f));
+    if (held.size() < 4) return;
+    for (auto& h : held) server.publish(std::move(h));
+    held.clear();
+    published += 4;
+  });
+  // 48 frame sets: the last 33 span at least 1.6 s (a loaded machine only stretches them).
+  ASSERT_TRUE(test::eventually([&] { return published >= 48; }, std::chrono::seconds(60)));
+  player.stop();
+  const double fps = 30 * server.tiers()[0].cost_cores / at_30_fps;
+  std::printf("priced at %.1f fps\n", fps);
+  EXPECT_GT(fps, 1.0);
+  // A window that ends inside a burst counts its frame sets but not the gap after them: 23 fps
+  // measured. The median gap made it 1000.
+  EXPECT_LT(fps, 30.0);
+  server.stop();
+}
+
 TEST(SharedStream, RepeatedFramesOfASlowCameraAreNotCodedAgain) {
   for (const char* codec : {"volcast", "volcast-t"}) {
     std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();

@@ -199,6 +199,7 @@ inline int interaural_lag(std::span<const float> left, std::span<const float> ri
                           size_t n, int max_lag = 48) {
   int best = 0;
   double best_c = -2;
+  if (from >= left.size()) return 0;
   const std::span<const float> l = left.subspan(from, std::min(n, left.size() - from));
   for (int lag = -max_lag; lag <= max_lag; ++lag)
     if (const double c = ncc(l, right, std::ptrdiff_t(from) + lag); c > best_c) {

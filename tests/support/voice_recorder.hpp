@@ -1,6 +1,6 @@
 #pragma once
 // `volcast record --session` as a child process, and a participant saying a prepared phrase list
-// into it: what the voice recording and replay tests share.
+// into it, and waiting for a loudspeaker file: what the voice tests share.
 #include <gtest/gtest.h>
 #include <spawn.h>
 #include <sys/types.h>
@@ -18,6 +18,17 @@
 #include "volcast/voice/voice_link.hpp"
 
 namespace volcast::test {
+
+/// Waits (up to 30 s) until `listener`'s loudspeaker file reaches wall time `until_us`: a loaded
+/// machine holds its loop back, and it catches up. False if it does not.
+inline bool played_until(const voice::VoiceLink& listener, int64_t until_us) {
+  return eventually(
+      [&] {
+        const voice::VoiceStats v = listener.stats();
+        return v.started_us + int64_t(v.frames_played) * audio::kFrameUs >= until_us;
+      },
+      std::chrono::seconds(30));
+}
 
 /// Starts `volcast record --connect LINK --out FILE --session SESSION`; returns its pid, 0 when
 /// it could not be started (a test failure is added).

@@ -239,7 +239,7 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
          {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"})
       phrases.push_back(name);
   const fs::path speech = test::write_voice(mock.dir / "speech.wav", test::phrases(phrases, 0.1));
-  test::SessionSite s;
+  test::SessionSite s({}, 5);  // 5 frame sets a second: the room to see, less to encode
   const std::string link = s.link();
   test::TestParticipant observer(s, test::hand_driven("Observer"));
   // The headset participant.
@@ -343,7 +343,7 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv grip("VOLCAST_MOCK_XR_RIGHT_GRIP", "0.2,1.2,-0.3");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "8,20");
-  test::SessionSite s;
+  test::SessionSite s({}, 5);  // 5 frame sets a second: the room to see, less to encode
   // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
   // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
   session::SharedCase c;

@@ -177,7 +177,8 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     voice::VoiceLink vl(l.p(), cl);
     replay.start(server, &hub);
     ASSERT_TRUE(eventually([&] { return replay.finished(); }, 30s));
-    std::this_thread::sleep_for(400ms);  // the last packets' way through the jitter buffer
+    // The last packets' way through the jitter buffer, in L's file.
+    ASSERT_TRUE(test::played_until(vl, wall_clock_us() + 400'000));
     heard = vl.stats();
     EXPECT_EQ(vl.error(), "");
     const auto a = l.other("A (recorded)");
@@ -241,12 +242,14 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     EXPECT_LE(std::abs(late_ms), 60.0 + frame_ms + h.latency_ms_p99);
     // And closer: sent as recorded after the frame set, the phrase is off by what the paths add,
     // within 30 ms (the export's 20 ms grid: half a frame either way; L's 20 ms blocks: one
-    // frame). Only while L's playout kept its pace: a loaded machine that stalls L's loop makes
-    // the latency the link measures (from the wall clock) drift from its file's time line.
-    if (h.latency_ms_p99 - h.latency_ms_p50 <= 60.0)
+    // frame). Only while the machine kept up (both paths near their idle 20..45 ms, L's playout
+    // at its pace): a loaded one delays the first frame set, whose one latency stands for the
+    // path, and stalls L's loop, whose latency (from the wall clock) then drifts from its file's
+    // time line (54 ms off measured once with the voice's p50 at 133 ms).
+    if (h.latency_ms_p99 - h.latency_ms_p50 <= 60.0 && h.latency_ms_p50 <= 60.0 && frame_ms <= 60.0)
       EXPECT_NEAR(late_ms, paths_ms, 30.0);
     else
-      std::printf("(L's playout stalled: only the 60 ms bound is checked)\n");
+      std::printf("(a loaded machine: only the 60 ms bound is checked)\n");
     EXPECT_EQ(replay.voices_sent(), replay.voices().cues.size());
     EXPECT_EQ(replay.voices_skipped(), 0u);
   }

@@ -160,7 +160,10 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
     voice::VoiceLink vc(c.p(), cc);
     voice::VoiceLink va(a.p(), ca), vb(b.p(), cb);
     ASSERT_TRUE(eventually([&] { return va.mic_ended() && vb.mic_ended(); }, 30s));
-    std::this_thread::sleep_for(600ms);
+    // C's loudspeaker file must reach 600 ms past B's phrase (a loaded machine may hold its loop
+    // back: it catches up).
+    ASSERT_TRUE(
+        test::played_until(vc, start + int64_t(b_mic.size()) * 1'000'000 / kSampleRate + 600'000));
     heard = vc.stats();
     EXPECT_EQ(vc.error(), "");
   }
@@ -179,6 +182,7 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
     const test::Alignment found =
         test::align(phrase, mono, std::ptrdiff_t(said), std::ptrdiff_t(said + samples(1)));
     const size_t from = size_t(found.offset), n = phrase.size();
+    ASSERT_LE(from + n, left.size()) << "C's file ends inside the phrase";
     const double l = test::energy(left, from, n), r = test::energy(right, from, n);
     const int lag = test::interaural_lag(left, right, from, n);
     std::printf("%s: left/right %.1f dB, right ear %d µs %s\n", first ? "A (left)" : "B (right)",

@@ -173,12 +173,12 @@ struct Server::Impl {
 
   // --- Tiers (server_tiers.cpp) ---
 
-  // The site's frame rate for tier costs; 30 before the first frame sets.
+  // The site's frame rate for tier costs; 30 before its first second of frame sets.
   double site_fps() const { return peak_fps > 0 ? peak_fps : 30; }
 
   // Called by publish() with mutex held: notes the time and updates peak_fps, the highest rate
-  // (from the median gap between the last 33 publish() calls) seen in the last 30 s, so that a
-  // publisher slowed for a while by a busy machine does not make the tiers look cheap.
+  // (the mean over the last 33 publish() calls) seen in the last 30 s, so that a publisher slowed
+  // for a while by a busy machine does not make the tiers look cheap.
   void note_published();
 
   // Whether the viewers of `address` are all that watch `tier` (no other address, no tap).

@@ -4,7 +4,6 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <array>
 
 #include "server_impl.hpp"
 #include "volcast/core/error.hpp"
@@ -12,18 +11,18 @@
 namespace volcast {
 
 // Called by publish() with mutex held: notes the time and updates peak_fps, the highest rate
-// (from the median gap between the last 33 publish() calls) seen in the last 30 s, so that a
-// publisher slowed for a while by a busy machine does not make the tiers look cheap.
+// seen in the last 30 s, so that a publisher slowed for a while by a busy machine does not make
+// the tiers look cheap. The rate is the mean over the last 33 publish() calls (once they span
+// 1 s or are 33): a publisher that catches up in bursts (a replay woken late) publishes at its
+// mean rate, where the median gap between its frame sets (0 inside a burst) made it look 1000 fps.
 void Server::Impl::note_published() {
   const int64_t now = steady_us();
   published_us.push_back(now);
   if (published_us.size() > 33) published_us.pop_front();
-  if (published_us.size() < 3) return;
-  std::array<int64_t, 32> gaps;
-  const size_t n = published_us.size() - 1;
-  for (size_t i = 0; i < n; ++i) gaps[i] = published_us[i + 1] - published_us[i];
-  std::nth_element(gaps.begin(), gaps.begin() + n / 2, gaps.begin() + n);
-  const double fps = std::clamp(1e6 / double(std::max<int64_t>(gaps[n / 2], 1)), 1.0, 1000.0);
+  const int64_t span_us = now - published_us.front();
+  if (published_us.size() < 3 || (span_us < 1'000'000 && published_us.size() < 33)) return;
+  const double fps = std::clamp(
+      double(published_us.size() - 1) * 1e6 / double(std::max<int64_t>(span_us, 1)), 1.0, 1000.0);
   if (fps >= peak_fps || now - peak_us > 30'000'000) {
     peak_fps = fps;
     peak_us = now;
@@ -146,6 +145,12 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
       const bool recorded_tier = pre && pre->depth_codec == tk.depth_codec &&
                                  pre->color_codec == tk.color_codec &&
                                  pre->color_quality == tk.color_quality;
+      // Images standing in for a frame set not decoded (a relay's) are an earlier one's: a tier
+      // encoded from images waits for the next, rather than stamp them with this one's time.
+      if (frames->images_stale && !recorded_tier) {
+        last_sequence = frames->sequence;
+        continue;
+      }
       key = tier->report.frames_encoded == 0 ||
             (!recorded_tier && since_key + 1 >= static_cast<uint64_t>(config.key_frame_interval)) ||
             (tier->key_wanted &&

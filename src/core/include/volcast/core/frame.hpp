@@ -49,6 +49,9 @@ struct CapturedFrameSet {
   std::vector<std::shared_ptr<const CameraFrame>> cameras;
   /// The same frames as encoded for one tier (a replay), or null.
   std::shared_ptr<const EncodedFrameSetBody> encoded;
+  /// `cameras` are an earlier frame set's images, standing in (a relay passes `encoded` through
+  /// without decoding it): a tier encoded from the images skips this frame set.
+  bool images_stale = false;
 };
 
 }  // namespace volcast

@@ -15,6 +15,8 @@ struct ExportedVoice {
   std::filesystem::path path;
   double seconds = 0;                   ///< the file's length
   uint64_t packets = 0, concealed = 0;  ///< packets decoded; frames rebuilt (FEC, PLC)
+  /// Of the packets, those said before sample 0 (the first frame set): decoded, not written.
+  uint64_t before_start = 0;
 };
 
 /// Writes `dir`/speaker-<id>-<name>.wav (48 kHz mono, 16-bit; characters other than letters,

@@ -55,6 +55,8 @@ struct VoiceStats {
   /// microphone's first block's capture time, or the loop's start without a microphone.
   int64_t started_us = 0;
   uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
+  /// 20 ms blocks the loudspeaker has played (its file's length: sample 0 at started_us).
+  uint64_t frames_played = 0;
   double bytes_per_second = 0;    ///< sent, over the frames captured while not muted
   bool hrtf = false;              ///< the spatial mixer runs with HRTF
   std::vector<HeardVoice> heard;  ///< by id

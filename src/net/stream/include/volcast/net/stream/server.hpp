@@ -58,10 +58,10 @@ struct ServerConfig {
   int max_tiers = 8;  ///< distinct tiers at once; a viewer asking for another is rejected
   /// CPU the tiers' encoders may use together (cores: 1.0 is one core kept busy). A tier's cost
   /// is its codecs' encode_ns_per_pixel (codec/registry.hpp) times the site's pixels times the
-  /// site's frame rate (measured from publish(); 30 fps before the first frame sets), so HEVC
-  /// costs about 30 times volcast/jpeg. A viewer asking for a tier that does not run yet is
-  /// rejected if its cost would take the tiers' total past this, with both figures in the
-  /// reject; tiers that run already, and viewers joining them, are never refused. Taps
+  /// site's frame rate (publish()'s mean rate, its highest in 30 s; 30 fps before its first
+  /// second), so HEVC costs about 30 times volcast/jpeg. A viewer asking for a tier that does not
+  /// run yet is rejected if its cost would take the tiers' total past this, with both figures in
+  /// the reject; tiers that run already, and viewers joining them, are never refused. Taps
   /// (add_tier_tap) are counted but not refused. 0: half this machine's cores, at least 1.
   double tier_cpu_budget = 0;
   /// Tiers that the viewers of one address (IP) may hold alone, i.e. that no other address and

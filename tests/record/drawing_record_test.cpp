@@ -295,7 +295,9 @@ TEST(DrawingRecording, ALoopingReplayBeginsEachPassAsTheRecordingDid) {
         const std::span<const uint8_t> p(m.data() + 12, m.size() - 12);
         got.emplace_back(
             m[7], m[7] == 0x51 ? session::parse_annotation(p).id : session::parse_erased(p).first);
-        if (m[7] == 0x52) EXPECT_EQ(session::parse_erased(p).second, 0u);
+        if (m[7] == 0x52) {
+          EXPECT_EQ(session::parse_erased(p).second, 0u);
+        }
       }
   }
   ASSERT_GE(got.size(), 9u);

@@ -163,7 +163,9 @@ TEST(BackdropRenderer, ShowsTheFramesColourPixelForPixelTopRowFirst) {
   for (const auto& [x, y] : {std::pair{k.width / 2, k.height / 4},
                              {k.width / 3, k.height * 3 / 4},
                              {k.width * 3 / 4, k.height / 2}})
-    if (c.frame.color.pixel(x, y)[3] != 0) EXPECT_TRUE(same_pixel(image, c.frame.color, x, y));
+    if (c.frame.color.pixel(x, y)[3] != 0) {
+      EXPECT_TRUE(same_pixel(image, c.frame.color, x, y));
+    }
 }
 
 TEST(BackdropRenderer, AShapeInFrontOfTheRealSurfaceLandsOnItsPixelAndOneBehindIsHidden) {
@@ -385,8 +387,9 @@ TEST(OrDisplay, AStrokeLandsOnItsPixelOfTheCamerasImageAndTheForegroundHidesOneB
   const Eigen::Vector3d top =
       c.calibration.world_from_camera.inverse() * label_anchor(label).cast<double>();
   const Eigen::Vector2d top_px(k.fx * top.x() / top.z() + k.cx, k.fy * top.y() / top.z() + k.cy);
-  if (top_px.y() >= 0)  // else kept on the picture's edge
+  if (top_px.y() >= 0) {  // else kept on the picture's edge
     EXPECT_LT((listed[0].pixel.cast<double>() - top_px).norm(), 0.01) << top_px.transpose();
+  }
   label.points = {(p + ray * 0.20).cast<float>()};
   snapshot.annotations = {label};
   EXPECT_TRUE(display.labels(snapshot).empty()) << "its pin is behind the mug";

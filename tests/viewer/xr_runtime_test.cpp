@@ -511,7 +511,9 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
     EXPECT_GT(d, 0.3f) << i;
     EXPECT_LT(d, 1.5f) << i;
     EXPECT_NEAR(stroke.points[i].y(), aim_origin.y(), 0.01f) << "turned about +y only: " << i;
-    if (i > 0) EXPECT_GE((stroke.points[i] - stroke.points[i - 1]).norm(), 0.003f) << i;
+    if (i > 0) {
+      EXPECT_GE((stroke.points[i] - stroke.points[i - 1]).norm(), 0.003f) << i;
+    }
   }
   EXPECT_GT((stroke.points.back() - stroke.points.front()).norm(), 0.05f) << "it swept";
   observer->end();

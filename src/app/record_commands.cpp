@@ -350,7 +350,8 @@ int run_export(const ExportArgs& a) {
         std::printf(
             "  %llu of them (%.2f s) said before the first frame set: left out, so that "
             "sample 0 is the first frame set\n",
-            static_cast<unsigned long long>(v.before_start), double(v.before_start) * 0.02);
+            static_cast<unsigned long long>(v.before_start),
+            double(v.before_start) * double(kVoiceFrameUs) / 1e6);
     }
     if (voices.empty()) std::printf("%s holds no voices\n", a.file.c_str());
     if (a.ply.empty() && a.png.empty() && a.mkv.empty()) return 0;

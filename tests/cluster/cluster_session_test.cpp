@@ -13,8 +13,8 @@
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
-#include "support/voice_recorder.hpp"
 #include "support/test_data.hpp"
+#include "support/voice_recorder.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/relay.hpp"
 #include "volcast/cluster/session_link.hpp"

@@ -27,7 +27,9 @@ TEST(ImpairedPath, HundredMsRoundTripKeepsTheFullFrameRate) {
   EXPECT_GE(r.window, 3);
   EXPECT_GT(r.frames, 0u);
   EXPECT_GE(r.min_rtt_ms, 100.0);
-  EXPECT_LE(r.worst_send_age_ms, 150.0);  // the latency budget, checked by the sender exactly
+  // The latency budget, checked by the sender exactly (but for frame sets the loaded site
+  // encoded only past it: sent while newest, server.hpp).
+  EXPECT_LE(r.worst_send_age_ms, 150.0) << r.encoded_late << " encoded late";
 }
 
 TEST(ImpairedPath, FiftyMsRoundTripWithFivePercentLossStaysWithinTheBudget) {
@@ -45,7 +47,8 @@ TEST(ImpairedPath, FiftyMsRoundTripWithFivePercentLossStaysWithinTheBudget) {
   // box gets fewer): frame sets arrived and the viewer is still served at the end.
   EXPECT_GT(r.frames, 0u);
   EXPECT_GE(r.window, 1);
-  EXPECT_LE(r.worst_send_age_ms, 150.0);  // nothing older than the budget was sent, exactly
+  // Nothing the site encoded within the budget was sent older than it, exactly.
+  EXPECT_LE(r.worst_send_age_ms, 150.0) << r.encoded_late << " encoded late";
   // The latency the viewer sees (budget + path + loss recovery) is a figure, not a test: printed
   // above, measured by volcast_link_bench.
 }

@@ -32,8 +32,11 @@ PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& dat
   const auto end = measure_from + std::chrono::duration<double>(seconds);
   while (clock::now() < end) {
     if (!client->receive(rx)) throw Error("server closed the stream");
-    r.worst_send_age_ms = std::max(
-        r.worst_send_age_ms, static_cast<double>(rx.times.send_us - rx.times.capture_us) / 1000.0);
+    if (rx.times.encode_done_us - rx.times.capture_us > int64_t{config.latency_budget_ms} * 1000)
+      ++r.encoded_late;
+    else
+      r.worst_send_age_ms =
+          std::max(r.worst_send_age_ms, double(rx.times.send_us - rx.times.capture_us) / 1000.0);
     if (clock::now() < measure_from) continue;
     ++r.frames;
     latency.push_back(static_cast<double>(rx.times.received_us - rx.times.capture_us) / 1000.0);

@@ -10,9 +10,12 @@ namespace volcast {
 struct PathRun {
   double fps = 0;                                 ///< frame sets received per second
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture -> whole message received
-  double worst_send_age_ms = 0;                   ///< max over frame sets of send - capture
-  double min_rtt_ms = 0;                          ///< the server's path estimate
-  int window = 0;                                 ///< frame sets the server allowed in flight
+  /// max of send - capture over the frame sets the site encoded within the latency budget (the
+  /// server sends one encoded later while it is the newest: server.hpp)
+  double worst_send_age_ms = 0;
+  uint64_t encoded_late = 0;  ///< frame sets the site encoded only past the budget
+  double min_rtt_ms = 0;      ///< the server's path estimate
+  int window = 0;             ///< frame sets the server allowed in flight
   uint64_t frames = 0, skipped = 0;
 };
 

@@ -185,7 +185,12 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
     if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) continue;
     const int64_t now_wall = wall_clock_us();
     const bool decodable = frames->key || (synced && frames->index == last_index + 1);
-    const bool stale = now_wall - frames->capture_us > int64_t{config.latency_budget_ms} * 1000;
+    // Older than the budget: skipped for the next, fresher one -- unless the site finished
+    // encoding it only past the budget (an overloaded machine): the next would be as old, and
+    // skipping them all would leave the viewer with no picture at all.
+    const int64_t budget_us = int64_t{config.latency_budget_ms} * 1000;
+    const bool stale = now_wall - frames->capture_us > budget_us &&
+                       frames->encode_done_us - frames->capture_us <= budget_us;
     if (!decodable || stale) {
       // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
       std::lock_guard lock(mutex);

@@ -28,7 +28,10 @@
 // (windowed maximum of the delivery rate), and keeps about two bandwidth-delay products of bytes in
 // flight (at least one frame set, at most `max_window`). It always sends the newest frame set and
 // never one captured more than `latency_budget_ms` ago, so a slow viewer or path skips whole frame
-// sets instead of building latency, and never slows the publisher or another viewer.
+// sets instead of building latency, and never slows the publisher or another viewer. The one
+// exception: a frame set the site finished encoding only past the budget (a machine too loaded
+// to meet it) is sent while it is the newest -- the next would be as old, and skipping every one
+// would leave the viewer with no picture.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -53,7 +56,7 @@ struct ServerConfig {
   int key_frame_interval = 60;    ///< frame sets between key frames of temporal tiers
   int min_key_interval_ms = 250;  ///< a tier makes requested key frames at most this often
   int max_window = 8;             ///< frame sets in flight (sent, not acknowledged) at most
-  int latency_budget_ms = 150;    ///< a frame set captured longer ago is never sent
+  int latency_budget_ms = 150;    ///< a frame set captured longer ago is skipped (see the top)
   int max_viewers = 16;           ///< further viewers are rejected ("server full")
   int max_tiers = 8;  ///< distinct tiers at once; a viewer asking for another is rejected
   /// CPU the tiers' encoders may use together (cores: 1.0 is one core kept busy). A tier's cost

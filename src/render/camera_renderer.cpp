@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "camera_shaders.hpp"
@@ -21,6 +22,7 @@ constexpr const char* kPass = "camera renderer";
 
 // One camera: its textures, where it sits, and its mesh's kept triangles.
 struct GpuCamera {
+  Intrinsics intrinsics;  // what `rays` was made from
   int width = 0, height = 0;
   GLuint rays = 0, depth = 0, color = 0;
   bool uploaded = false, has_color = false;
@@ -94,18 +96,20 @@ struct CameraRenderer::Impl {
   gl::FilterUniforms index_filter;
   GLint resolve_origin = -1;
   std::vector<GpuCamera> cameras;
+  size_t ray_tables_uploaded = 0;  // set_cameras
   AvatarFilter filter;
   // The blending pass's own framebuffer: accumulated color (RGBA16F) and the prepass's depth.
   GLuint blend_fbo = 0, accumulated = 0, front_depth = 0;
   int blend_width = 0, blend_height = 0;
 
+  static void delete_camera(const GpuCamera& c) {
+    const GLuint t[3] = {c.rays, c.depth, c.color};
+    glDeleteTextures(3, t);
+    const GLuint b[2] = {c.mesh_indices, c.mesh_command};
+    glDeleteBuffers(2, b);
+  }
   void delete_cameras() {
-    for (const GpuCamera& c : cameras) {
-      const GLuint t[3] = {c.rays, c.depth, c.color};
-      glDeleteTextures(3, t);
-      const GLuint b[2] = {c.mesh_indices, c.mesh_command};
-      glDeleteBuffers(2, b);
-    }
+    for (const GpuCamera& c : cameras) delete_camera(c);
     cameras.clear();
   }
 
@@ -241,22 +245,41 @@ CameraRenderer::~CameraRenderer() {
 
 void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
   Impl& r = *impl_;
-  r.delete_cameras();
+  std::vector<GpuCamera> before = std::move(r.cameras);
+  r.cameras.clear();
+  // Those of `before` not taken over are deleted, whether this returns or throws.
+  struct DeleteRest {
+    std::vector<GpuCamera>& cameras;
+    ~DeleteRest() {
+      for (const GpuCamera& c : cameras) Impl::delete_camera(c);
+    }
+  } delete_rest{before};
   for (const CameraCalibration& cal : cameras) {
     const Intrinsics& k = cal.depth;
     if (k.width <= 0 || k.height <= 0 || k.width > 4096 || k.height > 4096)
       throw Error(fmt::format("{}: camera {} is {}x{} pixels (1..4096 per side)", kPass,
                               r.cameras.size(), k.width, k.height));
+    const size_t at = r.cameras.size();
+    if (at < before.size() && before[at].intrinsics == k) {  // its textures, as if new
+      GpuCamera c = std::exchange(before[at], GpuCamera{});
+      c.world_from_camera = cal.world_from_camera.matrix4f();
+      c.uploaded = c.has_color = c.mesh_current = false;
+      c.filter = r.filter;
+      r.cameras.push_back(c);
+      continue;
+    }
     GpuCamera c;
+    c.intrinsics = k;
     c.width = k.width;
     c.height = k.height;
     c.world_from_camera = cal.world_from_camera.matrix4f();
     c.radius_per_metre = splat_radius_per_metre(k);
-    const RayTable rays = make_ray_table(k);
-    std::vector<float> xy(rays.x.size() * 2);
-    for (size_t i = 0; i < rays.x.size(); ++i) {
-      xy[2 * i] = rays.x[i];
-      xy[2 * i + 1] = rays.y[i];
+    const std::shared_ptr<const RayTable> rays = shared_ray_table(k);
+    ++r.ray_tables_uploaded;
+    std::vector<float> xy(rays->x.size() * 2);
+    for (size_t i = 0; i < rays->x.size(); ++i) {
+      xy[2 * i] = rays->x[i];
+      xy[2 * i + 1] = rays->y[i];
     }
     c.rays = gl::make_texture(GL_RG32F, c.width, c.height);
     c.depth = gl::make_texture(GL_R16UI, c.width, c.height);
@@ -276,6 +299,10 @@ void CameraRenderer::set_world_from_camera(size_t camera, const RigidTransform& 
         fmt::format("{}: no camera {} (set_cameras gave {})", kPass, camera, r.cameras.size()));
   r.cameras[camera].world_from_camera = world_from_camera.matrix4f();
   r.cameras[camera].mesh_current = false;  // the avatar filter is in the world frame
+}
+
+size_t CameraRenderer::ray_tables_uploaded() const {
+  return impl_->ray_tables_uploaded;
 }
 
 size_t CameraRenderer::camera_count() const {

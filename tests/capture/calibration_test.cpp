@@ -1,8 +1,10 @@
 // Intrinsics derivation (Azure Kinect SDK rules) and the Brown-Conrady lens model.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "support/test_data.hpp"
 #include "volcast/capture/k4a_calibration.hpp"
@@ -115,6 +117,28 @@ TEST(LensModel, UnprojectInvertsProjectOnEveryPixelOfTheRealDepthCamera) {
   const auto centre = unproject_pixel(k, {k.cx, k.cy});
   ASSERT_TRUE(centre.has_value());
   EXPECT_NEAR(centre->norm(), 0.0, 1e-4);
+}
+
+// Several renderers of one process share one table per intrinsics, made once even when asked
+// for at once from several threads; other intrinsics get their own.
+TEST(LensModel, SharedRayTablesAreMadeOncePerIntrinsicsAndEqualAFreshOne) {
+  const K4aCalibration cal =
+      parse_k4a_calibration(read_text(test::data_dir() / "k4a-recording" / "calibration.json"));
+  const Intrinsics k = k4a_depth_mode_intrinsics(cal.depth, K4aDepthMode::kNfovUnbinned);
+  std::vector<std::shared_ptr<const RayTable>> got(4);
+  std::vector<std::thread> threads;
+  for (auto& g : got) threads.emplace_back([&g, &k] { g = shared_ray_table(k); });
+  for (auto& t : threads) t.join();
+  for (const auto& g : got) EXPECT_EQ(g.get(), got[0].get()) << "one table for all";
+  const RayTable fresh = make_ray_table(k);
+  ASSERT_EQ(got[0]->x.size(), fresh.x.size());
+  EXPECT_EQ(0, std::memcmp(got[0]->x.data(), fresh.x.data(), fresh.x.size() * sizeof(float)));
+  EXPECT_EQ(0, std::memcmp(got[0]->y.data(), fresh.y.data(), fresh.y.size() * sizeof(float)));
+  Intrinsics other = k;
+  other.k1 += 0.01;
+  const auto o = shared_ray_table(other);
+  EXPECT_NE(o.get(), got[0].get());
+  EXPECT_EQ(shared_ray_table(k).get(), got[0].get()) << "still kept";
 }
 
 TEST(LensModel, PinholeIsExact) {

@@ -402,6 +402,64 @@ TEST(CameraRenderer, HidesAndTintsEachCameraOnDemand) {
   EXPECT_THROW(renderer.set_world_from_camera(2, {}), Error);
 }
 
+// A session scene's cameras change as avatars come and go: the cameras whose index and intrinsics
+// stay keep their ray tables (the lens model inverted at every pixel, the slow part) and draw as a
+// fresh renderer's do once their images are uploaded again; a changed camera gets a new one.
+TEST(CameraRenderer, CamerasKeptBySetCamerasKeepTheirRayTablesAndDrawAsNew) {
+  // Synthetic (labelled): a Brown-Conrady camera and a pinhole one, side by side, on a plane.
+  CameraCalibration lens;
+  lens.depth = {.width = 32,
+                .height = 24,
+                .fx = 30,
+                .fy = 30,
+                .cx = 15.5,
+                .cy = 11.5,
+                .k1 = 0.3,
+                .k2 = -0.05,
+                .p1 = 0.001};
+  lens.world_from_camera.translation = {-0.6, 0, 0};
+  CameraCalibration pinhole = lens;
+  pinhole.depth = {.width = 32, .height = 24, .fx = 30, .fy = 30, .cx = 15.5, .cy = 11.5};
+  pinhole.world_from_camera.translation = {0.6, 0, 0};
+  CameraFrame f;
+  f.depth = DepthImage(32, 24);
+  std::fill(f.depth.pixels.begin(), f.depth.pixels.end(), uint16_t{2000});
+  HeadlessTarget target(200, 100);
+  ViewCamera eye;
+  eye.vertical_fov_deg = 50;
+  const View view = to_view(eye, target.target().aspect());
+  const auto draw = [&](CameraRenderer& r) {
+    r.draw_cameras(view, target.target(), {});
+    ColorImage image;
+    target.read_image(image);
+    return image;
+  };
+  CameraRenderer fresh;
+  const std::vector<CameraCalibration> two = {lens, pinhole};
+  fresh.set_cameras(two);
+  fresh.upload(0, f);
+  fresh.upload(1, f);
+  const ColorImage expected = draw(fresh);
+
+  CameraRenderer renderer;
+  renderer.set_cameras(std::span(&lens, 1));
+  renderer.upload(0, f);
+  EXPECT_EQ(renderer.ray_tables_uploaded(), 1u);
+  renderer.set_cameras(two);  // an avatar came: camera 0 kept, camera 1 new
+  EXPECT_EQ(renderer.ray_tables_uploaded(), 2u);
+  EXPECT_FALSE(covered(draw(renderer), 40, 50)) << "camera 0's old image is forgotten";
+  renderer.upload(0, f);
+  renderer.upload(1, f);
+  EXPECT_EQ(draw(renderer).bgra, expected.bgra);
+  CameraCalibration moved = lens;  // new intrinsics at index 0: a new table
+  moved.depth.k1 = 0.1;
+  renderer.set_cameras(std::vector{moved, pinhole});
+  EXPECT_EQ(renderer.ray_tables_uploaded(), 3u);
+  renderer.set_cameras(std::vector{pinhole});  // index 0 now the pinhole's intrinsics
+  EXPECT_EQ(renderer.ray_tables_uploaded(), 4u);
+  EXPECT_EQ(renderer.camera_count(), 1u);
+}
+
 TEST(CameraRenderer, RefusesOptionsOutOfRangeNamingThem) {
   HeadlessTarget target(16, 16);
   CameraRenderer renderer;

@@ -99,7 +99,11 @@ class CameraRenderer {
 
   /// The cameras draw_cameras() unprojects (replacing earlier ones, which are forgotten with their
   /// images). Uploads each camera's ray table and makes its textures (the mesh's index buffer,
-  /// 24 bytes per pixel, when first drawn as a mesh). Throws Error if a camera has no pixels or
+  /// 24 bytes per pixel, when first drawn as a mesh); a camera at the same index with the same
+  /// intrinsics as before keeps its ray table (the lens model inverted at every pixel by Newton
+  /// iteration), so a session scene whose list of cameras grows by an avatar does not upload the
+  /// site's again; the tables themselves come from shared_ray_table (ray_table.hpp), made once
+  /// per process for each camera's intrinsics. Throws Error if a camera has no pixels or
   /// more than 4096 per side, or OpenGL reports an error.
   void set_cameras(std::span<const CameraCalibration> cameras);
   /// Moves camera `camera` (a registration slider): its new world_from_camera, images kept.
@@ -107,6 +111,8 @@ class CameraRenderer {
   void set_world_from_camera(size_t camera, const RigidTransform& world_from_camera);
   /// Number of cameras set_cameras() gave.
   size_t camera_count() const;
+  /// Ray tables set_cameras() has uploaded so far (a kept camera's is not uploaded again).
+  size_t ray_tables_uploaded() const;
 
   /// Uploads camera `camera`'s images: depth in mm (0 = invalid) at the calibration's size, and
   /// color BGRA registered to it (same size) or empty (drawn gray, as CloudBuilder does). Throws

@@ -32,6 +32,10 @@ void register_demo(CLI::App& app, Commands& commands) {
               "Skip the virtual-OR session (the registered OR cameras, two scripted participants)");
   d->add_option("--session-seconds", demo.session_seconds, "How long the session part runs")
       ->capture_default_str();
+  d->add_option("--session-fps", demo.session_fps,
+                "Frame sets a second of the session part's OR site (its cameras' one capture each)")
+      ->check(CLI::Range(1.0, 60.0))
+      ->capture_default_str();
   d->add_option("--cameras", demo.cameras,
                 "2: the hands sequence and the Azure Kinect recording; 4: the four Azure Kinects")
       ->check(CLI::IsMember({2, 4}))

@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -76,7 +77,8 @@ PoseScript demo_script(float turn_deg, bool teleport) {
     k.pitch_deg = -15;
     k.hands = true;
     k.left = {-0.25f, 1.1f + 0.05f * w, -0.35f};
-    k.right = {0.25f, 1.1f - 0.05f * w, -0.35f};
+    // The right hand held still by the one who points and draws (drawing_spot's rays start there).
+    k.right = {0.25f, teleport ? 1.1f : 1.1f - 0.05f * w, -0.35f};
     s.keys.push_back(k);
   }
   s.loop = false;
@@ -160,14 +162,19 @@ DrawingSpot drawing_spot(const std::vector<SiteCamera>& site, const fs::path& co
       s.right = (image_right - n * n.dot(image_right)).normalized();
       s.up = n.cross(s.right).normalized();
       if (s.up.dot(image_up) < 0) s.up = -s.up;  // up the picture
-      // Every point of the drawing is on that surface as the hand sees it (a circle over an edge
-      // would meet the wall behind and streak across the picture).
+      // Every point of the drawing is on that surface as the hand sees it, and the middle
+      // between a stroke's points too: a circle over an edge, or a ray grazing another camera's
+      // surface, would meet something else and streak across the picture.
       bool whole = true;
-      for (const ScriptedDrawing& step : demo_drawing(s))
-        for (const Eigen::Vector3f& q : step.points) {
+      for (const ScriptedDrawing& step : demo_drawing(s)) {
+        std::vector<Eigen::Vector3f> on = step.points;
+        for (size_t i = 1; i < step.points.size(); ++i)
+          on.push_back((step.points[i - 1] + step.points[i]) / 2);
+        for (const Eigen::Vector3f& q : on) {
           const auto at = surfaces.hit(hand, q - hand);
           whole = whole && at && (*at - q).norm() < 0.03f;
         }
+      }
       if (!whole) continue;
       spdlog::info(
           "demo: Dr. Mesh draws at camera 0's pixel ({}, {}), {:.2f} m from its hand, on a surface "
@@ -378,7 +385,9 @@ void write_session_case(const fs::path& file, const Case& patient, SessionHub& h
         snap.objects[0].pose.position.isApprox(objects[0].pose.position, 1e-5f);
     r["participants"].push_back({{"name", p->name},
                                  {"sees_the_hubs_liver_pose", same},
-                                 {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1}});
+                                 {"monitor_slice", snap.monitor ? int(snap.monitor->slice) : -1},
+                                 {"pointers_held", snap.pointers.size()},
+                                 {"annotations", snap.annotations.size()}});
   }
   std::ofstream(file) << r.dump(2) << "\n";
 }
@@ -395,7 +404,7 @@ int run_demo_session(const DemoArgs& a, const fs::path& data, const fs::path& ou
     o.world_from_camera = cam.world_from_camera;
     sources.push_back(open_source(resolve_site_source(cam.source, config), o));
   }
-  SitePlayer site(std::move(sources), 30);
+  SitePlayer site(std::move(sources), a.session_fps);
   cameras = site.cameras();
   for (size_t i = 0; i < cameras.size(); ++i) cameras[i].description = fmt::format("OR {}", i);
   // The registered room (floor at y = 0, the cameras around its middle) beside the virtual

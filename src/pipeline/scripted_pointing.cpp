@@ -55,7 +55,15 @@ void ScriptedPointing::finish(Participant& p, const Eigen::Vector3f& hand) {
   stroke_.clear();
 }
 
-void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double t_s) {
+void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double script_s) {
+  if (!began_s_) {
+    if (surfaces_ && !surfaces_->ready()) return;  // nothing to point at yet
+    began_s_ = surfaces_ ? script_s : 0.0;
+    if (*began_s_ > 0.5)
+      spdlog::info("pose script: the site's clouds came {:.1f} s in: its drawing begins now",
+                   *began_s_);
+  }
+  const double t_s = script_s - *began_s_;
   if (active_ && t_s >= active_->t_s + active_->for_s) finish(p, hand);
   while (next_ < script_.drawing.size() && script_.drawing[next_].t_s <= t_s) {
     const ScriptedDrawing& d = script_.drawing[next_++];

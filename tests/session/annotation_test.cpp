@@ -303,6 +303,8 @@ TEST(Annotations, APoseScriptsDrawingParsesAndItsMistakesAreNamed) {
 // A pose script's stroke over the real hands site: the pointer sweeps its path, and the stroke
 // the others receive lies on the live surface (each point where the site camera measured it,
 // within 2 cm along the camera's ray), as does the label's pin; the pointer is shown meanwhile.
+// The site's first frame comes only after the script's drawing times have passed (a loaded
+// machine): the drawing waits for it, then happens whole.
 TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   test::SessionSite s;
   const CameraCalibration camera = s.site.player.cameras()[0].calibration;
@@ -325,10 +327,14 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   for (int i = 0; i <= 8; ++i) stroke.points.push_back(ahead(-0.08 + 0.02 * i, 0.02));
   drawer.script.drawing = {stroke,
                            {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
-  surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
-                   RigidTransform{});
   auto watcher = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
   auto mentor = std::make_unique<test::TestParticipant>(s, drawer);
+  // 90 poses published (at most 60 a second): past the drawing's times, with no frame yet.
+  ASSERT_TRUE(eventually([&] { return mentor->p().stats().poses_sent >= 90; }, 30s));
+  EXPECT_TRUE(watcher->now().pointers.empty()) << "nothing to point at yet";
+  EXPECT_TRUE(watcher->now().annotations.empty()) << "nothing drawn without the live clouds";
+  surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
+                   RigidTransform{});
   bool pointer_seen = false;
   ASSERT_TRUE(eventually(
       [&] {

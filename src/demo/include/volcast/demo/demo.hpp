@@ -18,6 +18,9 @@ struct DemoArgs {
   bool low_latency = false;  ///< the CLI holds the CPU wake-up latency at 0 meanwhile
   bool no_session = false;   ///< skip the virtual-OR session part
   double session_seconds = 8;
+  /// The session part's site rate: the four Azure Kinects' one capture each, repeated (a still
+  /// shows the same picture at any rate; the tests' sanitized builds use 5).
+  double session_fps = 30;
   const std::atomic<bool>* stop = nullptr;  ///< set: stop early (the CLI's Ctrl-C flag)
 };
 /// Streams the real site (the two-camera or the four-camera set) over TLS on loopback to one

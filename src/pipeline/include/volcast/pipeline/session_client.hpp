@@ -88,7 +88,10 @@ class ScriptedObjects {
 /// kMaxStrokePoints, evenly thinned; none drawn if fewer than 2 met anything); an "arrow" and a
 /// "label" are drawn at once where the rays at their points meet the clouds, or at the points
 /// themselves where they meet nothing. A pointer's dot is where its ray meets the clouds (none
-/// where it meets nothing).
+/// where it meets nothing). With `surfaces`, the drawing's times count from when the first frame
+/// of the site came (LiveSurfaces::ready): a script that starts before the stream has nothing to
+/// point at (a loaded machine's first frame sets may take seconds), as a person would wait to see
+/// the scene before pointing.
 class ScriptedPointing {
  public:
   ScriptedPointing(PoseScript script, std::shared_ptr<const LiveSurfaces> surfaces)
@@ -105,6 +108,7 @@ class ScriptedPointing {
   size_t next_ = 0;
   std::optional<ScriptedDrawing> active_;
   std::vector<Eigen::Vector3f> stroke_;  // the active stroke's hits
+  std::optional<double> began_s_;        // the script's time when the site's clouds came
 };
 
 class SessionClient {

@@ -5,11 +5,64 @@
 
 #include "volcast/core/error.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace volcast {
 
-void HandPointing::update(Participant& p, const LiveSurfaces* surfaces, const PointerInput& in) {
-  const bool on = in.tracked && (in.point || in.draw) && in.direction.squaredNorm() > 0;
+void HandPointing::send(Participant& p, session::Annotation a, int64_t now_us) {
+  try {
+    unconfirmed_.push_back({p.annotate(std::move(a)), now_us});
+  } catch (const Error& e) {  // refused before sending (a limit): the user tries again
+    spdlog::warn("drawing: {}", e.what());
+  }
+}
+
+int labeled_preset(float x, float y) {
+  if (std::hypot(x, y) < 0.5f) return 0;
+  if (std::abs(x) > std::abs(y)) return x > 0 ? 2 : 4;
+  return y > 0 ? 1 : 3;
+}
+
+void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
+                          const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us) {
+  std::erase_if(unconfirmed_, [&](const Sent& sent) {
+    return now_us - sent.at_us > kEraseWaitUs ||
+           std::any_of(snapshot.annotations.begin(), snapshot.annotations.end(),
+                       [&](const session::Annotation& a) {
+                         return a.author == snapshot.id && a.tag == sent.tag;
+                       });
+  });
+  if (in.erase && !erase_wanted_) {
+    erase_wanted_ = true;
+    erase_pressed_us_ = now_us;
+  }
+  // Erased once what was sent before the press is back (or given up on).
+  const bool waiting = std::any_of(unconfirmed_.begin(), unconfirmed_.end(), [&](const Sent& sent) {
+    return sent.at_us <= erase_pressed_us_;
+  });
+  if (erase_wanted_ && !waiting) {
+    erase_wanted_ = false;
+    for (auto it = snapshot.annotations.rbegin(); it != snapshot.annotations.rend(); ++it)
+      if (it->author == snapshot.id) {
+        p.erase(it->id);
+        break;
+      }
+  }
+  const bool aimed = in.tracked && in.direction.squaredNorm() > 0;
+  const bool on = aimed && (in.point || in.draw);
   hit_.reset();
+  if (aimed && in.label >= 0 && in.label < int(kHeadsetLabels.size())) {
+    if (const auto at = surfaces ? surfaces->hit(in.origin, in.direction) : std::nullopt) {
+      session::Annotation a;
+      a.kind = session::AnnotationKind::kLabel;
+      a.points = {*at};
+      a.text = std::string(kHeadsetLabels[size_t(in.label)]);
+      send(p, std::move(a), now_us);
+    } else {
+      spdlog::info("drawing: the label goes where the ray meets a surface: it meets none");
+    }
+  }
   if (on) {
     if (surfaces) hit_ = surfaces->hit(in.origin, in.direction);
     const Eigen::Vector3f towards = in.origin + in.direction.normalized();
@@ -29,11 +82,7 @@ void HandPointing::update(Participant& p, const LiveSurfaces* surfaces, const Po
       session::Annotation a;
       a.kind = session::AnnotationKind::kStroke;
       a.points = stroke_;
-      try {
-        p.annotate(std::move(a));
-      } catch (const Error& e) {  // refused before sending (a limit): the user tries again
-        spdlog::warn("drawing: {}", e.what());
-      }
+      send(p, std::move(a), now_us);
     }
     stroke_.clear();
   }

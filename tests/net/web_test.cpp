@@ -355,9 +355,9 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
 // taken as the site's world frame), shows a native participant's pointer where it points (its
 // dot's colour read back from the picture at the hit's pixel), and the right controller's ray --
 // standing at the hands camera's centre, aimed through a depth pixel of the live cloud -- points
-// (A held), draws a stroke (B held while it turns) and pins a preset label (the left thumbstick)
-// that the native participant receives exactly, each hit on the live cloud's depth in the frame
-// set the page drew then.
+// (A held), draws a stroke (B held while it turns) and pins a preset label (its thumbstick) that
+// the native participant receives exactly, each hit on the live cloud's depth in the frame set the
+// page drew then; the left thumbstick erases the label for the native participant too.
 TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   SessionHubConfig hub;
   hub.site_translation = {0.4f, 0.2f, -0.3f};
@@ -378,14 +378,21 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   native.p().point(true, native_origin, true, native_hit);
   std::atomic<bool> done{false};
   std::mutex seen_mutex;
-  std::optional<PointerView> web_pointer;  // the page's, as the native participant last saw it
+  std::optional<PointerView> web_pointer;     // the page's, as the native participant last saw it
+  std::vector<session::Annotation> received;  // each 0x51 the native participant was sent
+  std::vector<uint32_t> erased;               // and each 0x52's annotation id
+  native.p().set_drawing_handler([&](uint8_t type, std::span<const uint8_t> payload) {
+    std::lock_guard lock(seen_mutex);
+    if (type == 0x51) received.push_back(session::parse_annotation(payload));
+    if (type == 0x52) erased.push_back(session::parse_erased(payload).first);
+  });
   std::thread watch([&] {
     while (!done) {
       const SessionSnapshot n = native.now();
       const auto web = native.other("Web");
+      std::lock_guard lock(seen_mutex);
       for (const PointerView& p : n.pointers)
         if (web && p.participant == web->id) {
-          std::lock_guard lock(seen_mutex);
           if (!web_pointer) native.p().point(false, native_origin, true, native_hit);
           web_pointer = p;
         }
@@ -473,13 +480,20 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
     return std::none_of(ps.begin(), ps.end(),
                         [&](const PointerView& p) { return p.participant == web_id; });
   }));
-  // The stroke drawn while B was held and the label pinned with the left thumbstick, point for
-  // point.
+  // The stroke drawn while B was held and the label pinned with the right thumbstick, point for
+  // point; then only the stroke, once the left thumbstick erased the label.
   ASSERT_EQ(d["drawn"].size(), 2u) << d["drawn"];
   const nlohmann::json& drawn = d["drawn"][0]["points"];
   EXPECT_GE(drawn.size(), 5u) << "10 steps of a degree (12 mm on the table), points 5 mm apart";
-  ASSERT_TRUE(test::eventually([&] { return native.now().annotations.size() == 2; }));
-  const std::vector<session::Annotation> as = native.now().annotations;
+  ASSERT_TRUE(test::eventually([&] {
+    const auto now = native.now().annotations;
+    return now.size() == 1 && now[0].kind == session::AnnotationKind::kStroke;
+  })) << "the label erased";
+  native.p().set_drawing_handler(nullptr);
+  std::lock_guard lock(seen_mutex);
+  const std::vector<session::Annotation>& as = received;
+  ASSERT_EQ(as.size(), 2u) << "the native participant was sent the stroke and the label";
+  EXPECT_EQ(erased, std::vector<uint32_t>{as[1].id}) << "and the label's erasing";
   EXPECT_EQ(as[0].author, web_id);
   EXPECT_EQ(as[0].kind, session::AnnotationKind::kStroke);
   ASSERT_EQ(as[0].points.size(), drawn.size());

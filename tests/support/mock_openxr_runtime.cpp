@@ -8,7 +8,8 @@
 //
 // The session: READY after xrCreateSession; SYNCHRONIZED, VISIBLE, FOCUSED after xrBeginSession;
 // once VOLCAST_MOCK_XR_FRAMES (default 5) frames were ended with a valid projection layer whose eye
-// images show something (not one flat colour) -- or 6000 frames were ended without that -- it asks
+// images show something (not one flat colour), and the file VOLCAST_MOCK_XR_UNTIL names exists
+// where that is set -- or 6000 frames were ended without that -- it asks
 // to exit: VISIBLE, SYNCHRONIZED, STOPPING, and after xrEndSession IDLE, EXITING. On that last
 // frame it reads back each eye's submitted image into eye0.ppm and eye1.ppm (binary PPM) in the
 // folder VOLCAST_MOCK_XR_OUT names, and it writes log.json there (frame counts, errors) whenever a
@@ -24,8 +25,8 @@
 // fully for those syncs, turning the right hand about +y by 0.03 rad per sync while it squeezes (it
 // stays turned after). VOLCAST_MOCK_XR_BUTTONS ("input:first,last;..." with input a left-hand
 // component such as x/click, or a right-hand one prefixed right/, such as right/a/click) holds each
-// of those buttons down for those syncs. Every action space of a hand (grip, aim) is located at
-// that hand's grip.
+// of those buttons down for those syncs (a float input held reads 1). Every action space of a hand
+// (grip, aim) is located at that hand's grip.
 #include <openxr/openxr.h>
 
 #include <epoxy/gl.h>
@@ -196,6 +197,12 @@ uint32_t frames_wanted() {
   const char* v = std::getenv("VOLCAST_MOCK_XR_FRAMES");
   const long n = v ? std::strtol(v, nullptr, 10) : 0;
   return n > 0 ? static_cast<uint32_t>(n) : 5;
+}
+
+// Whether the file VOLCAST_MOCK_XR_UNTIL names exists (true where it is not set).
+bool until_met() {
+  const char* v = std::getenv("VOLCAST_MOCK_XR_UNTIL");
+  return !v || std::ifstream(v).good();
 }
 
 // Enumerates `values` by the two-call idiom.
@@ -813,8 +820,8 @@ XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo* info) {
   }
   if (glGetError() != GL_NO_ERROR) rt().fail(XR_SUCCESS, "xrEndFrame: OpenGL error reading back");
   if (content) ++rt().frames_with_content;
-  if (!rt().exit_requested &&
-      (rt().frames_with_content >= frames_wanted() || rt().frames_ended >= kMaxFrames)) {
+  if (!rt().exit_requested && ((rt().frames_with_content >= frames_wanted() && until_met()) ||
+                               rt().frames_ended >= kMaxFrames)) {
     rt().exit_requested = true;
     if (const char* dir = out_dir(); dir && !shown.empty()) {
       for (size_t i = 0; i < shown.size(); ++i)

@@ -421,13 +421,20 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
 // A headset points and draws on the live cloud with its right controller (issue 36): A held shows
 // its pointer to an observer, the dot where the aim ray meets the hands camera's measured surface;
 // B held while the hand turns (the mock turns it while it squeezes) draws a stroke along the
-// table that the observer receives. The site is placed so that the camera sits at the
-// controller, looking where it aims: the ray runs along the camera's optical axis.
+// table that the observer receives; the right thumbstick pressed leant up pins a 'cut here' label
+// there, and the left thumbstick pressed four frames later -- before the label came back from the
+// server -- erases it (the newest), not the stroke. The site is placed so that the camera sits at
+// the controller, looking where it aims: the ray runs along the camera's optical axis.
 TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
-  const MockRuntime mock("xr_runtime_point", "28");
+  const MockRuntime mock("xr_runtime_point", "34");
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
-  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS", "right/a/click:3,9;right/b/click:12,24");
+  const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
+                                "right/a/click:3,9;right/b/click:12,24;right/thumbstick/y:26,29;"
+                                "right/thumbstick/click:27,28;thumbstick/click:31,32");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "12,24");
+  // The runtime ends the session once the observer was sent the label's erasing.
+  const fs::path erased_seen = mock.dir / "erased";
+  const test::ScopedEnv until("VOLCAST_MOCK_XR_UNTIL", erased_seen.c_str());
   // The headset joins first: spawn spot (0, 1.4) facing the table, so its right grip (the mock's
   // default, stage (0.2, 1.1, -0.3)) is at (0.2, 1.1, 1.1) in the room, aiming along -z.
   const Eigen::Vector3f aim_origin(0.2f, 1.1f, 1.1f), aim(0, 0, -1);
@@ -443,6 +450,7 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   std::atomic<bool> done{false}, ready{false}, saw_off{false};
   std::mutex seen_mutex;
   std::vector<PointerView> seen;  // the headset's pointer as the observer saw it, each change
+  std::vector<std::pair<uint8_t, std::vector<uint8_t>>> handed;  // the observer's 0x51 and 0x52
   std::thread watch;
   ViewerOptions opt;
   opt.client = client_config_from_link(s.link());
@@ -452,6 +460,11 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
     watch = std::thread([&] {  // the observer joins after the headset (its spawn spot, above)
       ready = test::eventually([&] { return headset.participant()->joined(); });
       observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+      observer->p().set_drawing_handler([&](uint8_t type, std::span<const uint8_t> payload) {
+        std::lock_guard lock(seen_mutex);
+        handed.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
+        if (type == 0x52) std::ofstream(erased_seen) << "erased\n";
+      });
       while (!done) {
         const SessionSnapshot n = observer->now();
         const auto h = observer->other("Headset");
@@ -516,6 +529,28 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
     }
   }
   EXPECT_GT((stroke.points.back() - stroke.points.front()).norm(), 0.05f) << "it swept";
+  // The label: pinned where the turned ray met the table, the preset the stick leant to, then
+  // erased by the headset; the stroke stays.
+  observer->p().set_drawing_handler(nullptr);
+  std::lock_guard lock(seen_mutex);
+  ASSERT_GE(handed.size(), 2u);
+  ASSERT_EQ(handed.back().first, 0x52) << "the last drawing message: an erasing";
+  const auto [erased_id, erased_by] = session::parse_erased(handed.back().second);
+  EXPECT_EQ(erased_by, stroke.author);
+  ASSERT_EQ(handed[handed.size() - 2].first, 0x51);
+  const session::Annotation label = session::parse_annotation(handed[handed.size() - 2].second);
+  EXPECT_EQ(erased_id, label.id) << "the newest, the label, not the stroke " << stroke.id;
+  EXPECT_EQ(label.kind, session::AnnotationKind::kLabel);
+  EXPECT_EQ(label.text, "cut here");
+  EXPECT_EQ(label.author, stroke.author);
+  ASSERT_EQ(label.points.size(), 1u);
+  // On the ray turned as it was for the stroke's last point (within a frame's turn, 0.03 rad).
+  const Eigen::Vector3f last = (stroke.points.back() - aim_origin).normalized();
+  const Eigen::Vector3f pin = label.points[0] - aim_origin;
+  EXPECT_LT(std::acos(std::clamp(pin.normalized().dot(last), -1.0f, 1.0f)), 0.035f)
+      << pin.transpose() << " against " << last.transpose();
+  EXPECT_GT(pin.norm(), 0.3f);
+  EXPECT_LT(pin.norm(), 1.5f);
   observer->end();
 }
 

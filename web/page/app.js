@@ -31,9 +31,9 @@
 // organ, the monitor, the room); Shift+drag draws a stroke there (sent when let go), Alt+drag an
 // arrow from where the drag began to where it ends; N pins a typed label under the mouse;
 // Backspace erases your newest annotation (on the monitor's picture, they stick to its CT slice).
-// In a headset, the right controller's ray: hold A to point, B to draw, press its thumbstick to
-// erase your newest; the left thumbstick pressed pins a preset label there (leaning it picks the
-// text: XR_LABELS).
+// In a headset, the right controller's ray: hold A to point, B to draw; its thumbstick pressed
+// pins a preset label there (leaning it picks the text: XR_LABELS); the left thumbstick pressed
+// erases your newest (as the native headset: hand_pointing.hpp).
 // AR (immersive-ar, where the device has it: a headset's passthrough at the site): the real room
 // is seen, so the page draws neither the site's clouds nor the virtual room, only the others'
 // avatars, pointers and annotations and the case's organs; the headset's local-floor frame is
@@ -645,14 +645,15 @@ function teleportTo(hit, yaw) {
 }
 
 // The headset's pointer and drawing (WebXR's xr-standard gamepad): the right controller's ray;
-// A (button 4) held points, B (5) held draws, the thumbstick (3) pressed erases this page's newest
-// annotation; in AR the trigger (0) points too. The left thumbstick pressed pins a label where
-// the ray meets a surface, its text chosen by where the stick leans then (XR_LABELS).
+// A (button 4) held points, B (5) held draws, the thumbstick (3) pressed pins a label where the
+// ray meets a surface, its text chosen by where the stick leans then (XR_LABELS); in AR the
+// trigger (0) points too. The left thumbstick pressed erases this page's newest annotation. The
+// native headset maps them alike (src/pipeline/include/volcast/pipeline/hand_pointing.hpp).
 const XR_PICK = M.perspective(60, 1, 0.05, 50);  // a virtual 1001 x 1001 view along the ray
 const XR_LABELS = {centre: 'here', up: 'cut here', right: 'careful', down: 'not here', left: 'look'};
 let eraseButtonDown = false, labelButtonDown = false;
 
-// The preset the left thumbstick (axes 2, 3 of xr-standard) leans to.
+// The preset a thumbstick (axes 2, 3 of xr-standard) leans to.
 function leanedLabel(axes) {
   const x = axes[2] || 0, y = axes[3] || 0;
   if (Math.hypot(x, y) < 0.5) return XR_LABELS.centre;
@@ -664,17 +665,17 @@ function xrAim(frame, space, playarea, s) {
   let pointing = false, drawing = false, roomFromRay = null, label = null;
   for (const source of frame.session.inputSources) {
     if (source.handedness === 'left' && source.gamepad) {
-      const down = !!source.gamepad.buttons[3]?.pressed;
-      if (down && !labelButtonDown) label = leanedLabel(source.gamepad.axes);
-      labelButtonDown = down;
+      const erase = !!source.gamepad.buttons[3]?.pressed;
+      if (erase && !eraseButtonDown) eraseNewest();
+      eraseButtonDown = erase;
     }
     if (source.handedness !== 'right' || !source.gamepad || !source.targetRaySpace) continue;
     const b = source.gamepad.buttons;
     pointing = !!b[4]?.pressed || (xrMode === 'immersive-ar' && !!b[0]?.pressed);
     drawing = !!b[5]?.pressed;
-    const erase = !!b[3]?.pressed;
-    if (erase && !eraseButtonDown) eraseNewest();
-    eraseButtonDown = erase;
+    const down = !!b[3]?.pressed;
+    if (down && !labelButtonDown) label = leanedLabel(source.gamepad.axes);
+    labelButtonDown = down;
     const p = frame.getPose(source.targetRaySpace, space);
     if (p) roomFromRay = M.multiply(playarea, new Float32Array(p.transform.matrix));
   }

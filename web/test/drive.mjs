@@ -20,9 +20,10 @@
 // pointers and annotations over the passthrough); once the page has drawn another participant's
 // pointer dot (page.json's drawing.dot: the link needs the page's probe=1), the right controller stands at X,Y,Z (the headset's
 // local-floor frame: the site's world frame) pointing along DX,DY,DZ, holds A for 8 headset
-// frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), the
-// left thumbstick is pressed leant forward (a 'cut here' label), and the drive waits for both to
-// come back from the server and the other's pointer to be put away (DIR/ar-pointer.png: the page when it first drew the other's dot).
+// frames (the pointer), then B while it turns by 1 degree every 2 frames, 10 times (a stroke), its
+// thumbstick is pressed leant forward (a 'cut here' label), the drive waits for both to come back
+// from the server and the other's pointer to be put away, then the left thumbstick is pressed (the
+// label, the newest, erased) and it waits for the label to be gone (DIR/ar-pointer.png: the page when it first drew the other's dot).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -147,20 +148,26 @@ try {
       await frames_(2);
     }
     await press('b-button', 0);
-    // The left thumbstick leant forward and pressed: a 'cut here' label where the ray points.
+    // The right thumbstick leant forward and pressed: a 'cut here' label where the ray points.
     await page.evaluate(() => {
-      const left = window.iwerDevice.controllers.left;
-      left.updateAxes('thumbstick', 0, -1);
-      left.updateButtonValue('thumbstick', 1);
+      const right = window.iwerDevice.controllers.right;
+      right.updateAxes('thumbstick', 0, -1);
+      right.updateButtonValue('thumbstick', 1);
     });
     await frames_(3);
-    await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 0));
-    await page.waitForFunction(() => {
+    await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('thumbstick', 0));
+    const mine = (n) => page.waitForFunction((n) => {
       const v = window.volcast;
-      return v.drawing.annotations.filter((a) => a.author === v.session.id).length === 2 &&
+      return v.drawing.annotations.filter((a) => a.author === v.session.id).length === n &&
              v.drawing.held.length === 0;
-    }, null, {timeout: 30000});
+    }, n, {timeout: 30000});
+    await mine(2);
     s = await state();
+    // The left thumbstick pressed: the newest (the label) erased for everyone.
+    await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 1));
+    await frames_(3);
+    await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 0));
+    await mine(1);
   } else if (xr && s.phase !== 'error') {
     await page.click('#enter-vr', {timeout: 60000});
     // Deadlines only bound a broken page: a loaded machine may draw few frames a second.

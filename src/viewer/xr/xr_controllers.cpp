@@ -42,8 +42,12 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
     aim_ = action("aim", "Laser pointer ray", XR_ACTION_TYPE_POSE_INPUT);
     point_ = action("point", "Laser pointer", XR_ACTION_TYPE_BOOLEAN_INPUT);
     draw_ = action("draw", "Draw a stroke", XR_ACTION_TYPE_BOOLEAN_INPUT);
-    // The voice buttons are the left controller's, pointing and drawing the right one's (null:
-    // the profile has none to spare).
+    label_ = action("label", "Pin a label", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    label_x_ = action("label_x", "Label choice (across)", XR_ACTION_TYPE_FLOAT_INPUT);
+    label_y_ = action("label_y", "Label choice (up)", XR_ACTION_TYPE_FLOAT_INPUT);
+    erase_ = action("erase", "Erase your newest annotation", XR_ACTION_TYPE_BOOLEAN_INPUT);
+    // The voice buttons and erasing are the left controller's, pointing, drawing and labels the
+    // right one's (null: the profile has none to spare). The label's stick is "thumbstick".
     const struct {
       const char* profile;
       const char* squeeze;
@@ -52,14 +56,17 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
       const char* volume;
       const char* point;
       const char* draw;
-    } profiles[] = {{"/interaction_profiles/khr/simple_controller", "select/click", nullptr,
-                     "menu/click", nullptr, "menu/click", nullptr},
-                    {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
-                     "menu/click", "trackpad/y", "trigger/click", "trackpad/click"},
-                    {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click",
-                     "b/click", "thumbstick/y", "a/click", "b/click"},
-                    {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click",
-                     "y/click", "thumbstick/y", "a/click", "b/click"}};
+      const char* label;  // right hand
+      const char* erase;  // left hand (Vive: right)
+    } profiles[] = {
+        {"/interaction_profiles/khr/simple_controller", "select/click", nullptr, "menu/click",
+         nullptr, "menu/click", nullptr, nullptr, nullptr},
+        {"/interaction_profiles/htc/vive_controller", "squeeze/click", "trackpad/click",
+         "menu/click", "trackpad/y", "trigger/click", "trackpad/click", nullptr, "menu/click"},
+        {"/interaction_profiles/valve/index_controller", "squeeze/value", "a/click", "b/click",
+         "thumbstick/y", "a/click", "b/click", "thumbstick/click", "thumbstick/click"},
+        {"/interaction_profiles/oculus/touch_controller", "squeeze/value", "x/click", "y/click",
+         "thumbstick/y", "a/click", "b/click", "thumbstick/click", "thumbstick/click"}};
     for (const auto& p : profiles) {
       std::vector<XrActionSuggestedBinding> bindings;
       for (const char* hand : {"left", "right"}) {
@@ -82,6 +89,17 @@ XrControllers::XrControllers(XrInstance instance, XrSession session) : session_(
       if (p.draw)
         bindings.push_back(
             {draw_, path(("/user/hand/right/input/" + std::string(p.draw)).c_str())});
+      if (p.label) {
+        bindings.push_back(
+            {label_, path(("/user/hand/right/input/" + std::string(p.label)).c_str())});
+        bindings.push_back({label_x_, path("/user/hand/right/input/thumbstick/x")});
+        bindings.push_back({label_y_, path("/user/hand/right/input/thumbstick/y")});
+      }
+      if (p.erase) {  // the Vive's left menu is mute: its right one erases
+        const std::string hand = p.label ? "left" : "right";
+        bindings.push_back(
+            {erase_, path(("/user/hand/" + hand + "/input/" + std::string(p.erase)).c_str())});
+      }
       auto suggested = xr_struct<XrInteractionProfileSuggestedBinding>(
           XR_TYPE_INTERACTION_PROFILE_SUGGESTED_BINDING);
       suggested.interactionProfile = path(p.profile);
@@ -153,26 +171,26 @@ std::array<ControllerState, 2> XrControllers::sync(XrSpace space, XrTime time) {
   };
   out[0].talk = held(talk_, hands_[0]);
   out[0].mute = held(mute_, hands_[0]);
-  {
+  const auto value = [&](XrAction action, XrPath hand) {
     auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
-    get.action = volume_;
-    get.subactionPath = hands_[0];
+    get.action = action;
+    get.subactionPath = hand;
     auto state = xr_struct<XrActionStateFloat>(XR_TYPE_ACTION_STATE_FLOAT);
-    if (XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive)
-      out[0].volume = state.currentState;
-  }
+    return XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive
+               ? state.currentState
+               : 0.0f;
+  };
   out[1].point = held(point_, hands_[1]);
   out[1].draw = held(draw_, hands_[1]);
+  out[1].label = held(label_, hands_[1]);
+  out[1].label_stick = {value(label_x_, hands_[1]), value(label_y_, hands_[1])};
+  out[0].erase = held(erase_, hands_[0]) || held(erase_, hands_[1]);
+  out[0].volume = value(volume_, hands_[0]);
   out[1].aim_tracked = locate(aim_space_, space, time, out[1].aim);
   for (int h = 0; h < 2; ++h) {
     if (!locate(spaces_[h], space, time, out[h].pose)) continue;
     out[h].tracked = true;
-    auto get = xr_struct<XrActionStateGetInfo>(XR_TYPE_ACTION_STATE_GET_INFO);
-    get.action = squeeze_;
-    get.subactionPath = hands_[h];
-    auto state = xr_struct<XrActionStateFloat>(XR_TYPE_ACTION_STATE_FLOAT);
-    if (XR_SUCCEEDED(xrGetActionStateFloat(session_, &get, &state)) && state.isActive)
-      out[h].squeeze = state.currentState;
+    out[h].squeeze = value(squeeze_, hands_[h]);
   }
   return out;
 }

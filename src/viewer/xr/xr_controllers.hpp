@@ -12,13 +12,15 @@
 //   Vive         trackpad trackpad/click     menu  menu/click
 //   simple       --                          menu  menu/click
 //
-// The laser pointer and drawing (issue 36), on the right controller only, as in the browser's
-// headset mode: the ray is the right hand's OpenXR aim pose (from its position along its -z).
-//   profile      point (hold)                draw a stroke (hold)
-//   Touch        A        a/click            B     b/click
-//   Index        A        a/click            B     b/click
-//   Vive         trigger  trigger/click      trackpad trackpad/click
-//   simple       menu     menu/click         --
+// The laser pointer, drawing and labels (issue 36) on the right controller, erasing on the left,
+// as in the browser's headset mode: the ray is the right hand's OpenXR aim pose (from its position
+// along its -z); a label press pins the preset the right thumbstick leans to (hand_pointing.hpp).
+//   profile      point (hold)        draw a stroke (hold)     pin a label        erase your newest
+//   Touch        A  a/click          B  b/click               right thumbstick   left thumbstick
+//   Index        A  a/click          B  b/click               right thumbstick   left thumbstick
+//   Vive         trigger/click       trackpad/click           --                 right menu/click
+//   simple       menu/click          --                       --                 --
+// (a thumbstick pressed: thumbstick/click; the label's lean: the right thumbstick/x, /y)
 #include <openxr/openxr.h>
 
 #include <array>
@@ -44,6 +46,10 @@ struct ControllerState {
   Pose aim;
   bool point = false;  ///< the point button is held (right hand only)
   bool draw = false;   ///< the draw button is held (right hand only)
+  bool label = false;  ///< the label button is held (right hand only)
+  /// Where the right thumbstick leans (x right, y up, -1..1), which picks the label's preset.
+  Eigen::Vector2f label_stick = Eigen::Vector2f::Zero();
+  bool erase = false;  ///< the erase button is held (reported on the left hand)
 };
 
 class XrControllers {
@@ -65,7 +71,8 @@ class XrControllers {
   XrActionSet set_ = XR_NULL_HANDLE;
   XrAction grip_ = XR_NULL_HANDLE, squeeze_ = XR_NULL_HANDLE, talk_ = XR_NULL_HANDLE,
            mute_ = XR_NULL_HANDLE, volume_ = XR_NULL_HANDLE, aim_ = XR_NULL_HANDLE,
-           point_ = XR_NULL_HANDLE, draw_ = XR_NULL_HANDLE;
+           point_ = XR_NULL_HANDLE, draw_ = XR_NULL_HANDLE, label_ = XR_NULL_HANDLE,
+           label_x_ = XR_NULL_HANDLE, label_y_ = XR_NULL_HANDLE, erase_ = XR_NULL_HANDLE;
   std::array<XrPath, 2> hands_{};
   std::array<XrSpace, 2> spaces_{};
   XrSpace aim_space_ = XR_NULL_HANDLE;  // the right hand's aim pose

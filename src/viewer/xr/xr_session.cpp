@@ -302,10 +302,11 @@ struct FrameLoop {
   XrControllers& controllers;
   const std::vector<CameraCalibration>& cameras;
   HandGrab hand_grab;
-  HandPointing hand_pointing;    // the right controller's laser pointer and drawing
-  LiveSurfaces surfaces;         // where its ray meets the live clouds
-  bool surfaces_stale = true;    // a frame arrived since `surfaces` was updated
-  RigidTransform surfaces_site;  // the room_from_site `surfaces` was updated with
+  HandPointing hand_pointing;                   // the right controller's laser pointer and drawing
+  bool label_down = false, erase_down = false;  // the label and erase buttons, last frame
+  LiveSurfaces surfaces;                        // where its ray meets the live clouds
+  bool surfaces_stale = true;                   // a frame arrived since `surfaces` was updated
+  RigidTransform surfaces_site;                 // the room_from_site `surfaces` was updated with
   Eigen::Vector3f own_color = Eigen::Vector3f::Ones();
   voice::VoiceInput voice_input;        // the voice buttons' requests (talk held, mute pressed)
   voice::VoiceButtons voice_buttons;    // as they were last frame
@@ -390,14 +391,16 @@ struct FrameLoop {
       grab_input[h].room_from_hand.orientation = (turn * grips[h]->orientation).normalized();
     }
     hand_grab.update(*participant, snapshot, grab_input);
-    track_pointer(hands[1], snapshot, room_from_playarea, lift);
+    track_pointer(hands, snapshot, room_from_playarea, lift);
     track_voice_buttons(hands[0], snapshot, now);
   }
 
-  // The right controller's laser pointer (A held) and drawing (B held) from its aim ray, the hit
-  // where the ray meets the live clouds (hand_pointing.hpp, xr_controllers.hpp).
-  void track_pointer(const ControllerState& right, const SessionSnapshot& snapshot,
+  // The right controller's laser pointer (A held), drawing (B held) and labels (its thumbstick
+  // pressed) from its aim ray, the hit where the ray meets the live clouds, and erasing (the left
+  // thumbstick pressed) (hand_pointing.hpp, xr_controllers.hpp).
+  void track_pointer(const std::array<ControllerState, 2>& hands, const SessionSnapshot& snapshot,
                      const RigidTransform& room_from_playarea, float lift) {
+    const ControllerState& right = hands[1];
     if (surfaces_stale || snapshot.room_from_site.translation != surfaces_site.translation ||
         snapshot.room_from_site.rotation != surfaces_site.rotation) {
       surfaces.update(cameras, uploaded, snapshot.room_from_site);
@@ -408,12 +411,20 @@ struct FrameLoop {
     in.tracked = right.aim_tracked;
     in.point = right.point;
     in.draw = right.draw;
+    if (right.label && !label_down)
+      in.label = labeled_preset(right.label_stick.x(), right.label_stick.y());
+    in.erase = hands[0].erase && !erase_down;
+    label_down = right.label;
+    erase_down = hands[0].erase;
     const Eigen::Vector3d aim_at(right.aim.position.x(), right.aim.position.y() + lift,
                                  right.aim.position.z());
     in.origin = (room_from_playarea * aim_at).cast<float>();
     in.direction = (room_from_playarea.rotation.cast<float>() *
                     (right.aim.orientation * Eigen::Vector3f(0, 0, -1)));
-    hand_pointing.update(*participant, &surfaces, in);
+    const int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                               std::chrono::steady_clock::now().time_since_epoch())
+                               .count();
+    hand_pointing.update(*participant, snapshot, &surfaces, in, now_us);
     own_color = participant_color(snapshot.id);
   }
 

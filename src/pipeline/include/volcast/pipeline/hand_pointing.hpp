@@ -6,8 +6,14 @@
 // them) or no dot where it meets nothing; letting go of both puts it away (sent once). While the
 // draw button is held each hit at least 3 mm from the stroke's last point is added (at most
 // session::kMaxStrokePoints); letting go sends the stroke if it has 2 points or more (one the
-// participant refuses to send, past a limit, is logged and dropped).
+// participant refuses to send, past a limit, is logged and dropped). A label press pins one of
+// the preset labels (kHeadsetLabels, the browser's headset presets) where the ray meets a
+// surface; an erase press erases this participant's newest annotation (the server decides:
+// hub.hpp anyone_erases) -- one it sent that has not come back numbered yet (0x51) is waited for,
+// up to kEraseWaitUs, so a quick press after drawing erases what was just drawn.
+#include <array>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "volcast/pipeline/live_surfaces.hpp"
@@ -23,14 +29,35 @@ struct PointerInput {
   Eigen::Vector3f direction = Eigen::Vector3f(0, 0, -1);
   bool point = false;  ///< the point button is held
   bool draw = false;   ///< the draw button is held
+  /// The label button went down this frame: the index in kHeadsetLabels of the preset to pin
+  /// (labeled_preset: where the stick leans), -1 for none.
+  int label = -1;
+  bool erase = false;  ///< the erase button went down this frame
 };
+
+/// The preset labels a headset pins, as the browser's headset mode (web/page/app.js XR_LABELS):
+/// the stick at rest, leaned up (forward), right, down, left.
+inline constexpr std::array<std::string_view, 5> kHeadsetLabels = {"here", "cut here", "careful",
+                                                                   "not here", "look"};
+
+/// Which of kHeadsetLabels a thumbstick at (x, y) picks (OpenXR: x right, y up, each -1..1):
+/// within 0.5 of rest "here", else the axis it leans along the most.
+int labeled_preset(float x, float y);
 
 class HandPointing {
  public:
+  /// How long an erase press waits for this participant's annotations sent but not yet back from
+  /// the server (one refused never comes back), µs.
+  static constexpr int64_t kEraseWaitUs = 3'000'000;
+
   /// Acts on `participant` for this frame: where `in`'s ray meets `surfaces` (null: nothing), the
   /// pointer sent while a button is held, the stroke drawn so far, sent when draw is let go. Call
   /// once per frame (the session's pose rate limit, 150 a second, is above a headset's 90 Hz).
-  void update(Participant& participant, const LiveSurfaces* surfaces, const PointerInput& in);
+  /// A label press pins its preset at the hit (nothing where the ray meets no surface: logged);
+  /// an erase press erases the newest annotation in `snapshot` that this participant drew, once
+  /// those it sent are back. `now_us`: a steady clock, µs.
+  void update(Participant& participant, const SessionSnapshot& snapshot,
+              const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us);
   /// The dot this frame (room frame), if the ray met a surface while a button was held.
   const std::optional<Eigen::Vector3f>& hit() const { return hit_; }
   /// The stroke being drawn (room frame), empty when none.
@@ -42,6 +69,14 @@ class HandPointing {
   std::optional<Eigen::Vector3f> hit_;
   Eigen::Vector3f last_origin_ = Eigen::Vector3f::Zero();
   std::vector<Eigen::Vector3f> stroke_;
+  struct Sent {
+    uint32_t tag = 0;
+    int64_t at_us = 0;
+  };
+  std::vector<Sent> unconfirmed_;  // sent, not yet in a snapshot numbered
+  bool erase_wanted_ = false;      // an erase press waits for unconfirmed_
+  int64_t erase_pressed_us_ = 0;
+  void send(Participant& p, session::Annotation a, int64_t now_us);
 };
 
 }  // namespace volcast

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "bench_session_site.hpp"
 #include "volcast/bench/bench.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/capture/source.hpp"
@@ -54,48 +55,18 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
   DrawingRow row;
   row.name = name;
   row.observers = observers;
-  SitePlayer site(std::move(sources), 30);
-  SessionHub hub;
-  ServerConfig config;
-  config.port = 0;
-  config.session = &hub;
-  config.max_pending_per_address = 64;
-  Server server(site.cameras(), config);
-  hub.attach(&server);
-  if (stream_site) site.start(server);
-  const std::string link = server.join_link("127.0.0.1");
-  struct Person {
-    std::unique_ptr<Client> client;
-    std::unique_ptr<SessionClient> session;
-    std::thread receiver;
-  };
-  std::vector<std::unique_ptr<Person>> people;
+  bench::BenchSite s(std::move(sources), stream_site);
+  std::vector<std::unique_ptr<bench::BenchPerson>> people;
   for (int i = 0; i <= observers; ++i) {
-    auto p = std::make_unique<Person>();
-    ClientConfig c = client_config_from_link(link);
-    c.decode = false;
-    c.receive_timeout_ms = 0;
-    p->client = std::make_unique<Client>(c);
     SessionClientOptions o;
     o.participant.session = "bench";
     o.participant.name = i == 0 ? "owner" : "observer " + std::to_string(i);
     o.drive_poses = false;
-    p->session = std::make_unique<SessionClient>(std::move(o));
-    p->session->start(*p->client);
-    Person* raw = p.get();
-    p->receiver = std::thread([raw] {
-      ReceivedFrameSet rx;
-      try {
-        while (raw->client->receive(rx)) {
-        }
-      } catch (const std::exception&) {
-      }
-    });
-    people.push_back(std::move(p));
+    people.push_back(std::make_unique<bench::BenchPerson>(s.link, std::move(o)));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // joins
-  Participant& owner = *people[0]->session->participant();
-  const uint64_t bytes0 = hub.stats().drawing_bytes_out;
+  Participant& owner = people[0]->participant();
+  const uint64_t bytes0 = s.hub.stats().drawing_bytes_out;
   const auto t0 = Clock::now();
   auto next = t0;
   int frame = 0;
@@ -125,13 +96,13 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
   const double wall = std::chrono::duration<double>(Clock::now() - t0).count();
   owner.point(false, {0, 1.4f, 1}, false, {0, 1, 0});
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  const SessionHubStats hs = hub.stats();
+  const SessionHubStats hs = s.hub.stats();
   row.bytes_per_second_per_receiver =
       double(hs.drawing_bytes_out - bytes0) / wall / std::max(observers, 1);
   row.annotations = hs.annotations;
   std::vector<double> p50, p99;
   for (size_t i = 1; i < people.size(); ++i)
-    for (const RemoteStats& o : people[i]->session->participant()->stats().others)
+    for (const RemoteStats& o : people[i]->participant().stats().others)
       if (o.name == "owner") {
         row.pointers_received += o.pointers_received;
         p50.push_back(o.pointer_age_ms_p50);
@@ -139,14 +110,9 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
       }
   row.pointer_ms_p50 = median_ms(p50);
   row.pointer_ms_p99 = median_ms(p99);
-  for (auto& p : people) p->session->stop();
-  site.stop();
-  hub.attach(nullptr);
-  server.stop();
-  for (auto& p : people) {
-    p->client->close();
-    p->receiver.join();
-  }
+  for (auto& p : people) p->stop();
+  s.stop();
+  people.clear();  // their connections closed, their threads joined
   return row;
 }
 

@@ -6,12 +6,12 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "bench_session_site.hpp"
 #include "volcast/bench/bench.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/core/error.hpp"
@@ -51,30 +51,9 @@ SessionRow measure_session(const std::string& name,
   row.participants = participants;
   row.cameras = static_cast<int>(sources.size());
   row.avatars = avatars;
-  SitePlayer site(std::move(sources), 30);
-  SessionHub hub;
-  ServerConfig config;
-  config.port = 0;
-  config.session = &hub;
-  config.max_pending_per_address = 64;
-  Server server(site.cameras(), config);
-  hub.attach(&server);
-  if (stream_site) site.start(server);
-  const std::string link = server.join_link("127.0.0.1");
-  struct Person {
-    std::unique_ptr<Client> client;
-    std::unique_ptr<SessionClient> session;
-    std::thread receiver;
-    std::string error;
-  };
-  std::vector<std::unique_ptr<Person>> people;
-  std::atomic<bool> done{false};
+  bench::BenchSite site(std::move(sources), stream_site);
+  std::vector<std::unique_ptr<bench::BenchPerson>> people;
   for (int i = 0; i < participants; ++i) {
-    auto p = std::make_unique<Person>();
-    ClientConfig c = client_config_from_link(link);
-    c.decode = false;  // the site's frames are read and acknowledged; the session is measured
-    c.receive_timeout_ms = 0;  // an idle site sends no frame sets
-    p->client = std::make_unique<Client>(c);
     SessionClientOptions o;
     o.participant.session = "bench";
     o.participant.name = "participant " + std::to_string(i + 1);
@@ -83,29 +62,18 @@ SessionRow measure_session(const std::string& name,
       o.camera_source = hands;
       o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
     }
-    p->session = std::make_unique<SessionClient>(std::move(o));
-    p->session->start(*p->client);
-    Person* raw = p.get();
-    p->receiver = std::thread([raw, &done] {
-      ReceivedFrameSet rx;
-      try {
-        while (raw->client->receive(rx)) {
-        }
-      } catch (const std::exception& e) {
-        if (!done) raw->error = e.what();
-      }
-    });
-    people.push_back(std::move(p));
+    people.push_back(std::make_unique<bench::BenchPerson>(site.link, std::move(o)));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // joins, first frames
   const auto serving = [&] {
     double ms = 0;
-    for (const ViewerReport& v : server.viewers()) ms += v.send_cpu_ms;
+    for (const ViewerReport& v : site.server.viewers()) ms += v.send_cpu_ms;
     return ms;
   };
   const auto encoding = [&] {
     double ms = 0;
-    for (const TierReport& t : server.tiers()) ms += t.encode_ms_mean * double(t.frames_encoded);
+    for (const TierReport& t : site.server.tiers())
+      ms += t.encode_ms_mean * double(t.frames_encoded);
     return ms;
   };
   const double serve0 = serving(), encode0 = encoding();
@@ -118,7 +86,7 @@ SessionRow measure_session(const std::string& name,
   row.pose_rate_hz_min = 1e9;
   row.avatar_fps_min = avatars > 0 ? 1e9 : 0;
   for (auto& p : people) {
-    const ParticipantStats s = p->session->participant()->stats();
+    const ParticipantStats s = p->participant().stats();
     rtt50.push_back(s.round_trip_ms_p50);
     rtt99.push_back(s.round_trip_ms_p99);
     row.round_trip_samples += s.round_trip_samples;
@@ -134,14 +102,10 @@ SessionRow measure_session(const std::string& name,
       }
     }
   }
-  done = true;
-  for (auto& p : people) p->session->stop();
+  for (auto& p : people) p->stop();
   site.stop();
-  hub.attach(nullptr);
-  server.stop();
   for (auto& p : people) {
-    p->client->close();
-    p->receiver.join();
+    p->end();
     if (!p->error.empty()) throw Error("bench participant failed: " + p->error);
   }
   // Medians over participants of each participant's percentile; the worst p99.

@@ -3,10 +3,10 @@
 
 #include <spdlog/spdlog.h>
 
-#include "volcast/core/error.hpp"
-
 #include <algorithm>
 #include <cmath>
+
+#include "volcast/core/error.hpp"
 
 namespace volcast {
 
@@ -51,20 +51,19 @@ void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
   }
   const bool aimed = in.tracked && in.direction.squaredNorm() > 0;
   const bool on = aimed && (in.point || in.draw);
+  const bool label = aimed && in.label >= 0 && in.label < int(kHeadsetLabels.size());
   hit_.reset();
-  if (aimed && in.label >= 0 && in.label < int(kHeadsetLabels.size())) {
-    if (const auto at = surfaces ? surfaces->hit(in.origin, in.direction) : std::nullopt) {
-      session::Annotation a;
-      a.kind = session::AnnotationKind::kLabel;
-      a.points = {*at};
-      a.text = std::string(kHeadsetLabels[size_t(in.label)]);
-      send(p, std::move(a), now_us);
-    } else {
-      spdlog::info("drawing: the label goes where the ray meets a surface: it meets none");
-    }
+  if ((on || label) && surfaces) hit_ = surfaces->hit(in.origin, in.direction);
+  if (label && hit_) {
+    session::Annotation a;
+    a.kind = session::AnnotationKind::kLabel;
+    a.points = {*hit_};
+    a.text = std::string(kHeadsetLabels[size_t(in.label)]);
+    send(p, std::move(a), now_us);
+  } else if (label) {
+    spdlog::info("drawing: the label goes where the ray meets a surface: it meets none");
   }
   if (on) {
-    if (surfaces) hit_ = surfaces->hit(in.origin, in.direction);
     const Eigen::Vector3f towards = in.origin + in.direction.normalized();
     p.point(true, in.origin, hit_.has_value(), hit_.value_or(towards));
     shown_ = true;

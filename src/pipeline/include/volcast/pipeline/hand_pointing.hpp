@@ -58,7 +58,8 @@ class HandPointing {
   /// those it sent are back. `now_us`: a steady clock, µs.
   void update(Participant& participant, const SessionSnapshot& snapshot,
               const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us);
-  /// The dot this frame (room frame), if the ray met a surface while a button was held.
+  /// The dot this frame (room frame), if the ray met a surface while a button was held (point,
+  /// draw, or a label pressed this frame).
   const std::optional<Eigen::Vector3f>& hit() const { return hit_; }
   /// The stroke being drawn (room frame), empty when none.
   const std::vector<Eigen::Vector3f>& stroke() const { return stroke_; }

@@ -1,10 +1,12 @@
 // The synthetic depth camera (SYNTHETIC data for tests and benchmarks): per pixel, the ray of the
 // real lens model (make_ray_table) against the target's spheres, its rods (finite cylinders), extra
 // balls and the floor; nearest hit; then Azure Kinect-like noise, flying pixels at depth edges,
-// dropout and grazing-angle loss, deterministic for a seed.
+// dropout and grazing-angle loss, deterministic for a seed. The target is placed in the world once
+// per image and only the rays that pass near it are tested against its parts.
 #include "volcast/calibrate/target_sim.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -28,10 +30,16 @@ void sphere(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vec
   if (t > 1e-4 && t < hit.t) hit = {t, (o + d * t - c).normalized()};
 }
 
-void cylinder(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& a,
-              const Eigen::Vector3d& b, double r, Hit& hit) {
-  const Eigen::Vector3d axis = (b - a).normalized();
-  const double length = (b - a).norm();
+// A rod of the target in the world frame: from `a` along the unit `axis` for `length` metres.
+struct Rod {
+  Eigen::Vector3d a, axis;
+  double length = 0;
+};
+
+void cylinder(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Rod& rod, double r,
+              Hit& hit) {
+  const Eigen::Vector3d& a = rod.a;
+  const Eigen::Vector3d& axis = rod.axis;
   const Eigen::Vector3d dp = d - axis * d.dot(axis), op = (o - a) - axis * (o - a).dot(axis);
   const double qa = dp.squaredNorm(), qb = 2 * dp.dot(op), qc = op.squaredNorm() - r * r;
   const double disc = qb * qb - 4 * qa * qc;
@@ -40,8 +48,48 @@ void cylinder(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::V
   if (t <= 1e-4 || t >= hit.t) return;
   const Eigen::Vector3d p = o + d * t;
   const double s = (p - a).dot(axis);
-  if (s < 0 || s > length) return;
+  if (s < 0 || s > rod.length) return;
   hit = {t, (p - a - axis * s).normalized()};
+}
+
+// The target in the world frame, placed once per image, and a ball holding all of it (1 cm to
+// spare): a ray that misses the ball meets none of its spheres and rods.
+struct PlacedTarget {
+  std::vector<Eigen::Vector3d> centres;
+  std::vector<Rod> rods;
+  Eigen::Vector3d bound_centre = Eigen::Vector3d::Zero();
+  double bound_radius = 0;
+};
+
+PlacedTarget place(const SimScene& scene) {
+  PlacedTarget t;
+  const TargetModel& m = scene.target;
+  for (const auto& c : m.centres_m) t.centres.push_back(scene.world_from_target * c);
+  for (const auto& [a, b] : m.rods_m) {
+    const Eigen::Vector3d wa = scene.world_from_target * a, wb = scene.world_from_target * b;
+    t.rods.push_back({wa, (wb - wa).normalized(), (wb - wa).norm()});
+  }
+  std::vector<std::pair<Eigen::Vector3d, double>> parts;  // every sphere and rod end, its radius
+  for (const auto& c : t.centres) parts.emplace_back(c, m.sphere_radius_m);
+  for (const Rod& r : t.rods) {
+    parts.emplace_back(r.a, m.rod_radius_m);
+    parts.emplace_back(r.a + r.axis * r.length, m.rod_radius_m);
+  }
+  if (parts.empty()) return t;
+  for (const auto& [p, r] : parts) t.bound_centre += p;
+  t.bound_centre /= static_cast<double>(parts.size());
+  for (const auto& [p, r] : parts)
+    t.bound_radius = std::max(t.bound_radius, (p - t.bound_centre).norm() + r);
+  t.bound_radius += 0.01;
+  return t;
+}
+
+// Whether the line through `o` along unit `d` passes within the target's bound.
+bool near_target(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const PlacedTarget& t) {
+  if (t.bound_radius <= 0) return false;
+  const Eigen::Vector3d oc = o - t.bound_centre;
+  const double b = oc.dot(d);
+  return b * b - (oc.squaredNorm() - t.bound_radius * t.bound_radius) >= 0;
 }
 
 }  // namespace
@@ -74,6 +122,7 @@ DepthImage render_sim_depth(const Intrinsics& intrinsics, const RigidTransform& 
   std::vector<double> cosine(exact.size(), 1);      // |cos| between the ray and the surface normal
   std::vector<double> ray_length(exact.size(), 1);  // |(X/Z, Y/Z, 1)|: distance along ray per z
   const Eigen::Vector3d o = world_from_camera.translation;
+  const PlacedTarget target = place(scene);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const size_t i = static_cast<size_t>(y) * w + x;
@@ -81,11 +130,10 @@ DepthImage render_sim_depth(const Intrinsics& intrinsics, const RigidTransform& 
       const Eigen::Vector3d ray_cam(rays.x[i], rays.y[i], 1.0);
       const Eigen::Vector3d d = (world_from_camera.rotation * ray_cam).normalized();
       Hit hit;
-      for (const auto& c : scene.target.centres_m)
-        sphere(o, d, scene.world_from_target * c, scene.target.sphere_radius_m, hit);
-      for (const auto& [a, b] : scene.target.rods_m)
-        cylinder(o, d, scene.world_from_target * a, scene.world_from_target * b,
-                 scene.target.rod_radius_m, hit);
+      if (near_target(o, d, target)) {
+        for (const auto& c : target.centres) sphere(o, d, c, scene.target.sphere_radius_m, hit);
+        for (const Rod& rod : target.rods) cylinder(o, d, rod, scene.target.rod_radius_m, hit);
+      }
       for (const auto& [c, r] : scene.extra_spheres) sphere(o, d, c, r, hit);
       if (scene.floor && d.y() < -1e-9) {
         const double t = -o.y() / d.y();

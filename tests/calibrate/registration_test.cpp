@@ -290,7 +290,12 @@ TEST(TargetlessSynthetic, ACameraWithNoOverlapIsNotPlacedAndNamed) {
   const std::vector<TargetlessCamera> cams = {view(k, a, scene, 1), view(k, b, scene, 2),
                                               view(k, c, scene, 3)};
   const std::vector<std::optional<RigidTransform>> start = {a, b, rough(c, 0.1, 5, 5)};
-  const TargetlessResult r = register_targetless(cams, start, 0);
+  // Two RANSAC hypotheses per pair (the default is six): what is tested is that every hypothesis
+  // for camera 2 is turned down and camera 2 named; RANSAC over a pair with nothing in common
+  // finds no consensus to stop it early: six made this test 32 s alone, two 19 s.
+  TargetlessOptions o;
+  o.global_trials = 2;
+  const TargetlessResult r = register_targetless(cams, start, 0, o);
   EXPECT_TRUE(r.world_from_camera[1]);
   EXPECT_FALSE(r.world_from_camera[2]);
   ASSERT_EQ(r.problems.size(), 1u);

@@ -33,12 +33,18 @@ void expect_within(const std::string& codec, int bound, const std::vector<DepthI
       continue;
     }
     ASSERT_EQ(out.width, frames[i].width);
-    for (size_t p = 0; p < out.size(); ++p) {
-      ASSERT_EQ(out.pixels[p] == 0, frames[i].pixels[p] == 0)
-          << codec << " " << set << " frame " << i;
-      ASSERT_LE(std::abs(int{out.pixels[p]} - int{frames[i].pixels[p]}), bound)
-          << codec << " " << set << " frame " << i;
-    }
+    ASSERT_EQ(out.height, frames[i].height);
+    // The first pixel out of bound (or valid on one side only), then one assertion: two per
+    // pixel (207 frames of 368,640 pixels, three codecs) were a sixth of the test's time.
+    const auto bad =
+        std::mismatch(out.pixels.begin(), out.pixels.end(), frames[i].pixels.begin(),
+                      [&](uint16_t a, uint16_t b) {
+                        return (a == 0) == (b == 0) && std::abs(int{a} - int{b}) <= bound;
+                      });
+    ASSERT_TRUE(bad.first == out.pixels.end())
+        << codec << " " << set << " frame " << i << " pixel " << (bad.first - out.pixels.begin())
+        << ": " << *bad.first << " mm decoded, " << *bad.second << " mm sent (bound " << bound
+        << " mm, 0 = invalid on both sides)";
   }
 }
 

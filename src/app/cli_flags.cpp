@@ -80,6 +80,11 @@ void add_server_flags(CLI::App* s, ServeArgs& serve) {
                 "Offered tiers, comma-separated DEPTH/COLOR[/QUALITY], e.g. volcast/jpeg,trvl/none "
                 "(default: any codec)")
       ->delimiter(',');
+  s->add_option("--ladder", serve.ladder,
+                "Tier ladder for adaptive viewers (view without --depth-codec), best first, "
+                "comma-separated DEPTH/COLOR[/QUALITY][@N] (@N: every Nth frame set), or none")
+      ->delimiter(',')
+      ->capture_default_str();
   s->add_option("--tier-cpu-budget", serve.tier_cpu_budget,
                 "CPU cores the tiers' encoders may use together (each tier's cost estimated from "
                 "its codecs, the site's pixels and frame rate); a viewer asking for a new tier "

@@ -64,6 +64,7 @@ struct ServeArgs {
   std::string link_host;           ///< host written into the join link; default: found
   std::string link_file;           ///< also write the join link here (mode 0600); "" = no
   std::vector<std::string> tiers;  ///< offered tiers DEPTH/COLOR[/QUALITY]; empty: any
+  std::vector<std::string> ladder = default_ladder();  ///< adaptive viewers' tiers, best first
   double tier_cpu_budget = 0;      ///< cores the tiers' encoders may use; 0: half the cores
   int max_tiers_per_address = 4;   ///< tiers one address's viewers may hold alone
   int handshake_timeout_ms = 5000;
@@ -134,6 +135,9 @@ struct ViewArgs {
   int connect_timeout_ms = 5000;
   std::string depth_codec = "volcast", color_codec = "jpeg";
   int color_quality = 0;
+  bool tier_pinned = false;  ///< --depth-codec, --color-codec or --color-quality given: no adapting
+  std::vector<std::string> floors;  ///< --floor: lossless | full-rate
+  std::string max_rate;             ///< --max-rate, e.g. "20M" (bits/s); empty: no cap
   bool no_render = false;
   bool headless = false;           ///< render offscreen (EGL) instead of opening the desktop window
   bool xr = false;                 ///< try OpenXR first (falls back to the window, then headless)

@@ -24,10 +24,15 @@ void register_demo(CLI::App& app, Commands& commands) {
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
-  d->add_option("--depth-codec", demo.depth_codec, "Depth codec: " + depth_codec_help())
-      ->capture_default_str();
-  d->add_option("--color-codec", demo.color_codec, "Color codec: " + color_codec_help())
-      ->capture_default_str();
+  const auto pin = [&demo](const std::string&) { demo.tier_pinned = true; };
+  d->add_option("--depth-codec", demo.depth_codec,
+                "Depth codec, pinning the viewer's tier (without it, the server moves the viewer "
+                "along its tier ladder as the path allows): " +
+                    depth_codec_help())
+      ->each(pin);
+  d->add_option("--color-codec", demo.color_codec,
+                "Color codec, pinning the viewer's tier: " + color_codec_help())
+      ->each(pin);
   d->add_flag("--no-session", demo.no_session,
               "Skip the virtual-OR session (the registered OR cameras, two scripted participants)");
   d->add_option("--session-seconds", demo.session_seconds, "How long the session part runs")

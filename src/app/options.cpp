@@ -47,4 +47,33 @@ std::pair<std::string, uint16_t> parse_host_port(const std::string& text) {
   return {text.substr(0, colon), static_cast<uint16_t>(port)};
 }
 
+uint64_t parse_bit_rate(const std::string& text, const std::string& flag) {
+  const auto bad = [&] {
+    return Error(flag + " '" + text +
+                 "' must be bits per second, a number with k, M or G (e.g. 20M), 100k to 1000G");
+  };
+  if (text.empty()) throw bad();
+  double scale = 1;
+  std::string digits = text;
+  switch (text.back()) {
+    case 'k': scale = 1e3; break;
+    case 'M': scale = 1e6; break;
+    case 'G': scale = 1e9; break;
+    default: break;
+  }
+  if (scale != 1) digits.pop_back();
+  if (digits.empty() || digits.find_first_not_of("0123456789.") != std::string::npos) throw bad();
+  size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(digits, &used);
+  } catch (const std::exception&) {
+    throw bad();
+  }
+  if (used != digits.size()) throw bad();
+  const double bits = value * scale;
+  if (!(bits >= 1e5 && bits <= 1e12)) throw bad();
+  return static_cast<uint64_t>(bits);
+}
+
 }  // namespace volcast

@@ -1,5 +1,6 @@
 #pragma once
 // Parsing of the CLI's shared value formats.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -14,5 +15,8 @@ std::vector<double> parse_numbers(const std::string& text, size_t count, const s
 Intrinsics parse_pinhole(const std::string& text);
 /// "HOST:PORT" -> host, port. Throws Error on a missing or invalid port.
 std::pair<std::string, uint16_t> parse_host_port(const std::string& text);
+/// "20M", "500k", "1.5G", "8000000" -> bits per second (k = 1e3, M = 1e6, G = 1e9). Throws Error
+/// naming `flag` for anything else, or a rate below 100 kbit/s or above 1 Tbit/s.
+uint64_t parse_bit_rate(const std::string& text, const std::string& flag);
 
 }  // namespace volcast

@@ -360,11 +360,13 @@ void stop_serving(Serving& s) {
       hs.avatar_frames_in, hs.avatar_frames_out, double(hs.avatar_bytes_out) / 1e6);
   for (const auto& v : s.server->viewers())
     spdlog::info(
-        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} "
-        "MB, "
-        "path RTT {:.1f} ms, {:.1f} Mbit/s",
-        v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
-        static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s);
+        "viewer {} ({}/{}/{}{}{}): {} frame sets sent, {} skipped ({} over the latency budget), "
+        "{:.1f} MB, path RTT {:.1f} ms, {:.1f} Mbit/s, {} tier switches",
+        v.peer, v.depth_codec, v.color_codec, v.color_quality,
+        v.frame_divisor > 1 ? "@" + std::to_string(v.frame_divisor) : "",
+        v.adaptive ? ", adaptive" : "", v.frames_sent, v.frames_dropped, v.frames_stale,
+        static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s,
+        v.switches.size());
 }
 
 }  // namespace

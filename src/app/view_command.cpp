@@ -292,6 +292,12 @@ int run_view(const ViewArgs& a) {
   opt.client.depth_codec = a.depth_codec;
   opt.client.color_codec = a.color_codec;
   opt.client.color_quality = a.color_quality;
+  opt.client.adapt = !a.tier_pinned;
+  for (const auto& f : a.floors) {
+    opt.client.keep_lossless |= f == "lossless";
+    opt.client.keep_full_rate |= f == "full-rate";
+  }
+  if (!a.max_rate.empty()) opt.client.max_bits_per_s = parse_bit_rate(a.max_rate, "--max-rate");
   opt.client.handshake_timeout_ms = a.handshake_timeout_ms;
   opt.client.receive_timeout_ms = a.receive_timeout_ms;
   opt.frames = a.frames;
@@ -369,13 +375,25 @@ void register_view(CLI::App& app, Commands& commands) {
   v->add_option("--connect-timeout", view.connect_timeout_ms,
                 "TCP connect and TLS handshake timeout (ms)")
       ->capture_default_str();
-  v->add_option("--depth-codec", view.depth_codec, "Depth codec: " + depth_codec_help())
-      ->capture_default_str();
-  v->add_option("--color-codec", view.color_codec, "Color codec: " + color_codec_help())
-      ->capture_default_str();
+  const auto pin = [&view](const std::string&) { view.tier_pinned = true; };
+  v->add_option("--depth-codec", view.depth_codec,
+                "Depth codec, pinning the tier (without it, the server moves this viewer along "
+                "its tier ladder as the path allows): " +
+                    depth_codec_help())
+      ->each(pin);
+  v->add_option("--color-codec", view.color_codec,
+                "Color codec, pinning the tier: " + color_codec_help())
+      ->each(pin);
   v->add_option("--color-quality", view.color_quality,
-                "Color quality 1..100 (JPEG quality, H.264 CRF from it; 0 = the codec default)")
-      ->capture_default_str();
+                "Color quality 1..100, pinning the tier (JPEG quality, H.264 CRF from it; 0 = the "
+                "codec default)")
+      ->each(pin);
+  v->add_option("--floor", view.floors,
+                "What adapting to the path may never take away (repeat): lossless (depth is "
+                "never lossy) or full-rate (every frame set of the site)")
+      ->check(CLI::IsMember({"lossless", "full-rate"}));
+  v->add_option("--max-rate", view.max_rate,
+                "The most this viewer wants to be sent, bits per second with k, M or G (e.g. 20M)");
   v->add_flag("--no-render", view.no_render,
               "Receive and decode only (otherwise rendered in a window, a headset or offscreen)");
   v->add_flag("--headless", view.headless,

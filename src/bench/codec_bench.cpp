@@ -139,13 +139,16 @@ ColorImage crop(const ColorImage& image, const CropRect& rect) {
   return out;
 }
 
-// Streams `images` through `codec` (key frame first, as a viewer receives them), `repeats`
-// passes; adds a "color_codecs" entry and returns the mean bytes per frame.
+// Streams `images` through `codec` at `quality` (0: its default; key frame first, as a viewer
+// receives them), `repeats` passes; adds a "color_codecs" entry and returns the mean bytes per
+// frame.
 double bench_color(const std::string& set, const std::string& codec,
-                   const std::vector<ColorImage>& images, int repeats, nlohmann::json& json) {
+                   const std::vector<ColorImage>& images, int repeats, nlohmann::json& json,
+                   int quality = 0) {
   std::vector<std::vector<uint8_t>> streams(images.size());
   std::vector<double> enc_ms, dec_ms;
   auto enc = make_color_encoder(codec);
+  if (quality > 0) enc->set_quality(quality);
   auto dec = make_color_decoder(codec);
   ColorImage out;
   for (int r = 0; r < repeats; ++r) {
@@ -168,6 +171,7 @@ double bench_color(const std::string& set, const std::string& codec,
   const double raw = static_cast<double>(images[0].width) * images[0].height * 3;
   json["color_codecs"].push_back({{"dataset", set},
                                   {"codec", codec},
+                                  {"quality", quality},
                                   {"bytes_per_frame", bytes},
                                   {"ratio", raw / bytes},
                                   {"encode_ms", median(enc_ms)},
@@ -195,6 +199,10 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
     if (!s.color.empty()) {
       color_bytes = bench_color(s.name, "jpeg", s.color, repeats, json);
       bench_color(s.name, "h264", s.color, repeats, json);
+      // The tier ladder's color qualities (net/stream/server.hpp default_ladder): size against
+      // PSNR, to choose the default tier's quality by measurement.
+      for (const int q : {80, 70, 60, 50, 40}) bench_color(s.name, "jpeg", s.color, repeats, json, q);
+      bench_color(s.name, "h264", s.color, repeats, json, 50);
       if (s.color[0].width == 640 && s.color[0].height == 576) {
         std::vector<ColorImage> cropped;
         for (const auto& c : s.color) cropped.push_back(crop(c, kNfovCrop));
@@ -247,8 +255,9 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
       "color);\n"
       "  ratio/R, enc/R, dec/R: against RVL in the same run (ratio/R > 1 = smaller than RVL).\n");
   for (const auto& c : json["color_codecs"])
-    std::printf("color %-38s %-5s %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
+    std::printf("color %-38s %-5s q%-3d %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
                 c["dataset"].get<std::string>().c_str(), c["codec"].get<std::string>().c_str(),
+                c["quality"].get<int>(),
                 c["bytes_per_frame"].get<double>(), c["ratio"].get<double>(),
                 c["encode_ms"].get<double>(), c["decode_ms"].get<double>(),
                 c["psnr_db"].get<double>());

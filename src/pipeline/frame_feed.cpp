@@ -124,4 +124,11 @@ bool DrawPace::take(FrameFeed& feed, std::vector<std::shared_ptr<const CameraFra
   return true;
 }
 
+std::string tier_label(const TierState& t) {
+  std::string s = t.depth_codec + "/" + t.color_codec;
+  if (t.color_quality > 0) s += "/" + std::to_string(t.color_quality);
+  if (t.frame_divisor > 1) s += "@" + std::to_string(t.frame_divisor);
+  return s;
+}
+
 }  // namespace volcast

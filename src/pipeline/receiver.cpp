@@ -158,6 +158,9 @@ void open_feed(FrameFeed::State& box, const protocol::Welcome& welcome, const Vi
   for (const auto& c : cams) box.cameras.push_back(c.calibration);
   box.live.depth_codec = opt.client.depth_codec;
   box.live.color_codec = opt.client.color_codec;
+  box.live.adaptive = opt.client.adapt;
+  box.live.tier = opt.client.depth_codec + "/" + opt.client.color_codec +
+                  (opt.client.color_quality > 0 ? "/" + std::to_string(opt.client.color_quality) : "");
   box.live.cameras.resize(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
     box.live.cameras[i].description = printable(cams[i].description);
@@ -265,7 +268,30 @@ struct Reception {
   int64_t live_from_us = wall_clock_us();
   int64_t first_rx_us = 0, last_rx_us = 0;
   uint64_t last_sequence = 0, received = 0;
+  uint64_t tier_messages = 0;          // the client's TierState::messages taken
+  std::vector<TierEvent> tier_events;  // the first 256
 };
+
+// 5. What the server said of the tier since the last frame set (a change, a notice): kept for
+// the figures and shown on the panel at once.
+void note_tier(const Client& client, FrameFeed::State& box, Reception& r) {
+  const TierState& t = client.tier();
+  if (t.messages == r.tier_messages) return;
+  const bool notice = t.messages == r.tier_messages + 1 &&
+                      !r.tier_events.empty() && r.tier_events.back().tier == tier_label(t);
+  r.tier_messages = t.messages;
+  const TierEvent e{wall_clock_us(), tier_label(t), t.lossless_depth, notice, t.path_mbit_s,
+                    t.reason};
+  if (r.tier_events.size() < 256) r.tier_events.push_back(e);
+  std::lock_guard lock(box.mutex);
+  box.live.tier = e.tier;
+  box.live.depth_codec = t.depth_codec;
+  box.live.color_codec = t.color_codec;
+  box.live.lossless_depth = t.lossless_depth;
+  box.live.path_mbit_s = t.path_mbit_s;
+  box.live.tier_events.push_back(e);
+  if (box.live.tier_events.size() > 8) box.live.tier_events.erase(box.live.tier_events.begin());
+}
 
 // 5. Keeps what was just decoded: the decoded images move (swap, no copy) into a frame the
 // renderer may hold; the client decodes into the swapped-in buffers next time (decoders keep
@@ -342,6 +368,7 @@ std::exception_ptr receive_frame_sets(const ViewerOptions& opt, Client& client,
     if (!opt.save_frames_dir.empty()) std::filesystem::create_directories(opt.save_frames_dir);
     while ((opt.frames <= 0 || r.received < static_cast<uint64_t>(opt.frames)) &&
            client.receive(r.rx)) {
+      note_tier(client, box, r);
       keep_decoded(r);
       const int64_t now = wall_clock_us();
       count(r, now);
@@ -438,6 +465,11 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   set_end(result, opt, render.error(), receive_error, reception.received, box.closed,
           watchdog.stopped_by());
   result.frames_undecodable = client.frames_undecodable();
+  result.depth_codec = client.tier().depth_codec;
+  result.color_codec = client.tier().color_codec;
+  result.tier = tier_label(client.tier());
+  result.adaptive = opt.client.adapt;
+  result.tier_events = std::move(reception.tier_events);
   result.stages = reception.stages.summary();
   result.cameras = camera_figures(welcome, reception);
   if (opt.on_finished) {

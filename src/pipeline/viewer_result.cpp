@@ -44,6 +44,16 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
   j["frame_sets_received"] = r.frame_sets_received;
   j["depth_codec"] = r.depth_codec;
   j["color_codec"] = r.color_codec;
+  j["tier"] = r.tier;
+  j["adaptive"] = r.adaptive;
+  j["tier_changes"] = nlohmann::json::array();
+  for (const TierEvent& e : r.tier_events)
+    j["tier_changes"].push_back({{"time_us", e.time_us},
+                                 {"tier", e.tier},
+                                 {"lossless_depth", e.lossless_depth},
+                                 {"notice", e.notice},
+                                 {"path_mbit_s", e.path_mbit_s},
+                                 {"reason", e.reason}});
   j["frames_rendered"] = r.frames_rendered;
   j["renderer"] = r.renderer;
   j["frames_undecodable"] = r.frames_undecodable;
@@ -99,9 +109,13 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
 }
 
 std::string format_stats_table(const ViewerResult& r) {
-  std::string s = fmt::format("depth codec {}, color codec {}, {} frames rendered{}\n",
-                              r.depth_codec, r.color_codec, r.frames_rendered,
-                              r.renderer.empty() ? "" : " (" + r.renderer + ")");
+  std::string s = fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
+                              r.adaptive ? fmt::format(" (adaptive, {} changes)", r.tier_events.size())
+                                         : "",
+                              r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
+  for (const TierEvent& e : r.tier_events)
+    s += fmt::format("  tier {}{}{}: {}\n", e.tier, e.lossless_depth ? "" : " (lossy depth)",
+                     e.notice ? " kept" : "", e.reason);
   s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam",
                    "size", "frames", "dropped", "depth B/fr", "color B/fr", "ratio", "fps",
                    "Mbit/s", "lat p50", "lat p99 / source");

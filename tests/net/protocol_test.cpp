@@ -116,6 +116,53 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
   EXPECT_THROW(parse_hello(longer), Error);  // trailing bytes
 }
 
+TEST(Protocol, AdaptationInTheHelloAndTierChangesRoundTripAndRefuseBadFields) {
+  Hello sent;
+  sent.depth_codec = "volcast";
+  sent.color_codec = "jpeg";
+  // A pinned viewer's Hello has no tail (as a browser's and older viewers' are).
+  const size_t plain = serialize(sent).size();
+  sent.adapt = Hello::kAdapt | Hello::kKeepLossless;
+  sent.max_bits_per_s = 20'000'000;
+  auto hello = serialize(sent);
+  EXPECT_EQ(hello.size(), plain + 9);
+  EXPECT_EQ(parse_hello(hello).adapt, Hello::kAdapt | Hello::kKeepLossless);
+  EXPECT_EQ(parse_hello(hello).max_bits_per_s, 20'000'000u);
+  for (size_t n = plain + 1; n < hello.size(); ++n)
+    EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
+  hello[plain] = 0x10;  // a flag this build does not know
+  EXPECT_THROW(parse_hello(hello), Error);
+
+  TierChange c{"h264", "h264", 50, 2, 18'500, "the path delivers 18.5 Mbit/s"};
+  const auto bytes = serialize(c);
+  const TierChange back = parse_tier_change(bytes);
+  EXPECT_EQ(back.depth_codec, "h264");
+  EXPECT_EQ(back.color_quality, 50);
+  EXPECT_EQ(back.frame_divisor, 2);
+  EXPECT_EQ(back.path_kbit_s, 18'500u);
+  EXPECT_EQ(back.reason, c.reason);
+  for (size_t n = 0; n < bytes.size(); ++n)
+    EXPECT_THROW(parse_tier_change(std::span(bytes).first(n)), Error);
+  for (const int divisor : {0, 9}) {
+    TierChange bad = c;
+    bad.frame_divisor = divisor;
+    EXPECT_THROW(parse_tier_change(serialize(bad)), Error) << divisor;
+  }
+  TierChange loud = c;
+  loud.color_quality = 101;
+  EXPECT_THROW(parse_tier_change(serialize(loud)), Error);
+  auto trailing = bytes;
+  trailing.push_back(0);
+  EXPECT_THROW(parse_tier_change(trailing), Error);
+  // A reason past the limit is cut by the writer, refused by the reader.
+  TierChange wordy = c;
+  wordy.reason.assign(1000, 'x');
+  EXPECT_EQ(parse_tier_change(serialize(wordy)).reason.size(), kMaxReasonBytes);
+  uint8_t h[kHeaderBytes];
+  write_header(MessageType::kTierChange, 10, h);
+  EXPECT_EQ(parse_header(h).type, MessageType::kTierChange);
+}
+
 TEST(Protocol, RandomBytesNeverCrashTheParsers) {
   std::mt19937 rng(11);
   FrameSetView out;
@@ -132,6 +179,10 @@ TEST(Protocol, RandomBytesNeverCrashTheParsers) {
     }
     try {
       parse_hello(bytes);
+    } catch (const Error&) {
+    }
+    try {
+      parse_tier_change(bytes);
     } catch (const Error&) {
     }
     try {
@@ -156,7 +207,7 @@ TEST(Protocol, ChannelsSeparateFramesControlAndSessionMessages) {
   h[6] = 1;
   EXPECT_THROW(parse_header(h), Error);
   h[6] = 0;
-  h[7] = 6;
+  h[7] = 7;
   EXPECT_THROW(parse_header(h), Error);
   h[6] = 3;
   h[7] = 1;

@@ -65,7 +65,7 @@ Header parse_header(std::span<const uint8_t> bytes, uint32_t max_payload) {
   if (h.version != kVersion)
     throw Error("protocol version mismatch: peer speaks " + std::to_string(h.version) +
                 ", this build speaks " + std::to_string(kVersion));
-  const bool known = (channel == 0 && type >= 1 && type <= 5) ||
+  const bool known = (channel == 0 && type >= 1 && type <= 6) ||
                      (channel == 1 && (type == 1 || type == 2)) ||
                      channel == static_cast<uint8_t>(Channel::kSession);
   if (!known)
@@ -86,6 +86,10 @@ std::vector<uint8_t> serialize(const Hello& m) {
   w.put_string(m.depth_codec);
   w.put_string(m.color_codec);
   w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
+  if (m.adapt != 0 || m.max_bits_per_s != 0) {
+    w.put<uint8_t>(m.adapt);
+    w.put<uint64_t>(m.max_bits_per_s);
+  }
   return out;
 }
 
@@ -102,6 +106,13 @@ Hello parse_hello(std::span<const uint8_t> payload) {
   h.color_codec = r.get_string();
   h.color_quality = r.get<uint8_t>();
   if (h.color_quality > 100) r.fail("color quality " + std::to_string(h.color_quality) + " > 100");
+  if (r.remaining() > 0) {
+    h.adapt = r.get<uint8_t>("adaptation flags");
+    constexpr uint8_t kKnown =
+        Hello::kAdapt | Hello::kKeepLossless | Hello::kKeepFullRate | Hello::kNotify;
+    if (h.adapt & ~kKnown) r.fail("unknown adaptation flags " + std::to_string(h.adapt));
+    h.max_bits_per_s = r.get<uint64_t>("max rate");
+  }
   r.expect_end();
   return h;
 }
@@ -205,6 +216,35 @@ std::vector<uint8_t> message(MessageType type, const std::vector<uint8_t>& paylo
   write_header(type, static_cast<uint32_t>(payload.size()), out.data());
   out.insert(out.end(), payload.begin(), payload.end());
   return out;
+}
+
+std::vector<uint8_t> serialize(const TierChange& m) {
+  std::vector<uint8_t> out;
+  Writer w(out);
+  w.put_string(m.depth_codec);
+  w.put_string(m.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
+  w.put<uint8_t>(static_cast<uint8_t>(m.frame_divisor));
+  w.put<uint32_t>(m.path_kbit_s);
+  w.put_string(m.reason.size() > kMaxReasonBytes ? m.reason.substr(0, kMaxReasonBytes) : m.reason);
+  return out;
+}
+
+TierChange parse_tier_change(std::span<const uint8_t> payload) {
+  Reader r(payload, "tier change");
+  TierChange m;
+  m.depth_codec = r.get_string("depth codec");
+  m.color_codec = r.get_string("color codec");
+  m.color_quality = r.get<uint8_t>("color quality");
+  if (m.color_quality > 100) r.fail("color quality " + std::to_string(m.color_quality) + " > 100");
+  m.frame_divisor = r.get<uint8_t>("frame divisor");
+  if (m.frame_divisor < 1 || m.frame_divisor > 8)
+    r.fail("frame divisor " + std::to_string(m.frame_divisor) + " (1 to 8)");
+  m.path_kbit_s = r.get<uint32_t>("path rate");
+  m.reason = r.get_string("reason");
+  if (m.reason.size() > kMaxReasonBytes) r.fail("reason longer than 400 bytes");
+  r.expect_end();
+  return m;
 }
 
 }  // namespace volcast::protocol

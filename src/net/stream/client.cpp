@@ -16,6 +16,7 @@
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
@@ -56,6 +57,7 @@ struct Client::Impl {
   protocol::SealedFrameSet seal;  // the last SealedFrameSet's descriptor (chunk list reused)
   std::atomic<bool> closed{false};
   uint64_t undecodable = 0;
+  TierState tier;
   // Repeated frames: each camera's last decoded bytes, and the object they were decoded into.
   bool stateless = false;  // both codecs non-temporal
   const ReceivedFrameSet* last_out = nullptr;
@@ -96,6 +98,45 @@ struct Client::Impl {
 
   std::span<const uint8_t> payload() const { return {buffer.data(), payload_bytes}; }
 
+  // Takes a TierChange: decoders for the new tier (the next frame set is its key frame set), or a
+  // notice. A change the viewer did not allow (it pinned its tier, or keeps depth lossless) ends
+  // the connection: the medical rule is checked here too, not only trusted to the server.
+  void change_tier() {
+    protocol::TierChange c;
+    try {
+      c = protocol::parse_tier_change(payload());
+      const bool same = c.depth_codec == tier.depth_codec && c.color_codec == tier.color_codec &&
+                        c.color_quality == tier.color_quality &&
+                        c.frame_divisor == tier.frame_divisor;
+      if (!same && !config.adapt)
+        throw Error("the server changed the tier of a viewer that pinned it");
+      const DepthCodecInfo* d = find_depth_codec(c.depth_codec);
+      if (!d || !find_color_codec(c.color_codec))
+        throw Error("the server changed to a tier with a codec this build lacks");
+      if (!same && config.keep_lossless && !d->lossless)
+        throw Error("the server changed to lossy depth (" + printable(c.depth_codec) +
+                    ") a viewer that keeps depth lossless");
+      if (!same) {
+        decoder = std::make_unique<FrameSetDecoder>(c.depth_codec, c.color_codec, welcome.cameras);
+        stateless = decoder->stateless();
+        last_out = nullptr;
+        ++tier.changes;
+      } else if (!tier.reason.empty() || !config.adapt) {  // not an adaptive viewer's first word
+        ++tier.notices;
+      }
+    } catch (const Error& e) {
+      throw ClientError(Kind::kProtocol, std::string("TierChange from the server: ") + e.what());
+    }
+    tier.depth_codec = c.depth_codec;
+    tier.color_codec = c.color_codec;
+    tier.color_quality = c.color_quality;
+    tier.frame_divisor = c.frame_divisor;
+    tier.path_mbit_s = c.path_kbit_s / 1e3;
+    tier.reason = printable(c.reason);
+    tier.lossless_depth = find_depth_codec(c.depth_codec)->lossless;
+    ++tier.messages;
+  }
+
   // What the error messages of read_message() say ran out.
   std::string timeout_message(bool handshake) const {
     return handshake ? "no Welcome from the server within " +
@@ -125,6 +166,7 @@ struct Client::Impl {
       uint32_t limit = header.type == protocol::MessageType::kSealedFrameSet
                            ? protocol::kMaxSealedFrameSetBytes
                            : max_payload;
+      if (header.type == protocol::MessageType::kTierChange) limit = protocol::kMaxControlBytes;
       if (!handshake && header.channel == protocol::Channel::kSession) {
         const uint8_t t = static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff);
         limit = session_max_payload ? session_max_payload(t) : protocol::kMaxControlBytes;
@@ -422,6 +464,11 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   hello.depth_codec = config.depth_codec;
   hello.color_codec = config.color_codec;
   hello.color_quality = config.color_quality;
+  hello.adapt = uint8_t((config.adapt ? protocol::Hello::kAdapt : 0) |
+                        (config.keep_lossless ? protocol::Hello::kKeepLossless : 0) |
+                        (config.keep_full_rate ? protocol::Hello::kKeepFullRate : 0) |
+                        (config.notify ? protocol::Hello::kNotify : 0));
+  hello.max_bits_per_s = config.max_bits_per_s;
   try {
     impl_->connection->write_all(
         protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
@@ -452,6 +499,10 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   if (std::llabs(offset) > (received_us - sent_us) / 2) impl_->clock_offset_us = offset;
   impl_->decoder = std::make_unique<FrameSetDecoder>(config.depth_codec, config.color_codec,
                                                      impl_->welcome.cameras);
+  impl_->tier.depth_codec = config.depth_codec;
+  impl_->tier.color_codec = config.color_codec;
+  impl_->tier.color_quality = config.color_quality;
+  impl_->tier.lossless_depth = depth_codec_info(config.depth_codec).lossless;
   if (config.decode) impl_->pool = std::make_unique<WorkerPool>(config.decode_threads);
   impl_->stateless = impl_->decoder->stateless();
   impl_->last_depth.resize(impl_->welcome.cameras.size());
@@ -481,6 +532,10 @@ int64_t Client::clock_offset_us() const {
   return impl_->clock_offset_us;
 }
 
+const TierState& Client::tier() const {
+  return impl_->tier;
+}
+
 uint64_t Client::frames_undecodable() const {
   return impl_->undecodable;
 }
@@ -493,6 +548,10 @@ bool Client::receive(ReceivedFrameSet& out) {
     if (!m.read_message(header, m.frame_set_limit, deadline, false)) return false;
     if (header.channel == protocol::Channel::kSession) {
       m.to_session_handler(header);
+      continue;
+    }
+    if (header.type == protocol::MessageType::kTierChange) {
+      m.change_tier();
       continue;
     }
     const bool sealed = header.type == protocol::MessageType::kSealedFrameSet;

@@ -53,6 +53,8 @@ bool Pacer::on_ack(uint64_t sequence, int64_t now_us) {
       static_cast<double>(delivered_ - sent.delivered_at_send) / static_cast<double>(interval);
   delivered_us_ = now_us;
   const int64_t rtt = std::max<int64_t>(1, now_us - sent.send_us);
+  last_rtt_us_ = rtt;
+  last_acked_bytes_ = sent.bytes;
 
   while (!rtt_.empty() && rtt_.back().value >= rtt) rtt_.pop_back();
   rtt_.push_back({now_us, rtt});

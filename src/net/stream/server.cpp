@@ -25,14 +25,17 @@ void Server::Impl::admit(detail::Admitted& a) {
     for (const auto& v : viewers) active += !v.done;
     if (active >= config.max_viewers)
       throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
-    check_offered(hello);
+    const bool adapt = (hello.adapt & protocol::Hello::kAdapt) && !ladder.empty();
+    if (!adapt) check_offered(hello);  // the ladder's tiers count as offered to adaptive viewers
     Viewer& v = viewers.emplace_back();
     v.id = next_viewer_id++;
     v.report.id = v.id;
     v.address = a.address;
+    v.adapt = hello.adapt;
+    v.max_bits_per_s = hello.max_bits_per_s;
+    v.hello_key = {hello.depth_codec, hello.color_codec, hello.color_quality};
     try {
-      v.tier = subscribe({hello.depth_codec, hello.color_codec, hello.color_quality}, &v.wake,
-                         &v.address);
+      v.tier = adapt ? subscribe_adaptive(v) : subscribe(v.hello_key, &v.wake, &v.address);
     } catch (...) {
       viewers.pop_back();
       throw;
@@ -40,9 +43,13 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.connection = std::move(a.connection);
     v.report.peer = v.connection->peer();
     v.report.connected = true;
-    v.report.depth_codec = hello.depth_codec;  // known codec names: subscribe checked them
-    v.report.color_codec = hello.color_codec;
-    v.report.color_quality = hello.color_quality;
+    const detail::TierKey& key = v.tier->encoder.key();  // known codecs: subscribe checked them
+    v.report.depth_codec = key.depth_codec;
+    v.report.color_codec = key.color_codec;
+    v.report.color_quality = key.color_quality;
+    v.report.frame_divisor = key.frame_divisor;
+    v.report.adaptive = adapt;
+    v.report.rung = adapt ? rung_of(v) : -1;
     v.thread = std::thread([this, &v] { serve_viewer(v); });
   } catch (const Error& e) {
     ViewerReport r;
@@ -103,22 +110,23 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.handshake_timeout_ms < 1 || config.max_pending < 1 ||
       config.max_pending_per_address < 1)
     throw Error("server: handshake timeout and pending-handshake limits must be at least 1");
-  for (const auto& t : config.offered_tiers) {
-    const size_t a = t.find('/'), b = a == std::string::npos ? a : t.find('/', a + 1);
-    const std::string depth = t.substr(0, a);
-    const std::string color =
-        a == std::string::npos ? "" : t.substr(a + 1, b == std::string::npos ? b : b - a - 1);
-    int quality = 0;
-    if (b != std::string::npos) {
-      const std::string q = t.substr(b + 1);
-      const bool digits =
-          !q.empty() && q.size() <= 3 && q.find_first_not_of("0123456789") == std::string::npos;
-      quality = digits ? std::stoi(q) : -1;
+  for (const auto& t : config.offered_tiers)
+    if (detail::parse_tier(t, "offered tier").frame_divisor != 1)
+      throw Error("server: offered tier '" + t + "': @N is for the ladder (--ladder) only");
+  for (const auto& t : config.ladder) {
+    // With an offer list, the ladder keeps only what is offered (the operator's list wins).
+    detail::TierKey key = detail::parse_tier(t, "ladder rung");
+    bool offered = config.offered_tiers.empty();
+    for (const auto& o : config.offered_tiers) {
+      const detail::TierKey k = detail::parse_tier(o, "offered tier");
+      offered |= k.depth_codec == key.depth_codec && k.color_codec == key.color_codec &&
+                 (o.find('/', o.find('/') + 1) == std::string::npos ||
+                  k.color_quality == key.color_quality);
     }
-    if (!find_depth_codec(depth) || !find_color_codec(color) || quality < 0 || quality > 100)
-      throw Error("server: offered tier '" + t +
-                  "' must be DEPTH/COLOR or DEPTH/COLOR/QUALITY with codecs this build has "
-                  "(volcast view --help lists them) and a quality 1..100");
+    if (offered)
+      impl_->ladder.push_back(std::move(key));
+    else
+      spdlog::info("server: ladder rung {} is not offered (--tiers): left out", t);
   }
   const std::string bind = resolve_bind_address(config.bind_address);
   if (config.insecure && !is_loopback_address(bind))
@@ -185,7 +193,7 @@ void Server::remove_tier_tap(uint64_t id) {
 void Server::request_key_frame(const std::string& depth_codec, const std::string& color_codec,
                                int color_quality) {
   std::lock_guard lock(impl_->mutex);
-  const detail::TierKey key{depth_codec, color_codec, color_quality};
+  const detail::TierKey key{depth_codec, color_codec, color_quality, 1};
   for (const auto& tier : impl_->tiers)
     if (tier->encoder.key() == key && !tier->stop) tier->key_wanted = true;
 }

@@ -15,6 +15,7 @@
 #include <deque>
 #include <functional>
 #include <list>
+#include <map>
 #include <mutex>
 #include <thread>
 
@@ -119,7 +120,10 @@ struct Server::Impl {
     bool stop = false;
     TierReport report;
     double encode_ms_total = 0;
-    double encode_ns = 0;    // estimated CPU per frame set (detail::tier_encode_ns)
+    double encode_ns = 0;    // estimated CPU per site frame set (detail::tier_encode_ns / divisor)
+    // Body bytes of the frame sets encoded in the last second, with their steady times: the
+    // tier's rate for the viewers' rate control.
+    std::deque<std::pair<int64_t, size_t>> produced;
     double cpu_ms_mean = 0;  // measured codec CPU per frame set, moving average
   };
   std::list<std::shared_ptr<Tier>> tiers;
@@ -149,7 +153,14 @@ struct Server::Impl {
     uint32_t outbox_stream_mask = 0;
     int64_t timer_due_us = -1;
     std::string kicked;  // set: disconnect with this reason
-    std::shared_ptr<Tier> tier;
+    std::shared_ptr<Tier> tier;  // changed by its own thread only (under mutex)
+    // Rate adaptation (server.hpp): the Hello's flags and cap, the best rung it may get, rungs
+    // refused by the CPU budget until a steady time, and the tier its Hello named.
+    uint8_t adapt = 0;
+    uint64_t max_bits_per_s = 0;
+    size_t top = 0;
+    std::vector<int64_t> refused_until;
+    detail::TierKey hello_key;
     std::string address;  // the peer's IP address (per-address tier limits)
     std::thread thread;
     WakeFd wake;
@@ -157,6 +168,10 @@ struct Server::Impl {
     std::atomic<bool> done{false};
   };
   std::list<Viewer> viewers;
+  std::vector<detail::TierKey> ladder;  // config.ladder parsed
+  // Each tier's last measured rate (bits/s) by name, kept after it stops: a rung not running now
+  // is judged by what it produced last.
+  std::map<std::string, double> learned_bits;
   uint64_t next_viewer_id = 1;
   uint64_t next_tap_id = 1;
   std::deque<ViewerReport> ended;  // reports of viewers that left, newest last (bounded)
@@ -242,13 +257,34 @@ struct Server::Impl {
 
   // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
   // session service, else skipped). Anything else ends the connection.
-  void read_control(Viewer& v, Tier& tier, Pacer& pacer, std::vector<uint8_t>& payload);
+  // Each Ack also goes to `rc` (the viewer's rate control).
+  void read_control(Viewer& v, Pacer& pacer, RateController& rc, std::vector<uint8_t>& payload);
+
+  // --- Rate adaptation (server_adapt.cpp) ---
+
+  // Whether `v` adapts along the ladder (Hello kAdapt, a ladder).
+  bool adaptive(const Viewer& v) const { return (v.adapt & protocol::Hello::kAdapt) && !ladder.empty(); }
+  // The rate (bits/s) of `key`'s tier: measured while it runs, else learned, else 0. Mutex held.
+  double tier_bits(const detail::TierKey& key) const;
+  // Per rung, whether `v` may be put on it now (floors, its cap if `cap`, its best rung, budget
+  // refusals). Mutex held.
+  std::vector<char> allowed_rungs(const Viewer& v, int64_t now, bool cap = true) const;
+  // The rung of `v`'s tier, or -1.
+  int rung_of(const Viewer& v) const;
+  // Puts `v` on its first rung at admission (the best allowed that the budget takes). Mutex held;
+  // throws the budget's Error when none does.
+  std::shared_ptr<Tier> subscribe_adaptive(Viewer& v);
+  // Moves `v` to rung `rung` (or, for a notice, keeps it) and tells it with a TierChange. False
+  // if the budget refused that rung's tier (then left out for 10 s).
+  bool switch_tier(Viewer& v, const RateDecision& d, double goodput_bits);
+  // Writes a TierChange for `v`'s tier now with `reason`.
+  void send_tier_change(Viewer& v, const std::string& reason, double goodput_bits);
 
   // Sends `tier`'s newest frame sets to `v` as its pacer allows (sealed when the tier sealed them
   // and the connection carries raw bytes), skipping stale ones and deltas it cannot decode, with
   // its session messages ahead of them; reads its Acks, key frame requests and session messages.
   // Throws Error when the viewer stalls, misbehaves or the connection fails.
-  void stream(Viewer& v, Tier& tier);
+  void stream(Viewer& v);
 };
 
 }  // namespace volcast

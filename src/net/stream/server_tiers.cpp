@@ -59,8 +59,7 @@ void Server::Impl::check_tier_budget(const detail::TierKey& key, double encode_n
       ++alone_count;
     }
   }
-  const std::string name = key.depth_codec + "/" + key.color_codec +
-                           (key.color_quality > 0 ? "/" + std::to_string(key.color_quality) : "");
+  const std::string name = detail::tier_name(key);
   // Each reason fits the 200 characters a viewer shows of a Reject.
   if (total + cost > budget_cores)
     throw Error(fmt::format(
@@ -142,7 +141,12 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
       // deltas through beats making keys on schedule.
       const EncodedFrameSetBody* pre = frames->encoded.get();
       const detail::TierKey& tk = tier->encoder.key();
-      const bool recorded_tier = pre && pre->depth_codec == tk.depth_codec &&
+      // A tier that encodes every Nth frame set waits for the next whose sequence N divides.
+      if (tk.frame_divisor > 1 && frames->sequence % uint64_t(tk.frame_divisor) != 0) {
+        last_sequence = frames->sequence;
+        continue;
+      }
+      const bool recorded_tier = pre && tk.frame_divisor == 1 && pre->depth_codec == tk.depth_codec &&
                                  pre->color_codec == tk.color_codec &&
                                  pre->color_quality == tk.color_quality;
       // Images standing in for a frame set not decoded (a relay's) are an earlier one's: a tier
@@ -181,6 +185,19 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
     const double weight = 1.0 / double(std::min<uint64_t>(tier->report.frames_encoded, 30));
     tier->cpu_ms_mean += (tier->encoder.last_cpu_ms() - tier->cpu_ms_mean) * weight;
     tier->latest = encoded;
+    // Its rate over the last second, for the viewers' rate control (learned for when it stops).
+    const int64_t now_us = steady_us();
+    tier->produced.emplace_back(now_us, encoded->body.size());
+    while (tier->produced.front().first < now_us - 1'000'000) tier->produced.pop_front();
+    if (now_us - tier->produced.front().first >= 500'000 || tier->produced.size() >= 8) {
+      size_t bytes = 0;
+      for (const auto& p : tier->produced) bytes += p.second;
+      const double span_us =
+          std::max<double>(double(now_us - tier->produced.front().first), 1) *
+          double(tier->produced.size()) / double(std::max<size_t>(tier->produced.size() - 1, 1));
+      tier->report.mbit_s = double(bytes) * 8 / span_us;
+      learned_bits[detail::tier_name(tier->encoder.key())] = tier->report.mbit_s * 1e6;
+    }
     for (const WakeFd* w : tier->subscribers) w->signal();
     if (tier->taps.empty()) continue;
     std::vector<std::shared_ptr<std::function<void(const TierFrameSet&)>>> taps;
@@ -208,13 +225,15 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKe
     if (static_cast<int>(tiers.size()) >= config.max_tiers)
       throw Error("server has " + std::to_string(config.max_tiers) +
                   " tiers already; choose the codecs of a viewer already watching");
-    const double encode_ns = detail::tier_encode_ns(key, site_pixels);  // unknown codecs throw
+    // Unknown codecs throw; a tier of every Nth frame set costs 1/N per site frame set.
+    const double encode_ns = detail::tier_encode_ns(key, site_pixels) / key.frame_divisor;
     if (address) check_tier_budget(key, encode_ns, *address);
     tier = std::make_shared<Tier>(key, cameras.size());
     tier->encode_ns = encode_ns;
     tier->report.depth_codec = key.depth_codec;
     tier->report.color_codec = key.color_codec;
     tier->report.color_quality = key.color_quality;
+    tier->report.frame_divisor = key.frame_divisor;
     tiers.push_back(tier);
     tier->thread = std::thread([this, tier] { run_tier(tier); });
   }

@@ -32,9 +32,14 @@ void Server::Impl::serve_viewer(Viewer& v) {
     protocol::Welcome welcome{cameras, wall_clock_us()};
     c.write_all(protocol::message(protocol::MessageType::kWelcome, protocol::serialize(welcome)),
                 config.stall_timeout_ms);
-    spdlog::info("viewer {} connected (depth {}, color {})", v.report.peer, v.report.depth_codec,
-                 v.report.color_codec);
-    stream(v, *v.tier);
+    spdlog::info("viewer {} connected (tier {}{})", v.report.peer,
+                 detail::tier_name(v.tier->encoder.key()), adaptive(v) ? ", adaptive" : "");
+    if (adaptive(v))  // its first tier, and why (its Hello named the best it wants, if a rung)
+      send_tier_change(v,
+                       "starting on the best tier of this server's ladder that your floor and cap "
+                       "allow",
+                       0);
+    stream(v);
   } catch (const std::exception& e) {
     if (!stopping) spdlog::info("viewer {} ended: {}", v.report.peer, e.what());
     update(v, [&](ViewerReport& r) { r.error = e.what(); });
@@ -114,7 +119,7 @@ int64_t Server::Impl::flush_session(Viewer& v,
 
 // Reads one message from the viewer: an Ack, a KeyFrameRequest, or a session message (for the
 // session service, else skipped). Anything else ends the connection.
-void Server::Impl::read_control(Viewer& v, Tier& tier, Pacer& pacer,
+void Server::Impl::read_control(Viewer& v, Pacer& pacer, RateController& rc,
                                 std::vector<uint8_t>& payload) {
   Connection& c = *v.connection;
   uint8_t header_bytes[protocol::kHeaderBytes];
@@ -136,23 +141,36 @@ void Server::Impl::read_control(Viewer& v, Tier& tier, Pacer& pacer,
     return;
   }
   if (h.type == protocol::MessageType::kAck) {
-    if (!pacer.on_ack(protocol::parse_ack(payload), steady_us()))
+    const int64_t now = steady_us();
+    if (!pacer.on_ack(protocol::parse_ack(payload), now))
       throw Error("viewer acknowledged a frame set it was not sent");
+    rc.on_ack(now, pacer.last_acked_bytes(), pacer.last_rtt_us(),
+              static_cast<int64_t>(pacer.min_rtt_us()));
   } else if (h.type == protocol::MessageType::kKeyFrameRequest) {
     std::lock_guard lock(mutex);
-    tier.key_wanted = true;
+    v.tier->key_wanted = true;
     ++v.report.key_requests;
   } else if (h.channel != protocol::Channel::kSession) {
     throw Error("viewer sent an unexpected message");
   }
 }
 
-void Server::Impl::stream(Viewer& v, Tier& tier) {
+void Server::Impl::stream(Viewer& v) {
   Connection& c = *v.connection;
   Pacer pacer(config.max_window);
+  // Rate control: on the ladder for an adaptive viewer, else on its one tier (for notices).
+  const bool adapt = adaptive(v);
+  const bool notify = adapt || (v.adapt & protocol::Hello::kNotify);
+  RateController rc(adapt ? ladder.size() : 1, adapt ? size_t(std::max(0, rung_of(v))) : 0,
+                    config.rate_control);
+  std::vector<double> rung_bits(adapt ? ladder.size() : 1);
+  std::vector<char> allowed;
+  RateDecision decision;
   std::vector<uint8_t> payload;
   uint64_t last_sequence = 0;  // the site sequence last sent (or skipped)
   uint64_t last_index = 0;     // the tier index last sent; a delta needs index == last + 1
+  uint64_t last_blocked = 0;        // the newest frame set the pacer held back
+  uint64_t blocked_since_send = 0;  // held back since the last send (told to the rate control)
   bool synced = false;
   auto last_progress = std::chrono::steady_clock::now();
   const double cpu_start_ms = thread_cpu_ms();
@@ -166,9 +184,35 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
     const Connection::Ready ready = c.wait(v.wake.fd, timeout_ms);
     if (ready.woken) v.wake.drain();
     if (ready.readable) {
-      read_control(v, tier, pacer, payload);
+      read_control(v, pacer, rc, payload);
       last_progress = std::chrono::steady_clock::now();
     }
+    if (notify) {
+      const int64_t now = steady_us();
+      {
+        std::lock_guard lock(mutex);
+        if (adapt) {
+          for (size_t r = 0; r < ladder.size(); ++r) rung_bits[r] = tier_bits(ladder[r]);
+          allowed = allowed_rungs(v, now);
+        } else {
+          rung_bits[0] = tier_bits(v.tier->encoder.key());
+          allowed.assign(1, 1);
+        }
+        v.report.goodput_mbit_s = rc.goodput_bits(now) / 1e6;
+        v.report.queue_ms = rc.queue_ms();
+      }
+      if (rc.decide(now, rung_bits, allowed, decision)) {
+        const double goodput = rc.goodput_bits(now);
+        if (decision.notice) {
+          switch_tier(v, decision, goodput);
+        } else if (switch_tier(v, decision, goodput)) {
+          rc.switched(decision.rung, steady_us(), decision.up);
+          synced = false;  // the new tier's next key frame set comes first
+          last_sequence = 0;
+        }
+      }
+    }
+    Tier& tier = *v.tier;
     session_due = flush_session(v, batch, joined);  // session messages go ahead of frame sets
     if (!batch.empty())
       update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });
@@ -182,7 +226,16 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
       frames = tier.latest;
     }
     if (!frames || frames->sequence <= last_sequence) continue;
-    if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) continue;
+    if (!pacer.can_send(frames->body.size() + protocol::kFrameSetPrefixBytes)) {
+      // Held back by the path: a sign of congestion for the rate control, counted as it happens
+      // (a path that acknowledges nothing would otherwise show none).
+      if (synced && frames->sequence != last_blocked) {
+        last_blocked = frames->sequence;
+        ++blocked_since_send;
+        rc.on_skip(steady_us());
+      }
+      continue;
+    }
     const int64_t now_wall = wall_clock_us();
     const bool decodable = frames->key || (synced && frames->index == last_index + 1);
     // Older than the budget: skipped for the next, fresher one -- unless the site finished
@@ -193,6 +246,7 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
                        frames->encode_done_us - frames->capture_us <= budget_us;
     if (!decodable || stale) {
       // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
+      if (stale || synced) rc.on_skip(steady_us());
       std::lock_guard lock(mutex);
       ++v.report.frames_dropped;
       v.report.frames_stale += stale;
@@ -218,8 +272,13 @@ void Server::Impl::stream(Viewer& v, Tier& tier) {
     if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
     pacer.on_send(frames->sequence, bytes, steady_us());
     std::lock_guard lock(mutex);
-    if (last_sequence > 0 && frames->sequence > last_sequence + 1)
-      v.report.frames_dropped += frames->sequence - last_sequence - 1;
+    const uint64_t step = uint64_t(tier.encoder.key().frame_divisor);  // the tier's own spacing
+    if (last_sequence > 0 && frames->sequence > last_sequence + step) {
+      const uint64_t missed = (frames->sequence - last_sequence) / step - 1;
+      v.report.frames_dropped += missed;
+      if (missed > blocked_since_send) rc.on_skip(steady_us(), missed - blocked_since_send);
+    }
+    blocked_since_send = 0;
     last_sequence = frames->sequence;
     last_index = frames->index;
     synced = true;

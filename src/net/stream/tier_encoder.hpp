@@ -16,8 +16,16 @@ namespace volcast::detail {
 struct TierKey {
   std::string depth_codec, color_codec;
   int color_quality = 0;
+  int frame_divisor = 1;  ///< 1..8: the tier encodes the site frame sets whose sequence it divides
   bool operator==(const TierKey&) const = default;
 };
+
+/// Parses "DEPTH/COLOR", "DEPTH/COLOR/QUALITY" or either with "@N" (every Nth frame set, N 1..8),
+/// e.g. "h264/h264/50@2". Throws Error naming `what` (e.g. "offered tier") and the text for an
+/// unknown codec, a quality outside 0..100 or a divisor outside 1..8.
+TierKey parse_tier(const std::string& text, const std::string& what);
+/// "volcast/jpeg/80", "h264/h264/50@2" (quality 0 and divisor 1 left out).
+std::string tier_name(const TierKey& key);
 
 /// Estimated CPU time (ns, one thread) to encode one frame set of tier `key` for a site of
 /// `pixels` depth pixels in all (each with a registered color pixel): the codecs'

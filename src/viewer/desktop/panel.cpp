@@ -87,7 +87,11 @@ void filter_section(ViewerControls& c, const PanelInfo& info) {
 
 void live_section(const PanelInfo& info) {
   const LiveStats& live = info.live;
-  ImGui::Text("tier: depth %s, color %s", live.depth_codec.c_str(), live.color_codec.c_str());
+  ImGui::Text("tier: %s%s%s", live.tier.c_str(), live.lossless_depth ? "" : "  (LOSSY DEPTH)",
+              live.adaptive ? "  adaptive" : "  pinned");
+  if (live.path_mbit_s > 0) ImGui::Text("path: about %.1f Mbit/s", live.path_mbit_s);
+  for (const TierEvent& e : live.tier_events)
+    ImGui::TextWrapped("%s %s: %s", e.notice ? "kept" : "->", e.tier.c_str(), e.reason.c_str());
   ImGui::Text("frame sets received: %llu",
               static_cast<unsigned long long>(live.frame_sets_received));
   if (ImGui::BeginTable("cameras", 5, ImGuiTableFlags_Borders)) {

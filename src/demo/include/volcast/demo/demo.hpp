@@ -13,6 +13,7 @@ struct DemoArgs {
   std::string
       data;  ///< folder holding the shared recordings; default: found near the binary or cwd
   std::string depth_codec = "volcast", color_codec = "jpeg";
+  bool tier_pinned = false;  ///< --depth-codec or --color-codec given: the viewer does not adapt
   int cameras = 2;
   bool no_render = false;    ///< render only the PNGs at the end, not while streaming
   bool low_latency = false;  ///< the CLI holds the CPU wake-up latency at 0 meanwhile

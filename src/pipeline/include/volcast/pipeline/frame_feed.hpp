@@ -13,6 +13,7 @@
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
+#include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 #include "volcast/render/view.hpp"
 
@@ -40,6 +41,20 @@ struct CameraStats {
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< capture timestamp -> ready (stage_stats.hpp)
 };
 
+/// A change of the viewer's tier, or a notice that the path cannot carry it (the server's
+/// TierChange, protocol.hpp 0.6), as the viewer took it.
+struct TierEvent {
+  int64_t time_us = 0;     ///< this viewer's wall clock
+  std::string tier;        ///< "DEPTH/COLOR/QUALITY[@N]" after it
+  bool lossless_depth = true;
+  bool notice = false;     ///< the same tier: the floor or pin keeps it
+  double path_mbit_s = 0;  ///< the server's estimate of the path then
+  std::string reason;
+};
+
+/// "volcast/jpeg/70", "h264/h264/50@2": a TierState as people read it.
+std::string tier_label(const TierState& t);
+
 /// Figures while the session runs, for a viewer's panel: refreshed about twice a second by the
 /// receiving thread. Per camera, frames_received and frames_dropped count from the start; fps,
 /// Mbit/s and latency cover the last refresh interval. Stages cover the session so far.
@@ -47,6 +62,11 @@ struct LiveStats {
   std::vector<CameraStats> cameras;
   std::vector<StageLatency> stages;  ///< kStageNames order; empty until a frame set arrived
   std::string depth_codec, color_codec;
+  std::string tier;             ///< tier_label() of the tier now
+  bool adaptive = false;        ///< the server moves it along its ladder
+  bool lossless_depth = true;   ///< the tier's depth is lossless
+  double path_mbit_s = 0;       ///< the server's last path estimate (0: none said)
+  std::vector<TierEvent> tier_events;  ///< the last 8 changes and notices, oldest first
   uint64_t frame_sets_received = 0;
 };
 

@@ -37,7 +37,10 @@ struct ViewerResult {
   ViewerEnd ended = ViewerEnd::kServerClosed;
   std::string error;  ///< what went wrong, for the error ends; empty otherwise
   uint64_t frame_sets_received = 0;
-  std::string depth_codec, color_codec;
+  std::string depth_codec, color_codec;  ///< the tier's codecs at the end
+  std::string tier;                      ///< tier_label() at the end
+  bool adaptive = false;                 ///< the server moved it along its ladder
+  std::vector<TierEvent> tier_events;    ///< every change and notice (the first 256)
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
   uint64_t frames_undecodable = 0;   ///< skipped: a delta without its reference (key requested)
@@ -64,7 +67,8 @@ class ViewerError : public Error {
 };
 
 /// Writes the figures as JSON ({"ended", "error" (null when none), "frame_sets_received",
-/// "depth_codec", "color_codec", "frames_rendered", "cameras": [...], "stages": [{"stage",
+/// "depth_codec", "color_codec", "tier", "adaptive", "tier_changes": [{"time_us", "tier",
+/// "lossless_depth", "notice", "path_mbit_s", "reason"}], "frames_rendered", "cameras": [...], "stages": [{"stage",
 /// "p50_ms", "p99_ms", "mean_ms"}, ...]}; for a participant also "session" (name), "participants"
 /// (the others' names), "session_round_trip_ms_p50" / "_p99", "round_trip_samples", "poses_sent",
 /// "avatar_frames_sent" and per other participant {"id", "name", "poses_received",

@@ -16,6 +16,10 @@
 //                    codec, color codec, quality) is the viewer's tier. The server compares the
 //                    token (constant time) before it parses anything after it; at most
 //                    kMaxHelloBytes, and it must arrive within the server's handshake timeout.
+//                    Then, optionally (a viewer that sends neither is pinned and never told
+//                    anything of its path): adaptation flags u8 (Hello::kAdapt, kKeepLossless,
+//                    kKeepFullRate, kNotify; other bits refused) | the most the viewer wants to be
+//                    sent u64 (bits per second of frame sets, 0 = no cap).
 //     0.2 Welcome    server -> viewer: camera count u32, then per camera: width u16, height u16,
 //                    the 15 intrinsics fx fy cx cy k1..k6 p1 p2 codx cody metric_radius (f64),
 //                    world_from_camera rotation (9 f64, row-major) and translation (3 f64, metres),
@@ -29,6 +33,13 @@
 //                    decoded (or, for a receive-only peer, read). The server paces by Acks.
 //     0.5 KeyFrameRequest  viewer -> server, empty: the viewer's decoder refused a delta frame;
 //                    the server sends the viewer's tier's next key frame (rate-limited per tier).
+//     0.6 TierChange server -> viewer, only to a viewer whose Hello set kAdapt or kNotify: depth codec
+//                    string, color codec string, color quality u8, frame divisor u8 (1..8: the
+//                    tier encodes every Nth site frame set), the server's estimate of the path
+//                    (delivery rate in kbit/s, u32) and a reason string for people (at most
+//                    kMaxReasonBytes). Every frame set after it is of this tier, beginning with a
+//                    key frame set. The same tier as before is a notice: the path cannot carry it
+//                    and the viewer's floor (or its pin) keeps it there. At most kMaxControlBytes.
 //   1 frames       (its code, writer and reader: frame_set.hpp)
 //     1.1 FrameSet   server -> viewer: send time i64 (when this server began writing the message
 //                    to this viewer), then the tier's shared body, byte-identical for every viewer
@@ -75,8 +86,8 @@
 //                    without one skips payloads of up to kMaxControlBytes. They may come between
 //                    any two messages of the conversation below, in both directions.
 //
-// Conversation: Hello, then Welcome or Reject; then FrameSets (1.1 or 1.2) from the server and
-// Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the
+// Conversation: Hello, then Welcome or Reject; then FrameSets (1.1 or 1.2) and TierChanges from
+// the server and Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the
 // connection; so is a TLS record that straddles the sealed bytes of a 1.2 message.
 //
 // Limits a viewer enforces on what a server claims, before it allocates for it (a message over a
@@ -148,6 +159,7 @@ enum class MessageType : uint16_t {
   kReject = 0x0003,
   kAck = 0x0004,
   kKeyFrameRequest = 0x0005,
+  kTierChange = 0x0006,
   kFrameSet = 0x0101,
   kSealedFrameSet = 0x0102,
 };
@@ -177,6 +189,25 @@ struct Hello {
   std::string depth_codec;
   std::string color_codec;
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default
+  /// Adaptation flags (the optional tail; 0 with max_bits_per_s 0: not sent).
+  static constexpr uint8_t kAdapt = 1;         ///< the server may move it along its tier ladder
+  static constexpr uint8_t kKeepLossless = 2;  ///< never a tier with lossy depth
+  static constexpr uint8_t kKeepFullRate = 4;  ///< never a tier that skips site frame sets
+  static constexpr uint8_t kNotify = 8;  ///< understands TierChange (0.6); implied by kAdapt
+  uint8_t adapt = 0;
+  uint64_t max_bits_per_s = 0;  ///< frame sets at most this rate (bits/s); 0: no cap
+};
+
+/// The longest TierChange reason (bytes).
+inline constexpr size_t kMaxReasonBytes = 400;
+
+/// TierChange (0.6): the tier the frame sets after it are of, and why.
+struct TierChange {
+  std::string depth_codec, color_codec;
+  int color_quality = 0;  ///< 0..100 (0: the codec's default)
+  int frame_divisor = 1;  ///< 1..8: every Nth site frame set
+  uint32_t path_kbit_s = 0;  ///< the server's delivery-rate estimate of the path; 0: none yet
+  std::string reason;
 };
 
 struct CameraInfo {
@@ -211,6 +242,10 @@ Welcome parse_welcome(std::span<const uint8_t> payload);
 /// kFrameSetBytesPerPixel * width * height; at most kMaxPayloadBytes.
 uint32_t frame_set_payload_limit(const Welcome& welcome);
 std::string parse_reject(std::span<const uint8_t> payload);
+std::vector<uint8_t> serialize(const TierChange& m);
+/// Refuses (Error "malformed tier change: ...") a quality over 100, a divisor outside 1..8, a
+/// reason longer than kMaxReasonBytes, trailing bytes.
+TierChange parse_tier_change(std::span<const uint8_t> payload);
 uint64_t parse_ack(std::span<const uint8_t> payload);
 
 /// Header + payload as one message.

@@ -32,6 +32,15 @@ struct ClientConfig {
   std::string depth_codec = "volcast";
   std::string color_codec = "jpeg";
   int color_quality = 0;  ///< 1..100, 0 = the color codec's default
+  /// Rate adaptation (server.hpp): the server may move this viewer along its tier ladder (the
+  /// tier above is then the best it wants, if the ladder has it; else the ladder's best).
+  bool adapt = false;
+  bool keep_lossless = false;   ///< floor: never lossy depth (the server is told; checked here too)
+  bool keep_full_rate = false;  ///< floor: never a tier that skips site frame sets
+  uint64_t max_bits_per_s = 0;  ///< cap on the stream's rate (bits/s); 0: none
+  /// Tell the server this viewer understands TierChange: when pinned, it is told if its path cannot
+  /// carry its tier (TierState::notices, reason).
+  bool notify = true;
   /// false: receive-only -- frame sets are read and acknowledged but not decoded (a load
   /// generator measuring the server, or a relay). A sealed one (protocol.hpp 1.2) is not even
   /// opened: its sequence, key flag and times come from the descriptor, and its per-camera sizes
@@ -96,6 +105,19 @@ struct ReceivedFrameSet {
   std::vector<uint8_t> encoded_body;
 };
 
+/// The tier a viewer is on, as the server last said (protocol.hpp TierChange), or as it asked.
+struct TierState {
+  std::string depth_codec, color_codec;
+  int color_quality = 0;
+  int frame_divisor = 1;
+  bool lossless_depth = true;
+  double path_mbit_s = 0;  ///< the server's estimate of the path when it last said
+  std::string reason;      ///< why (sanitised); empty until the server said anything
+  uint64_t changes = 0;    ///< tier changes taken
+  uint64_t notices = 0;    ///< notices: the path cannot carry the tier, but the floor or pin holds
+  uint64_t messages = 0;   ///< TierChanges received (the first may only say where it starts)
+};
+
 /// A config joining the session of `link` (join.hpp); codecs and the rest stay at their defaults.
 /// Throws Error like parse_join_link.
 ClientConfig client_config_from_link(const std::string& link);
@@ -131,6 +153,9 @@ class Client {
   /// breaks.
   bool receive(ReceivedFrameSet& out);
   uint64_t frames_undecodable() const;
+  /// The tier now (changed inside receive(), before the first frame set of a new tier). Read it
+  /// on the thread that calls receive().
+  const TierState& tier() const;
   /// Session channel (protocol.hpp channel 2; src/session). `handler` is called on the thread in
   /// receive() with each session message's type (the byte after the channel) and payload (valid
   /// during the call), at most `max_payload(type)` bytes (0: an unknown type, a protocol error);

@@ -6,8 +6,8 @@
 // delivery-rate samples (2 s), and the bytes in flight are kept under `gain` (2) x BDP, BDP = rate
 // x round trip -- at least one frame set, at most `max_window`. The gain lets an app-limited
 // estimate grow until the stream fits and rides out TCP's loss recovery; on a path slower than
-// the stream about one BDP waits at the bottleneck (the tier's bitrate should drop there: not yet
-// done). Before the first Ack two frame sets may be in flight.
+// the stream about one BDP waits at the bottleneck (a viewer's tier then steps down:
+// rate_control.hpp). Before the first Ack two frame sets may be in flight.
 // All times are microseconds of one steady clock; sizes are bytes.
 #include <cstddef>
 #include <cstdint>
@@ -32,6 +32,9 @@ class Pacer {
   double bottleneck_bytes_per_us() const { return rate_.empty() ? 0 : rate_.front().value; }
   /// Frame sets of the recent mean size that fit in the allowance now (1..max_window).
   int window_frames() const;
+  /// The round trip (send -> Ack, µs) and bytes of the frame set on_ack() took last.
+  int64_t last_rtt_us() const { return last_rtt_us_; }
+  size_t last_acked_bytes() const { return last_acked_bytes_; }
 
  private:
   struct Sent {
@@ -55,6 +58,8 @@ class Pacer {
   uint64_t delivered_ = 0;
   int64_t delivered_us_ = 0;
   double mean_frame_bytes_ = 0;
+  int64_t last_rtt_us_ = 0;
+  size_t last_acked_bytes_ = 0;
   std::deque<Sample<int64_t>> rtt_;  // monotonic: front is the window's minimum
   std::deque<Sample<double>> rate_;  // monotonic: front is the window's maximum
 };

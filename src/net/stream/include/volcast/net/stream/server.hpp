@@ -23,6 +23,18 @@
 // handshakes in total and per address, and a back-off for wrong tokens (a right one always gets
 // in). Only then does a viewer get a thread, a tier, and count against `max_viewers`.
 //
+// Rate adaptation (rate_control.hpp). A viewer whose Hello asks for it (protocol.hpp kAdapt) is
+// moved along the server's tier ladder (ServerConfig::ladder: the best first; each rung a tier
+// encoded once for all its viewers) as its path allows: it starts on the best rung its floors and
+// cap allow (its Hello's tier, if a rung, is the best it gets), steps down within about a
+// quarter of a second of congestion being measured and probes back up after a hold, each switch
+// a TierChange (protocol.hpp 0.6) and then a key frame set of the new tier. Floors are the
+// viewer's: kKeepLossless (never lossy depth), kKeepFullRate; a viewer that asked for one, or
+// pinned its tier (no kAdapt), is never moved past it: with kNotify it is told instead, when its
+// path cannot carry its tier. A rung whose tier the CPU budget refuses is left out for 10 s. A
+// viewer holds one tier at a time and moves among the ladder's only, so no viewer makes the
+// server encode a tier its policy does not list.
+//
 // Pacing (per viewer, from Ack timing, after BBR: Cardwell et al., ACM Queue 2016): the server
 // estimates the path's round-trip time (windowed minimum of send -> Ack) and bottleneck rate
 // (windowed maximum of the delivery rate), and keeps about two bandwidth-delay products of bytes in
@@ -44,10 +56,15 @@
 #include "volcast/core/frame.hpp"
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/net/protocol/protocol.hpp"
+#include "volcast/net/stream/rate_control.hpp"
 #include "volcast/net/stream/session_port.hpp"
 #include "volcast/net/transport/tls.hpp"
 
 namespace volcast {
+
+/// The default tier ladder: lossless depth with JPEG color at two qualities, then near-lossless
+/// depth (within 4 mm), then H.264 depth and color, then that at half the frame rate.
+std::vector<std::string> default_ladder();
 
 struct ServerConfig {
   std::string bind_address =
@@ -83,6 +100,12 @@ struct ServerConfig {
   /// Tiers offered, each "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" (e.g. "volcast/jpeg/90"); a viewer
   /// asking for another is rejected with the list. Empty: any codecs this build has.
   std::vector<std::string> offered_tiers;
+  /// The tier ladder for adaptive viewers, best first, each "DEPTH/COLOR[/QUALITY][@N]" (@N: every
+  /// Nth frame set; see the top). Empty: no adaptation (adaptive viewers are served as pinned).
+  /// With offered_tiers, only its offered rungs are kept. The default keeps depth lossless on its top
+  /// two rungs (kDefaultLadder).
+  std::vector<std::string> ladder = default_ladder();
+  RateControlConfig rate_control;  ///< the adaptation's thresholds and holds
   bool insecure = false;  ///< plain TCP instead of TLS; refused unless bind_address is loopback
   /// Over TLS, a tier with at least this many viewers seals each frame set once for all of them
   /// (protocol.hpp, SealedFrameSet); with fewer, each viewer's TLS encrypts it (FrameSet), which
@@ -122,12 +145,25 @@ struct DoorReport {
   uint64_t web_viewers = 0;  ///< viewers admitted over WebSocket (counted in `admitted` too)
 };
 
+/// One change of a viewer's tier (or a notice that it could not change: `to` == `from`).
+struct TierSwitch {
+  int64_t time_us = 0;  ///< the server's wall clock
+  std::string from, to;  ///< tier names, e.g. "volcast/jpeg/80", "h264/h264/50@2"
+  std::string reason;
+};
+
 /// What the server knows about one viewer (for logs, tests and the benchmark).
 struct ViewerReport {
   uint64_t id = 0;  ///< this server's number for the viewer (1, 2, ...; SessionPort's `viewer`)
   std::string peer;
   std::string depth_codec, color_codec;
   int color_quality = 0;
+  int frame_divisor = 1;  ///< its tier encodes every Nth site frame set
+  bool adaptive = false;  ///< moved along the ladder (Hello kAdapt and a ladder)
+  int rung = -1;          ///< its ladder rung now (0 the best); -1 when pinned
+  double goodput_mbit_s = 0;  ///< acknowledged over the last half second
+  double queue_ms = 0;        ///< smoothed queueing delay (round trip less its minimum)
+  std::vector<TierSwitch> switches;  ///< every change and notice, oldest first (the last 64)
   uint64_t frames_sent = 0;
   uint64_t frames_dropped = 0;  ///< frame sets of its tier it skipped (pacing, budget, no key yet)
   uint64_t frames_stale = 0;    ///< of those, skipped for being older than the latency budget
@@ -154,7 +190,9 @@ struct ViewerReport {
 struct TierReport {
   std::string depth_codec, color_codec;
   int color_quality = 0;
+  int frame_divisor = 1;
   int viewers = 0;
+  double mbit_s = 0;  ///< what it produced over the last second
   uint64_t frames_encoded = 0, key_frames = 0;
   double encode_ms_mean = 0;  ///< wall time to encode every camera of a frame set (and seal it)
   /// CPU time (ms, all threads) the codecs spent per frame set encoded, a moving average over

@@ -1,0 +1,134 @@
+// The Server's rate adaptation: which ladder rung each adaptive viewer is on, and telling viewers
+// of changes and of paths too slow for their floor (server.hpp, rate_control.hpp).
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "server_impl.hpp"
+#include "volcast/codec/registry.hpp"
+#include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+
+namespace volcast {
+
+std::vector<std::string> default_ladder() {
+  return {"volcast/jpeg/70", "volcast/jpeg/40", "volcast-n4/jpeg/40", "h264/h264/50",
+          "h264/h264/50@2"};
+}
+
+namespace {
+constexpr int64_t kRefusedForUs = 10'000'000;  // a rung the budget refused is left out this long
+constexpr size_t kSwitchesKept = 64;
+}  // namespace
+
+double Server::Impl::tier_bits(const detail::TierKey& key) const {
+  for (const auto& t : tiers)
+    if (!t->stop && t->encoder.key() == key && t->report.mbit_s > 0) return t->report.mbit_s * 1e6;
+  const auto it = learned_bits.find(detail::tier_name(key));
+  return it == learned_bits.end() ? 0 : it->second;
+}
+
+std::vector<char> Server::Impl::allowed_rungs(const Viewer& v, int64_t now, bool cap) const {
+  std::vector<char> ok(ladder.size(), 0);
+  for (size_t r = v.top; r < ladder.size(); ++r) {
+    const detail::TierKey& k = ladder[r];
+    if ((v.adapt & protocol::Hello::kKeepLossless) && !depth_codec_info(k.depth_codec).lossless)
+      continue;
+    if ((v.adapt & protocol::Hello::kKeepFullRate) && k.frame_divisor > 1) continue;
+    if (r < v.refused_until.size() && v.refused_until[r] > now) continue;
+    const double bits = tier_bits(k);
+    if (cap && v.max_bits_per_s > 0 && bits > double(v.max_bits_per_s)) continue;
+    ok[r] = 1;
+  }
+  return ok;
+}
+
+int Server::Impl::rung_of(const Viewer& v) const {
+  for (size_t r = 0; r < ladder.size(); ++r)
+    if (v.tier && v.tier->encoder.key() == ladder[r]) return static_cast<int>(r);
+  return -1;
+}
+
+std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) {
+  v.refused_until.assign(ladder.size(), 0);
+  v.top = 0;
+  for (size_t r = 0; r < ladder.size(); ++r)
+    if (ladder[r] == v.hello_key) v.top = r;
+  const int64_t now = steady_us();
+  std::vector<char> ok = allowed_rungs(v, now);
+  if (std::find(ok.begin(), ok.end(), 1) == ok.end()) {
+    // Floors and cap leave nothing: the viewer's floor wins over its cap (a lossless viewer is
+    // never given lossy depth); it starts on the lightest rung its floors allow.
+    ok = allowed_rungs(v, now, false);
+    std::reverse(ok.begin(), ok.end());  // the lightest first
+    std::vector<char> lightest(ok.size(), 0);
+    if (const auto it = std::find(ok.begin(), ok.end(), 1); it != ok.end())
+      lightest[ok.size() - 1 - size_t(it - ok.begin())] = 1;
+    ok = lightest;
+  }
+  std::optional<Error> first;
+  for (size_t r = 0; r < ladder.size(); ++r) {
+    if (!ok[r]) continue;
+    try {
+      return subscribe(ladder[r], &v.wake, &v.address);
+    } catch (const Error& e) {
+      v.refused_until[r] = now + kRefusedForUs;
+      if (!first) first = e;
+    }
+  }
+  if (first) throw *first;
+  throw Error(
+      "no tier of this server's ladder keeps your floor (lossless depth or full frame rate): "
+      "ask for another floor");
+}
+
+void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double goodput_bits) {
+  const detail::TierKey& k = v.tier->encoder.key();
+  protocol::TierChange m{k.depth_codec, k.color_codec, k.color_quality, k.frame_divisor,
+                         static_cast<uint32_t>(std::clamp(goodput_bits / 1e3, 0.0, 4e9)), reason};
+  v.connection->write_all(protocol::message(protocol::MessageType::kTierChange, serialize(m)),
+                          config.stall_timeout_ms);
+}
+
+bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_bits) {
+  const std::string from = detail::tier_name(v.tier->encoder.key());
+  std::string to = from;
+  if (!d.notice) {
+    std::lock_guard lock(mutex);
+    const int64_t now = steady_us();
+    const detail::TierKey& key = ladder[d.rung];
+    std::erase(v.tier->subscribers, &v.wake);
+    try {
+      v.tier = subscribe(key, &v.wake, &v.address);
+    } catch (const Error& e) {
+      v.tier->subscribers.push_back(&v.wake);  // stays where it was
+      v.refused_until[d.rung] = now + kRefusedForUs;
+      spdlog::info("viewer {}: rung {} ({}) refused: {}", v.report.peer, d.rung,
+                   detail::tier_name(key), e.what());
+      return false;
+    }
+    to = detail::tier_name(key);
+    v.report.depth_codec = key.depth_codec;
+    v.report.color_codec = key.color_codec;
+    v.report.color_quality = key.color_quality;
+    v.report.frame_divisor = key.frame_divisor;
+    v.report.rung = static_cast<int>(d.rung);
+  }
+  const std::string reason =
+      d.notice ? "staying on " + from + " (" +
+                     ((v.adapt & protocol::Hello::kAdapt) ? std::string("the lightest tier your floor allows")
+                                                          : std::string("the tier you pinned")) +
+                     "): " + d.reason
+               : d.reason;
+  spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, to, reason);
+  update(v, [&](ViewerReport& r) {
+    r.switches.push_back({wall_clock_us(), from, to, reason});
+    if (r.switches.size() > kSwitchesKept) r.switches.erase(r.switches.begin());
+  });
+  send_tier_change(v, reason, goodput_bits);
+  return true;
+}
+
+}  // namespace volcast

@@ -1,0 +1,139 @@
+// The per-viewer rate control on synthetic Ack timelines (exact behaviour: a simulated path, no
+// network, no clock): when it steps down, how far, when it probes up, that it does not oscillate,
+// that floors hold and that a slow site is not taken for a slow path.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "volcast/net/stream/rate_control.hpp"
+
+namespace volcast {
+namespace {
+
+// A simulated viewer: frame sets at 30 fps of the current rung's size, through a path of
+// `path_bits` per second (0: unlimited) with a 20 ms round trip; a frame set that would queue more
+// than 150 ms behind the others is skipped, as the server's pacing does. The minimum round trip is
+// the smallest seen, as the pacer's (pacing.hpp): it includes a frame set's own transmission.
+struct SimPath {
+  std::vector<double> rung_bits{60e6, 30e6, 12e6, 4e6};
+  std::vector<char> allowed{1, 1, 1, 1};
+  double path_bits = 0;
+  int64_t now = 0;
+  int64_t link_free = 0;  // when the bottleneck has sent everything given to it
+  int64_t min_rtt = INT64_MAX;
+  std::vector<std::pair<int64_t, size_t>> switches;  // (time, rung)
+  std::vector<int64_t> notices;
+
+  // Runs `seconds` of frame sets through `rc`, applying its decisions.
+  void run(RateController& rc, double seconds) {
+    const int64_t end = now + int64_t(seconds * 1e6);
+    for (; now < end; now += 33'333) {
+      const size_t bytes = size_t(rung_bits[rc.rung()] / 8 / 30);
+      const int64_t start = std::max(now, link_free);
+      if (path_bits > 0 && start - now > 150'000) {
+        rc.on_skip(now);
+      } else {
+        const int64_t sent = path_bits > 0 ? start + int64_t(double(bytes) * 8e6 / path_bits) : now;
+        link_free = sent;
+        const int64_t rtt = sent + 20'000 - now;
+        min_rtt = std::min(min_rtt, rtt);
+        rc.on_ack(sent + 20'000, bytes, rtt, min_rtt);
+      }
+      RateDecision d;
+      if (rc.decide(now, rung_bits, allowed, d)) {
+        if (d.notice) {
+          notices.push_back(now);
+        } else {
+          rc.switched(d.rung, now, d.up);
+          switches.emplace_back(now, d.rung);
+        }
+      }
+    }
+  }
+};
+
+RateControlConfig quick() {
+  RateControlConfig c;
+  c.hold_us = 2'000'000;
+  c.max_hold_us = 16'000'000;
+  return c;
+}
+
+TEST(RateControl, AnUnlimitedPathStaysOnTheBestRung) {
+  SimPath p;
+  RateController rc(4, 0, quick());
+  p.run(rc, 20);
+  EXPECT_EQ(rc.rung(), 0u);
+  EXPECT_TRUE(p.switches.empty());
+}
+
+TEST(RateControl, APathThatShrinksIsLeftWithinASecondForTheBestRungThatFits) {
+  SimPath p;
+  RateController rc(4, 0, quick());
+  p.run(rc, 3);
+  p.path_bits = 20e6;  // 60 -> 20 Mbit/s: 12 Mbit/s fits (<= 0.8 x 20), 30 does not
+  const int64_t shrunk = p.now;
+  p.run(rc, 3);
+  ASSERT_FALSE(p.switches.empty());
+  EXPECT_LE(p.switches.front().first - shrunk, 1'000'000) << "stepped down within 1 s";
+  EXPECT_EQ(p.switches.front().second, 2u) << "straight to the rung that fits, not one at a time";
+  EXPECT_EQ(rc.rung(), 2u);
+}
+
+TEST(RateControl, ARecoveredPathIsProbedBackUpAndAPathBetweenRungsIsNotOscillatedOn) {
+  SimPath p;
+  RateController rc(4, 0, quick());
+  p.path_bits = 20e6;
+  p.run(rc, 60);
+  // Between 12 (fits) and 30 Mbit/s (does not): probes of rung 1 fail, each hold twice the last
+  // (2, 4, 8, 16 s, then 16 s each): few switches in a minute, and it ends where the path fits.
+  const auto ups = std::count_if(p.switches.begin(), p.switches.end(),
+                                 [](const auto& s) { return s.second == 1; });
+  EXPECT_GE(ups, 2) << "it kept probing";
+  EXPECT_LE(ups, 6) << "but backed off";
+  EXPECT_EQ(rc.rung(), 2u);
+  std::vector<int64_t> probes;
+  for (const auto& s : p.switches)
+    if (s.second == 1) probes.push_back(s.first);
+  for (size_t i = 2; i < probes.size(); ++i)
+    EXPECT_GE(probes[i] - probes[i - 1], probes[i - 1] - probes[i - 2] - 100'000)
+        << "the gaps between probes never shrink";
+  p.path_bits = 0;  // recovered: back to the best rung, a probe at a time
+  p.switches.clear();
+  p.run(rc, 40);
+  EXPECT_EQ(rc.rung(), 0u);
+  ASSERT_GE(p.switches.size(), 2u);
+  EXPECT_EQ(p.switches.back().second, 0u);
+}
+
+TEST(RateControl, AFloorKeepsTheRungAndGivesANoticeInsteadAtMostOncePerHold) {
+  SimPath p;
+  p.allowed = {1, 1, 0, 0};  // e.g. lossless depth only on rungs 0 and 1
+  RateController rc(4, 0, quick());
+  p.path_bits = 8e6;  // not even rung 1 (30 Mbit/s) fits
+  p.run(rc, 10);
+  ASSERT_EQ(p.switches.size(), 1u);
+  EXPECT_EQ(p.switches[0].second, 1u) << "the lightest rung the floor allows";
+  EXPECT_EQ(rc.rung(), 1u);
+  ASSERT_GE(p.notices.size(), 1u);
+  for (size_t i = 1; i < p.notices.size(); ++i)
+    EXPECT_GE(p.notices[i] - p.notices[i - 1], quick().hold_us);
+}
+
+TEST(RateControl, ASlowSiteWithoutAQueueIsNotTakenForASlowPath) {
+  // Frame sets come at half the rung's rate (the site encodes slowly), each acknowledged after
+  // the bare round trip: goodput is below the rung's rate, but nothing queues and nothing is
+  // skipped.
+  RateController rc(4, 0, quick());
+  const std::vector<double> rates{60e6, 30e6, 12e6, 4e6};
+  const std::vector<char> allowed{1, 1, 1, 1};
+  for (int64_t now = 0; now < 10'000'000; now += 66'666) {
+    rc.on_ack(now + 20'000, size_t(60e6 / 8 / 30), 20'000, 20'000);
+    RateDecision d;
+    EXPECT_FALSE(rc.decide(now, rates, allowed, d)) << d.reason;
+  }
+}
+
+}  // namespace
+}  // namespace volcast

@@ -11,11 +11,11 @@ namespace {
 // latency at 0 while it runs.
 int run_selected_bench(const BenchArgs& a) {
   if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) + int(a.voice) +
-          int(a.drawing) >
+          int(a.drawing) + int(a.paths) >
       1)
     throw Error(
-        "bench: --server, --render, --session, --record, --nats, --voice and --drawing are "
-        "separate runs");
+        "bench: --server, --render, --session, --record, --nats, --voice, --drawing and --paths "
+        "are separate runs");
   const auto low_latency = hold_low_latency(a.session && a.low_latency);
   return a.nats      ? run_nats_bench(a)
          : a.server  ? run_server_bench(a)
@@ -24,6 +24,7 @@ int run_selected_bench(const BenchArgs& a) {
          : a.record  ? run_record_bench(a)
          : a.voice   ? run_voice_bench(a)
          : a.drawing ? run_drawing_bench(a)
+         : a.paths   ? run_paths_bench(a)
                      : run_bench(a);
 }
 
@@ -71,6 +72,10 @@ void register_bench(CLI::App& app, Commands& commands) {
   bn->add_flag("--drawing", bench.drawing,
                "Pointing and drawing on loopback (pointer seen p50/p99, bytes a second of a busy "
                "drawing session) and the OR display's ms a frame against its backdrop alone");
+  bn->add_flag("--paths", bench.paths,
+               "Impaired paths instead (root: network namespaces): 2 real cameras to a viewer "
+               "pinned to the old default tier and one adapting, over 20 Mbit/s, loss and a rate "
+               "step (--server-seconds each)");
   bn->add_flag("--voice", bench.voice,
                "Voice benchmark instead: mouth-to-ear latency, concealment, bytes per speaker, "
                "server CPU forwarding 4 talkers to 16 participants (--server-seconds each)");

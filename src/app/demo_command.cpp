@@ -24,7 +24,8 @@ void register_demo(CLI::App& app, Commands& commands) {
   d->add_option("--seconds", demo.seconds, "How long the viewer receives")->capture_default_str();
   d->add_option("--out", demo.out, "Folder for stats.json and PNG renders")->capture_default_str();
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
-  const auto pin = [&demo](const std::string&) { demo.tier_pinned = true; };
+  DemoArgs* const pinned = &demo;  // a lambda may not capture a structured binding (clang 14)
+  const auto pin = [pinned](const std::string&) { pinned->tier_pinned = true; };
   d->add_option("--depth-codec", demo.depth_codec,
                 "Depth codec, pinning the viewer's tier (without it, the server moves the viewer "
                 "along its tier ladder as the path allows): " +

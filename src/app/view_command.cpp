@@ -375,7 +375,8 @@ void register_view(CLI::App& app, Commands& commands) {
   v->add_option("--connect-timeout", view.connect_timeout_ms,
                 "TCP connect and TLS handshake timeout (ms)")
       ->capture_default_str();
-  const auto pin = [&view](const std::string&) { view.tier_pinned = true; };
+  ViewArgs* const pinned = &view;  // a lambda may not capture a structured binding (clang 14)
+  const auto pin = [pinned](const std::string&) { pinned->tier_pinned = true; };
   v->add_option("--depth-codec", view.depth_codec,
                 "Depth codec, pinning the tier (without it, the server moves this viewer along "
                 "its tier ladder as the path allows): " +

@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   spdlog::set_level(spdlog::level::warn);
   struct Path {
     const char* name;
-    test::LinkImpairment impairment;
+    LinkImpairment impairment;
   };
   const Path paths[] = {
       {"none (namespaces only)", {}},
@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
   for (const Path& p : paths)
     for (int window : {2, 8}) {
       std::string why;
-      auto link = test::ImpairedLink::create(p.impairment, &why);
+      auto link = ImpairedLink::create(p.impairment, &why);
       if (!link) {
         std::fprintf(stderr, "cannot make the link: %s\n", why.c_str());
         return 2;

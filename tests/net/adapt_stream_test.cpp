@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "support/hands_site.hpp"
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
@@ -24,7 +24,7 @@ using Clock = std::chrono::steady_clock;
 struct LinkSite {
   SitePlayer player;
   std::unique_ptr<Server> server;
-  LinkSite(test::ImpairedLink& link, ServerConfig config, double fps)
+  LinkSite(ImpairedLink& link, ServerConfig config, double fps)
       : player(test::HandsSite::sources(), fps) {
     config.bind_address = link.server_address();
     config.port = 0;
@@ -120,7 +120,7 @@ const std::vector<std::string> kLadder = {"zstd/jpeg/90", "volcast/jpeg/40",
 
 TEST(Adaptation, AViewerStepsDownWhenItsPathShrinksAndBackUpWhenItRecoversWhileAnotherStaysOnTop) {
   std::string why;
-  auto link = test::ImpairedLink::create(test::LinkImpairment{}, &why);
+  auto link = ImpairedLink::create(LinkImpairment{}, &why);
   if (!link) GTEST_SKIP() << why;
   ServerConfig config;
   config.ladder = kLadder;
@@ -192,7 +192,7 @@ TEST(Adaptation, AViewerStepsDownWhenItsPathShrinksAndBackUpWhenItRecoversWhileA
 
 TEST(Adaptation, APinnedOrLosslessFloorViewerIsNeverGivenLossyDepthButIsToldWhy) {
   std::string why;
-  auto link = test::ImpairedLink::create(test::LinkImpairment{}, &why);
+  auto link = ImpairedLink::create(LinkImpairment{}, &why);
   if (!link) GTEST_SKIP() << why;
   ServerConfig config;
   config.ladder = kLadder;  // rung 2 has lossy depth (volcast-n4)

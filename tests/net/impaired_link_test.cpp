@@ -28,7 +28,7 @@
 #include <thread>
 #include <vector>
 
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast::test {

@@ -6,7 +6,7 @@
 
 #include <thread>
 
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 #include "support/impaired_stream.hpp"
 #include "support/test_data.hpp"
 
@@ -16,7 +16,7 @@ namespace {
 TEST(ImpairedPath, HundredMsRoundTripKeepsTheFullFrameRate) {
   // 50 ms each way: the old fixed window of 2 frame sets capped this at 2 / 0.1 s = 20 fps.
   std::string why;
-  auto link = test::ImpairedLink::create({.one_way_delay_us = 50'000}, &why);
+  auto link = ImpairedLink::create({.one_way_delay_us = 50'000}, &why);
   if (!link) GTEST_SKIP() << why;
   const PathRun r = run_over_link(*link, test::data_dir(), 4.0);
   std::printf("100 ms RTT: %.1f fps, latency p50 %.1f ms p99 %.1f ms, window %d, RTT %.1f ms\n",
@@ -34,7 +34,7 @@ TEST(ImpairedPath, HundredMsRoundTripKeepsTheFullFrameRate) {
 
 TEST(ImpairedPath, FiftyMsRoundTripWithFivePercentLossStaysWithinTheBudget) {
   std::string why;
-  auto link = test::ImpairedLink::create({.one_way_delay_us = 25'000, .loss = 0.05}, &why);
+  auto link = ImpairedLink::create({.one_way_delay_us = 25'000, .loss = 0.05}, &why);
   if (!link) GTEST_SKIP() << why;
   const PathRun r = run_over_link(*link, test::data_dir(), 4.0);
   const auto c = link->counters();

@@ -10,7 +10,7 @@
 
 namespace volcast {
 
-PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds,
+PathRun run_over_link(ImpairedLink& link, const std::filesystem::path& data, double seconds,
                       int max_window) {
   SitePlayer site(two_camera_site(data), 30);
   ServerConfig config;

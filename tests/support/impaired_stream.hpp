@@ -3,7 +3,7 @@
 // one receive-only viewer and reports what it got. Shared by the test and the link benchmark.
 #include <filesystem>
 
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 
 namespace volcast {
 
@@ -21,7 +21,7 @@ struct PathRun {
 
 /// Streams `seconds` (after 1 s of warm-up) and returns the figures. Throws Error on failure.
 /// `max_window` 2 reproduces the old fixed window of two unacknowledged frame sets.
-PathRun run_over_link(test::ImpairedLink& link, const std::filesystem::path& data, double seconds,
+PathRun run_over_link(ImpairedLink& link, const std::filesystem::path& data, double seconds,
                       int max_window = 8);
 
 }  // namespace volcast

@@ -13,7 +13,7 @@
 #include <deque>
 #include <mutex>
 
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
 #include "support/voice_recorder.hpp"
@@ -205,7 +205,7 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
 // paused it).
 TEST(Voice, SpeechCrossesAnImpairedPath) {
   std::string why;
-  auto link = test::ImpairedLink::create({.one_way_delay_us = 25'000, .loss = 0.02}, &why);
+  auto link = ImpairedLink::create({.one_way_delay_us = 25'000, .loss = 0.02}, &why);
   if (!link) GTEST_SKIP() << why;
   SessionHub hub;
   hub.create_session("OR");

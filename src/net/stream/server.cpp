@@ -113,7 +113,19 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   for (const auto& t : config.offered_tiers)
     if (detail::parse_tier(t, "offered tier").frame_divisor != 1)
       throw Error("server: offered tier '" + t + "': @N is for the ladder (--ladder) only");
-  for (const auto& t : config.ladder) {
+  const bool default_ladder_given = config.ladder == default_ladder();
+  const bool sized = config.ladder_sizes.size() == config.ladder.size();
+  for (size_t i = 0; i < config.ladder.size(); ++i) {
+    const std::string& t = config.ladder[i];
+    if (sized && !(config.ladder_sizes[i] > 0))
+      throw Error("server: ladder rung " + t + ": its size must be positive");
+    // The default ladder's video rungs need volcast_codec_video (register_video_codecs): without
+    // it they are left out. A ladder given by hand must name codecs this build has.
+    const size_t slash = t.find('/');
+    if (default_ladder_given &&
+        (!find_depth_codec(t.substr(0, slash)) ||
+         !find_color_codec(t.substr(slash + 1, t.find_first_of("/@", slash + 1) - slash - 1))))
+      continue;
     // With an offer list, the ladder keeps only what is offered (the operator's list wins).
     detail::TierKey key = detail::parse_tier(t, "ladder rung");
     bool offered = config.offered_tiers.empty();
@@ -123,9 +135,10 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
                  (o.find('/', o.find('/') + 1) == std::string::npos ||
                   k.color_quality == key.color_quality);
     }
-    if (offered)
+    if (offered) {
       impl_->ladder.push_back(std::move(key));
-    else
+      if (sized) impl_->ladder_sizes.push_back(config.ladder_sizes[i]);
+    } else
       spdlog::info("server: ladder rung {} is not offered (--tiers): left out", t);
   }
   const std::string bind = resolve_bind_address(config.bind_address);

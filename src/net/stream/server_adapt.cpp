@@ -14,8 +14,17 @@
 namespace volcast {
 
 std::vector<std::string> default_ladder() {
-  return {"volcast/jpeg/70", "volcast/jpeg/40", "volcast-n4/jpeg/40", "h264/h264/50",
+  return {"volcast/jpeg/70", "volcast-n2/jpeg/50", "volcast/jpeg/50@2", "h264/h264/50",
           "h264/h264/50@2"};
+}
+
+std::vector<double> default_ladder_sizes() {
+  // Bytes per Azure Kinect frame (volcast bench on k4a-recording: depth volcast 83,705,
+  // volcast-n2 38,235; color JPEG q70 35,362, q50 26,208) over the top rung's 119,067; @2 halves
+  // it. H.264 streams with a key frame every 60: the bench's 30-frame clips (44 kB with their key
+  // frame) overstate it; streamed, the Kinect's took 15.4 kB a frame (volcast bench --paths) --
+  // 0.25 leaves room for a scene that moves more.
+  return {1.0, 0.54, 0.46, 0.25, 0.125};
 }
 
 namespace {
@@ -30,8 +39,9 @@ double Server::Impl::tier_bits(const detail::TierKey& key) const {
   return it == learned_bits.end() ? 0 : it->second;
 }
 
-std::vector<char> Server::Impl::allowed_rungs(const Viewer& v, int64_t now, bool cap) const {
-  std::vector<char> ok(ladder.size(), 0);
+void Server::Impl::allowed_rungs(const Viewer& v, int64_t now, std::vector<char>& ok,
+                                 bool cap) const {
+  ok.assign(ladder.size(), 0);
   for (size_t r = v.top; r < ladder.size(); ++r) {
     const detail::TierKey& k = ladder[r];
     if ((v.adapt & protocol::Hello::kKeepLossless) && !depth_codec_info(k.depth_codec).lossless)
@@ -42,7 +52,6 @@ std::vector<char> Server::Impl::allowed_rungs(const Viewer& v, int64_t now, bool
     if (cap && v.max_bits_per_s > 0 && bits > double(v.max_bits_per_s)) continue;
     ok[r] = 1;
   }
-  return ok;
 }
 
 int Server::Impl::rung_of(const Viewer& v) const {
@@ -57,11 +66,12 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) 
   for (size_t r = 0; r < ladder.size(); ++r)
     if (ladder[r] == v.hello_key) v.top = r;
   const int64_t now = steady_us();
-  std::vector<char> ok = allowed_rungs(v, now);
+  std::vector<char> ok;
+  allowed_rungs(v, now, ok);
   if (std::find(ok.begin(), ok.end(), 1) == ok.end()) {
     // Floors and cap leave nothing: the viewer's floor wins over its cap (a lossless viewer is
     // never given lossy depth); it starts on the lightest rung its floors allow.
-    ok = allowed_rungs(v, now, false);
+    allowed_rungs(v, now, ok, false);
     std::reverse(ok.begin(), ok.end());  // the lightest first
     std::vector<char> lightest(ok.size(), 0);
     if (const auto it = std::find(ok.begin(), ok.end(), 1); it != ok.end())
@@ -72,7 +82,7 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) 
   for (size_t r = 0; r < ladder.size(); ++r) {
     if (!ok[r]) continue;
     try {
-      return subscribe(ladder[r], &v.wake, &v.address);
+      return subscribe(ladder[r], &v.wake, &v.address, false);
     } catch (const Error& e) {
       v.refused_until[r] = now + kRefusedForUs;
       if (!first) first = e;
@@ -99,10 +109,14 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
     std::lock_guard lock(mutex);
     const int64_t now = steady_us();
     const detail::TierKey& key = ladder[d.rung];
-    std::erase(v.tier->subscribers, &v.wake);
+    // Off its tier while the budget is checked: the tier it leaves costs nothing once it has no
+    // viewer.
+    std::shared_ptr<Tier> old = std::move(v.tier);
+    std::erase(old->subscribers, &v.wake);
     try {
-      v.tier = subscribe(key, &v.wake, &v.address);
+      v.tier = subscribe(key, &v.wake, &v.address, false);
     } catch (const Error& e) {
+      v.tier = std::move(old);
       v.tier->subscribers.push_back(&v.wake);  // stays where it was
       v.refused_until[d.rung] = now + kRefusedForUs;
       spdlog::info("viewer {}: rung {} ({}) refused: {}", v.report.peer, d.rung,

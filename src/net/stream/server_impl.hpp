@@ -169,6 +169,7 @@ struct Server::Impl {
   };
   std::list<Viewer> viewers;
   std::vector<detail::TierKey> ladder;  // config.ladder parsed
+  std::vector<double> ladder_sizes;     // its rungs' relative sizes, or empty
   // Each tier's last measured rate (bits/s) by name, kept after it stops: a rung not running now
   // is judged by what it produced last.
   std::map<std::string, double> learned_bits;
@@ -202,8 +203,9 @@ struct Server::Impl {
   // Throws Error if a new tier `key` costing `encode_ns` per frame set would take the tiers past
   // the CPU budget, or the tiers `address` holds alone past its share (the count, half the
   // budget). The costliest tiers are the first not to fit. Caller holds mutex.
-  void check_tier_budget(const detail::TierKey& key, double encode_ns,
-                         const std::string& address) const;
+  // `share` false: the total alone (a ladder rung: the operator's own list, one tier a viewer).
+  void check_tier_budget(const detail::TierKey& key, double encode_ns, const std::string& address,
+                         bool share = true) const;
 
   // Joins the threads of viewers that have ended (keeping their reports) and of tiers nobody
   // watches any more. Caller holds mutex (a finished viewer thread no longer takes it; a tier
@@ -220,7 +222,7 @@ struct Server::Impl {
   // from `address` must fit the CPU budget (check_tier_budget); one for a tap (`address` null)
   // is made regardless. Caller holds mutex. Throws Error.
   std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd* wake,
-                                  const std::string* address);
+                                  const std::string* address, bool share = true);
 
   // Unsubscribes `wake` from `tier` (takes mutex).
   void unsubscribe(Tier& tier, const WakeFd& wake);
@@ -266,9 +268,9 @@ struct Server::Impl {
   bool adaptive(const Viewer& v) const { return (v.adapt & protocol::Hello::kAdapt) && !ladder.empty(); }
   // The rate (bits/s) of `key`'s tier: measured while it runs, else learned, else 0. Mutex held.
   double tier_bits(const detail::TierKey& key) const;
-  // Per rung, whether `v` may be put on it now (floors, its cap if `cap`, its best rung, budget
-  // refusals). Mutex held.
-  std::vector<char> allowed_rungs(const Viewer& v, int64_t now, bool cap = true) const;
+  // Per rung into `ok` (capacity reused), whether `v` may be put on it now (floors, its cap if
+  // `cap`, its best rung, budget refusals). Mutex held.
+  void allowed_rungs(const Viewer& v, int64_t now, std::vector<char>& ok, bool cap = true) const;
   // The rung of `v`'s tier, or -1.
   int rung_of(const Viewer& v) const;
   // Puts `v` on its first rung at admission (the best allowed that the budget takes). Mutex held;

@@ -45,13 +45,15 @@ bool Server::Impl::held_alone_by(const Tier& tier, const std::string& address) c
 // the CPU budget, or the tiers `address` holds alone past its share (the count, half the
 // budget). The costliest tiers are the first not to fit. Caller holds mutex.
 void Server::Impl::check_tier_budget(const detail::TierKey& key, double encode_ns,
-                                     const std::string& address) const {
+                                     const std::string& address, bool share) const {
   const double fps = site_fps();
   const double cost = encode_ns * fps / 1e9;
   double total = 0, alone = 0;
   int alone_count = 0;
   for (const auto& t : tiers) {
-    if (t->stop) continue;
+    // A tier nobody watches or taps encodes nothing (and is reaped): a viewer switching away
+    // from its tier does not pay for it.
+    if (t->stop || (t->subscribers.empty() && t->taps.empty())) continue;
     const double c = t->encode_ns * fps / 1e9;
     total += c;
     if (held_alone_by(*t, address)) {
@@ -66,6 +68,7 @@ void Server::Impl::check_tier_budget(const detail::TierKey& key, double encode_n
         "tier {} would cost about {:.2f} CPU cores; the tiers' budget is {:.2f} cores "
         "(--tier-cpu-budget), {:.2f} in use: choose cheaper codecs or a tier already watched",
         name, cost, budget_cores, total));
+  if (!share) return;
   if (alone_count >= config.max_tiers_per_address)
     throw Error(
         fmt::format("your address holds {} tiers nobody else watches, the most per address "
@@ -217,7 +220,8 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
 // is made regardless. Caller holds mutex. Throws Error.
 std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKey& key,
                                                             const WakeFd* wake,
-                                                            const std::string* address) {
+                                                            const std::string* address,
+                                                            bool share) {
   std::shared_ptr<Tier> tier;
   for (const auto& t : tiers)
     if (t->encoder.key() == key && !t->stop) tier = t;
@@ -227,7 +231,7 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKe
                   " tiers already; choose the codecs of a viewer already watching");
     // Unknown codecs throw; a tier of every Nth frame set costs 1/N per site frame set.
     const double encode_ns = detail::tier_encode_ns(key, site_pixels) / key.frame_divisor;
-    if (address) check_tier_budget(key, encode_ns, *address);
+    if (address) check_tier_budget(key, encode_ns, *address, share);
     tier = std::make_shared<Tier>(key, cameras.size());
     tier->encode_ns = encode_ns;
     tier->report.depth_codec = key.depth_codec;

@@ -193,7 +193,17 @@ void Server::Impl::stream(Viewer& v) {
         std::lock_guard lock(mutex);
         if (adapt) {
           for (size_t r = 0; r < ladder.size(); ++r) rung_bits[r] = tier_bits(ladder[r]);
-          allowed = allowed_rungs(v, now);
+          // A rung that has not run yet: a measured one's rate scaled by their sizes.
+          const size_t known = rc.rung() < rung_bits.size() && rung_bits[rc.rung()] > 0
+                                   ? rc.rung()
+                                   : size_t(std::find_if(rung_bits.begin(), rung_bits.end(),
+                                                         [](double b) { return b > 0; }) -
+                                            rung_bits.begin());
+          if (!ladder_sizes.empty() && known < rung_bits.size())
+            for (size_t r = 0; r < ladder.size(); ++r)
+              if (rung_bits[r] <= 0)
+                rung_bits[r] = rung_bits[known] * ladder_sizes[r] / ladder_sizes[known];
+          allowed_rungs(v, now, allowed);
         } else {
           rung_bits[0] = tier_bits(v.tier->encoder.key());
           allowed.assign(1, 1);

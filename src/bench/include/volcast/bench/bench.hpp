@@ -30,6 +30,7 @@ struct BenchArgs {
   /// wait for the other talkers' (-1: the server's default)
   double voice_hold_ms = -1;
   bool drawing = false;  ///< the pointing and drawing benchmark instead (server_seconds)
+  bool paths = false;    ///< the impaired-paths benchmark instead (server_seconds; root)
 };
 /// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
 /// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
@@ -88,5 +89,15 @@ int run_voice_bench(const BenchArgs& args);
 /// pointer_ms_p50, pointer_ms_p99, bytes_per_second_per_receiver, annotations}], "or_display":
 /// {or_display_ms, backdrop_ms, ratio, frames}} to args.json if set.
 int run_drawing_bench(const BenchArgs& args);
+/// The real two-camera site at 30 fps to one receive-only TLS viewer over impaired paths (network
+/// namespaces and the userspace relay of impaired_link.hpp; needs root): unlimited, 20 Mbit/s +
+/// 50 ms RTT, 50 ms RTT + 2 % loss, and a step from 100 to 20 Mbit/s; each with a viewer pinned to
+/// volcast/jpeg/90 (the old default) and one adapting along the server's ladder. Prints a table
+/// and writes {"paths": [{path, viewer ("pinned" | "adaptive"), fps, latency_ms_p50, _p99 (the
+/// site's capture to the viewer's read, one clock), recovery_s (step path: from the step to the
+/// last frame set over 250 ms; else -1), kib_per_s_per_camera, tiers (in the order used),
+/// switches: [{t_s, from, to, reason}]}]} to args.json if set. Throws Error where the link cannot
+/// be made (not root, no /dev/net/tun).
+int run_paths_bench(const BenchArgs& args);
 
 }  // namespace volcast

@@ -31,9 +31,10 @@
 // a TierChange (protocol.hpp 0.6) and then a key frame set of the new tier. Floors are the
 // viewer's: kKeepLossless (never lossy depth), kKeepFullRate; a viewer that asked for one, or
 // pinned its tier (no kAdapt), is never moved past it: with kNotify it is told instead, when its
-// path cannot carry its tier. A rung whose tier the CPU budget refuses is left out for 10 s. A
-// viewer holds one tier at a time and moves among the ladder's only, so no viewer makes the
-// server encode a tier its policy does not list.
+// path cannot carry its tier. A rung must fit the tiers' total CPU budget (a tier nobody watches
+// any more not counted), not the per-address share: the ladder is the operator's list and an
+// adaptive viewer holds one of its tiers at a time, so no viewer makes the server encode a tier
+// its policy does not list. A rung the budget refuses is left out for 10 s.
 //
 // Pacing (per viewer, from Ack timing, after BBR: Cardwell et al., ACM Queue 2016): the server
 // estimates the path's round-trip time (windowed minimum of send -> Ack) and bottleneck rate
@@ -62,9 +63,14 @@
 
 namespace volcast {
 
-/// The default tier ladder: lossless depth with JPEG color at two qualities, then near-lossless
-/// depth (within 4 mm), then H.264 depth and color, then that at half the frame rate.
+/// The default tier ladder, lightest last: lossless depth with JPEG q70 color (3,488 KiB/s per
+/// Azure Kinect at 30 fps, under the seed paper's 3,555), near-lossless depth (within 2 mm) with
+/// JPEG q50, lossless depth with JPEG q50 at every second frame set (the step a viewer that keeps
+/// depth lossless has), H.264 depth and color, then that at every second frame set.
 std::vector<std::string> default_ladder();
+/// The default ladder's sizes relative to its top (measured per Azure Kinect frame): what the rate
+/// control assumes of a rung before it has run.
+std::vector<double> default_ladder_sizes();
 
 struct ServerConfig {
   std::string bind_address =
@@ -102,9 +108,14 @@ struct ServerConfig {
   std::vector<std::string> offered_tiers;
   /// The tier ladder for adaptive viewers, best first, each "DEPTH/COLOR[/QUALITY][@N]" (@N: every
   /// Nth frame set; see the top). Empty: no adaptation (adaptive viewers are served as pinned).
-  /// With offered_tiers, only its offered rungs are kept. The default keeps depth lossless on its top
-  /// two rungs (kDefaultLadder).
+  /// With offered_tiers, only its offered rungs are kept. The default (default_ladder()) keeps depth
+  /// lossless on its top two rungs; its H.264 rungs are left out where the video codecs are not
+  /// registered (codec_video's register_video_codecs). Another ladder's codecs must all exist.
   std::vector<std::string> ladder = default_ladder();
+  /// Each rung's expected size relative to the others (any unit; empty, or another length than
+  /// `ladder`: unknown). A rung not running is judged by a running one's rate times the ratio of
+  /// their sizes, until it has run (then by what it produced).
+  std::vector<double> ladder_sizes = default_ladder_sizes();
   RateControlConfig rate_control;  ///< the adaptation's thresholds and holds
   bool insecure = false;  ///< plain TCP instead of TLS; refused unless bind_address is loopback
   /// Over TLS, a tier with at least this many viewers seals each frame set once for all of them

@@ -1,5 +1,5 @@
 #pragma once
-// A userspace impaired network link for tests: two private network namespaces ("server" and
+// A userspace impaired network link (tests and `volcast bench --paths`): two private network namespaces ("server" and
 // "client") joined by two TUN devices and a relay thread that adds one-way delay, random loss and
 // a rate-limited bottleneck queue to the IPv4 packets moving between them. The kernel here has no
 // netem/tc qdiscs, so the impairment is done in this process.
@@ -43,7 +43,7 @@
 #include <utility>
 #include <vector>
 
-namespace volcast::test {
+namespace volcast {
 
 /// The impairment of one direction of the link. Defaults: a perfect link.
 struct LinkImpairment {
@@ -204,4 +204,4 @@ class ImpairedLink {
   std::thread relay_;
 };
 
-}  // namespace volcast::test
+}  // namespace volcast

@@ -1,5 +1,5 @@
 // The impaired link: namespace and TUN set-up with ioctls, the relay thread, the impairment queue.
-#include "support/impaired_link.hpp"
+#include "volcast/bench/impaired_link.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -24,7 +24,7 @@
 
 #include "volcast/core/error.hpp"
 
-namespace volcast::test {
+namespace volcast {
 namespace {
 
 constexpr const char* kTunName = "vctun0";
@@ -344,7 +344,7 @@ void ImpairedLink::set_impairment(const LinkImpairment& server_to_client,
 }
 
 void ImpairedLink::relay() {
-  using Clock = ImpairmentQueue::Clock;
+  using RelayClock = ImpairmentQueue::Clock;
   ::prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL);  // wake at the release time, not 50 us later
   std::vector<uint8_t> buffer(65536);
   std::vector<uint8_t> packet;
@@ -359,10 +359,10 @@ void ImpairedLink::relay() {
                             pollfd{stop_fd_, POLLIN, 0}};
   for (;;) {
     // Send what is due, then sleep until the next release or a new packet.
-    std::optional<Clock::time_point> next;
+    std::optional<RelayClock::time_point> next;
     {
       std::lock_guard lock(mutex_);
-      const Clock::time_point now = Clock::now();
+      const RelayClock::time_point now = RelayClock::now();
       for (const Path& p : paths) {
         while (p.direction->queue.pop_due(now, packet)) {
           const ssize_t n = ::write(p.to, packet.data(), packet.size());
@@ -381,7 +381,7 @@ void ImpairedLink::relay() {
     timespec timeout{};
     timespec* timeout_ptr = nullptr;
     if (next) {
-      const auto wait = std::max(Clock::duration::zero(), *next - Clock::now());
+      const auto wait = std::max(RelayClock::duration::zero(), *next - RelayClock::now());
       const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(wait).count();
       timeout.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
       timeout.tv_nsec = static_cast<long>(ns % 1'000'000'000);
@@ -410,7 +410,7 @@ void ImpairedLink::relay() {
           return;
         }
         const auto size = static_cast<size_t>(n);
-        const Clock::time_point arrival = Clock::now();
+        const RelayClock::time_point arrival = RelayClock::now();
         std::lock_guard lock(mutex_);
         DirectionCounters& c = paths[i].direction->counters;
         if (size == 0 || (buffer[0] >> 4) != 4) {  // IPv4 only
@@ -435,4 +435,4 @@ void ImpairedLink::relay() {
   }
 }
 
-}  // namespace volcast::test
+}  // namespace volcast

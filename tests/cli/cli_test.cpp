@@ -4,6 +4,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -534,17 +535,28 @@ TEST(Cli, BenchReportsEachFilterAndCodecAsJson) {
     }
   }
   EXPECT_EQ(datasets.size(), 4u);
-  // The two sets with registered color: JPEG and H.264 each, plus JPEG of the Kinect's NFOV crop.
-  ASSERT_EQ(j["color_codecs"].size(), 5u);
+  // The two sets with registered color: JPEG and H.264 at their defaults, the ladder's sweep (JPEG
+  // q80..q40, H.264 q50) each, plus JPEG of the Kinect's NFOV crop.
+  ASSERT_EQ(j["color_codecs"].size(), 17u);
   int jpeg = 0, h264 = 0;
+  std::map<std::string, std::map<int, double>> jpeg_bytes;  // dataset -> quality -> bytes
   for (const auto& c : j["color_codecs"]) {
     jpeg += c["codec"] == "jpeg";
     h264 += c["codec"] == "h264";
     EXPECT_GT(c["psnr_db"].get<double>(), 30.0) << c["dataset"] << " " << c["codec"];
     EXPECT_GT(c["ratio"].get<double>(), 10.0) << c["dataset"] << " " << c["codec"];
+    if (c["codec"] == "jpeg" && c["quality"].get<int>() > 0)
+      jpeg_bytes[c["dataset"].get<std::string>()][c["quality"].get<int>()] =
+          c["bytes_per_frame"].get<double>();
   }
-  EXPECT_EQ(jpeg, 3);
-  EXPECT_EQ(h264, 2);
+  EXPECT_EQ(jpeg, 13);
+  EXPECT_EQ(h264, 4);
+  ASSERT_EQ(jpeg_bytes.size(), 2u);
+  for (const auto& [set, sizes] : jpeg_bytes) {  // a lower quality is a smaller frame
+    ASSERT_EQ(sizes.size(), 5u) << set;
+    for (auto it = std::next(sizes.begin()); it != sizes.end(); ++it)
+      EXPECT_GT(it->second, std::prev(it)->second) << set << " q" << it->first;
+  }
 }
 
 TEST(Cli, ServeRejectsABadSiteConfigNamingTheField) {

@@ -65,8 +65,8 @@ struct ServeArgs {
   std::string link_file;           ///< also write the join link here (mode 0600); "" = no
   std::vector<std::string> tiers;  ///< offered tiers DEPTH/COLOR[/QUALITY]; empty: any
   std::vector<std::string> ladder = default_ladder();  ///< adaptive viewers' tiers, best first
-  double tier_cpu_budget = 0;      ///< cores the tiers' encoders may use; 0: half the cores
-  int max_tiers_per_address = 4;   ///< tiers one address's viewers may hold alone
+  double tier_cpu_budget = 0;     ///< cores the tiers' encoders may use; 0: half the cores
+  int max_tiers_per_address = 4;  ///< tiers one address's viewers may hold alone
   int handshake_timeout_ms = 5000;
   int max_pending = 64;
   int max_pending_per_address = 8;

@@ -56,10 +56,17 @@ uint64_t parse_bit_rate(const std::string& text, const std::string& flag) {
   double scale = 1;
   std::string digits = text;
   switch (text.back()) {
-    case 'k': scale = 1e3; break;
-    case 'M': scale = 1e6; break;
-    case 'G': scale = 1e9; break;
-    default: break;
+    case 'k':
+      scale = 1e3;
+      break;
+    case 'M':
+      scale = 1e6;
+      break;
+    case 'G':
+      scale = 1e9;
+      break;
+    default:
+      break;
   }
   if (scale != 1) digits.pop_back();
   if (digits.empty() || digits.find_first_not_of("0123456789.") != std::string::npos) throw bad();

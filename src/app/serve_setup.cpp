@@ -55,7 +55,8 @@ static void apply_security(const ServeArgs& a, ServerConfig& config) {
   }
   if (!a.token_file.empty()) config.token = read_token_file(a.token_file);
   config.offered_tiers = a.tiers;
-  config.ladder = a.ladder == std::vector<std::string>{"none"} ? std::vector<std::string>{} : a.ladder;
+  config.ladder =
+      a.ladder == std::vector<std::string>{"none"} ? std::vector<std::string>{} : a.ladder;
   config.tier_cpu_budget = a.tier_cpu_budget;
   config.max_tiers_per_address = a.max_tiers_per_address;
   config.handshake_timeout_ms = a.handshake_timeout_ms;

@@ -201,7 +201,8 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
       bench_color(s.name, "h264", s.color, repeats, json);
       // The tier ladder's color qualities (net/stream/server.hpp default_ladder): size against
       // PSNR, to choose the default tier's quality by measurement.
-      for (const int q : {80, 70, 60, 50, 40}) bench_color(s.name, "jpeg", s.color, repeats, json, q);
+      for (const int q : {80, 70, 60, 50, 40})
+        bench_color(s.name, "jpeg", s.color, repeats, json, q);
       bench_color(s.name, "h264", s.color, repeats, json, 50);
       if (s.color[0].width == 640 && s.color[0].height == 576) {
         std::vector<ColorImage> cropped;
@@ -255,12 +256,11 @@ void bench_codecs(const fs::path& data, const std::vector<std::string>& extra, i
       "color);\n"
       "  ratio/R, enc/R, dec/R: against RVL in the same run (ratio/R > 1 = smaller than RVL).\n");
   for (const auto& c : json["color_codecs"])
-    std::printf("color %-38s %-5s q%-3d %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
-                c["dataset"].get<std::string>().c_str(), c["codec"].get<std::string>().c_str(),
-                c["quality"].get<int>(),
-                c["bytes_per_frame"].get<double>(), c["ratio"].get<double>(),
-                c["encode_ms"].get<double>(), c["decode_ms"].get<double>(),
-                c["psnr_db"].get<double>());
+    std::printf(
+        "color %-38s %-5s q%-3d %8.0f B/frame %6.2fx  enc %.3f ms  dec %.3f ms  PSNR %.1f dB\n",
+        c["dataset"].get<std::string>().c_str(), c["codec"].get<std::string>().c_str(),
+        c["quality"].get<int>(), c["bytes_per_frame"].get<double>(), c["ratio"].get<double>(),
+        c["encode_ms"].get<double>(), c["decode_ms"].get<double>(), c["psnr_db"].get<double>());
 }
 
 }  // namespace volcast

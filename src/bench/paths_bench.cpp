@@ -16,6 +16,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 
@@ -32,18 +33,11 @@ struct PathCase {
 
 struct PathResult {
   double fps = 0, p50 = 0, p99 = 0;
-  double recovery_s = -1;  // step paths: from the step until latency stays under 250 ms
+  double recovery_s = -1;          // step paths: from the step until latency stays under 250 ms
   std::vector<std::string> tiers;  // in the order used
   nlohmann::json switches = nlohmann::json::array();
   std::vector<double> kilobytes_per_s;  // per camera (KiB/s, the paper's kB), over the measure
 };
-
-std::string label(const TierState& t) {
-  std::string s = t.depth_codec + "/" + t.color_codec;
-  if (t.color_quality > 0) s += "/" + std::to_string(t.color_quality);
-  if (t.frame_divisor > 1) s += "@" + std::to_string(t.frame_divisor);
-  return s;
-}
 
 // One viewer (pinned to volcast/jpeg at quality 90, or adapting) for 1 s of warm-up and `seconds`
 // measured; a step path runs 3 s at its first rate first, then measures after the step.
@@ -82,7 +76,7 @@ PathResult run_path(const fs::path& data, const PathCase& p, bool adapt, double 
       stepped = true;
     }
     if (!client->receive(rx)) throw Error("bench --paths: the server closed the stream");
-    const std::string tier = label(client->tier());
+    const std::string tier = tier_label(client->tier());
     if (r.tiers.empty() || r.tiers.back() != tier) r.tiers.push_back(tier);
     const auto now = Clock::now();
     if (now < step_at) continue;
@@ -103,9 +97,9 @@ PathResult run_path(const fs::path& data, const PathCase& p, bool adapt, double 
       if (ms > 250) last_late = t;
     r.recovery_s = last_late;
   }
-  const int64_t wall_start = wall_clock_us() - std::chrono::duration_cast<std::chrono::microseconds>(
-                                                   Clock::now() - start)
-                                                   .count();
+  const int64_t wall_start =
+      wall_clock_us() -
+      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - start).count();
   for (const auto& v : server->viewers())
     for (const auto& s : v.switches)
       r.switches.push_back({{"t_s", double(s.time_us - wall_start) / 1e6},

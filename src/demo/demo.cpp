@@ -46,11 +46,10 @@ int run_demo(const DemoArgs& a) {
     cameras[i].description = "camera " + std::to_string(i);
   Server server(cameras, config);
   site.start(server);
-  spdlog::info(
-      "demo: server on 127.0.0.1:{} (TLS 1.3, join token), viewer for {} s ({})", server.port(),
-      a.seconds,
-      a.tier_pinned ? "tier " + a.depth_codec + "/" + a.color_codec + ", pinned"
-                    : "adapting along the server's tier ladder");
+  spdlog::info("demo: server on 127.0.0.1:{} (TLS 1.3, join token), viewer for {} s ({})",
+               server.port(), a.seconds,
+               a.tier_pinned ? "tier " + a.depth_codec + "/" + a.color_codec + ", pinned"
+                             : "adapting along the server's tier ladder");
 
   ViewerOptions opt;
   opt.client = client_config_from_link(server.join_link("127.0.0.1"));

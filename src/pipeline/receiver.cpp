@@ -159,8 +159,9 @@ void open_feed(FrameFeed::State& box, const protocol::Welcome& welcome, const Vi
   box.live.depth_codec = opt.client.depth_codec;
   box.live.color_codec = opt.client.color_codec;
   box.live.adaptive = opt.client.adapt;
-  box.live.tier = opt.client.depth_codec + "/" + opt.client.color_codec +
-                  (opt.client.color_quality > 0 ? "/" + std::to_string(opt.client.color_quality) : "");
+  box.live.tier =
+      opt.client.depth_codec + "/" + opt.client.color_codec +
+      (opt.client.color_quality > 0 ? "/" + std::to_string(opt.client.color_quality) : "");
   box.live.cameras.resize(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
     box.live.cameras[i].description = printable(cams[i].description);
@@ -277,11 +278,11 @@ struct Reception {
 void note_tier(const Client& client, FrameFeed::State& box, Reception& r) {
   const TierState& t = client.tier();
   if (t.messages == r.tier_messages) return;
-  const bool notice = t.messages == r.tier_messages + 1 &&
-                      !r.tier_events.empty() && r.tier_events.back().tier == tier_label(t);
+  const bool notice = t.messages == r.tier_messages + 1 && !r.tier_events.empty() &&
+                      r.tier_events.back().tier == tier_label(t);
   r.tier_messages = t.messages;
-  const TierEvent e{wall_clock_us(), tier_label(t), t.lossless_depth, notice, t.path_mbit_s,
-                    t.reason};
+  const TierEvent e{wall_clock_us(), tier_label(t), t.lossless_depth,
+                    notice,          t.path_mbit_s, t.reason};
   if (r.tier_events.size() < 256) r.tier_events.push_back(e);
   std::lock_guard lock(box.mutex);
   box.live.tier = e.tier;

@@ -109,10 +109,10 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
 }
 
 std::string format_stats_table(const ViewerResult& r) {
-  std::string s = fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
-                              r.adaptive ? fmt::format(" (adaptive, {} changes)", r.tier_events.size())
-                                         : "",
-                              r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
+  std::string s =
+      fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
+                  r.adaptive ? fmt::format(" (adaptive, {} changes)", r.tier_events.size()) : "",
+                  r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
   for (const TierEvent& e : r.tier_events)
     s += fmt::format("  tier {}{}{}: {}\n", e.tier, e.lossless_depth ? "" : " (lossy depth)",
                      e.notice ? " kept" : "", e.reason);

@@ -30,8 +30,8 @@ struct LinkSite {
     config.port = 0;
     config.tier_cpu_budget = 16;  // every rung fits: the budget is not what is tested here
     config.max_tiers_per_address = 8;
-    server =
-        link.in_server_namespace([&] { return std::make_unique<Server>(player.cameras(), config); });
+    server = link.in_server_namespace(
+        [&] { return std::make_unique<Server>(player.cameras(), config); });
     player.start(*server);
   }
   ~LinkSite() {

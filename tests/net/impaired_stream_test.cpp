@@ -6,9 +6,9 @@
 
 #include <thread>
 
-#include "volcast/bench/impaired_link.hpp"
 #include "support/impaired_stream.hpp"
 #include "support/test_data.hpp"
+#include "volcast/bench/impaired_link.hpp"
 
 namespace volcast {
 namespace {

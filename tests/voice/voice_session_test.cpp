@@ -13,10 +13,10 @@
 #include <deque>
 #include <mutex>
 
-#include "volcast/bench/impaired_link.hpp"
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
 #include "support/voice_recorder.hpp"
+#include "volcast/bench/impaired_link.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/wire.hpp"

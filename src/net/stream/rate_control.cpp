@@ -78,11 +78,10 @@ bool RateController::decide(int64_t now_us, std::span<const double> rate_bits,
     congested_since_ = -1;
   }
   if (congested_since_ >= 0 && now_us - congested_since_ >= config_.congest_us) {
-    const std::string why =
-        fmt::format("the path delivers {:.1f} Mbit/s (queue {:.0f} ms, {} frame sets missed in "
-                    "{:.1f} s) where this tier needs {:.1f} Mbit/s",
-                    good / 1e6, queue_ms_, skips_.size(), double(config_.window_us) / 1e6,
-                    rate / 1e6);
+    const std::string why = fmt::format(
+        "the path delivers {:.1f} Mbit/s (queue {:.0f} ms, {} frame sets missed in "
+        "{:.1f} s) where this tier needs {:.1f} Mbit/s",
+        good / 1e6, queue_ms_, skips_.size(), double(config_.window_us) / 1e6, rate / 1e6);
     // The best rung below that fits in `fill` x goodput; else the worst one allowed below.
     size_t target = rungs_, worst = rungs_;
     for (size_t r = rung_ + 1; r < rungs_; ++r) {

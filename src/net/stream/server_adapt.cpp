@@ -96,8 +96,12 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) 
 
 void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double goodput_bits) {
   const detail::TierKey& k = v.tier->encoder.key();
-  protocol::TierChange m{k.depth_codec, k.color_codec, k.color_quality, k.frame_divisor,
-                         static_cast<uint32_t>(std::clamp(goodput_bits / 1e3, 0.0, 4e9)), reason};
+  protocol::TierChange m{k.depth_codec,
+                         k.color_codec,
+                         k.color_quality,
+                         k.frame_divisor,
+                         static_cast<uint32_t>(std::clamp(goodput_bits / 1e3, 0.0, 4e9)),
+                         reason};
   v.connection->write_all(protocol::message(protocol::MessageType::kTierChange, serialize(m)),
                           config.stall_timeout_ms);
 }
@@ -130,12 +134,13 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
     v.report.frame_divisor = key.frame_divisor;
     v.report.rung = static_cast<int>(d.rung);
   }
-  const std::string reason =
-      d.notice ? "staying on " + from + " (" +
-                     ((v.adapt & protocol::Hello::kAdapt) ? std::string("the lightest tier your floor allows")
-                                                          : std::string("the tier you pinned")) +
-                     "): " + d.reason
-               : d.reason;
+  const std::string reason = d.notice
+                                 ? "staying on " + from + " (" +
+                                       ((v.adapt & protocol::Hello::kAdapt)
+                                            ? std::string("the lightest tier your floor allows")
+                                            : std::string("the tier you pinned")) +
+                                       "): " + d.reason
+                                 : d.reason;
   spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, to, reason);
   update(v, [&](ViewerReport& r) {
     r.switches.push_back({wall_clock_us(), from, to, reason});

@@ -120,7 +120,7 @@ struct Server::Impl {
     bool stop = false;
     TierReport report;
     double encode_ms_total = 0;
-    double encode_ns = 0;    // estimated CPU per site frame set (detail::tier_encode_ns / divisor)
+    double encode_ns = 0;  // estimated CPU per site frame set (detail::tier_encode_ns / divisor)
     // Body bytes of the frame sets encoded in the last second, with their steady times: the
     // tier's rate for the viewers' rate control.
     std::deque<std::pair<int64_t, size_t>> produced;
@@ -152,7 +152,7 @@ struct Server::Impl {
     std::array<RecentStream, 8> recent_streams{};
     uint32_t outbox_stream_mask = 0;
     int64_t timer_due_us = -1;
-    std::string kicked;  // set: disconnect with this reason
+    std::string kicked;          // set: disconnect with this reason
     std::shared_ptr<Tier> tier;  // changed by its own thread only (under mutex)
     // Rate adaptation (server.hpp): the Hello's flags and cap, the best rung it may get, rungs
     // refused by the CPU budget until a steady time, and the tier its Hello named.
@@ -265,7 +265,9 @@ struct Server::Impl {
   // --- Rate adaptation (server_adapt.cpp) ---
 
   // Whether `v` adapts along the ladder (Hello kAdapt, a ladder).
-  bool adaptive(const Viewer& v) const { return (v.adapt & protocol::Hello::kAdapt) && !ladder.empty(); }
+  bool adaptive(const Viewer& v) const {
+    return (v.adapt & protocol::Hello::kAdapt) && !ladder.empty();
+  }
   // The rate (bits/s) of `key`'s tier: measured while it runs, else learned, else 0. Mutex held.
   double tier_bits(const detail::TierKey& key) const;
   // Per rung into `ok` (capacity reused), whether `v` may be put on it now (floors, its cap if

@@ -149,9 +149,9 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
         last_sequence = frames->sequence;
         continue;
       }
-      const bool recorded_tier = pre && tk.frame_divisor == 1 && pre->depth_codec == tk.depth_codec &&
-                                 pre->color_codec == tk.color_codec &&
-                                 pre->color_quality == tk.color_quality;
+      const bool recorded_tier =
+          pre && tk.frame_divisor == 1 && pre->depth_codec == tk.depth_codec &&
+          pre->color_codec == tk.color_codec && pre->color_quality == tk.color_quality;
       // Images standing in for a frame set not decoded (a relay's) are an earlier one's: a tier
       // encoded from images waits for the next, rather than stamp them with this one's time.
       if (frames->images_stale && !recorded_tier) {
@@ -195,9 +195,9 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
     if (now_us - tier->produced.front().first >= 500'000 || tier->produced.size() >= 8) {
       size_t bytes = 0;
       for (const auto& p : tier->produced) bytes += p.second;
-      const double span_us =
-          std::max<double>(double(now_us - tier->produced.front().first), 1) *
-          double(tier->produced.size()) / double(std::max<size_t>(tier->produced.size() - 1, 1));
+      const double span_us = std::max<double>(double(now_us - tier->produced.front().first), 1) *
+                             double(tier->produced.size()) /
+                             double(std::max<size_t>(tier->produced.size() - 1, 1));
       tier->report.mbit_s = double(bytes) * 8 / span_us;
       learned_bits[detail::tier_name(tier->encoder.key())] = tier->report.mbit_s * 1e6;
     }

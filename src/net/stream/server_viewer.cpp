@@ -167,8 +167,8 @@ void Server::Impl::stream(Viewer& v) {
   std::vector<char> allowed;
   RateDecision decision;
   std::vector<uint8_t> payload;
-  uint64_t last_sequence = 0;  // the site sequence last sent (or skipped)
-  uint64_t last_index = 0;     // the tier index last sent; a delta needs index == last + 1
+  uint64_t last_sequence = 0;       // the site sequence last sent (or skipped)
+  uint64_t last_index = 0;          // the tier index last sent; a delta needs index == last + 1
   uint64_t last_blocked = 0;        // the newest frame set the pacer held back
   uint64_t blocked_since_send = 0;  // held back since the last send (told to the rate control)
   bool synced = false;

@@ -1,8 +1,8 @@
 #pragma once
-// A userspace impaired network link (tests and `volcast bench --paths`): two private network namespaces ("server" and
-// "client") joined by two TUN devices and a relay thread that adds one-way delay, random loss and
-// a rate-limited bottleneck queue to the IPv4 packets moving between them. The kernel here has no
-// netem/tc qdiscs, so the impairment is done in this process.
+// A userspace impaired network link (tests and `volcast bench --paths`): two private network
+// namespaces ("server" and "client") joined by two TUN devices and a relay thread that adds one-way
+// delay, random loss and a rate-limited bottleneck queue to the IPv4 packets moving between them.
+// The kernel here has no netem/tc qdiscs, so the impairment is done in this process.
 //
 //   server namespace            relay thread (this process)           client namespace
 //   10.77.0.1 (vctun0) <--> [loss -> bottleneck queue -> delay] <--> 10.77.0.2 (vctun0)

@@ -44,8 +44,8 @@ struct CameraStats {
 /// A change of the viewer's tier, or a notice that the path cannot carry it (the server's
 /// TierChange, protocol.hpp 0.6), as the viewer took it.
 struct TierEvent {
-  int64_t time_us = 0;     ///< this viewer's wall clock
-  std::string tier;        ///< "DEPTH/COLOR/QUALITY[@N]" after it
+  int64_t time_us = 0;  ///< this viewer's wall clock
+  std::string tier;     ///< "DEPTH/COLOR/QUALITY[@N]" after it
   bool lossless_depth = true;
   bool notice = false;     ///< the same tier: the floor or pin keeps it
   double path_mbit_s = 0;  ///< the server's estimate of the path then
@@ -62,10 +62,10 @@ struct LiveStats {
   std::vector<CameraStats> cameras;
   std::vector<StageLatency> stages;  ///< kStageNames order; empty until a frame set arrived
   std::string depth_codec, color_codec;
-  std::string tier;             ///< tier_label() of the tier now
-  bool adaptive = false;        ///< the server moves it along its ladder
-  bool lossless_depth = true;   ///< the tier's depth is lossless
-  double path_mbit_s = 0;       ///< the server's last path estimate (0: none said)
+  std::string tier;                    ///< tier_label() of the tier now
+  bool adaptive = false;               ///< the server moves it along its ladder
+  bool lossless_depth = true;          ///< the tier's depth is lossless
+  double path_mbit_s = 0;              ///< the server's last path estimate (0: none said)
   std::vector<TierEvent> tier_events;  ///< the last 8 changes and notices, oldest first
   uint64_t frame_sets_received = 0;
 };

@@ -68,13 +68,13 @@ class ViewerError : public Error {
 
 /// Writes the figures as JSON ({"ended", "error" (null when none), "frame_sets_received",
 /// "depth_codec", "color_codec", "tier", "adaptive", "tier_changes": [{"time_us", "tier",
-/// "lossless_depth", "notice", "path_mbit_s", "reason"}], "frames_rendered", "cameras": [...], "stages": [{"stage",
-/// "p50_ms", "p99_ms", "mean_ms"}, ...]}; for a participant also "session" (name), "participants"
-/// (the others' names), "session_round_trip_ms_p50" / "_p99", "round_trip_samples", "poses_sent",
-/// "avatar_frames_sent" and per other participant {"id", "name", "poses_received",
-/// "pose_rate_hz", "pose_age_ms_p50", "pose_age_ms_p99", "avatar_frames_received", "avatar_fps",
-/// "avatar_latency_ms_p50", "avatar_latency_ms_p99"} in "others"). Throws Error if it cannot
-/// write the file.
+/// "lossless_depth", "notice", "path_mbit_s", "reason"}], "frames_rendered", "cameras": [...],
+/// "stages": [{"stage", "p50_ms", "p99_ms", "mean_ms"}, ...]}; for a participant also "session"
+/// (name), "participants" (the others' names), "session_round_trip_ms_p50" / "_p99",
+/// "round_trip_samples", "poses_sent", "avatar_frames_sent" and per other participant {"id",
+/// "name", "poses_received", "pose_rate_hz", "pose_age_ms_p50", "pose_age_ms_p99",
+/// "avatar_frames_received", "avatar_fps", "avatar_latency_ms_p50", "avatar_latency_ms_p99"} in
+/// "others"). Throws Error if it cannot write the file.
 void write_stats_json(const std::filesystem::path& path, const ViewerResult& result);
 /// A short human-readable table of the figures, with the per-stage latencies and how the session
 /// ended.

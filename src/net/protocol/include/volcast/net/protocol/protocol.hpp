@@ -33,7 +33,8 @@
 //                    decoded (or, for a receive-only peer, read). The server paces by Acks.
 //     0.5 KeyFrameRequest  viewer -> server, empty: the viewer's decoder refused a delta frame;
 //                    the server sends the viewer's tier's next key frame (rate-limited per tier).
-//     0.6 TierChange server -> viewer, only to a viewer whose Hello set kAdapt or kNotify: depth codec
+//     0.6 TierChange server -> viewer, only to a viewer whose Hello set kAdapt or kNotify: depth
+//     codec
 //                    string, color codec string, color quality u8, frame divisor u8 (1..8: the
 //                    tier encodes every Nth site frame set), the server's estimate of the path
 //                    (delivery rate in kbit/s, u32) and a reason string for people (at most
@@ -87,8 +88,8 @@
 //                    any two messages of the conversation below, in both directions.
 //
 // Conversation: Hello, then Welcome or Reject; then FrameSets (1.1 or 1.2) and TierChanges from
-// the server and Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error that ends the
-// connection; so is a TLS record that straddles the sealed bytes of a 1.2 message.
+// the server and Acks (and KeyFrameRequests) from the viewer. Any other order is a protocol error
+// that ends the connection; so is a TLS record that straddles the sealed bytes of a 1.2 message.
 //
 // Limits a viewer enforces on what a server claims, before it allocates for it (a message over a
 // limit ends the connection with an Error naming it; the constants are below):
@@ -193,7 +194,7 @@ struct Hello {
   static constexpr uint8_t kAdapt = 1;         ///< the server may move it along its tier ladder
   static constexpr uint8_t kKeepLossless = 2;  ///< never a tier with lossy depth
   static constexpr uint8_t kKeepFullRate = 4;  ///< never a tier that skips site frame sets
-  static constexpr uint8_t kNotify = 8;  ///< understands TierChange (0.6); implied by kAdapt
+  static constexpr uint8_t kNotify = 8;        ///< understands TierChange (0.6); implied by kAdapt
   uint8_t adapt = 0;
   uint64_t max_bits_per_s = 0;  ///< frame sets at most this rate (bits/s); 0: no cap
 };
@@ -204,8 +205,8 @@ inline constexpr size_t kMaxReasonBytes = 400;
 /// TierChange (0.6): the tier the frame sets after it are of, and why.
 struct TierChange {
   std::string depth_codec, color_codec;
-  int color_quality = 0;  ///< 0..100 (0: the codec's default)
-  int frame_divisor = 1;  ///< 1..8: every Nth site frame set
+  int color_quality = 0;     ///< 0..100 (0: the codec's default)
+  int frame_divisor = 1;     ///< 1..8: every Nth site frame set
   uint32_t path_kbit_s = 0;  ///< the server's delivery-rate estimate of the path; 0: none yet
   std::string reason;
 };

@@ -17,10 +17,10 @@
 // path. Congested for `congest_us` on end: step down at once to the best rung whose rate is at most
 // `fill` x goodput (not one rung at a time: a path that halved is left within about one window).
 //
-// Up, without oscillating: after `hold_us` without congestion (and a queue under `queue_ms`) it probes
-// the next rung up. A probe that ends in congestion within `probe_us` steps back and doubles the
-// hold (up to `max_hold_us`); one that lasts resets it. A path between two rungs is thus probed at
-// 4, 8, 16, 32 s, ... -- the back-off of adaptive streaming's probing, bounded.
+// Up, without oscillating: after `hold_us` without congestion (and a queue under `queue_ms`) it
+// probes the next rung up. A probe that ends in congestion within `probe_us` steps back and doubles
+// the hold (up to `max_hold_us`); one that lasts resets it. A path between two rungs is thus probed
+// at 4, 8, 16, 32 s, ... -- the back-off of adaptive streaming's probing, bounded.
 //
 // Floors (the viewer's: lossless depth, full frame rate) and a cap (its max rate) make rungs
 // unavailable; when congestion asks for a step below the lowest available one, decide() returns a
@@ -38,13 +38,13 @@
 namespace volcast {
 
 struct RateControlConfig {
-  int64_t window_us = 500'000;  ///< goodput and skip window
-  double deficit = 0.85;        ///< goodput below this x the rung's rate: a deficit
-  double queue_ms = 20;         ///< smoothed queueing delay above this: a queue
-  int min_skips = 2;            ///< frame sets missed in the window: a queue's other sign
-  int64_t congest_us = 250'000;   ///< congested this long: step down
-  double fill = 0.8;              ///< step down to a rung of at most this x goodput
-  int64_t hold_us = 4'000'000;    ///< clear this long after a change: probe up
+  int64_t window_us = 500'000;   ///< goodput and skip window
+  double deficit = 0.85;         ///< goodput below this x the rung's rate: a deficit
+  double queue_ms = 20;          ///< smoothed queueing delay above this: a queue
+  int min_skips = 2;             ///< frame sets missed in the window: a queue's other sign
+  int64_t congest_us = 250'000;  ///< congested this long: step down
+  double fill = 0.8;             ///< step down to a rung of at most this x goodput
+  int64_t hold_us = 4'000'000;   ///< clear this long after a change: probe up
   int64_t max_hold_us = 32'000'000;
   int64_t probe_us = 3'000'000;  ///< a step up congested within this failed
   double unknown_ratio = 0.6;    ///< an unknown rung's rate: this x the better one's
@@ -99,7 +99,7 @@ class RateController {
   int64_t congested_since_ = -1;
   int64_t clear_since_ = -1;  // last time it was congested, or the last change
   int64_t hold_us_;
-  int64_t probe_until_ = -1;   // a probe up is on trial until then
+  int64_t probe_until_ = -1;  // a probe up is on trial until then
   int64_t last_notice_ = -1;
 };
 

@@ -108,9 +108,9 @@ struct ServerConfig {
   std::vector<std::string> offered_tiers;
   /// The tier ladder for adaptive viewers, best first, each "DEPTH/COLOR[/QUALITY][@N]" (@N: every
   /// Nth frame set; see the top). Empty: no adaptation (adaptive viewers are served as pinned).
-  /// With offered_tiers, only its offered rungs are kept. The default (default_ladder()) keeps depth
-  /// lossless on its top two rungs; its H.264 rungs are left out where the video codecs are not
-  /// registered (codec_video's register_video_codecs). Another ladder's codecs must all exist.
+  /// With offered_tiers, only its offered rungs are kept. The default (default_ladder()) keeps
+  /// depth lossless on its top two rungs; its H.264 rungs are left out where the video codecs are
+  /// not registered (codec_video's register_video_codecs). Another ladder's codecs must all exist.
   std::vector<std::string> ladder = default_ladder();
   /// Each rung's expected size relative to the others (any unit; empty, or another length than
   /// `ladder`: unknown). A rung not running is judged by a running one's rate times the ratio of
@@ -158,7 +158,7 @@ struct DoorReport {
 
 /// One change of a viewer's tier (or a notice that it could not change: `to` == `from`).
 struct TierSwitch {
-  int64_t time_us = 0;  ///< the server's wall clock
+  int64_t time_us = 0;   ///< the server's wall clock
   std::string from, to;  ///< tier names, e.g. "volcast/jpeg/80", "h264/h264/50@2"
   std::string reason;
 };
@@ -169,11 +169,11 @@ struct ViewerReport {
   std::string peer;
   std::string depth_codec, color_codec;
   int color_quality = 0;
-  int frame_divisor = 1;  ///< its tier encodes every Nth site frame set
-  bool adaptive = false;  ///< moved along the ladder (Hello kAdapt and a ladder)
-  int rung = -1;          ///< its ladder rung now (0 the best); -1 when pinned
-  double goodput_mbit_s = 0;  ///< acknowledged over the last half second
-  double queue_ms = 0;        ///< smoothed queueing delay (round trip less its minimum)
+  int frame_divisor = 1;             ///< its tier encodes every Nth site frame set
+  bool adaptive = false;             ///< moved along the ladder (Hello kAdapt and a ladder)
+  int rung = -1;                     ///< its ladder rung now (0 the best); -1 when pinned
+  double goodput_mbit_s = 0;         ///< acknowledged over the last half second
+  double queue_ms = 0;               ///< smoothed queueing delay (round trip less its minimum)
   std::vector<TierSwitch> switches;  ///< every change and notice, oldest first (the last 64)
   uint64_t frames_sent = 0;
   uint64_t frames_dropped = 0;  ///< frame sets of its tier it skipped (pacing, budget, no key yet)

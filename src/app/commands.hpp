@@ -157,7 +157,10 @@ struct ViewArgs {
   std::string hide_headset;         ///< avatar filter: "x,y,z[,yaw_degrees]" (metres, world frame)
   bool low_latency = false;         ///< hold the CPU wake-up latency at 0 (cpu_latency.hpp)
   int handshake_timeout_ms = 5000;  ///< ClientConfig::handshake_timeout_ms
-  int receive_timeout_ms = 10000;   ///< ClientConfig::receive_timeout_ms
+  int receive_timeout_ms =
+      2000;                      ///< ClientConfig::receive_timeout_ms: a silence this long is a cut
+  bool no_reconnect = false;     ///< end on a cut instead of reconnecting (ViewerOptions)
+  double give_up_after_s = 300;  ///< ViewerOptions::reconnect_give_up_s
   // Joining the virtual OR as a participant (volcast/session/participant.hpp).
   std::string join;                      ///< session name; empty: a plain viewer
   std::string name;                      ///< display name in the session

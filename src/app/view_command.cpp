@@ -149,6 +149,7 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
     if (voice_config && client->participant())
       *voice = std::make_unique<voice::VoiceLink>(*client->participant(), *voice_config);
   };
+  opt.on_reconnected = [client](Client& c) { client->reattach(c); };
   const std::string voice_json = a.voice_json;
   opt.on_finished = [client, session_name, voice, voice_json](ViewerResult& r) {
     if (*voice) {
@@ -300,6 +301,9 @@ int run_view(const ViewArgs& a) {
   if (!a.max_rate.empty()) opt.client.max_bits_per_s = parse_bit_rate(a.max_rate, "--max-rate");
   opt.client.handshake_timeout_ms = a.handshake_timeout_ms;
   opt.client.receive_timeout_ms = a.receive_timeout_ms;
+  opt.reconnect = !a.no_reconnect && a.receive_timeout_ms > 0;
+  opt.reconnect_give_up_s = a.give_up_after_s;
+  if (opt.reconnect) opt.stale_ms = 1000;  // a frame a second old is not live: not drawn
   opt.frames = a.frames;
   opt.seconds = a.seconds;
   opt.render = !a.no_render;
@@ -447,7 +451,14 @@ void register_view(CLI::App& app, Commands& commands) {
                 "0 = never)")
       ->capture_default_str();
   v->add_option("--receive-timeout", view.receive_timeout_ms,
-                "End the session when no complete message arrives for this long (ms, 0 = never)")
+                "A connection silent this long (no complete message, ms) is cut: connect again "
+                "and rejoin, showing 'reconnecting' (or end, with --no-reconnect; 0 = never)")
+      ->capture_default_str();
+  v->add_flag("--no-reconnect", view.no_reconnect,
+              "End the session when the connection breaks or falls silent, instead of "
+              "connecting again with the same link");
+  v->add_option("--give-up-after", view.give_up_after_s,
+                "Stop reconnecting after a cut this long (seconds)")
       ->capture_default_str();
   v->add_flag("--low-latency", view.low_latency, kLowLatencyHelp);
   v->add_option("--join", view.join,

@@ -8,7 +8,9 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "volcast/bench/bench.hpp"
 #include "volcast/bench/impaired_link.hpp"
@@ -17,6 +19,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/stage_stats.hpp"
 
@@ -112,6 +115,90 @@ PathResult run_path(const fs::path& data, const PathCase& p, bool adapt, double 
   return r;
 }
 
+// A cut path: the real two-camera site to a viewer (run_viewer, as `volcast view`: decoding, a
+// presenter that draws nothing but notes the age of each frame set it is handed), the path cut
+// (every packet lost both ways) for `cut_s` after 3 s, then whole again for `after_s`. Before:
+// no reconnecting and the old 10 s receive timeout; now: reconnecting after 2 s of silence.
+struct CutResult {
+  bool survived = false;       // still receiving at the end
+  std::string ended;           // how it ended (to_string(ViewerEnd))
+  double back_s = -1;          // from the path's return to the first frame set drawn under 250 ms
+  double first_age_ms = -1;    // the age of the first frame set drawn after the path came back
+  double p99_after_ms = 0;     // age of the frame sets drawn after the path came back, p99
+  uint64_t stale_drawn = 0;    // drawn after the path came back, over 1 s old
+  uint64_t stale_dropped = 0;  // not drawn: over 1 s old when they arrived
+  size_t reconnects = 0;
+};
+
+CutResult run_cut(const fs::path& data, double cut_s, bool reconnect, double after_s) {
+  std::string why;
+  auto link = ImpairedLink::create(LinkImpairment{}, &why);
+  if (!link) throw Error("bench --paths: cannot make the impaired link: " + why);
+  SitePlayer site(two_camera_site(data), 30);
+  ServerConfig config;
+  config.bind_address = link->server_address();
+  config.port = 0;
+  auto server =
+      link->in_server_namespace([&] { return std::make_unique<Server>(site.cameras(), config); });
+  site.start(*server);
+  ViewerOptions opt;
+  opt.client = client_config_from_link(server->join_link(link->server_address()));
+  opt.client.adapt = true;
+  opt.client.receive_timeout_ms = reconnect ? 2000 : 10000;
+  opt.reconnect = reconnect;
+  if (reconnect) opt.stale_ms = 1000;
+  opt.seconds = 3 + cut_s + after_s;
+  std::mutex mutex;
+  std::vector<std::pair<Clock::time_point, double>> drawn;  // (when, age ms)
+  opt.presenter = [&](FrameFeed& feed, ViewerResult&) {
+    std::vector<std::shared_ptr<const CameraFrame>> frames;
+    while (!feed.finished())
+      if (feed.next(frames, std::chrono::milliseconds(20))) {
+        const int64_t captured = feed.live().newest_capture_us;
+        std::lock_guard lock(mutex);
+        drawn.emplace_back(Clock::now(), double(wall_clock_us() - captured) / 1000);
+      }
+  };
+  ViewerResult result;
+  const auto start = Clock::now();
+  std::thread cutter([&] {
+    std::this_thread::sleep_until(start + std::chrono::seconds(3));
+    LinkImpairment cut;
+    cut.loss = 1;
+    link->set_impairment(cut, cut);
+    std::this_thread::sleep_until(start + std::chrono::duration<double>(3 + cut_s));
+    link->set_impairment({}, {});
+  });
+  link->in_client_namespace([&] {
+    try {
+      result = run_viewer(opt);
+    } catch (const ViewerError& e) {
+      result = e.result();
+    }
+  });
+  cutter.join();
+  const auto back = start + std::chrono::duration<double>(3 + cut_s);
+  CutResult r;
+  r.ended = to_string(result.ended);
+  r.reconnects = result.outages.size();
+  r.stale_dropped = result.frames_stale;
+  std::vector<double> ages;
+  std::lock_guard lock(mutex);
+  for (const auto& [t, age] : drawn) {
+    if (t < back) continue;
+    if (r.first_age_ms < 0) r.first_age_ms = age;
+    if (r.back_s < 0 && age < 250) r.back_s = std::chrono::duration<double>(t - back).count();
+    ages.push_back(age);
+    r.stale_drawn += age > 1000;
+  }
+  r.p99_after_ms = percentile(ages, 0.99);
+  r.survived = !drawn.empty() && Clock::now() - drawn.back().first < std::chrono::seconds(2) &&
+               drawn.back().first > back;
+  site.stop();
+  server->stop();
+  return r;
+}
+
 }  // namespace
 
 int run_paths_bench(const BenchArgs& a) {
@@ -163,9 +250,40 @@ int run_paths_bench(const BenchArgs& a) {
     }
   std::printf(
       "recovery: on the step path, seconds from the step to the last frame set over 250 ms.\n");
+
+  std::printf(
+      "\ncut paths: every packet lost both ways for N s, then whole for 8 s; before = no "
+      "reconnecting, 10 s receive timeout; now = reconnecting after 2 s of silence\n");
+  std::printf("%-8s %-7s %-16s %10s %12s %12s %12s %12s %10s\n", "cut", "viewer", "ended", "back",
+              "first age", "age p99", "stale drawn", "stale skip", "reconnects");
+  nlohmann::json cuts = nlohmann::json::array();
+  for (const double cut_s : {6.0, 12.0})
+    for (const bool reconnect : {false, true}) {
+      const CutResult r = run_cut(*data, cut_s, reconnect, 8);
+      std::printf("%-8s %-7s %-16s %10s %10.0fms %10.0fms %12llu %12llu %10zu\n",
+                  fmt::format("{:.0f} s", cut_s).c_str(), reconnect ? "now" : "before",
+                  r.ended.c_str(),
+                  r.back_s < 0 ? "never" : fmt::format("{:.2f}s", r.back_s).c_str(), r.first_age_ms,
+                  r.p99_after_ms, static_cast<unsigned long long>(r.stale_drawn),
+                  static_cast<unsigned long long>(r.stale_dropped), r.reconnects);
+      std::fflush(stdout);
+      cuts.push_back({{"cut_s", cut_s},
+                      {"viewer", reconnect ? "reconnecting" : "before"},
+                      {"ended", r.ended},
+                      {"back_s", r.back_s},
+                      {"first_age_ms", r.first_age_ms},
+                      {"age_ms_p99_after", r.p99_after_ms},
+                      {"stale_drawn", r.stale_drawn},
+                      {"stale_dropped", r.stale_dropped},
+                      {"reconnects", r.reconnects}});
+    }
+  std::printf(
+      "back: from the path's return to the first frame set drawn under 250 ms old; first age: "
+      "the first one drawn after it.\n");
   if (!a.json.empty()) {
     nlohmann::json j;
     j["paths"] = rows;
+    j["cuts"] = cuts;
     const fs::path path = a.json;
     if (path.has_parent_path()) fs::create_directories(path.parent_path());
     std::ofstream(path) << j.dump(2) << "\n";

@@ -11,6 +11,8 @@
 //   5. receive_frame_sets     calling thread, per frame set: receive and decode (Client::receive,
 //                             the cameras in parallel), keep_decoded, count, hand_to_renderer,
 //                             save_frames
+//   5b. receive_reconnecting calling thread: after a cut (the connection broke or fell silent),
+//                             connect again, rejoin (on_reconnected), resume with a key frame set
 //   6. wind down              stop the watchdog, close the connection, let the render thread draw
 //                             what is pending (RenderThread::finish)
 //   7. the figures            set_end, camera_figures, on_finished, finish (the JSON, and
@@ -207,13 +209,38 @@ class RenderThread {
   std::thread thread_;
 };
 
+// 4. The connection now, for the watchdog to close from its thread: a reconnect (5b) swaps it.
+// Once closed, a client set later is closed at once and reconnecting stops.
+class ClientSlot {
+ public:
+  void set(Client* client) {
+    std::lock_guard lock(mutex_);
+    client_ = client;
+    if (closed_ && client_) client_->close();
+  }
+  void close() {
+    std::lock_guard lock(mutex_);
+    closed_ = true;
+    if (client_) client_->close();
+  }
+  bool closed() const {
+    std::lock_guard lock(mutex_);
+    return closed_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  Client* client_ = nullptr;
+  bool closed_ = false;
+};
+
 // 4. The watchdog, on a thread of its own from construction to stop(): every 50 ms it checks the
 // time limit (options.seconds, counted from its construction), the external stop flag and
 // whether the presenter closed the feed; on any, it records which (stopped_by) and closes the
 // connection so that a blocked receive() returns.
 class Watchdog {
  public:
-  Watchdog(const ViewerOptions& opt, Client& client, const FrameFeed::State& box) {
+  Watchdog(const ViewerOptions& opt, ClientSlot& client, const FrameFeed::State& box) {
     const auto start = std::chrono::steady_clock::now();
     thread_ = std::thread([this, &opt, &client, &box, start] {
       std::unique_lock lock(mutex_);
@@ -271,6 +298,9 @@ struct Reception {
   uint64_t last_sequence = 0, received = 0;
   uint64_t tier_messages = 0;          // the client's TierState::messages taken
   std::vector<TierEvent> tier_events;  // the first 256
+  uint64_t stale = 0;                  // decoded, not drawn (ViewerOptions::stale_ms)
+  uint64_t undecodable = 0;            // of the clients before the one now (reconnects)
+  std::vector<ViewerResult::Outage> outages;
 };
 
 // 5. What the server said of the tier since the last frame set (a change, a notice): kept for
@@ -342,6 +372,7 @@ void count(Reception& r, int64_t now_us) {
 void hand_to_renderer(FrameFeed::State& box, Reception& r, int64_t now_us) {
   std::lock_guard lock(box.mutex);
   box.frames = r.frames;
+  box.live.newest_capture_us = r.rx.frames.capture_time_us;
   ++box.version;
   box.changed.notify_one();
   if (now_us - r.live_from_us >= 500'000) {  // the panel's figures, twice a second
@@ -373,7 +404,15 @@ std::exception_ptr receive_frame_sets(const ViewerOptions& opt, Client& client,
       keep_decoded(r);
       const int64_t now = wall_clock_us();
       count(r, now);
-      if (opt.render) hand_to_renderer(box, r, now);
+      if (!r.outages.empty() && r.outages.back().back_us == 0) {
+        r.outages.back().back_us = now;
+        std::lock_guard lock(box.mutex);
+        box.live.connection.clear();
+      }
+      const bool stale =
+          opt.stale_ms > 0 && now - r.rx.frames.capture_time_us > int64_t{opt.stale_ms} * 1000;
+      r.stale += stale;
+      if (opt.render && !stale) hand_to_renderer(box, r, now);
       if (box.closed) break;  // the presenter ended the session, or failed
       if (!opt.save_frames_dir.empty())
         save_frames(opt.save_frames_dir, r.frames, r.rx.frames.sequence);
@@ -382,6 +421,97 @@ std::exception_ptr receive_frame_sets(const ViewerOptions& opt, Client& client,
     return std::current_exception();
   }
   return nullptr;
+}
+
+// 5b. Whether `error` is a cut a viewer reconnects after: the connection broke or fell silent.
+bool is_cut(const std::exception_ptr& error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const ClientError& e) {
+    return e.kind() == ClientError::Kind::kTimedOut ||
+           e.kind() == ClientError::Kind::kConnectionLost;
+  } catch (...) {
+  }
+  return false;
+}
+
+// 5b. Sets what the panel says of the connection.
+void show_connection(FrameFeed::State& box, const std::string& text, bool reconnected) {
+  std::lock_guard lock(box.mutex);
+  box.live.connection = text;
+  box.live.reconnects += reconnected;
+}
+
+// 5b. After a cut (calling thread): connects again, the same config, until it works (a client
+// whose site has the same cameras), the slot is closed (the watchdog: time, stop, presenter), the
+// server refuses (thrown) or reconnect_give_up_s passed (null). Each try is bounded to 2 s.
+std::unique_ptr<Client> connect_again(const ViewerOptions& opt, ClientSlot& slot,
+                                      FrameFeed::State& box, const protocol::Welcome& site,
+                                      const std::string& why) {
+  using clock = std::chrono::steady_clock;
+  const auto start = clock::now();
+  ClientConfig config = opt.client;
+  config.connect_timeout_ms = std::min(config.connect_timeout_ms, 2000);
+  if (config.handshake_timeout_ms <= 0 || config.handshake_timeout_ms > 2000)
+    config.handshake_timeout_ms = 2000;
+  auto wait = std::chrono::milliseconds(250);
+  for (int attempt = 1; !slot.closed(); ++attempt) {
+    show_connection(box, fmt::format("reconnecting (try {}): {}", attempt, why), false);
+    try {
+      auto client = std::make_unique<Client>(config);
+      const auto& cams = client->welcome().cameras;
+      bool same = cams.size() == site.cameras.size();
+      for (size_t i = 0; same && i < cams.size(); ++i)
+        same = cams[i].calibration.depth.width == site.cameras[i].calibration.depth.width &&
+               cams[i].calibration.depth.height == site.cameras[i].calibration.depth.height;
+      if (!same)
+        throw Error(fmt::format("the site came back with other cameras ({} camera(s), was {})",
+                                cams.size(), site.cameras.size()));
+      return client;
+    } catch (const ClientError& e) {
+      if (e.kind() == ClientError::Kind::kRejected) throw;
+      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
+    } catch (const Error& e) {
+      if (std::string(e.what()).starts_with("the site came back")) throw;
+      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
+    }
+    if (std::chrono::duration<double>(clock::now() - start).count() > opt.reconnect_give_up_s)
+      return nullptr;
+    for (auto t = clock::now() + wait; clock::now() < t && !slot.closed();)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    wait = std::min(wait * 2, std::chrono::milliseconds(2000));
+  }
+  return nullptr;
+}
+
+// 5b. Receives over `client`, and with options.reconnect, over a new connection after each cut
+// (on_reconnected joins the session again). Returns what ended it, or null; `client` is the last
+// connection.
+std::exception_ptr receive_reconnecting(const ViewerOptions& opt, std::unique_ptr<Client>& client,
+                                        ClientSlot& slot, FrameFeed::State& box,
+                                        const protocol::Welcome& site, Reception& r) {
+  for (;;) {
+    std::exception_ptr error = receive_frame_sets(opt, *client, box, r);
+    if (!error || !opt.reconnect || slot.closed() || box.closed || !is_cut(error)) return error;
+    const std::string why = message_of(error);
+    spdlog::warn("viewer: {} -- reconnecting", why);
+    if (r.outages.size() < 256) r.outages.push_back({wall_clock_us(), 0, why});
+    client->close();  // what is still queued on the old path is stale: never read
+    std::unique_ptr<Client> next;
+    try {
+      next = connect_again(opt, slot, box, site, why);
+      if (next && opt.on_reconnected) opt.on_reconnected(*next);
+    } catch (...) {
+      return std::current_exception();
+    }
+    if (!next) return slot.closed() ? nullptr : error;  // stopped meanwhile, or given up
+    spdlog::info("viewer: reconnected");
+    r.undecodable += client->frames_undecodable();
+    r.tier_messages = 0;
+    slot.set(next.get());
+    client = std::move(next);  // the old one goes after the participant moved off it
+    show_connection(box, "reconnected: waiting for the key frame set", true);
+  }
 }
 
 // 7. Why the session ended, first cause first.
@@ -439,10 +569,9 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   result.depth_codec = opt.client.depth_codec;
   result.color_codec = opt.client.color_codec;
   // 1. Connect and join; the client lives until the figures are written.
-  const std::unique_ptr<Client> connected = connect_to_server(opt, result);
+  std::unique_ptr<Client> connected = connect_to_server(opt, result);
   if (!connected || !join(opt, *connected, result)) return finish(opt, std::move(result));
-  Client& client = *connected;
-  const protocol::Welcome& welcome = client.welcome();
+  const protocol::Welcome welcome = connected->welcome();  // the site (a reconnect keeps it)
 
   // 2.-4. The feed, the render thread, the receiving state and the watchdog, in this order.
   FrameFeed::State box;
@@ -450,22 +579,28 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   FrameFeed feed(box);
   RenderThread render(opt, feed, result);
   Reception reception(welcome.cameras.size());
-  Watchdog watchdog(opt, client, box);
+  ClientSlot slot;
+  slot.set(connected.get());
+  Watchdog watchdog(opt, slot, box);
 
-  // 5. Receive until a limit, the server or an error ends it.
-  const std::exception_ptr receive_error = receive_frame_sets(opt, client, box, reception);
+  // 5. Receive until a limit, the server or an error ends it (5b: reconnecting after cuts).
+  const std::exception_ptr receive_error =
+      receive_reconnecting(opt, connected, slot, box, welcome, reception);
 
   // 6. Wind down: the watchdog, the connection, then the render thread draws what is pending.
   watchdog.stop();
-  client.close();
+  slot.close();
   render.finish(opt, box);
+  Client& client = *connected;
 
   // 7. The figures.
   result.last_frames = reception.frames;
   result.frame_sets_received = reception.received;
   set_end(result, opt, render.error(), receive_error, reception.received, box.closed,
           watchdog.stopped_by());
-  result.frames_undecodable = client.frames_undecodable();
+  result.frames_undecodable = reception.undecodable + client.frames_undecodable();
+  result.frames_stale = reception.stale;
+  result.outages = std::move(reception.outages);
   result.depth_codec = client.tier().depth_codec;
   result.color_codec = client.tier().color_codec;
   result.tier = tier_label(client.tier());

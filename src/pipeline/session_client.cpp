@@ -161,6 +161,10 @@ void SessionClient::start(Client& client) {
   if (camera_) frames_ = std::thread([this] { run_camera(); });
 }
 
+void SessionClient::reattach(Client& client) {
+  if (participant_) participant_->reattach(client);
+}
+
 void SessionClient::stop() {
   if (stopping_.exchange(true)) return;
   if (poses_.joinable()) poses_.join();

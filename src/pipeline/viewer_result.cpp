@@ -54,6 +54,10 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
                                  {"notice", e.notice},
                                  {"path_mbit_s", e.path_mbit_s},
                                  {"reason", e.reason}});
+  j["outages"] = nlohmann::json::array();
+  for (const ViewerResult::Outage& o : r.outages)
+    j["outages"].push_back({{"lost_us", o.lost_us}, {"back_us", o.back_us}, {"why", o.why}});
+  j["frames_stale"] = r.frames_stale;
   j["frames_rendered"] = r.frames_rendered;
   j["renderer"] = r.renderer;
   j["frames_undecodable"] = r.frames_undecodable;
@@ -109,13 +113,21 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
 }
 
 std::string format_stats_table(const ViewerResult& r) {
-  std::string s =
-      fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
-                  r.adaptive ? fmt::format(" (adaptive, {} changes)", r.tier_events.size()) : "",
-                  r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
+  size_t switches = 0;  // the server's first word only says where the viewer starts
+  for (size_t i = 1; i < r.tier_events.size(); ++i) switches += !r.tier_events[i].notice;
+  std::string s = fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
+                              r.adaptive ? fmt::format(" (adaptive, {} switches)", switches) : "",
+                              r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
   for (const TierEvent& e : r.tier_events)
     s += fmt::format("  tier {}{}{}: {}\n", e.tier, e.lossless_depth ? "" : " (lossy depth)",
                      e.notice ? " kept" : "", e.reason);
+  for (const ViewerResult::Outage& o : r.outages)
+    s += o.back_us > 0 ? fmt::format("  reconnected after {:.1f} s: {}\n",
+                                     static_cast<double>(o.back_us - o.lost_us) / 1e6, o.why)
+                       : fmt::format("  cut, not reconnected: {}\n", o.why);
+  if (r.frames_stale > 0)
+    s += fmt::format("  {} stale frame sets not drawn (queued while the path stalled)\n",
+                     r.frames_stale);
   s += fmt::format("{:<4} {:>9} {:>8} {:>7} {:>12} {:>12} {:>7} {:>7} {:>8} {:>8}  {}\n", "cam",
                    "size", "frames", "dropped", "depth B/fr", "color B/fr", "ratio", "fps",
                    "Mbit/s", "lat p50", "lat p99 / source");

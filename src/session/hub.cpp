@@ -235,6 +235,9 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
                   " participants)");
   const std::string skeleton = session::name_skeleton(j.name);
   for (const auto& [pid, other] : s->members) {
+    if (other->info.name == j.name && j.rejoin_key != std::array<uint64_t, 2>{} &&
+        other->rejoin_key == j.rejoin_key && other->info.viewer != 0)
+      return take_over(viewer, *other);
     if (other->info.name == j.name)
       return refuse("the name '" + j.name + "' is taken in session '" + s->name + "'");
     if (session::name_skeleton(other->info.name) == skeleton)
@@ -251,24 +254,8 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
   m.info.has_camera = j.has_camera;
   m.info.spot = spot;
   m.session = s;
-  session::Joined joined;
-  joined.participant = m.info.id;
-  joined.session = s->id;
-  joined.session_name = s->name;
-  joined.spot = spot;
-  joined.site_translation = config_.site_translation;
-  joined.site_yaw = config_.site_yaw;
-  send(viewer, session::message(Type::kJoined, session::serialize(joined)));
-  for (const auto& [pid, other] : s->members) {
-    session::ParticipantInfo info{other->info.id, other->info.name, other->info.role,
-                                  other->info.has_camera, other->info.spot};
-    send(viewer, session::message(Type::kParticipantJoined, session::serialize(info)));
-    if (other->camera_message) send_shared(viewer, other->camera_message);
-    if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
-    if (other->voice_state) send_shared(viewer, other->voice_state);
-  }
-  send_case_state(*s, viewer);
-  send_drawing_state(*s, viewer);
+  m.rejoin_key = j.rejoin_key;
+  welcome_member(viewer, m);
   const Shared announce = share(
       session::message(Type::kParticipantJoined,
                        session::serialize(session::ParticipantInfo{
@@ -280,6 +267,49 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
   spdlog::info("session '{}': '{}' joined as participant {} ({}{})", printable(s->name),
                printable(j.name), m.info.id, session::to_string(m.info.role),
                j.has_camera ? ", with a camera" : "");
+}
+
+// Sends a member joining on `viewer` what it needs: Joined, then each other participant (with
+// its camera, newest pose and voice state), the case and the drawing.
+void SessionHub::welcome_member(uint64_t viewer, const Member& m) {
+  const Session& s = *m.session;
+  session::Joined joined;
+  joined.participant = m.info.id;
+  joined.session = s.id;
+  joined.session_name = s.name;
+  joined.spot = m.info.spot;
+  joined.site_translation = config_.site_translation;
+  joined.site_yaw = config_.site_yaw;
+  send(viewer, session::message(Type::kJoined, session::serialize(joined)));
+  for (const auto& [pid, other] : s.members) {
+    if (other.get() == &m) continue;
+    session::ParticipantInfo info{other->info.id, other->info.name, other->info.role,
+                                  other->info.has_camera, other->info.spot};
+    send(viewer, session::message(Type::kParticipantJoined, session::serialize(info)));
+    if (other->camera_message) send_shared(viewer, other->camera_message);
+    if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
+    if (other->voice_state) send_shared(viewer, other->voice_state);
+  }
+  send_case_state(s, viewer);
+  send_drawing_state(s, viewer);
+}
+
+// A member whose viewer reconnected (its Join's rejoin key is the member's): the new connection
+// takes its place -- participant id, spot, held objects, annotations -- and the old one, whose
+// path was cut, is closed. The others see nothing change.
+void SessionHub::take_over(uint64_t viewer, Member& m) {
+  const uint64_t old = m.info.viewer;
+  by_viewer_.erase(old);
+  m.info.viewer = viewer;
+  m.last_seen = Clock::now();
+  m.dropping = false;
+  by_viewer_[viewer] = &m;
+  welcome_member(viewer, m);
+  ++stats_.rejoins;
+  spdlog::info("session '{}': '{}' rejoined as participant {} (reconnected)",
+               printable(m.session->name), printable(m.info.name), m.info.id);
+  if (SessionOutlet* o = outlet(old)) o->disconnect(old, "replaced by its own reconnection");
+  if (old & kRemoteViewer) limiter_.forget(old, steady_us());
 }
 
 int SessionHub::connected(const Session& s) {

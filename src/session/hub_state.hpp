@@ -61,10 +61,11 @@ struct SessionHub::Member {
   Clock::time_point last_seen = Clock::now();
   bool dropping = false;  // its last message was malformed: it leaves as kDropped
   std::optional<session::AvatarCamera> camera;
-  Shared camera_message, last_pose;  // forwarded forms, for participants who join later
-  Shared voice_state;                // forwarded VoiceState, for participants who join later
-  uint32_t malformed_voice = 0;      // voice packets refused (voice_messages.hpp)
-  Shared pointer;                    // forwarded Pointer while it is held, for those who join
+  Shared camera_message, last_pose;      // forwarded forms, for participants who join later
+  Shared voice_state;                    // forwarded VoiceState, for participants who join later
+  uint32_t malformed_voice = 0;          // voice packets refused (voice_messages.hpp)
+  Shared pointer;                        // forwarded Pointer while it is held, for those who join
+  std::array<uint64_t, 2> rejoin_key{};  // from its Join; all zero: it cannot be taken over
 };
 
 struct SessionHub::Session {

@@ -61,6 +61,11 @@ void layout(Io& io, M& m) {
   io.name(m.name, "display name");
   io.enumeration(m.role, 1, "role");
   io.flag(m.has_camera);
+  if (io.tail(m.rejoin_key[0] != 0 || m.rejoin_key[1] != 0)) {
+    io.number(m.rejoin_key[0]);
+    io.number(m.rejoin_key[1]);
+    io.check(m.rejoin_key[0] != 0 || m.rejoin_key[1] != 0, "a rejoin key is all zero");
+  }
 }
 
 template <typename Io, Of<Joined> M>

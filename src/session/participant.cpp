@@ -37,9 +37,44 @@ Participant::~Participant() = default;
 
 void Participant::detach() {
   Impl& m = *impl_;
-  if (m.detached) return;
-  m.detached = true;
-  m.client.set_session_handler(nullptr, nullptr);
+  Client* client = nullptr;
+  {
+    std::lock_guard lock(m.client_mutex);
+    if (m.detached) return;
+    m.detached = true;
+    client = m.client;
+  }
+  // Outside client_mutex: the handler may be running, and posting (which takes it).
+  client->set_session_handler(nullptr, nullptr);
+}
+
+void Participant::reattach(Client& client) {
+  Impl& m = *impl_;
+  std::string session;
+  {
+    std::lock_guard lock(m.mutex);
+    session = m.state.session_name.empty() ? m.config.session : m.state.session_name;
+    m.state.joined = false;  // until the server answers the new Join
+    m.remotes.clear();       // the server sends those still there again, and the drawing
+    m.pointers.clear();
+    m.pointer_in.clear();
+    m.annotations.clear();
+  }
+  Client* old = nullptr;
+  {
+    std::lock_guard lock(m.client_mutex);
+    if (!m.detached) old = m.client;
+    m.client = &client;
+    m.detached = false;
+    m.offset_us = client.clock_offset_us();
+  }
+  // Outside client_mutex: the old handler may be running, and posting (which takes it).
+  if (old) old->set_session_handler(nullptr, nullptr);
+  Impl* impl = impl_.get();
+  client.set_session_handler(
+      [impl](uint8_t type, std::span<const uint8_t> p) { impl->handle(type, p); },
+      [](uint8_t type) { return type >= 0x40 ? session::max_payload(type) : 0u; });
+  m.send_join(session, m.config.create);
 }
 
 void Participant::send_voice(const session::VoicePacketView& packet) {

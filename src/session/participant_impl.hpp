@@ -8,6 +8,8 @@
 #include <chrono>
 #include <deque>
 #include <map>
+#include <mutex>
+#include <random>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -85,9 +87,11 @@ T pose_at(const std::deque<std::pair<int64_t, T>>& q, int64_t at) {
 using namespace participant_detail;
 
 struct Participant::Impl {
-  Client& client;
+  std::mutex client_mutex;  // the client pointer, swapped by reattach()
+  Client* client;
   ParticipantConfig config;
-  int64_t offset_us = 0;
+  std::atomic<int64_t> offset_us{0};
+  std::array<uint64_t, 2> rejoin_key{};  // drawn once (messages.hpp Join); sent on every Join
   std::unique_ptr<DepthEncoder> depth_encoder;
   std::unique_ptr<ColorEncoder> color_encoder;
   std::vector<uint8_t> depth_bytes, color_bytes;
@@ -142,14 +146,19 @@ struct Participant::Impl {
   std::map<uint32_t, std::shared_ptr<Remote>> gone;  // those who left, for stats()
   std::mutex decode_mutex;
 
-  Impl(Client& c, ParticipantConfig cfg) : client(c), config(std::move(cfg)) {}
+  Impl(Client& c, ParticipantConfig cfg) : client(&c), config(std::move(cfg)) {
+    std::random_device random;  // the kernel's getrandom(): unguessable by the others
+    for (uint64_t& k : rejoin_key) k = (uint64_t{random()} << 32) | random();
+    if (rejoin_key == std::array<uint64_t, 2>{}) rejoin_key[0] = 1;
+  }
 
   int64_t server_now() const { return wall_clock_us() + offset_us; }
 
   std::atomic<bool> detached{false};
 
   void post(Type type, std::span<const uint8_t> payload, uint64_t key = 0) {
-    if (!detached) client.post_session(session::message(type, payload), key);
+    std::lock_guard lock(client_mutex);
+    if (!detached) client->post_session(session::message(type, payload), key);
   }
 
   // A case: megabytes, parsed before taking the lock, so that snapshots (every frame) do not wait.
@@ -188,6 +197,7 @@ struct Participant::Impl {
     j.name = config.name;
     j.role = session::Role::kRemote;  // the only role a Join may ask for (hub.hpp)
     j.has_camera = config.camera.has_value();
+    j.rejoin_key = rejoin_key;
     post(Type::kJoin, session::serialize(j));
   }
 };

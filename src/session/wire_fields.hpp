@@ -52,6 +52,8 @@ struct Out {
   }
   /// A condition the reader checks on what it has read so far (nothing to write).
   void check(bool, const char*) {}
+  /// An optional tail: its fields follow (are written) when `present`.
+  bool tail(bool present) { return present; }
 };
 
 /// Reads a layout's fields, checking each.
@@ -105,6 +107,8 @@ struct In {
   void check(bool ok, const char* why) {
     if (!ok) r.fail(why);
   }
+  /// An optional tail: its fields follow when any bytes are left.
+  bool tail(bool) { return r.remaining() > 0; }
 };
 
 /// M or const M: a layout's message, as it is written (const) or read.

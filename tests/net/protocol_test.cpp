@@ -132,6 +132,17 @@ TEST(Protocol, AdaptationInTheHelloAndTierChangesRoundTripAndRefuseBadFields) {
     EXPECT_THROW(parse_hello(std::span(hello).first(n)), Error);
   hello[plain] = 0x10;  // a flag this build does not know
   EXPECT_THROW(parse_hello(hello), Error);
+  // A browser names the codecs it decodes (its WebAssembly has no video depth).
+  sent.decodes = {"volcast", "rvl", "jpeg"};
+  const auto browser = serialize(sent);
+  EXPECT_EQ(browser.size(), plain + 9 + 1 + (2 + 7) + (2 + 3) + (2 + 4));
+  EXPECT_EQ(parse_hello(browser).decodes, sent.decodes);
+  for (size_t n = plain + 10; n < browser.size(); ++n)
+    EXPECT_THROW(parse_hello(std::span(browser).first(n)), Error);
+  auto none = browser;
+  none[plain + 9] = 0;  // a list of no codecs
+  EXPECT_THROW(parse_hello(none), Error);
+  sent.decodes.clear();
 
   TierChange c{"h264", "h264", 50, 2, 18'500, "the path delivers 18.5 Mbit/s"};
   const auto bytes = serialize(c);

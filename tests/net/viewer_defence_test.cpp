@@ -635,7 +635,7 @@ TEST(HostileServer, CliWritesStatsWithTheReasonAndExitsNonZeroOnSilence) {
       {VOLCAST_BINARY, "view", "--connect", "127.0.0.1:" + std::to_string(server.port()),
        "--insecure", "--token", std::string(32, '0'), "--no-render", "--depth-codec", "raw",
        "--color-codec", "raw", "--stats-json", (dir / "stats.json").string(), "--receive-timeout",
-       "1000"},
+       "1000", "--no-reconnect"},
       dir / "log.txt");
   EXPECT_EQ(p.exit_code, 1) << p.output;
   EXPECT_TRUE(contains(p.output, "receive timeout")) << p.output;

@@ -23,6 +23,7 @@
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
+#include "support/stalling_proxy.hpp"
 #include "support/web_peer.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
@@ -41,6 +42,10 @@ using namespace std::chrono_literals;
 
 const std::filesystem::path kWebRoot = VOLCAST_WEB_ROOT;
 const std::filesystem::path kWebTests = VOLCAST_WEB_TEST_DIR;
+
+// The page's tier pinned (as a link with depth= is): where the tier is not what is tested, a
+// loaded machine's slow decoding must not move it along the ladder (AdaptsWithin... tests that).
+const std::string kPinned = "&depth=volcast";
 
 ServerConfig web_config(bool insecure) {
   ServerConfig c;
@@ -215,8 +220,9 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   register_video_codecs();  // the h264 color tier, as the volcast CLI offers it
   test::HandsSite s(15, web_config(false));
   const auto out = test::temp_dir("web_desktop");
-  const nlohmann::json page = drive(s.server.web_link("127.0.0.1") + "&check=1&room=0&name=Desk",
-                                    out, "--frames 40 --seconds 200 --bench");
+  const nlohmann::json page =
+      drive(s.server.web_link("127.0.0.1") + kPinned + "&check=1&room=0&name=Desk", out,
+            "--frames 40 --seconds 200 --bench");
   ASSERT_FALSE(page.is_null());
   EXPECT_EQ(page["phase"], "streaming") << page["error"];
   EXPECT_EQ(page["cameras"], 1);
@@ -241,8 +247,9 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   EXPECT_GT(colored(shot), points / 4) << "with the camera's JPEG colors";
   // The grid-mesh surface covers the picture at least as the splats do, give or take the edges.
   const auto mesh_out = test::temp_dir("web_desktop_mesh");
-  const nlohmann::json mesh_page = drive(
-      s.server.web_link("127.0.0.1") + "&room=0&surface=mesh&name=Mesh", mesh_out, "--frames 10");
+  const nlohmann::json mesh_page =
+      drive(s.server.web_link("127.0.0.1") + kPinned + "&room=0&surface=mesh&name=Mesh", mesh_out,
+            "--frames 10");
   ASSERT_FALSE(mesh_page.is_null());
   EXPECT_EQ(mesh_page["phase"], "streaming") << mesh_page["error"];
   EXPECT_GT(covered(read_color_png(mesh_out / "desktop.png")), points / 2);
@@ -284,6 +291,71 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   EXPECT_EQ(image.width, 640);
 }
 
+// The page adapts as a native viewer does, within what it decodes, and comes back by itself from
+// a cut. Its link pins nothing, so it asks to adapt and names its codecs: of the ladder, the
+// first rung it can decode is its start (the top's zstd depth is not in its WebAssembly), told
+// by a TierChange it shows. Then the proxy between it and the server cuts its path for 3 s (its
+// connection silent both ways, still open; new ones refused): it shows "reconnecting", tries
+// again until the path is back, gets its own place in the session back (the hub's rejoin) and
+// decodes on, bit-exact.
+TEST(WebBrowser, AdaptsWithinWhatItDecodesAndReconnectsAfterItsPathStalls) {
+  SessionHubConfig hub;
+  hub.presence_timeout_ms = 20000;  // the hub still holds the page when it comes back
+  ServerConfig config = web_config(false);
+  config.ladder = {"zstd/jpeg/90", "volcast/jpeg/60", "volcast-n2/jpeg/40"};
+  config.tier_cpu_budget = 16;  // every rung fits: not what is tested here
+  test::SessionSite s(hub, 15, config);
+  test::StallingProxy proxy(s.site.server.port());
+  std::string link = s.site.server.web_link("127.0.0.1");
+  link.replace(link.find(":" + std::to_string(s.site.server.port())),
+               std::to_string(s.site.server.port()).size() + 1, ":" + std::to_string(proxy.port()));
+  std::atomic<bool> done{false};
+  std::atomic<uint64_t> at_stall{0};
+  std::thread cutter([&] {  // once the page has 15 frame sets, its path is cut for 3 s
+    while (!done && at_stall == 0) {
+      for (const auto& v : s.site.server.viewers())
+        if (v.connected && v.adaptive && v.frames_sent >= 15 && at_stall == 0) {
+          at_stall = v.frames_sent;
+          proxy.cut();
+        }
+      std::this_thread::sleep_for(20ms);
+    }
+    for (int i = 0; i < 150 && !done; ++i) std::this_thread::sleep_for(20ms);
+    proxy.restore();
+  });
+  const auto out = test::temp_dir("web_reconnect");
+  // Its floor keeps depth lossless (the ladder's lossy rung is never its own), so that every frame
+  // set checks bit-exact even when a loaded machine's slow decoding looks like a slow path.
+  const nlohmann::json page =
+      drive(link + "&check=1&room=0&name=Roaming&floor=lossless", out, "--frames 45");
+  done = true;
+  cutter.join();
+  ASSERT_FALSE(page.is_null());
+  EXPECT_EQ(page["phase"], "streaming") << page["error"];
+  EXPECT_GT(at_stall.load(), 0u);
+  // Adapting, on the best rung it decodes, and it says so.
+  EXPECT_TRUE(page["adaptive"]);
+  EXPECT_EQ(page["tier"], "volcast/jpeg/60");
+  ASSERT_FALSE(page["tierChanges"].empty());
+  EXPECT_FALSE(page["tierChanges"][0]["reason"].get<std::string>().empty());
+  EXPECT_TRUE(page["losslessDepth"]);
+  // Back by itself after the cut, as the same participant.
+  ASSERT_EQ(page["outages"].size(), 1u) << page.dump().substr(0, 2000);
+  EXPECT_NE(page["outages"][0]["why"].get<std::string>().find("no message"), std::string::npos);
+  EXPECT_GE(proxy.accepted(), 2);
+  EXPECT_EQ(s.hub.stats().rejoins, 1u);
+  EXPECT_TRUE(page["session"]["joined"]);
+  EXPECT_EQ(s.hub.stats().joins, 1u) << "joined once; after the cut it took its own place back";
+  // Every depth image it decoded, before and after, is the recording's frame, bit for bit.
+  size_t checked = 0;
+  for (const auto& f : page["hashes"]) {
+    ASSERT_EQ(f["hashes"][0].get<uint32_t>(),
+              fnv1a(test::hands_source_frame(f["sequence"].get<uint64_t>())));
+    ++checked;
+  }
+  EXPECT_GE(checked, 45u);
+}
+
 TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   SessionHubConfig hub;
   hub.site_translation = {0, 1.3f, 0.3f};
@@ -305,8 +377,9 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
       std::this_thread::sleep_for(20ms);
     }
   });
-  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3",
-                                    out, "--frames 20 --stall 4.5 --xr");
+  const nlohmann::json page =
+      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&xrscale=0.3", out,
+            "--frames 20 --stall 4.5 --xr");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());
@@ -407,7 +480,7 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   const auto out = test::temp_dir("web_ar");
   const auto t0 = std::chrono::steady_clock::now();
   const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + "&name=Web&xrscale=0.3&probe=1", out,
+      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&xrscale=0.3&probe=1", out,
             "--frames 5 --ar " + aim);
   std::printf("the AR drive took %.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
@@ -536,7 +609,7 @@ TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
   });
   const auto out = test::temp_dir("web_case_out");
   const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + "&name=Web", out, "--frames 10 --case");
+      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web", out, "--frames 10 --case");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());
@@ -634,7 +707,7 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   });
   const auto out = test::temp_dir("web_voice_out");
   const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + "&name=Web&record=20&fps=10", out,
+      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&record=20&fps=10", out,
             "--frames 3 --mic " + web_mic.string() + " --voice 7 --volume Talker:0.5");
   done = true;
   talk.join();

@@ -70,6 +70,20 @@ TEST(SessionMessages, RoundTripAndRefuseBadFields) {
 
   session::Join join{"OR", true, "Dr. A", session::Role::kRemote, false};
   EXPECT_EQ(session::parse_join(session::serialize(join)).name, "Dr. A");
+  const size_t without_key = session::serialize(join).size();
+  join.rejoin_key = {0x0123456789abcdefu, 42};  // the optional tail: 16 bytes
+  const auto keyed = session::serialize(join);
+  EXPECT_EQ(keyed.size(), without_key + 16);
+  EXPECT_EQ(session::parse_join(keyed).rejoin_key, join.rejoin_key);
+  auto zero_key = keyed;
+  std::fill(zero_key.end() - 16, zero_key.end(), uint8_t{0});
+  EXPECT_NE(test::error_of([&] { session::parse_join(zero_key); }).find("all zero"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] {
+              session::parse_join(std::span(keyed).first(keyed.size() - 3));
+            }).find("truncated"),
+            std::string::npos);
+  join.rejoin_key = {};
   join.name = std::string(65, 'x');
   EXPECT_NE(test::error_of([&] { session::parse_join(session::serialize(join)); }).find("1 to 64"),
             std::string::npos);
@@ -245,6 +259,47 @@ TEST(Session, TwoParticipantsSeeEachOtherAndLeave) {
   EXPECT_EQ(std::get<2>(departed[0]), session::LeftReason::kLeft);
   EXPECT_FALSE(a.ended);
   EXPECT_EQ(s.hub.members("OR").size(), 2u);
+}
+
+// A participant whose path was cut connects again (a new connection) while the server still holds
+// its first one: its Join carries the rejoin key it drew, so it gets its own place back -- the
+// same participant id -- the old connection is closed, and the others see nobody leave. Someone
+// else asking for the same name without the key is refused.
+TEST(Session, AReconnectingParticipantGetsItsOwnPlaceBackAndTheOthersSeeNobodyLeave) {
+  SessionSite s;
+  TestParticipant a(s, named("Dr. A")), b(s, named("Dr. B"));
+  ASSERT_TRUE(eventually([&] { return sees(a, "Dr. B") && sees(b, "Dr. A"); }));
+  const uint32_t id = a.now().id;
+  const auto second = std::make_unique<Client>(s.client_config());
+  a.session->reattach(*second);
+  std::atomic<bool> stop{false};
+  std::thread receiving([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (!stop && second->receive(rx)) {
+      }
+    } catch (const std::exception&) {
+    }
+  });
+  EXPECT_TRUE(eventually([&] { return a.now().joined && sees(a, "Dr. B"); }));
+  EXPECT_EQ(a.now().id, id);
+  EXPECT_EQ(s.hub.stats().rejoins, 1u);
+  EXPECT_TRUE(eventually([&] { return a.ended.load(); })) << "the old connection is closed";
+  EXPECT_EQ(s.hub.members("OR").size(), 3u);
+  EXPECT_TRUE(b.now().departed.empty());
+  ASSERT_TRUE(b.other("Dr. A"));
+  EXPECT_EQ(b.other("Dr. A")->id, id);
+  // Its poses go on over the new connection.
+  const uint64_t before = b.other("Dr. A")->newest_pose_sequence;
+  EXPECT_TRUE(eventually([&] { return b.other("Dr. A")->newest_pose_sequence > before + 10; }));
+
+  TestParticipant c(s, named("Dr. A"));
+  ASSERT_TRUE(eventually([&] { return !c.now().last_error.empty(); }));
+  EXPECT_NE(c.now().last_error.find("taken"), std::string::npos) << c.now().last_error;
+  a.session->stop();  // off the second connection before it goes
+  stop = true;
+  second->close();
+  receiving.join();
 }
 
 // Eight participants (the idle script at 60 Hz) see all seven others; one is killed (its

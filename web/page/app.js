@@ -61,6 +61,11 @@ const state = {
   phase: 'connecting', error: '', cameras: 0, framesReceived: 0, framesDrawn: 0,
   firstFrameMs: null, decodeMs: [], depthDecodeMs: [], hashes: [], latencyMs: [],
   session: null, xr: {frames: 0, views: 0, active: false}, tier: '', desktopFrames: 0,
+  // The path (TierChange 0.6, worker.js): adapting or pinned, the server's path estimate, the
+  // last 8 changes and notices; the connection ('' or 'reconnecting: why'), each cut it came back
+  // from ({ms, why}), and frame sets dropped as stale.
+  adaptive: false, losslessDepth: true, pathMbit: 0, tierChanges: [], connection: '',
+  outages: [], framesStale: 0,
   avatarFrames: {}, avatarErrors: {},  // by participant id: camera avatar frames decoded, errors
   warnings: [], colorFrames: 0,  // decoder warnings (recovered); frame sets with color decoded
   // Pointing and drawing: the others' pointers as last held (by id), the session's annotations,
@@ -534,8 +539,20 @@ function updateOverlay() {
   overlayAt = now;
   const median = (a) => (a.length ? [...a].sort((x, y) => x - y)[a.length >> 1] : 0);
   const names = [...session.others.values()].map((p) => p.name).join(', ') || 'nobody yet';
+  if (state.connection) {
+    overlay.textContent = state.connection.toUpperCase().slice(0, 12) + state.connection.slice(12);
+    overlay.className = 'reconnecting';
+    return;
+  }
+  overlay.className = '';
+  const last = state.tierChanges[state.tierChanges.length - 1];
   overlay.textContent =
-      `${state.cameras} camera(s), tier ${state.tier} · ${state.framesReceived} frame sets · ` +
+      `${state.cameras} camera(s), tier ${state.tier}` +
+      `${state.losslessDepth ? '' : ' (LOSSY DEPTH)'}${state.adaptive ? ' adaptive' : ' pinned'}` +
+      (state.pathMbit ? ` · path ~${state.pathMbit.toFixed(1)} Mbit/s` : '') +
+      (last ? ` · ${last.notice ? 'kept' : '→'} ${last.tier}: ${last.reason}` : '') +
+      (state.outages.length ? ` · reconnected ${state.outages.length}×` : '') +
+      ` · ${state.framesReceived} frame sets · ` +
       `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
       (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
       (session.error ? ` · ${session.error}` : '') + voiceLine();
@@ -857,6 +874,13 @@ function setupInput() {
       });
 }
 
+// A rate such as '20M', '500k' or '2000000' in bits per second (as `volcast view --max-rate`).
+function parseRate(text) {
+  const m = /^([0-9.]+)([kKmMgG]?)$/.exec(text);
+  if (!m) return 0;
+  return Number(m[1]) * ({'': 1, k: 1e3, m: 1e6, g: 1e9}[m[2].toLowerCase()]);
+}
+
 function start() {
   const token = params.get('token') || '';
   if (!/^[0-9a-fA-F]{32}$/.test(token)) {
@@ -866,12 +890,22 @@ function start() {
   const depth = params.get('depth') || 'volcast';
   const color = params.get('color') || 'jpeg';
   const quality = Number(params.get('quality') || 0);
+  // As `volcast view`: adapting to the path unless the link pins a codec or quality.
+  const adapt = !['depth', 'color', 'quality'].some((k) => params.has(k));
+  const floor = params.get('floor') || '';
+  const maxRate = parseRate(params.get('maxRate') || '0');
   state.tier = `${depth}/${color}`;
+  state.adaptive = adapt;
   worker = new Worker('worker.js');
   worker.onerror = (e) => fail(`the stream worker failed: ${e.message || 'could not load'}`);
   worker.onmessage = (e) => {
     const m = e.data;
-    if (m.type === 'welcome') {
+    if (m.type === 'welcome' && m.reconnected) {
+      clockOffsetUs = m.clockOffsetUs;
+      state.connection = '';
+      state.outages.push({ms: Math.round(m.outageMs), why: state.cutWhy});
+      session.rejoin();
+    } else if (m.type === 'welcome') {
       clockOffsetUs = m.clockOffsetUs;
       state.cameras = m.cameras.length;
       state.phase = 'streaming';
@@ -894,6 +928,24 @@ function start() {
       }
       if (latest) latest.cameras.forEach((c) => c.color && c.color.close());
       latest = m;
+    } else if (m.type === 'tier') {
+      state.tier = m.quality ? `${m.depth}/${m.color}/${m.quality}` : `${m.depth}/${m.color}`;
+      if (m.divisor > 1) state.tier += `@${m.divisor}`;
+      state.losslessDepth = !m.depth.startsWith('volcast-n');
+      state.pathMbit = m.pathMbit;
+      state.tierChanges.push({tier: state.tier, notice: !m.change, pathMbit: m.pathMbit,
+                              reason: m.reason});
+      if (state.tierChanges.length > 8) state.tierChanges.shift();
+      overlayAt = 0;
+      updateOverlay();
+    } else if (m.type === 'reconnecting') {
+      if (!state.connection) state.cutWhy = m.why;
+      state.connection = `reconnecting: ${m.why}`;
+      state.reconnecting = (state.reconnecting || 0) + 1;
+      overlayAt = 0;
+      updateOverlay();
+    } else if (m.type === 'stale') {
+      state.framesStale = m.count;
     } else if (m.type === 'avatar-camera') {
       renderer.setAvatarCamera(m.id, {...m.camera, siteFromCamera: M.rigid(m.camera.rotation,
                                                                            m.camera.translation)});
@@ -941,7 +993,7 @@ function start() {
   };
   const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
   worker.postMessage({type: 'start', url: `${scheme}//${location.host}/stream`, token, depth,
-                      color, quality, check: params.get('check') === '1'});
+                      color, quality, adapt, floor, maxRate, check: params.get('check') === '1'});
   setupInput();
   requestAnimationFrame(desktopFrame);
 }

@@ -25,6 +25,7 @@ class Writer {
   constructor() { this.parts = []; }
   u16(x) { const a = new Uint8Array(2); new DataView(a.buffer).setUint16(0, x, true); this.parts.push(a); return this; }
   u8(x) { this.parts.push(new Uint8Array([x])); return this; }
+  raw(bytes) { this.parts.push(bytes); return this; }
   u32(x) { const a = new Uint8Array(4); new DataView(a.buffer).setUint32(0, x, true); this.parts.push(a); return this; }
   i64(x) { const a = new Uint8Array(8); new DataView(a.buffer).setBigInt64(0, BigInt(Math.round(x)), true); this.parts.push(a); return this; }
   f32(x) { const a = new Uint8Array(4); new DataView(a.buffer).setFloat32(0, x, true); this.parts.push(a); return this; }
@@ -102,6 +103,11 @@ export class Session {
     this.pointerSequence = 0;
     this.annotationTag = 0;
     this.onchange = () => {};
+    // Drawn once, sent with every Join: after a cut the server gives this page its own place back
+    // (messages.hpp Join's rejoin key); never all zero.
+    this.rejoinKey = crypto.getRandomValues(new Uint8Array(16));
+    this.rejoinKey[0] |= 1;
+    this.lastJoin = null;  // [session, name] of the last join()
   }
 
   // The case arrived (worker 'case'): every object at rest, held by nobody, no monitor state yet.
@@ -172,7 +178,19 @@ export class Session {
 
   list() { this.send(new Writer().message(0x01)); }
   join(session, name) {
-    this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).message(0x02));
+    this.lastJoin = [session, name];
+    this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).raw(this.rejoinKey)
+        .message(0x02));
+  }
+  // After the stream reconnected (a new connection): the same session, name and rejoin key.
+  rejoin() {
+    if (!this.lastJoin) return;
+    const session = this.joined ? this.joined.name : this.lastJoin[0];
+    this.joined = null;
+    this.others.clear();
+    this.pointers.clear();
+    this.annotations.clear();
+    this.join(session, this.lastJoin[1]);
   }
   leave() { this.send(new Writer().message(0x03)); }
   teleport(spot) { this.send(new Writer().spot(spot).message(0x06)); }

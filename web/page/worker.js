@@ -8,7 +8,8 @@
 // the patient case (0x4b, case_wire.js), parsed here, and the others' voices (0x4e,
 // voice_worker.js), decoded here; this page's voice is encoded and sent from here too.
 //
-// Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, check}
+// Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, adapt,
+//   floor ('lossless' or ''), maxRate (bits/s, 0: none), check}
 //   ({check: true}: each decoded depth image's FNV-1a 32 hash is reported, for tests);
 //   {type: 'send', bytes (ArrayBuffer: a whole message, header included)}; {type: 'bench', runs};
 //   voice control (voice_worker.js).
@@ -22,7 +23,9 @@
 //   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
 //   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
 //   id, what}; {type: 'warning', what}; {type: 'case', case (case_wire.js parseCase)}; voice
-//   (voice_worker.js).
+//   (voice_worker.js); {type: 'tier', depth, color, quality, divisor, pathMbit, reason, change}
+//   (TierChange 0.6: change false is a notice); {type: 'reconnecting', why, inMs}; then
+//   'welcome' again with reconnected true and outageMs; {type: 'stale', count}.
 'use strict';
 
 importScripts('volcast_decoder.js', 'case_wire.js', 'voice_worker.js');
@@ -49,6 +52,19 @@ let inbox = [];  // received chunks (Uint8Array), consumed from the front
 let inboxBytes = 0;
 let decoding = false;
 let clockOffsetUs = 0;
+let start = null;  // the page's 'start' message: link, tier, adaptation
+let tier = {depth: '', color: '', quality: 0, divisor: 1};  // as the server last said
+// Reconnecting (as the native viewer, receiver.hpp): a connection that closes, or brings no
+// message for SILENCE_MS, is cut; a new one is opened (250 ms, doubling to 2 s) with the same
+// Hello, until GIVE_UP_MS. What was queued on the old one is dropped, never drawn; so is a frame
+// set older than STALE_MS when it arrives.
+const SILENCE_MS = 2000, GIVE_UP_MS = 300000, STALE_MS = 1000;
+let generation = 0;  // one per connection: a drain of an old one stops
+let lastMessageMs = 0;
+let cutAt = 0;       // when the cut began (0: connected)
+let retryMs = 250;
+let refused = false;  // the server sent Reject: no reconnecting
+let stale = 0;
 
 const wallUs = () => (performance.timeOrigin + performance.now()) * 1000;
 
@@ -115,12 +131,57 @@ function concat(parts) {
   return out;
 }
 
-function hello(token, depth, color, quality) {
-  const parts = [new Uint8Array(token.match(/../g).map((h) => parseInt(h, 16)))];
-  putString(parts, depth);
-  putString(parts, color);
-  parts.push(new Uint8Array([quality]));
+// What this page decodes: the WebAssembly decoder's depth codecs, and JPEG, raw and (with
+// WebCodecs) H.264 color. An adaptive page names them in its Hello (protocol.hpp 0.1's tail), so
+// that the server keeps it to ladder rungs it can show.
+function decodable() {
+  const depth = ['raw', 'rvl', 'trvl', 'volcast', 'volcast-t', 'volcast-n1', 'volcast-n2',
+                 'volcast-n4'];
+  const color = ['jpeg', 'raw', 'none'];
+  if (typeof VideoDecoder !== 'undefined') color.push('h264');
+  return depth.concat(color);
+}
+
+// Hello (0.1). `start.adapt`: the server may move this page along its ladder (flags: adapt +
+// understands TierChange, + keep depth lossless for floor 'lossless'; cap start.maxRate bits/s),
+// within the codecs it decodes.
+function hello(start) {
+  const parts = [new Uint8Array(start.token.match(/../g).map((h) => parseInt(h, 16)))];
+  putString(parts, start.depth);
+  putString(parts, start.color);
+  parts.push(new Uint8Array([start.quality]));
+  const flags = (start.adapt ? 1 | 8 : 8) | (start.floor === 'lossless' ? 2 : 0);
+  const tail = new Uint8Array(9);
+  tail[0] = flags;
+  new DataView(tail.buffer).setBigUint64(1, BigInt(Math.max(0, Math.round(start.maxRate || 0))), true);
+  parts.push(tail);
+  const codecs = decodable();
+  parts.push(new Uint8Array([codecs.length]));
+  for (const c of codecs) putString(parts, c);
   return message(0, 1, concat(parts));
+}
+
+// TierChange (0.6): the tier of the frame sets after it (a key frame set first), or a notice.
+function onTierChange(payload) {
+  const r = new Reader(payload, 'tier change');
+  const depth = r.string(), color = r.string(), quality = r.u8(), divisor = r.u8();
+  const pathKbit = r.u32();
+  const reason = r.string();
+  if (r.at !== payload.length) throw new Error('malformed tier change: trailing bytes');
+  if (divisor < 1 || divisor > 8) throw new Error(`malformed tier change: divisor ${divisor}`);
+  if (!start.adapt && (depth !== start.depth || color !== start.color))
+    throw new Error('the server changed the tier of a page that pinned it');
+  if (start.floor === 'lossless' && depth !== tier.depth && depth.startsWith('volcast-n'))
+    throw new Error(`the server changed to lossy depth (${depth}) a page that keeps it lossless`);
+  const change = depth !== tier.depth || color !== tier.color || quality !== tier.quality ||
+                 divisor !== tier.divisor;
+  if (change) {
+    closeVideoDecoders();  // the key frame set that follows starts them again
+    colorCodec = color;
+  }
+  tier = {depth, color, quality, divisor};
+  postMessage({type: 'tier', depth, color, quality, divisor, pathMbit: pathKbit / 1000,
+               reason: reason.replace(/[\x00-\x1f\x7f]/g, '?'), change});
 }
 
 // A bounds-checked little-endian reader over one payload; throws naming the message.
@@ -348,11 +409,17 @@ async function onFrameSet(payload, receivedUs) {
   const bitmaps = await Promise.all(colors);
   bitmaps.forEach((b, c) => { out[c].color = b; });
   const decodeMs = performance.now() - t0;
+  if (socket.readyState !== WebSocket.OPEN) return;
   socket.send(message(0, 4, (() => {
     const a = new Uint8Array(8);
     new DataView(a.buffer).setBigUint64(0, BigInt(sequence), true);
     return a;
   })()));
+  if (wallUs() + clockOffsetUs - captureUs > STALE_MS * 1000) {  // queued on a stalled path
+    for (const c of out) if (c.color) c.color.close();
+    postMessage({type: 'stale', count: ++stale});
+    return;
+  }
   const transfer = [];
   for (const c of out) {
     if (c.depth) transfer.push(c.depth.buffer);
@@ -450,6 +517,7 @@ function peekHeader() {
 async function drain() {
   if (decoding) return;
   decoding = true;
+  const g0 = generation;
   try {
     while (inboxBytes >= HEADER) {
       const h = peekHeader();
@@ -464,14 +532,27 @@ async function drain() {
       const payload = whole.subarray(HEADER);
       if (h.channel === 0 && h.type === 2) {
         const w = parseWelcome(payload);
+        const reconnected = cameras !== null;
+        if (reconnected && (w.cameras.length !== cameras.length ||
+                            w.cameras.some((c, i) => c.width !== cameras[i].width ||
+                                                     c.height !== cameras[i].height)))
+          throw new Error(`the site came back with other cameras (${w.cameras.length})`);
         cameras = w.cameras;
         clockOffsetUs = w.serverUs - receivedUs;
         for (const c of cameras) c.rays = rayTable(c);
-        postMessage({type: 'welcome', cameras, clockOffsetUs});
+        const outageMs = cutAt ? performance.now() - cutAt : 0;
+        cutAt = 0;
+        retryMs = 250;
+        postMessage({type: 'welcome', cameras, clockOffsetUs, reconnected, outageMs});
       } else if (h.channel === 0 && h.type === 3) {
+        refused = true;
         throw new Error('the server refused: ' + new Reader(payload, 'reject').string());
+      } else if (h.channel === 0 && h.type === 6) {
+        onTierChange(payload);
       } else if (h.channel === 1 && h.type === 1 && cameras) {
+        const g = generation;
         await onFrameSet(payload, receivedUs);
+        if (g !== generation) return;  // cut meanwhile: that inbox is gone
       } else if (h.channel === 2 && h.type === 0x4b) {
         const c = parseCase(payload);
         postMessage({type: 'case', case: c}, caseBuffers(c));
@@ -492,8 +573,13 @@ async function drain() {
     }
   } catch (e) {
     fail(e.message);
+    if (socket) {
+      socket.onclose = null;
+      socket.close();
+    }
+    refused = true;  // a broken stream is not a cut: no reconnecting
   } finally {
-    decoding = false;
+    if (g0 === generation) decoding = false;  // else cut() reset it for the new connection
   }
   if (inboxBytes >= HEADER && socket && socket.readyState === WebSocket.OPEN) drain();
 }
@@ -547,16 +633,64 @@ onmessage = async (e) => {
     fail('cannot load the WebAssembly decoder: ' + err);
     return;
   }
-  socket = new WebSocket(m.url);
+  start = m;
+  tier = {depth: m.depth, color: m.color, quality: m.quality, divisor: 1};
+  connect();
+  setInterval(() => {  // a connection that brings nothing for SILENCE_MS is cut
+    if (!cutAt && cameras && socket && socket.readyState === WebSocket.OPEN &&
+        performance.now() - lastMessageMs > SILENCE_MS)
+      cut(`no message from the server for ${SILENCE_MS / 1000} s`);
+  }, 500);
+};
+
+function closeVideoDecoders() {
+  for (const d of videoDecoders)
+    if (d && d.decoder.state !== 'closed') d.decoder.close();
+  videoDecoders.length = 0;
+}
+
+// Opens the stream's WebSocket and sends the Hello.
+function connect() {
+  const g = ++generation;
+  socket = new WebSocket(start.url);
   socket.binaryType = 'arraybuffer';
-  socket.onopen = () => socket.send(hello(m.token, m.depth, m.color, m.quality));
+  lastMessageMs = performance.now();
+  socket.onopen = () => socket.send(hello(start));
   socket.onmessage = (ev) => {
+    if (g !== generation) return;
+    lastMessageMs = performance.now();
     const chunk = new Uint8Array(ev.data);
     inbox.push(chunk);
     inboxBytes += chunk.length;
     drain();
   };
-  socket.onclose = (ev) => postMessage({type: 'closed', why: ev.reason || `code ${ev.code}`});
-  socket.onerror = () => postMessage({type: 'error', what: 'WebSocket error (is the server up, '
-                                                         + 'and its certificate accepted?)'});
-};
+  socket.onclose = (ev) => {
+    if (g !== generation) return;
+    if (refused) postMessage({type: 'closed', why: ev.reason || `code ${ev.code}`});
+    else cut(cameras ? `the connection closed (${ev.reason || 'code ' + ev.code})`
+                     : 'cannot reach the server (is it up, and its certificate accepted?)');
+  };
+}
+
+// The connection is cut: drop it and what it queued, say so, and try again after retryMs.
+function cut(why) {
+  if (!cutAt) cutAt = performance.now();
+  if (performance.now() - cutAt > GIVE_UP_MS) {
+    postMessage({type: 'closed', why: `${why}; gave up reconnecting`});
+    return;
+  }
+  ++generation;
+  if (socket) {
+    socket.onclose = null;
+    socket.onmessage = null;
+    socket.close();
+  }
+  inbox = [];
+  inboxBytes = 0;
+  decoding = false;
+  closeVideoDecoders();
+  if (wasm && cameras) for (let c = 0; c < cameras.length; ++c) wasm._vc_reset(c);
+  postMessage({type: 'reconnecting', why, inMs: retryMs});
+  setTimeout(connect, retryMs);
+  retryMs = Math.min(retryMs * 2, 2000);
+}

@@ -86,9 +86,13 @@ std::vector<uint8_t> serialize(const Hello& m) {
   w.put_string(m.depth_codec);
   w.put_string(m.color_codec);
   w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
-  if (m.adapt != 0 || m.max_bits_per_s != 0) {
+  if (m.adapt != 0 || m.max_bits_per_s != 0 || !m.decodes.empty()) {
     w.put<uint8_t>(m.adapt);
     w.put<uint64_t>(m.max_bits_per_s);
+  }
+  if (!m.decodes.empty()) {
+    w.put<uint8_t>(static_cast<uint8_t>(m.decodes.size()));
+    for (const std::string& c : m.decodes) w.put_string(c);
   }
   return out;
 }
@@ -112,6 +116,18 @@ Hello parse_hello(std::span<const uint8_t> payload) {
         Hello::kAdapt | Hello::kKeepLossless | Hello::kKeepFullRate | Hello::kNotify;
     if (h.adapt & ~kKnown) r.fail("unknown adaptation flags " + std::to_string(h.adapt));
     h.max_bits_per_s = r.get<uint64_t>("max rate");
+  }
+  if (r.remaining() > 0) {
+    const uint8_t n = r.get<uint8_t>("codec count");
+    if (n == 0 || n > kMaxDecodableCodecs)
+      r.fail("codec count " + std::to_string(n) + " (1 to " + std::to_string(kMaxDecodableCodecs) +
+             ")");
+    for (uint8_t i = 0; i < n; ++i) {
+      std::string c = r.get_string("codec name");
+      if (c.empty() || c.size() > 32)
+        r.fail("a codec name of " + std::to_string(c.size()) + " bytes");
+      h.decodes.push_back(std::move(c));
+    }
   }
   r.expect_end();
   return h;

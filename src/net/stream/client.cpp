@@ -63,6 +63,7 @@ struct Client::Impl {
   const ReceivedFrameSet* last_out = nullptr;
   std::vector<std::vector<uint8_t>> last_depth, last_color;
   // Session channel: the handler, and messages waiting for the receiving thread to send them.
+  std::mutex handler_mutex;  // the two below: set from any thread (a participant moving off)
   SessionHandler session_handler;
   std::function<uint32_t(uint8_t)> session_max_payload;
   std::mutex outbox_mutex;
@@ -169,6 +170,7 @@ struct Client::Impl {
       if (header.type == protocol::MessageType::kTierChange) limit = protocol::kMaxControlBytes;
       if (!handshake && header.channel == protocol::Channel::kSession) {
         const uint8_t t = static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff);
+        std::lock_guard lock(handler_mutex);
         limit = session_max_payload ? session_max_payload(t) : protocol::kMaxControlBytes;
         if (limit == 0) throw Error("unknown session message type " + std::to_string(t));
       }
@@ -283,6 +285,7 @@ struct Client::Impl {
 
   // Hands the session message just read to the handler; an Error it throws is a kProtocol one.
   void to_session_handler(const protocol::Header& header) {
+    std::lock_guard lock(handler_mutex);
     if (!session_handler) return;
     try {
       session_handler(static_cast<uint8_t>(static_cast<uint16_t>(header.type) & 0xff), payload());
@@ -469,6 +472,13 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
                         (config.keep_full_rate ? protocol::Hello::kKeepFullRate : 0) |
                         (config.notify ? protocol::Hello::kNotify : 0));
   hello.max_bits_per_s = config.max_bits_per_s;
+  if (config.adapt) {  // only ladder rungs this build decodes (one without the video codecs)
+    for (const auto& c : all_depth_codecs()) hello.decodes.push_back(std::string(c.name));
+    for (const auto& c : all_color_codecs())
+      if (std::find(hello.decodes.begin(), hello.decodes.end(), c.name) == hello.decodes.end())
+        hello.decodes.push_back(std::string(c.name));
+    if (hello.decodes.size() > protocol::kMaxDecodableCodecs) hello.decodes.clear();
+  }
   try {
     impl_->connection->write_all(
         protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
@@ -574,6 +584,7 @@ bool Client::receive(ReceivedFrameSet& out) {
 
 void Client::set_session_handler(SessionHandler handler,
                                  std::function<uint32_t(uint8_t)> max_payload) {
+  std::lock_guard lock(impl_->handler_mutex);
   impl_->session_handler = std::move(handler);
   impl_->session_max_payload = std::move(max_payload);
 }

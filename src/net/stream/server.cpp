@@ -33,6 +33,7 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.address = a.address;
     v.adapt = hello.adapt;
     v.max_bits_per_s = hello.max_bits_per_s;
+    v.decodes = hello.decodes;
     v.hello_key = {hello.depth_codec, hello.color_codec, hello.color_quality};
     try {
       v.tier = adapt ? subscribe_adaptive(v) : subscribe(v.hello_key, &v.wake, &v.address);

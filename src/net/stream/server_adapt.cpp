@@ -47,6 +47,11 @@ void Server::Impl::allowed_rungs(const Viewer& v, int64_t now, std::vector<char>
     if ((v.adapt & protocol::Hello::kKeepLossless) && !depth_codec_info(k.depth_codec).lossless)
       continue;
     if ((v.adapt & protocol::Hello::kKeepFullRate) && k.frame_divisor > 1) continue;
+    const auto decodes = [&v](const std::string& codec) {
+      return v.decodes.empty() ||
+             std::find(v.decodes.begin(), v.decodes.end(), codec) != v.decodes.end();
+    };
+    if (!decodes(k.depth_codec) || !decodes(k.color_codec)) continue;  // never, floors or not
     if (r < v.refused_until.size() && v.refused_until[r] > now) continue;
     const double bits = tier_bits(k);
     if (cap && v.max_bits_per_s > 0 && bits > double(v.max_bits_per_s)) continue;

@@ -158,6 +158,7 @@ struct Server::Impl {
     // refused by the CPU budget until a steady time, and the tier its Hello named.
     uint8_t adapt = 0;
     uint64_t max_bits_per_s = 0;
+    std::vector<std::string> decodes;  // Hello::decodes: empty, any
     size_t top = 0;
     std::vector<int64_t> refused_until;
     detail::TierKey hello_key;

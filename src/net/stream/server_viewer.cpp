@@ -36,8 +36,11 @@ void Server::Impl::serve_viewer(Viewer& v) {
                  detail::tier_name(v.tier->encoder.key()), adaptive(v) ? ", adaptive" : "");
     if (adaptive(v))  // its first tier, and why (its Hello named the best it wants, if a rung)
       send_tier_change(v,
-                       "starting on the best tier of this server's ladder that your floor and cap "
-                       "allow",
+                       v.decodes.empty()
+                           ? "starting on the best tier of this server's ladder that your floor "
+                             "and cap allow"
+                           : "starting on the best tier of this server's ladder that your floor, "
+                             "cap and decoders allow",
                        0);
     stream(v);
   } catch (const std::exception& e) {

@@ -87,6 +87,10 @@ void filter_section(ViewerControls& c, const PanelInfo& info) {
 
 void live_section(const PanelInfo& info) {
   const LiveStats& live = info.live;
+  if (!live.connection.empty())
+    ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", live.connection.c_str());
+  if (live.reconnects > 0)
+    ImGui::Text("reconnected %llu time(s)", static_cast<unsigned long long>(live.reconnects));
   ImGui::Text("tier: %s%s%s", live.tier.c_str(), live.lossless_depth ? "" : "  (LOSSY DEPTH)",
               live.adaptive ? "  adaptive" : "  pinned");
   if (live.path_mbit_s > 0) ImGui::Text("path: about %.1f Mbit/s", live.path_mbit_s);

@@ -68,6 +68,12 @@ struct LiveStats {
   double path_mbit_s = 0;              ///< the server's last path estimate (0: none said)
   std::vector<TierEvent> tier_events;  ///< the last 8 changes and notices, oldest first
   uint64_t frame_sets_received = 0;
+  /// Capture time of the newest frame set handed to the renderer (this viewer's wall clock, us;
+  /// 0: none yet): what is drawn is now - this old.
+  int64_t newest_capture_us = 0;
+  /// Empty while connected; while a cut lasts, "reconnecting" and why (ViewerOptions::reconnect).
+  std::string connection;
+  uint64_t reconnects = 0;  ///< connections made again after a cut
 };
 
 /// The render thread's side of a running session (see Presenter). Thread-safe.

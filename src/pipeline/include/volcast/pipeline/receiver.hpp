@@ -37,6 +37,21 @@ struct ViewerOptions {
   /// Called once connected, before anything is received, on the calling thread (a participant
   /// joins its session here: SessionClient::start).
   std::function<void(Client&)> on_connected;
+  /// After a cut -- the connection broke, or nothing arrived for client.receive_timeout_ms --
+  /// connect again with the same config (250 ms apart, doubling to 2 s; each try within 2 s)
+  /// until it works, then call on_reconnected and resume with the server's key frame set. The
+  /// panel shows "reconnecting" meanwhile. It gives up, ending as the cut did, after
+  /// reconnect_give_up_s, or when the server refuses the new connection (Reject); the time limit,
+  /// the stop flag and the presenter still end it at once. A site that comes back with other
+  /// cameras ends it (kError).
+  bool reconnect = false;
+  double reconnect_give_up_s = 300;
+  /// Called on the calling thread with each new connection, before it receives (a participant
+  /// rejoins its session here: SessionClient::reattach). The old client still exists, closed.
+  std::function<void(Client&)> on_reconnected;
+  /// Frame sets older than this when they arrive (capture to received, ms) are decoded (delta
+  /// frames need them) but not drawn: what queued on a path that stalled is stale (0: all drawn).
+  int stale_ms = 0;
   /// Called once receiving has ended, before the figures are written, on the calling thread (a
   /// participant stops and adds its session figures to the result).
   std::function<void(ViewerResult&)> on_finished;

@@ -120,6 +120,10 @@ class SessionClient {
   SessionClient& operator=(const SessionClient&) = delete;
   /// Joins the session over `client` (connected, not yet receiving) and starts the threads.
   void start(Client& client);
+  /// Moves the participant to `client`, a new connection after a cut (not yet receiving), and
+  /// rejoins its session there (Participant::reattach: its own place back if the server kept
+  /// it); the threads go on. Call on the thread that receives, between receives.
+  void reattach(Client& client);
   /// Stops the threads and lets go of the client (Participant::detach; no Leave is sent: call
   /// participant()->leave() first for that); the Participant stays readable. Idempotent.
   void stop();

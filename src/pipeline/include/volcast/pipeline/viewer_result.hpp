@@ -43,7 +43,15 @@ struct ViewerResult {
   std::vector<TierEvent> tier_events;    ///< every change and notice (the first 256)
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
-  uint64_t frames_undecodable = 0;   ///< skipped: a delta without its reference (key requested)
+  uint64_t frames_undecodable = 0;  ///< skipped: a delta without its reference (key requested)
+  /// Each cut the viewer reconnected after (ViewerOptions::reconnect): when it was noticed and
+  /// when frames came again (wall clock, us; back_us 0: never), and what broke.
+  struct Outage {
+    int64_t lost_us = 0, back_us = 0;
+    std::string why;
+  };
+  std::vector<Outage> outages;
+  uint64_t frames_stale = 0;         ///< frame sets decoded but not drawn: older than stale_ms
   std::vector<StageLatency> stages;  ///< per-stage latency, kStageNames order
   std::string renderer;              ///< GL renderer string, empty when not rendering
   /// The last frame set's decoded images, per camera (null for a camera that sent none).
@@ -68,7 +76,8 @@ class ViewerError : public Error {
 
 /// Writes the figures as JSON ({"ended", "error" (null when none), "frame_sets_received",
 /// "depth_codec", "color_codec", "tier", "adaptive", "tier_changes": [{"time_us", "tier",
-/// "lossless_depth", "notice", "path_mbit_s", "reason"}], "frames_rendered", "cameras": [...],
+/// "lossless_depth", "notice", "path_mbit_s", "reason"}], "outages": [{"lost_us", "back_us",
+/// "why"}], "frames_stale", "frames_rendered", "cameras": [...],
 /// "stages": [{"stage", "p50_ms", "p99_ms", "mean_ms"}, ...]}; for a participant also "session"
 /// (name), "participants" (the others' names), "session_round_trip_ms_p50" / "_p99",
 /// "round_trip_samples", "poses_sent", "avatar_frames_sent" and per other participant {"id",

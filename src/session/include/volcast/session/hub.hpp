@@ -73,8 +73,9 @@ struct SessionHubStats {
   uint64_t joins = 0, leaves = 0, timeouts = 0, dropped = 0;
   uint64_t grabs = 0, grabs_refused = 0, object_moves = 0, moves_ignored = 0, releases = 0;
   uint64_t monitor_changes = 0, case_swaps = 0;
-  uint64_t rate_limited = 0;      ///< messages dropped over their type's limit (rate_limit.hpp)
-  uint64_t joins_refused = 0;     ///< Joins answered with a SessionError
+  uint64_t rate_limited = 0;   ///< messages dropped over their type's limit (rate_limit.hpp)
+  uint64_t joins_refused = 0;  ///< Joins answered with a SessionError
+  uint64_t rejoins = 0;        ///< Joins that took their own member over (messages.hpp rejoin key)
   uint64_t sessions_removed = 0;  ///< sessions removed (empty)
   /// Voice packets received (the site's own included), sent on to receivers, and refused as
   /// malformed (voice_messages.hpp: each loses only itself until kMaxMalformedVoice).
@@ -202,6 +203,8 @@ class SessionHub final : public SessionPort {
   struct Session;
   void handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload);
   void join(uint64_t viewer, const session::Join& join);
+  void welcome_member(uint64_t viewer, const Member& m);
+  void take_over(uint64_t viewer, Member& m);
   void remove(uint64_t viewer, session::LeftReason reason);
   Session& make_session(const std::string& name, bool standing);
   void prune(Session* s);  // removes `s` if it is a participant's session with nobody in it

@@ -22,7 +22,11 @@
 //   0x01 ListSessions   empty. Answered by 0x41.
 //   0x02 Join           session name string (1..64 bytes, printable) | create u8 (1: make the
 //                       session if there is none of that name) | display name string (1..64
-//                       bytes, printable) | role u8 (0 remote, 1 OR site) | has camera u8.
+//                       bytes, printable) | role u8 (0 remote, 1 OR site) | has camera u8
+//                       [| rejoin key 16 bytes: optional, not all zero]. A Join whose name is
+//                       taken by a member that joined with the same rejoin key takes that
+//                       member over (a viewer reconnecting after its path was cut): the same
+//                       participant id, objects and annotations; the old connection is closed.
 //                       Answered by 0x42 then 0x44 for each participant already there, or 0x43:
 //                       for role 1 (the OR site's role is the server's own participant 1; roles
 //                       come from the server, every viewer is remote), for a name names.hpp
@@ -76,6 +80,7 @@
 // kMaxAvatarFrameBytes (+ 4), and within kMaxAvatarBytesPerPixel x the announced pixels +
 // kMaxAvatarFrameOverhead; an avatar camera at most kMaxAvatarSide pixels per side; every other
 // message at most kMaxSessionMessageBytes (a SessionList up to kMaxListedSessions sessions).
+#include <array>
 #include <cstdint>
 #include <span>
 #include <string>
@@ -155,6 +160,9 @@ struct Join {
   std::string name;
   Role role = Role::kRemote;
   bool has_camera = false;
+  /// A secret the participant draws once (128 random bits) and sends again when it reconnects,
+  /// so that the server hands it back its own place; all zero: none (the field is not sent).
+  std::array<uint64_t, 2> rejoin_key{};
 };
 
 struct Joined {

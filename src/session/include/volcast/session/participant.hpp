@@ -171,6 +171,13 @@ class Participant {
   /// readable. Call before the Client goes (leave() first to leave gracefully; else the server
   /// notices the closed connection or the silence).
   void detach();
+  /// Moves to `client`, a new connection to the same server (not in receive() yet; the old one
+  /// is closed or about to be: its path was cut) and joins the session it was in again, with the
+  /// rejoin key it drew at construction (messages.hpp Join): if the server still holds its place
+  /// it gets it back (the same participant id), else it joins anew. Until the server answers,
+  /// joined() is false and sends are ignored; the others, the case and the drawing arrive again.
+  /// Call from the thread that calls receive() on either client, between receives.
+  void reattach(Client& client);
   Participant(const Participant&) = delete;
   Participant& operator=(const Participant&) = delete;
 

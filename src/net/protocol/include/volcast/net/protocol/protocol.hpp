@@ -19,7 +19,10 @@
 //                    Then, optionally (a viewer that sends neither is pinned and never told
 //                    anything of its path): adaptation flags u8 (Hello::kAdapt, kKeepLossless,
 //                    kKeepFullRate, kNotify; other bits refused) | the most the viewer wants to be
-//                    sent u64 (bits per second of frame sets, 0 = no cap).
+//                    sent u64 (bits per second of frame sets, 0 = no cap) [| the codecs it can
+//                    decode: count u8 (1..kMaxDecodableCodecs) then that many codec name strings
+//                    (depth and color together); absent: every codec of the server's ladder. A
+//                    browser sends it: its WebAssembly decoder has no video depth codec].
 //     0.2 Welcome    server -> viewer: camera count u32, then per camera: width u16, height u16,
 //                    the 15 intrinsics fx fy cx cy k1..k6 p1 p2 codx cody metric_radius (f64),
 //                    world_from_camera rotation (9 f64, row-major) and translation (3 f64, metres),
@@ -197,7 +200,13 @@ struct Hello {
   static constexpr uint8_t kNotify = 8;        ///< understands TierChange (0.6); implied by kAdapt
   uint8_t adapt = 0;
   uint64_t max_bits_per_s = 0;  ///< frame sets at most this rate (bits/s); 0: no cap
+  /// The depth and color codecs the viewer can decode (an adaptive viewer is kept to ladder rungs
+  /// of these); empty: any (not sent).
+  std::vector<std::string> decodes{};
 };
+
+/// The most codec names a Hello's `decodes` may list.
+inline constexpr size_t kMaxDecodableCodecs = 32;
 
 /// The longest TierChange reason (bytes).
 inline constexpr size_t kMaxReasonBytes = 400;

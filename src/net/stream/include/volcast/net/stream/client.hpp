@@ -160,7 +160,8 @@ class Client {
   /// receive() with each session message's type (the byte after the channel) and payload (valid
   /// during the call), at most `max_payload(type)` bytes (0: an unknown type, a protocol error);
   /// an Error it throws ends receive() as kProtocol. Without a handler, session messages of up
-  /// to kMaxControlBytes are skipped. Set it before the first receive().
+  /// to kMaxControlBytes are skipped. Thread-safe (a participant moving to a new connection
+  /// takes its handler off the old one); the handler must not call it.
   using SessionHandler = std::function<void(uint8_t type, std::span<const uint8_t> payload)>;
   void set_session_handler(SessionHandler handler, std::function<uint32_t(uint8_t)> max_payload);
   /// Queues a whole session message (header included) for the server; the thread in receive()

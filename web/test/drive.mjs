@@ -24,6 +24,8 @@
 // thumbstick is pressed leant forward (a 'cut here' label), the drive waits for both to come back
 // from the server and the other's pointer to be put away, then the left thumbstick is pressed (the
 // label, the newest, erased) and it waits for the label to be gone (DIR/ar-pointer.png: the page when it first drew the other's dot).
+// A page whose path is cut meanwhile also gets DIR/reconnecting.png (the page while it shows
+// RECONNECTING) and DIR/overlay.png (the page at the end, overlay included).
 // Writes DIR/page.json and DIR/desktop.png (or DIR/xr.png). Exit 0 when the page received N
 // frame sets and drew without an error, else 1 with the reason on stderr.
 import {chromium} from 'playwright-core';
@@ -82,10 +84,15 @@ try {
   const deadline = started + seconds * 1000;
   const state = () => page.evaluate(() => JSON.parse(JSON.stringify(window.volcast || {})));
   let s = await state();
+  let reconnectingShot = false;
   while (Date.now() < deadline && s.phase !== 'error' &&
          (s.framesReceived < frames || s.framesDrawn < 1)) {
     await page.waitForTimeout(100);
     s = await state();
+    if (s.connection && !reconnectingShot) {  // what a person sees while the path is cut
+      await page.screenshot({path: `${out}/reconnecting.png`});
+      reconnectingShot = true;
+    }
   }
   // --volume NAME:GAIN: once NAME is in the page's people panel, its volume slider set to GAIN,
   // as a person drags it.
@@ -234,6 +241,8 @@ try {
     await page.waitForFunction(() => window.volcast.bench, null, {timeout: 30000});
     s = await state();
   }
+  // After a cut, the page as a person sees it, overlay included (DIR/overlay.png).
+  if (s.outages && s.outages.length) await page.screenshot({path: `${out}/overlay.png`});
   // The picture alone: the overlay's text would count as drawn pixels.
   await page.evaluate(() => {
     for (const id of ['overlay', 'people', 'help', 'enter-vr', 'enter-ar'])

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 
 #include "case_panel.hpp"
@@ -352,6 +353,17 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
   ImGui::NewFrame();
   if (participant)
     draw_label_texts(snapshot, view, ImGui::GetIO().DisplaySize.x, ImGui::GetIO().DisplaySize.y);
+  if (!info.live.connection.empty()) {        // a cut: over the picture, panel shown or not
+    std::string text = info.live.connection;  // "reconnecting (try 2): why", in capitals first
+    for (size_t i = 0; i < text.size() && text[i] != ' ' && text[i] != ':'; ++i)
+      text[i] = static_cast<char>(std::toupper(static_cast<unsigned char>(text[i])));
+    const ImVec2 size = ImGui::CalcTextSize(text.c_str());
+    const ImVec2 at((ImGui::GetIO().DisplaySize.x - size.x) / 2, 24);
+    ImDrawList* d = ImGui::GetForegroundDrawList();
+    d->AddRectFilled(ImVec2(at.x - 10, at.y - 6), ImVec2(at.x + size.x + 10, at.y + size.y + 6),
+                     IM_COL32(170, 110, 0, 230), 6);
+    d->AddText(at, IM_COL32(255, 255, 255, 255), text.c_str());
+  }
   if (controls.show_panel) {
     if (participant) {
       draw_panel(controls, info, [&] {
@@ -408,6 +420,17 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     if (participant) snapshot = participant->snapshot(wall_clock_us());
     voice::VoiceLink* voice = participant && o.voice ? o.voice() : nullptr;  // null: not (yet)
     start_when_ready(viewpoint, o, participant, snapshot, cameras, uploaded);
+    if (now - last_live > std::chrono::milliseconds(250)) {
+      const std::string was = live.connection;
+      live = feed.live();
+      last_live = now;
+      if (live.connection != was) {  // a cut (no frames come to redraw for) or its end
+        input.redraw = std::max(input.redraw, 1);
+        glfwSetWindowTitle(
+            window.window,
+            (live.connection.empty() ? o.title : "RECONNECTING - " + o.title).c_str());
+      }
+    }
     // In a session the others move on their own: draw every frame (vsync paces it).
     if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
@@ -436,10 +459,6 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
       renderer.draw_cameras(to_view(viewpoint.camera, target.aspect()), target, controls.pass);
     }
     if (controls.screenshot && !o.screenshot_panel) take_screenshot(controls, o, target);
-    if (now - last_live > std::chrono::milliseconds(250)) {
-      live = feed.live();
-      last_live = now;
-    }
     draw_gui(controls,
              PanelInfo{live, result.renderer, viewpoint.camera.target, viewpoint.camera.eye,
                        o.site_config},

@@ -457,8 +457,16 @@ std::unique_ptr<Client> connect_again(const ViewerOptions& opt, ClientSlot& slot
   auto wait = std::chrono::milliseconds(250);
   for (int attempt = 1; !slot.closed(); ++attempt) {
     show_connection(box, fmt::format("reconnecting (try {}): {}", attempt, why), false);
+    std::unique_ptr<Client> client;
     try {
-      auto client = std::make_unique<Client>(config);
+      client = std::make_unique<Client>(config);
+    } catch (const ClientError& e) {
+      if (e.kind() == ClientError::Kind::kRejected) throw;
+      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
+    } catch (const Error& e) {
+      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
+    }
+    if (client) {
       const auto& cams = client->welcome().cameras;
       bool same = cams.size() == site.cameras.size();
       for (size_t i = 0; same && i < cams.size(); ++i)
@@ -468,12 +476,6 @@ std::unique_ptr<Client> connect_again(const ViewerOptions& opt, ClientSlot& slot
         throw Error(fmt::format("the site came back with other cameras ({} camera(s), was {})",
                                 cams.size(), site.cameras.size()));
       return client;
-    } catch (const ClientError& e) {
-      if (e.kind() == ClientError::Kind::kRejected) throw;
-      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
-    } catch (const Error& e) {
-      if (std::string(e.what()).starts_with("the site came back")) throw;
-      spdlog::info("viewer: reconnect try {}: {}", attempt, e.what());
     }
     if (std::chrono::duration<double>(clock::now() - start).count() > opt.reconnect_give_up_s)
       return nullptr;

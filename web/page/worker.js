@@ -142,18 +142,18 @@ function decodable() {
   return depth.concat(color);
 }
 
-// Hello (0.1). `start.adapt`: the server may move this page along its ladder (flags: adapt +
-// understands TierChange, + keep depth lossless for floor 'lossless'; cap start.maxRate bits/s),
-// within the codecs it decodes.
-function hello(start) {
-  const parts = [new Uint8Array(start.token.match(/../g).map((h) => parseInt(h, 16)))];
-  putString(parts, start.depth);
-  putString(parts, start.color);
-  parts.push(new Uint8Array([start.quality]));
-  const flags = (start.adapt ? 1 | 8 : 8) | (start.floor === 'lossless' ? 2 : 0);
+// Hello (0.1) for the page's start message `s`. `s.adapt`: the server may move this page along
+// its ladder (flags: adapt + understands TierChange, + keep depth lossless for floor 'lossless';
+// cap s.maxRate bits/s), within the codecs it decodes.
+function hello(s) {
+  const parts = [new Uint8Array(s.token.match(/../g).map((h) => parseInt(h, 16)))];
+  putString(parts, s.depth);
+  putString(parts, s.color);
+  parts.push(new Uint8Array([s.quality]));
+  const flags = (s.adapt ? 1 | 8 : 8) | (s.floor === 'lossless' ? 2 : 0);
   const tail = new Uint8Array(9);
   tail[0] = flags;
-  new DataView(tail.buffer).setBigUint64(1, BigInt(Math.max(0, Math.round(start.maxRate || 0))), true);
+  new DataView(tail.buffer).setBigUint64(1, BigInt(Math.max(0, Math.round(s.maxRate || 0))), true);
   parts.push(tail);
   const codecs = decodable();
   parts.push(new Uint8Array([codecs.length]));

@@ -178,9 +178,11 @@ TEST(SharedStream, ASiteEncodingPastTheLatencyBudgetStillReachesItsViewers) {
     EXPECT_GT(rx.frames.sequence, last);
     last = rx.frames.sequence;
   }
-  const auto viewers = site.server.viewers();
-  ASSERT_EQ(viewers.size(), 1u);
-  EXPECT_GE(viewers[0].frames_sent, 5u);
+  // The server counts a frame set once its write returned: the viewer may have read it first.
+  EXPECT_TRUE(test::eventually([&] {
+    const auto viewers = site.server.viewers();
+    return viewers.size() == 1 && viewers[0].frames_sent >= 5;
+  })) << "the server counted every frame set it sent";
 }
 
 TEST(SharedStream, ColorQualityIsPartOfTheTier) {

@@ -5,7 +5,7 @@ packages=(
   build-essential cmake ninja-build pkg-config
   libgtest-dev libgmock-dev libbenchmark-dev
   libeigen3-dev libspdlog-dev libcli11-dev nlohmann-json3-dev libasio-dev libssl-dev
-  libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libturbojpeg0-dev libpng-dev zlib1g-dev
+  libavformat-dev libavcodec-dev libavutil-dev libswscale-dev libavfilter-dev libturbojpeg0-dev libpng-dev zlib1g-dev
   libzstd-dev liblz4-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
   libglfw3-dev libxrandr-dev libimgui-dev libopenxr-dev xvfb xauth

@@ -11,11 +11,11 @@ namespace {
 // latency at 0 while it runs.
 int run_selected_bench(const BenchArgs& a) {
   if (int(a.server) + int(a.render) + int(a.session) + int(a.record) + int(a.nats) + int(a.voice) +
-          int(a.drawing) + int(a.paths) >
+          int(a.drawing) + int(a.paths) + int(a.quality) >
       1)
     throw Error(
-        "bench: --server, --render, --session, --record, --nats, --voice, --drawing and --paths "
-        "are separate runs");
+        "bench: --server, --render, --session, --record, --nats, --voice, --drawing, --paths and "
+        "--quality are separate runs");
   const auto low_latency = hold_low_latency(a.session && a.low_latency);
   return a.nats      ? run_nats_bench(a)
          : a.server  ? run_server_bench(a)
@@ -25,6 +25,7 @@ int run_selected_bench(const BenchArgs& a) {
          : a.voice   ? run_voice_bench(a)
          : a.drawing ? run_drawing_bench(a)
          : a.paths   ? run_paths_bench(a)
+         : a.quality ? run_quality_bench(a)
                      : run_bench(a);
 }
 
@@ -84,6 +85,17 @@ void register_bench(CLI::App& app, Commands& commands) {
                  "talkers' to go out in one write (ms; default: the server's, 20)");
   bn->add_flag("--render", bench.render,
                "Render benchmark instead: splats and mesh, 1/2/4 real cameras, mono and stereo");
+  bn->add_flag("--quality", bench.quality,
+               "View-synthesis quality instead: each camera of a registered site held out in turn "
+               "and drawn from the others (splats, mesh, blending); PSNR, SSIM, depth error, "
+               "coverage, seam energy, ms per view; side-by-side pictures of the worst camera");
+  bn->add_option("--site", bench.site,
+                 "With --quality: the registered site config (default: the four real Azure "
+                 "Kinects, registered once into out/site-4cam.json)");
+  bn->add_option("--pictures", bench.pictures,
+                 "With --quality: folder for the pictures (rendered | real | colour error | "
+                 "depth error)")
+      ->capture_default_str();
   bn->add_option("--render-seconds", bench.render_seconds,
                  "With --render: seconds drawn per configuration (at least 3 frames)")
       ->capture_default_str();

@@ -139,9 +139,9 @@ struct ViewArgs {
   std::vector<std::string> floors;  ///< --floor: lossless | full-rate
   std::string max_rate;             ///< --max-rate, e.g. "20M" (bits/s); empty: no cap
   bool no_render = false;
-  bool headless = false;           ///< render offscreen (EGL) instead of opening the desktop window
-  bool xr = false;                 ///< try OpenXR first (falls back to the window, then headless)
-  std::string surface = "splats";  ///< CameraPassOptions::surface: splats | mesh
+  bool headless = false;         ///< render offscreen (EGL) instead of opening the desktop window
+  bool xr = false;               ///< try OpenXR first (falls back to the window, then headless)
+  std::string surface = "mesh";  ///< CameraPassOptions::surface: splats | mesh
   std::string splat_size = "adaptive";  ///< fixed | footprint | adaptive
   float point_size = 2;                 ///< fixed splats: pixels
   float splat_scale = 1;                ///< footprint and adaptive splats: x the pixel footprint

@@ -162,7 +162,8 @@ std::unique_ptr<FrameSource> open_folder_camera(const fs::path& depth_png,
   calibration.depth = *options.intrinsics;
   calibration.world_from_camera = options.world_from_camera.value_or(RigidTransform::identity());
   if (camera.depth.size() == 1) {  // decoded once: a still camera
-    auto still = open_still_source(camera.depth[0], camera.color[0], calibration, fps);
+    auto still = open_still_source(camera.depth[0], camera.color[0], calibration, fps,
+                                   options.nominal_color);
     const Intrinsics& k = still->calibration().depth;
     check_size(calibration.depth, k.width, k.height, camera.depth[0]);
     return still;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 
+#include "volcast/capture/k4a_recording.hpp"
 #include "volcast/capture/still_source.hpp"
 #include "volcast/core/error.hpp"
 
@@ -54,6 +55,13 @@ std::vector<std::unique_ptr<FrameSource>> two_camera_site(const fs::path& data) 
   return sources;
 }
 
+ColorCalibration nominal_kinect_color(const fs::path& data) {
+  const K4aRecordingInfo info = probe_k4a_recording(data / kKinectSet);
+  if (info.color_intrinsics.width == 0)
+    throw Error("the Azure Kinect recording " + (data / kKinectSet).string() + " has no color");
+  return {info.color_intrinsics, info.color_from_depth};
+}
+
 std::vector<std::unique_ptr<FrameSource>> four_camera_site(const fs::path& data) {
   const fs::path dir = data / kFourKinectSet;
   std::vector<fs::path> depth;
@@ -63,6 +71,7 @@ std::vector<std::unique_ptr<FrameSource>> four_camera_site(const fs::path& data)
   if (depth.size() != 4) throw Error("expected four depth.*.png in " + dir.string());
   // The same camera model (Azure Kinect NFOV unbinned), from the genuine recording's calibration.
   const CameraCalibration model = open_source(data / kKinectSet)->calibration();
+  const ColorCalibration color_model = nominal_kinect_color(data);
   std::vector<std::unique_ptr<FrameSource>> sources;
   for (size_t i = 0; i < depth.size(); ++i) {
     CameraCalibration cal = model;
@@ -70,7 +79,7 @@ std::vector<std::unique_ptr<FrameSource>> four_camera_site(const fs::path& data)
     cal.world_from_camera.translation = {1.6 * static_cast<double>(i), 0, 0};
     std::string color = depth[i].filename().string();
     color.replace(0, 5, "rgb");  // depth.<serial>-0001.png -> rgb.<serial>-0001.png
-    sources.push_back(open_still_source(depth[i], dir / color, cal, 30));
+    sources.push_back(open_still_source(depth[i], dir / color, cal, 30, color_model));
   }
   return sources;
 }

@@ -11,7 +11,7 @@ ColorToDepthRegistration::ColorToDepthRegistration(const Intrinsics& depth, cons
     : depth_(depth),
       color_(color),
       color_from_depth_(color_from_depth),
-      rays_(make_ray_table(depth)) {}
+      rays_(shared_ray_table(depth)) {}
 
 void ColorToDepthRegistration::apply(const DepthImage& depth, const ColorImage& color,
                                      ColorImage& out) const {
@@ -28,9 +28,9 @@ void ColorToDepthRegistration::apply(const DepthImage& depth, const ColorImage& 
     uint8_t* dst = &out.bgra[i * 4];
     dst[0] = dst[1] = dst[2] = dst[3] = 0;
     const uint16_t d = depth.pixels[i];
-    if (d == 0 || std::isnan(rays_.x[i])) continue;
+    if (d == 0 || std::isnan(rays_->x[i])) continue;
     const double z = d * 0.001;
-    const Eigen::Vector3d p = r * Eigen::Vector3d(rays_.x[i] * z, rays_.y[i] * z, z) + t;
+    const Eigen::Vector3d p = r * Eigen::Vector3d(rays_->x[i] * z, rays_->y[i] * z, z) + t;
     if (p.z() <= 0) continue;
     auto uv = project_normalized(color_, {p.x() / p.z(), p.y() / p.z()});
     if (!uv) continue;

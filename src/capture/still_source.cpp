@@ -6,6 +6,7 @@
 #include <iterator>
 #include <vector>
 
+#include "volcast/capture/registration.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/jpeg.hpp"
@@ -73,9 +74,10 @@ ColorImage read_color_image(const std::filesystem::path& file) {
   return out;
 }
 
-std::unique_ptr<FrameSource> open_still_source(const std::filesystem::path& depth_png,
-                                               const std::filesystem::path& color_image,
-                                               CameraCalibration calibration, double fps) {
+std::unique_ptr<FrameSource> open_still_source(
+    const std::filesystem::path& depth_png, const std::filesystem::path& color_image,
+    CameraCalibration calibration, double fps,
+    const std::optional<ColorCalibration>& nominal_color) {
   if (!(fps > 0)) throw Error("still source: fps must be positive");
   CameraFrame frame;
   frame.depth = read_depth_png(depth_png);
@@ -83,9 +85,15 @@ std::unique_ptr<FrameSource> open_still_source(const std::filesystem::path& dept
   calibration.depth.height = frame.depth.height;
   if (!color_image.empty()) {
     const ColorImage color = read_color_image(color_image);
-    frame.color = color.width == frame.depth.width && color.height == frame.depth.height
-                      ? color
-                      : resample_nearest(color, frame.depth.width, frame.depth.height);
+    if (nominal_color && color.width == nominal_color->intrinsics.width &&
+        color.height == nominal_color->intrinsics.height)
+      ColorToDepthRegistration(calibration.depth, nominal_color->intrinsics,
+                               nominal_color->color_from_depth)
+          .apply(frame.depth, color, frame.color);
+    else
+      frame.color = color.width == frame.depth.width && color.height == frame.depth.height
+                        ? color
+                        : resample_nearest(color, frame.depth.width, frame.depth.height);
   }
   return std::make_unique<StillSource>(std::move(frame), std::move(calibration), fps,
                                        "still " + depth_png.string());

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "frame_feed_state.hpp"
+#include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/render/camera_renderer.hpp"
@@ -28,7 +29,20 @@ bool FrameFeed::next(std::vector<std::shared_ptr<const CameraFrame>>& frames,
   if (state_.version == state_.taken) return false;
   state_.taken = state_.version;
   frames = state_.frames;
+  state_.taken_capture_us = state_.handed_capture_us;
+  state_.taken_ready_us = state_.handed_ready_us;
+  state_.taken_presented = false;
   return true;
+}
+
+void FrameFeed::presented() {
+  const int64_t now = wall_clock_us();
+  std::lock_guard lock(state_.mutex);
+  if (state_.taken_presented || state_.taken_ready_us == 0) return;
+  state_.taken_presented = true;
+  if (state_.presented_ms.size() < 4096)  // the receiving thread takes them twice a second
+    state_.presented_ms.emplace_back(double(now - state_.taken_ready_us) / 1000.0,
+                                     double(now - state_.taken_capture_us) / 1000.0);
 }
 
 bool FrameFeed::finished() const {
@@ -83,6 +97,8 @@ Presenter headless_presenter(const ViewerOptions& opt) {
         }
       if (!view) view = default_view(calibrations, frames);
       renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target(), opt.pass);
+      target.finish();  // headless: "presented" once the picture is finished
+      feed.presented();
       last_draw = std::chrono::steady_clock::now();
       ++result.frames_rendered;
     }

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <utility>
 #include <vector>
 
 #include "volcast/pipeline/frame_feed.hpp"
@@ -25,6 +26,13 @@ struct FrameFeed::State {
   bool done = false;                // the receiving side is finished
   std::atomic<bool> closed{false};  // the presenter asked to end
   LiveStats live;
+  // The "presented" stage: when the newest frame set was captured and handed over, when the one
+  // the presenter took was, and whether a picture of it was presented yet; the samples the
+  // receiving thread has not yet moved into its StageRecorder (ready -> presented, capture ->
+  // presented, ms).
+  int64_t handed_capture_us = 0, handed_ready_us = 0, taken_capture_us = 0, taken_ready_us = 0;
+  bool taken_presented = true;
+  std::vector<std::pair<double, double>> presented_ms;
 };
 
 }  // namespace volcast

@@ -176,6 +176,8 @@ Presenter or_display_presenter(const ViewerOptions& opt, size_t camera,
       if (!p || !frames[camera]) continue;
       const int64_t t = wall_clock_us();
       display.draw(target.target(), site[camera], *frames[camera], p->snapshot(t), t);
+      target.finish();  // headless: "presented" once the picture is finished
+      feed.presented();
       drawn = true;
       ++result.frames_rendered;
     }

@@ -373,6 +373,11 @@ void hand_to_renderer(FrameFeed::State& box, Reception& r, int64_t now_us) {
   std::lock_guard lock(box.mutex);
   box.frames = r.frames;
   box.live.newest_capture_us = r.rx.frames.capture_time_us;
+  box.handed_capture_us = r.rx.frames.capture_time_us;
+  box.handed_ready_us = now_us;
+  for (const auto& [presented, photon] : box.presented_ms)
+    r.stages.add_presented(presented, photon);
+  box.presented_ms.clear();
   ++box.version;
   box.changed.notify_one();
   if (now_us - r.live_from_us >= 500'000) {  // the panel's figures, twice a second
@@ -608,6 +613,11 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   result.tier = tier_label(client.tier());
   result.adaptive = opt.client.adapt;
   result.tier_events = std::move(reception.tier_events);
+  {
+    std::lock_guard lock(box.mutex);  // the last pictures' presented stages
+    for (const auto& [presented, photon] : box.presented_ms)
+      reception.stages.add_presented(presented, photon);
+  }
   result.stages = reception.stages.summary();
   result.cameras = camera_figures(welcome, reception);
   if (opt.on_finished) {

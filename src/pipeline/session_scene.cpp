@@ -255,6 +255,8 @@ Presenter session_presenter(const ViewerOptions& opt, std::function<Participant*
       if (surfaces) surfaces->update(site, frames, seen.room_from_site);
       const View eye = participant_eye(seen, target.target().aspect());
       scene.draw(eye, target.target(), site, frames, *p, t, scene_options);
+      target.finish();  // headless: "presented" once the picture is finished
+      feed.presented();
       ++result.frames_rendered;
     }
     if (!opt.screenshot.empty() && result.frames_rendered > 0) {

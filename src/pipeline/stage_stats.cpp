@@ -23,7 +23,12 @@ void StageRecorder::add(const StageTimes& t, int64_t ready_us) {
     samples_[i].push_back(static_cast<double>(ends[i] - start) / 1000.0);
     start = ends[i];
   }
-  samples_[6].push_back(static_cast<double>(ready_us - t.capture_us) / 1000.0);
+  samples_[7].push_back(static_cast<double>(ready_us - t.capture_us) / 1000.0);
+}
+
+void StageRecorder::add_presented(double presented_ms, double photon_ms) {
+  samples_[6].push_back(presented_ms);
+  samples_[8].push_back(photon_ms);
 }
 
 std::vector<StageLatency> StageRecorder::summary() const {

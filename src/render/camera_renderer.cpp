@@ -14,11 +14,14 @@
 #include "volcast/core/error.hpp"
 #include "volcast/core/ray_table.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
+#include "volcast/render/colour_balance.hpp"
 
 namespace volcast {
 namespace {
 
 constexpr const char* kPass = "camera renderer";
+constexpr float kEdgeStep = 0.05f;      // a 4-neighbour this much of the depth away is an edge
+constexpr int kUploadsPerBalance = 15;  // new images between colour balance estimates
 
 // One camera: its textures, where it sits, and its mesh's kept triangles.
 struct GpuCamera {
@@ -35,6 +38,12 @@ struct GpuCamera {
   bool mesh_current = false;
   float mesh_edge_ratio = 0;
   AvatarFilter filter;  // this camera's (set_avatar_filter)
+  // Blending's reliability (kEdges, kEdgeRows, kReliability): made again with each new image.
+  GLuint edges = 0, across = 0, reliability = 0;
+  bool reliability_current = false;
+  int reliability_radius = 0;
+  ColourSamples samples;  // colour balance's, taken at upload
+  Eigen::Vector3f gain = Eigen::Vector3f::Ones();
 };
 
 // DrawElementsIndirectCommand (OpenGL 4.5 §10.4).
@@ -47,7 +56,8 @@ struct IndirectCommand {
 // Uniform locations every camera program has.
 struct CameraUniforms {
   GLint has_color = -1, size = -1, view_from_camera = -1, clip_from_view = -1, tint = -1,
-        depth_push = -1, accumulate = -1;
+        depth_push = -1, accumulate = -1, weighting = -1, erode_push = -1, gain = -1,
+        view_from_clip = -1, viewport_size = -1, blend_push = -1;
   gl::FilterUniforms filter;
   CameraUniforms() = default;
   explicit CameraUniforms(GLuint p)
@@ -58,6 +68,12 @@ struct CameraUniforms {
         tint(glGetUniformLocation(p, "tint")),
         depth_push(glGetUniformLocation(p, "depth_push")),
         accumulate(glGetUniformLocation(p, "accumulate")),
+        weighting(glGetUniformLocation(p, "weighting")),
+        erode_push(glGetUniformLocation(p, "erode_push")),
+        gain(glGetUniformLocation(p, "gain")),
+        view_from_clip(glGetUniformLocation(p, "view_from_clip")),
+        viewport_size(glGetUniformLocation(p, "viewport_size")),
+        blend_push(glGetUniformLocation(p, "blend_push")),
         filter(p) {}
 };
 
@@ -72,6 +88,11 @@ void check_options(const CameraPassOptions& o) {
   if (!(o.blend_depth_m > 0 && o.blend_depth_m <= 1))
     throw Error(
         fmt::format("{}: blend_depth_m {} is outside (0, 1] metres", kPass, o.blend_depth_m));
+  if (!(o.edge_px >= 1 && o.edge_px <= 16))
+    throw Error(fmt::format("{}: edge_px {} is outside 1..16 pixels", kPass, o.edge_px));
+  if (!(o.erode_depth_m >= 0 && o.erode_depth_m <= 1))
+    throw Error(
+        fmt::format("{}: erode_depth_m {} is outside [0, 1] metres", kPass, o.erode_depth_m));
 }
 
 }  // namespace
@@ -88,23 +109,28 @@ Surface parse_surface(const std::string& name) {
 
 struct CameraRenderer::Impl {
   GLuint splat_program = 0, mesh_program = 0, resolve_program = 0, mesh_index_program = 0,
-         empty_vao = 0;
+         edges_program = 0, edge_rows_program = 0, reliability_program = 0, empty_vao = 0;
   CameraUniforms splat, mesh;
   GLint size_mode = -1, fixed_px = -1, radius_per_metre = -1, splat_scale = -1,
         pixels_per_unit = -1, half_viewport = -1;  // splats
   GLint index_size = -1, index_edge_ratio = -1;    // the mesh's triangle pass
   gl::FilterUniforms index_filter;
-  GLint resolve_origin = -1;
+  GLint resolve_origin = -1, resolve_weighting = -1, resolve_viewport = -1,
+        resolve_view_from_clip = -1, resolve_clip_from_view = -1;
+  GLint edges_size = -1, edges_step = -1, rows_size = -1, rows_radius = -1, reliability_size = -1,
+        reliability_radius = -1;
+  int uploads_since_balance = kUploadsPerBalance;
   std::vector<GpuCamera> cameras;
   size_t ray_tables_uploaded = 0;  // set_cameras
   AvatarFilter filter;
-  // The blending pass's own framebuffer: accumulated color (RGBA16F) and the prepass's depth.
-  GLuint blend_fbo = 0, accumulated = 0, front_depth = 0;
+  // The blending pass's own framebuffer: accumulated color (RGBA16F), accumulated view depth
+  // (RG32F) and the prepass's depth, with a copy of it the blending pass reads.
+  GLuint blend_fbo = 0, accumulated = 0, blended_depth = 0, front_depth = 0, front_copy = 0;
   int blend_width = 0, blend_height = 0;
 
   static void delete_camera(const GpuCamera& c) {
-    const GLuint t[3] = {c.rays, c.depth, c.color};
-    glDeleteTextures(3, t);
+    const GLuint t[6] = {c.rays, c.depth, c.color, c.edges, c.across, c.reliability};
+    glDeleteTextures(6, t);
     const GLuint b[2] = {c.mesh_indices, c.mesh_command};
     glDeleteBuffers(2, b);
   }
@@ -141,24 +167,79 @@ struct CameraRenderer::Impl {
     c.mesh_edge_ratio = max_edge_ratio;
   }
 
+  // Makes camera c's reliability texture again if its image or the radius changed.
+  void update_reliability(GpuCamera& c, int radius) {
+    if (c.reliability_current && c.reliability_radius == radius) return;
+    if (!c.edges) {
+      c.edges = gl::make_texture(GL_R8UI, c.width, c.height);
+      c.across = gl::make_texture(GL_R8UI, c.width, c.height);
+      c.reliability = gl::make_texture(GL_RG16F, c.width, c.height);
+    }
+    const auto groups_x = static_cast<GLuint>((c.width + 15) / 16),
+               groups_y = static_cast<GLuint>((c.height + 15) / 16);
+    const auto dispatch_into = [&](GLuint image, GLenum format) {
+      glBindImageTexture(0, image, 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
+      glDispatchCompute(groups_x, groups_y, 1);
+      glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    };
+    glBindTextureUnit(0, c.depth);
+    glBindTextureUnit(1, c.rays);
+    glUseProgram(edges_program);
+    glUniform2i(edges_size, c.width, c.height);
+    glUniform1f(edges_step, kEdgeStep);
+    dispatch_into(c.edges, GL_R8UI);
+    glUseProgram(edge_rows_program);
+    glUniform2i(rows_size, c.width, c.height);
+    glUniform1i(rows_radius, radius);
+    glBindTextureUnit(0, c.edges);
+    dispatch_into(c.across, GL_R8UI);
+    glUseProgram(reliability_program);
+    glUniform2i(reliability_size, c.width, c.height);
+    glUniform1i(reliability_radius, radius);
+    glBindTextureUnit(0, c.depth);
+    glBindTextureUnit(5, c.across);
+    dispatch_into(c.reliability, GL_RG16F);
+    c.reliability_current = true;
+    c.reliability_radius = radius;
+  }
+
+  // Every kUploadsPerBalance new images, each camera's colour gain from the samples.
+  void update_gains() {
+    if (uploads_since_balance < kUploadsPerBalance) return;
+    uploads_since_balance = 0;
+    std::vector<ColourSamples> samples;
+    samples.reserve(cameras.size());
+    for (const GpuCamera& c : cameras) samples.push_back(c.uploaded ? c.samples : ColourSamples{});
+    const std::vector<Eigen::Vector3f> gains = volcast::colour_gains(samples);
+    for (size_t i = 0; i < cameras.size(); ++i) cameras[i].gain = gains[i];
+  }
+
   void ensure_blend_target(int width, int height) {
     if (blend_fbo && blend_width == width && blend_height == height) return;
-    if (blend_fbo) {
-      glDeleteFramebuffers(1, &blend_fbo);
-      const GLuint t[2] = {accumulated, front_depth};
-      glDeleteTextures(2, t);
-    }
+    if (blend_fbo) delete_blend_target();
     accumulated = gl::make_texture(GL_RGBA16F, width, height);
+    blended_depth = gl::make_texture(GL_RG32F, width, height);
     front_depth = gl::make_texture(GL_DEPTH_COMPONENT32F, width, height);
+    front_copy = gl::make_texture(GL_DEPTH_COMPONENT32F, width, height);
     glCreateFramebuffers(1, &blend_fbo);
     glNamedFramebufferTexture(blend_fbo, GL_COLOR_ATTACHMENT0, accumulated, 0);
+    glNamedFramebufferTexture(blend_fbo, GL_COLOR_ATTACHMENT1, blended_depth, 0);
     glNamedFramebufferTexture(blend_fbo, GL_DEPTH_ATTACHMENT, front_depth, 0);
+    const GLenum draw[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glNamedFramebufferDrawBuffers(blend_fbo, 2, draw);
     blend_width = width;
     blend_height = height;
     if (const GLenum status = glCheckNamedFramebufferStatus(blend_fbo, GL_DRAW_FRAMEBUFFER);
         status != GL_FRAMEBUFFER_COMPLETE)
       throw Error(fmt::format("{}: blending framebuffer {}x{} is not complete (status {:#x})",
                               kPass, width, height, status));
+  }
+
+  void delete_blend_target() {
+    glDeleteFramebuffers(1, &blend_fbo);
+    const GLuint t[4] = {accumulated, blended_depth, front_depth, front_copy};
+    glDeleteTextures(4, t);
+    blend_fbo = 0;
   }
 
   // Draws every uploaded, visible camera once with the program in use.
@@ -179,9 +260,12 @@ struct CameraRenderer::Impl {
       glUniform2i(u.size, c.width, c.height);
       glUniform1i(u.has_color, c.has_color ? 1 : 0);
       glUniform4fv(u.tint, 1, look.tint.data());
+      const Eigen::Vector3f gain = o.balance_colour ? c.gain : Eigen::Vector3f::Ones();
+      glUniform3fv(u.gain, 1, gain.data());
       glBindTextureUnit(0, c.depth);
       glBindTextureUnit(1, c.rays);
       glBindTextureUnit(2, c.color);
+      glBindTextureUnit(3, c.reliability);
       if (as_mesh) {
         glVertexArrayElementBuffer(empty_vao, c.mesh_indices);
         glBindBuffer(GL_DRAW_INDIRECT_BUFFER, c.mesh_command);
@@ -207,10 +291,14 @@ CameraRenderer::CameraRenderer() {
         gl::link_compute("camera renderer (mesh triangles)", shaders::kMeshIndices);
     r.resolve_program = gl::link_program("camera renderer (blend resolve)", shaders::kResolveVertex,
                                          nullptr, shaders::kResolveFragment);
+    r.edges_program = gl::link_compute("camera renderer (depth edges)", shaders::kEdges);
+    r.edge_rows_program = gl::link_compute("camera renderer (edge distance)", shaders::kEdgeRows);
+    r.reliability_program =
+        gl::link_compute("camera renderer (reliability)", shaders::kReliability);
   } catch (...) {
-    glDeleteProgram(r.splat_program);
-    glDeleteProgram(r.mesh_program);
-    glDeleteProgram(r.resolve_program);
+    for (GLuint p : {r.splat_program, r.mesh_program, r.resolve_program, r.mesh_index_program,
+                     r.edges_program, r.edge_rows_program})
+      glDeleteProgram(p);
     throw;
   }
   r.splat = CameraUniforms(r.splat_program);
@@ -225,22 +313,27 @@ CameraRenderer::CameraRenderer() {
   r.index_edge_ratio = glGetUniformLocation(r.mesh_index_program, "max_edge_ratio");
   r.index_filter = gl::FilterUniforms(r.mesh_index_program);
   r.resolve_origin = glGetUniformLocation(r.resolve_program, "origin");
+  r.resolve_weighting = glGetUniformLocation(r.resolve_program, "weighting");
+  r.resolve_viewport = glGetUniformLocation(r.resolve_program, "viewport_size");
+  r.resolve_view_from_clip = glGetUniformLocation(r.resolve_program, "view_from_clip");
+  r.resolve_clip_from_view = glGetUniformLocation(r.resolve_program, "clip_from_view");
+  r.edges_size = glGetUniformLocation(r.edges_program, "size");
+  r.edges_step = glGetUniformLocation(r.edges_program, "edge_step");
+  r.rows_size = glGetUniformLocation(r.edge_rows_program, "size");
+  r.rows_radius = glGetUniformLocation(r.edge_rows_program, "radius");
+  r.reliability_size = glGetUniformLocation(r.reliability_program, "size");
+  r.reliability_radius = glGetUniformLocation(r.reliability_program, "radius");
   glCreateVertexArrays(1, &r.empty_vao);  // the passes read textures, not attributes
 }
 
 CameraRenderer::~CameraRenderer() {
   Impl& r = *impl_;
   r.delete_cameras();
-  if (r.blend_fbo) {
-    glDeleteFramebuffers(1, &r.blend_fbo);
-    const GLuint t[2] = {r.accumulated, r.front_depth};
-    glDeleteTextures(2, t);
-  }
+  if (r.blend_fbo) r.delete_blend_target();
   glDeleteVertexArrays(1, &r.empty_vao);
-  glDeleteProgram(r.splat_program);
-  glDeleteProgram(r.mesh_program);
-  glDeleteProgram(r.resolve_program);
-  glDeleteProgram(r.mesh_index_program);
+  for (GLuint p : {r.splat_program, r.mesh_program, r.resolve_program, r.mesh_index_program,
+                   r.edges_program, r.edge_rows_program, r.reliability_program})
+    glDeleteProgram(p);
 }
 
 void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
@@ -263,7 +356,8 @@ void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
     if (at < before.size() && before[at].intrinsics == k) {  // its textures, as if new
       GpuCamera c = std::exchange(before[at], GpuCamera{});
       c.world_from_camera = cal.world_from_camera.matrix4f();
-      c.uploaded = c.has_color = c.mesh_current = false;
+      c.uploaded = c.has_color = c.mesh_current = c.reliability_current = false;
+      c.samples.world_from_camera = cal.world_from_camera;
       c.filter = r.filter;
       r.cameras.push_back(c);
       continue;
@@ -275,6 +369,9 @@ void CameraRenderer::set_cameras(std::span<const CameraCalibration> cameras) {
     c.world_from_camera = cal.world_from_camera.matrix4f();
     c.radius_per_metre = splat_radius_per_metre(k);
     const std::shared_ptr<const RayTable> rays = shared_ray_table(k);
+    c.samples.intrinsics = k;
+    c.samples.world_from_camera = cal.world_from_camera;
+    c.samples.rays = rays;
     ++r.ray_tables_uploaded;
     std::vector<float> xy(rays->x.size() * 2);
     for (size_t i = 0; i < rays->x.size(); ++i) {
@@ -298,7 +395,9 @@ void CameraRenderer::set_world_from_camera(size_t camera, const RigidTransform& 
     throw Error(
         fmt::format("{}: no camera {} (set_cameras gave {})", kPass, camera, r.cameras.size()));
   r.cameras[camera].world_from_camera = world_from_camera.matrix4f();
-  r.cameras[camera].mesh_current = false;  // the avatar filter is in the world frame
+  r.cameras[camera].samples.world_from_camera = world_from_camera;
+  r.cameras[camera].mesh_current = false;        // the avatar filter is in the world frame
+  r.uploads_since_balance = kUploadsPerBalance;  // balance again with the new pose
 }
 
 size_t CameraRenderer::ray_tables_uploaded() const {
@@ -329,7 +428,9 @@ void CameraRenderer::upload(size_t camera, const CameraFrame& frame) {
     glTextureSubImage2D(c.color, 0, 0, 0, c.width, c.height, GL_BGRA, GL_UNSIGNED_BYTE,
                         frame.color.bgra.data());
   c.uploaded = true;
-  c.mesh_current = false;
+  c.mesh_current = c.reliability_current = false;
+  take_colour_samples(frame, c.samples);
+  ++r.uploads_since_balance;
 }
 
 void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
@@ -340,11 +441,22 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
   gl::begin_target(kPass, target);
   glBindVertexArray(r.empty_vao);
 
-  if (mesh)
-    for (size_t i = 0; i < r.cameras.size(); ++i)
-      if (r.cameras[i].uploaded && (i >= options.cameras.size() || options.cameras[i].visible))
-        r.update_mesh(r.cameras[i], options.max_edge_ratio);
+  const bool reliable = options.blend && options.blend_weights == BlendWeights::kReliability;
+  for (size_t i = 0; i < r.cameras.size(); ++i) {
+    if (!r.cameras[i].uploaded || (i < options.cameras.size() && !options.cameras[i].visible))
+      continue;
+    if (mesh) r.update_mesh(r.cameras[i], options.max_edge_ratio);
+    if (reliable) r.update_reliability(r.cameras[i], options.edge_px);
+  }
+  if (options.balance_colour) r.update_gains();
   glUseProgram(mesh ? r.mesh_program : r.splat_program);
+  const CameraUniforms& u = mesh ? r.mesh : r.splat;
+  glUniform1i(u.weighting, reliable ? 1 : 0);
+  glUniform1f(u.erode_push, options.erode_depth_m);
+  glUniform1f(u.blend_push, options.blend_depth_m);
+  const Eigen::Matrix4f view_from_clip = view.clip_from_view.inverse();
+  glUniformMatrix4fv(u.view_from_clip, 1, GL_FALSE, view_from_clip.data());
+  glUniform2f(u.viewport_size, static_cast<float>(target.width), static_cast<float>(target.height));
   if (!mesh) {
     glUniform1i(r.size_mode, static_cast<int>(options.splat_size));
     glUniform1f(r.fixed_px, options.fixed_point_px);
@@ -368,6 +480,11 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
     r.draw_each(options, view, mesh, options.blend_depth_m, false);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    if (reliable) {  // the blending pass reads the front depth: a copy, not its own attachment
+      glCopyImageSubData(r.front_depth, GL_TEXTURE_2D, 0, 0, 0, 0, r.front_copy, GL_TEXTURE_2D, 0,
+                         0, 0, 0, target.width, target.height, 1);
+      glBindTextureUnit(4, r.front_copy);
+    }
     glDepthMask(GL_FALSE);
     glDepthFunc(GL_LEQUAL);
     glEnable(GL_BLEND);
@@ -382,8 +499,14 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     glDepthFunc(GL_ALWAYS);
     glUseProgram(r.resolve_program);
     glUniform2i(r.resolve_origin, target.x, target.y);
+    glUniform1i(r.resolve_weighting, reliable ? 1 : 0);
+    glUniform2f(r.resolve_viewport, static_cast<float>(target.width),
+                static_cast<float>(target.height));
+    glUniformMatrix4fv(r.resolve_view_from_clip, 1, GL_FALSE, view_from_clip.data());
+    glUniformMatrix4fv(r.resolve_clip_from_view, 1, GL_FALSE, view.clip_from_view.data());
     glBindTextureUnit(0, r.accumulated);
     glBindTextureUnit(1, r.front_depth);
+    glBindTextureUnit(2, r.blended_depth);
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glDepthFunc(GL_LESS);
   }
@@ -421,6 +544,12 @@ void CameraRenderer::set_avatar_filter(size_t camera, const AvatarFilter& filter
   if (same_sphere(c.filter.keep, filter.keep) && same_box(c.filter.hide, filter.hide)) return;
   c.filter = filter;
   c.mesh_current = false;  // the mesh's triangles depend on it
+}
+
+std::vector<Eigen::Vector3f> CameraRenderer::colour_gains() const {
+  std::vector<Eigen::Vector3f> gains;
+  for (const GpuCamera& c : impl_->cameras) gains.push_back(c.gain);
+  return gains;
 }
 
 std::string CameraRenderer::gl_description() const {

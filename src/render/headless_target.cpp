@@ -86,4 +86,23 @@ void HeadlessTarget::read_image(ColorImage& out) const {
                      out.bgra.begin() + bottom * row);
 }
 
+void HeadlessTarget::read_depth(std::vector<float>& out) const {
+  const Impl& t = *impl_;
+  out.resize(static_cast<size_t>(t.width) * static_cast<size_t>(t.height));
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, t.framebuffer);
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+  glReadnPixels(0, 0, t.width, t.height, GL_DEPTH_COMPONENT, GL_FLOAT,
+                static_cast<GLsizei>(out.size() * sizeof(float)), out.data());
+  if (const GLenum err = glGetError(); err != GL_NO_ERROR)
+    throw Error(
+        fmt::format("headless target: reading the {}x{} depth back failed (OpenGL error {:#x})",
+                    t.width, t.height, err));
+  const auto row = static_cast<std::ptrdiff_t>(t.width);
+  for (int top = 0, bottom = t.height - 1; top < bottom; ++top, --bottom)
+    std::swap_ranges(out.begin() + top * row, out.begin() + (top + 1) * row,
+                     out.begin() + bottom * row);
+}
+
 }  // namespace volcast

@@ -136,4 +136,13 @@ ViewCamera orbit_view(const RigidTransform& world_from_camera,
   return v;
 }
 
+float view_depth_m(const Eigen::Matrix4f& clip_from_view, float depth01) {
+  if (!(depth01 < 1.0f)) return 0;
+  // ndc = (P22 z + P23) / (P32 z + P33) for view z (negative in front); solved for z.
+  const float ndc = 2.0f * depth01 - 1.0f;
+  const Eigen::Matrix4f& p = clip_from_view;
+  const float z = (p(2, 3) - ndc * p(3, 3)) / (ndc * p(3, 2) - p(2, 2));
+  return -z;
+}
+
 }  // namespace volcast

@@ -140,8 +140,24 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   ASSERT_EQ(j["cameras"].size(), 2u);
   for (const auto& c : j["cameras"]) EXPECT_GT(c["frames_received"].get<int>(), 0);
   for (const char* png : {"render_overview.png", "render_overview_mesh.png", "render_camera0.png",
-                          "render_camera1.png"})
+                          "render_camera1.png", "quality/quality.png"})
     EXPECT_GT(std::filesystem::file_size(dir / png), 10'000u) << png;
+  // The last stage: the headless picture finished with the newest frames ("presented"), and
+  // capture to that ("photon") is no shorter than capture to ready ("total").
+  std::map<std::string, double> p50;
+  for (const auto& s : j["stages"]) p50[s["stage"].get<std::string>()] = s["p50_ms"].get<double>();
+  ASSERT_TRUE(p50.contains("presented") && p50.contains("photon")) << j["stages"].dump();
+  EXPECT_GT(p50["presented"], 0) << j["stages"].dump();
+  EXPECT_GT(p50["photon"], p50["ready"]) << j["stages"].dump();
+  // The picture, measured: each registered camera held out, before and now.
+  std::ifstream quality_in(dir / "quality" / "quality.json");
+  const auto quality = nlohmann::json::parse(quality_in)["quality"];
+  ASSERT_EQ(quality.size(), 2u);
+  for (const auto& q : quality) {
+    EXPECT_EQ(q["cameras"].size(), 4u);
+    EXPECT_GT(q["coverage"].get<double>(), 0.3) << q.dump();
+    EXPECT_GT(q["psnr_db"].get<double>(), 10) << q.dump();
+  }
   // The virtual-OR session: the four registered cameras, two scripted participants, each one's
   // eye and figures; each saw the other and the OR's wall display.
   EXPECT_NE(out.find("virtual OR session 'OR'"), std::string::npos) << out;

@@ -33,8 +33,8 @@ namespace volcast {
 namespace {
 
 TEST(FilterChain, AllocatesNothingPerFrameOnceWarm) {
-  auto src =
-      open_source(test::hands_dir(), SourceOptions{Intrinsics{0, 0, 460, 460, 320, 180}, {}, {}});
+  auto src = open_source(test::hands_dir(),
+                         SourceOptions{Intrinsics{0, 0, 460, 460, 320, 180}, {}, {}, {}});
   std::vector<CameraFrame> frames;
   for (int i = 0; i < 20; ++i) frames.push_back(src->next());
   FilterConfig c = paper_chain_config(640, 360);

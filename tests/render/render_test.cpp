@@ -22,6 +22,7 @@ constexpr uint32_t kRed = 0xff0000ffu, kGreen = 0xff00ff00u;  // SplatPoint::rgb
 // CameraRenderer drawing what CloudBuilder + SplatRenderer draw: footprint splats, no blending.
 const CameraPassOptions kPlainSplats = [] {
   CameraPassOptions o;
+  o.surface = Surface::kSplats;
   o.splat_size = SplatSize::kFootprint;
   o.blend = false;
   return o;

@@ -303,6 +303,7 @@ void present_or_display(FrameFeed& feed, ViewerResult& result, const OrDisplayWi
       }
     }
     glfwSwapBuffers(window.window);
+    if (shown) feed.presented();
     if (!shown) continue;
     ++drawn;
     ++result.frames_rendered;

@@ -38,6 +38,15 @@ void renderer_section(CameraPassOptions& pass) {
     help("a triangle is dropped when an edge is longer than this x the depth of its nearer corner");
   }
   ImGui::Checkbox("blend overlapping cameras", &pass.blend);
+  if (pass.blend) {
+    bool reliable = pass.blend_weights == BlendWeights::kReliability;
+    ImGui::Checkbox("weigh by reliability", &reliable);
+    help(
+        "angle, distance and distance to a depth edge, edges eroded, soft depth tolerance; "
+        "off: the first weights (angle and distance)");
+    pass.blend_weights = reliable ? BlendWeights::kReliability : BlendWeights::kAngleDistance;
+  }
+  ImGui::Checkbox("balance colour between cameras", &pass.balance_colour);
 }
 
 void camera_section(ViewerControls& c, const PanelInfo& info, size_t i) {

@@ -467,6 +467,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     if (voice) apply_voice_input(*voice, session_panel.voice);  // the panel's
     if (controls.screenshot && o.screenshot_panel) take_screenshot(controls, o, target);
     glfwSwapBuffers(window.window);
+    feed.presented();
     if (controls.poses_changed || controls.filter_changed || controls.save || controls.screenshot ||
         controls.reset_view)
       input.redraw = std::max(input.redraw, 1);  // act on the panel's requests next loop

@@ -554,7 +554,10 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
       if (!poll_events(rig.instance.handle, rig.session.handle, loop.running)) break;
       loop.take_frames(feed);
       if (!loop.running) continue;
-      if (loop.render_frame() && loop.started) ++result.frames_rendered;
+      if (loop.render_frame() && loop.started) {
+        ++result.frames_rendered;
+        feed.presented();  // the frame was submitted (xrEndFrame) with the newest images
+      }
     }
   } catch (const Lost&) {
     spdlog::warn("OpenXR: the runtime lost the session");

@@ -31,6 +31,9 @@ struct BenchArgs {
   double voice_hold_ms = -1;
   bool drawing = false;  ///< the pointing and drawing benchmark instead (server_seconds)
   bool paths = false;    ///< the impaired-paths benchmark instead (server_seconds; root)
+  bool quality = false;  ///< the view-synthesis quality benchmark instead
+  std::string site;      ///< --quality: the registered site config ("": the four Kinects)
+  std::string pictures = "out/quality";  ///< --quality: where its pictures go ("": none)
 };
 /// Times each filter stage on real frames and every codec (codec_bench.hpp), one thread; prints
 /// the tables and writes {"filters", "depth_codecs", "color_codecs"} to args.json if set.
@@ -99,5 +102,12 @@ int run_drawing_bench(const BenchArgs& args);
 /// switches: [{t_s, from, to, reason}]}]} to args.json if set. Throws Error where the link cannot
 /// be made (not root, no /dev/net/tun).
 int run_paths_bench(const BenchArgs& args);
+
+/// Scores the camera renderer's settings (quality_settings) by leave-one-camera-out view
+/// synthesis on args.site, or on the four real Azure Kinects registered from depth (cached in
+/// out/site-4cam.json): PSNR, SSIM, depth error, coverage, seam energy and ms per view for each;
+/// prints the table, writes the worst camera's side-by-side pictures into args.pictures and
+/// {"quality": [...]} (quality_report.hpp) to args.json if set.
+int run_quality_bench(const BenchArgs& args);
 
 }  // namespace volcast

@@ -24,9 +24,15 @@ std::optional<std::filesystem::path> find_data(const std::string& flag);
 /// 1.6 m to the right of camera 0. Throws Error if a recording cannot be opened.
 std::vector<std::unique_ptr<FrameSource>> two_camera_site(const std::filesystem::path& data);
 
+/// The Azure Kinect recording's factory color calibration (1280x720, and color_from_depth), as a
+/// NOMINAL one for the four Azure Kinects of k4a-4cam-nfov, which recorded none. Throws Error if
+/// the recording cannot be read.
+ColorCalibration nominal_kinect_color(const std::filesystem::path& data);
+
 /// Four cameras: the four Azure Kinects of k4a-4cam-nfov (one real capture each, repeated at
 /// 30 fps), with the Azure Kinect recording's factory NFOV intrinsics (the set has none) and 1.6 m
-/// apart; their color resampled to the depth grid, not registered (the set has no extrinsics).
+/// apart; their color registered to depth with that recording's color calibration (nominal:
+/// the set has none), so colors sit on the surfaces within the spread between units.
 std::vector<std::unique_ptr<FrameSource>> four_camera_site(const std::filesystem::path& data);
 
 }  // namespace volcast

@@ -21,7 +21,7 @@ class ColorToDepthRegistration {
  private:
   Intrinsics depth_, color_;
   RigidTransform color_from_depth_;
-  RayTable rays_;
+  std::shared_ptr<const RayTable> rays_;  // shared_ray_table: one per intrinsics per process
 };
 
 }  // namespace volcast

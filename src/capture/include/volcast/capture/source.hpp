@@ -48,6 +48,12 @@ class FrameSource {
   virtual std::string description() const = 0;
 };
 
+/// A color camera's calibration relative to its depth camera.
+struct ColorCalibration {
+  Intrinsics intrinsics;            ///< of the color image, pixels (its width and height set)
+  RigidTransform color_from_depth;  ///< metres
+};
+
 /// Options shared by every source kind.
 struct SourceOptions {
   /// Intrinsics (pinhole or the full lens model) for sources that carry none: an image sequence
@@ -57,6 +63,11 @@ struct SourceOptions {
   std::optional<double> fps;
   /// Places the camera in the site's world frame (default: identity).
   std::optional<RigidTransform> world_from_camera;
+  /// For a camera folder's still PNGs, whose color is not registered to depth: register it with
+  /// this calibration (ColorToDepthRegistration, registration.hpp) when the color image is its
+  /// size -- e.g. another Azure Kinect's factory calibration as a nominal one
+  /// (nominal_kinect_color in real_sites.hpp). Without it the color is resampled, not registered.
+  std::optional<ColorCalibration> nominal_color;
 };
 
 /// Opens PATH as a source: a directory is an image sequence, a `.mkv` file an Azure Kinect

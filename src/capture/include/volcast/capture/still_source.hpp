@@ -20,9 +20,12 @@ ColorImage read_color_image(const std::filesystem::path& file);
 /// from the PNG). `color_image` (PNG or JPEG; empty = no color) of another size is resampled to the
 /// depth grid by nearest neighbour: NOT registered (the set has no extrinsics), so colors sit only
 /// roughly on the surfaces -- fine for streaming and codec cost, not for looking closely. Device
-/// timestamps advance by 1/fps per frame. Throws Error if a file cannot be read.
-std::unique_ptr<FrameSource> open_still_source(const std::filesystem::path& depth_png,
-                                               const std::filesystem::path& color_image,
-                                               CameraCalibration calibration, double fps);
+/// timestamps advance by 1/fps per frame. With `nominal_color` and a color image of its size, the
+/// color is registered to depth with it instead (pixels without depth, or seeing outside the
+/// color image, get no color). Throws Error if a file cannot be read.
+std::unique_ptr<FrameSource> open_still_source(
+    const std::filesystem::path& depth_png, const std::filesystem::path& color_image,
+    CameraCalibration calibration, double fps,
+    const std::optional<ColorCalibration>& nominal_color = std::nullopt);
 
 }  // namespace volcast

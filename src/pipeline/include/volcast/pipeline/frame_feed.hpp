@@ -61,6 +61,7 @@ std::string tier_label(const TierState& t);
 struct LiveStats {
   std::vector<CameraStats> cameras;
   std::vector<StageLatency> stages;  ///< kStageNames order; empty until a frame set arrived
+                                     ///< (presented and photon: 0 until a picture was shown)
   std::string depth_codec, color_codec;
   std::string tier;                    ///< tier_label() of the tier now
   bool adaptive = false;               ///< the server moves it along its ladder
@@ -94,6 +95,11 @@ class FrameFeed {
   bool finished() const;
   /// Ends the session (ViewerEnd::kClosed unless it already ended otherwise); returns at once.
   void close();
+  /// The presenter calls this once the picture it drew from the frames next() last gave is handed
+  /// to the display (after the window's buffer swap, the headset's xrEndFrame, the headless
+  /// target's finish): the first call after a next() that took new frames times the "presented"
+  /// stage (stage_stats.hpp) of that frame set; later calls do nothing.
+  void presented();
   /// A copy of the newest live figures.
   LiveStats live() const;
 

@@ -5,8 +5,14 @@
 //   send    -> the server began sending (waiting for the path's window)
 //   receive -> the whole message read by the viewer  decode -> every camera decoded
 //   ready   -> the decoded images handed to the renderer, which unprojects them into points on the
-//              GPU (SplatRenderer::draw_cameras): nothing is left for the CPU after this stage
+//              GPU (CameraRenderer::draw_cameras): nothing is left for the CPU after this stage
+//   presented -> the first picture showing them handed to the display: the window's buffer swap
+//              returned, the headset's frame submitted (xrEndFrame), the headless target's draw
+//              finished (FrameFeed::presented); over the frame sets shown, not those a newer
+//              one replaced before the next draw
 //   total   capture -> ready
+//   photon  capture -> presented: the camera-to-photon latency, less the display's scan-out, to
+//           set against the seed's motion-to-photon figure (Fischer et al. 2024: 120-150 ms)
 #include <array>
 #include <cstdint>
 #include <string_view>
@@ -16,8 +22,8 @@ namespace volcast {
 
 struct StageTimes;  // volcast/net/stream/client.hpp
 
-inline constexpr std::array<std::string_view, 7> kStageNames = {
-    "filter", "encode", "send", "receive", "decode", "ready", "total"};
+inline constexpr std::array<std::string_view, 9> kStageNames = {
+    "filter", "encode", "send", "receive", "decode", "ready", "presented", "total", "photon"};
 
 struct StageLatency {
   std::string_view stage;
@@ -29,6 +35,8 @@ class StageRecorder {
  public:
   /// `ready_us`: when the frame set was handed to the renderer, same clock as `t`.
   void add(const StageTimes& t, int64_t ready_us);
+  /// A frame set first presented: ready -> presented and capture -> presented, milliseconds.
+  void add_presented(double presented_ms, double photon_ms);
   std::vector<StageLatency> summary() const;
 
  private:

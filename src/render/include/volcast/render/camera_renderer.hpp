@@ -36,6 +36,27 @@
 // to >= 0.05 (grazing samples are the noisiest), w_depth = 1 / z^2 (Azure Kinect depth noise grows
 // with z^2) and w_disc = 1 - r^2 across a splat (1 for the mesh); (3) a full-viewport pass writes
 // sum(color x weight) / sum(weight) and the front depth into the target.
+//
+// Blending weights (CameraPassOptions::blend_weights, issue 38; after BlendPCR's quality weights,
+// edge-proximity blending and erosion of unreliable borders):
+//  - kAngleDistance, the first method above (kept to measure against).
+//  - kReliability, the default: a compute pass per new image (not per draw) gives each pixel a
+//    reliability = w_angle * w_depth (as above) * w_edge, where w_edge = smoothstep over the
+//    chessboard distance d (pixels) to the nearest depth edge -- an invalid pixel, the image's
+//    border, or a 4-neighbour more than 5 % of the depth away -- w_edge = smoothstep(0, 1,
+//    d / (edge_px + 1)); a pixel the camera's colour did not reach (BGRA alpha 0: outside the
+//    colour camera's view) counts as w_edge = 0 when the camera has colour. w_edge is floored at
+//    0.02 in the weight, so no sample drops out. Erosion: in the prepass a pixel is pushed back a
+//    further erode_depth_m * (1 - w_edge), so a border pixel (a flying pixel between foreground
+//    and background) loses the front to another camera's surface behind it, but still covers
+//    where nothing else does. Soft tolerance: a fragment's weight falls from 1
+//    to 0 (smoothstep) between blend_depth_m / 3 and blend_depth_m behind the front surface,
+//    floored at 1e-4. The target's depth is the blended surface's: the weighted mean view depth
+//    of the fragments blended (kAngleDistance writes the front depth, pushed back).
+//  - Colour balance (balance_colour): each camera's colour is multiplied by an RGB gain so that
+//    cameras agree where they see the same surface (colour_balance.hpp): estimated on the CPU
+//    from a fixed grid of samples per camera (about 6000, whatever the image size) every 15 new
+//    images, not per frame.
 #include <Eigen/Core>
 #include <memory>
 #include <span>
@@ -64,6 +85,12 @@ enum class SplatSize {
   kAdaptive,     ///< covers the gap to the nearest valid neighbours (see the top of this file)
 };
 
+/// How blended cameras are weighted (see the top of this file).
+enum class BlendWeights {
+  kAngleDistance,  ///< the first method: angle and distance, a hard tolerance, the front depth
+  kReliability,    ///< angle, distance and distance to a depth edge; erosion; soft tolerance
+};
+
 /// How one camera is drawn.
 struct CameraLook {
   bool visible = true;
@@ -73,7 +100,10 @@ struct CameraLook {
 
 /// Everything draw_cameras() may vary from frame to frame (a viewer's panel edits it).
 struct CameraPassOptions {
-  Surface surface = Surface::kSplats;
+  /// The mesh by default: it scores best in leave-one-camera-out view synthesis on the four
+  /// real Azure Kinects (volcast bench --quality; docs/benchmarks.md), at about half the splats'
+  /// draw time.
+  Surface surface = Surface::kMesh;
   SplatSize splat_size = SplatSize::kAdaptive;
   float fixed_point_px = 2;  ///< SplatSize::kFixedPixels: point width, pixels, 1..64
   float splat_scale = 1;     ///< multiplies the footprint radius, > 0
@@ -82,6 +112,10 @@ struct CameraPassOptions {
   float max_edge_ratio = 0.05f;
   bool blend = true;            ///< blend overlapping cameras (see the top of this file)
   float blend_depth_m = 0.03f;  ///< fragments this close behind the front surface are blended
+  BlendWeights blend_weights = BlendWeights::kReliability;  ///< with blend
+  int edge_px = 4;             ///< kReliability: w_edge reaches 1 this many pixels from an edge
+  float erode_depth_m = 0.1f;  ///< kReliability: the prepass's push of an edge pixel, metres
+  bool balance_colour = true;  ///< per-camera colour gains from the overlap (colour_balance.hpp)
   /// Per camera (index as in set_cameras); a camera without an entry is visible and untinted.
   std::vector<CameraLook> cameras;
 };
@@ -136,6 +170,10 @@ class CameraRenderer {
   /// headset). Replaces what set_avatar_filter(filter) gave it, until that is called again
   /// (which sets every camera's). Throws Error if `camera` is out of range.
   void set_avatar_filter(size_t camera, const AvatarFilter& filter);
+
+  /// Each camera's colour gain (RGB, index as in set_cameras) as draw_cameras last estimated it
+  /// with balance_colour on; 1 for a camera never balanced.
+  std::vector<Eigen::Vector3f> colour_gains() const;
 
   /// GL_RENDERER and GL_VERSION of the current context.
   std::string gl_description() const;

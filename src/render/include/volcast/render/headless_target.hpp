@@ -8,6 +8,7 @@
 //   splats.draw(clouds, to_view(camera, target.target().aspect()), target.target());
 //   target.read_image(image);              // only when the picture is needed
 #include <memory>
+#include <vector>
 
 #include "volcast/core/image.hpp"
 #include "volcast/render/render_target.hpp"
@@ -62,6 +63,13 @@ class HeadlessTarget {
   /// to width x height; BGRA, alpha 255, top row first like every ColorImage). The only
   /// read-back. Throws Error if OpenGL reports an error.
   void read_image(ColorImage& out) const;
+
+  /// Waits for drawing to finish and copies the depth buffer into `out` (resized to width x
+  /// height, top row first like read_image): window-space depth 0 (near plane) .. 1 (far plane,
+  /// and every pixel nothing was drawn into), as glDepthRange's default maps NDC z -1..1. Turn
+  /// it into metres with the View's clip_from_view (view_depth_m in view.hpp). Throws Error if
+  /// OpenGL reports an error.
+  void read_depth(std::vector<float>& out) const;
 
  private:
   struct Impl;

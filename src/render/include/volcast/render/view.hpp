@@ -62,6 +62,12 @@ Eigen::Matrix4f perspective_from_tangents(float tan_left, float tan_right, float
 /// positive, or if near_m/far_m are out of range.
 View camera_view(const CameraCalibration& camera, float near_m, float far_m);
 
+/// The distance along the view's -z axis (metres, > 0 in front of the eye) of a pixel whose
+/// window-space depth is `depth01` (0..1, HeadlessTarget::read_depth) under `clip_from_view`
+/// (perspective or orthographic: its third and fourth rows alone decide it). Returns 0 for
+/// depth01 >= 1 (nothing drawn there).
+float view_depth_m(const Eigen::Matrix4f& clip_from_view, float depth01);
+
 /// world_from_view for an eye at `eye` looking at `target`, with `up` (any vector not parallel to
 /// the line of sight) showing up on screen. All in the world frame, metres. The view's -z axis
 /// points from eye to target and its y axis is `up` made orthogonal to it. Throws Error if eye

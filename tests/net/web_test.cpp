@@ -228,6 +228,14 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   EXPECT_EQ(page["cameras"], 1);
   EXPECT_GE(page["framesReceived"].get<int>(), 40);
   EXPECT_GE(page["framesDrawn"].get<int>(), 1);
+  // The last latency stage: pictures of new frame sets presented, ready -> presented and capture
+  // -> presented measured for each.
+  ASSERT_GE(page["presentedMs"].size(), 1u);
+  ASSERT_EQ(page["photonMs"].size(), page["presentedMs"].size());
+  for (size_t i = 0; i < page["presentedMs"].size(); ++i) {
+    EXPECT_GE(page["presentedMs"][i].get<double>(), 0.0);
+    EXPECT_GT(page["photonMs"][i].get<double>(), page["presentedMs"][i].get<double>());
+  }
   // Every decoded depth image is the recording's frame of that frame set, bit for bit.
   size_t checked = 0;
   std::set<uint32_t> distinct;

@@ -60,6 +60,9 @@ const PRESETS = [['abdomen', 40, 400], ['liver', 90, 150], ['bone', 480, 2500]];
 const state = {
   phase: 'connecting', error: '', cameras: 0, framesReceived: 0, framesDrawn: 0,
   firstFrameMs: null, decodeMs: [], depthDecodeMs: [], hashes: [], latencyMs: [],
+  // The last latency stage, as the native viewer's (stage_stats.hpp): ready (the decoded frame
+  // set reached the page) -> presented, and capture -> presented ("photon"), ms.
+  presentedMs: [], photonMs: [],
   session: null, xr: {frames: 0, views: 0, active: false}, tier: '', desktopFrames: 0,
   // The path (TierChange 0.6, worker.js): adapting or pinned, the server's path estimate, the
   // last 8 changes and notices; the connection ('' or 'reconnecting: why'), each cut it came back
@@ -298,12 +301,26 @@ function avatarBoxes(boxes) {
   return boxes;
 }
 
+// The frame set uploaded last, until a picture of it was presented: {captureUs, readyMs, drawn}.
+let shown = null;
 function uploadLatest() {
   for (const [id, frame] of latestAvatars) renderer.uploadAvatar(id, frame);
   latestAvatars.clear();
   if (!latest) return;
   renderer.upload(latest);
+  shown = {captureUs: latest.captureUs, readyMs: latest.readyMs, drawn: false};
   latest = null;
+}
+
+// "Presented": the animation frame after the one that drew a new frame set -- the browser
+// composited that picture in between (requestAnimationFrame's time, `now`, in ms).
+function notePresented(now) {
+  if (!shown || !shown.drawn) return;
+  state.presentedMs.push(now - shown.readyMs);
+  state.photonMs.push((nowServerUs() - shown.captureUs) / 1000);
+  for (const a of [state.presentedMs, state.photonMs])
+    if (a.length > 2000) a.shift();
+  shown = null;
 }
 
 // The others' camera avatars: each camera where its owner's play area stands, its points kept
@@ -463,6 +480,7 @@ function noteDot(clipFromRoom, viewport) {
 }
 
 function noteDrawn() {
+  if (shown) shown.drawn = true;
   if (renderer.cameras.some((c) => c.hasDepth)) {
     ++state.framesDrawn;
     if (state.firstFrameMs === null) state.firstFrameMs = performance.now();
@@ -492,6 +510,7 @@ function desktopFrame() {
   if (state.xr.active) return;
   requestAnimationFrame(desktopFrame);
   const now = performance.now();
+  notePresented(now);
   if (now - desktopFrameAt < 1000 / MAX_FPS - 2) return;  // fps=: a slow machine's share
   desktopFrameAt = now;
   ++state.desktopFrames;
@@ -554,6 +573,7 @@ function updateOverlay() {
       (state.outages.length ? ` · reconnected ${state.outages.length}×` : '') +
       ` · ${state.framesReceived} frame sets · ` +
       `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
+      (state.photonMs.length ? `to photon ${median(state.photonMs).toFixed(0)} ms · ` : '') +
       (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
       (session.error ? ` · ${session.error}` : '') + voiceLine();
   updatePeople();
@@ -755,6 +775,7 @@ async function enterXr(mode) {
   });
   const onFrame = (t, frame) => {
     xr.requestAnimationFrame(onFrame);
+    notePresented(performance.now());
     const pose = frame.getViewerPose(space);
     if (!pose) return;
     uploadLatest();
@@ -915,6 +936,7 @@ function start() {
                    params.get('name') || `Browser ${Math.floor(Math.random() * 9000 + 1000)}`);
       startVoice();
     } else if (m.type === 'frames') {
+      m.readyMs = performance.now();
       ++state.framesReceived;
       if (m.cameras.some((c) => c.color)) ++state.colorFrames;
       state.decodeMs.push(m.decodeMs);

@@ -142,11 +142,11 @@ std::string format_stats_table(const ViewerResult& r) {
   }
   if (!r.stages.empty()) {
     s += "latency by stage (ms)  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9}", l.stage);
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>10}", l.stage);
     s += "\n                  p50  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p50_ms);
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>10.2f}", l.p50_ms);
     s += "\n                  p99  ";
-    for (const StageLatency& l : r.stages) s += fmt::format("{:>9.2f}", l.p99_ms);
+    for (const StageLatency& l : r.stages) s += fmt::format("{:>10.2f}", l.p99_ms);
     s += "\n";
   }
   if (r.session) {

@@ -68,6 +68,8 @@ int run_demo(const DemoArgs& a) {
   overview.eye = {mid_x, -0.7f - 0.3f * mid_x, -1.4f - 0.8f * mid_x};
   overview.target = {mid_x, 0.1f, 1.4f};
   opt.view = overview;
+  // The paper's splats here; render_overview_mesh.png below is the viewer's default surface.
+  opt.pass.surface = Surface::kSplats;
   opt.screenshot = out / "render_overview.png";
   opt.stats_json = out / "stats.json";
   opt.stop = a.stop;
@@ -104,7 +106,7 @@ int run_demo(const DemoArgs& a) {
     write_color_png(file, image);
   };
   if (a.no_render)  // the overview was not drawn while streaming: draw it now
-    render(overview, {}, out / "render_overview.png");
+    render(overview, opt.pass, out / "render_overview.png");
   CameraPassOptions mesh;
   mesh.surface = Surface::kMesh;
   render(overview, mesh, out / "render_overview_mesh.png");

@@ -140,7 +140,7 @@ QualitySite load_quality_site(const fs::path& site_config,
 
 std::vector<QualityRow> score_settings(const QualitySite& site,
                                        const std::vector<QualitySetting>& settings,
-                                       const fs::path& pictures, size_t* worst_out) {
+                                       const fs::path& pictures) {
   LeaveOneOut loo(site.cameras, site.frames);
   std::vector<QualityRow> rows;
   std::vector<ColorImage> worst_pictures;
@@ -167,7 +167,6 @@ std::vector<QualityRow> score_settings(const QualitySite& site,
         "| depth error; quality.png is before (top) and the default (bottom)",
         site.names[worst], pictures.string());
   }
-  if (worst_out) *worst_out = worst;
   return rows;
 }
 

@@ -50,8 +50,7 @@ struct QualityRow {
 /// Error as LeaveOneOut does, or naming a picture that cannot be written.
 std::vector<QualityRow> score_settings(const QualitySite& site,
                                        const std::vector<QualitySetting>& settings,
-                                       const std::filesystem::path& pictures,
-                                       size_t* worst = nullptr);
+                                       const std::filesystem::path& pictures);
 
 /// The rows as a Markdown table, with each figure's ratio to the first row where it helps.
 std::string quality_table(const std::vector<QualityRow>& rows);

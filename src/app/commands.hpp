@@ -146,7 +146,8 @@ struct ViewArgs {
   float point_size = 2;                 ///< fixed splats: pixels
   float splat_scale = 1;                ///< footprint and adaptive splats: x the pixel footprint
   float edge_ratio = 0.05f;             ///< mesh: CameraPassOptions::max_edge_ratio
-  bool no_blend = false;                ///< depth-test overlapping cameras instead of blending
+  std::string blend = "auto";           ///< BlendPolicy: auto | on | off (frame_budget.hpp)
+  double frame_ms = 0;                  ///< window: the display period; 0: the monitor's
   std::string site_config;              ///< where the window's Save writes camera poses
   int frames = 0;
   double seconds = 0;

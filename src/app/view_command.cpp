@@ -40,7 +40,7 @@ CameraPassOptions pass_options(const ViewArgs& a) {
   pass.fixed_point_px = a.point_size;
   pass.splat_scale = a.splat_scale;
   pass.max_edge_ratio = a.edge_ratio;
-  pass.blend = !a.no_blend;
+  pass.blend = a.blend != "off";
   return pass;
 }
 
@@ -52,6 +52,8 @@ DesktopOptions desktop_options(const ViewArgs& a, const ViewerOptions& opt) {
   desktop.pass = opt.pass;
   desktop.view = opt.view;
   desktop.screenshot = a.screenshot;
+  desktop.blend = parse_blend_policy(a.blend);
+  desktop.frame_period_us = int64_t(a.frame_ms * 1000.0);
   return desktop;
 }
 
@@ -68,6 +70,7 @@ Presenter interactive_presenter(const ViewArgs& a, const ViewerOptions& opt) {
   if (xr) {
     XrOptions options;
     options.pass = opt.pass;
+    options.blend = parse_blend_policy(a.blend);
     options.avatar_filter = opt.avatar_filter;
     options.view = opt.view;
     return xr_presenter(options);
@@ -189,6 +192,7 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
   } else if (xr) {
     XrOptions options;
     options.pass = opt.pass;
+    options.blend = parse_blend_policy(a.blend);
     options.participant = participant;
     options.scene = scene;
     options.voice = voice_link;
@@ -424,8 +428,16 @@ void register_view(CLI::App& app, Commands& commands) {
                 "Mesh: drop a triangle whose edge is longer than this x its nearer depth")
       ->check(CLI::Range(0.001f, 1.0f))
       ->capture_default_str();
-  v->add_flag("--no-blend", view.no_blend,
-              "Let the depth test pick between overlapping cameras instead of blending them");
+  v->add_option("--blend", view.blend,
+                "Blend overlapping cameras: auto (until a window's or headset's frames take over "
+                "1.5 display periods with it, then the depth test picks; the panel says so), on, "
+                "or off (the depth test always picks)")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+  v->add_option("--frame-ms", view.frame_ms,
+                "Window: the display period (ms) --blend auto holds frames to (default: the "
+                "monitor's refresh rate, 60 Hz where it reports none)")
+      ->check(CLI::Range(0.0, 1000.0));
   v->add_option("--site-config", view.site_config,
                 "Site config JSON where the window's Save writes the cameras' world_from_camera "
                 "(default volcast-site.json)");

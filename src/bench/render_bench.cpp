@@ -14,6 +14,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
+#include "volcast/render/shader_throughput.hpp"
 
 namespace volcast {
 namespace {
@@ -26,21 +27,6 @@ struct Config {
   int cameras;
   int width, height, eyes;  // per eye
 };
-
-// The cameras of the four-camera set, all turned about one pivot 2 m in front of the first, so
-// their surfaces overlap on screen as an operating room's cameras around one table do (the set
-// has no extrinsics; the cost depends on how much is drawn, not on where).
-std::vector<CameraCalibration> around_one_pivot(std::vector<CameraCalibration> cams) {
-  const Eigen::Vector3d pivot(0, 0, 2.0);
-  const double yaw_deg[] = {0, 12, -12, 24};
-  for (size_t i = 0; i < cams.size(); ++i) {
-    const Eigen::Matrix3d turn =
-        Eigen::AngleAxisd(yaw_deg[i % 4] * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-    cams[i].world_from_camera.rotation = turn;
-    cams[i].world_from_camera.translation = pivot - turn * pivot;
-  }
-  return cams;
-}
 
 // The views of one frame: a 60-degree mono view, or two eyes 64 mm apart with 90-degree
 // symmetric fields of view; from 0.4 m behind the first camera.
@@ -77,11 +63,14 @@ int run_render_bench(const BenchArgs& a) {
     calibrations.push_back(s->calibration());
     frames.push_back(s->next());
   }
-  calibrations = around_one_pivot(calibrations);
+  // All turned about one point, so that their surfaces overlap on screen (the set has no
+  // extrinsics; the cost depends on how much is drawn, not on where).
+  calibrations = turned_to_overlap(calibrations);
 
   struct Measured {
     double ms = 0, upload_ms = 0, first_draw_ms = 0;
     size_t frames = 0;
+    CameraPassTimes passes;  // GPU, both eyes, medians over frames drawn apart from `ms`
   };
   std::string gpu;
   // Draws cameras first .. first + c.cameras - 1 with configuration c.
@@ -124,11 +113,36 @@ int run_render_bench(const BenchArgs& a) {
       draw();
       ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     }
-    return Measured{median(ms), median(upload_ms), median(first_draw_ms), ms.size()};
+    // The passes' GPU times, from frames of their own: reading the queries waits for the GPU.
+    renderer.time_passes(true);
+    std::vector<double> pass_ms[6];
+    for (int i = 0; i < 9; ++i) {
+      CameraPassTimes sum;
+      for (int eye = 0; eye < c.eyes; ++eye) {
+        renderer.draw_cameras(eye_views[eye],
+                              {target.target().framebuffer, eye * c.width, 0, c.width, c.height},
+                              options);
+        const CameraPassTimes t = renderer.last_pass_times();
+        sum.updates_ms += t.updates_ms;
+        sum.plain_ms += t.plain_ms;
+        sum.prepass_ms += t.prepass_ms;
+        sum.copy_ms += t.copy_ms;
+        sum.weighted_ms += t.weighted_ms;
+        sum.resolve_ms += t.resolve_ms;
+      }
+      const double values[6] = {sum.updates_ms, sum.plain_ms,    sum.prepass_ms,
+                                sum.copy_ms,    sum.weighted_ms, sum.resolve_ms};
+      for (int k = 0; k < 6; ++k) pass_ms[k].push_back(values[k]);
+    }
+    renderer.time_passes(false);
+    const CameraPassTimes passes{median(pass_ms[0]), median(pass_ms[1]), median(pass_ms[2]),
+                                 median(pass_ms[3]), median(pass_ms[4]), median(pass_ms[5])};
+    return Measured{median(ms), median(upload_ms), median(first_draw_ms), ms.size(), passes};
   };
 
-  std::printf("%-7s %-6s %-8s %-11s %5s %12s %10s %14s %17s\n", "surface", "blend", "cameras",
-              "size", "eyes", "ms / frame", "upload ms", "/ sum alone", "1st after upload");
+  std::printf("%-7s %-6s %-8s %-11s %5s %12s %10s %14s %17s  %s\n", "surface", "blend", "cameras",
+              "size", "eyes", "ms / frame", "upload ms", "/ sum alone", "1st after upload",
+              "GPU ms: clear | plain or prepass, copy, weighted, resolve");
   nlohmann::json rows = nlohmann::json::array();
   size_t done = 0;
   const size_t groups = 8;
@@ -147,10 +161,15 @@ int run_render_bench(const BenchArgs& a) {
           const Measured m = cameras == 1 ? alone[0] : measure(c, 0);
           double sum_alone = 0;
           for (int k = 0; k < cameras; ++k) sum_alone += alone[static_cast<size_t>(k)].ms;
-          std::printf("%-7s %-6s %-8d %-11s %5d %12.2f %10.2f %13.2fx %17.2f\n", to_string(surface),
-                      blend ? "yes" : "no", cameras,
+          const CameraPassTimes& p = m.passes;
+          const std::string passes =
+              blend ? fmt::format("{:.2f} | {:.2f}, {:.2f}, {:.2f}, {:.2f}", p.updates_ms,
+                                  p.prepass_ms, p.copy_ms, p.weighted_ms, p.resolve_ms)
+                    : fmt::format("{:.2f} | {:.2f}", p.updates_ms, p.plain_ms);
+          std::printf("%-7s %-6s %-8d %-11s %5d %12.2f %10.2f %13.2fx %17.2f  %s\n",
+                      to_string(surface), blend ? "yes" : "no", cameras,
                       fmt::format("{}x{}", c.width, c.height).c_str(), eyes, m.ms, m.upload_ms,
-                      m.ms / sum_alone, m.first_draw_ms);
+                      m.ms / sum_alone, m.first_draw_ms, passes.c_str());
           std::fflush(stdout);
           rows.push_back({{"renderer", to_string(surface)},
                           {"blend", blend},
@@ -163,19 +182,48 @@ int run_render_bench(const BenchArgs& a) {
                           {"upload_ms", m.upload_ms},
                           {"first_draw_after_upload_ms", m.first_draw_ms},
                           {"ms_sum_of_cameras_alone", sum_alone},
+                          {"gpu_ms",
+                           {{"clear", p.updates_ms},
+                            {"plain", p.plain_ms},
+                            {"prepass", p.prepass_ms},
+                            {"copy", p.copy_ms},
+                            {"weighted", p.weighted_ms},
+                            {"resolve", p.resolve_ms}}},
                           {"gpu", gpu}});
         }
       }
+  // What this GPU's rasteriser path gives against its compute path, for the same work: on a GPU
+  // built for compute the camera passes above say little of a graphics card.
+  nlohmann::json probes = nlohmann::json::array();
+  {
+    HeadlessTarget context(16, 16);
+    for (int rounds : {0, 256}) {
+      const ShaderThroughput t = measure_shader_throughput(2160, 2160, rounds, 5);
+      std::printf(
+          "shader throughput, 2160x2160, %3d rounds of a hash a pixel: fragment pass %7.2f ms, "
+          "compute pass %7.2f ms: the rasteriser's path %.1fx the compute path's time%s\n",
+          rounds, t.fragment_ms, t.compute_ms, t.fragment_ms / t.compute_ms,
+          t.same_picture ? "" : " (THE PICTURES DIFFER)");
+      probes.push_back({{"width", 2160},
+                        {"height", 2160},
+                        {"rounds", rounds},
+                        {"fragment_ms", t.fragment_ms},
+                        {"compute_ms", t.compute_ms},
+                        {"same_picture", t.same_picture}});
+    }
+  }
   std::printf(
       "renderer: %s\nms / frame: median over the frames drawn (glFinish after each), "
       "both eyes together for stereo; upload: all cameras' depth and color; / sum alone: ms "
       "over the sum of each of those cameras drawn alone (<= 1: cost grows at most linearly); "
       "1st after upload: the first frame drawn after new images (the mesh picks its triangles "
-      "there)\n",
+      "there); GPU ms (timestamp queries, both eyes, median, frames of their own): the target's "
+      "clear, then the plain draw or blending's passes; shader throughput: the same per-pixel "
+      "work drawn by a full-screen triangle and by a compute shader (GPU time, median of 5)\n",
       gpu.c_str());
   if (!a.json.empty()) {
     std::ofstream out(a.json);
-    out << nlohmann::json{{"render", rows}}.dump(2) << "\n";
+    out << nlohmann::json{{"render", rows}, {"shader_throughput", probes}}.dump(2) << "\n";
     if (!out) throw Error("cannot write '" + a.json + "'");
     std::printf("wrote %s\n", a.json.c_str());
   }

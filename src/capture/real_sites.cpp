@@ -2,7 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 
 #include "volcast/capture/k4a_recording.hpp"
@@ -82,6 +84,18 @@ std::vector<std::unique_ptr<FrameSource>> four_camera_site(const fs::path& data)
     sources.push_back(open_still_source(depth[i], dir / color, cal, 30, color_model));
   }
   return sources;
+}
+
+std::vector<CameraCalibration> turned_to_overlap(std::vector<CameraCalibration> cameras) {
+  const Eigen::Vector3d pivot(0, 0, 2.0);
+  const double yaw_deg[] = {0, 12, -12, 24};
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    const Eigen::Matrix3d turn =
+        Eigen::AngleAxisd(yaw_deg[i % 4] * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    cameras[i].world_from_camera.rotation = turn;
+    cameras[i].world_from_camera.translation = pivot - turn * pivot;
+  }
+  return cameras;
 }
 
 }  // namespace volcast

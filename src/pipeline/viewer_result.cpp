@@ -60,6 +60,7 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
   j["frames_stale"] = r.frames_stale;
   j["frames_rendered"] = r.frames_rendered;
   j["renderer"] = r.renderer;
+  j["blend_off"] = r.blend_off;
   j["frames_undecodable"] = r.frames_undecodable;
   j["stages"] = nlohmann::json::array();
   for (const StageLatency& l : r.stages)
@@ -125,6 +126,7 @@ std::string format_stats_table(const ViewerResult& r) {
     s += o.back_us > 0 ? fmt::format("  reconnected after {:.1f} s: {}\n",
                                      static_cast<double>(o.back_us - o.lost_us) / 1e6, o.why)
                        : fmt::format("  cut, not reconnected: {}\n", o.why);
+  if (!r.blend_off.empty()) s += "  " + r.blend_off + "\n";
   if (r.frames_stale > 0)
     s += fmt::format("  {} stale frame sets not drawn (queued while the path stalled)\n",
                      r.frames_stale);

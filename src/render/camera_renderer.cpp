@@ -9,12 +9,12 @@
 #include <utility>
 #include <vector>
 
-#include "camera_shaders.hpp"
 #include "gl_util.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/ray_table.hpp"
 #include "volcast/reconstruct/point_cloud.hpp"
 #include "volcast/render/colour_balance.hpp"
+#include "volcast/render/glsl.hpp"
 
 namespace volcast {
 namespace {
@@ -31,14 +31,15 @@ struct GpuCamera {
   bool uploaded = false, has_color = false;
   Eigen::Matrix4f world_from_camera = Eigen::Matrix4f::Identity();
   float radius_per_metre = 0;
-  // The mesh (kMeshIndices): up to 6 indices per 2x2 pixel quad, and the indirect draw command
-  // whose count the compute pass sets. Made again when the images, the avatar filter, the pose
-  // (the filter is in the world) or the edge threshold change.
+  // The mesh (glsl/mesh_indices.comp): up to 6 indices per 2x2 pixel quad, and the indirect draw
+  // command whose count the compute pass sets. Made again when the images, the avatar filter, the
+  // pose (the filter is in the world) or the edge threshold change.
   GLuint mesh_indices = 0, mesh_command = 0;
   bool mesh_current = false;
   float mesh_edge_ratio = 0;
   AvatarFilter filter;  // this camera's (set_avatar_filter)
-  // Blending's reliability (kEdges, kEdgeRows, kReliability): made again with each new image.
+  // Blending's reliability (glsl/edges.frag, edge_rows.frag, reliability.frag): made again with
+  // each new image.
   GLuint edges = 0, across = 0, reliability = 0;
   bool reliability_current = false;
   int reliability_radius = 0;
@@ -57,7 +58,7 @@ struct IndirectCommand {
 struct CameraUniforms {
   GLint has_color = -1, size = -1, view_from_camera = -1, clip_from_view = -1, tint = -1,
         depth_push = -1, accumulate = -1, weighting = -1, erode_push = -1, gain = -1,
-        view_from_clip = -1, viewport_size = -1, blend_push = -1;
+        viewport_size = -1, blend_push = -1;
   gl::FilterUniforms filter;
   CameraUniforms() = default;
   explicit CameraUniforms(GLuint p)
@@ -71,7 +72,6 @@ struct CameraUniforms {
         weighting(glGetUniformLocation(p, "weighting")),
         erode_push(glGetUniformLocation(p, "erode_push")),
         gain(glGetUniformLocation(p, "gain")),
-        view_from_clip(glGetUniformLocation(p, "view_from_clip")),
         viewport_size(glGetUniformLocation(p, "viewport_size")),
         blend_push(glGetUniformLocation(p, "blend_push")),
         filter(p) {}
@@ -119,6 +119,13 @@ struct CameraRenderer::Impl {
         resolve_view_from_clip = -1, resolve_clip_from_view = -1;
   GLint edges_size = -1, edges_step = -1, rows_size = -1, rows_radius = -1, reliability_size = -1,
         reliability_radius = -1;
+  GLuint reliability_fbo = 0;  // the reliability passes draw into each image in turn
+  // time_passes: timestamps before the updates, after them, then after each pass.
+  bool timing = false, timed_blend = false, timed = false;
+  GLuint stamps[6] = {};
+  void stamp(int i) const {
+    if (timing) glQueryCounter(stamps[i], GL_TIMESTAMP);
+  }
   int uploads_since_balance = kUploadsPerBalance;
   std::vector<GpuCamera> cameras;
   size_t ray_tables_uploaded = 0;  // set_cameras
@@ -167,7 +174,9 @@ struct CameraRenderer::Impl {
     c.mesh_edge_ratio = max_edge_ratio;
   }
 
-  // Makes camera c's reliability texture again if its image or the radius changed.
+  // Makes camera c's reliability texture again if its image or the radius changed: three
+  // passes, each one triangle over the camera's image (glsl/README.md: the browser draws them
+  // alike). Leaves the framebuffer, viewport and depth test for begin_target to set.
   void update_reliability(GpuCamera& c, int radius) {
     if (c.reliability_current && c.reliability_radius == radius) return;
     if (!c.edges) {
@@ -175,30 +184,35 @@ struct CameraRenderer::Impl {
       c.across = gl::make_texture(GL_R8UI, c.width, c.height);
       c.reliability = gl::make_texture(GL_RG16F, c.width, c.height);
     }
-    const auto groups_x = static_cast<GLuint>((c.width + 15) / 16),
-               groups_y = static_cast<GLuint>((c.height + 15) / 16);
-    const auto dispatch_into = [&](GLuint image, GLenum format) {
-      glBindImageTexture(0, image, 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
-      glDispatchCompute(groups_x, groups_y, 1);
-      glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+    if (!reliability_fbo) glCreateFramebuffers(1, &reliability_fbo);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, reliability_fbo);
+    glViewport(0, 0, c.width, c.height);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+    const auto draw_into = [&](GLuint image) {
+      glNamedFramebufferTexture(reliability_fbo, GL_COLOR_ATTACHMENT0, image, 0);
+      glDrawArrays(GL_TRIANGLES, 0, 3);
+      glNamedFramebufferTexture(reliability_fbo, GL_COLOR_ATTACHMENT0, 0, 0);
     };
     glBindTextureUnit(0, c.depth);
     glBindTextureUnit(1, c.rays);
     glUseProgram(edges_program);
     glUniform2i(edges_size, c.width, c.height);
     glUniform1f(edges_step, kEdgeStep);
-    dispatch_into(c.edges, GL_R8UI);
+    draw_into(c.edges);
     glUseProgram(edge_rows_program);
     glUniform2i(rows_size, c.width, c.height);
     glUniform1i(rows_radius, radius);
     glBindTextureUnit(0, c.edges);
-    dispatch_into(c.across, GL_R8UI);
+    draw_into(c.across);
     glUseProgram(reliability_program);
     glUniform2i(reliability_size, c.width, c.height);
     glUniform1i(reliability_radius, radius);
     glBindTextureUnit(0, c.depth);
     glBindTextureUnit(5, c.across);
-    dispatch_into(c.reliability, GL_RG16F);
+    draw_into(c.reliability);
     c.reliability_current = true;
     c.reliability_radius = radius;
   }
@@ -282,22 +296,27 @@ CameraRenderer::CameraRenderer() {
   gl::require_gl45(kPass);
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
+  // The shaders are glsl/*, shared with the browser's renderer (glsl/README.md).
+  const auto program = [](const char* pass, const char* vertex, const char* fragment) {
+    return gl::link_program(pass, gl::glsl450(vertex).c_str(), nullptr,
+                            gl::glsl450(fragment).c_str());
+  };
   try {
-    r.splat_program = gl::link_program("camera renderer (splats)", shaders::kSplatVertex, nullptr,
-                                       shaders::kSplatFragment);
-    r.mesh_program = gl::link_program("camera renderer (mesh)", shaders::kMeshVertex, nullptr,
-                                      shaders::kMeshFragment);
-    r.mesh_index_program =
-        gl::link_compute("camera renderer (mesh triangles)", shaders::kMeshIndices);
-    r.resolve_program = gl::link_program("camera renderer (blend resolve)", shaders::kResolveVertex,
-                                         nullptr, shaders::kResolveFragment);
-    r.edges_program = gl::link_compute("camera renderer (depth edges)", shaders::kEdges);
-    r.edge_rows_program = gl::link_compute("camera renderer (edge distance)", shaders::kEdgeRows);
+    r.splat_program = program("camera renderer (splats)", glsl::kSplatVert, glsl::kSplatFrag);
+    r.mesh_program = program("camera renderer (mesh)", glsl::kMeshVert, glsl::kMeshFrag);
+    r.mesh_index_program = gl::link_compute("camera renderer (mesh triangles)",
+                                            gl::glsl450(glsl::kMeshIndicesComp).c_str());
+    r.resolve_program =
+        program("camera renderer (blend resolve)", glsl::kFullscreenVert, glsl::kResolveFrag);
+    r.edges_program =
+        program("camera renderer (depth edges)", glsl::kFullscreenVert, glsl::kEdgesFrag);
+    r.edge_rows_program =
+        program("camera renderer (edge distance)", glsl::kFullscreenVert, glsl::kEdgeRowsFrag);
     r.reliability_program =
-        gl::link_compute("camera renderer (reliability)", shaders::kReliability);
+        program("camera renderer (reliability)", glsl::kFullscreenVert, glsl::kReliabilityFrag);
   } catch (...) {
     for (GLuint p : {r.splat_program, r.mesh_program, r.resolve_program, r.mesh_index_program,
-                     r.edges_program, r.edge_rows_program})
+                     r.edges_program, r.edge_rows_program, r.reliability_program})
       glDeleteProgram(p);
     throw;
   }
@@ -330,6 +349,8 @@ CameraRenderer::~CameraRenderer() {
   Impl& r = *impl_;
   r.delete_cameras();
   if (r.blend_fbo) r.delete_blend_target();
+  glDeleteFramebuffers(1, &r.reliability_fbo);
+  if (r.stamps[0]) glDeleteQueries(6, r.stamps);
   glDeleteVertexArrays(1, &r.empty_vao);
   for (GLuint p : {r.splat_program, r.mesh_program, r.resolve_program, r.mesh_index_program,
                    r.edges_program, r.edge_rows_program, r.reliability_program})
@@ -438,9 +459,8 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
   Impl& r = *impl_;
   check_options(options);
   const bool mesh = options.surface == Surface::kMesh;
-  gl::begin_target(kPass, target);
+  r.stamp(0);
   glBindVertexArray(r.empty_vao);
-
   const bool reliable = options.blend && options.blend_weights == BlendWeights::kReliability;
   for (size_t i = 0; i < r.cameras.size(); ++i) {
     if (!r.cameras[i].uploaded || (i < options.cameras.size() && !options.cameras[i].visible))
@@ -448,6 +468,8 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     if (mesh) r.update_mesh(r.cameras[i], options.max_edge_ratio);
     if (reliable) r.update_reliability(r.cameras[i], options.edge_px);
   }
+  gl::begin_target(kPass, target);
+  r.stamp(1);
   if (options.balance_colour) r.update_gains();
   glUseProgram(mesh ? r.mesh_program : r.splat_program);
   const CameraUniforms& u = mesh ? r.mesh : r.splat;
@@ -455,7 +477,6 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
   glUniform1f(u.erode_push, options.erode_depth_m);
   glUniform1f(u.blend_push, options.blend_depth_m);
   const Eigen::Matrix4f view_from_clip = view.clip_from_view.inverse();
-  glUniformMatrix4fv(u.view_from_clip, 1, GL_FALSE, view_from_clip.data());
   glUniform2f(u.viewport_size, static_cast<float>(target.width), static_cast<float>(target.height));
   if (!mesh) {
     glUniform1i(r.size_mode, static_cast<int>(options.splat_size));
@@ -466,8 +487,11 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     glUniform2f(r.half_viewport, 0.5f * static_cast<float>(target.width),
                 0.5f * static_cast<float>(target.height));
   }
+  r.timed = r.timing;
+  r.timed_blend = options.blend;
   if (!options.blend) {
     r.draw_each(options, view, mesh, 0, false);
+    r.stamp(2);
   } else {
     // (1) the front surface's depth, pushed back; (2) what lies within blend_depth_m of it,
     // weighted, summed; (3) the weighted mean into the target.
@@ -479,17 +503,20 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
     r.draw_each(options, view, mesh, options.blend_depth_m, false);
+    r.stamp(2);
     glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
     if (reliable) {  // the blending pass reads the front depth: a copy, not its own attachment
       glCopyImageSubData(r.front_depth, GL_TEXTURE_2D, 0, 0, 0, 0, r.front_copy, GL_TEXTURE_2D, 0,
                          0, 0, 0, target.width, target.height, 1);
       glBindTextureUnit(4, r.front_copy);
     }
+    r.stamp(3);
     glDepthMask(GL_FALSE);
     glDepthFunc(GL_LEQUAL);
     glEnable(GL_BLEND);
     glBlendFunc(GL_ONE, GL_ONE);
     r.draw_each(options, view, mesh, 0, true);
+    r.stamp(4);
     glDisable(GL_BLEND);
 
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, target.framebuffer);
@@ -508,6 +535,7 @@ void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
     glBindTextureUnit(1, r.front_depth);
     glBindTextureUnit(2, r.blended_depth);
     glDrawArrays(GL_TRIANGLES, 0, 3);
+    r.stamp(5);
     glDepthFunc(GL_LESS);
   }
   glDisable(GL_SCISSOR_TEST);
@@ -550,6 +578,33 @@ std::vector<Eigen::Vector3f> CameraRenderer::colour_gains() const {
   std::vector<Eigen::Vector3f> gains;
   for (const GpuCamera& c : impl_->cameras) gains.push_back(c.gain);
   return gains;
+}
+
+void CameraRenderer::time_passes(bool on) {
+  Impl& r = *impl_;
+  if (on && !r.stamps[0]) glCreateQueries(GL_TIMESTAMP, 6, r.stamps);
+  r.timing = on;
+  r.timed = false;
+}
+
+CameraPassTimes CameraRenderer::last_pass_times() const {
+  const Impl& r = *impl_;
+  CameraPassTimes t;
+  if (!r.timed) return t;
+  GLuint64 ns[6] = {};
+  const int n = r.timed_blend ? 6 : 3;
+  for (int i = 0; i < n; ++i) glGetQueryObjectui64v(r.stamps[i], GL_QUERY_RESULT, &ns[i]);
+  const auto ms = [&](int a, int b) { return static_cast<double>(ns[b] - ns[a]) * 1e-6; };
+  t.updates_ms = ms(0, 1);
+  if (!r.timed_blend) {
+    t.plain_ms = ms(1, 2);
+  } else {
+    t.prepass_ms = ms(1, 2);
+    t.copy_ms = ms(2, 3);
+    t.weighted_ms = ms(3, 4);
+    t.resolve_ms = ms(4, 5);
+  }
+  return t;
 }
 
 std::string CameraRenderer::gl_description() const {

@@ -1,10 +1,9 @@
 #include "volcast/render/colour_balance.hpp"
 
-#include <fmt/format.h>
-
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "volcast/core/error.hpp"
 
@@ -18,8 +17,9 @@ int colour_sample_stride(int width, int height) {
 void take_colour_samples(const CameraFrame& frame, ColourSamples& s) {
   const Intrinsics& k = s.intrinsics;
   if (frame.depth.width != k.width || frame.depth.height != k.height)
-    throw Error(fmt::format("colour balance: depth is {}x{}, the intrinsics {}x{}",
-                            frame.depth.width, frame.depth.height, k.width, k.height));
+    throw Error("colour balance: depth is " + std::to_string(frame.depth.width) + "x" +
+                std::to_string(frame.depth.height) + ", the intrinsics " + std::to_string(k.width) +
+                "x" + std::to_string(k.height));
   s.stride = colour_sample_stride(k.width, k.height);
   s.columns = (k.width + s.stride - 1) / s.stride;
   s.rows = (k.height + s.stride - 1) / s.stride;

@@ -61,6 +61,10 @@ GLuint link_program(const char* pass, const char* vertex, const char* geometry,
   return link(pass, types, sources, 3);
 }
 
+std::string glsl450(std::string_view body) {
+  return "#version 450 core\n#define BINDING(n) layout(binding = n)\n" + std::string(body);
+}
+
 GLuint link_compute(const char* pass, const char* compute) {
   const GLenum type = GL_COMPUTE_SHADER;
   return link(pass, &type, &compute, 1);

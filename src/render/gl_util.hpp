@@ -4,6 +4,8 @@
 #include <epoxy/gl.h>
 
 #include <Eigen/Core>
+#include <string>
+#include <string_view>
 
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/render_target.hpp"
@@ -38,20 +40,10 @@ void begin_target(const char* pass, const RenderTarget& target);
 /// Throws Error("<pass>: OpenGL error 0x... <what>") if glGetError() reports one.
 void check(const char* pass, const char* what);
 
-/// The avatar filter (avatar_filter.hpp) in GLSL, for points in the frame of the pass's points
-/// (world for SplatRenderer::draw, the camera's for CameraRenderer): avatar_hidden(p) is true
-/// for a point the filter does not keep -- the same inclusive tests as avatar_filter_keeps().
-#define VOLCAST_AVATAR_FILTER_GLSL                                                         \
-  "uniform vec4 keep_sphere;         /* centre (metres), radius; radius <= 0: off */\n"    \
-  "uniform mat4 headset_from_points;\n"                                                    \
-  "uniform vec3 hide_half_extent;    /* metres; x <= 0: off */\n"                          \
-  "bool avatar_hidden(vec3 p) {\n"                                                         \
-  "  vec3 d = p - keep_sphere.xyz;\n"                                                      \
-  "  if (keep_sphere.w > 0.0 && dot(d, d) > keep_sphere.w * keep_sphere.w) return true;\n" \
-  "  if (hide_half_extent.x <= 0.0) return false;\n"                                       \
-  "  vec3 h = abs((headset_from_points * vec4(p, 1.0)).xyz);\n"                            \
-  "  return all(lessThanEqual(h, hide_half_extent));\n"                                    \
-  "}\n"
+/// `body` (GLSL without a #version line: src/render/glsl/README.md) as GLSL 4.50 core, with
+/// BINDING(n) meaning layout(binding = n). The avatar filter's GLSL (avatar_hidden(p), for points
+/// in the frame of the pass's points) is glsl::kAvatarFilterGlsl.
+std::string glsl450(std::string_view body);
 
 /// The filter's uniform locations in one program.
 struct FilterUniforms {

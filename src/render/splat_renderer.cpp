@@ -5,15 +5,17 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "gl_util.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/render/glsl.hpp"
 
 namespace volcast {
 namespace {
 
-constexpr const char* kVertexShader = "#version 450 core\n" VOLCAST_AVATAR_FILTER_GLSL R"(
+constexpr const char* kVertexShader = R"(
 layout(location = 0) in vec3 position;   // world, metres
 layout(location = 1) in float radius;    // metres
 layout(location = 2) in vec4 color;
@@ -57,7 +59,8 @@ SplatRenderer::SplatRenderer() {
   gl::require_gl45("splat renderer");
   impl_ = std::make_unique<Impl>();
   Impl& r = *impl_;
-  r.program = gl::link_program("splat renderer", kVertexShader, nullptr, kFragmentShader);
+  const std::string vertex = gl::glsl450(std::string(glsl::kAvatarFilterGlsl) + kVertexShader);
+  r.program = gl::link_program("splat renderer", vertex.c_str(), nullptr, kFragmentShader);
   r.filter_uniforms = gl::FilterUniforms(r.program);
   r.clip_from_world = glGetUniformLocation(r.program, "clip_from_world");
   r.pixels_per_unit = glGetUniformLocation(r.program, "pixels_per_unit");

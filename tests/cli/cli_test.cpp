@@ -626,7 +626,7 @@ TEST(Cli, ViewFallsBackFromOpenXrToTheWindowAndWithoutADisplayToHeadlessSayingSo
   std::string out;
   ASSERT_EQ(test::run_command(kVolcast + " view --help", out), 0);
   for (const char* flag : {"--headless", "--xr", "--site-config", "--surface", "--splat-size",
-                           "--point-size", "--edge-ratio", "--no-blend"})
+                           "--point-size", "--edge-ratio", "--blend", "--frame-ms"})
     EXPECT_NE(out.find(flag), std::string::npos) << flag;
   EXPECT_NE(test::run_command(kVolcast + " view --connect 127.0.0.1:1 --token " +
                                   std::string(32, '0') + " --surface bogus",
@@ -641,7 +641,7 @@ TEST(Cli, ViewFallsBackFromOpenXrToTheWindowAndWithoutADisplayToHeadlessSayingSo
   const int rc = test::run_command(
       "env -u DISPLAY XR_RUNTIME_JSON=/nonexistent/openxr_runtime.json XDG_CONFIG_HOME=" +
           (dir / "config").string() + " " + kVolcast + " view --xr --connect '" + link +
-          "' --frames 5 --surface mesh --edge-ratio 0.08 --no-blend --screenshot " +
+          "' --frames 5 --surface mesh --edge-ratio 0.08 --blend off --screenshot " +
           (dir / "shot.png").string(),
       out);
   std::string ignored;

@@ -165,19 +165,29 @@ TEST(Adaptation, AViewerStepsDownWhenItsPathShrinksAndBackUpWhenItRecoversWhileA
   EXPECT_GE(tiers.size(), 2u);
   EXPECT_LE(tiers.size(), kLadder.size());
 
-  // On the lighter tier, once it has settled, the far viewer's latency is back within the
-  // server's budget (150 ms).
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
-  const auto from = Clock::now();
-  std::this_thread::sleep_for(std::chrono::seconds(1));
-  std::vector<double> latency;
-  {
-    std::lock_guard lock(far.mutex);
-    for (const auto& g : far.got)
+  // On the lighter tier the path's queue drains: within a second-long window, the far viewer's
+  // latency is back within the server's budget (150 ms) of the near one's, whose path has no
+  // bottleneck. Relative, and waited for: on a loaded machine both include its slower encoding,
+  // and the old tier's queue takes longer to drain (423 ms p50 once, 0.6 s after the step).
+  const auto window_p50 = [](const Watcher& w, Clock::time_point from) {
+    std::vector<double> latency;
+    std::lock_guard lock(w.mutex);
+    for (const auto& g : w.got)
       if (g.at >= from) latency.push_back(g.latency_ms);
-  }
-  ASSERT_GE(latency.size(), 3u) << "frame sets kept coming on the lighter tier";
-  EXPECT_LT(percentile(latency, 0.5), 150.0);
+    return latency.size() >= 3 ? percentile(latency, 0.5) : -1.0;  // -1: too few to tell
+  };
+  double far_p50 = 0, near_p50 = 0;
+  EXPECT_TRUE(wait_for(
+      [&] {
+        const auto from = Clock::now();
+        std::this_thread::sleep_for(std::chrono::seconds(1));
+        far_p50 = window_p50(far, from);
+        near_p50 = window_p50(near, from);
+        return far_p50 >= 0 && near_p50 >= 0 && far_p50 < near_p50 + 150.0;
+      },
+      20))
+      << "the far viewer's latency p50 " << far_p50 << " ms, the near one's " << near_p50;
+  std::printf("on the lighter tier: latency p50 far %.1f ms, near %.1f ms\n", far_p50, near_p50);
 
   // The path recovers: probes bring the far viewer back to the best rung.
   link->set_impairment({}, {});

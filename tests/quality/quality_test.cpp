@@ -81,7 +81,9 @@ TEST(ViewQuality, ATexturedPlaneHeldOutScoresHighWhereCoveredAndItsCoverageIsThe
     // Each view's dominant source is the other camera wherever something was drawn.
     for (size_t k = 0; k < 2; ++k)
       for (size_t i = 0; i < r.views[k].source.size(); ++i)
-        if (r.views[k].rendered_depth_m[i] > 0) ASSERT_EQ(r.views[k].source[i], 1 - k);
+        if (r.views[k].rendered_depth_m[i] > 0) {
+          ASSERT_EQ(r.views[k].source[i], 1 - k);
+        }
   }
 }
 
@@ -110,17 +112,11 @@ TEST(ViewQuality, BlendingNeverUncoversAPixelTheCamerasCover) {
   auto sources = four_camera_site(test::data_dir());
   std::vector<CameraCalibration> cams;
   std::vector<CameraFrame> frames;
-  const double yaw_deg[] = {0, 12, -12, 24};
-  for (size_t i = 0; i < sources.size(); ++i) {
-    CameraCalibration c = sources[i]->calibration();
-    const Eigen::Vector3d pivot(0, 0, 2.0);
-    const Eigen::Matrix3d turn =
-        Eigen::AngleAxisd(yaw_deg[i] * M_PI / 180, Eigen::Vector3d::UnitY()).toRotationMatrix();
-    c.world_from_camera.rotation = turn;
-    c.world_from_camera.translation = pivot - turn * pivot;
-    cams.push_back(c);
-    frames.push_back(sources[i]->next());
+  for (auto& source : sources) {
+    cams.push_back(source->calibration());
+    frames.push_back(source->next());
   }
+  cams = turned_to_overlap(cams);
   HeadlessTarget target(320, 240);
   CameraRenderer renderer;
   renderer.set_cameras(cams);

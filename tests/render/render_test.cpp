@@ -13,6 +13,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/headless_target.hpp"
+#include "volcast/render/shader_throughput.hpp"
 #include "volcast/render/splat_renderer.hpp"
 
 namespace volcast {
@@ -489,6 +490,59 @@ TEST(RenderView, ViewCameraBecomesTheViewItDescribes) {
   // y down, up by 0.5: x_ndc = 0.5 / 2, y_ndc = 0.5 / 1.
   const Eigen::Vector4f clip = view.clip_from_world() * Eigen::Vector4f(0.5f, -0.5f, 1, 1);
   EXPECT_TRUE((clip.head<2>() / clip.w()).isApprox(Eigen::Vector2f(0.25f, 0.5f), 1e-5f));
+}
+
+// The hash both passes of measure_shader_throughput run per pixel, on the CPU.
+uint32_t pixel_hash(uint32_t x, uint32_t y, int rounds) {
+  uint32_t h = x * 1973u + y * 9277u + 26699u;
+  for (int i = 0; i < rounds; ++i) {
+    h ^= h >> 15;
+    h *= 0x2c1b3c6du;
+    h ^= h >> 12;
+    h += 0x297a2d39u;
+  }
+  return h;
+}
+
+TEST(ShaderThroughput, BothPathsDrawTheHashOfEveryPixelAndTheirTimesAreMeasured) {
+  HeadlessTarget context(4, 4);
+  const int width = 37, height = 21, rounds = 9;  // sides not multiples of the 8 x 8 work groups
+  std::vector<uint8_t> picture;
+  const ShaderThroughput t = measure_shader_throughput(width, height, rounds, 3, &picture);
+  EXPECT_TRUE(t.same_picture);  // the compute pass wrote the same bytes, to the last pixel
+  EXPECT_GT(t.fragment_ms, 0.0);
+  EXPECT_GT(t.compute_ms, 0.0);
+  ASSERT_EQ(picture.size(), size_t{width * height * 4});
+  size_t wrong = 0;
+  for (uint32_t y = 0; y < uint32_t{height}; ++y)
+    for (uint32_t x = 0; x < uint32_t{width}; ++x) {
+      const uint32_t h = pixel_hash(x, y, rounds);
+      const uint8_t* p = &picture[(y * uint32_t{width} + x) * 4];
+      wrong += p[0] != uint8_t(h) || p[1] != uint8_t(h >> 8) || p[2] != uint8_t(h >> 16) ||
+               p[3] != uint8_t(h >> 24);
+    }
+  EXPECT_EQ(wrong, 0u);
+  // Another number of rounds is another picture: the rounds are run, not folded away.
+  std::vector<uint8_t> fewer;
+  measure_shader_throughput(width, height, rounds - 1, 1, &fewer);
+  EXPECT_NE(fewer, picture);
+  for (const std::array<int, 4>& a : {std::array{0, 8, 1, 1}, std::array{8, 9000, 1, 1},
+                                      std::array{8, 8, -1, 1}, std::array{8, 8, 1, 0}})
+    EXPECT_NE(test::error_of([&] {
+                measure_shader_throughput(a[0], a[1], a[2], a[3]);
+              }).find("shader throughput:"),
+              std::string::npos)
+        << a[0] << "x" << a[1] << " " << a[2] << " " << a[3];
+}
+
+TEST(ShaderThroughput, NeedsACurrentContext) {
+  std::string message;
+  std::thread([&] {  // a fresh thread has no current context
+    message = test::error_of([] { measure_shader_throughput(8, 8, 1, 1); });
+  })
+      .join();
+  EXPECT_NE(message.find("shader throughput: no OpenGL context is current"), std::string::npos)
+      << message;
 }
 
 }  // namespace

@@ -87,9 +87,14 @@ namespace {
 
 constexpr uint32_t kEyeSize = 256, kMaxEyeSize = 1024, kImages = 2;
 constexpr XrSystemId kSystem = 1;
-constexpr int64_t kFramePeriodNs = 11'111'111;  // 90 Hz
-constexpr uint64_t kMaxFrames = 6000;           // exit even if no frame shows anything
-constexpr float kHalfFov = 0.785398163f;        // 45 degrees
+// The display's frame period: VOLCAST_MOCK_XR_PERIOD_US, else 90 Hz.
+int64_t frame_period_ns() {
+  const char* v = std::getenv("VOLCAST_MOCK_XR_PERIOD_US");
+  const long us = v ? std::strtol(v, nullptr, 10) : 0;
+  return us > 0 ? int64_t(us) * 1000 : 11'111'111;
+}
+constexpr uint64_t kMaxFrames = 6000;     // exit even if no frame shows anything
+constexpr float kHalfFov = 0.785398163f;  // 45 degrees
 constexpr float kHeadHeight = 1.6f, kEyeDistance = 0.064f;
 
 template <typename Handle>
@@ -685,14 +690,14 @@ XrResult XRAPI_CALL WaitFrame(XrSession session, const XrFrameWaitInfo* info, Xr
   std::this_thread::sleep_until(until);  // pacing, outside the lock
   LOCK;
   const auto now = std::chrono::steady_clock::now();
-  rt().next_frame = std::max(now, until) + std::chrono::nanoseconds(kFramePeriodNs);
+  rt().next_frame = std::max(now, until) + std::chrono::nanoseconds(frame_period_ns());
   int64_t predicted =
       std::chrono::duration_cast<std::chrono::nanoseconds>(now - rt().start).count() +
-      2 * kFramePeriodNs;
+      2 * frame_period_ns();
   predicted = std::max(predicted, rt().last_predicted + 1);
   rt().last_predicted = predicted;
   state->predictedDisplayTime = predicted;
-  state->predictedDisplayPeriod = kFramePeriodNs;
+  state->predictedDisplayPeriod = frame_period_ns();
   state->shouldRender =
       rt().state == XR_SESSION_STATE_VISIBLE || rt().state == XR_SESSION_STATE_FOCUSED;
   rt().phase = FramePhase::kWaited;

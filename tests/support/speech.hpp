@@ -134,23 +134,6 @@ inline std::vector<std::pair<size_t, size_t>> words(std::span<const float> a, si
   return out;
 }
 
-/// The mean correlation of `a`'s `pieces` equal parts with `b`, each aligned on its own within
-/// ±`slack` samples of where `a` as a whole sits (align). An adaptive jitter buffer shifts later
-/// speech by whole frames when it changes its delay: each part then still matches, the whole
-/// less.
-inline double piecewise_correlation(std::span<const float> a, std::span<const float> b,
-                                    std::ptrdiff_t offset, int pieces = 4,
-                                    std::ptrdiff_t slack = 2880) {
-  double sum = 0;
-  const size_t n = a.size() / size_t(pieces);
-  for (int k = 0; k < pieces; ++k) {
-    const std::span<const float> piece = a.subspan(size_t(k) * n, n);
-    const std::ptrdiff_t at = offset + std::ptrdiff_t(size_t(k) * n);
-    sum += align(piece, b, at - slack, at + slack).correlation;
-  }
-  return sum / pieces;
-}
-
 /// How much of `a` came through in `b` where the path may have paused it: `a` cut into pieces
 /// of `piece` samples (100 ms), each aligned on its own within ±`slack` samples (225 ms: the
 /// longest pause a playout buffer inserts when it resumes a stall, 200 ms, and a frame) of where
@@ -179,6 +162,27 @@ inline double resumed_correlation(std::span<const float> a, std::span<const floa
     weight += e;
   }
   return weight > 0 ? sum / weight : 0;
+}
+
+/// How well `phrase` came through a live voice path into `heard`, found within offsets
+/// [from, to]: as a whole (align), and in pieces of 100 ms (resumed_correlation from where the
+/// whole was found). A loaded machine may stall the path: the playout buffer then resumes the
+/// stream where it stopped, a pause inside the phrase that shifts the rest of it, and the whole
+/// matches less while each piece still matches. An echo canceller's band split shifts bands of
+/// different pitch by up to a millisecond against each other, which the pieces allow for too.
+struct Hearing {
+  Alignment whole;
+  double resumed = 0;
+  /// What a test holds to a bound: the better of the two.
+  double correlation() const { return std::max(whole.correlation, resumed); }
+};
+
+inline Hearing hear(std::span<const float> phrase, std::span<const float> heard,
+                    std::ptrdiff_t from, std::ptrdiff_t to) {
+  Hearing h;
+  h.whole = align(phrase, heard, from, to);
+  h.resumed = resumed_correlation(phrase, heard, h.whole.offset);
+  return h;
 }
 
 /// Mean square of x[from, from + n).

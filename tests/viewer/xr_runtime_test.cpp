@@ -233,6 +233,8 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
                                 "x/click:3,20;y/click:30,32;thumbstick/y:34,35");
   // The left hand held up ahead, where the eyes see the red ball over it once muted.
   const test::ScopedEnv left_grip("VOLCAST_MOCK_XR_LEFT_GRIP", "-0.05,1.4,-0.45");
+  // A display of 0.1 ms periods: every frame is too slow to blend (the frame budget).
+  const test::ScopedEnv period("VOLCAST_MOCK_XR_PERIOD_US", "100");
   std::vector<std::string> phrases;  // 90 s of speech: longer than X is held on a loaded machine
   for (int i = 0; i < 12; ++i)
     for (const char* name :
@@ -285,6 +287,9 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   watch.stop();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 30u);
+  // 42 frames span more than the frame budget's 2 s (a frame of llvmpipe's takes tens of ms).
+  EXPECT_NE(r.blend_off.find("blending off: frames took "), std::string::npos) << r.blend_off;
+  EXPECT_NE(r.blend_off.find("the display's period is 0.1 ms"), std::string::npos) << r.blend_off;
   ASSERT_TRUE(talk);
   const voice::VoiceStats sent = talk->stats();
   std::printf("headset's microphone: %llu frames captured, %llu sent, %llu silent (DTX)\n",
@@ -343,6 +348,8 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv grip("VOLCAST_MOCK_XR_RIGHT_GRIP", "0.2,1.2,-0.3");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "8,20");
+  // A display of 0.1 ms periods, with blending kept on (--blend on): the frame budget is not asked.
+  const test::ScopedEnv period("VOLCAST_MOCK_XR_PERIOD_US", "100");
   test::SessionSite s({}, 5);  // 5 frame sets a second: the room to see, less to encode
   // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
   // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
@@ -391,9 +398,11 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
   opt.on_finished = [&](ViewerResult&) { headset.stop(); };
   XrOptions xr;
   xr.participant = [&] { return headset.participant(); };
+  xr.blend = BlendPolicy::kOn;
   opt.presenter = xr_presenter(xr);
   const ViewerResult r = run_viewer(opt);
   done = true;
+  EXPECT_EQ(r.blend_off, "") << "--blend on";
   if (watch.joinable()) watch.join();
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   const nlohmann::json log = nlohmann::json::parse(std::ifstream(mock.out / "log.json"));

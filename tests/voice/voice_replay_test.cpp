@@ -196,21 +196,16 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
         std::ptrdiff_t((l.first_frame_set_us - heard.started_us) * kSampleRate / 1'000'000);
     const std::ptrdiff_t expected = first_frame_set + in_recording.offset -
                                     std::ptrdiff_t(timeline.offset_us[k] * kSampleRate / 1'000'000);
-    const test::Alignment found = test::align(phrase, out.samples, expected - std::ptrdiff_t(9600),
-                                              expected + std::ptrdiff_t(kSampleRate));
-    // A jitter buffer that changes its delay mid-phrase (a loaded machine) shifts the rest by
-    // whole frames: each quarter of the phrase is also aligned on its own (support/speech.hpp).
-    const double correlation =
-        std::max(found.correlation, test::piecewise_correlation(phrase, out.samples, found.offset));
-    // The first phrase is there too.
+    // A jitter buffer that changes its delay mid-phrase, or a stall (a loaded machine), shifts
+    // the rest of the phrase: it is also measured in pieces (test::hear).
+    const test::Hearing found = test::hear(phrase, out.samples, expected - std::ptrdiff_t(9600),
+                                           expected + std::ptrdiff_t(kSampleRate));
+    const double correlation = found.correlation();
+    // The first phrase is there too. It is where L's jitter buffer grows its delay (a loaded
+    // machine: by whole frames mid-phrase, 0.49 as a whole measured once).
     const std::ptrdiff_t first_at = expected - std::ptrdiff_t(starts[1] - starts[0]);
-    // It is where L's jitter buffer grows its delay (a loaded machine: by whole frames
-    // mid-phrase, 0.49 as a whole measured once), so it is measured in quarters as well.
-    const test::Alignment first_found =
-        test::align(first, out.samples, first_at - 9600, first_at + kSampleRate);
     const double first_correlation =
-        std::max(first_found.correlation,
-                 test::piecewise_correlation(first, out.samples, first_found.offset));
+        test::hear(first, out.samples, first_at - 9600, first_at + kSampleRate).correlation();
     std::printf("the first phrase: correlation %.3f; L's first frame set was the recording's %zu\n",
                 first_correlation, k);
     ASSERT_EQ(heard.heard.size(), 1u);
@@ -220,7 +215,7 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     // replayed to L's ear: the connection and the jitter buffer, measured by the link; L's loop
     // plays the block of file time t at t + 20 ms, so its file is 20 ms ahead of that) minus the
     // frame set's (from its capture time, i.e. its publication, to its arrival).
-    const double late_ms = double(us_of(found.offset - expected)) / 1000.0;
+    const double late_ms = double(us_of(found.whole.offset - expected)) / 1000.0;
     const double frame_ms = double(l.first_frame_set_us - l.first_capture_us) / 1000.0;
     const double paths_ms = h.latency_ms_p50 - 20.0 - frame_ms;
     std::printf(
@@ -283,7 +278,15 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     std::fputc(byte ^ 0x5a, f);
     std::fclose(f);
   }
-  const double at_s = double(broken.capture_us - reader.info().frame_sets[0].capture_us) / 1e6;
+  // Its time in the replay: on the replay's time line (a live recording on a loaded machine may
+  // hold a gap the replay shortens), D after the last frame set captured at or before it.
+  const double at_s = [&] {
+    const auto& sets = reader.info().frame_sets;
+    const PlaybackTimeline replayed = playback_timeline(sets);
+    size_t k = 0;
+    while (k + 1 < sets.size() && sets[k + 1].capture_us <= broken.capture_us) ++k;
+    return double(replayed.offset_us[k] + (broken.capture_us - sets[k].capture_us)) / 1e6;
+  }();
   ReplayPlayer loop(bad, {.from_s = std::max(0.0, at_s - 0.4), .to_s = at_s + 0.4, .loop = true});
   const VoicePlan& plan = loop.voices();
   // 0.8 s at 20 ms a packet, less the silences DTX did not send (20 left measured once).

@@ -104,18 +104,16 @@ TEST(Voice, TwoParticipantsHearEachOther) {
     // Where the phrase was said, on B's time line: it is heard 0..1 s later.
     const std::ptrdiff_t at =
         std::ptrdiff_t(starts[i]) + std::ptrdiff_t(ca.mic_start_us * kSampleRate / 1'000'000);
-    const test::Alignment found = test::align(phrase, b_heard, at, at + std::ptrdiff_t(samples(1)));
-    const double latency_ms = double(found.offset - at) * 1000.0 / kSampleRate;
-    std::printf("phrase '%s': correlation %.3f, heard %.1f ms after it was said\n",
-                names[i].c_str(), found.correlation, latency_ms);
     // On a loaded machine the stream may stall (a starved thread): the playout buffer resumes
     // it where it stopped, a pause inside the phrase that shifts the rest of it, or moves its
-    // delay between two words. The phrase then holds the speech in pieces of 100 ms, each found
-    // after the one before (test::resumed_correlation).
-    const double resumed = test::resumed_correlation(phrase, b_heard, found.offset);
-    if (found.correlation < 0.9)
-      std::printf("  as a whole below 0.9; in pieces of 100 ms: %.3f\n", resumed);
-    EXPECT_TRUE(found.correlation >= 0.9 || resumed >= 0.85) << names[i];
+    // delay between two words. The phrase then holds the speech in pieces (test::hear).
+    const test::Hearing found = test::hear(phrase, b_heard, at, at + std::ptrdiff_t(samples(1)));
+    const double latency_ms = double(found.whole.offset - at) * 1000.0 / kSampleRate;
+    std::printf(
+        "phrase '%s': correlation %.3f, in pieces of 100 ms %.3f, heard %.1f ms after it "
+        "was said\n",
+        names[i].c_str(), found.whole.correlation, found.resumed, latency_ms);
+    EXPECT_TRUE(found.whole.correlation >= 0.9 || found.resumed >= 0.85) << names[i];
     // The latency the link measured from capture times is what the file shows (one frame of
     // resolution either way, and the file's start is taken a moment before its first block),
     // while the delay held still; after a stall, within the latencies it took.
@@ -254,8 +252,8 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
                 (unsigned long long)counters.client_to_server.dropped_loss,
                 (unsigned long long)counters.server_to_client.dropped_loss);
     EXPECT_GT(counters.client_to_server.dropped_loss + counters.server_to_client.dropped_loss, 0u);
-    // Each phrase's correlation, the better of as a whole and in pieces (test::resumed_correlation:
-    // where a stall was heard as a pause, the rest of the phrase comes later).
+    // Each phrase's correlation, the better of as a whole and in pieces (test::hear: where a stall
+    // was heard as a pause, the rest of the phrase comes later).
     auto measure = [&](const char* who, const voice::VoiceStats& heard, const std::string& file) {
       const voice::HeardVoice* h = nullptr;
       for (const voice::HeardVoice& v : heard.heard)
@@ -276,12 +274,11 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
         const std::span<const float> phrase =
             std::span<const float>(said).subspan(starts[i], test::speech(names[i]).size());
         const std::ptrdiff_t at = offset + std::ptrdiff_t(starts[i]);
-        const test::Alignment found =
-            test::align(phrase, out.samples, at, at + std::ptrdiff_t(samples(1.5)));
-        const double resumed = test::resumed_correlation(phrase, out.samples, found.offset);
-        best.push_back(std::max(found.correlation, resumed));
+        const test::Hearing found =
+            test::hear(phrase, out.samples, at, at + std::ptrdiff_t(samples(1.5)));
+        best.push_back(found.correlation());
         std::printf("  phrase '%s': correlation %.3f whole, %.3f in pieces of 100 ms\n",
-                    names[i].c_str(), found.correlation, resumed);
+                    names[i].c_str(), found.whole.correlation, found.resumed);
       }
       return best;
     };
@@ -410,16 +407,16 @@ TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
               test::db(echo_energy), test::db(back), test::db(echo_energy / back));
   EXPECT_GT(test::db(echo_energy), -40.0) << "the room fed B's voice back";
   EXPECT_GE(test::db(echo_energy / back), 20.0);
-  // The OR's own talker reaches B: compared below 2 kHz, since the canceller's band split and
-  // noise suppressor reshape the upper bands (full band it correlates less).
+  // The OR's own talker reaches B. The canceller's band split shifts bands of different pitch by
+  // up to a millisecond against each other (0.69 as a whole, 0.89 without the canceller), and a
+  // loaded machine may stall the stream: the phrase is also measured in pieces (test::hear).
   const size_t or_at = offset + room.local.size() - or_phrase.size();
-  const test::Alignment found = test::align_band(or_phrase, b_heard, std::ptrdiff_t(or_at),
-                                                 std::ptrdiff_t(or_at + samples(1)));
-  const double full =
-      test::align(or_phrase, b_heard, found.offset - 24, found.offset + 24).correlation;
-  std::printf("the OR's talker at B: correlation %.3f below 2 kHz, %.3f full band\n",
-              found.correlation, full);
-  EXPECT_GE(found.correlation, 0.7);
+  const test::Hearing found =
+      test::hear(or_phrase, b_heard, std::ptrdiff_t(or_at), std::ptrdiff_t(or_at + samples(1)));
+  std::printf("the OR's talker at B: correlation %.3f, in pieces of 100 ms %.3f\n",
+              found.whole.correlation, found.resumed);
+  // Measured 0.78 in pieces, idle or stalled (SIGSTOP for 100..300 ms each 0.4..1 s).
+  EXPECT_GE(found.correlation(), 0.7);
 }
 
 // A malformed voice packet loses only itself; kMaxMalformedVoice of them drop the sender; the

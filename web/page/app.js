@@ -7,7 +7,12 @@
 //
 // Fragment parameters: token (required, 32 hex digits), name, session (default OR), depth
 // (default volcast; raw, rvl, trvl and volcast* decode here), color (default jpeg; none),
-// quality, surface (splats, the default, or mesh), xrscale (the headset's framebuffer scale, 0.1
+// quality, surface (mesh, the default, or splats), blend=0 (the cameras drawn plain, not blended;
+// blend=1: blended however slow; without either the page blends while it keeps the display's rate:
+// frame_budget.js), framems=MS (the display's frame period that budget assumes; default 1000/60,
+// in a headset 1000 / its session's frame rate),
+// weights=angle (blending's first weights; default reliability: the native renderer's method and
+// defaults, renderer.js CAMERA_DEFAULTS), balance=0 (no colour balance between cameras), xrscale (the headset's framebuffer scale, 0.1
 // to 2, default 1: lower for a slow device), check=1 (hash every decoded depth image, for tests),
 // room=0 (the site's points alone, without the room and the others), fps=N (draw the desktop
 // view at most N times a second: a slow machine keeps time for the rest); voice=0 (no voice), mic=0
@@ -42,6 +47,7 @@
 // trigger points too (no teleporting in the real room). docs/usage.md says how to align them.
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
+import {FrameBudget} from './frame_budget.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
 import {StrokeBuilder, annotationPrimitives, labelQuad, participantColor, pointerPrimitives}
     from './drawing.js';
@@ -76,6 +82,8 @@ const state = {
   // strokes and labels it sent, and where another's pointer dot was last drawn (the pixel of its
   // hit in the first view, from the bottom left, and the colour read back there).
   drawing: {pointers: {}, held: [], annotations: [], sent: [], pointersSent: 0, drawn: [], dot: null},
+  // The camera pass: blended or not, by the frame budget (auto) or the fragment; why it stopped.
+  blend: {auto: false, on: true, reason: ''},
 };
 window.volcast = state;
 // Tests: time the WebAssembly decoder on the newest frame (worker.js bench); the result lands in
@@ -336,9 +344,38 @@ function avatarDraws() {
   return out;
 }
 
+// The camera pass's settings from the fragment (the rest: renderer.js CAMERA_DEFAULTS).
+const CAMERA_SETTINGS = {
+  surface: params.get('surface') === 'splats' ? 'splats' : 'mesh',
+  blend: params.get('blend') !== '0',
+  weighting: params.get('weights') === 'angle' ? 'angle' : 'reliability',
+  balanceColour: params.get('balance') !== '0',
+};
+
+// Blending kept by the frame rate unless the fragment says blend=0 or blend=1 (frame_budget.js).
+// The display's period: framems=, else 1000/60 on a desktop (at least fps='s interval), an XR
+// session's own frame rate in a headset.
+Object.assign(state.blend, {auto: !params.has('blend'),
+                           on: CAMERA_SETTINGS.blend && !!(renderer && renderer.floatTargets)});
+const FRAME_MS = Number(params.get('framems')) > 0 ? Number(params.get('framems')) : 0;
+const desktopPeriodMs = () => FRAME_MS || Math.max(1000 / 60, 1000 / MAX_FPS);
+const budget = new FrameBudget(desktopPeriodMs());
+let budgetFrameAt = 0;
+function keepFrameBudget(now) {
+  const interval = budgetFrameAt ? now - budgetFrameAt : 0;
+  budgetFrameAt = now;
+  if (!state.blend.auto) return;
+  const blended = CAMERA_SETTINGS.blend && renderer.floatTargets && state.framesDrawn > 0;
+  if (budget.add(interval, blended)) {
+    CAMERA_SETTINGS.blend = state.blend.on = false;
+    state.blend.reason = budget.reason;
+    console.warn('volcast: ' + budget.reason);
+  }
+}
+
 function scene(eye) {
   const s = {roomFromSite: roomFromSite(), avatars: avatarDraws(), boxes: sceneBoxes(),
-             lamp: ROOM.lamp, surface: params.get('surface') === 'mesh' ? 'mesh' : 'splats', eye,
+             lamp: ROOM.lamp, ...CAMERA_SETTINGS, eye,
              hideSite: xrMode === 'immersive-ar'};
   if (currentCase && session.generation === currentCase.generation && params.get('room') !== '0') {
     s.objects = currentCase.objects.map((o, i) => ({roomFromObject: objectMatrix(i)}));
@@ -513,6 +550,7 @@ function desktopFrame() {
   notePresented(now);
   if (now - desktopFrameAt < 1000 / MAX_FPS - 2) return;  // fps=: a slow machine's share
   desktopFrameAt = now;
+  keepFrameBudget(now);
   ++state.desktopFrames;
   const f = [Math.sin(nav.yaw), Math.cos(nav.yaw)];
   const back = (heldSeconds('s', now) - heldSeconds('w', now)) * WALK_M_PER_S;
@@ -540,7 +578,8 @@ function desktopFrame() {
   gl.bindFramebuffer(gl.FRAMEBUFFER, null);
   gl.clearColor(0.08, 0.09, 0.11, 1);
   gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
-  renderer.draw(clipFromRoom, [0, 0, w, h], addDrawing(s, eye));
+  renderer.draw(clipFromRoom, [0, 0, w, h],
+                {...addDrawing(s, eye), viewFromRoom: M.invertRigid(roomFromHead)});
   if (PROBE && state.desktopFrames % 5 === 0) noteDot(clipFromRoom, [0, 0, w, h]);
   noteDrawn();
   const head = M.toPose(roomFromHead);
@@ -575,7 +614,8 @@ function updateOverlay() {
       `decode ${median(state.decodeMs).toFixed(1)} ms · ` +
       (state.photonMs.length ? `to photon ${median(state.photonMs).toFixed(0)} ms · ` : '') +
       (session.joined ? `in '${session.joined.name}' with ${names}` : 'joining…') +
-      (session.error ? ` · ${session.error}` : '') + voiceLine();
+      (session.error ? ` · ${session.error}` : '') +
+      (state.blend.reason ? ` · ${state.blend.reason}` : '') + voiceLine();
   updatePeople();
 }
 
@@ -767,15 +807,20 @@ async function enterXr(mode) {
   xr.addEventListener('squeezeend', (ev) => {
     if (holding && holding.follow === ev.inputSource) releaseHeld();
   });
+  budget.setPeriod(FRAME_MS || (xr.frameRate > 0 ? 1000 / xr.frameRate : 1000 / 60));
+  budgetFrameAt = 0;
   xr.addEventListener('end', () => {
     state.xr.active = false;
     xrMode = '';
+    budget.setPeriod(desktopPeriodMs());
+    budgetFrameAt = 0;
     putAway();
     requestAnimationFrame(desktopFrame);
   });
   const onFrame = (t, frame) => {
     xr.requestAnimationFrame(onFrame);
     notePresented(performance.now());
+    keepFrameBudget(t);
     const pose = frame.getViewerPose(space);
     if (!pose) return;
     uploadLatest();
@@ -801,7 +846,7 @@ async function enterXr(mode) {
       const clipFromRoom = M.multiply(new Float32Array(view.projectionMatrix),
                                       M.invertRigid(roomFromView));
       const viewport = [vp.x, vp.y, vp.width, vp.height];
-      renderer.draw(clipFromRoom, viewport, s);
+      renderer.draw(clipFromRoom, viewport, {...s, viewFromRoom: M.invertRigid(roomFromView)});
       if (PROBE && i === 0 && state.xr.frames % 5 === 0) noteDot(clipFromRoom, viewport);
     });
     ++state.xr.frames;
@@ -937,6 +982,7 @@ function start() {
       startVoice();
     } else if (m.type === 'frames') {
       m.readyMs = performance.now();
+      if (m.gains) renderer.setGains(m.gains);
       ++state.framesReceived;
       if (m.cameras.some((c) => c.color)) ++state.colorFrames;
       state.decodeMs.push(m.decodeMs);

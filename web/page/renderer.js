@@ -1,10 +1,13 @@
-// WebGL2 renderer of the browser viewer: the site's cameras and the others' camera avatars as
-// splats (each depth pixel one point, unprojected in the vertex shader through the camera's ray
-// table, as the native CameraRenderer does: src/render/camera_renderer.cpp) or as a grid mesh,
-// and the room's furniture and the other participants as lit boxes (as room_scene.hpp draws them
+// WebGL2 renderer of the browser viewer: the site's cameras and the others' camera avatars
+// drawn with the native CameraRenderer's method and shaders (src/render/camera_renderer.hpp;
+// one GLSL source, src/render/glsl, generated into camera_glsl.js): a grid mesh (the default) or
+// splats, each depth pixel unprojected through the camera's ray table, overlapping cameras
+// blended by reliability (depth-edge distance, angle, distance; erosion, a soft depth
+// tolerance) through a prepass, a weighted pass into float targets and a resolve; and the room's furniture and the other participants as lit boxes (as room_scene.hpp draws them
 // natively); pointers and annotations as glowing primitives (drawing.js) and labels' text as
 // quads of canvas textures. Renderer.pick reads back where a ray first meets what is drawn: the
 // scene drawn again into a small window around the ray's pixel, each fragment writing its depth.
+import * as glsl from './camera_glsl.js';
 import {apply, invert, multiply, fromPose, scale, translation} from './math.js';
 
 // Every fragment shader's pick mode: the fragment's window depth, 24 bits in rgb.
@@ -18,97 +21,34 @@ vec4 or_depth(vec4 c) {
 `;
 const PICK_WINDOW = 49;  // pixels: a splat (at most 48 across) covering the centre is drawn
 
-// What both camera passes share: the camera's depth and ray table, and unprojection of one
-// pixel into the camera frame (false without depth, outside the lens model, or -- for a camera
-// avatar -- farther than keep.w metres from its sender's head keep.xyz, room frame).
-const CAMERA_VS_COMMON = `#version 300 es
+// GLSL ES 3.00's preamble for the shared camera shaders (src/render/glsl/README.md): the native
+// renderer puts "#version 450 core" and BINDING(n) = layout(binding = n) first instead.
+const ES_PREAMBLE = `#version 300 es
 precision highp float;
 precision highp int;
-uniform highp usampler2D depth_mm;
-uniform highp sampler2D rays;
-uniform mat4 clip_from_camera;
-uniform mat4 room_from_camera;
-uniform vec4 keep;
-uniform ivec2 size;
-out vec2 uv;
-float depth_at(ivec2 p) {
-  return float(texelFetch(depth_mm, clamp(p, ivec2(0), size - 1), 0).r);
-}
-bool unproject(ivec2 p, out vec4 p_camera) {
-  float z = depth_at(p) * 0.001;
-  vec2 r = texelFetch(rays, p, 0).rg;
-  p_camera = vec4(r * z, z, 1.0);
-  uv = (vec2(p) + 0.5) / vec2(size);
-  return z > 0.0 && !isnan(r.x) &&
-         (keep.w <= 0.0 || distance((room_from_camera * p_camera).xyz, keep.xyz) <= keep.w);
-}
-const vec4 kDropped = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume
+precision highp sampler2D;
+precision highp usampler2D;
+#define BINDING(n)
 `;
 
-// Both passes colour a fragment from the camera's registered color, grey without one.
-const CAMERA_FS_COMMON = `#version 300 es
-precision mediump float;
-uniform sampler2D color;
-uniform bool has_color;
-in vec2 uv;
-out vec4 out_color;
-` + PICK_FS + `
-vec4 camera_color() {
-  return or_depth(has_color ? vec4(texture(color, uv).rgb, 1.0) : vec4(0.75, 0.75, 0.78, 1.0));
-}
-`;
-
-// Splats: one point per depth pixel, sized by its footprint (z / fx metres).
-const SPLAT_VS = CAMERA_VS_COMMON + `
-uniform float splat_px;  // pixels per metre at 1 m of view depth, times the splat's footprint
-uniform float inv_fx;
-void main() {
-  ivec2 p = ivec2(gl_VertexID % size.x, gl_VertexID / size.x);
-  vec4 p_camera;
-  gl_PointSize = 1.0;
-  if (!unproject(p, p_camera)) {
-    gl_Position = kDropped;
-    return;
-  }
-  gl_Position = clip_from_camera * p_camera;
-  gl_PointSize = clamp(splat_px * p_camera.z * inv_fx / gl_Position.w, 1.0, 48.0);
-}`;
-
-const SPLAT_FS = CAMERA_FS_COMMON + `
-void main() {
-  vec2 c = gl_PointCoord * 2.0 - 1.0;
-  if (dot(c, c) > 1.0) discard;
-  out_color = camera_color();
-}`;
-
-// The grid-mesh pass (as the native CameraRenderer's mesh surface): each 2x2 block of depth
-// pixels is two triangles, six vertices drawn without buffers (the vertex's number says which
-// block and corner); a vertex is invalid where unproject fails or where depth jumps by more than
-// edge_ratio of itself to its right or lower neighbour (an occlusion edge, not a surface); a
-// triangle touching an invalid vertex is discarded.
-const MESH_VS = CAMERA_VS_COMMON + `
-uniform float edge_ratio;
-out float valid;
-const ivec2 corners[6] = ivec2[6](ivec2(0, 0), ivec2(1, 0), ivec2(0, 1), ivec2(1, 0), ivec2(1, 1),
-                                  ivec2(0, 1));
-void main() {
-  int block = gl_VertexID / 6;
-  ivec2 p = ivec2(block % (size.x - 1), block / (size.x - 1)) + corners[gl_VertexID % 6];
-  vec4 p_camera;
-  float d = depth_at(p), right = depth_at(p + ivec2(1, 0)), down = depth_at(p + ivec2(0, 1));
-  bool ok = unproject(p, p_camera) &&
-            (right == 0.0 || abs(right - d) <= edge_ratio * d) &&
-            (down == 0.0 || abs(down - d) <= edge_ratio * d);
-  valid = ok ? 1.0 : 0.0;
-  gl_Position = ok ? clip_from_camera * p_camera : kDropped;
-}`;
-
-const MESH_FS = CAMERA_FS_COMMON + `
-in float valid;
-void main() {
-  if (valid < 0.999) discard;
-  out_color = camera_color();
-}`;
+// The camera pass's settings, as the native CameraPassOptions' defaults
+// (src/render/include/volcast/render/camera_renderer.hpp).
+export const CAMERA_DEFAULTS = {
+  surface: 'mesh',         // or 'splats'
+  splatSize: 'adaptive',   // 'fixed', 'footprint' or 'adaptive'
+  fixedPx: 2,              // splatSize 'fixed': pixels
+  splatScale: 1,           // multiplies the footprint radius
+  edgeRatio: 0.05,         // mesh: an edge longer than this x the nearer depth is dropped
+  blend: true,             // blend overlapping cameras
+  blendDepthM: 0.03,       // fragments this close behind the front surface are blended
+  weighting: 'reliability', // or 'angle' (v1: angle and distance)
+  edgePx: 4,               // reliability: w_edge reaches 1 this many pixels from an edge
+  erodeDepthM: 0.1,        // reliability: the prepass's push of an edge pixel, metres
+  balanceColour: true,     // the cameras' colour gains (setGains: the worker's colour balance)
+};
+const EDGE_STEP = 0.05;    // a 4-neighbour this much of the depth away is an edge (native kEdgeStep)
+const SPLAT_SIZES = {fixed: 0, footprint: 1, adaptive: 2};
+const IDENTITY = new Float32Array([1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]);
 
 const BOX_VS = `#version 300 es
 precision highp float;
@@ -212,6 +152,17 @@ function compile(gl, vs, fs) {
   return {program, uniforms};
 }
 
+// A program of the shared camera shaders (camera_glsl.js) in GLSL ES 3.00, `defines` after the
+// preamble; each sampler's unit is set to the n of its BINDING(n), as the native layout does.
+function compileShared(gl, vs, fs, defines = []) {
+  const head = ES_PREAMBLE + defines.map((d) => `#define ${d}\n`).join('');
+  const p = compile(gl, head + vs, head + fs);
+  gl.useProgram(p.program);
+  for (const [, unit, name] of (vs + fs).matchAll(/BINDING\((\d+)\)\s+uniform\s+\w+\s+(\w+)/g))
+    if (p.uniforms[name]) gl.uniform1i(p.uniforms[name], Number(unit));
+  return p;
+}
+
 // A unit cube (-1..1) with face normals: 36 vertices of position + normal.
 function cube() {
   const faces = [
@@ -273,8 +224,22 @@ function shapeVao(gl, data) {
 export class Renderer {
   constructor(gl) {
     this.gl = gl;
-    this.splat = compile(gl, SPLAT_VS, SPLAT_FS);
-    this.mesh = compile(gl, MESH_VS, MESH_FS);
+    // Blending needs float colour targets (EXT_color_buffer_float: the Quest browser and desktop
+    // Chromium have it); the blended depth's sums are RG32F with EXT_float_blend, else RG16F.
+    this.floatTargets = !!gl.getExtension('EXT_color_buffer_float');
+    this.floatBlend = !!gl.getExtension('EXT_float_blend');
+    const byTriangle = 'VOLCAST_MESH_BY_TRIANGLE';
+    this.splat = compileShared(gl, glsl.splatVert, glsl.splatFrag);
+    this.mesh = compileShared(gl, glsl.meshVert, glsl.meshFrag, [byTriangle]);
+    this.splatPick = compileShared(gl, glsl.splatVert, glsl.splatFrag, ['VOLCAST_PICK']);
+    this.meshPick = compileShared(gl, glsl.meshVert, glsl.meshFrag, [byTriangle, 'VOLCAST_PICK']);
+    this.resolve = compileShared(gl, glsl.fullscreenVert, glsl.resolveFrag);
+    this.meshKeptPass = compileShared(gl, glsl.fullscreenVert, glsl.meshKeptFrag);
+    this.edgesPass = compileShared(gl, glsl.fullscreenVert, glsl.edgesFrag);
+    this.edgeRowsPass = compileShared(gl, glsl.fullscreenVert, glsl.edgeRowsFrag);
+    this.reliabilityPass = compileShared(gl, glsl.fullscreenVert, glsl.reliabilityFrag);
+    this.blendTarget = null;   // {width, height, fbo, copyFbo, accumulated, blendedDepth, front, frontCopy}
+    this.passFbo = null;       // the reliability passes draw into each camera's images in turn
     this.box = compile(gl, BOX_VS, BOX_FS);
     this.quad = compile(gl, QUAD_VS, QUAD_FS);
     this.caseParts = [];  // by object: [{vao, buffers, count, rgba}]
@@ -292,7 +257,7 @@ export class Renderer {
 
   // Pick mode on or off in every program (each fragment writes its depth instead of its colour).
   setPick(on) {
-    for (const p of [this.splat, this.mesh, this.box, this.quad]) {
+    for (const p of [this.box, this.quad]) {  // the cameras' pick programs are their own
       this.gl.useProgram(p.program);
       this.gl.uniform1i(p.uniforms.pick, on ? 1 : 0);
     }
@@ -322,9 +287,9 @@ export class Renderer {
     gl.clearColor(1, 1, 1, 1);
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     this.setPick(true);
-    const pxPerM = Math.hypot(clipFromRoom[1], clipFromRoom[5], clipFromRoom[9]) * h * 0.5;
+    // Splats keep the full view's sizes: pixels_per_unit and half_viewport scale with the window.
     this.draw(multiply(window_, clipFromRoom), [0, 0, k, k],
-              {...scene, pick: true, hideSite: false, pxPerM});
+              {...scene, pick: true, hideSite: false});
     this.setPick(false);
     const rgba = new Uint8Array(4);
     gl.readPixels((k - 1) / 2, (k - 1) / 2, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, rgba);
@@ -440,18 +405,16 @@ export class Renderer {
 
   deleteCamera(c) {
     const gl = this.gl;
-    gl.deleteTexture(c.depth);
-    gl.deleteTexture(c.rays);
-    gl.deleteTexture(c.color);
+    for (const t of [c.depth, c.rays, c.color, c.edges, c.across, c.reliability, c.kept]) gl.deleteTexture(t);
   }
 
   makeCamera(cam) {
     const gl = this.gl;
-    const texture = (internal, format, type, data) => {
+    const texture = (internal, format, type, data, w = cam.width, h = cam.height) => {
       const t = gl.createTexture();
       gl.bindTexture(gl.TEXTURE_2D, t);
       gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
-      gl.texImage2D(gl.TEXTURE_2D, 0, internal, cam.width, cam.height, 0, format, type, data);
+      gl.texImage2D(gl.TEXTURE_2D, 0, internal, w, h, 0, format, type, data);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
       gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
@@ -461,21 +424,42 @@ export class Renderer {
     return {
       width: cam.width,
       height: cam.height,
-      fx: cam.intrinsics[0],
+      // The footprint's radius per metre of depth (splat_radius_per_metre, point_cloud.hpp).
+      radiusPerMetre: 0.75 * 2 / (cam.intrinsics[0] + cam.intrinsics[1]),
       siteFromCamera: cam.siteFromCamera,
       depth: texture(gl.R16UI, gl.RED_INTEGER, gl.UNSIGNED_SHORT,
                      new Uint16Array(cam.width * cam.height)),
       rays: texture(gl.RG32F, gl.RG, gl.FLOAT, cam.rays),
       color: texture(gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, null),
+      // Blending's reliability (edges.frag, edge_rows.frag, reliability.frag), per new depth.
+      edges: texture(gl.R8UI, gl.RED_INTEGER, gl.UNSIGNED_BYTE, null),
+      across: texture(gl.R8UI, gl.RED_INTEGER, gl.UNSIGNED_BYTE, null),
+      reliability: texture(gl.RG16F, gl.RG, gl.HALF_FLOAT, null),
+      reliabilityRadius: 0,  // the edgePx it was made for; 0: not made for this depth
+      // The mesh's kept triangles (mesh_kept.frag), per quad, and what they were made for.
+      kept: texture(gl.R8UI, gl.RED_INTEGER, gl.UNSIGNED_BYTE, null, Math.max(cam.width - 1, 1),
+                    Math.max(cam.height - 1, 1)),
+      keptFor: '',
+      gain: [1, 1, 1],       // colour balance (the native renderer's colour_gains)
       hasDepth: false,
       hasColor: false,
     };
   }
 
-  // One camera's decoded depth (Uint16Array) and color (ImageBitmap, closed here) or nulls.
+  // One camera's decoded depth (Uint16Array) and color (ImageBitmap, closed here; or rgba, a
+  // Uint8Array of width x height x 4, alpha 0 where the colour camera did not reach) or nulls.
   uploadCamera(c, f) {
     const gl = this.gl;
     gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    if (f.depth) {
+      c.reliabilityRadius = 0;
+      c.keptFor = '';
+    }
+    if (f.rgba) {
+      gl.bindTexture(gl.TEXTURE_2D, c.color);
+      gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, c.width, c.height, 0, gl.RGBA, gl.UNSIGNED_BYTE, f.rgba);
+      c.hasColor = true;
+    }
     if (f.depth) {
       gl.bindTexture(gl.TEXTURE_2D, c.depth);
       gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, c.width, c.height, gl.RED_INTEGER,
@@ -487,9 +471,16 @@ export class Renderer {
       gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA8, gl.RGBA, gl.UNSIGNED_BYTE, f.color);
       f.color.close();
       c.hasColor = true;
-    } else {
+    } else if (!f.rgba) {
       c.hasColor = false;
     }
+  }
+
+  // The site cameras' colour gains ([[r, g, b]] by camera: worker.js's colour balance).
+  setGains(gains) {
+    gains.forEach((g, i) => {
+      if (this.cameras[i]) this.cameras[i].gain = g;
+    });
   }
 
   // One decoded frame set of the site (worker.js 'frames').
@@ -608,55 +599,264 @@ export class Renderer {
     gl.bindVertexArray(null);
   }
 
+  // Makes camera c's reliability image again if its depth or edgePx changed: three passes, each
+  // one triangle over the camera's image, as the native renderer's update_reliability.
+  updateReliability(c, edgePx) {
+    const gl = this.gl;
+    if (c.reliabilityRadius === edgePx) return;
+    if (!this.passFbo) this.passFbo = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.passFbo);
+    gl.viewport(0, 0, c.width, c.height);
+    gl.disable(gl.DEPTH_TEST);
+    gl.disable(gl.BLEND);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.colorMask(true, true, true, true);
+    const bind = (unit, texture) => {
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, texture);
+    };
+    const pass = (p, image, uniforms) => {
+      gl.useProgram(p.program);
+      gl.uniform2i(p.uniforms.size, c.width, c.height);
+      uniforms(p.uniforms);
+      gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, image, 0);
+      gl.drawArrays(gl.TRIANGLES, 0, 3);
+    };
+    bind(2, null);  // nothing a pass draws into may sit on a unit
+    bind(3, null);
+    bind(0, c.depth);
+    bind(1, c.rays);
+    pass(this.edgesPass, c.edges, (u) => gl.uniform1f(u.edge_step, EDGE_STEP));
+    bind(0, c.edges);
+    pass(this.edgeRowsPass, c.across, (u) => gl.uniform1i(u.radius, edgePx));
+    bind(0, c.depth);
+    bind(5, c.across);
+    pass(this.reliabilityPass, c.reliability, (u) => gl.uniform1i(u.radius, edgePx));
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, null, 0);
+    bind(5, null);
+    c.reliabilityRadius = edgePx;
+  }
+
+  // Makes camera c's kept triangles again if its depth, the avatar filter's keep sphere
+  // (`keepSphere`, camera frame) or the edge threshold changed: one pass over its quads.
+  updateKept(c, keepSphere, edgeRatio) {
+    const gl = this.gl;
+    const key = `${keepSphere.join(',')}:${edgeRatio}`;
+    if (c.keptFor === key || c.width < 2 || c.height < 2) return;
+    if (!this.passFbo) this.passFbo = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, this.passFbo);
+    gl.viewport(0, 0, c.width - 1, c.height - 1);
+    gl.disable(gl.DEPTH_TEST);
+    gl.disable(gl.BLEND);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.colorMask(true, true, true, true);
+    const p = this.meshKeptPass;
+    gl.useProgram(p.program);
+    gl.uniform2i(p.uniforms.size, c.width, c.height);
+    gl.uniform1f(p.uniforms.max_edge_ratio, edgeRatio);
+    gl.uniform4fv(p.uniforms.keep_sphere, keepSphere);
+    gl.uniform3f(p.uniforms.hide_half_extent, 0, 0, 0);
+    [c.depth, c.rays].forEach((t, unit) => {
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, t);
+    });
+    gl.activeTexture(gl.TEXTURE6);
+    gl.bindTexture(gl.TEXTURE_2D, null);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, c.kept, 0);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, null, 0);
+    c.keptFor = key;
+  }
+
+  // The blending pass's targets at w x h: accumulated colour (RGBA16F), accumulated view depth
+  // (RG32F, or RG16F without EXT_float_blend) and the prepass's depth, with a copy that the
+  // weighted pass reads (as the native ensure_blend_target).
+  ensureBlendTarget(w, h) {
+    const gl = this.gl;
+    const t = this.blendTarget;
+    if (t && t.width === w && t.height === h) return t;
+    if (t) {
+      for (const x of [t.accumulated, t.blendedDepth, t.front, t.frontCopy]) gl.deleteTexture(x);
+      gl.deleteFramebuffer(t.fbo);
+      gl.deleteFramebuffer(t.copyFbo);
+    }
+    const texture = (internal) => {
+      const x = gl.createTexture();
+      gl.bindTexture(gl.TEXTURE_2D, x);
+      gl.texStorage2D(gl.TEXTURE_2D, 1, internal, w, h);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.NEAREST);
+      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.NEAREST);
+      return x;
+    };
+    const n = {width: w, height: h, accumulated: texture(gl.RGBA16F),
+               blendedDepth: texture(this.floatBlend ? gl.RG32F : gl.RG16F),
+               front: texture(gl.DEPTH_COMPONENT32F), frontCopy: texture(gl.DEPTH_COMPONENT32F),
+               fbo: gl.createFramebuffer(), copyFbo: gl.createFramebuffer()};
+    gl.bindFramebuffer(gl.FRAMEBUFFER, n.fbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, n.accumulated, 0);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT1, gl.TEXTURE_2D, n.blendedDepth, 0);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.TEXTURE_2D, n.front, 0);
+    gl.drawBuffers([gl.COLOR_ATTACHMENT0, gl.COLOR_ATTACHMENT1]);
+    const status = gl.checkFramebufferStatus(gl.FRAMEBUFFER);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, n.copyFbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.TEXTURE_2D, n.frontCopy, 0);
+    if (status !== gl.FRAMEBUFFER_COMPLETE)
+      throw new Error(`camera renderer: blending framebuffer ${w}x${h} is not complete (${status})`);
+    this.blendTarget = n;
+    return n;
+  }
+
+  // Draws each camera of `draws` once with program `s` (in use), as the native draw_each.
+  drawEach(s, draws, o, viewFromRoom, depthPush, accumulate, frontCopy) {
+    const gl = this.gl, u = s.uniforms;
+    gl.uniform1f(u.depth_push, depthPush);
+    gl.uniform1i(u.accumulate, accumulate ? 1 : 0);
+    gl.activeTexture(gl.TEXTURE4);
+    gl.bindTexture(gl.TEXTURE_2D, frontCopy);
+    for (const {c, roomFromCamera, keepSphere} of draws) {
+      gl.uniformMatrix4fv(u.view_from_camera, false, multiply(viewFromRoom, roomFromCamera));
+      gl.uniform4fv(u.keep_sphere, keepSphere);
+      gl.uniform3f(u.hide_half_extent, 0, 0, 0);
+      gl.uniform2i(u.size, c.width, c.height);
+      gl.uniform1i(u.has_color, c.hasColor ? 1 : 0);
+      gl.uniform4f(u.tint, 0, 0, 0, 0);
+      gl.uniform3fv(u.gain, o.balanceColour === false ? [1, 1, 1] : c.gain);
+      [c.depth, c.rays, c.color, c.reliability].forEach((t, unit) => {
+        gl.activeTexture(gl.TEXTURE0 + unit);
+        gl.bindTexture(gl.TEXTURE_2D, t);
+      });
+      if (o.surface === 'mesh') {
+        gl.activeTexture(gl.TEXTURE6);
+        gl.bindTexture(gl.TEXTURE_2D, c.kept);
+        gl.drawArrays(gl.TRIANGLES, 0, (c.width - 1) * (c.height - 1) * 6);
+      } else {
+        gl.uniform1f(u.radius_per_metre, c.radiusPerMetre * o.splatScale);
+        gl.drawArrays(gl.POINTS, 0, c.width * c.height);
+      }
+    }
+  }
+
+  // The site's cameras and the camera avatars (`draws`: [{c, roomFromCamera, keep}]) into the
+  // bound framebuffer's `viewport`, drawn through clipFromView x viewFromRoom with settings `o`
+  // (CAMERA_DEFAULTS): as the native CameraRenderer::draw_cameras -- plain, or blended in three
+  // passes (the front depth pushed back; what lies within blendDepthM of it, weighted, summed;
+  // the weighted mean into the target). Pick mode draws plain, each fragment writing its depth.
+  drawCameras(draws, o, clipFromView, viewFromRoom, viewport, pick) {
+    const gl = this.gl;
+    if (!draws.length || viewport[2] < 1 || viewport[3] < 1) return;
+    const mesh = o.surface === 'mesh';
+    const blend = o.blend && !pick && this.floatTargets;
+    const reliable = blend && o.weighting === 'reliability';
+    const target = gl.getParameter(gl.FRAMEBUFFER_BINDING);
+    for (const d of draws) {
+      // A camera avatar keeps its sender's points within keep[3] metres of its head (room
+      // frame): the avatar filter's keep sphere, in the camera's frame.
+      const k = d.keep;
+      const centre = k[3] > 0 ? apply(invert(d.roomFromCamera), [k[0], k[1], k[2], 1]) : [0, 0, 0];
+      d.keepSphere = [centre[0], centre[1], centre[2], k[3]];
+      if (mesh) this.updateKept(d.c, d.keepSphere, o.edgeRatio);
+      if (reliable) this.updateReliability(d.c, o.edgePx);
+    }
+    const s = pick ? (mesh ? this.meshPick : this.splatPick) : (mesh ? this.mesh : this.splat);
+    const [x, y, w, h] = viewport;
+    const u = s.uniforms;
+    gl.useProgram(s.program);
+    gl.bindVertexArray(this.empty);
+    const viewFromClip = invert(clipFromView);
+    gl.uniformMatrix4fv(u.clip_from_view, false, clipFromView);
+    gl.uniform1i(u.weighting, reliable ? 1 : 0);
+    gl.uniform1f(u.erode_push, o.erodeDepthM);
+    gl.uniform1f(u.blend_push, o.blendDepthM);
+    gl.uniform2f(u.viewport_size, w, h);
+    if (!mesh) {
+      gl.uniform1i(u.size_mode, SPLAT_SIZES[o.splatSize] ?? 2);
+      gl.uniform1f(u.fixed_px, o.fixedPx);
+      gl.uniform1f(u.pixels_per_unit, 0.5 * h * clipFromView[5]);
+      gl.uniform1f(u.splat_scale, o.splatScale);
+      gl.uniform2f(u.half_viewport, 0.5 * w, 0.5 * h);
+    }
+    gl.enable(gl.DEPTH_TEST);
+    gl.depthFunc(gl.LESS);
+    if (!blend) {
+      gl.bindFramebuffer(gl.FRAMEBUFFER, target);
+      gl.viewport(x, y, w, h);
+      this.drawEach(s, draws, o, viewFromRoom, 0, false, null);
+      return;
+    }
+    const t = this.ensureBlendTarget(w, h);
+    gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
+    gl.viewport(0, 0, w, h);
+    gl.disable(gl.SCISSOR_TEST);
+    gl.clearColor(0, 0, 0, 0);
+    gl.depthMask(true);
+    gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
+    gl.colorMask(false, false, false, false);
+    this.drawEach(s, draws, o, viewFromRoom, o.blendDepthM, false, t.frontCopy);
+    gl.colorMask(true, true, true, true);
+    if (reliable) {  // the weighted pass reads the front depth: a copy, not its own attachment
+      gl.bindFramebuffer(gl.READ_FRAMEBUFFER, t.fbo);
+      gl.bindFramebuffer(gl.DRAW_FRAMEBUFFER, t.copyFbo);
+      gl.blitFramebuffer(0, 0, w, h, 0, 0, w, h, gl.DEPTH_BUFFER_BIT, gl.NEAREST);
+      gl.bindFramebuffer(gl.FRAMEBUFFER, t.fbo);
+    }
+    gl.depthMask(false);
+    gl.depthFunc(gl.LEQUAL);
+    gl.enable(gl.BLEND);
+    gl.blendFunc(gl.ONE, gl.ONE);
+    this.drawEach(s, draws, o, viewFromRoom, 0, true, t.frontCopy);
+    gl.disable(gl.BLEND);
+
+    gl.bindFramebuffer(gl.FRAMEBUFFER, target);
+    gl.viewport(x, y, w, h);
+    gl.depthMask(true);
+    gl.depthFunc(gl.ALWAYS);
+    const r = this.resolve;
+    gl.useProgram(r.program);
+    gl.uniform2i(r.uniforms.origin, x, y);
+    gl.uniform1i(r.uniforms.weighting, reliable ? 1 : 0);
+    gl.uniform2f(r.uniforms.viewport_size, w, h);
+    gl.uniformMatrix4fv(r.uniforms.view_from_clip, false, viewFromClip);
+    gl.uniformMatrix4fv(r.uniforms.clip_from_view, false, clipFromView);
+    [t.accumulated, t.front, t.blendedDepth].forEach((tex, unit) => {
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, tex);
+    });
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    gl.depthFunc(gl.LESS);
+    for (let unit = 0; unit < 5; ++unit) {  // none of the blending targets stays on a unit
+      gl.activeTexture(gl.TEXTURE0 + unit);
+      gl.bindTexture(gl.TEXTURE_2D, null);
+    }
+    gl.activeTexture(gl.TEXTURE0);
+  }
+
   // Draws the scene into the bound framebuffer's `viewport` [x, y, w, h] through
   // `clipFromRoom`. `scene`: {roomFromSite, avatars: [{id, roomFromCamera, keep: [x, y, z,
-  // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], splatScale,
-  // surface ('splats' or 'mesh'), edgeRatio (mesh: a depth jump over this share of the depth is
-  // an edge, default 0.05), hideSite (AR: the site's cameras not drawn), primitives and labels
-  // (drawing.js: pointers, annotations, labels' text quads), pick and pxPerM (Renderer.pick)}.
+  // radius]}], boxes: [{roomFromBox (unit cube), color, grid}], lamp [x, y, z], viewFromRoom
+  // (the eye's; blending needs it: clipFromRoom = clipFromView x viewFromRoom; without it the
+  // cameras are drawn plain), the camera pass's settings (CAMERA_DEFAULTS: surface, blend,
+  // weighting, splatSize, splatScale, edgeRatio, ...), hideSite (AR: the site's cameras not
+  // drawn), primitives and labels (drawing.js: pointers, annotations, labels' text quads), pick
+  // (Renderer.pick)}.
   draw(clipFromRoom, viewport, scene) {
     const gl = this.gl;
     gl.viewport(...viewport);
     gl.enable(gl.DEPTH_TEST);
-    // Pixels per metre at 1 m of view depth (the projection's vertical scale).
-    const pxPerM = scene.pxPerM ||
-        Math.hypot(clipFromRoom[1], clipFromRoom[5], clipFromRoom[9]) * viewport[3] * 0.5 || viewport[3];
-    const mesh = scene.surface === 'mesh';
-    const s = mesh ? this.mesh : this.splat;
-    gl.useProgram(s.program);
-    gl.bindVertexArray(this.empty);
-    gl.uniform1i(s.uniforms.depth_mm, 0);
-    gl.uniform1i(s.uniforms.rays, 1);
-    gl.uniform1i(s.uniforms.color, 2);
+    const o = {...CAMERA_DEFAULTS};
+    for (const k of Object.keys(CAMERA_DEFAULTS)) if (scene[k] !== undefined) o[k] = scene[k];
+    if (!scene.viewFromRoom) o.blend = false;
+    const viewFromRoom = scene.viewFromRoom || IDENTITY;
+    const clipFromView = scene.viewFromRoom ? multiply(clipFromRoom, invert(viewFromRoom)) : clipFromRoom;
     const draws = (scene.hideSite ? [] : this.cameras).map((c) => ({c, roomFromCamera: multiply(scene.roomFromSite, c.siteFromCamera),
                                             keep: [0, 0, 0, 0]}));
     for (const a of scene.avatars || []) {
       const c = this.avatars.get(a.id);
       if (c) draws.push({c, roomFromCamera: a.roomFromCamera, keep: a.keep});
     }
-    for (const {c, roomFromCamera, keep} of draws) {
-      if (!c.hasDepth) continue;
-      gl.uniformMatrix4fv(s.uniforms.clip_from_camera, false, multiply(clipFromRoom, roomFromCamera));
-      gl.uniformMatrix4fv(s.uniforms.room_from_camera, false, roomFromCamera);
-      gl.uniform4fv(s.uniforms.keep, keep);
-      gl.uniform2i(s.uniforms.size, c.width, c.height);
-      // The splat covers its pixel's footprint (z / fx metres) with some overlap.
-      gl.uniform1f(s.uniforms.splat_px, (scene.splatScale || 1.5) * Math.abs(pxPerM));
-      gl.uniform1f(s.uniforms.inv_fx, 1 / c.fx);
-      gl.uniform1i(s.uniforms.has_color, c.hasColor ? 1 : 0);
-      gl.activeTexture(gl.TEXTURE0);
-      gl.bindTexture(gl.TEXTURE_2D, c.depth);
-      gl.activeTexture(gl.TEXTURE1);
-      gl.bindTexture(gl.TEXTURE_2D, c.rays);
-      gl.activeTexture(gl.TEXTURE2);
-      gl.bindTexture(gl.TEXTURE_2D, c.color);
-      if (mesh) {
-        gl.uniform1f(s.uniforms.edge_ratio, scene.edgeRatio || 0.05);
-        gl.drawArrays(gl.TRIANGLES, 0, (c.width - 1) * (c.height - 1) * 6);
-      } else {
-        gl.drawArrays(gl.POINTS, 0, c.width * c.height);
-      }
-    }
+    this.drawCameras(draws.filter((d) => d.c.hasDepth), o, clipFromView, viewFromRoom, viewport,
+                     !!scene.pick);
+    gl.viewport(...viewport);
+    gl.enable(gl.DEPTH_TEST);
     const b = this.box;
     gl.useProgram(b.program);
     gl.bindVertexArray(this.cubeVao);

@@ -18,7 +18,8 @@
 //   rotation (9, row-major), translation (3), name, rays (Float32Array, 2 per pixel)}],
 //   clockOffsetUs}; {type: 'frames', sequence, key, captureUs, cameras: [{depth (Uint16Array) |
 //   null, width, height, color (ImageBitmap) | null, hash}], decodeMs, depthDecodeMs,
-//   receivedUs}; {type: 'session', bytes (ArrayBuffer: header + payload)}; {type: 'error', what};
+//   receivedUs, gains ([[r, g, b]] per camera: the colour balance, every 15 new images, else
+//   absent)}; {type: 'session', bytes (ArrayBuffer: header + payload)}; {type: 'error', what};
 //   {type: 'closed', why}; {type: 'bench', result: {runs, medianMs, minMs, stream (base64)}};
 //   {type: 'avatar-camera', id, camera (as in welcome, playarea_from_camera, + depthCodec,
 //   colorCodec)}; {type: 'avatar', id, sequence, captureUs, depth, color}; {type: 'avatar-error',
@@ -252,6 +253,60 @@ function parseWelcome(payload) {
   return {cameras: list, serverUs};
 }
 
+// Colour balance: the native renderer's (volcast/render/colour_balance.hpp), in the WASM module.
+// Every BALANCE_EVERY new depth images, the newest frame set's samples of each camera with colour
+// (its picture read back through a canvas), then every camera's RGB gain, sent with that set.
+const BALANCE_EVERY = 15;  // as the native CameraRenderer's kUploadsPerBalance
+let balanceCountdown = BALANCE_EVERY;
+let balanceCanvas = null;
+const balanceScratch = {pixels: 0, depth: 0, rgba: 0, gains: 0};
+
+function setBalanceCameras() {
+  const k = wasm._malloc(17 * 8), pose = wasm._malloc(12 * 8);
+  cameras.forEach((cam, i) => {
+    wasm.HEAPF64.set([cam.width, cam.height, ...cam.intrinsics], k / 8);
+    wasm.HEAPF64.set([...cam.rotation, ...cam.translation], pose / 8);
+    if (wasm._vc_balance_camera(i, k, pose) !== 0)
+      throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
+  });
+  wasm._free(k);
+  wasm._free(pose);
+  balanceCountdown = BALANCE_EVERY;
+}
+
+// The gains from this frame set's depth images and pictures (cameras without either keep their
+// last samples), or null when no camera had both.
+function balanceGains(out, bitmaps) {
+  const s = balanceScratch;
+  let taken = 0;
+  out.forEach((f, c) => {
+    const b = bitmaps[c];
+    if (!f.depth || !b || b.width !== f.width || b.height !== f.height) return;
+    const n = f.width * f.height;
+    if (n > s.pixels) {
+      for (const p of [s.depth, s.rgba]) if (p) wasm._free(p);
+      s.pixels = n;
+      s.depth = wasm._malloc(n * 2);
+      s.rgba = wasm._malloc(n * 4);
+    }
+    if (!balanceCanvas || balanceCanvas.width !== f.width || balanceCanvas.height !== f.height)
+      balanceCanvas = new OffscreenCanvas(f.width, f.height);
+    const ctx = balanceCanvas.getContext('2d', {willReadFrequently: true});
+    ctx.drawImage(b, 0, 0);
+    wasm.HEAPU8.set(ctx.getImageData(0, 0, f.width, f.height).data, s.rgba);
+    wasm.HEAPU16.set(f.depth, s.depth / 2);
+    if (wasm._vc_balance_take(c, s.depth, s.rgba) < 0)
+      throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
+    ++taken;
+  });
+  if (!taken) return null;
+  if (!s.gains) s.gains = wasm._malloc(64 * 3 * 4);
+  if (wasm._vc_balance_gains(out.length, s.gains) !== 0)
+    throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
+  const g = wasm.HEAPF32.subarray(s.gains / 4, s.gains / 4 + out.length * 3);
+  return out.map((f, c) => [g[3 * c], g[3 * c + 1], g[3 * c + 2]]);
+}
+
 function rayTable(cam) {
   const k = wasm._malloc(17 * 8);
   const n = cam.width * cam.height;
@@ -409,6 +464,9 @@ async function onFrameSet(payload, receivedUs) {
   const bitmaps = await Promise.all(colors);
   bitmaps.forEach((b, c) => { out[c].color = b; });
   const decodeMs = performance.now() - t0;
+  balanceCountdown -= out.filter((c) => c.depth).length;
+  const gains = balanceCountdown <= 0 ? balanceGains(out, bitmaps) : null;
+  if (gains) balanceCountdown = BALANCE_EVERY;
   if (socket.readyState !== WebSocket.OPEN) return;
   socket.send(message(0, 4, (() => {
     const a = new Uint8Array(8);
@@ -426,7 +484,7 @@ async function onFrameSet(payload, receivedUs) {
     if (c.color) transfer.push(c.color);
   }
   postMessage({type: 'frames', sequence, key, captureUs, cameras: out, decodeMs, depthDecodeMs,
-               receivedUs}, transfer);
+               receivedUs, ...(gains ? {gains} : {})}, transfer);
 }
 
 // The others' camera avatars (messages.hpp 0x49, 0x4a): calibrations by participant, and the
@@ -540,6 +598,7 @@ async function drain() {
         cameras = w.cameras;
         clockOffsetUs = w.serverUs - receivedUs;
         for (const c of cameras) c.rays = rayTable(c);
+        setBalanceCameras();
         const outageMs = cutAt ? performance.now() - cutAt : 0;
         cutAt = 0;
         retryMs = 250;

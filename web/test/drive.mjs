@@ -5,9 +5,10 @@
 // emulated head and controllers; the emulated right trigger teleports.
 //
 //   node drive.mjs --link URL --out DIR [--frames N] [--seconds S] [--xr] [--bench]
-//                  [--stall S] [--chromium PATH]
+//                  [--stall S] [--unblended] [--chromium PATH]
 // --stall: once the page has joined its session, blocks the page's main thread for S seconds
 // (page.json's stalledMs), then goes on.
+// --unblended: then waits until the page's frame budget has turned blending off (page.json's blend).
 // --bench: then times the WebAssembly decoder on the newest frame (page.json's bench).
 // --case: then waits for the patient case, aims at object 0 and presses G (grab), holds X for a
 // second and 10 frames at least (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
@@ -93,6 +94,12 @@ try {
       await page.screenshot({path: `${out}/reconnecting.png`});
       reconnectingShot = true;
     }
+  }
+  // --unblended: until the page's frame budget has turned blending off (frame_budget.js; a test
+  // gives the page framems=1, a period no frame keeps).
+  if (args.includes('--unblended') && s.phase !== 'error') {
+    await page.waitForFunction(() => !window.volcast.blend.on, null, {timeout: 90000});
+    s = await state();
   }
   // --volume NAME:GAIN: once NAME is in the page's people panel, its volume slider set to GAIN,
   // as a person drags it.

@@ -6,6 +6,8 @@ import assert from 'node:assert/strict';
 import path from 'node:path';
 import {fileURLToPath, pathToFileURL} from 'node:url';
 
+import {runTests} from './run_tests.mjs';
+
 const RATE = 48000;
 const FRAME = 960;
 const QUANTUM = 128;
@@ -98,16 +100,4 @@ const tests = {
   },
 };
 
-let failed = 0;
-for (const [name, test] of Object.entries(tests)) {
-  const filter = process.argv[2];
-  if (filter && filter !== name) continue;
-  try {
-    test();
-    console.log(`[       OK ] WebWorklet.${name}`);
-  } catch (err) {
-    ++failed;
-    console.log(`[  FAILED  ] WebWorklet.${name}: ${err.message}`);
-  }
-}
-process.exit(failed ? 1 : 0);
+runTests('WebWorklet', tests);

@@ -19,7 +19,7 @@ void help(const char* text) {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", text);
 }
 
-void renderer_section(CameraPassOptions& pass) {
+void renderer_section(CameraPassOptions& pass, const std::string& blend_off) {
   int surface = pass.surface == Surface::kMesh ? 1 : 0;
   if (ImGui::Combo("surface", &surface, "splats\0mesh\0"))
     pass.surface = surface == 1 ? Surface::kMesh : Surface::kSplats;
@@ -38,6 +38,8 @@ void renderer_section(CameraPassOptions& pass) {
     help("a triangle is dropped when an edge is longer than this x the depth of its nearer corner");
   }
   ImGui::Checkbox("blend overlapping cameras", &pass.blend);
+  if (!blend_off.empty() && !pass.blend)
+    ImGui::TextWrapped("%s; ticking the box blends again", blend_off.c_str());
   if (pass.blend) {
     bool reliable = pass.blend_weights == BlendWeights::kReliability;
     ImGui::Checkbox("weigh by reliability", &reliable);
@@ -198,7 +200,8 @@ void draw_panel(ViewerControls& c, const PanelInfo& info, const std::function<vo
   ImGui::SameLine();
   if (ImGui::Button("screenshot (F12)")) c.screenshot = true;
   if (first) first();
-  if (ImGui::CollapsingHeader("renderer", ImGuiTreeNodeFlags_DefaultOpen)) renderer_section(c.pass);
+  if (ImGui::CollapsingHeader("renderer", ImGuiTreeNodeFlags_DefaultOpen))
+    renderer_section(c.pass, c.blend_off);
   if (ImGui::CollapsingHeader("cameras", ImGuiTreeNodeFlags_DefaultOpen)) {
     for (size_t i = 0; i < c.sliders.size(); ++i) camera_section(c, info, i);
     if (ImGui::Button("save poses (Ctrl+S)")) c.save = true;

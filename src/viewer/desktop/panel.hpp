@@ -28,7 +28,8 @@ struct ViewerControls {
   // Requests.
   bool poses_changed = false, filter_changed = false;
   bool save = false, screenshot = false, reset_view = false;
-  std::string status;  ///< the outcome of the last Save or screenshot, shown in the panel
+  std::string status;     ///< the outcome of the last Save or screenshot, shown in the panel
+  std::string blend_off;  ///< why the frame budget turned blending off, shown under its box
 };
 
 /// Controls starting from the options' pass and avatar filter, for `cameras` cameras.

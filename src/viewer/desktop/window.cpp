@@ -23,6 +23,7 @@
 #include "volcast/io/site_config.hpp"
 #include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/render/annotation_scene.hpp"
+#include "volcast/render/frame_budget.hpp"
 #include "volcast/viewer/desktop.hpp"
 #include "volcast/viewer/navigation.hpp"
 #include "volcast/viewer/voice_keys.hpp"
@@ -380,6 +381,15 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 }
 
+// The display period the frame budget holds frames to: the options', else the primary monitor's
+// refresh rate, else 60 Hz (Xvfb reports none).
+int64_t display_period_us(const DesktopOptions& o) {
+  if (o.frame_period_us > 0) return o.frame_period_us;
+  GLFWmonitor* monitor = glfwGetPrimaryMonitor();
+  const GLFWvidmode* mode = monitor ? glfwGetVideoMode(monitor) : nullptr;
+  return 1'000'000 / (mode && mode->refreshRate > 0 ? mode->refreshRate : 60);
+}
+
 void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   Glfw glfw;
   Window window(o.width, o.height, o.title);
@@ -397,6 +407,8 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
   renderer.set_cameras(cameras);
   renderer.set_avatar_filter(o.avatar_filter);
   ViewerControls controls = initial_controls(o.pass, o.avatar_filter, cameras.size());
+  if (o.blend == BlendPolicy::kOff) controls.pass.blend = false;
+  FrameBudget budget(display_period_us(o));
   Input input{controls, viewpoint.camera};
   if (participant) input.session = &session_panel, input.pointing = &pointing;
   install_callbacks(window.window, input);
@@ -434,6 +446,8 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     // In a session the others move on their own: draw every frame (vsync paces it).
     if (!(arrived || flew || input.redraw > 0 || participant)) continue;  // nothing new to draw
     input.redraw = std::max(0, input.redraw - 1);
+    const auto drawing = std::chrono::steady_clock::now();
+    const bool blended = controls.pass.blend && viewpoint.started;
     if (viewpoint.started) play_script(script, o.clicks, o.mouse, input, drawn);
     apply_requests(controls, renderer, cameras, o, viewpoint.camera, viewpoint.start);
     if (voice) apply_voice_input(*voice, session_panel.voice);  // the keys (also minimised)
@@ -468,6 +482,13 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
     if (controls.screenshot && o.screenshot_panel) take_screenshot(controls, o, target);
     glfwSwapBuffers(window.window);
     feed.presented();
+    const auto frame_us = std::chrono::duration_cast<std::chrono::microseconds>(
+        std::chrono::steady_clock::now() - drawing);
+    if (o.blend == BlendPolicy::kAuto && budget.add(frame_us.count(), blended)) {
+      controls.pass.blend = false;
+      controls.blend_off = result.blend_off = budget.reason();
+      spdlog::warn("{}", budget.reason());
+    }
     if (controls.poses_changed || controls.filter_changed || controls.save || controls.screenshot ||
         controls.reset_view)
       input.redraw = std::max(input.redraw, 1);  // act on the panel's requests next loop

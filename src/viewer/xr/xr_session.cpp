@@ -315,8 +315,13 @@ struct FrameLoop {
   std::vector<XrView> views;
   std::vector<XrCompositionLayerProjectionView> projected;
   RigidTransform world_from_stage_now;
-  bool running = false;  // between READY and STOPPING (poll_events)
-  bool started = false;  // the stream's first frame arrived: the view is set, frames are counted
+  bool running = false;    // between READY and STOPPING (poll_events)
+  bool started = false;    // the stream's first frame arrived: the view is set, frames are counted
+  CameraPassOptions pass;  // o.pass, blending turned off by o.blend or the budget
+  FrameBudget budget{1'000'000 / 90};  // the runtime's period replaces this one's
+  XrTime last_display = 0;             // the last frame's predicted display time (ns)
+  bool last_blended = false;           // whether that frame was drawn blended
+  std::string blend_off;               // budget.reason(), once it turned blending off
 
   FrameLoop(const XrOptions& options, XrRig& xr_rig, CameraRenderer& camera_renderer,
             SessionScene* session_scene, Participant* joined, XrControllers& xr_controllers,
@@ -331,7 +336,26 @@ struct FrameLoop {
         uploaded(cameras.size()),
         views(rig.view_count, xr_struct<XrView>(XR_TYPE_VIEW)),
         projected(rig.view_count),
-        world_from_stage_now(world_from_stage(ViewCamera{}, rig.eye_height)) {}
+        world_from_stage_now(world_from_stage(ViewCamera{}, rig.eye_height)),
+        pass(options.pass) {
+    if (o.blend == BlendPolicy::kOff) pass.blend = false;
+  }
+
+  // The frame budget (BlendPolicy::kAuto): the interval between the last frame's display time and
+  // this one's, against the runtime's display period, counts for the last frame.
+  void keep_budget(const XrFrameState& frame) {
+    if (o.blend == BlendPolicy::kAuto && frame.predictedDisplayPeriod > 0) {
+      budget.set_period(frame.predictedDisplayPeriod / 1000);
+      if (last_display > 0 &&
+          budget.add((frame.predictedDisplayTime - last_display) / 1000, last_blended)) {
+        pass.blend = false;
+        blend_off = budget.reason();
+        spdlog::warn("OpenXR: {}", blend_off);
+      }
+    }
+    last_display = frame.predictedDisplayTime;
+    last_blended = false;
+  }
 
   // Takes new frames from the feed (waiting only while not running), uploads the cameras whose
   // frame changed and, at the first, places the stage (XrOptions::view or default_view()).
@@ -460,7 +484,7 @@ struct FrameLoop {
       draw_eye(rig.eyes[i], [&](const RenderTarget& target) {
         if (participant) {
           SessionSceneOptions so = o.scene;
-          so.pass = o.pass;
+          so.pass = pass;
           const voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
           so.own_muted = link && link->muted();  // a red ball over the left hand
           if (link && now < volume_gesture.shown_until_us)
@@ -473,7 +497,7 @@ struct FrameLoop {
             scene->draw_primitives(view, target, annotation_primitives(drawn, own_color));
           }
         } else {
-          renderer.draw_cameras(view, target, o.pass);
+          renderer.draw_cameras(view, target, pass);
         }
       });
       projected[i] =
@@ -495,6 +519,7 @@ struct FrameLoop {
     XrSession session = rig.session.handle;
     auto frame = xr_struct<XrFrameState>(XR_TYPE_FRAME_STATE);
     xr_check_live(xrWaitFrame(session, nullptr, &frame), "xrWaitFrame");
+    keep_budget(frame);
     xr_check_live(xrBeginFrame(session, nullptr), "xrBeginFrame");
     auto layer = xr_struct<XrCompositionLayerProjection>(XR_TYPE_COMPOSITION_LAYER_PROJECTION);
     const XrCompositionLayerBaseHeader* layers[] = {
@@ -515,6 +540,7 @@ struct FrameLoop {
         if (participant && rig.view_count > 0) track_participant(frame, now);
         draw_eyes(layer, now);
         layer_count = 1;
+        last_blended = pass.blend && started;
       }
     }
     auto end = xr_struct<XrFrameEndInfo>(XR_TYPE_FRAME_END_INFO);
@@ -562,6 +588,7 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   } catch (const Lost&) {
     spdlog::warn("OpenXR: the runtime lost the session");
   }
+  result.blend_off = loop.blend_off;
   feed.close();  // the headset's session ended (or the stream did, when this changes nothing)
 }
 

@@ -35,4 +35,11 @@ ColorCalibration nominal_kinect_color(const std::filesystem::path& data);
 /// the set has none), so colors sit on the surfaces within the spread between units.
 std::vector<std::unique_ptr<FrameSource>> four_camera_site(const std::filesystem::path& data);
 
+/// `cameras` (e.g. four_camera_site's, which has no extrinsics) turned about one point 2 m in
+/// front of the first camera (its camera frame's +z), camera i by 0, 12, -12 or 24 degrees
+/// (i mod 4) about that frame's y axis, so that their surfaces overlap on screen as an operating
+/// room's cameras around one table do: for benchmarks and tests whose cost or coverage depends on
+/// how much is drawn, not on where. Sets each world_from_camera; world = the first camera's frame.
+std::vector<CameraCalibration> turned_to_overlap(std::vector<CameraCalibration> cameras);
+
 }  // namespace volcast

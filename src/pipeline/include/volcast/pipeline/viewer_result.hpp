@@ -54,6 +54,9 @@ struct ViewerResult {
   uint64_t frames_stale = 0;         ///< frame sets decoded but not drawn: older than stale_ms
   std::vector<StageLatency> stages;  ///< per-stage latency, kStageNames order
   std::string renderer;              ///< GL renderer string, empty when not rendering
+  /// Why the window's or headset's frame budget turned blending off (FrameBudget::reason(),
+  /// volcast/render/frame_budget.hpp); empty where it did not.
+  std::string blend_off;
   /// The last frame set's decoded images, per camera (null for a camera that sent none).
   std::vector<std::shared_ptr<const CameraFrame>> last_frames;
   /// A participant's session figures (round trip, the others' pose rates and ages, avatar

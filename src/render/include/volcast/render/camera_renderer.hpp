@@ -40,7 +40,7 @@
 // Blending weights (CameraPassOptions::blend_weights, issue 38; after BlendPCR's quality weights,
 // edge-proximity blending and erosion of unreliable borders):
 //  - kAngleDistance, the first method above (kept to measure against).
-//  - kReliability, the default: a compute pass per new image (not per draw) gives each pixel a
+//  - kReliability, the default: three passes per new image (not per draw) give each pixel a
 //    reliability = w_angle * w_depth (as above) * w_edge, where w_edge = smoothstep over the
 //    chessboard distance d (pixels) to the nearest depth edge -- an invalid pixel, the image's
 //    border, or a 4-neighbour more than 5 % of the depth away -- w_edge = smoothstep(0, 1,
@@ -57,6 +57,11 @@
 //    cameras agree where they see the same surface (colour_balance.hpp): estimated on the CPU
 //    from a fixed grid of samples per camera (about 6000, whatever the image size) every 15 new
 //    images, not per frame.
+//
+// The GLSL is one source with the browser's renderer (web/page/renderer.js): src/render/glsl,
+// written out by cmake/embed_glsl.cmake as volcast/render/glsl.hpp here and camera_glsl.js there
+// (glsl/README.md). The browser has no compute shaders: it marks the mesh's kept triangles per
+// quad in a fragment pass instead of compacting them (mesh_kept.frag, the same triangle_kept).
 #include <Eigen/Core>
 #include <memory>
 #include <span>
@@ -120,6 +125,15 @@ struct CameraPassOptions {
   std::vector<CameraLook> cameras;
 };
 
+/// GPU time (milliseconds, OpenGL timestamp queries) of one draw_cameras() call's passes, for
+/// benchmarks (CameraRenderer::time_passes). updates: the per-image passes (the mesh's triangles,
+/// reliability), zero when no camera had new images; then either plain (one draw of every camera)
+/// or the blending passes: prepass (depth), copy (of that depth), weighted (colour and depth x
+/// weight), resolve (into the target).
+struct CameraPassTimes {
+  double updates_ms = 0, plain_ms = 0, prepass_ms = 0, copy_ms = 0, weighted_ms = 0, resolve_ms = 0;
+};
+
 class CameraRenderer {
  public:
   /// Builds the programs in the OpenGL context current on the calling thread; every later call
@@ -174,6 +188,12 @@ class CameraRenderer {
   /// Each camera's colour gain (RGB, index as in set_cameras) as draw_cameras last estimated it
   /// with balance_colour on; 1 for a camera never balanced.
   std::vector<Eigen::Vector3f> colour_gains() const;
+
+  /// Times each draw_cameras() call's passes on the GPU (off by default; for `volcast bench
+  /// --render`). last_pass_times() waits for the GPU to finish the last call and returns them
+  /// (zeros while timing is off).
+  void time_passes(bool on);
+  CameraPassTimes last_pass_times() const;
 
   /// GL_RENDERER and GL_VERSION of the current context.
   std::string gl_description() const;

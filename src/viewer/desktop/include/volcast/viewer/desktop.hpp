@@ -36,6 +36,7 @@
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/frame_budget.hpp"
 #include "volcast/render/view.hpp"
 #include "volcast/voice/voice_link.hpp"
 
@@ -71,7 +72,15 @@ struct ScriptedMouse {
 struct DesktopOptions {
   int width = 1280, height = 720;  ///< window size, screen coordinates, 1..8192
   std::string title = "volcast";
-  CameraPassOptions pass;          ///< initial panel settings
+  CameraPassOptions pass;  ///< initial panel settings
+  /// kAuto: blending (pass.blend) goes off for the session once frames take too long with it
+  /// (FrameBudget: each frame timed from the start of its drawing to the return of the swap,
+  /// which waits for the display); the panel and result.blend_off say why, and its box turns it
+  /// back on. kOn: never turned off. kOff: pass.blend starts off.
+  BlendPolicy blend = BlendPolicy::kAuto;
+  /// The display's frame period (µs) the budget holds frames to; 0: the primary monitor's
+  /// refresh rate (60 Hz where it reports none).
+  int64_t frame_period_us = 0;
   AvatarFilter avatar_filter;      ///< initial avatar filters
   std::optional<ViewCamera> view;  ///< starting view; default: default_view()
   /// Where the screenshot key writes (overwritten by each press). Empty: volcast-screenshot-<n>.png

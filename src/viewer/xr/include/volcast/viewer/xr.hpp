@@ -15,6 +15,7 @@
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/reconstruct/avatar_filter.hpp"
 #include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/frame_budget.hpp"
 #include "volcast/render/view.hpp"
 #include "volcast/voice/voice_link.hpp"
 
@@ -22,6 +23,10 @@ namespace volcast {
 
 struct XrOptions {
   CameraPassOptions pass;
+  /// kAuto: blending (pass.blend) goes off for the session once the runtime's display times come
+  /// more than 1.5 display periods apart (FrameBudget, with the runtime's predictedDisplayPeriod);
+  /// result.blend_off says why. kOn: never turned off. kOff: pass.blend starts off.
+  BlendPolicy blend = BlendPolicy::kAuto;
   AvatarFilter avatar_filter;
   /// What the user sees when standing at the stage's origin (world_from_stage()); default:
   /// default_view() of the first frames.

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "support/test_data.hpp"
@@ -16,6 +17,25 @@ namespace volcast::test {
 /// The source frame of frame set `sequence` of a HandsSite: hands frame (sequence - 1) % 207.
 inline DepthImage hands_source_frame(uint64_t sequence) {
   return read_depth_png(hands_dir() / "depth" / fmt::format("{:05d}.png", (sequence - 1) % 207));
+}
+
+/// How many of the 207 hands frames have invalid depth (0) at a pixel within `radius` (a square)
+/// of one of `pixels` ((x, y), 0,0 = top left). A ray through such a pixel rightly meets nothing
+/// in that frame (ray_hit.hpp; a mesh leaves a hole there), so a test that aims through a pixel
+/// in whichever frame set happens to be drawn first checks that none does.
+inline int hands_frames_with_holes_near(const std::vector<std::pair<int, int>>& pixels,
+                                        int radius) {
+  int frames = 0;
+  for (uint64_t sequence = 1; sequence <= 207; ++sequence) {
+    const DepthImage depth = hands_source_frame(sequence);
+    bool hole = false;
+    for (const auto& [x0, y0] : pixels)
+      for (int y = y0 - radius; y <= y0 + radius && !hole; ++y)
+        for (int x = x0 - radius; x <= x0 + radius && !hole; ++x)
+          hole = x < 0 || y < 0 || x >= depth.width || y >= depth.height || depth.at(x, y) == 0;
+    frames += hole ? 1 : 0;
+  }
+  return frames;
 }
 
 struct HandsSite {

@@ -36,7 +36,9 @@ void register_demo(CLI::App& app, Commands& commands) {
       ->each(pin);
   d->add_flag("--no-session", demo.no_session,
               "Skip the virtual-OR session (the registered OR cameras, two scripted participants)");
-  d->add_option("--session-seconds", demo.session_seconds, "How long the session part runs")
+  d->add_option("--session-seconds", demo.session_seconds,
+                "How long the session part runs at least (then until it settled, a minute more "
+                "at most)")
       ->capture_default_str();
   d->add_option("--session-fps", demo.session_fps,
                 "Frame sets a second of the session part's OR site (its cameras' one capture each)")

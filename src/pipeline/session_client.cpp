@@ -182,6 +182,7 @@ void SessionClient::run_poses() {
   const auto start = clock::now();
   auto next = start;
   size_t teleports = 0;
+  if (!options_.drive_poses) script_done_ = true;
   while (!stopping_ && !options_.drive_poses) {  // someone else publishes: presence only
     participant_->heartbeat();
     for (int i = 0; i < 50 && !stopping_; ++i)
@@ -199,6 +200,8 @@ void SessionClient::run_poses() {
     if (!options_.script.drawing.empty())
       pointing.step(*participant_,
                     participant_->snapshot(wall_clock_us()).own_body.right_hand.position, t);
+    script_done_ =
+        teleports == options_.script.teleports.size() && objects.done() && pointing.done();
     next += period;
     const auto now = clock::now();
     if (next < now) next = now;  // fell behind (a loaded machine): no burst to catch up

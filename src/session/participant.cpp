@@ -259,6 +259,8 @@ SessionSnapshot Participant::snapshot(int64_t now_us) const {
       s.objects.push_back(v);
     }
     s.monitor = m.monitor;
+    if (m.monitor_sent && steady_us() - m.monitor_sent->second < Impl::kMonitorWaitUs)
+      s.monitor = m.monitor_sent->first;  // its own change, on its way
   }
   for (const auto& [id, v] : m.pointers) s.pointers.push_back(v);
   s.annotations.reserve(m.annotations.size());
@@ -318,6 +320,8 @@ void Participant::set_monitor(const session::MonitorState& state) {
     std::lock_guard lock(m.mutex);
     if (!m.shared_case) return;
     s.generation = m.shared_case->generation;
+    s.by = m.state.id;
+    m.monitor_sent = {s, steady_us()};
   }
   m.post(Type::kSetMonitor, session::serialize_set_monitor(s), uint64_t{4} << 32);
 }

@@ -136,7 +136,12 @@ struct Participant::Impl {
     Pose own;                                    // where this participant last moved it
   };
   std::vector<Track> objects;
-  std::optional<session::MonitorState> monitor;
+  std::optional<session::MonitorState> monitor;  // the server's newest
+  // What set_monitor sent and when (steady_us), until the server's state matches it or it sends
+  // an error: snapshot() shows it meanwhile (kMonitorWaitUs at most), so that changes faster than
+  // the round trip build on each other instead of on the server's older state.
+  std::optional<std::pair<session::MonitorState, int64_t>> monitor_sent;
+  static constexpr int64_t kMonitorWaitUs = 3'000'000;
   std::map<uint32_t, PointerView> pointers;                // held now, by owner (own included)
   uint32_t pointer_sequence = 0;                           // own pointer messages sent
   std::map<uint32_t, session::PointerMessage> pointer_in;  // the newest received, by owner

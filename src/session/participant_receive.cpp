@@ -3,6 +3,15 @@
 #include "participant_impl.hpp"
 
 namespace volcast {
+namespace {
+
+// Whether two monitor states show the same (who set them aside).
+bool same_view(const session::MonitorState& a, const session::MonitorState& b) {
+  return a.generation == b.generation && a.slice == b.slice && a.center == b.center &&
+         a.width == b.width && a.overlay == b.overlay;
+}
+
+}  // namespace
 
 void Participant::Impl::handle_case(std::span<const uint8_t> p) {
   auto c = std::make_shared<session::SharedCase>(session::parse_case(p));
@@ -14,6 +23,7 @@ void Participant::Impl::handle_case(std::span<const uint8_t> p) {
     objects[i].newest.pose = objects[i].own = c->objects[i].rest;
   }
   monitor.reset();
+  monitor_sent.reset();
   spdlog::info("session: case '{}' received: {} objects{}", printable(c->name), c->objects.size(),
                c->monitor ? ", a CT series" : "");
   shared_case = std::move(c);
@@ -62,6 +72,7 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
       return on_joined(session::parse_joined(p));
     case Type::kSessionError:
       state.last_error = session::parse_error(p);
+      monitor_sent.reset();  // perhaps about it: the server's state shows again
       spdlog::warn("session: the server says: {}", printable(state.last_error, 300));
       return;
     case Type::kParticipantJoined:
@@ -93,6 +104,7 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
       const session::MonitorState m = session::parse_monitor_state(p);
       if (!shared_case || m.generation != shared_case->generation) return;
       monitor = m;
+      if (monitor_sent && same_view(monitor_sent->first, m)) monitor_sent.reset();  // it arrived
       return;
     }
     case Type::kVoiceStateFrom: {

@@ -333,6 +333,7 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   ASSERT_TRUE(eventually([&] { return mentor->p().stats().poses_sent >= 90; }, 30s));
   EXPECT_TRUE(watcher->now().pointers.empty()) << "nothing to point at yet";
   EXPECT_TRUE(watcher->now().annotations.empty()) << "nothing drawn without the live clouds";
+  EXPECT_FALSE(mentor->session->script_done());
   surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
                    RigidTransform{});
   bool pointer_seen = false;
@@ -343,6 +344,8 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
       },
       30s));
   EXPECT_TRUE(pointer_seen);
+  EXPECT_TRUE(eventually([&] { return mentor->session->script_done(); })) << "drawn, pointer away";
+  EXPECT_TRUE(eventually([&] { return watcher->now().pointers.empty(); })) << "put away";
   const auto drawn = watcher->now().annotations;
   EXPECT_EQ(drawn[0].kind, AnnotationKind::kStroke);
   EXPECT_GE(drawn[0].points.size(), 4u);

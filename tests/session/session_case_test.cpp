@@ -51,6 +51,7 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   now.id = 7;
   EXPECT_TRUE(scripted.due(nullptr, now, 5).empty()) << "nothing before the case";
   EXPECT_TRUE(scripted.due(&c, now, 5).empty()) << "the case alone: no monitor or object state";
+  EXPECT_FALSE(scripted.done());
 
   session::MonitorState server;
   server.generation = 3, server.slice = 1, server.center = 40, server.width = 400;
@@ -76,6 +77,7 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   a = scripted.due(&c, now, 6.0);
   ASSERT_EQ(a.size(), 1u);
   EXPECT_EQ(a[0].kind, ScriptAction::Kind::kMove) << "held from when the server handed it over";
+  EXPECT_FALSE(scripted.done()) << "holding";
   EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 0, 1e-3);
   a = scripted.due(&c, now, 7.0);
   ASSERT_EQ(a.size(), 1u);
@@ -87,6 +89,7 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   EXPECT_NEAR(a[0].pose.orientation.angularDistance(organ.pose.orientation) * 180 / M_PI, 120, 1e-3)
       << "turned 60 degrees/s for the scripted 2 s, from where it was";
   EXPECT_TRUE(scripted.due(&c, now, 9).empty());
+  EXPECT_TRUE(scripted.done());
 }
 
 // A grab the server never hands over (another holds the object) is given up, not held forever.
@@ -205,6 +208,34 @@ TEST(SessionCase, TheMonitorIsSharedAndTheCaseSwapsForEveryone) {
       eventually([&] { return a.now().monitor->slice == 2 && a.now().monitor->by == b.now().id; }));
   EXPECT_EQ(a.now().monitor->width, 150);
   EXPECT_FALSE(a.now().monitor->overlay);
+  // Changes faster than the round trip build on each other (keys pressed in a row, a slider
+  // dragged): each starts from the one before, not from the server's older state.
+  for (const char* preset : {"abdomen", "bone"}) {
+    session::MonitorState m = *b.now().monitor;
+    ASSERT_EQ(m.slice, 2);
+    m.center = session::window_preset(preset).center;
+    m.width = session::window_preset(preset).width;
+    b.p().set_monitor(m);
+    m = *b.now().monitor;  // at once: still on its way
+    EXPECT_EQ(m.width, session::window_preset(preset).width);
+    m.slice = 0;
+    b.p().set_monitor(m);
+    m = *b.now().monitor;
+    m.overlay = true;
+    b.p().set_monitor(m);
+    ASSERT_TRUE(eventually([&] {
+      const auto h = s.hub.monitor("OR");
+      return h->overlay && h->slice == 0 && a.now().monitor->overlay && b.now().monitor->overlay;
+    }));
+    EXPECT_EQ(s.hub.monitor("OR")->width, session::window_preset(preset).width) << preset;
+    EXPECT_EQ(a.now().monitor->width, session::window_preset(preset).width) << preset;
+    want.slice = 2, want.overlay = false;  // back, for the next round and what follows
+    b.p().set_monitor(want);
+    ASSERT_TRUE(eventually([&] {
+      return a.now().monitor->slice == 2 && !a.now().monitor->overlay &&
+             !s.hub.monitor("OR")->overlay;
+    }));
+  }
   // A slice past the series is refused with a reason; the state stays.
   want.slice = 3;
   b.p().set_monitor(want);

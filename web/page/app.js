@@ -1041,6 +1041,7 @@ function start() {
       } catch (err) {
         fail(err.message);
       }
+      if (voice) voice.follow();
       for (const id of renderer.avatars.keys())
         if (!session.others.has(id)) renderer.removeAvatar(id);
     } else if (m.type === 'voice-speaker-needed') {

@@ -12,6 +12,9 @@
 // come in here (room frame, metres).
 const MAGIC = 0x54534356;
 const VERSION = 5;
+// How long the page shows its own monitor change before the server's state again (Session
+// setMonitor): far past a round trip; a change the server refused shows no longer than this.
+export const MONITOR_WAIT_MS = 3000;
 
 // Normalised linear interpolation of unit quaternions (x, y, z, w), the shorter way.
 function nlerp(a, b, t) {
@@ -97,7 +100,8 @@ export class Session {
     this.teleports = [];
     this.generation = 0;     // the case's (0: none)
     this.objects = [];       // by object index: {owner, sequence, pose, poses: [[timeUs, pose]]}
-    this.monitor = null;     // {slice, center, width, overlay, by}
+    this.monitorServer = null;  // {slice, center, width, overlay, by}: the server's newest
+    this.monitorSent = null;    // {m, atMs}: what this page set, until the server's matches it
     this.pointers = new Map();     // owner id -> {origin, hasHit, hit, time} while held
     this.annotations = new Map();  // id -> {id, author, time, tag, kind, anchor, generation, slice, points, text}
     this.pointerSequence = 0;
@@ -127,9 +131,28 @@ export class Session {
     if (o) o.pose = pose;
     this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(0x0c));
   }
+  // Sets the monitor's whole state (0x0d). Until the server's state matches it (or an error came,
+  // or MONITOR_WAIT_MS passed: another participant's came after it), `monitor` is this one,
+  // so that keys pressed faster than the round trip build on each other instead of on the
+  // server's older state: ] then 2 is the next slice in the liver window, not the liver window on
+  // the old slice.
   setMonitor(m) {
     this.send(new Writer().u32(this.generation).u16(m.slice).f32(m.center).f32(m.width)
         .u8(m.overlay ? 1 : 0).message(0x0d));
+    const by = this.joined ? this.joined.id : 0;
+    this.monitorSent = {m: {slice: m.slice, center: Math.fround(m.center),
+                            width: Math.fround(m.width), overlay: !!m.overlay, by},
+                        atMs: performance.now()};
+  }
+  // The monitor's state as this page shows it: its own change on the way, else the server's.
+  get monitor() {
+    const sent = this.monitorSent;
+    if (sent && performance.now() - sent.atMs < MONITOR_WAIT_MS) return sent.m;
+    return this.monitorServer;
+  }
+  set monitor(m) {
+    this.monitorServer = m;
+    this.monitorSent = null;
   }
   // Object `i`'s pose now: held by another, interpolated `delayUs` in the past between the
   // states received (as the native participant shows others' moves); else its newest.
@@ -230,7 +253,10 @@ export class Session {
         this.annotations.clear();
         this.error = '';
         break;
-      case 0x43: this.error = r.string(); break;
+      case 0x43:  // an error: perhaps about the monitor change on its way, shown no longer
+        this.error = r.string();
+        this.monitorSent = null;
+        break;
       case 0x44: {
         const p = {id: r.u32(), name: r.string(), role: r.u8(), hasCamera: r.u8() === 1,
                    spot: r.spot(), body: null, poses: 0, muted: false};
@@ -296,7 +322,13 @@ export class Session {
       case 0x4d: {
         const generation = r.u32();
         const m = {slice: r.u16(), center: r.f32(), width: r.f32(), overlay: r.u8() === 1, by: r.u32()};
-        if (generation === this.generation) this.monitor = m;
+        if (generation !== this.generation) break;
+        this.monitorServer = m;
+        const sent = this.monitorSent;
+        if (sent && sent.m.slice === m.slice && sent.m.center === m.center &&
+            sent.m.width === m.width && sent.m.overlay === m.overlay)
+          this.monitorSent = null;  // what this page set arrived (or the same, from another)
+        break;
         break;
       }
       case 0x50: {

@@ -32,6 +32,7 @@ export class Voice {
     this.recordedSamples = 0;
     this.ctx = null;
     this.mic = false;
+    this.followedAt = 0;  // performance.now() of the last follow()
   }
 
   // Opens the audio context and, with options.mic, the microphone. Throws (the page shows it)
@@ -132,6 +133,9 @@ export class Voice {
     node.port.postMessage(channel.port1, [channel.port1]);
     this.worker.postMessage({type: 'voice-speaker', id, port: channel.port2}, [channel.port2]);
     this.speakers.set(id, {node, gain, panner, volume: 1});
+    // Placed at once, not at the next frame: a loaded machine's page may draw one a few seconds
+    // apart, and a new voice would sit on the listener's head (heard in the middle) until then.
+    this.placeSpeaker(id, this.speakers.get(id), this.ctx.currentTime);
     const name = this.session.others.get(id)?.name;
     if (this.gains.has(id)) this.setVolume(id, this.gains.get(id));
     else if (name && this.options.volumes?.has(name)) this.setVolume(id, this.options.volumes.get(name));
@@ -150,16 +154,27 @@ export class Voice {
     [l.positionX, l.positionY, l.positionZ].forEach((p, i) => p.setValueAtTime(head.position[i], t));
     [l.forwardX, l.forwardY, l.forwardZ].forEach((p, i) => p.setValueAtTime(fwd[i], t));
     [l.upX, l.upY, l.upZ].forEach((p, i) => p.setValueAtTime(up[i], t));
-    for (const [id, s] of this.speakers) {
-      // The OR site above the table; a participant at its head, or standing at its spot before
-      // its first pose (a replay's recorded speakers never send one).
-      const p = this.session.others.get(id);
-      const at = id === SITE_ID ? SITE_POSITION
-                 : p?.body ? p.body.head.position : p ? [p.spot.x, 1.6, p.spot.z] : null;
-      if (!at) continue;
-      [s.panner.positionX, s.panner.positionY, s.panner.positionZ]
-          .forEach((p, i) => p.setValueAtTime(at[i], t));
-    }
+    for (const [id, s] of this.speakers) this.placeSpeaker(id, s, t);
+  }
+  // Between frames (a loaded machine's page may draw seconds apart), after a session message: the
+  // speakers where the session's newest poses have them, at most every 100 ms.
+  follow() {
+    if (!this.ctx || !this.master) return;
+    const now = performance.now();
+    if (now - this.followedAt < 100) return;
+    this.followedAt = now;
+    for (const [id, s] of this.speakers) this.placeSpeaker(id, s, this.ctx.currentTime);
+  }
+  // Speaker `id`'s panner at context time `t`: the OR site above the table; a participant at its
+  // head, or standing at its spot before its first pose (a replay's recorded speakers never send
+  // one); left where it is when the session does not know it (yet).
+  placeSpeaker(id, s, t) {
+    const p = this.session.others.get(id);
+    const at = id === SITE_ID ? SITE_POSITION
+               : p?.body ? p.body.head.position : p ? [p.spot.x, 1.6, p.spot.z] : null;
+    if (!at) return;
+    [s.panner.positionX, s.panner.positionY, s.panner.positionZ]
+        .forEach((q, i) => q.setValueAtTime(at[i], t));
   }
 
   speaking(id) { return !!this.stats.heard?.[id]?.speaking; }

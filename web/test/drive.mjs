@@ -212,21 +212,24 @@ try {
   }
   if (args.includes('--case') && s.phase !== 'error') {
     await page.waitForFunction(() => window.volcast.case && window.volcast.session.joined &&
-                                     window.volcast.session.monitor, null, {timeout: 30000});
+                                     window.volcast.session.monitor, null, {timeout: 120000});
     await page.evaluate(() => window.volcastAim(0));
     await page.waitForTimeout(200);
     await page.keyboard.press('g');
     await page.waitForFunction(() => window.volcast.session.objects[0].owner === window.volcast.session.id,
-                               null, {timeout: 20000});
+                               null, {timeout: 120000});
     // X held a second and for at least 10 page frames (each moves the held liver once): a loaded
-    // machine may draw only a few frames a second.
+    // machine may draw only a few frames a second, or (CI, beside the sanitized builds) one every
+    // 2.4 s; the waits here are long for it.
     const pressedAt = await page.evaluate(() => window.volcast.desktopFrames);
     await page.keyboard.down('x');
     await page.waitForTimeout(1000);
-    await page.waitForFunction((f) => window.volcast.desktopFrames >= f + 10, pressedAt);
+    await page.waitForFunction((f) => window.volcast.desktopFrames >= f + 10, pressedAt,
+                               {timeout: 180000});
     await page.keyboard.up('x');
     await page.keyboard.press('g');
-    await page.waitForFunction(() => window.volcast.session.objects[0].owner === 0, null, {timeout: 20000});
+    await page.waitForFunction(() => window.volcast.session.objects[0].owner === 0, null,
+                               {timeout: 120000});
     for (const key of [']', '2', 'o']) {
       await page.keyboard.press(key);
       await page.waitForTimeout(300);

@@ -68,6 +68,12 @@ class ScriptedObjects {
                                 double t_s);
   /// Performs the actions due by `t_s` on `participant`.
   void step(Participant& participant, double t_s);
+  /// Whether every grab and monitor change of the script was performed (or given up) and nothing
+  /// is held.
+  bool done() const {
+    return !holding_ && next_grab_ == script_.grabs.size() &&
+           next_monitor_ == script_.monitor.size();
+  }
 
  private:
   PoseScript script_;
@@ -99,6 +105,8 @@ class ScriptedPointing {
   /// Performs what is due by `t_s` seconds into the script on `participant`, the pointer from
   /// `hand` (room frame, metres).
   void step(Participant& participant, const Eigen::Vector3f& hand, double t_s);
+  /// Whether the whole drawing was drawn and the pointer put away.
+  bool done() const { return next_ == script_.drawing.size() && !active_; }
 
  private:
   std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& hand, const Eigen::Vector3f& at) const;
@@ -129,6 +137,10 @@ class SessionClient {
   void stop();
   /// The participant (null before start()).
   Participant* participant() { return participant_.get(); }
+  /// Whether the pose script's teleports, grabs, monitor changes and drawing were all performed
+  /// (ScriptedObjects::done, ScriptedPointing::done); true at once when the caller drives the
+  /// poses. Its body's motion goes on after. Thread-safe.
+  bool script_done() const { return script_done_; }
 
  private:
   void run_poses();
@@ -136,7 +148,7 @@ class SessionClient {
   SessionClientOptions options_;
   std::unique_ptr<FrameSource> camera_;
   std::unique_ptr<Participant> participant_;
-  std::atomic<bool> stopping_{false};
+  std::atomic<bool> stopping_{false}, script_done_{false};
   std::thread poses_, frames_;
 };
 

@@ -20,7 +20,7 @@ namespace volcast {
 enum class ViewerEnd {
   kFramesReached,   ///< ViewerOptions::frames frame sets received
   kSecondsReached,  ///< ViewerOptions::seconds passed
-  kInterrupted,     ///< the external stop flag was set (Ctrl-C)
+  kInterrupted,     ///< the external stop flag was set (Ctrl-C; the demo once its session settled)
   kClosed,          ///< the presenter closed the session (the user closed the window)
   kServerClosed,    ///< the server closed the connection between messages
   kTimedOut,        ///< the server was silent past the handshake or receive timeout

@@ -232,6 +232,9 @@ class Participant {
   /// Lets go of the held object at `room_from_object`.
   void release(uint16_t object, const Pose& room_from_object);
   /// Sets the monitor for everyone (slice, window, overlay; the generation is filled in).
+  /// snapshot().monitor shows this state until the server's matches it or it sends an error (3 s
+  /// at most: another participant's came after it), so that changes faster than the round trip
+  /// build on each other (a slider dragged, keys pressed in a row) instead of on the older state.
   void set_monitor(const session::MonitorState& state);
 
   /// Shows (`on`) or puts away this participant's laser pointer: a ray from `origin` that meets

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "bench_data.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -13,7 +14,7 @@
 namespace volcast {
 namespace {
 
-const std::filesystem::path kData = VOLCAST_BENCH_DATA;
+const std::filesystem::path kData = bench::data_dir();
 
 const CameraFrame& kinect_frame() {
   static const CameraFrame f = open_source(kData / "k4a-recording" / "recording.mkv")->next();

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "bench_data.hpp"
 #include "volcast/calibrate/target.hpp"
 #include "volcast/calibrate/target_sim.hpp"
 #include "volcast/capture/source.hpp"
@@ -19,7 +20,7 @@ namespace {
 void BM_TargetDetect640x576(benchmark::State& state) {
   const double distance = static_cast<double>(state.range(0)) / 1000;
   const Intrinsics k =
-      open_source(std::filesystem::path(VOLCAST_BENCH_DATA) / "k4a-recording" / "recording.mkv")
+      open_source(std::filesystem::path(bench::data_dir()) / "k4a-recording" / "recording.mkv")
           ->calibration()
           .depth;
   const RayTable rays = make_ray_table(k);

@@ -1,5 +1,5 @@
-// libFuzzer target for one decoder, chosen at build time (VOLCAST_FUZZ_KIND: depth, color or
-// protocol; VOLCAST_FUZZ_CODEC: the codec name). Two inputs per run:
+// libFuzzer target for one decoder, chosen at build time (decoder_target.hpp: fuzz::kKind, depth,
+// color or protocol; fuzz::kCodec, the codec name). Two inputs per run:
 //  1. the fuzz bytes as a stream, decoded as they are;
 //  2. a small image made from the fuzz bytes, encoded by the matching encoder, then corrupted at
 //     positions and with masks taken from the bytes, and decoded - so mutations reach deep into a
@@ -12,6 +12,7 @@
 #include <span>
 #include <vector>
 
+#include "decoder_target.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
@@ -36,7 +37,7 @@ void corrupt(std::vector<uint8_t>& bytes, const uint8_t* data, size_t size) {
 void fuzz_depth(const uint8_t* data, size_t size) {
   DepthImage out;
   try {
-    make_depth_decoder(VOLCAST_FUZZ_CODEC)->decode({data, size}, out);
+    make_depth_decoder(fuzz::kCodec)->decode({data, size}, out);
   } catch (const Error&) {
   }
   if (size < 4) return;
@@ -46,8 +47,8 @@ void fuzz_depth(const uint8_t* data, size_t size) {
     const uint8_t b = data[(i + 2) % size];
     image.pixels[i] = b % 5 == 0 ? 0 : static_cast<uint16_t>(500 + b * (1 + data[3] % 64));
   }
-  auto enc = make_depth_encoder(VOLCAST_FUZZ_CODEC);
-  auto dec = make_depth_decoder(VOLCAST_FUZZ_CODEC);
+  auto enc = make_depth_encoder(fuzz::kCodec);
+  auto dec = make_depth_decoder(fuzz::kCodec);
   std::vector<uint8_t> key, delta;
   enc->encode(image, true, key);
   image.pixels[data[2] % image.size()] ^= 0x55;
@@ -63,15 +64,15 @@ void fuzz_depth(const uint8_t* data, size_t size) {
 void fuzz_color(const uint8_t* data, size_t size) {
   ColorImage out;
   try {
-    make_color_decoder(VOLCAST_FUZZ_CODEC)->decode({data, size}, out);
+    make_color_decoder(fuzz::kCodec)->decode({data, size}, out);
   } catch (const Error&) {
   }
   if (size < 4) return;
   const int w = 2 * (1 + data[0] % 20), h = 2 * (1 + data[1] % 16);
   ColorImage image(w, h);
   for (size_t i = 0; i < image.bgra.size(); ++i) image.bgra[i] = data[(i + 2) % size];
-  auto enc = make_color_encoder(VOLCAST_FUZZ_CODEC);
-  auto dec = make_color_decoder(VOLCAST_FUZZ_CODEC);
+  auto enc = make_color_encoder(fuzz::kCodec);
+  auto dec = make_color_decoder(fuzz::kCodec);
   std::vector<uint8_t> bytes;
   enc->encode(image, true, bytes);
   corrupt(bytes, data, size);
@@ -142,7 +143,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const std::string_view kind = VOLCAST_FUZZ_KIND;
+  const std::string_view kind = volcast::fuzz::kKind;
   if (kind == "depth") fuzz_depth(data, size);
   if (kind == "color") fuzz_color(data, size);
   if (kind == "protocol") fuzz_protocol(data, size);

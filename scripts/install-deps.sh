@@ -10,7 +10,7 @@ packages=(
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
   libglfw3-dev libxrandr-dev libimgui-dev libopenxr-dev xvfb xauth
   libopen3d-dev
-  clang-14 libclang-rt-14-dev lld
+  clang-14 libclang-rt-14-dev lld ccache stress-ng
   libwebsocketpp-dev emscripten chromium nodejs
   libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev
   libnats-dev nats-server

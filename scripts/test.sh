@@ -20,16 +20,25 @@ esac
 
 phases=()
 started=$SECONDS
-phase_done() { phases+=("$(printf '%-10s %5d s' "$1" $((SECONDS - started)))"); started=$SECONDS; }
+phase_done() { phases+=("$(printf '%-10s %5d s  %s' "$1" $((SECONDS - started)) "${2:-}")"); started=$SECONDS; }
 summary() { echo "test.sh: seconds per phase"; printf '  %s\n' "${phases[@]}"; }
 trap summary EXIT
+# The compiler cache's hits and misses so far ("0 0" without ccache): the build's are the change.
+ccache_counts() {
+  command -v ccache >/dev/null || { echo "0 0"; return; }
+  ccache --print-stats | awk '$1 == "direct_cache_hit" || $1 == "preprocessed_cache_hit" { h += $2 }
+                              $1 == "cache_miss" { m += $2 } END { print h + 0, m + 0 }'
+}
 
 bash scripts/install-deps.sh
 phase_done install
 cmake --preset dev >/dev/null
 phase_done configure
+read -r hits0 misses0 < <(ccache_counts)
 cmake --build --preset dev
-phase_done build
+read -r hits1 misses1 < <(ccache_counts)
+hits=$((hits1 - hits0)) compiles=$((hits1 - hits0 + misses1 - misses0))
+phase_done build "ccache: $hits of $compiles compiles hit ($((compiles ? 100 * hits / compiles : 0)) %)"
 # The browser tests' npm packages (playwright-core, iwer), exactly as web/test/package-lock.json
 # pins them; Chromium is Debian's (install-deps), never a download.
 [ -n "$label" ] && [ "$label" != browser ] ||

@@ -1,5 +1,5 @@
 // EchoCanceller in a simulated OR: the loudspeaker plays remote speech (real recordings from
-// ${VOLCAST_TEST_DATA}/speech, looped), the microphone hears it 40 ms later, 6 dB down, through a
+// ../shared/data/speech, looped), the microphone hears it 40 ms later, 6 dB down, through a
 // seeded decaying room response, plus a little noise. After ~2 s of convergence the echo must be
 // at least 20 dB down, and a local talker speaking over it must come through.
 #include <gtest/gtest.h>

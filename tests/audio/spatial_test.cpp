@@ -1,4 +1,4 @@
-// SpatialMixer with real recorded speech (${VOLCAST_TEST_DATA}/speech): each voice is heard from
+// SpatialMixer with real recorded speech (../shared/data/speech): each voice is heard from
 // where it stands (left/right energy ratio and interaural delay have the sign the poses imply),
 // two voices at once stay apart, distance attenuates as the inverse-distance model says, and
 // several mixers work side by side (three participants in one process).

@@ -10,11 +10,13 @@
 #include <string>
 #include <vector>
 
+#include "support/test_paths.hpp"
+
 namespace volcast::audio::test {
 
-/// The speech file `name` from ${VOLCAST_TEST_DATA}/speech as float mono samples at 48 kHz.
+/// The speech file `name` from ../shared/data/speech as float mono samples at 48 kHz.
 inline std::vector<float> read_speech(const std::string& name) {
-  const std::string path = std::string(VOLCAST_TEST_DATA) + "/speech/" + name;
+  const std::string path = std::string(volcast::test::paths::data()) + "/speech/" + name;
   SF_INFO info{};
   SNDFILE* file = sf_open(path.c_str(), SFM_READ, &info);
   if (file == nullptr)

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "support/speech.hpp"  // align, resumed_correlation (header only: no shared data lookup)
+#include "support/test_paths.hpp"
 #include "volcast/audio/opus_voice.hpp"
 #include "volcast/audio/voice_format.hpp"
 #include "volcast/audio/voice_stream.hpp"
@@ -57,7 +58,7 @@ void operator delete(void* p, size_t) noexcept {
 
 namespace {
 
-const fs::path kSpeech = fs::path(VOLCAST_TEST_DATA) / "speech";
+const fs::path kSpeech = fs::path(volcast::test::paths::data()) / "speech";
 using Frame = std::array<float, kFrameSamples>;
 
 fs::path temp_path(const std::string& name) {

@@ -8,6 +8,7 @@
 #include <spdlog/spdlog.h>
 
 #include "support/impaired_stream.hpp"
+#include "support/test_paths.hpp"
 
 int main(int argc, char** argv) {
   using namespace volcast;
@@ -35,7 +36,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "cannot make the link: %s\n", why.c_str());
         return 2;
       }
-      const PathRun r = run_over_link(*link, VOLCAST_TEST_DATA, seconds, window);
+      const PathRun r = run_over_link(*link, test::paths::data(), seconds, window);
       std::printf("%-24s %-14s %7.1f %7.1fms %7.1fms %7d %8llu\n", p.name,
                   window == 2 ? "fixed 2 (old)" : "BDP (new)", r.fps, r.latency_ms_p50,
                   r.latency_ms_p99, r.window, static_cast<unsigned long long>(r.skipped));

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/calibrate/floor.hpp"
 #include "volcast/calibrate/site_calibration.hpp"
 #include "volcast/calibrate/target.hpp"
@@ -356,7 +357,7 @@ TEST(FloorSynthetic, AWallIsNotTakenForTheFloorWhenGravityIsKnown) {
 
 // --- volcast calibrate, end to end -----------------------------------------------------------
 
-const std::string kVolcast = VOLCAST_BINARY;
+const std::string kVolcast = test::paths::volcast();
 
 RigidTransform aimed(const Eigen::Vector3d& eye, const Eigen::Vector3d& at) {
   return camera_looking_at(eye, at);

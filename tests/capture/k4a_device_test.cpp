@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/capture/k4a_device.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/net/stream/client.hpp"
@@ -20,7 +21,7 @@ namespace fs = std::filesystem;
 
 // Points libk4a at the stand-in serving the real recording, with `devices` devices.
 void use_stand_in(int devices, const fs::path& log = {}) {
-  setenv("VOLCAST_K4A_LIBRARY", VOLCAST_FAKE_K4A, 1);
+  setenv("VOLCAST_K4A_LIBRARY", test::paths::fake_k4a(), 1);
   setenv("VOLCAST_FAKE_K4A_RECORDING", test::kinect_mkv().c_str(), 1);
   setenv("VOLCAST_FAKE_K4A_DEVICES", std::to_string(devices).c_str(), 1);
   if (!log.empty()) setenv("VOLCAST_FAKE_K4A_LOG", log.c_str(), 1);

@@ -13,6 +13,7 @@
 
 #include "support/sequence_folder.hpp"
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/pipeline/sender.hpp"
 
 namespace volcast {
@@ -213,7 +214,7 @@ TEST(SiteCapture, InfoChecksEveryFrameAndNamesTheBadOnes) {
   const fs::path bad = test::break_depth(dir, 5, test::BadDepth::kTruncated);
   std::string out;
   const fs::path json = dir / "info.json";  // stdout alone: logs go to stderr
-  ASSERT_EQ(test::run_command("(" + std::string(VOLCAST_BINARY) + " info --json " + dir.string() +
+  ASSERT_EQ(test::run_command("(" + std::string(test::paths::volcast()) + " info --json " + dir.string() +
                                   " >" + json.string() + ")",
                               out),
             0)
@@ -232,7 +233,7 @@ TEST(SiteCapture, InfoChecksEveryFrameAndNamesTheBadOnes) {
   const fs::path huge = dir / "depth" / test::hands_depth(9).filename();
   fs::remove(huge);
   test::write_png_header_claiming(huge, 20000, 20000);
-  ASSERT_EQ(test::run_command(std::string(VOLCAST_BINARY) + " info " + dir.string(), out), 0)
+  ASSERT_EQ(test::run_command(std::string(test::paths::volcast()) + " info " + dir.string(), out), 0)
       << out;
   EXPECT_NE(out.find("2 cannot be read"), std::string::npos) << out;
   EXPECT_NE(out.find(bad.string()), std::string::npos) << out;

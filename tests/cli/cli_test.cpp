@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "support/xvfb.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/cluster/local_cluster.hpp"
@@ -21,7 +22,7 @@
 namespace volcast {
 namespace {
 
-const std::string kVolcast = VOLCAST_BINARY;
+const std::string kVolcast = test::paths::volcast();
 
 TEST(Cli, HelpListsTheSubcommands) {
   std::string out;

@@ -12,6 +12,7 @@
 
 #include "support/hands_site.hpp"
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/local_cluster.hpp"
 #include "volcast/cluster/nats.hpp"
@@ -669,7 +670,7 @@ TEST(RelayCommand, ServeRelayAndViewThroughNats) {
   const auto dir = test::temp_dir("relay_cli");
   LocalNatsCluster nats_server(dir, 1);
   const std::string volcast =
-      std::string("XDG_CONFIG_HOME=") + (dir / "config").string() + " " + VOLCAST_BINARY;
+      std::string("XDG_CONFIG_HOME=") + (dir / "config").string() + " " + test::paths::volcast();
   std::string out;
   ASSERT_EQ(test::run_command(volcast + " serve --source " + test::hands_dir().string() +
                                   " --intrinsics 460,460,320,180 --fps 15 --seconds 90 --port 0 "

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/capture/camera_folder.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
@@ -18,7 +19,7 @@ namespace volcast {
 namespace {
 namespace fs = std::filesystem;
 
-const std::string kVolcast = VOLCAST_BINARY;
+const std::string kVolcast = test::paths::volcast();
 
 // The Azure Kinect recording's factory NFOV depth intrinsics (full Brown-Conrady model): what the
 // four-camera set is used with.
@@ -27,7 +28,7 @@ Intrinsics kinect() {
 }
 
 fs::path four_cameras() {
-  return fs::path(VOLCAST_TEST_DATA) / "k4a-4cam-nfov";
+  return fs::path(test::paths::data()) / "k4a-4cam-nfov";
 }
 
 void write_text(const fs::path& file, const std::string& text) {

@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
@@ -632,7 +633,7 @@ TEST(HostileServer, CliWritesStatsWithTheReasonAndExitsNonZeroOnSilence) {
                  welcome({camera(64, 48, "cam\n[error] forged")}));
   });
   const Process p = run_process(
-      {VOLCAST_BINARY, "view", "--connect", "127.0.0.1:" + std::to_string(server.port()),
+      {test::paths::volcast(), "view", "--connect", "127.0.0.1:" + std::to_string(server.port()),
        "--insecure", "--token", std::string(32, '0'), "--no-render", "--depth-codec", "raw",
        "--color-codec", "raw", "--stats-json", (dir / "stats.json").string(), "--receive-timeout",
        "1000", "--no-reconnect"},
@@ -659,7 +660,7 @@ TEST(HostileServer, CliWritesStatsWhenItCannotConnect) {
     port = probe.port();
   }
   const Process p =
-      run_process({VOLCAST_BINARY, "view", "--connect", "127.0.0.1:" + std::to_string(port),
+      run_process({test::paths::volcast(), "view", "--connect", "127.0.0.1:" + std::to_string(port),
                    "--insecure", "--token", std::string(32, '0'), "--no-render", "--stats-json",
                    (dir / "stats.json").string()},
                   dir / "log.txt");

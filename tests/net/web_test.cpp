@@ -25,6 +25,7 @@
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
 #include "support/stalling_proxy.hpp"
+#include "support/test_paths.hpp"
 #include "support/web_peer.hpp"
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
@@ -41,8 +42,8 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const std::filesystem::path kWebRoot = VOLCAST_WEB_ROOT;
-const std::filesystem::path kWebTests = VOLCAST_WEB_TEST_DIR;
+const std::filesystem::path kWebRoot = test::paths::web_root();
+const std::filesystem::path kWebTests = test::paths::web_tests();
 
 // The page's tier pinned (as a link with depth= is): where the tier is not what is tested, a
 // loaded machine's slow decoding must not move it along the ladder (AdaptsWithin... tests that).

@@ -15,6 +15,7 @@
 
 #include "support/hands_site.hpp"
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/capture/k4a_recording.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -533,7 +534,7 @@ TEST(Recording, ACaptureTimeThatJumpsIsReplayedAtTheFramePaceAndNamedByInfo) {
   EXPECT_EQ(published, 12);
 
   std::string out;
-  ASSERT_EQ(test::run_command(std::string(VOLCAST_BINARY) + " info --json " + lying.string(), out),
+  ASSERT_EQ(test::run_command(std::string(test::paths::volcast()) + " info --json " + lying.string(), out),
             0)
       << out;
   const auto j = nlohmann::json::parse(out.substr(out.find('{')));

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/capture/real_sites.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/core/ray_table.hpp"
@@ -24,8 +25,8 @@
 namespace volcast {
 namespace {
 
-const std::filesystem::path kWebRoot = VOLCAST_WEB_ROOT;
-const std::filesystem::path kWebTests = VOLCAST_WEB_TEST_DIR;
+const std::filesystem::path kWebRoot = test::paths::web_root();
+const std::filesystem::path kWebTests = test::paths::web_tests();
 
 // Two pictures of one view (BGRA, top row first) and where each drew (true: drawn).
 struct Picture {

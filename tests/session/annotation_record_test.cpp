@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "support/session_site.hpp"
+#include "support/test_paths.hpp"
 #include "support/voice_recorder.hpp"
 #include "volcast/pipeline/annotation_export.hpp"
 #include "volcast/record/recording.hpp"
@@ -75,7 +76,7 @@ TEST(Annotations, TheRecorderRecordsTheSessionsDrawingAndExportListsIt) {
   // The CLI's export writes them.
   const std::string json = (dir / "annotations.json").string();
   const std::string command =
-      std::string(VOLCAST_BINARY) + " export " + file + " --annotations " + json + " > /dev/null";
+      std::string(test::paths::volcast()) + " export " + file + " --annotations " + json + " > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0);
   const nlohmann::json j = nlohmann::json::parse(std::ifstream(json));
   ASSERT_EQ(j["annotations"].size(), 2u);

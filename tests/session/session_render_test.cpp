@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "support/session_site.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/net/stream/client.hpp"
@@ -434,7 +435,7 @@ TEST(SessionCli, ServeAndTwoParticipants) {
   const auto dir = test::temp_dir("session_cli");
   const std::string token = "00112233445566778899aabbccddeeff";
   { std::ofstream(dir / "token") << token << "\n"; }
-  const std::string serve = std::string(VOLCAST_BINARY) + " serve --source " +
+  const std::string serve = std::string(test::paths::volcast()) + " serve --source " +
                             test::hands_dir().string() +
                             " --intrinsics 460,460,320,180 --port 0 --insecure --fps 10"
                             " --seconds 25 --token-file " +
@@ -448,11 +449,11 @@ TEST(SessionCli, ServeAndTwoParticipants) {
       << "for i in $(seq 100); do link=$(grep -o 'volcast://[^ ]*' " << dir.string()
       << "/serve.log | head -1); [ -n \"$link\" ] && break; sleep 0.1; done\n"
       << "[ -n \"$link\" ] || { cat " << dir.string() << "/serve.log; exit 9; }\n"
-      << VOLCAST_BINARY << " view --connect \"$link\" --no-render --join OR --name Surgeon"
+      << test::paths::volcast() << " view --connect \"$link\" --no-render --join OR --name Surgeon"
       << " --camera " << test::hands_dir().string() << " --camera-intrinsics 460,460,320,180"
       << " --seconds 8 --depth-codec rvl > " << dir.string() << "/a.log 2>&1 &\n"
       << "sleep 1\n"
-      << VOLCAST_BINARY << " view --connect \"$link\" --headless --join OR --name Viewer"
+      << test::paths::volcast() << " view --connect \"$link\" --headless --join OR --name Viewer"
       << " --seconds 6 --size 320x180 --screenshot " << dir.string() << "/eye.png --stats-json "
       << dir.string() << "/b.json > " << dir.string() << "/b.log 2>&1; b=$?\n"
       << "wait %2; a=$?\n"

@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "support/test_paths.hpp"
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -21,7 +22,7 @@ namespace volcast::test {
 namespace fs = std::filesystem;
 
 fs::path data_dir() {
-  const fs::path d = VOLCAST_TEST_DATA;
+  const fs::path d = test::paths::data();
   if (!fs::exists(d / "README.md"))
     ADD_FAILURE() << "real test data not found at " << d
                   << " (clone with ../shared beside the repo)";

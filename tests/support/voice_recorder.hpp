@@ -14,6 +14,7 @@
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
+#include "support/test_paths.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/voice/voice_link.hpp"
 
@@ -34,14 +35,14 @@ inline bool played_until(const voice::VoiceLink& listener, int64_t until_us) {
 /// it could not be started (a test failure is added).
 inline pid_t spawn_recorder(const std::string& link, const std::string& file,
                             const std::string& session = "OR") {
-  std::vector<std::string> args{VOLCAST_BINARY, "record", "--connect", link,
+  std::vector<std::string> args{test::paths::volcast(), "record", "--connect", link,
                                 "--out",        file,     "--session", session};
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);
   pid_t pid = 0;
   if (posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) {
-    ADD_FAILURE() << "cannot start " << VOLCAST_BINARY << " record";
+    ADD_FAILURE() << "cannot start " << test::paths::volcast() << " record";
     return 0;
   }
   return pid;

@@ -23,6 +23,7 @@
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
 #include "support/test_data.hpp"
+#include "support/test_paths.hpp"
 #include "support/xvfb.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/pipeline/receiver.hpp"
@@ -38,7 +39,7 @@ fs::path write_manifest(const fs::path& dir) {
   const fs::path manifest = dir / "mock_runtime.json";
   std::ofstream(manifest) << nlohmann::json{
       {"file_format_version", "1.0.0"},
-      {"runtime", {{"name", "volcast mock"}, {"library_path", VOLCAST_MOCK_XR}}}};
+      {"runtime", {{"name", "volcast mock"}, {"library_path", test::paths::mock_xr()}}}};
   return manifest;
 }
 

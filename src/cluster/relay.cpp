@@ -34,6 +34,12 @@ Relay::Relay(NatsConnection& nats, RelayOptions options)
     session_ = std::make_unique<SessionForwarder>(nats_, options_.site, options_.relay_name);
     options_.server.session = session_.get();
   }
+  // The upstream tier arrives encoded and passes through: free for the CPU budget, also for a
+  // viewer that connects before the first frame set has come.
+  if (options_.server.passed_through_tier.empty())
+    options_.server.passed_through_tier =
+        options_.depth_codec + "/" + options_.color_codec +
+        (options_.color_quality ? "/" + std::to_string(options_.color_quality) : "");
   server_ = std::make_unique<Server>(cameras_, options_.server);
   if (session_) session_->attach(server_.get());
   tier_sub_ = nats_.subscribe(

@@ -73,9 +73,11 @@ struct RelayedSession {
     o.relay_name = name;
     o.server.port = 0;
     o.server.latency_budget_ms = 5000;  // counts from the site's capture: a loaded box
-    // Relaying, not the CPU budget, is tested: before frames flow a tier is priced at 30 fps,
-    // over a 2-core machine's share for one address (a participant was once rejected so).
-    o.server.tier_cpu_budget = 8;
+    // The budget of a 2-core machine on every machine. The participants watch the relay's
+    // upstream tier, which passes the site's bytes through and costs nothing (its
+    // passed_through_tier), also when they connect before its first frame set (a tier is then
+    // priced at 30 fps: on 2 cores one was once refused so).
+    o.server.tier_cpu_budget = 1;
     return o;
   }
   static ClientConfig viewer_of(Relay& relay) {
@@ -123,6 +125,10 @@ TEST(SessionThroughRelays, ParticipantsOnTwoRelaysAndTheSiteShareOneSession) {
       << b.error;
   EXPECT_EQ(r.s.hub.members("OR").size(), 4u);  // the OR site and three
   EXPECT_EQ(r.bridge.stats().viewers, 2u);
+  for (Relay* relay : {&*r.one, &*r.two}) {  // each relay passes the site's tier through: free
+    ASSERT_EQ(relay->server().tiers().size(), 1u);
+    EXPECT_EQ(relay->server().tiers()[0].cost_cores, 0);
+  }
   // The case (over max_payload) arrived whole through both relays.
   ASSERT_TRUE(eventually([&] {
     return a.now().objects.size() == 1 && b.now().objects.size() == 1 &&

@@ -464,6 +464,32 @@ TEST(Door, ThePageServerAnswersOnlyGetAndHeadAndRefusesABodyUnread) {
 // Before its Hello a WebSocket peer gets no pong (nothing is buffered for it), and one that
 // floods pings is closed once it has sent its connection's byte budget, the log naming the limit;
 // flooders reconnecting all along keep no native viewer out.
+// A relay's server passes its upstream tier's bytes through without encoding
+// (ServerConfig::passed_through_tier): that tier costs nothing, also before the first frame set
+// (when a tier is priced at 30 fps), so its viewers are admitted under any budget; another tier,
+// which it would encode, is still priced and refused past the budget. Nothing is published here.
+TEST(Door, ThePassedThroughTierIsFreeBeforeItsFirstFrameSet) {
+  std::vector<protocol::CameraInfo> cameras;
+  for (const auto& source : HandsSite::sources())
+    cameras.push_back({source->calibration(), source->description()});
+  ServerConfig config;
+  config.port = 0;
+  config.tier_cpu_budget = 0.001;  // less than any tier that encodes
+  config.passed_through_tier = "volcast/jpeg";
+  Server server(cameras, config);
+  ClientConfig relayed = joining(server);  // volcast/jpeg
+  Client first(relayed), second(relayed);
+  ASSERT_EQ(server.tiers().size(), 1u);
+  EXPECT_EQ(server.tiers()[0].cost_cores, 0);
+  relayed.depth_codec = "rvl";
+  const std::string why = error_of([&] { Client{relayed}; });
+  EXPECT_NE(why.find("tier rvl/jpeg would cost about"), std::string::npos) << why;
+  EXPECT_EQ(server.tiers().size(), 1u);
+  server.stop();
+  config.passed_through_tier = "volcast/jpeg@2";
+  EXPECT_NE(error_of([&] { Server{cameras, config}; }).find("no @N"), std::string::npos);
+}
+
 TEST(Door, PingsBeforeTheHelloGetNoPongAndAFloodIsClosedAtItsByteBudget) {
   auto stream = std::make_shared<std::ostringstream>();
   auto sink = std::make_shared<spdlog::sinks::ostream_sink_mt>(*stream);

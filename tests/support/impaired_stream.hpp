@@ -19,9 +19,21 @@ struct PathRun {
   uint64_t frames = 0, skipped = 0;
 };
 
+/// What the site publishes.
+enum class Demand {
+  /// The real site at 30 fps, each frame set read and encoded (what `volcast_link_bench` measures;
+  /// a loaded machine's site sends fewer).
+  kSite,
+  /// The site's first frame set again and again (fresh capture times, the same frames: the
+  /// stateless tier sends their bytes again without encoding), each as soon as the server has sent
+  /// the one before: the demand stays ahead of what the pacing window lets through, whatever the
+  /// machine's load, so the window is the only limit.
+  kAheadOfThePath,
+};
+
 /// Streams `seconds` (after 1 s of warm-up) and returns the figures. Throws Error on failure.
 /// `max_window` 2 reproduces the old fixed window of two unacknowledged frame sets.
 PathRun run_over_link(ImpairedLink& link, const std::filesystem::path& data, double seconds,
-                      int max_window = 8);
+                      int max_window = 8, Demand demand = Demand::kSite);
 
 }  // namespace volcast

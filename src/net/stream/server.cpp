@@ -114,6 +114,12 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   for (const auto& t : config.offered_tiers)
     if (detail::parse_tier(t, "offered tier").frame_divisor != 1)
       throw Error("server: offered tier '" + t + "': @N is for the ladder (--ladder) only");
+  if (!config.passed_through_tier.empty()) {
+    impl_->passed_through = detail::parse_tier(config.passed_through_tier, "passed-through tier");
+    if (impl_->passed_through->frame_divisor != 1)
+      throw Error("server: passed-through tier '" + config.passed_through_tier +
+                  "': a publisher's tier has every frame set (no @N)");
+  }
   const bool default_ladder_given = config.ladder == default_ladder();
   const bool sized = config.ladder_sizes.size() == config.ladder.size();
   for (size_t i = 0; i < config.ladder.size(); ++i) {

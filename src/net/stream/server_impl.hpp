@@ -14,6 +14,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <list>
 #include <map>
 #include <mutex>
@@ -170,6 +171,7 @@ struct Server::Impl {
   };
   std::list<Viewer> viewers;
   std::vector<detail::TierKey> ladder;  // config.ladder parsed
+  std::optional<detail::TierKey> passed_through;  // config.passed_through_tier parsed: free
   std::vector<double> ladder_sizes;     // its rungs' relative sizes, or empty
   // Each tier's last measured rate (bits/s) by name, kept after it stops: a rung not running now
   // is judged by what it produced last.

@@ -229,8 +229,10 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKe
     if (static_cast<int>(tiers.size()) >= config.max_tiers)
       throw Error("server has " + std::to_string(config.max_tiers) +
                   " tiers already; choose the codecs of a viewer already watching");
-    // Unknown codecs throw; a tier of every Nth frame set costs 1/N per site frame set.
-    const double encode_ns = detail::tier_encode_ns(key, site_pixels) / key.frame_divisor;
+    // Unknown codecs throw; a tier of every Nth frame set costs 1/N per site frame set; the
+    // publisher's own tier passes its bytes through (ServerConfig::passed_through_tier): free.
+    const double estimate = detail::tier_encode_ns(key, site_pixels) / key.frame_divisor;
+    const double encode_ns = passed_through == key ? 0 : estimate;
     if (address) check_tier_budget(key, encode_ns, *address, share);
     tier = std::make_shared<Tier>(key, cameras.size());
     tier->encode_ns = encode_ns;

@@ -90,6 +90,11 @@ struct ServerConfig {
   /// the reject; tiers that run already, and viewers joining them, are never refused. Taps
   /// (add_tier_tap) are counted but not refused. 0: half this machine's cores, at least 1.
   double tier_cpu_budget = 0;
+  /// The tier whose frame sets the publisher hands over encoded (CapturedFrameSet::encoded: a
+  /// relay's upstream tier, "DEPTH/COLOR[/QUALITY]"): it passes their bytes through without
+  /// encoding, so the CPU budget counts it as free, also before the first frame set has come.
+  /// Empty: none. Throws Error (in Server's constructor) if it does not parse (parse_tier).
+  std::string passed_through_tier;
   /// Tiers that the viewers of one address (IP) may hold alone, i.e. that no other address and
   /// no tap watches; together those may also cost at most half of tier_cpu_budget. A viewer
   /// that would go past either is rejected, naming the limit.

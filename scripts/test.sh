@@ -4,17 +4,18 @@
 # fuzz every decoder and parser for a bounded time. Prints the seconds of each phase at the end.
 #
 #   bash scripts/test.sh            everything (what CI runs)
-#   bash scripts/test.sh --quick    the inner loop: an incremental build, then the unit tests
-#                                   (ctest label `unit`), no fuzzing
-#   bash scripts/test.sh --label L  an incremental build, then the tests labelled L (unit, stream,
-#                                   session, browser, cluster, cli), no fuzzing
+#   bash scripts/test.sh --quick    the inner loop: an incremental build of the unit tests (and
+#                                   the volcast binary they run), then those tests (ctest label
+#                                   `unit`), no fuzzing
+#   bash scripts/test.sh --label L  the same for the tests labelled L (unit, stream, session,
+#                                   browser, cluster, cli, registration)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label=""
 case "${1:-}" in
   "") ;;
   --quick) label=unit ;;
-  --label) label="${2:?--label needs one of: unit stream session browser cluster cli}" ;;
+  --label) label="${2:?--label needs one of: unit stream session browser cluster cli registration}" ;;
   *) echo "usage: bash scripts/test.sh [--quick | --label LABEL]" >&2; exit 2 ;;
 esac
 
@@ -35,7 +36,11 @@ phase_done install
 cmake --preset dev >/dev/null
 phase_done configure
 read -r hits0 misses0 < <(ccache_counts)
-cmake --build --preset dev
+if [ -n "$label" ]; then
+  cmake --build --preset dev --target "volcast_tests_$label"  # that label's tests and what they run
+else
+  cmake --build --preset dev
+fi
 read -r hits1 misses1 < <(ccache_counts)
 hits=$((hits1 - hits0)) compiles=$((hits1 - hits0 + misses1 - misses0))
 phase_done build "ccache: $hits of $compiles compiles hit ($((compiles ? 100 * hits / compiles : 0)) %)"

@@ -12,6 +12,7 @@
 #include <spdlog/fmt/fmt.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -152,28 +153,89 @@ std::shared_ptr<o3r::Feature> select(const o3r::Feature& f, const std::vector<si
   return out;
 }
 
-// FPFH + RANSAC over the off-plane points: target_from_source from features alone (no start).
-std::vector<RigidTransform> global_candidates(const std::vector<Eigen::Vector3d>& source,
-                                              const std::vector<Eigen::Vector3d>& target,
+// One camera's FPFH features (the global start), over its cloud voxelised to feature_voxel_m and
+// over what of it is off its large planes: computed once per camera and registration, for every
+// pair it is in. The clouds keep their points only: RANSAC copies its source for every hypothesis
+// it scores, and reads no normals.
+struct Features {
+  Cloud whole, off;
+  std::shared_ptr<o3r::Feature> whole_f, off_f;
+};
+
+Features compute_features(const std::vector<Eigen::Vector3d>& points, const TargetlessOptions& o) {
+  const double v = o.feature_voxel_m;
+  const Cloud s = prepare(points, v);
+  Features f;
+  f.whole_f = o3r::ComputeFPFHFeature(*s, o3g::KDTreeSearchParamHybrid(v * 5, 100));
+  const auto index = off_planes(*s);
+  f.off_f = select(*f.whole_f, index);
+  f.whole = std::make_shared<o3g::PointCloud>(s->points_);
+  f.off = f.whole->SelectByIndex(index);
+  return f;
+}
+
+// What RANSAC draws from: the feature matches of `s` into `d` (each source point to its nearest
+// target feature, kept where that target point's nearest source feature is the same point; all of
+// them when fewer than 9 agree), as Open3D's RegistrationRANSACBasedOnFeatureMatching makes them,
+// and the matched points alone: point k of `source` and of `target` is match k. RANSAC reads only
+// the matched points, but copies its whole source for every hypothesis it scores.
+struct Matches {
+  o3g::PointCloud source, target;
+  o3r::CorrespondenceSet pairs;
+};
+
+Matches match(const o3g::PointCloud& s, const o3g::PointCloud& d, const o3r::Feature& fs,
+              const o3r::Feature& fd) {
+  const auto nearest = [](const o3g::KDTreeFlann& tree, const o3r::Feature& f, int i) {
+    std::vector<int> index(1);
+    std::vector<double> dist2(1);
+    tree.SearchKNN(Eigen::VectorXd(f.data_.col(i)), 1, index, dist2);
+    return index[0];
+  };
+  const int ns = static_cast<int>(s.points_.size()), nd = static_cast<int>(d.points_.size());
+  if (ns == 0 || nd == 0) return {};
+  const o3g::KDTreeFlann tree_d(fd), tree_s(fs);
+  std::vector<int> s_to_d(static_cast<size_t>(ns)), d_to_s(static_cast<size_t>(nd));
+  for (int i = 0; i < ns; ++i) s_to_d[static_cast<size_t>(i)] = nearest(tree_d, fs, i);
+  for (int j = 0; j < nd; ++j) d_to_s[static_cast<size_t>(j)] = nearest(tree_s, fd, j);
+  o3r::CorrespondenceSet mutual;
+  for (int i = 0; i < ns; ++i) {
+    const int j = s_to_d[static_cast<size_t>(i)];
+    if (d_to_s[static_cast<size_t>(j)] == i) mutual.emplace_back(i, j);
+  }
+  if (mutual.size() < 9) {  // ransac_n (3) x 3, as Open3D falls back
+    mutual.clear();
+    for (int i = 0; i < ns; ++i) mutual.emplace_back(i, s_to_d[static_cast<size_t>(i)]);
+  }
+  Matches m;
+  for (int k = 0; k < static_cast<int>(mutual.size()); ++k) {
+    m.source.points_.push_back(s.points_[static_cast<size_t>(mutual[static_cast<size_t>(k)](0))]);
+    m.target.points_.push_back(d.points_[static_cast<size_t>(mutual[static_cast<size_t>(k)](1))]);
+    m.pairs.emplace_back(k, k);
+  }
+  return m;
+}
+
+// FPFH + RANSAC over the whole clouds and over the off-plane points: target_from_source from
+// features alone (no start). The matches are made once per kind, for every trial.
+std::vector<RigidTransform> global_candidates(const Features& s, const Features& d,
                                               const TargetlessOptions& o) {
   const double v = o.feature_voxel_m;
-  const Cloud s = prepare(source, v), d = prepare(target, v);
-  const o3g::KDTreeSearchParamHybrid feature_search(v * 5, 100);
-  const auto fs = o3r::ComputeFPFHFeature(*s, feature_search);
-  const auto fd = o3r::ComputeFPFHFeature(*d, feature_search);
-  const auto si = off_planes(*s), di = off_planes(*d);
-  const Cloud ss = s->SelectByIndex(si), ds = d->SelectByIndex(di);
-  const auto fss = select(*fs, si), fds = select(*fd, di);
   const o3r::CorrespondenceCheckerBasedOnEdgeLength edges(0.9);
   const o3r::CorrespondenceCheckerBasedOnDistance distance(v * 1.5);
+  std::optional<Matches> whole_m, off_m;
   std::vector<RigidTransform> out;
   for (int trial = 0; trial < o.global_trials; ++trial) {
     // Alternate: features over the whole cloud, and over what is off its large planes.
     const bool whole = trial % 2 == 0;
-    const auto r = o3r::RegistrationRANSACBasedOnFeatureMatching(
-        whole ? *s : *ss, whole ? *d : *ds, whole ? *fs : *fss, whole ? *fd : *fds, true, v * 1.5,
-        o3r::TransformationEstimationPointToPoint(false), 3, {edges, distance},
-        o3r::RANSACConvergenceCriteria(o.ransac_iterations, 0.9999));
+    std::optional<Matches>& m = whole ? whole_m : off_m;
+    if (!m)
+      m = whole ? match(*s.whole, *d.whole, *s.whole_f, *d.whole_f)
+                : match(*s.off, *d.off, *s.off_f, *d.off_f);
+    if (m->pairs.size() < 3) continue;  // no hypothesis (Open3D returns an empty result)
+    const auto r = o3r::RegistrationRANSACBasedOnCorrespondence(
+        m->source, m->target, m->pairs, v * 1.5, o3r::TransformationEstimationPointToPoint(false),
+        3, {edges, distance}, o3r::RANSACConvergenceCriteria(o.ransac_iterations, 0.9999));
     if (r.correspondence_set_.size() >= 10) out.push_back(rigid(r.transformation_));
   }
   return out;
@@ -210,42 +272,21 @@ double translation_conditioning(const Eigen::Matrix3d& normals) {
   return ev(2) > 0 ? std::max(0.0, ev(0)) / ev(2) : 0.0;
 }
 
-}  // namespace
-
-std::vector<Eigen::Vector3d> depth_points(const DepthImage& depth, const RayTable& rays, int stride,
-                                          double min_m, double max_m) {
-  if (depth.width != rays.width || depth.height != rays.height)
-    throw Error("depth_points: depth is " + std::to_string(depth.width) + "x" +
-                std::to_string(depth.height) + " but the ray table is " +
-                std::to_string(rays.width) + "x" + std::to_string(rays.height));
-  stride = std::max(stride, 1);
-  std::vector<Eigen::Vector3d> out;
-  out.reserve(depth.size() / (static_cast<size_t>(stride) * stride));
-  for (int y = 0; y < depth.height; y += stride)
-    for (int x = 0; x < depth.width; x += stride) {
-      const size_t i = static_cast<size_t>(y) * depth.width + x;
-      const double z = depth.pixels[i] * 1e-3;
-      if (z < min_m || z > max_m || !std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i]))
-        continue;
-      out.emplace_back(rays.x[i] * z, rays.y[i] * z, z);
-    }
-  return out;
-}
-
-std::vector<CameraOverlap> measure_overlap(std::span<const std::vector<Eigen::Vector3d>> clouds,
-                                           std::span<const RigidTransform> world_from_camera,
-                                           double voxel_m, double overlap_distance_m) {
-  if (clouds.size() != world_from_camera.size())
-    throw Error("measure_overlap: " + std::to_string(clouds.size()) + " clouds but " +
-                std::to_string(world_from_camera.size()) + " poses");
-  std::vector<Cloud> world(clouds.size());
-  for (size_t c = 0; c < clouds.size(); ++c)
-    world[c] = transformed(*prepare_fine(clouds[c], 3 * voxel_m), world_from_camera[c]);
-  std::vector<CameraOverlap> out(clouds.size());
-  for (size_t c = 0; c < clouds.size(); ++c) {
+// Each placed camera's overlap with the other placed cameras at world_from_camera, from its
+// samples with normals (prepare_fine, camera frame); an unplaced camera (nullopt) gets an empty
+// CameraOverlap and is no one's partner.
+std::vector<CameraOverlap> overlap(std::span<const Cloud> samples,
+                                   std::span<const std::optional<RigidTransform>> world_from_camera,
+                                   double overlap_distance_m) {
+  std::vector<Cloud> world(samples.size());
+  for (size_t c = 0; c < samples.size(); ++c)
+    if (world_from_camera[c]) world[c] = transformed(*samples[c], *world_from_camera[c]);
+  std::vector<CameraOverlap> out(samples.size());
+  for (size_t c = 0; c < samples.size(); ++c) {
+    if (!world[c]) continue;
     o3g::PointCloud others;
-    for (size_t d = 0; d < clouds.size(); ++d)
-      if (d != c) others += *world[d];
+    for (size_t d = 0; d < samples.size(); ++d)
+      if (d != c && world[d]) others += *world[d];
     if (others.points_.empty() || world[c]->points_.empty()) continue;
     o3g::KDTreeFlann tree(others);
     std::vector<int> index(1);
@@ -271,6 +312,36 @@ std::vector<CameraOverlap> measure_overlap(std::span<const std::vector<Eigen::Ve
   return out;
 }
 
+}  // namespace
+
+std::vector<Eigen::Vector3d> depth_points(const DepthImage& depth, const RayTable& rays, int stride,
+                                          double min_m, double max_m) {
+  if (depth.width != rays.width || depth.height != rays.height)
+    throw Error("depth_points: depth is " + std::to_string(depth.width) + "x" +
+                std::to_string(depth.height) + " but the ray table is " +
+                std::to_string(rays.width) + "x" + std::to_string(rays.height));
+  stride = std::max(stride, 1);
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(depth.size() / (static_cast<size_t>(stride) * stride));
+  for (int y = 0; y < depth.height; y += stride)
+    for (int x = 0; x < depth.width; x += stride) {
+      const size_t i = static_cast<size_t>(y) * depth.width + x;
+      const double z = depth.pixels[i] * 1e-3;
+      if (z < min_m || z > max_m || !std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i]))
+        continue;
+      out.emplace_back(rays.x[i] * z, rays.y[i] * z, z);
+    }
+  return out;
+}
+
+std::vector<CameraOverlap> measure_overlap(std::span<const std::vector<Eigen::Vector3d>> clouds,
+                                           std::span<const RigidTransform> world_from_camera,
+                                           double voxel_m, double overlap_distance_m) {
+  const std::vector<std::optional<RigidTransform>> placed(world_from_camera.begin(),
+                                                          world_from_camera.end());
+  return measure_overlap(clouds, placed, voxel_m, overlap_distance_m);
+}
+
 std::vector<CameraOverlap> measure_overlap(
     std::span<const std::vector<Eigen::Vector3d>> clouds,
     std::span<const std::optional<RigidTransform>> world_from_camera, double voxel_m,
@@ -278,33 +349,33 @@ std::vector<CameraOverlap> measure_overlap(
   if (clouds.size() != world_from_camera.size())
     throw Error("measure_overlap: " + std::to_string(clouds.size()) + " clouds but " +
                 std::to_string(world_from_camera.size()) + " poses");
-  std::vector<std::vector<Eigen::Vector3d>> placed_clouds;
-  std::vector<RigidTransform> placed;
-  std::vector<size_t> index;
+  std::vector<Cloud> samples(clouds.size());
   for (size_t c = 0; c < clouds.size(); ++c)
-    if (world_from_camera[c]) {
-      placed_clouds.push_back(clouds[c]);
-      placed.push_back(*world_from_camera[c]);
-      index.push_back(c);
-    }
-  std::vector<CameraOverlap> out(clouds.size());
-  const auto some = measure_overlap(placed_clouds, placed, voxel_m, overlap_distance_m);
-  for (size_t k = 0; k < index.size(); ++k) out[index[k]] = some[k];
-  return out;
+    if (world_from_camera[c]) samples[c] = prepare_fine(clouds[c], 3 * voxel_m);
+  return overlap(samples, world_from_camera, overlap_distance_m);
 }
 
 namespace {
 
 // What register_targetless works on: the cameras, their starts, the options, where progress
-// goes, and per camera its cloud (camera frame, metres), a sparse copy (the free-space check) and
-// its ICP levels.
+// goes, and per camera (camera frame, metres) a sparse copy of its cloud (the free-space check),
+// its ICP levels, its samples with normals for measuring the overlap, and its features (computed
+// when a pair it is in first needs them).
 struct Work {
   std::span<const TargetlessCamera> cameras;
   std::span<const std::optional<RigidTransform>> start;
   const TargetlessOptions& o;
   std::function<void(const std::string&)> note;
-  std::vector<std::vector<Eigen::Vector3d>> clouds, sparse;
+  std::vector<std::vector<Eigen::Vector3d>> sparse;
   std::vector<Levels> levels;
+  std::vector<Cloud> samples;
+  std::vector<std::optional<Features>> features;
+
+  bool usable(size_t c) const { return cameras[c].cloud.size() >= 100; }
+  const Features& features_of(size_t c) {
+    if (!features[c]) features[c] = compute_features(cameras[c].cloud, o);
+    return *features[c];
+  }
 };
 
 // Whether `world_from_c` ends within the tolerance of the camera's start (always, without one).
@@ -327,13 +398,14 @@ struct Tried {
 // Camera c against placed camera p: each hypothesis (its start, then the features'), refined by
 // ICP, kept when it agrees with what both saw (free space) and stays near c's start; the best
 // into `t`.
-void try_pair(const Work& w, size_t c, size_t p,
-              const std::vector<std::optional<RigidTransform>>& pose, Tried& t) {
+void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<RigidTransform>>& pose,
+              Tried& t) {
   const TargetlessOptions& o = w.o;
   std::vector<RigidTransform> hypotheses;
   if (w.start[c]) hypotheses.push_back(pose[p]->inverse() * *w.start[c]);
   const size_t from_start = hypotheses.size();
-  for (const RigidTransform& g : global_candidates(w.clouds[c], w.clouds[p], o))
+  const Features& fc = w.features_of(c);
+  for (const RigidTransform& g : global_candidates(fc, w.features_of(p), o))
     hypotheses.push_back(g);
   for (size_t h = 0; h < hypotheses.size(); ++h) {
     const RigidTransform& g = hypotheses[h];
@@ -368,7 +440,7 @@ void try_pair(const Work& w, size_t c, size_t p,
 //    given. A camera with a start is placed like the others, from hypotheses (its start, and the
 //    features') refined and checked against the cameras already placed -- keeping those that end
 //    within the tolerance of its start -- so one rough start cannot pull the others.
-std::vector<std::optional<RigidTransform>> place_cameras(const Work& w, size_t ref) {
+std::vector<std::optional<RigidTransform>> place_cameras(Work& w, size_t ref) {
   const size_t n = w.cameras.size();
   const TargetlessOptions& o = w.o;
   std::vector<std::optional<RigidTransform>> pose(n);
@@ -379,9 +451,9 @@ std::vector<std::optional<RigidTransform>> place_cameras(const Work& w, size_t r
     size_t best = n;
     RigidTransform best_pose;
     for (size_t c = 0; c < n; ++c) {
-      if (pose[c] || w.clouds[c].size() < 100) continue;
+      if (pose[c] || !w.usable(c)) continue;
       for (size_t p = 0; p < n; ++p) {
-        if (!pose[p] || w.clouds[p].size() < 100) continue;
+        if (!pose[p] || !w.usable(p)) continue;
         Tried& t = tried[c][p];
         if (!t.done) {
           t.done = true;
@@ -408,16 +480,16 @@ void refine_jointly(const Work& w, size_t ref, std::vector<std::optional<RigidTr
   for (int round = 0; round < o.joint_rounds; ++round)
     for (size_t c = 0; c < n; ++c) {
       if (!pose[c] || c == ref) continue;
-      Levels others;
-      for (int l = 0; l < kLevels; ++l) others.level[l] = std::make_shared<o3g::PointCloud>();
-      for (size_t d = 0; d < n; ++d)
-        if (d != c && pose[d])
-          for (int l = 0; l < kLevels; ++l)
-            *others.level[l] += *transformed(*w.levels[d].level[l], *pose[d]);
       // From the coarsest level in the first round (a start may be 20 cm off), down to the
-      // samples in the last.
-      const PairFit f = icp(w.levels[c], others, *pose[c], o, round == 0 ? 0 : 1,
-                            round + 1 < o.joint_rounds ? 2 : 3);
+      // samples in the last; the others at those levels only.
+      const int first = round == 0 ? 0 : 1, last = round + 1 < o.joint_rounds ? 2 : 3;
+      Levels others;
+      for (int l = first; l <= last; ++l) {
+        others.level[l] = std::make_shared<o3g::PointCloud>();
+        for (size_t d = 0; d < n; ++d)
+          if (d != c && pose[d]) *others.level[l] += *transformed(*w.levels[d].level[l], *pose[d]);
+      }
+      const PairFit f = icp(w.levels[c], others, *pose[c], o, first, last);
       pose[c] = f.target_from_source;
       if (round == o.joint_rounds - 1)
         w.note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
@@ -430,8 +502,7 @@ void verify(const Work& w, size_t ref, const std::vector<std::optional<RigidTran
             TargetlessResult& result) {
   const size_t n = w.cameras.size();
   const TargetlessOptions& o = w.o;
-  const auto& clouds = w.clouds;
-  result.after = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
+  result.after = overlap(w.samples, pose, o.overlap_distance_m);
   for (size_t c = 0; c < n; ++c) {
     if (!pose[c]) continue;
     result.conditioning[c] = result.after[c].conditioning;
@@ -483,32 +554,29 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
            if (o.progress) o.progress(line);
          },
          std::vector<std::vector<Eigen::Vector3d>>(n),
-         std::vector<std::vector<Eigen::Vector3d>>(n),
-         std::vector<Levels>(n)};
-  std::vector<std::vector<Eigen::Vector3d>>& clouds = w.clouds;
-  for (size_t c = 0; c < n; ++c) clouds[c] = cameras[c].cloud;
+         std::vector<Levels>(n),
+         std::vector<Cloud>(n),
+         std::vector<std::optional<Features>>(n)};
   result.world_from_camera.assign(n, std::nullopt);
   result.conditioning.assign(n, 0);
   const size_t ref = static_cast<size_t>(reference);
   for (size_t c = 0; c < n; ++c)
-    if (clouds[c].size() < 100)
-      result.problems.push_back(cam(c) + ": fewer than 100 valid depth samples");
+    if (!w.usable(c)) result.problems.push_back(cam(c) + ": fewer than 100 valid depth samples");
 
-  bool all_started = true;
-  for (size_t c = 0; c < n; ++c) all_started = all_started && start[c].has_value();
-  if (all_started) {
-    std::vector<RigidTransform> poses;
-    for (const auto& s : start) poses.push_back(*s);
-    result.before = measure_overlap(clouds, poses, o.icp_voxels_m[3], o.overlap_distance_m);
-  }
-
+  // Each camera's clouds once: the overlap is measured three times (at the start, after
+  // placement, at the result) and the ICP levels serve every pair and round.
   for (size_t c = 0; c < n; ++c) {
-    w.sparse[c] = prepare(clouds[c], 0.05)->points_;
-    if (clouds[c].size() >= 100) w.levels[c] = prepare_levels(clouds[c], o);
+    const std::vector<Eigen::Vector3d>& cloud = cameras[c].cloud;
+    w.samples[c] = prepare_fine(cloud, 3 * o.icp_voxels_m[3]);
+    w.sparse[c] = o3g::PointCloud(cloud).VoxelDownSample(0.05)->points_;
+    if (w.usable(c)) w.levels[c] = prepare_levels(cloud, o);
   }
+  if (std::all_of(start.begin(), start.end(), [](const auto& s) { return s.has_value(); }))
+    result.before = overlap(w.samples, start, o.overlap_distance_m);
+
   std::vector<std::optional<RigidTransform>> pose = place_cameras(w, ref);
   for (size_t c = 0; c < n; ++c)
-    if (!pose[c] && clouds[c].size() >= 100)
+    if (!pose[c] && w.usable(c))
       result.problems.push_back(
           cam(c) +
           (start[c]
@@ -517,7 +585,7 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
           "shares too little of the scene with them, or the scene has too "
           "little shape); give it a rough start (viewer sliders) or a target");
 
-  const auto started = measure_overlap(clouds, pose, o.icp_voxels_m[3], o.overlap_distance_m);
+  const auto started = overlap(w.samples, pose, o.overlap_distance_m);
   for (size_t c = 0; c < n; ++c)
     if (pose[c])
       w.note(cam(c) + " before the joint ICP: overlap " +

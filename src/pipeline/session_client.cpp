@@ -30,7 +30,8 @@ RigidTransform auto_playarea_from_camera(const DepthImage& first) {
 }
 
 std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
-                                               const SessionSnapshot& s, double t_s) {
+                                               const SessionSnapshot& s, double t_s,
+                                               bool move_queued) {
   std::vector<ScriptAction> out;
   if (!c) return out;  // every event waits for the case
   using Kind = ScriptAction::Kind;
@@ -72,14 +73,16 @@ std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
     grab_ = g;
     grab_.t_s = t_s;  // asked for now, however late that is
     granted_s_.reset();
+    steps_ = std::max(1, static_cast<int>(std::lround(grab_.for_s * kMovesPerSecond)));
+    moved_ = -1;
     holding_ = true;
     out.push_back(action(Kind::kGrab, object_));
     return out;
   }
   if (!holding_) return out;
   const bool mine = object_ < s.objects.size() && s.objects[object_].owner == s.id;
-  // Held for for_s from when the server made it ours (on a loaded machine that may be a while
-  // after asking); given up if it never does within kGrantWait_s.
+  // Held from when the server made it ours (on a loaded machine that may be a while after
+  // asking); given up if it never does within kGrantWait_s.
   if (mine && !granted_s_) granted_s_ = t_s;
   if (!granted_s_) {
     if (t_s - grab_.t_s >= grab_.for_s + kGrantWait_s) {
@@ -89,25 +92,34 @@ std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
     }
     return out;
   }
-  const auto held = static_cast<float>(std::min(t_s - *granted_s_, grab_.for_s));
-  Pose pose = start_pose_;
-  pose.orientation = (Eigen::Quaternionf(Eigen::AngleAxisf(
-                          held * grab_.turn_deg_per_s * static_cast<float>(M_PI / 180),
-                          Eigen::Vector3f::UnitY())) *
-                      start_pose_.orientation)
-                         .normalized();
-  if (t_s - *granted_s_ >= grab_.for_s) {
-    if (mine) out.push_back(action(Kind::kRelease, object_, pose));
+  if (!mine) {  // taken from us (the server ended the hold): nothing more to send
     holding_ = false;
     return out;
   }
-  if (mine) out.push_back(action(Kind::kMove, object_, pose));
+  if (move_queued) return out;  // the step before has not left yet: never coalesce two
+  const int next = moved_ + 1;  // 0..steps_: a move; steps_ + 1: the release
+  // Not yet due (a microsecond's slack for the sum's rounding: 6.1 - 6.0 < 0.1 in doubles).
+  if (next <= steps_ && (t_s - *granted_s_) * kMovesPerSecond + 1e-6 < next) return out;
+  const auto turned = static_cast<float>(grab_.turn_deg_per_s * grab_.for_s *
+                                         std::min(next, steps_) / steps_ * M_PI / 180);
+  Pose pose = start_pose_;
+  pose.orientation = (Eigen::Quaternionf(Eigen::AngleAxisf(turned, Eigen::Vector3f::UnitY())) *
+                      start_pose_.orientation)
+                         .normalized();
+  if (next > steps_) {
+    out.push_back(action(Kind::kRelease, object_, pose));
+    holding_ = false;
+    return out;
+  }
+  moved_ = next;
+  out.push_back(action(Kind::kMove, object_, pose));
   return out;
 }
 
 void ScriptedObjects::step(Participant& p, double t_s) {
   const auto c = p.shared_case();
-  for (const ScriptAction& a : due(c.get(), p.snapshot(wall_clock_us()), t_s)) {
+  const bool queued = holding_ && p.object_request_queued(object_);
+  for (const ScriptAction& a : due(c.get(), p.snapshot(wall_clock_us()), t_s, queued)) {
     switch (a.kind) {
       case ScriptAction::Kind::kGrab:
         p.grab(a.object);

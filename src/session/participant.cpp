@@ -313,6 +313,11 @@ void Participant::release(uint16_t object, const Pose& room_from_object) {
   impl_->post_object(Type::kRelease, object, room_from_object);
 }
 
+bool Participant::object_request_queued(uint16_t object) const {
+  std::lock_guard lock(impl_->client_mutex);
+  return !impl_->detached && impl_->client->session_queued(Impl::object_key(object));
+}
+
 void Participant::set_monitor(const session::MonitorState& state) {
   Impl& m = *impl_;
   session::MonitorState s = state;

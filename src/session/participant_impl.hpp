@@ -183,6 +183,9 @@ struct Participant::Impl {
   void handle_voice(std::span<const uint8_t> p);
   void handle_drawing(Type type, std::span<const uint8_t> p);
 
+  // The queue's key of `object`'s moves and release: the newest replaces one still queued.
+  static uint64_t object_key(uint16_t object) { return (uint64_t{3} << 32) | object; }
+
   // A move or release of `object` at `pose` (shown here at once), coalesced per object.
   void post_object(Type type, uint16_t object, const Pose& pose) {
     session::ObjectRequest q{0, object, pose};
@@ -192,7 +195,7 @@ struct Participant::Impl {
       q.generation = shared_case->generation;
       objects[object].own = pose;
     }
-    post(type, session::serialize(q, true), (uint64_t{3} << 32) | object);
+    post(type, session::serialize(q, true), object_key(object));
   }
 
   void send_join(const std::string& name, bool create) {

@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 
 #include "level.hpp"
 #include "volcast/audio/spatial_mixer.hpp"
@@ -29,9 +30,42 @@ struct VoiceLink::Speaker {
   Latencies latencies;
 };
 
+namespace {
+
+// VoiceConfig::played_log, closed at the end.
+struct PlayedLog {
+  std::FILE* file = nullptr;
+  explicit PlayedLog(const std::string& path)
+      : file(path.empty() ? nullptr : std::fopen(path.c_str(), "w")) {
+    if (!path.empty() && !file) throw Error("voice: cannot write the played log " + path);
+  }
+  ~PlayedLog() {
+    if (file) std::fclose(file);
+  }
+  PlayedLog(const PlayedLog&) = delete;
+  PlayedLog& operator=(const PlayedLog&) = delete;
+};
+
+char played_how(audio::PlayedFrame::Source source) {
+  switch (source) {
+    case audio::PlayedFrame::Source::kPacket:
+      return 'p';
+    case audio::PlayedFrame::Source::kFec:
+      return 'f';
+    case audio::PlayedFrame::Source::kConcealed:
+      return 'c';
+    case audio::PlayedFrame::Source::kSilence:
+      break;
+  }
+  return 's';
+}
+
+}  // namespace
+
 struct VoiceLink::Devices {
   std::unique_ptr<Microphone> mic;
   std::unique_ptr<voice::Speaker> speaker;
+  std::unique_ptr<PlayedLog> played;
   std::unique_ptr<audio::SpatialMixer> mixer;
   std::array<float, kFrameSamples> block{}, heard{};
   std::array<float, 2 * kFrameSamples> out{};
@@ -45,6 +79,7 @@ VoiceLink::VoiceLink(Participant& participant, VoiceConfig config)
   Devices& d = *devices_;
   if (!config_.mic.empty()) d.mic = open_microphone(config_.mic, config_.mic_start_us);
   if (!config_.speaker.empty()) d.speaker = open_speaker(config_.speaker, config_.spatial ? 2 : 1);
+  if (!config_.played_log.empty()) d.played = std::make_unique<PlayedLog>(config_.played_log);
   if (config_.spatial) {
     d.mixer = std::make_unique<audio::SpatialMixer>();
     stats_.hrtf = d.mixer->hrtf();
@@ -69,6 +104,7 @@ void VoiceLink::stop() {
   if (thread_.joinable()) thread_.join();
   participant_.set_voice_handler(nullptr);
   devices_->speaker.reset();  // closes the file
+  devices_->played.reset();
 }
 
 void VoiceLink::set_muted(bool muted) {
@@ -155,6 +191,10 @@ void VoiceLink::play(int64_t now_us) {
   std::lock_guard lock(mutex_);
   for (auto& [id, speaker] : speakers_) {
     const audio::PlayedFrame played = speaker->stream.next(d.heard);
+    if (d.played)
+      std::fprintf(d.played->file, "%llu\t%u\t%c\t%u\n",
+                   static_cast<unsigned long long>(stats_.frames_played), id,
+                   played_how(played.source), played.frame);
     if (played.source == audio::PlayedFrame::Source::kPacket ||
         played.source == audio::PlayedFrame::Source::kFec)
       speaker->latencies.add(double(heard_at - played.capture_us) / 1000.0);

@@ -118,7 +118,8 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   write_registered_four_kinects(dir / "site-4cam.json");
   std::string out;
   // The session part's site at 5 fps: four cameras decoded by three viewers at 30 fps is more
-  // than a loaded 2-core machine does with the sanitizers (their poses came at 2 a second).
+  // than a loaded 2-core machine does with the sanitizers; what is checked below is counted
+  // (moves, annotations, participants), not a rate.
   ASSERT_EQ(test::run_command(kVolcast + " demo --seconds 3 --session-fps 5 --data " +
                                   test::data_dir().string() + " --out " + dir.string(),
                               out),
@@ -185,10 +186,9 @@ TEST(Cli, DemoStreamsRealDataAndWritesStatsAndRenders) {
   for (const auto& p : c["parts"]) EXPECT_TRUE(p["closed"]) << p.dump();
   EXPECT_EQ(c["hub"]["grabs"], 1);
   EXPECT_EQ(c["hub"]["releases"], 1);
-  // Moved while held: each tick's move replaces the one still queued (the newest wins), so how
-  // many reach the hub depends on the machine's load (5 over 2.5 s with the sanitizers on a
-  // loaded 2-core machine, where the participant's receiving thread decodes four cameras).
-  EXPECT_GT(c["hub"]["object_moves"].get<int>(), 0);
+  // Moved while held: the scripted turn's 2.5 s in 25 steps and its start pose, each sent once
+  // the one before has left (ScriptedObjects): all 26 reach the hub, on a loaded machine later.
+  EXPECT_EQ(c["hub"]["object_moves"], 26);
   EXPECT_EQ(c["liver"]["owner"], 0);
   EXPECT_NEAR(c["liver"]["turned_deg"].get<double>(), 150, 1);
   EXPECT_EQ(c["monitor"]["slice"], 2);

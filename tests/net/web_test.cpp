@@ -49,6 +49,12 @@ const std::filesystem::path kWebTests = test::paths::web_tests();
 // loaded machine's slow decoding must not move it along the ladder (AdaptsWithin... tests that).
 const std::string kPinned = "&depth=volcast";
 
+// Where the page's pictures are not what a test checks, it draws one every 4 s (fps=, as a slow
+// machine's page would): SwiftShader draws the hands site's blended mesh, the page's default
+// picture, in about 2 CPU seconds whatever the viewport's size (its 1.4 million vertices, not its
+// pixels, cost them), so a page drawing as fast as it can takes every core a loaded machine has.
+const std::string kFewPictures = "&fps=0.25";
+
 ServerConfig web_config(bool insecure) {
   ServerConfig c;
   c.web_root = kWebRoot;
@@ -222,9 +228,11 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   register_video_codecs();  // the h264 color tier, as the volcast CLI offers it
   test::HandsSite s(15, web_config(false));
   const auto out = test::temp_dir("web_desktop");
+  // The default picture (the blended mesh) drawn every 4 s: the page's frame budget, measuring
+  // against that period, keeps blending on (asserted below).
   const nlohmann::json page =
-      drive(s.server.web_link("127.0.0.1") + kPinned + "&check=1&room=0&name=Desk", out,
-            "--frames 40 --seconds 200 --bench");
+      drive(s.server.web_link("127.0.0.1") + kPinned + kFewPictures + "&check=1&room=0&name=Desk",
+            out, "--frames 40 --seconds 200 --bench");
   ASSERT_FALSE(page.is_null());
   EXPECT_EQ(page["phase"], "streaming") << page["error"];
   EXPECT_EQ(page["cameras"], 1);
@@ -259,7 +267,7 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   // does, give or take the edges.
   const auto splats_out = test::temp_dir("web_desktop_splats");
   const nlohmann::json splats_page =
-      drive(s.server.web_link("127.0.0.1") + kPinned + "&room=0&surface=splats&name=Splats",
+      drive(s.server.web_link("127.0.0.1") + kPinned + "&fps=1&room=0&surface=splats&name=Splats",
             splats_out, "--frames 10");
   ASSERT_FALSE(splats_page.is_null());
   EXPECT_EQ(splats_page["phase"], "streaming") << splats_page["error"];
@@ -267,10 +275,12 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
   // H.264 color through WebCodecs: colored points (not the grey of a camera without color).
   // This page is told its display shows a frame every 1 ms (framems=1), which no frame keeps:
   // its frame budget turns blending off (frame_budget.js) and says why, and it draws on, plain.
+  // Its 5 pictures a second (fps=5) span the budget's window in 10 frames.
   const auto h264_out = test::temp_dir("web_desktop_h264");
   const nlohmann::json h264_page =
-      drive(s.server.web_link("127.0.0.1") + "&room=0&color=h264&name=Video&framems=1", h264_out,
-            "--frames 20 --unblended");
+      drive(s.server.web_link("127.0.0.1") +
+                "&room=0&color=h264&name=Video&framems=1&fps=5&surface=splats",
+            h264_out, "--frames 20 --unblended");
   ASSERT_FALSE(h264_page.is_null());
   EXPECT_EQ(h264_page["phase"], "streaming") << h264_page["error"];
   EXPECT_TRUE(h264_page["blend"]["auto"]);
@@ -280,6 +290,7 @@ TEST(WebBrowser, DesktopDecodesTheRealRecordingBitExactAndDrawsIt) {
             std::string::npos)
       << h264_page["blend"].dump();
   EXPECT_TRUE(page["blend"]["auto"]) << "no blend= in its link: blending kept by frame rate";
+  EXPECT_TRUE(page["blend"]["on"]) << page["blend"].dump();
   EXPECT_GE(h264_page["colorFrames"].get<int>(), 15) << h264_page["warnings"].dump();
   const ColorImage video = read_color_png(h264_out / "desktop.png");
   EXPECT_GT(colored(video), colored(shot) / 2) << "as colored as with JPEG, give or take";
@@ -347,8 +358,8 @@ TEST(WebBrowser, AdaptsWithinWhatItDecodesAndReconnectsAfterItsPathStalls) {
   const auto out = test::temp_dir("web_reconnect");
   // Its floor keeps depth lossless (the ladder's lossy rung is never its own), so that every frame
   // set checks bit-exact even when a loaded machine's slow decoding looks like a slow path.
-  const nlohmann::json page =
-      drive(link + "&check=1&room=0&name=Roaming&floor=lossless", out, "--frames 45");
+  const nlohmann::json page = drive(
+      link + kFewPictures + "&check=1&room=0&name=Roaming&floor=lossless", out, "--frames 45");
   done = true;
   cutter.join();
   ASSERT_FALSE(page.is_null());
@@ -381,11 +392,12 @@ TEST(WebBrowser, AdaptsWithinWhatItDecodesAndReconnectsAfterItsPathStalls) {
 TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   SessionHubConfig hub;
   hub.site_translation = {0, 1.3f, 0.3f};
-  test::SessionSite s(hub, 15, web_config(false));
+  test::SessionSite s(hub, 5, web_config(false));
   // A native participant with a camera avatar (the hands sequence again).
   SessionClientOptions with_camera = test::named("Native");
   with_camera.camera_source = test::hands_dir();
   with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
+  with_camera.camera_options.fps = 5;
   test::TestParticipant native(s, with_camera);
   const auto out = test::temp_dir("web_xr");
   // What the native participant sees of the web one while the browser runs (it leaves at the end).
@@ -400,12 +412,17 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
     }
   });
   const nlohmann::json page =
-      // The session is under test here, not the picture (BrowserParity is): the cameras are
-      // drawn plain, as splats, so that SwiftShader on a loaded 2-core machine keeps up with
-      // two eyes (the blended mesh gave 22 headset frames where 30 are asked for).
+      // The session is under test here, not the picture: the cameras are drawn plain, as
+      // splats. The blended mesh, the default picture, costs SwiftShader about 3.5 s a frame here
+      // whatever the eyes' size (its 1.4 million vertices), and the 60 poses counted below are 60
+      // headset frames: 276 s where splats take 70 s. The default picture is tested in the
+      // browser by DesktopDecodesTheRealRecording... (blending kept on) and BrowserParity, in the
+      // headset by the
+      // native presenter's tests (XrRuntime). However slowly a loaded machine draws, the drive
+      // waits for the frames and poses counted here (no deadline).
       drive(s.site.server.web_link("127.0.0.1") + kPinned +
                 "&name=Web&xrscale=0.3&surface=splats&blend=0",
-            out, "--frames 20 --stall 4.5 --xr");
+            out, "--frames 20 --stall 4.5 --xr --seconds 0");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());
@@ -463,7 +480,7 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   SessionHubConfig hub;
   hub.site_translation = {0.4f, 0.2f, -0.3f};
   hub.site_yaw = 0.5f;
-  test::SessionSite s(hub, 15, web_config(false));
+  test::SessionSite s(hub, 5, web_config(false));
   SessionClientOptions still = test::named("Native");
   still.drive_poses = false;
   test::TestParticipant native(s, still);
@@ -520,9 +537,9 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   ASSERT_EQ(test::hands_frames_with_holes_near(path, 3), 0) << "the stroke's path has holes";
   const auto out = test::temp_dir("web_ar");
   const auto t0 = std::chrono::steady_clock::now();
-  const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&xrscale=0.3&probe=1", out,
-            "--frames 5 --ar " + aim);
+  const nlohmann::json page = drive(s.site.server.web_link("127.0.0.1") + kPinned + kFewPictures +
+                                        "&name=Web&xrscale=0.3&probe=1",
+                                    out, "--frames 5 --seconds 0 --ar " + aim);
   std::printf("the AR drive took %.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   done = true;
@@ -649,8 +666,11 @@ TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
     }
   });
   const auto out = test::temp_dir("web_case_out");
-  const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web", out, "--frames 10 --case");
+  // The case and the keyboard are under test, not the cameras' picture: drawn plain (splats), 2
+  // pictures a second (the 10 frames X is held for take 5 s at least).
+  const nlohmann::json page = drive(
+      s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&fps=2&surface=splats&blend=0", out,
+      "--frames 10 --case");
   done = true;
   watch.join();
   ASSERT_FALSE(page.is_null());
@@ -710,11 +730,14 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   const std::vector<std::string> web_names{"Front_Right", "Side_Left"};
   std::vector<std::string> web_said_names = web_names;
   web_said_names.insert(web_said_names.begin(), "Front_Center");
-  std::vector<float> web_said = test::phrases(web_said_names, 0.4);
+  std::vector<size_t> web_starts;  // in the page's microphone file
+  std::vector<float> web_said = test::phrases(web_said_names, 0.4, &web_starts);
   web_said.insert(web_said.begin(), audio::kSampleRate, 0.0f);
+  for (size_t& at : web_starts) at += audio::kSampleRate;
   const auto web_mic = test::write_voice(dir / "web_mic.wav", web_said);
   voice::VoiceConfig hears;
   hears.speaker = (dir / "listener_heard.wav").string();
+  hears.played_log = (dir / "listener_played.tsv").string();
   hears.spatial = false;
   hears.volumes["Talker"] = 0;  // the page's voice alone
   voice::VoiceLink listening(listener.p(), hears);
@@ -728,11 +751,13 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   speaks.mic =
       test::write_voice(dir / "talker_mic.wav", test::phrases(talker_said_names, 0.4)).string();
   std::unique_ptr<voice::VoiceLink> talking;
+  std::atomic<uint32_t> web_id{0};  // the page's participant id, as the listener knows it
   std::atomic<bool> done{false};
   std::thread talk([&] {
     while (!done) {
       const auto web = talker.other("Web");
       const auto heard = listener.other("Web");
+      if (heard) web_id = heard->id;
       if (web && web->has_pose && heard && heard->voice_packets > 100 &&
           wall_clock_us() - heard->last_voice_us > 800'000) {
         const Pose& head = web->newest_pose.head;
@@ -747,9 +772,11 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
     }
   });
   const auto out = test::temp_dir("web_voice_out");
+  // Voice is under test, not the picture: the cameras drawn plain (splats), once a second.
   const nlohmann::json page =
-      drive(s.site.server.web_link("127.0.0.1") + kPinned + "&name=Web&record=20&fps=10", out,
-            "--frames 3 --mic " + web_mic.string() + " --voice 7 --volume Talker:0.5");
+      drive(s.site.server.web_link("127.0.0.1") + kPinned +
+                "&name=Web&record=20&fps=1&surface=splats&blend=0",
+            out, "--frames 3 --mic " + web_mic.string() + " --voice 7 --volume Talker:0.5");
   done = true;
   talk.join();
   ASSERT_TRUE(talking) << "the native participant never heard the page";
@@ -763,27 +790,40 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   EXPECT_GT(v["packetsSent"].get<int>(), 100) << "three phrases of 1.4 s, 20 ms a packet";
   EXPECT_GT(v["dtxFrames"].get<int>(), 10) << "the silences are not sent (DTX)";
   EXPECT_EQ(v["badPackets"], 0);
-  // The listener's loudspeaker holds what the page's microphone said. Measured in 100 ms pieces,
-  // each found after the one before (test::hear): on a loaded 2-core machine
-  // packets reach the listener up to 250 ms apart (a native talker's too), and a playout buffer
-  // resumes such a stall as a pause inside a phrase, which lowers its correlation as a whole
-  // (CI: 0.37-0.84) but not the pieces'. Through Chromium's echo canceller, noise suppressor and
-  // gain control, 0.72-0.76 per phrase, unloaded and mostly with 6 busy loops beside, where
-  // Chromium's capture may stall longer than a playout buffer waits (once 0.52: the listener
-  // heard the page up to 408 ms late); 0.88-0.94 as a whole without them. A wrong or silent
-  // stream stays below 0.3.
+  // The listener's loudspeaker holds what the page's microphone said, put back on the page's
+  // time line by the listener's played log (test::heard_as_said): a stall of a loaded machine,
+  // resumed by a playout buffer as a pause inside a phrase, is taken out again, and a frame its
+  // late packet left to concealment is counted out. The page's frame 0 is not its microphone
+  // file's sample 0 (Chromium plays the file from when getUserMedia opens it): the warm-up phrase,
+  // found anywhere, gives that offset once, and each phrase measured must be where it was said
+  // after it (within 30 ms: the codecs' and resamplers' delays). Through Chromium's echo
+  // canceller, noise suppressor and gain control 0.71-0.74 there (4.6 ms and 0.2 ms from where it
+  // was said); a stall or a concealed frame no longer counts against it; a wrong or silent stream
+  // stays below 0.3.
   const audio::Pcm at_listener = audio::read_wav(dir / "listener_heard.wav");
-  double sum = 0;
-  for (const std::string& name : web_names) {
-    const std::vector<float> phrase = test::speech(name);
-    const test::Hearing found = test::hear(
-        phrase, at_listener.samples, 0, std::ptrdiff_t(at_listener.samples.size() - phrase.size()));
-    std::printf("browser -> native '%s': correlation %.3f, resumed %.3f\n", name.c_str(),
-                found.whole.correlation, found.resumed);
-    EXPECT_GE(found.resumed, 0.45) << name;
-    sum += found.resumed;
+  ASSERT_NE(web_id.load(), 0u);
+  const test::AsSaid as_said =
+      test::heard_as_said(at_listener.samples, dir / "listener_played.tsv", web_id);
+  const std::vector<float> warm_up = test::speech(web_said_names[0]);
+  ASSERT_GT(as_said.samples.size(), warm_up.size());
+  const test::Alignment warm = test::align(warm_up, as_said.samples, 0,
+                                           std::ptrdiff_t(as_said.samples.size() - warm_up.size()));
+  const std::ptrdiff_t file_to_frames = warm.offset - std::ptrdiff_t(web_starts[0]);
+  std::printf("browser -> native: the warm-up phrase at the page's sample %td (correlation %.3f)\n",
+              warm.offset, warm.correlation);
+  for (size_t i = 1; i < web_said_names.size(); ++i) {
+    const std::vector<float> phrase = test::speech(web_said_names[i]);
+    const std::ptrdiff_t at = std::ptrdiff_t(web_starts[i]) + file_to_frames;
+    ASSERT_GE(at, 0);
+    const test::Heard found = test::heard_where_said(phrase, as_said, size_t(at));
+    std::printf(
+        "browser -> native '%s': correlation %.3f where it was said, over %zu frames from "
+        "packets (%zu concealed), %.1f ms from there\n",
+        web_said_names[i].c_str(), found.correlation, found.frames, found.concealed,
+        double(found.at.offset - at) * 1000.0 / audio::kSampleRate);
+    EXPECT_GT(found.frames, 0u) << web_said_names[i];
+    EXPECT_GE(found.correlation, 0.6) << web_said_names[i];
   }
-  EXPECT_GE(sum / double(web_names.size()), 0.55);
   const voice::VoiceStats heard_by_listener = listening.stats();
   const auto from_web = std::find_if(heard_by_listener.heard.begin(), heard_by_listener.heard.end(),
                                      [](const voice::HeardVoice& h) { return h.name == "Web"; });

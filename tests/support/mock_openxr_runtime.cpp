@@ -10,7 +10,11 @@
 // once VOLCAST_MOCK_XR_FRAMES (default 5) frames were ended with a valid projection layer whose eye
 // images show something (not one flat colour), and the file VOLCAST_MOCK_XR_UNTIL names exists
 // where that is set -- or 6000 frames were ended without that -- it asks
-// to exit: VISIBLE, SYNCHRONIZED, STOPPING, and after xrEndSession IDLE, EXITING. On that last
+// to exit: VISIBLE, SYNCHRONIZED, STOPPING, and after xrEndSession IDLE, EXITING. Where
+// VOLCAST_MOCK_XR_FROM names a file, the frames counted for that, and the xrSyncActions calls the
+// scripted controllers count (below), start once it exists: a test writes it when what the script
+// acts on is there (the session joined, the case arrived), so that a loaded machine only delays
+// the script, never runs it before its time. On that last
 // frame it reads back each eye's submitted image into eye0.ppm and eye1.ppm (binary PPM) in the
 // folder VOLCAST_MOCK_XR_OUT names, and it writes log.json there (frame counts, errors) whenever a
 // session or instance is destroyed. With VOLCAST_MOCK_XR_END=lost it loses the instance instead of
@@ -151,7 +155,9 @@ struct Runtime {
   std::map<uint64_t, Action> actions;
   std::string profile;  // the interaction profile whose bindings are used
   std::map<uint64_t, std::pair<uint64_t, XrPath>> action_spaces;  // space -> (action, subaction)
-  uint64_t syncs = 0;
+  uint64_t syncs = 0;           // xrSyncActions calls since VOLCAST_MOCK_XR_FROM's file came
+  uint64_t frames_counted = 0;  // frames with content since then (the end's count)
+  bool from_seen = false;       // that file exists (latched)
 
   XrResult fail(XrResult result, const std::string& what) {
     if (errors.size() < 200) errors.push_back(what);
@@ -202,6 +208,16 @@ uint32_t frames_wanted() {
   const char* v = std::getenv("VOLCAST_MOCK_XR_FRAMES");
   const long n = v ? std::strtol(v, nullptr, 10) : 0;
   return n > 0 ? static_cast<uint32_t>(n) : 5;
+}
+
+// Whether the file VOLCAST_MOCK_XR_FROM names exists (true where it is not set); once true,
+// always true.
+bool from_met() {
+  if (!rt().from_seen) {
+    const char* v = std::getenv("VOLCAST_MOCK_XR_FROM");
+    rt().from_seen = !v || std::ifstream(v).good();
+  }
+  return rt().from_seen;
 }
 
 // Whether the file VOLCAST_MOCK_XR_UNTIL names exists (true where it is not set).
@@ -421,6 +437,8 @@ XrResult XRAPI_CALL CreateSession(XrInstance instance, const XrSessionCreateInfo
   rt().phase = FramePhase::kIdle;
   rt().exit_requested = rt().lost = false;
   rt().frames_waited = rt().frames_ended = rt().frames_with_layer = rt().frames_with_content = 0;
+  rt().frames_counted = rt().syncs = 0;
+  rt().from_seen = false;
   rt().images_written = rt().destroyed_running = false;
   ++rt().sessions;
   queue_state(XR_SESSION_STATE_IDLE);
@@ -825,7 +843,8 @@ XrResult XRAPI_CALL EndFrame(XrSession session, const XrFrameEndInfo* info) {
   }
   if (glGetError() != GL_NO_ERROR) rt().fail(XR_SUCCESS, "xrEndFrame: OpenGL error reading back");
   if (content) ++rt().frames_with_content;
-  if (!rt().exit_requested && ((rt().frames_with_content >= frames_wanted() && until_met()) ||
+  if (content && from_met()) ++rt().frames_counted;
+  if (!rt().exit_requested && ((rt().frames_counted >= frames_wanted() && until_met()) ||
                                rt().frames_ended >= kMaxFrames)) {
     rt().exit_requested = true;
     if (const char* dir = out_dir(); dir && !shown.empty()) {
@@ -982,7 +1001,7 @@ XrResult XRAPI_CALL SyncActions(XrSession session, const XrActionsSyncInfo* info
     if (s == rt().action_sets.end() || !s->second)
       return rt().fail(XR_ERROR_ACTIONSET_NOT_ATTACHED, "xrSyncActions: not attached");
   }
-  ++rt().syncs;
+  if (from_met()) ++rt().syncs;
   return rt().state == XR_SESSION_STATE_FOCUSED ? XR_SUCCESS : XR_SESSION_NOT_FOCUSED;
 }
 

@@ -17,6 +17,14 @@
 
 namespace volcast::test {
 
+/// `c` for a test that is not about presence: the hub holds a participant however long a loaded
+/// machine keeps its heartbeats from arriving (a window or headset drawing a blended frame under
+/// llvmpipe takes seconds there; the presence timeout has tests of its own).
+inline SessionHubConfig patient_hub(SessionHubConfig c = {}) {
+  c.presence_timeout_ms = 120000;
+  return c;
+}
+
 struct SessionSite {
   SessionHub hub;
   HandsSite site;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <span>
 #include <string>
 #include <vector>
@@ -182,6 +183,89 @@ inline Hearing hear(std::span<const float> phrase, std::span<const float> heard,
   Hearing h;
   h.whole = align(phrase, heard, from, to);
   h.resumed = resumed_correlation(phrase, heard, h.whole.offset);
+  return h;
+}
+
+/// What a listener's loudspeaker played of one speaker, put back on the speaker's time line by
+/// its played log (voice::VoiceConfig::played_log): `samples` n x 960 on are what it played of the
+/// speaker's frame n (its microphone's samples n x 960 on), from its packet, FEC or concealment;
+/// zeros where it played none of it (silence, and the pauses a playout buffer inserts when a
+/// stalled path resumes). `from_packet[n]`: frame n was played from its own packet or from FEC,
+/// not concealed. However a loaded machine or a path delayed and paused the voice, a phrase said
+/// at microphone sample m lands at m here, give or take the codec's delay: nothing is searched.
+struct AsSaid {
+  std::vector<float> samples;
+  std::vector<uint8_t> from_packet;
+};
+
+/// AsSaid from `heard` (the loudspeaker's mono samples) and the played log, for `speaker`'s id.
+inline AsSaid heard_as_said(std::span<const float> heard, const std::filesystem::path& played_log,
+                            uint32_t speaker) {
+  constexpr size_t n = audio::kFrameSamples;
+  AsSaid out;
+  std::ifstream in(played_log);
+  unsigned long long block = 0;
+  uint32_t id = 0, frame = 0;
+  char how = 0;
+  while (in >> block >> id >> how >> frame) {
+    if (id != speaker || how == 's' || (block + 1) * n > heard.size()) continue;
+    if (out.from_packet.size() <= frame) {
+      out.samples.resize((size_t(frame) + 1) * n, 0.0f);
+      out.from_packet.resize(size_t(frame) + 1, 0);
+    }
+    std::copy_n(heard.begin() + std::ptrdiff_t(block * n), n,
+                out.samples.begin() + std::ptrdiff_t(size_t(frame) * n));
+    out.from_packet[frame] = how == 'p' || how == 'f';
+  }
+  return out;
+}
+
+/// How well `phrase`, said at microphone sample `said_at`, came through to `as_said`: placed
+/// where it lands within 30 ms (the codec's and the resampler's delay), its correlation there over
+/// the frames played from packets. A frame a loaded machine's late packet left to concealment is
+/// counted out (`concealed`, in frames), not as a different sound: what was played from packets
+/// must be what was said.
+struct Heard {
+  Alignment at;            ///< the whole phrase, concealment included
+  double correlation = 0;  ///< over the frames played from packets
+  size_t frames = 0;       ///< the phrase's frames played from packets
+  size_t concealed = 0;    ///< the phrase's frames played otherwise (concealed or not at all)
+};
+
+/// `below_2khz`: placed and compared below about 2 kHz (align_band), for a path whose band split
+/// (an echo canceller's) shifts bands of different pitch against each other.
+inline Heard heard_where_said(std::span<const float> phrase, const AsSaid& as_said, size_t said_at,
+                              bool below_2khz = false) {
+  constexpr size_t n = audio::kFrameSamples;
+  const auto at = std::ptrdiff_t(said_at);
+  Heard h;
+  h.at = below_2khz ? align_band(phrase, as_said.samples, at - 1440, at + 1440)
+                    : align(phrase, as_said.samples, at - 1440, at + 1440);
+  // Compared at `step` samples a value: 12 (decimate's runs) below 2 kHz.
+  const size_t step = below_2khz ? 12 : 1;
+  const std::vector<float> a =
+      below_2khz ? decimate(phrase) : std::vector<float>(phrase.begin(), phrase.end());
+  const std::vector<float> b = below_2khz ? decimate(as_said.samples) : std::vector<float>();
+  const std::span<const float> heard = below_2khz ? std::span<const float>(b) : as_said.samples;
+  const std::ptrdiff_t offset = h.at.offset / std::ptrdiff_t(step);
+  double ab = 0, aa = 0, bb = 0;
+  size_t last_frame = SIZE_MAX;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const std::ptrdiff_t j = offset + std::ptrdiff_t(i);
+    if (j < 0) continue;
+    const size_t frame = size_t(j) * step / n;
+    const bool played = frame < as_said.from_packet.size() && as_said.from_packet[frame] &&
+                        size_t(j) < heard.size();
+    if (frame != last_frame) {
+      last_frame = frame;
+      ++(played ? h.frames : h.concealed);
+    }
+    if (!played) continue;
+    ab += double(a[i]) * heard[size_t(j)];
+    aa += double(a[i]) * a[i];
+    bb += double(heard[size_t(j)]) * heard[size_t(j)];
+  }
+  h.correlation = aa > 0 && bb > 0 ? ab / std::sqrt(aa * bb) : 0;
   return h;
 }
 

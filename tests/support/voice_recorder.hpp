@@ -16,6 +16,8 @@
 #include "support/speech.hpp"
 #include "support/test_paths.hpp"
 #include "volcast/core/clock.hpp"
+#include "volcast/core/error.hpp"
+#include "volcast/record/recording.hpp"
 #include "volcast/voice/voice_link.hpp"
 
 namespace volcast::test {
@@ -31,12 +33,31 @@ inline bool played_until(const voice::VoiceLink& listener, int64_t until_us) {
       std::chrono::seconds(30));
 }
 
+/// Waits (up to 30 s) until every one of the `sent` packets of speaker `id` has reached
+/// `listener`, however late a loaded machine delivers them, and then until its loudspeaker has
+/// played on past its playout buffer's delay (plus 100 ms): what was said is in its file. False
+/// if that does not happen.
+inline bool heard_through(const voice::VoiceLink& listener, uint32_t id, uint64_t sent) {
+  int delay_ms = 0;
+  const bool arrived = eventually(
+      [&] {
+        for (const voice::HeardVoice& h : listener.stats().heard)
+          if (h.id == id && h.stream.packets >= sent) {
+            delay_ms = h.stream.delay_ms;
+            return true;
+          }
+        return false;
+      },
+      std::chrono::seconds(30));
+  return arrived && played_until(listener, wall_clock_us() + (int64_t(delay_ms) + 100) * 1000);
+}
+
 /// Starts `volcast record --connect LINK --out FILE --session SESSION`; returns its pid, 0 when
 /// it could not be started (a test failure is added).
 inline pid_t spawn_recorder(const std::string& link, const std::string& file,
                             const std::string& session = "OR") {
-  std::vector<std::string> args{test::paths::volcast(), "record", "--connect", link,
-                                "--out",        file,     "--session", session};
+  std::vector<std::string> args{
+      test::paths::volcast(), "record", "--connect", link, "--out", file, "--session", session};
   std::vector<char*> argv;
   for (auto& x : args) argv.push_back(x.data());
   argv.push_back(nullptr);
@@ -50,14 +71,29 @@ inline pid_t spawn_recorder(const std::string& link, const std::string& file,
 
 /// `p` says `said` (48 kHz mono, written to `wav` as its microphone file) from 200 ms on, and
 /// returns `tail` after the file has ended (the last packets' way through).
-inline void speak(TestParticipant& p, const std::filesystem::path& wav,
-                  const std::vector<float>& said, std::chrono::milliseconds tail) {
+inline uint64_t speak(TestParticipant& p, const std::filesystem::path& wav,
+                      const std::vector<float>& said) {
   voice::VoiceConfig c;
   c.mic = write_voice(wav, said).string();
   c.mic_start_us = wall_clock_us() + 200'000;
   voice::VoiceLink link(p.p(), c);
   EXPECT_TRUE(eventually([&] { return link.mic_ended(); }, std::chrono::seconds(30)));
-  std::this_thread::sleep_for(tail);
+  return link.stats().packets_sent;
+}
+
+/// Waits (up to 30 s) until the recording `file`, while its recorder writes it, holds `packets`
+/// voice packets: every one a speaker sent, however late a loaded machine delivered them. False
+/// if it does not.
+inline bool recorded_voices(const std::filesystem::path& file, uint64_t packets) {
+  return eventually(
+      [&] {
+        try {
+          return RecordingReader(file).info().voices.size() >= packets;
+        } catch (const Error&) {
+          return false;  // not yet written far enough to read
+        }
+      },
+      std::chrono::seconds(30));
 }
 
 }  // namespace volcast::test

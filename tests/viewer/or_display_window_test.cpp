@@ -41,7 +41,7 @@ TEST(OrDisplayWindow, ShowsTheExpertsStrokeAndLabelOnTheCamerasPictureFullScreen
   ASSERT_TRUE(xvfb.running()) << xvfb.error();
   const test::ScopedEnv display("DISPLAY", xvfb.display().c_str());
   const fs::path dir = test::temp_dir("or_display_window");
-  test::SessionSite s;
+  test::SessionSite s(test::patient_hub());
   const CameraCalibration camera = s.site.player.cameras()[0].calibration;
   test::TestParticipant expert(s, test::named("Dr. Remote"));
   ASSERT_TRUE(test::eventually([&] { return expert.now().joined; }, std::chrono::seconds(30)));

@@ -45,21 +45,28 @@ fs::path write_manifest(const fs::path& dir) {
 
 // The mock runtime installed for one test: its manifest in a fresh folder, its output folder, a
 // display (Xvfb) for the GLX context, and the environment naming them, restored afterwards.
-// frames: VOLCAST_MOCK_XR_FRAMES; end: VOLCAST_MOCK_XR_END (null: ask to exit).
+// frames: VOLCAST_MOCK_XR_FRAMES; end: VOLCAST_MOCK_XR_END (null: ask to exit). `gated`: the
+// scripted controllers' clock and the frames counted for the end start at start_script()
+// (VOLCAST_MOCK_XR_FROM), which the test calls once what the script acts on is there; else at once.
 struct MockRuntime {
-  fs::path dir, out;
+  fs::path dir, out, from;
   test::Xvfb xvfb;
-  test::ScopedEnv display, runtime, frames, end, out_env;
-  MockRuntime(const std::string& name, const char* frame_count, const char* end_how = nullptr)
+  test::ScopedEnv display, runtime, frames, end, out_env, from_env;
+  MockRuntime(const std::string& name, const char* frame_count, const char* end_how = nullptr,
+              bool gated = false)
       : dir(test::temp_dir(name)),
         out(dir / "out"),
+        from(dir / "from"),
         display("DISPLAY", xvfb.display().c_str()),
         runtime("XR_RUNTIME_JSON", write_manifest(dir).c_str()),
         frames("VOLCAST_MOCK_XR_FRAMES", frame_count),
         end("VOLCAST_MOCK_XR_END", end_how),
-        out_env("VOLCAST_MOCK_XR_OUT", out.c_str()) {
+        out_env("VOLCAST_MOCK_XR_OUT", out.c_str()),
+        from_env("VOLCAST_MOCK_XR_FROM", from.c_str()) {
     fs::create_directories(out);
+    if (!gated) start_script();
   }
+  void start_script() const { std::ofstream(from) << "go\n"; }
 };
 
 struct Ppm {
@@ -135,6 +142,8 @@ TEST(XrRuntime, ThePresenterRunsASessionOnAMockRuntimeUntilItAsksToExit) {
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
   EXPECT_GE(r.frames_rendered, 5u);
   EXPECT_NE(r.renderer.find("OpenGL 4."), std::string::npos) << r.renderer;
+  // The default picture, the blended mesh (--blend auto judges 10 frames at least: never here).
+  EXPECT_EQ(r.blend_off, "");
 
   // What the runtime saw.
   ASSERT_TRUE(fs::exists(out / "log.json"));
@@ -228,7 +237,8 @@ TEST(XrRuntime, ALostInstanceEndsTheSessionAsClosedNotAsAnError) {
 // headset shows a red ball over its left hand.
 TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   // 42 frames: X held, a pause, Y pressed, and 9 frames to show the muted ball (31 s at 60, alone).
-  const MockRuntime mock("xr_runtime_session", "42");
+  // Its script runs once the observer stands ahead of the headset (start_script, below).
+  const MockRuntime mock("xr_runtime_session", "42", nullptr, true);
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   // Then the left thumbstick pushed up once, looking at the observer: its voice 25 % louder.
   const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
@@ -243,7 +253,8 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
          {"Front_Center", "Front_Left", "Front_Right", "Side_Left", "Side_Right"})
       phrases.push_back(name);
   const fs::path speech = test::write_voice(mock.dir / "speech.wav", test::phrases(phrases, 0.1));
-  test::SessionSite s({}, 5);  // 5 frame sets a second: the room to see, less to encode
+  test::SessionSite s(test::patient_hub(),
+                      5);  // 5 frame sets a second: the room to see, less to encode
   const std::string link = s.link();
   test::TestParticipant observer(s, test::hand_driven("Observer"));
   // The headset participant.
@@ -269,9 +280,20 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
     // Once the headset has published its head, the observer stands 1.5 m ahead of its eyes.
     place_observer = std::thread([&] {
       Participant* p = headset.participant();
-      if (!test::eventually([&] { return p->snapshot(wall_clock_us()).has_own_body; })) return;
-      const Pose head = p->snapshot(wall_clock_us()).own_body.head;
-      test::stand(observer, head.position + head.orientation * Eigen::Vector3f(0, 0, -1.5f));
+      if (test::eventually([&] { return p->snapshot(wall_clock_us()).has_own_body; })) {
+        const Pose head = p->snapshot(wall_clock_us()).own_body.head;
+        const Eigen::Vector3f ahead =
+            head.position + head.orientation * Eigen::Vector3f(0, 0, -1.5f);
+        test::stand(observer, ahead);
+        test::eventually([&] {  // the headset sees it there (what the thumbstick aims at)
+          for (const auto& o : p->snapshot(wall_clock_us()).others)
+            if (o.name == "Observer" && o.has_pose &&
+                (o.newest_pose.head.position - ahead).norm() < 0.01f)
+              return true;
+          return false;
+        });
+      }
+      mock.start_script();  // X, Y and the thumbstick, now that the observer stands there
     });
   };
   opt.on_finished = [&](ViewerResult&) {
@@ -346,13 +368,15 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
 // object follows the hand, is let go turned 0.36 rad, and an observer sees who held it and the
 // headset's two tracked hands.
 TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
-  const MockRuntime mock("xr_runtime_grab", "40");
+  // Its script runs once the headset holds the case and the observer has joined (below).
+  const MockRuntime mock("xr_runtime_grab", "40", nullptr, true);
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv grip("VOLCAST_MOCK_XR_RIGHT_GRIP", "0.2,1.2,-0.3");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "8,20");
   // A display of 0.1 ms periods, with blending kept on (--blend on): the frame budget is not asked.
   const test::ScopedEnv period("VOLCAST_MOCK_XR_PERIOD_US", "100");
-  test::SessionSite s({}, 5);  // 5 frame sets a second: the room to see, less to encode
+  test::SessionSite s(test::patient_hub(),
+                      5);  // 5 frame sets a second: the room to see, less to encode
   // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
   // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
   session::SharedCase c;
@@ -387,6 +411,7 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
         return headset.participant()->joined() && headset.participant()->shared_case() != nullptr;
       });
       observer = std::make_unique<test::TestParticipant>(s, test::named("Observer"));
+      mock.start_script();  // the squeeze, now that the case is there and the observer watches
       while (!done) {
         const SessionSnapshot n = observer->now();
         for (const auto& other : n.others)
@@ -437,7 +462,8 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
 // server -- erases it (the newest), not the stroke. The site is placed so that the camera sits at
 // the controller, looking where it aims: the ray runs from the camera's centre.
 TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
-  const MockRuntime mock("xr_runtime_point", "34");
+  // Its script runs once the observer has joined (below).
+  const MockRuntime mock("xr_runtime_point", "34", nullptr, true);
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
                                 "right/a/click:3,9;right/b/click:12,24;right/thumbstick/y:26,29;"
@@ -457,7 +483,8 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   // (320, 180) is invalid in 8 of them, where a ray rightly meets nothing (ray_hit.hpp).
   hub.site_yaw = float(M_PI - std::atan(52.0 / 460.0));
   ASSERT_EQ(test::hands_frames_with_holes_near({{372, 180}, {573, 180}}, 1), 0);
-  test::SessionSite s(hub, 5);  // 5 frame sets a second: enough to point at, less to encode
+  test::SessionSite s(test::patient_hub(hub),
+                      5);  // 5 frame sets a second: enough to point at, less to encode
   SessionClientOptions headset_options;
   headset_options.participant.name = "Headset";
   headset_options.drive_poses = false;
@@ -481,6 +508,10 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
         handed.emplace_back(type, std::vector<uint8_t>(payload.begin(), payload.end()));
         if (type == 0x52) std::ofstream(erased_seen) << "erased\n";
       });
+      // The pointer and the drawing, now that the observer watches (it joined after the
+      // headset: its spawn spot) -- and sees the others (its snapshot lists the headset).
+      test::eventually([&] { return observer->other("Headset").has_value(); });
+      mock.start_script();
       while (!done) {
         const SessionSnapshot n = observer->now();
         const auto h = observer->other("Headset");
@@ -500,9 +531,13 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   opt.on_finished = [&](ViewerResult&) { headset.stop(); };
   XrOptions xr;
   xr.participant = [&] { return headset.participant(); };
+  // The default picture, the blended mesh, pointed at and drawn on: kept on (--blend on) however
+  // slowly llvmpipe draws it.
+  xr.blend = BlendPolicy::kOn;
   opt.presenter = xr_presenter(xr);
   const ViewerResult r = run_viewer(opt);
   EXPECT_EQ(r.ended, ViewerEnd::kClosed) << to_string(r.ended) << ": " << r.error;
+  EXPECT_EQ(r.blend_off, "") << "--blend on";
   ASSERT_TRUE(observer);
   // The stroke, once it reached the observer.
   test::eventually([&] { return !observer->now().annotations.empty(); });

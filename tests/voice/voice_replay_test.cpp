@@ -51,7 +51,8 @@ void record_talk(const std::filesystem::path& dir, const std::string& file,
   const pid_t pid = test::spawn_recorder(s.link(), file);
   ASSERT_NE(pid, 0);
   ASSERT_TRUE(eventually([&] { return a.other("Recorder").has_value(); }));
-  test::speak(a, dir / "a.wav", said, 300ms);
+  // Stopped once its file holds every packet A sent (on a loaded machine, later).
+  ASSERT_TRUE(test::recorded_voices(file, test::speak(a, dir / "a.wav", said)));
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);
@@ -173,11 +174,19 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     ASSERT_TRUE(eventually([&] { return l.now().joined; }));
     voice::VoiceConfig cl;
     cl.speaker = (dir / "l_heard.wav").string();
+    cl.played_log = (dir / "l_played.tsv").string();
     cl.spatial = false;
     voice::VoiceLink vl(l.p(), cl);
     replay.start(server, &hub);
     ASSERT_TRUE(eventually([&] { return replay.finished(); }, 30s));
-    // The last packets' way through the jitter buffer, in L's file.
+    // Every packet the replay sent has reached L (however late a loaded machine delivers them),
+    // then the last ones' way through the jitter buffer, in L's file.
+    ASSERT_TRUE(eventually(
+        [&] {
+          const voice::VoiceStats s = vl.stats();
+          return s.heard.size() == 1 && s.heard[0].stream.packets >= replay.voices().cues.size();
+        },
+        30s));
     ASSERT_TRUE(test::played_until(vl, wall_clock_us() + 400'000));
     heard = vl.stats();
     EXPECT_EQ(vl.error(), "");
@@ -196,16 +205,15 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
         std::ptrdiff_t((l.first_frame_set_us - heard.started_us) * kSampleRate / 1'000'000);
     const std::ptrdiff_t expected = first_frame_set + in_recording.offset -
                                     std::ptrdiff_t(timeline.offset_us[k] * kSampleRate / 1'000'000);
-    // A jitter buffer that changes its delay mid-phrase, or a stall (a loaded machine), shifts
-    // the rest of the phrase: it is also measured in pieces (test::hear).
-    const test::Hearing found = test::hear(phrase, out.samples, expected - std::ptrdiff_t(9600),
-                                           expected + std::ptrdiff_t(kSampleRate));
-    const double correlation = found.correlation();
-    // The first phrase is there too. It is where L's jitter buffer grows its delay (a loaded
-    // machine: by whole frames mid-phrase, 0.49 as a whole measured once).
-    const std::ptrdiff_t first_at = expected - std::ptrdiff_t(starts[1] - starts[0]);
-    const double first_correlation =
-        test::hear(first, out.samples, first_at - 9600, first_at + kSampleRate).correlation();
+    // Where L heard the phrase in its file (for the sync below).
+    const test::Alignment found = test::align(phrase, out.samples, expected - std::ptrdiff_t(9600),
+                                              expected + std::ptrdiff_t(kSampleRate));
+    // How well both phrases came through: on A's time line as L played it (L's played log; the
+    // replay keeps A's frame numbers, its microphone's blocks from the first), so a jitter buffer
+    // that changed its delay mid-phrase, or a stall of a loaded machine, is taken out again.
+    const test::AsSaid as_said = test::heard_as_said(out.samples, dir / "l_played.tsv", a->id);
+    const double correlation = test::heard_where_said(phrase, as_said, starts[1]).correlation;
+    const double first_correlation = test::heard_where_said(first, as_said, starts[0]).correlation;
     std::printf("the first phrase: correlation %.3f; L's first frame set was the recording's %zu\n",
                 first_correlation, k);
     ASSERT_EQ(heard.heard.size(), 1u);
@@ -215,7 +223,7 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     // replayed to L's ear: the connection and the jitter buffer, measured by the link; L's loop
     // plays the block of file time t at t + 20 ms, so its file is 20 ms ahead of that) minus the
     // frame set's (from its capture time, i.e. its publication, to its arrival).
-    const double late_ms = double(us_of(found.whole.offset - expected)) / 1000.0;
+    const double late_ms = double(us_of(found.offset - expected)) / 1000.0;
     const double frame_ms = double(l.first_frame_set_us - l.first_capture_us) / 1000.0;
     const double paths_ms = h.latency_ms_p50 - 20.0 - frame_ms;
     std::printf(
@@ -278,19 +286,25 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     std::fputc(byte ^ 0x5a, f);
     std::fclose(f);
   }
-  // Its time in the replay: on the replay's time line (a live recording on a loaded machine may
-  // hold a gap the replay shortens), D after the last frame set captured at or before it.
-  const double at_s = [&] {
+  // A time on the replay's time line (a live recording on a loaded machine may hold a gap the
+  // replay shortens): D after the last frame set captured at or before it.
+  const auto replay_s = [&](int64_t capture_us) {
     const auto& sets = reader.info().frame_sets;
     const PlaybackTimeline replayed = playback_timeline(sets);
     size_t k = 0;
-    while (k + 1 < sets.size() && sets[k + 1].capture_us <= broken.capture_us) ++k;
-    return double(replayed.offset_us[k] + (broken.capture_us - sets[k].capture_us)) / 1e6;
-  }();
-  ReplayPlayer loop(bad, {.from_s = std::max(0.0, at_s - 0.4), .to_s = at_s + 0.4, .loop = true});
+    while (k + 1 < sets.size() && sets[k + 1].capture_us <= capture_us) ++k;
+    return double(replayed.offset_us[k] + (capture_us - sets[k].capture_us)) / 1e6;
+  };
+  // The part replayed: from the 10th voice packet before the broken one to the 10th after, on
+  // that time line (counted in packets, not seconds: a loaded recorder's voices are uneven).
+  const size_t mid = voices.size() / 2;
+  ASSERT_GE(mid, 10u);
+  ASSERT_LT(mid + 10, voices.size());
+  ReplayPlayer loop(bad, {.from_s = replay_s(voices[mid - 10].capture_us) - 0.001,
+                          .to_s = replay_s(voices[mid + 10].capture_us) + 0.001,
+                          .loop = true});
   const VoicePlan& plan = loop.voices();
-  // 0.8 s at 20 ms a packet, less the silences DTX did not send (20 left measured once).
-  ASSERT_GE(plan.cues.size(), 10u);
+  ASSERT_GE(plan.cues.size(), 20u) << "the 21 packets less the broken one";
   struct Sent {
     uint32_t sequence, frame;
     int64_t capture_us;

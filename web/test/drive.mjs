@@ -2,10 +2,14 @@
 // browser tests (tests/net/web_test.cpp): opens the link, waits for decoded frames, and writes what
 // the page measured (window.volcast) and a screenshot. With --xr, IWER (npm `iwer`) stands in
 // for a Meta Quest 3: the page enters immersive-vr, renders both eyes, and publishes the
-// emulated head and controllers; the emulated right trigger teleports.
+// emulated head and controllers; the emulated right trigger teleports, and the drive waits for
+// the teleport, 30 headset frames and 60 poses sent (page.json's xr.frames, session.posesSent).
 //
 //   node drive.mjs --link URL --out DIR [--frames N] [--seconds S] [--xr] [--bench]
 //                  [--stall S] [--unblended] [--chromium PATH]
+// --seconds S: how long a wait may take before the page counts as broken (default 120 for the
+// frame sets, each later wait its own; a loaded machine is slow); 0: no wait has a deadline, each
+// ends on what it waits for (or the page's error), and the caller's timeout bounds a broken run.
 // --stall: once the page has joined its session, blocks the page's main thread for S seconds
 // (page.json's stalledMs), then goes on.
 // --unblended: then waits until the page's frame budget has turned blending off (page.json's blend).
@@ -42,6 +46,7 @@ const link = flag('--link');
 const out = flag('--out', '.');
 const frames = Number(flag('--frames', '30'));
 const seconds = Number(flag('--seconds', '120'));  // bounds a broken page; a loaded box is slow
+const bound = (ms) => (seconds > 0 ? ms : 0);      // a wait's deadline (0: none)
 const ar = flag('--ar');
 const xr = args.includes('--xr') || !!ar;
 const mic = flag('--mic');
@@ -66,7 +71,7 @@ let code = 1;
 const console_ = [];
 try {
   const page = await browser.newPage({viewport: {width: 800, height: 450}});
-  page.setDefaultTimeout(60000);  // a loaded 2-core machine renders SwiftShader slowly
+  page.setDefaultTimeout(bound(60000));  // a loaded 2-core machine renders SwiftShader slowly
   page.on('console', (m) => console_.push(`${m.type()}: ${m.text()}`));
   page.on('pageerror', (e) => console_.push(`pageerror: ${e.message}`));
   page.on('worker', (w) => w.on('console', (m) => console_.push(`worker ${m.type()}: ${m.text()}`)));
@@ -84,21 +89,28 @@ try {
   await page.goto(link);
   const deadline = started + seconds * 1000;
   const state = () => page.evaluate(() => JSON.parse(JSON.stringify(window.volcast || {})));
-  let s = await state();
+  // Until N frame sets and a picture (or an error), watched in the page: window.volcast is copied
+  // out only when that is reached, or when the page first shows RECONNECTING (its screenshot).
   let reconnectingShot = false;
-  while (Date.now() < deadline && s.phase !== 'error' &&
-         (s.framesReceived < frames || s.framesDrawn < 1)) {
-    await page.waitForTimeout(100);
-    s = await state();
-    if (s.connection && !reconnectingShot) {  // what a person sees while the path is cut
-      await page.screenshot({path: `${out}/reconnecting.png`});
-      reconnectingShot = true;
-    }
+  for (;;) {
+    const left = seconds > 0 ? deadline - Date.now() : 0;
+    if (seconds > 0 && left <= 0) break;
+    const shown = await page.waitForFunction(([n, shot]) => {
+      const v = window.volcast;
+      if (!v) return false;
+      if (v.phase === 'error' || (v.framesReceived >= n && v.framesDrawn >= 1)) return 'done';
+      return !shot && v.connection ? 'cut' : false;
+    }, [frames, reconnectingShot], {timeout: left, polling: 100})
+        .then((h) => h.jsonValue(), () => 'late');
+    if (shown !== 'cut') break;
+    await page.screenshot({path: `${out}/reconnecting.png`});  // what a person sees meanwhile
+    reconnectingShot = true;
   }
+  let s = await state();
   // --unblended: until the page's frame budget has turned blending off (frame_budget.js; a test
   // gives the page framems=1, a period no frame keeps).
   if (args.includes('--unblended') && s.phase !== 'error') {
-    await page.waitForFunction(() => !window.volcast.blend.on, null, {timeout: 90000});
+    await page.waitForFunction(() => !window.volcast.blend.on, null, {timeout: bound(90000)});
     s = await state();
   }
   // --volume NAME:GAIN: once NAME is in the page's people panel, its volume slider set to GAIN,
@@ -107,14 +119,14 @@ try {
   if (volume && s.phase !== 'error') {
     const at = volume.lastIndexOf(':');
     await page.locator(`#people input[data-name="${volume.slice(0, at)}"]`)
-        .fill(volume.slice(at + 1), {timeout: 60000});
+        .fill(volume.slice(at + 1), {timeout: bound(60000)});
   }
   const stall = Number(flag('--stall', '0'));
   let stalledMs = 0;
   if (stall > 0 && s.phase !== 'error') {
     // The page's main thread blocked for S seconds once it is in a session, as a loaded headset
     // or a long upload to the GPU might: it must stay in the session (the worker's heartbeat).
-    await page.waitForFunction(() => window.volcast.session.joined, null, {timeout: 60000});
+    await page.waitForFunction(() => window.volcast.session.joined, null, {timeout: bound(60000)});
     stalledMs = await page.evaluate((ms) => {
       const t0 = performance.now();
       while (performance.now() - t0 < ms) {}
@@ -123,19 +135,31 @@ try {
     await page.waitForTimeout(1500);
     s = await state();
   }
+  if (xr && s.phase !== 'error') {
+    // In the page: a promise of `n` more headset frames from now (the runtime samples buttons and
+    // poses once a frame), or of the page's error, so that what the drive does and the frames it
+    // waits for after it cost one round trip (the page's main thread answers one between frames).
+    await page.evaluate((ms) => {
+      window.volcastFrames = (n) => new Promise((resolve, reject) => {
+        const v = window.volcast, until = v.xr.frames + n, t0 = performance.now();
+        const tick = () => {
+          const late = ms > 0 && performance.now() - t0 > ms;
+          if (v.xr.frames >= until || v.phase === 'error') resolve(v.xr.frames);
+          else if (late) reject(new Error(`${n} headset frames took over ${ms} ms`));
+          else setTimeout(tick, 10);
+        };
+        tick();
+      });
+    }, bound(30000));
+  }
   if (ar && s.phase !== 'error') {
-    await page.click('#enter-ar', {timeout: 60000});
-    const frame = () => page.evaluate(() => window.volcast.xr.frames);
-    const frames_ = async (n) => {  // n headset frames (the runtime samples buttons once a frame)
-      const at = await frame();
-      await page.waitForFunction((f) => window.volcast.xr.frames >= f, at + n, {timeout: 30000});
-    };
+    await page.click('#enter-ar', {timeout: bound(60000)});
     await page.waitForFunction(() => window.volcast.drawing.dot && window.volcast.drawing.dot.rgba[3] > 0,
-                               null, {timeout: 60000});
+                               null, {timeout: bound(60000)});
     await page.screenshot({path: `${out}/ar-pointer.png`});  // what the headset shows then
     const [x, y, z, dx, dy, dz] = ar.split(',').map(Number);
-    // The controller's -z along the direction turned by `yaw` about the vertical.
-    const aimAt = (yaw) => page.evaluate(([x, y, z, dx, dy, dz, yaw]) => {
+    // The controller's -z along the direction turned by `yaw` about the vertical, then `n` frames.
+    const aimAt = (yaw, n) => page.evaluate(([x, y, z, dx, dy, dz, yaw, after]) => {
       const c = Math.cos(yaw), s_ = Math.sin(yaw);
       const d = [c * dx + s_ * dz, dy, -s_ * dx + c * dz], n = Math.hypot(...d);
       const v = d.map((k) => k / n);
@@ -147,51 +171,50 @@ try {
       const right = window.iwerDevice.controllers.right;
       right.position.set(x, y, z);
       right.quaternion.set(q[0] / qn, q[1] / qn, q[2] / qn, q[3] / qn);
-    }, [x, y, z, dx, dy, dz, yaw]);
-    await aimAt(0);
-    await frames_(2);
-    const press = (button, value) =>
-        page.evaluate(([b, v]) => window.iwerDevice.controllers.right.updateButtonValue(b, v), [button, value]);
-    await press('a-button', 1);
-    await frames_(8);
-    await press('a-button', 0);
-    await frames_(3);
-    await press('b-button', 1);
-    for (let i = 1; i <= 10; ++i) {  // two frames each: the first may have begun before it
-      await aimAt((i * Math.PI) / 180);
-      await frames_(2);
-    }
-    await press('b-button', 0);
+      return window.volcastFrames(after);
+    }, [x, y, z, dx, dy, dz, yaw, n]);
+    await aimAt(0, 2);
+    // A right-controller button set to `value`, then `n` frames.
+    const press = (button, value, n) => page.evaluate(([b, v, n]) => {
+      window.iwerDevice.controllers.right.updateButtonValue(b, v);
+      return window.volcastFrames(n);
+    }, [button, value, n]);
+    await press('a-button', 1, 8);
+    await press('a-button', 0, 3);
+    await press('b-button', 1, 0);
+    for (let i = 1; i <= 10; ++i)  // two frames each: the first may have begun before it
+      await aimAt((i * Math.PI) / 180, 2);
+    await press('b-button', 0, 0);
     // The right thumbstick leant forward and pressed: a 'cut here' label where the ray points.
     await page.evaluate(() => {
       const right = window.iwerDevice.controllers.right;
       right.updateAxes('thumbstick', 0, -1);
       right.updateButtonValue('thumbstick', 1);
+      return window.volcastFrames(3);
     });
-    await frames_(3);
-    await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('thumbstick', 0));
+    await press('thumbstick', 0, 0);
     const mine = (n) => page.waitForFunction((n) => {
       const v = window.volcast;
       return v.drawing.annotations.filter((a) => a.author === v.session.id).length === n &&
              v.drawing.held.length === 0;
-    }, n, {timeout: 30000});
+    }, n, {timeout: bound(30000)});
     await mine(2);
     s = await state();
     // The left thumbstick pressed: the newest (the label) erased for everyone.
-    await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 1));
-    await frames_(3);
+    await page.evaluate(() => {
+      window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 1);
+      return window.volcastFrames(3);
+    });
     await page.evaluate(() => window.iwerDevice.controllers.left.updateButtonValue('thumbstick', 0));
     await mine(1);
   } else if (xr && s.phase !== 'error') {
-    await page.click('#enter-vr', {timeout: 60000});
-    // Deadlines only bound a broken page: a loaded machine may draw few frames a second.
-    const xrDeadline = Date.now() + 60000;
-    while (Date.now() < xrDeadline && (s.xr.frames < 30 || s.session.posesSent < 60)) {
-      await page.waitForTimeout(100);
-      s = await state();
-    }
-    // Move the emulated head and pull the right trigger pointing 1.2 rad down at the floor
-    // about 0.7 m ahead (free floor from every spawn spot): a teleport.
+    await page.click('#enter-vr', {timeout: bound(60000)});
+    // Once the headset draws, move the emulated head and pull the right trigger pointing 1.2 rad
+    // down at the floor about 0.7 m ahead (free floor from every spawn spot), held for 3 headset
+    // frames (the runtime samples the trigger once a frame), then let go: WebXR's select, which
+    // teleports.
+    await page.waitForFunction(() => window.volcast.phase === 'error' || window.volcast.xr.frames,
+                               null, {timeout: bound(60000)});
     await page.evaluate(() => {
       const d = window.iwerDevice;
       d.position.set(0.2, 1.5, -0.1);
@@ -199,25 +222,29 @@ try {
       right.position.set(0.2, 1.0, -0.3);
       right.quaternion.set(-Math.sin(0.6), 0, 0, Math.cos(0.6));
       right.updateButtonValue('trigger', 1);
+      return window.volcastFrames(3);
     });
-    // Held for a few headset frames (the runtime samples the trigger once a frame), then let go:
-    // WebXR's select, which teleports.
-    const pressedAt = s.xr.frames;
-    await page.waitForFunction((f) => window.volcast.xr.frames >= f + 3, pressedAt, {timeout: 30000});
     await page.evaluate(() => window.iwerDevice.controllers.right.updateButtonValue('trigger', 0));
-    await page.waitForFunction(() => window.volcast.session.teleports >= 1, null, {timeout: 30000})
-        .catch(() => {});
+    // Then until the teleport came back, the headset drew 30 frames and the page sent 60 poses
+    // (one a frame drawn), or the page's error: counted, not timed, as a loaded machine may draw
+    // a frame every few seconds (a deadline only bounds a broken page).
+    await page.waitForFunction(() => {
+      const v = window.volcast;
+      return v.phase === 'error' ||
+             (v.session.teleports >= 1 && v.xr.frames >= 30 && v.session.posesSent >= 60);
+    }, null, {timeout: bound(120000)}).catch(() => {});
     await page.waitForTimeout(1500);
     s = await state();
   }
   if (args.includes('--case') && s.phase !== 'error') {
     await page.waitForFunction(() => window.volcast.case && window.volcast.session.joined &&
-                                     window.volcast.session.monitor, null, {timeout: 120000});
+                                     window.volcast.session.monitor,
+                               null, {timeout: bound(120000)});
     await page.evaluate(() => window.volcastAim(0));
     await page.waitForTimeout(200);
     await page.keyboard.press('g');
     await page.waitForFunction(() => window.volcast.session.objects[0].owner === window.volcast.session.id,
-                               null, {timeout: 120000});
+                               null, {timeout: bound(120000)});
     // X held a second and for at least 10 page frames (each moves the held liver once): a loaded
     // machine may draw only a few frames a second, or (CI, beside the sanitized builds) one every
     // 2.4 s; the waits here are long for it.
@@ -225,11 +252,11 @@ try {
     await page.keyboard.down('x');
     await page.waitForTimeout(1000);
     await page.waitForFunction((f) => window.volcast.desktopFrames >= f + 10, pressedAt,
-                               {timeout: 180000});
+                               {timeout: bound(180000)});
     await page.keyboard.up('x');
     await page.keyboard.press('g');
     await page.waitForFunction(() => window.volcast.session.objects[0].owner === 0, null,
-                               {timeout: 120000});
+                               {timeout: bound(120000)});
     for (const key of [']', '2', 'o']) {
       await page.keyboard.press(key);
       await page.waitForTimeout(300);
@@ -240,7 +267,7 @@ try {
   if (voiceSeconds > 0 && s.phase !== 'error') {
     await page.waitForFunction(() => window.volcast.voice &&
                                      Object.values(window.volcast.voice.heard).some((h) => h.frames > 0),
-                               null, {timeout: 60000});
+                               null, {timeout: bound(60000)});
     await page.waitForTimeout(voiceSeconds * 1000);
     const wav = await page.evaluate(() => window.volcastHeard());
     writeFileSync(`${out}/heard.wav`, Buffer.from(wav, 'base64'));
@@ -248,7 +275,7 @@ try {
   }
   if (args.includes('--bench') && s.phase !== 'error') {
     await page.evaluate(() => window.volcastBench(200));
-    await page.waitForFunction(() => window.volcast.bench, null, {timeout: 30000});
+    await page.waitForFunction(() => window.volcast.bench, null, {timeout: bound(30000)});
     s = await state();
   }
   // After a cut, the page as a person sees it, overlay included (DIR/overlay.png).

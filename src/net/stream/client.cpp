@@ -599,6 +599,12 @@ void Client::post_session(std::vector<uint8_t> message, uint64_t coalesce_key) {
   [[maybe_unused]] const auto n = ::write(m.wake_fd, &one, sizeof one);
 }
 
+bool Client::session_queued(uint64_t coalesce_key) const {
+  std::lock_guard lock(impl_->outbox_mutex);
+  return std::any_of(impl_->outbox.begin(), impl_->outbox.end(),
+                     [&](const auto& m) { return m.first == coalesce_key; });
+}
+
 void Client::close() {
   if (impl_->closed.exchange(true)) return;
   if (impl_->connection) impl_->connection->shutdown();

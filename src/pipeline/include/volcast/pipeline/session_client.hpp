@@ -53,19 +53,27 @@ struct ScriptAction {
 };
 
 /// The object and monitor events of a pose script, performed by a participant as time goes: at a
-/// grab's time it asks to hold the object; once it holds it, it turns it (about +y, room frame,
-/// from where it was) at the scripted rate and releases it for_s after the server handed it over
-/// (given up if the server does not within for_s + 10 s); monitor changes are
-/// set at their times. An event waits for what it needs: every event for the case, a grab for the
-/// objects' state and a monitor change for the monitor's state (both follow the case, and on a
-/// loaded machine the case takes a while); a change to a case without a CT series is dropped.
+/// grab's time it asks to hold the object; once the server hands it over, it turns it (about +y,
+/// room frame, from where it was) by turn_deg_per_s x for_s in kMovesPerSecond x for_s equal
+/// steps, a move each (the first, at the start pose, when it is handed over), then releases it at
+/// the end pose (given up if the server does not hand it over within for_s + 10 s); monitor
+/// changes are set at their times. Step k is due k / kMovesPerSecond s after the hand-over and
+/// is sent only once the move before it has left the participant's queue, so none is coalesced
+/// with the next: every step reaches the server, on a loaded machine later than its time. An
+/// event waits for what it needs: every event for the case, a grab for the objects' state and a
+/// monitor change for the monitor's state (both follow the case, and on a loaded machine the case
+/// takes a while); a change to a case without a CT series is dropped.
 class ScriptedObjects {
  public:
+  static constexpr double kMovesPerSecond = 10;  ///< a scripted turn's steps (moves) per second
+
   explicit ScriptedObjects(PoseScript script) : script_(std::move(script)) {}
   /// The actions due by `t_s` seconds into the script, given the case and what the participant
-  /// sees now (`shared_case` null: none yet). Advances the script past what it returns.
+  /// sees now (`shared_case` null: none yet), and whether a move of the held object still waits in
+  /// the participant's queue (Participant::object_request_queued: the next step waits for it).
+  /// Advances the script past what it returns.
   std::vector<ScriptAction> due(const session::SharedCase* shared_case, const SessionSnapshot& now,
-                                double t_s);
+                                double t_s, bool move_queued = false);
   /// Performs the actions due by `t_s` on `participant`.
   void step(Participant& participant, double t_s);
   /// Whether every grab and monitor change of the script was performed (or given up) and nothing
@@ -83,6 +91,8 @@ class ScriptedObjects {
   static constexpr double kGrantWait_s = 10;  // a grab the server never hands over is given up
   ScriptedGrab grab_;
   std::optional<double> granted_s_;  // when the server made the grabbed object ours
+  int steps_ = 0;                    // the held turn's steps after its first move
+  int moved_ = -1;                   // the last step sent (0: the start pose), -1: none yet
   Pose start_pose_;
 };
 

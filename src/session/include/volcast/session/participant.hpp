@@ -231,6 +231,8 @@ class Participant {
   void move_object(uint16_t object, const Pose& room_from_object);
   /// Lets go of the held object at `room_from_object`.
   void release(uint16_t object, const Pose& room_from_object);
+  /// Whether a move or release of `object` still waits to be sent (a newer one replaces it).
+  bool object_request_queued(uint16_t object) const;
   /// Sets the monitor for everyone (slice, window, overlay; the generation is filled in).
   /// snapshot().monitor shows this state until the server's matches it or it sends an error (3 s
   /// at most: another participant's came after it), so that changes faster than the round trip

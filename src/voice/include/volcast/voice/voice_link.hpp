@@ -37,6 +37,15 @@ struct VoiceConfig {
   Eigen::Vector3f site_position{0.0f, 1.5f, 0.0f};
   /// Volume per display name (1: as sent, 0: silent); others 1.
   std::map<std::string, float> volumes;
+  /// A text file of what the loudspeaker played, or empty: a line per 20 ms block and voice,
+  /// "BLOCK<TAB>ID<TAB>HOW<TAB>FRAME": the block's index in the loudspeaker's output (its file's
+  /// samples BLOCK x 960 on), the speaker's participant id, how its voice played there (p: its
+  /// packet, f: in-band FEC, c: concealed, s: silence -- before it spoke, DTX, a pause inserted)
+  /// and the speaker's frame number it stands for (audio::PlayedFrame). A phrase said in the
+  /// speaker's frames F.. is lined up with where it was heard without searching, however the
+  /// path and the playout buffer delayed and paused it (tests, audits). Throws Error (in the
+  /// constructor) if it cannot be written.
+  std::string played_log;
 };
 
 /// One speaker as this participant hears it.

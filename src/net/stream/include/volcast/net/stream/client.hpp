@@ -170,6 +170,8 @@ class Client {
   /// sent on). Thread-safe; returns at once. Messages queued while nobody is in receive() wait
   /// for it.
   void post_session(std::vector<uint8_t> message, uint64_t coalesce_key = 0);
+  /// Whether a message posted with `coalesce_key` (!= 0) still waits to be written. Thread-safe.
+  bool session_queued(uint64_t coalesce_key) const;
   /// Closes the connection; a receive() blocked in another thread returns false. Thread-safe.
   void close();
 

@@ -286,25 +286,28 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     std::fputc(byte ^ 0x5a, f);
     std::fclose(f);
   }
-  // A time on the replay's time line (a live recording on a loaded machine may hold a gap the
-  // replay shortens): D after the last frame set captured at or before it.
-  const auto replay_s = [&](int64_t capture_us) {
-    const auto& sets = reader.info().frame_sets;
-    const PlaybackTimeline replayed = playback_timeline(sets);
+  // The part replayed: from the frame set at or before the 10th voice packet before the broken
+  // one to the frame set after the 10th after it, on the replay's time line (a live recording on
+  // a loaded machine may hold a gap the replay shortens). Counted in packets and frame sets, not
+  // seconds: a loaded recorder's voices are uneven, and a part starts and ends at frame sets.
+  const auto& recorded_sets = reader.info().frame_sets;
+  const PlaybackTimeline replayed = playback_timeline(recorded_sets);
+  const auto set_at_or_before = [&](int64_t capture_us) {
     size_t k = 0;
-    while (k + 1 < sets.size() && sets[k + 1].capture_us <= capture_us) ++k;
-    return double(replayed.offset_us[k] + (capture_us - sets[k].capture_us)) / 1e6;
+    while (k + 1 < recorded_sets.size() && recorded_sets[k + 1].capture_us <= capture_us) ++k;
+    return k;
   };
-  // The part replayed: from the 10th voice packet before the broken one to the 10th after, on
-  // that time line (counted in packets, not seconds: a loaded recorder's voices are uneven).
   const size_t mid = voices.size() / 2;
   ASSERT_GE(mid, 10u);
   ASSERT_LT(mid + 10, voices.size());
-  ReplayPlayer loop(bad, {.from_s = replay_s(voices[mid - 10].capture_us) - 0.001,
-                          .to_s = replay_s(voices[mid + 10].capture_us) + 0.001,
+  const size_t first_set = set_at_or_before(voices[mid - 10].capture_us);
+  const size_t last_set =
+      std::min(set_at_or_before(voices[mid + 10].capture_us) + 1, recorded_sets.size() - 1);
+  ReplayPlayer loop(bad, {.from_s = double(replayed.offset_us[first_set]) / 1e6 - 0.001,
+                          .to_s = double(replayed.offset_us[last_set]) / 1e6 + 0.001,
                           .loop = true});
   const VoicePlan& plan = loop.voices();
-  ASSERT_GE(plan.cues.size(), 20u) << "the 21 packets less the broken one";
+  ASSERT_GE(plan.cues.size(), 21u) << "the 21 packets, the broken one among them, at least";
   struct Sent {
     uint32_t sequence, frame;
     int64_t capture_us;

@@ -380,6 +380,11 @@ std::string not_settled(SessionHub& hub, const std::vector<std::unique_ptr<Perso
     if (a.annotations != drawn)
       return fmt::format("{} shows {} of the {} annotations", p->name, a.annotations, drawn);
   }
+  // Every script is done, so nobody holds an object any more: one the hub still has held is a
+  // release on its way (a loaded machine's queue), which everyone must see arrive.
+  for (const auto& o : objects)
+    if (o.owner != 0)
+      return fmt::format("the hub still has object {} held (its release on its way)", o.object);
   return "";
 }
 

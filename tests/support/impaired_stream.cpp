@@ -59,7 +59,8 @@ PathRun run_over_link(ImpairedLink& link, const std::filesystem::path& data, dou
     CapturedFrameSet first;
     for (const auto& source : two_camera_site(data))
       first.cameras.push_back(std::make_shared<const CameraFrame>(source->next()));
-    ahead = std::thread([&, first = std::move(first)] { publish_ahead(*server, first, stop_publishing); });
+    ahead = std::thread(
+        [&, first = std::move(first)] { publish_ahead(*server, first, stop_publishing); });
   }
   ClientConfig c = client_config_from_link(server->join_link(link.server_address()));
   c.decode = false;  // the figure is the path's and the server's pacing

@@ -14,10 +14,10 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
-#include <optional>
 #include <list>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "tier_encoder.hpp"
@@ -170,9 +170,9 @@ struct Server::Impl {
     std::atomic<bool> done{false};
   };
   std::list<Viewer> viewers;
-  std::vector<detail::TierKey> ladder;  // config.ladder parsed
+  std::vector<detail::TierKey> ladder;            // config.ladder parsed
   std::optional<detail::TierKey> passed_through;  // config.passed_through_tier parsed: free
-  std::vector<double> ladder_sizes;     // its rungs' relative sizes, or empty
+  std::vector<double> ladder_sizes;               // its rungs' relative sizes, or empty
   // Each tier's last measured rate (bits/s) by name, kept after it stops: a rung not running now
   // is judged by what it produced last.
   std::map<std::string, double> learned_bits;

@@ -113,8 +113,23 @@ void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double
 
 bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_bits) {
   const std::string from = detail::tier_name(v.tier->encoder.key());
-  std::string to = from;
-  if (!d.notice) {
+  const auto record = [&](ViewerReport& r, const std::string& to, const std::string& reason) {
+    r.switches.push_back({wall_clock_us(), from, to, reason});
+    if (r.switches.size() > kSwitchesKept) r.switches.erase(r.switches.begin());
+  };
+  if (d.notice) {
+    const std::string reason =
+        "staying on " + from + " (" +
+        ((v.adapt & protocol::Hello::kAdapt) ? std::string("the lightest tier your floor allows")
+                                             : std::string("the tier you pinned")) +
+        "): " + d.reason;
+    update(v, [&](ViewerReport& r) { record(r, from, reason); });
+    spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, from, reason);
+    send_tier_change(v, reason, goodput_bits);
+    return true;
+  }
+  std::string to;
+  {
     std::lock_guard lock(mutex);
     const int64_t now = steady_us();
     const detail::TierKey& key = ladder[d.rung];
@@ -132,26 +147,17 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
                    detail::tier_name(key), e.what());
       return false;
     }
-    to = detail::tier_name(key);
     v.report.depth_codec = key.depth_codec;
     v.report.color_codec = key.color_codec;
     v.report.color_quality = key.color_quality;
     v.report.frame_divisor = key.frame_divisor;
     v.report.rung = static_cast<int>(d.rung);
+    // In the same locked step as the rung: a report never shows a rung without its switch.
+    to = detail::tier_name(key);
+    record(v.report, to, d.reason);
   }
-  const std::string reason = d.notice
-                                 ? "staying on " + from + " (" +
-                                       ((v.adapt & protocol::Hello::kAdapt)
-                                            ? std::string("the lightest tier your floor allows")
-                                            : std::string("the tier you pinned")) +
-                                       "): " + d.reason
-                                 : d.reason;
-  spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, to, reason);
-  update(v, [&](ViewerReport& r) {
-    r.switches.push_back({wall_clock_us(), from, to, reason});
-    if (r.switches.size() > kSwitchesKept) r.switches.erase(r.switches.begin());
-  });
-  send_tier_change(v, reason, goodput_bits);
+  spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, to, d.reason);
+  send_tier_change(v, d.reason, goodput_bits);
   return true;
 }
 

@@ -135,5 +135,34 @@ TEST(RateControl, ASlowSiteWithoutAQueueIsNotTakenForASlowPath) {
   }
 }
 
+TEST(RateControl, LateAcksNowAndThenAreNotAQueueAndARecoveredPathIsProbedThroughThem) {
+  // A loaded machine (CI beside stress-ng): the site makes frame sets at half the rung's rate, and
+  // every sixth frame set the viewer's thread is not scheduled for 200 ms, so the Acks of what was
+  // sent meanwhile come late, together; the others come after the bare 20 ms round trip. Nothing
+  // queues at a bottleneck, so it must neither step down nor hold back its probes: from rung 2 it
+  // probes up, a rung per hold, to the best one. (Smoothed, the late Acks read as a queue of
+  // 20-90 ms: it stepped down, or stayed, and never probed.)
+  RateController rc(4, 2, quick());
+  const std::vector<double> rates{60e6, 30e6, 12e6, 4e6};
+  const std::vector<char> allowed{1, 1, 1, 1};
+  std::vector<size_t> rungs;
+  int64_t stalled_until = 0;
+  int n = 0;
+  for (int64_t now = 0; now < 12'000'000; now += 66'666, ++n) {
+    if (n % 6 == 0) stalled_until = now + 200'000;
+    const int64_t acked_at = std::max(now + 20'000, stalled_until + 20'000);
+    rc.on_ack(acked_at, size_t(rates[rc.rung()] / 8 / 30), acked_at - now, 20'000);
+    RateDecision d;
+    if (rc.decide(acked_at, rates, allowed, d)) {
+      ASSERT_FALSE(d.notice) << d.reason;
+      ASSERT_TRUE(d.up) << "stepped down to " << d.rung << ": " << d.reason;
+      rc.switched(d.rung, acked_at, d.up);
+      rungs.push_back(d.rung);
+    }
+  }
+  EXPECT_EQ(rungs, (std::vector<size_t>{1, 0}));
+  EXPECT_EQ(rc.rung(), 0u);
+}
+
 }  // namespace
 }  // namespace volcast

@@ -19,13 +19,13 @@ void RateController::trim(int64_t now_us) {
   // goodput.
   while (acked_.size() > 2 && acked_.front().time_us < from) acked_.pop_front();
   while (!skips_.empty() && skips_.front() < from) skips_.pop_front();
+  queue_ms_ = acked_.empty() ? 0 : acked_.front().queue_ms;
+  for (const Acked& a : acked_) queue_ms_ = std::min(queue_ms_, a.queue_ms);
 }
 
 void RateController::on_ack(int64_t now_us, size_t bytes, int64_t rtt_us, int64_t min_rtt_us) {
   if (window_start_us_ < 0) window_start_us_ = now_us;
-  acked_.push_back({now_us, bytes});
-  const double queue = double(std::max<int64_t>(0, rtt_us - min_rtt_us)) / 1000;
-  queue_ms_ += (queue - queue_ms_) * 0.25;
+  acked_.push_back({now_us, bytes, double(std::max<int64_t>(0, rtt_us - min_rtt_us)) / 1000});
   trim(now_us);
 }
 

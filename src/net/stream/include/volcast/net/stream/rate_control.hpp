@@ -6,10 +6,11 @@
 //  - goodput: bytes acknowledged in the last `window_us`, over that time -- BBR's delivery-rate
 //    sample taken over a window (Cardwell et al., ACM Queue 2016), which on a path slower than the
 //    stream is the bottleneck's rate;
-//  - queueing delay: each Ack's round trip less the windowed minimum (pacing.hpp), smoothed -- the
-//    delay gradient signal of Google's congestion control for WebRTC (Carlucci et al., "Analysis
-//    and Design of the Google Congestion Control for Web Real-time Communication", MMSys 2016),
-//    which rises as soon as a queue builds at the bottleneck;
+//  - queueing delay: each Ack's round trip less the path's minimum (pacing.hpp), and of those the
+//    smallest in the window -- a standing queue, as CoDel judges one (Nichols and Jacobson,
+//    "Controlling Queue Delay", ACM Queue 2012: the minimum sojourn over an interval): a queue at
+//    the bottleneck delays every Ack, while a late Ack now and then (a loaded viewer's or server's
+//    scheduling, Wi-Fi retries) delays only itself and is not taken for a queue;
 //  - skips: frame sets the pacer or the latency budget made this viewer miss.
 // The path is *congested* while goodput is below `deficit` x the rung's rate AND (the queueing
 // delay is over `queue_ms` OR it missed at least `min_skips` frame sets in the window): goodput
@@ -79,6 +80,7 @@ class RateController {
   /// Bits per second acknowledged over the window; with fewer than 2 Acks in it, the newer of the
   /// last two over the time since the older (0 before 2 Acks).
   double goodput_bits(int64_t now_us) const;
+  /// The standing queue: the smallest queueing delay of the Acks in the window, ms (0 before any).
   double queue_ms() const { return queue_ms_; }
   bool congested() const { return congested_since_ >= 0; }
 
@@ -91,6 +93,7 @@ class RateController {
   struct Acked {
     int64_t time_us;
     size_t bytes;
+    double queue_ms;  // its round trip less the path's minimum
   };
   std::deque<Acked> acked_;
   std::deque<int64_t> skips_;

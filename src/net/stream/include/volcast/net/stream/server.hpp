@@ -174,11 +174,11 @@ struct ViewerReport {
   std::string peer;
   std::string depth_codec, color_codec;
   int color_quality = 0;
-  int frame_divisor = 1;             ///< its tier encodes every Nth site frame set
-  bool adaptive = false;             ///< moved along the ladder (Hello kAdapt and a ladder)
-  int rung = -1;                     ///< its ladder rung now (0 the best); -1 when pinned
-  double goodput_mbit_s = 0;         ///< acknowledged over the last half second
-  double queue_ms = 0;               ///< smoothed queueing delay (round trip less its minimum)
+  int frame_divisor = 1;      ///< its tier encodes every Nth site frame set
+  bool adaptive = false;      ///< moved along the ladder (Hello kAdapt and a ladder)
+  int rung = -1;              ///< its ladder rung now (0 the best); -1 when pinned
+  double goodput_mbit_s = 0;  ///< acknowledged over the last half second
+  double queue_ms = 0;        ///< standing queue: least round trip less its minimum in the window
   std::vector<TierSwitch> switches;  ///< every change and notice, oldest first (the last 64)
   uint64_t frames_sent = 0;
   uint64_t frames_dropped = 0;  ///< frame sets of its tier it skipped (pacing, budget, no key yet)

@@ -258,8 +258,10 @@ void Server::Impl::stream(Viewer& v) {
     const bool stale = now_wall - frames->capture_us > budget_us &&
                        frames->encode_done_us - frames->capture_us <= budget_us;
     if (!decodable || stale) {
-      // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key).
-      if (stale || synced) rc.on_skip(steady_us());
+      // Skip it: too old, or a delta whose reference this viewer lacks (it waits for a key). Too
+      // old is the path's sign only when the path held frame sets back since the last send;
+      // otherwise it aged waiting for this thread (a loaded server), which no rung cures.
+      if (stale ? blocked_since_send > 0 : synced) rc.on_skip(steady_us());
       std::lock_guard lock(mutex);
       ++v.report.frames_dropped;
       v.report.frames_stale += stale;
@@ -289,7 +291,11 @@ void Server::Impl::stream(Viewer& v) {
     if (last_sequence > 0 && frames->sequence > last_sequence + step) {
       const uint64_t missed = (frames->sequence - last_sequence) / step - 1;
       v.report.frames_dropped += missed;
-      if (missed > blocked_since_send) rc.on_skip(steady_us(), missed - blocked_since_send);
+      // Missed while the path held them back: the path's sign. Missed while nothing held them
+      // back (the pacer never blocked since the last send): this thread ran late, as on a loaded
+      // server -- not the path's, or every viewer of a busy server would step down together.
+      if (blocked_since_send > 0 && missed > blocked_since_send)
+        rc.on_skip(steady_us(), missed - blocked_since_send);
     }
     blocked_since_send = 0;
     last_sequence = frames->sequence;

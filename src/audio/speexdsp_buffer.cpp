@@ -35,6 +35,11 @@ class SpeexdspBuffer final : public Buffer {
   void put(uint32_t sequence, uint32_t frame, int64_t capture_us,
            std::span<const uint8_t> packet) override;
   PlayedFrame next(std::span<float, kFrameSamples> out) override;
+  void hold() override {  // no pause in speexdsp: the frame due is played into nothing
+    next(scratch_);
+    --player_.stats.frames_played;
+    ++player_.stats.frames_held;
+  }
   const VoiceStreamStats& stats() const override { return player_.stats; }
 
  private:
@@ -58,6 +63,7 @@ class SpeexdspBuffer final : public Buffer {
 
   JitterBuffer* jb_ = nullptr;
   std::unique_ptr<Slot[]> slots_;
+  std::array<float, kFrameSamples> scratch_{};  // hold()'s frame, heard by nobody
   VoicePlayer player_;
   SequenceWindow window_;
   int initial_hold_ = 0;

@@ -36,6 +36,10 @@ class SpurtBuffer final : public Buffer {
   void put(uint32_t sequence, uint32_t frame, int64_t capture_us,
            std::span<const uint8_t> packet) override;
   PlayedFrame next(std::span<float, kFrameSamples> out) override;
+  void hold() override {  // the clock runs on, the play position waits: one block more delay
+    ++player_.stats.frames_held;
+    ++tick_;
+  }
   const VoiceStreamStats& stats() const override { return player_.stats; }
 
  private:

@@ -181,6 +181,10 @@ PlayedFrame VoiceStream::next(std::span<float, kFrameSamples> out) {
   return buffer_->next(out);
 }
 
+void VoiceStream::hold() {
+  buffer_->hold();
+}
+
 VoiceStreamStats VoiceStream::stats() const {
   return buffer_->stats();
 }

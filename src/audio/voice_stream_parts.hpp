@@ -91,6 +91,7 @@ class Buffer {
   virtual void put(uint32_t sequence, uint32_t frame, int64_t capture_us,
                    std::span<const uint8_t> packet) = 0;
   virtual PlayedFrame next(std::span<float, kFrameSamples> out) = 0;
+  virtual void hold() = 0;
   virtual const VoiceStreamStats& stats() const = 0;
 };
 

@@ -68,14 +68,20 @@ void SiteVoice::run() {
   }
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
+      int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played
       if (mic_) {
-        capture(mic_->read(std::span<float, kFrameSamples>(block_.data(), kFrameSamples)));
+        const int64_t captured =
+            mic_->read(std::span<float, kFrameSamples>(block_.data(), kFrameSamples));
+        capture(captured);
         mic_ended_ = mic_->ended();
+        due = captured + kFrameUs;
       } else {
-        const int64_t wait = start + (tick + 1) * kFrameUs - wall_clock_us();
+        const int64_t wait = due - wall_clock_us();
         if (wait > 0) std::this_thread::sleep_for(std::chrono::microseconds(wait));
       }
-      play(wall_clock_us());
+      const int64_t now = wall_clock_us();
+      // A whole block behind: the loudspeaker ran dry, the voices wait (VoiceLink::run).
+      play(now, now - due >= kFrameUs);
     }
   } catch (const Error& e) {
     spdlog::error("OR site voice: {}", e.what());
@@ -105,12 +111,17 @@ void SiteVoice::capture(int64_t captured_us) {
   send_({sequence_++, frame, captured_us, packet});
 }
 
-void SiteVoice::play(int64_t now_us) {
+void SiteVoice::play(int64_t now_us, bool underrun) {
   const int64_t heard_at = now_us + (speaker_ ? speaker_->latency_us() : 0);
   std::fill(mix_.begin(), mix_.end(), 0.0f);
   {
     std::lock_guard lock(mutex_);
+    if (underrun) ++stats_.frames_underrun;
     for (auto& [id, h] : heard_voices_) {
+      if (underrun) {
+        h->stream.hold();
+        continue;
+      }
       const audio::PlayedFrame played =
           h->stream.next(std::span<float, kFrameSamples>(heard_.data(), kFrameSamples));
       if (played.source == audio::PlayedFrame::Source::kPacket ||

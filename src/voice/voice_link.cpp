@@ -138,17 +138,27 @@ void VoiceLink::run() {
   started(start);
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
+      int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played
       if (d.mic) {
         const int64_t captured = d.mic->read(d.block);
         // The microphone paces the loop: the loudspeaker's first block goes out with its first.
         if (tick == 0) started(captured);
         capture(d.block, captured);
         mic_ended_ = d.mic->ended();
+        due = captured + kFrameUs;
       } else {
-        const int64_t wait = start + (tick + 1) * kFrameUs - wall_clock_us();
+        const int64_t wait = due - wall_clock_us();
         if (wait > 0) std::this_thread::sleep_for(std::chrono::microseconds(wait));
       }
-      play(wall_clock_us());
+      const int64_t now = wall_clock_us();
+      // A whole block behind (this thread did not run: a loaded machine): the loudspeaker ran
+      // dry. That block is silence and every voice's play position waits (VoiceStream::hold), as
+      // after a stall of its stream: its packets, held up by the same stall, are often not here
+      // yet, and would be lost as late if it played on through it.
+      if (now - due >= kFrameUs)
+        play_underrun();
+      else
+        play(now);
     }
   } catch (const Error& e) {
     spdlog::error("voice: {}", e.what());
@@ -223,6 +233,20 @@ void VoiceLink::play(int64_t now_us) {
     d.speaker->write(std::span<const float>(d.out.data(), n));
   }
   ++stats_.frames_played;
+}
+
+void VoiceLink::play_underrun() {
+  Devices& d = *devices_;
+  std::fill(d.out.begin(), d.out.end(), 0.0f);
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [id, speaker] : speakers_) speaker->stream.hold();
+    ++stats_.frames_underrun;
+    ++stats_.frames_played;
+  }
+  if (d.speaker)
+    d.speaker->write(
+        std::span<const float>(d.out.data(), size_t(d.speaker->channels()) * kFrameSamples));
 }
 
 VoiceStats VoiceLink::stats() const {

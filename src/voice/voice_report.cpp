@@ -28,6 +28,7 @@ nlohmann::json to_json(const VoiceStats& s) {
   return {{"started_us", s.started_us},
           {"frames_captured", s.frames_captured},
           {"frames_played", s.frames_played},
+          {"frames_underrun", s.frames_underrun},
           {"packets_sent", s.packets_sent},
           {"dtx_frames", s.dtx_frames},
           {"bytes_per_second", s.bytes_per_second},

@@ -451,6 +451,52 @@ TEST(VoiceStream, LossIsToldFromDtxOnceTheNextPacketPlays) {
   report("stream_two_lost_concealed_percent", st.concealed_percent());
 }
 
+// The listener's own stall (a loaded machine did not run its loop for 12 blocks, 240 ms, nor the
+// thread that puts packets, in the middle of a talk spurt): woken 12 blocks behind, it holds them
+// (VoiceStream::hold: the loudspeaker played silence) before it takes what arrived meanwhile.
+// Every packet then plays, in order, the stall heard as a pause. Played on through instead (next()
+// into nothing, as the loop did before), the packets the stall held up come after their time and
+// are lost.
+TEST(VoiceStream, AListenersOwnStallHoldsTheVoiceInsteadOfLosingIt) {
+  const std::vector<Sent> sent = encode_speech();
+  size_t spurt = 0;  // the first packet of 40 in a row
+  for (size_t i = 0, run = 0; i + 1 < sent.size() && spurt == 0; ++i) {
+    run = sent[i + 1].frame == sent[i].frame + 1 ? run + 1 : 0;
+    if (run == 40) spurt = i - 39;
+  }
+  ASSERT_GT(spurt, 0u);
+  const std::vector<int64_t> arrival = in_time(sent);
+  const int64_t stall_from = sent[spurt].frame + 15, stall_ticks = 12;
+  const auto listen = [&](bool hold, std::vector<uint32_t>& played_frames) {
+    VoiceStream stream;
+    Frame out{};
+    size_t next = 0;
+    for (int64_t tick = 0; tick < int64_t(frame_count()) + 50; ++tick) {
+      if (tick >= stall_from && tick < stall_from + stall_ticks) continue;  // not run
+      if (tick == stall_from + stall_ticks)
+        for (int64_t i = 0; i < stall_ticks; ++i) hold ? stream.hold() : (void)stream.next(out);
+      for (; next < sent.size() && arrival[next] <= tick * kFrameUs + 5000; ++next)
+        stream.put(sent[next].sequence, sent[next].frame, int64_t{sent[next].frame} * kFrameUs,
+                   sent[next].bytes);
+      const PlayedFrame p = stream.next(out);
+      if (p.source == PlayedFrame::Source::kPacket) played_frames.push_back(p.frame);
+    }
+    return stream.stats();
+  };
+  std::vector<uint32_t> held_frames, on_frames;
+  const VoiceStreamStats held = listen(true, held_frames), on = listen(false, on_frames);
+  EXPECT_EQ(held.frames_held, uint64_t(stall_ticks));
+  EXPECT_EQ(held.late, 0u);
+  EXPECT_EQ(held.lost, 0u);
+  EXPECT_EQ(held.frames_from_packets + held.frames_skipped, sent.size());
+  EXPECT_TRUE(std::is_sorted(held_frames.begin(), held_frames.end()));
+  EXPECT_EQ(std::adjacent_find(held_frames.begin(), held_frames.end()), held_frames.end());
+  EXPECT_EQ(on.frames_held, 0u);
+  EXPECT_GE(on.late, uint64_t(stall_ticks) - 2) << "played on through the stall: lost as late";
+  std::printf("a 240 ms stall of the listener: held, %llu late; played on through, %llu late\n",
+              (unsigned long long)held.late, (unsigned long long)on.late);
+}
+
 // The two playout buffers on the same arrivals over a lossy TCP path (simulated, 3 seeds): the
 // talk-spurt buffer changes its delay only in silence or across quiet frames, so its phrases keep
 // their shape, and resumes a stalled stream where speexdsp drops what came late. The figures are

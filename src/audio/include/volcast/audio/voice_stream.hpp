@@ -84,6 +84,7 @@ struct VoiceStreamStats {
   uint64_t frames_silent = 0;        ///< Source::kSilence (corrected as the header describes)
   uint64_t frames_inserted = 0;      ///< of frames_silent: quiet frames inserted to grow the delay
   uint64_t frames_skipped = 0;       ///< quiet packets decoded, not played, to shrink it (kSpurt)
+  uint64_t frames_held = 0;          ///< hold() calls: blocks the listener's loop missed
   int delay_ms = 0;  ///< the jitter buffer's current delay: how long the newest packet waits, ms
   /// (fec + concealed) / (packets + fec + concealed frames, i.e. the frames while talking), in
   /// percent; 0 before any talking.
@@ -129,6 +130,13 @@ class VoiceStream {
   void put(uint32_t sequence, uint32_t frame, int64_t capture_us, std::span<const uint8_t> packet);
   /// Plays the next 20 ms into `out` (float [-1, 1]); call once per 20 ms of the playout clock.
   PlayedFrame next(std::span<float, kFrameSamples> out);
+  /// In place of next() for a block the listener could not play (its loop ran a whole block
+  /// late: a loaded machine; the loudspeaker played silence). kSpurt: the playout clock advances,
+  /// the play position does not -- what was due plays at the next next(), a block later, as a
+  /// stalled stream resumes (its packets, held up by the same stall, are then on time), and the
+  /// delay gained is given back where no one hears it. kSpeexdsp: played into nothing (speexdsp
+  /// has no pause), as next() would.
+  void hold();
   VoiceStreamStats stats() const;
 
  private:

@@ -37,6 +37,9 @@ struct SiteVoiceStats {
   int64_t started_us = 0;  ///< wall clock of the loop's first block
   uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
   uint64_t frames_played = 0;
+  /// Of frames_played: blocks the loop was a whole block late for, played as silence while the
+  /// voices' playout buffers held still (VoiceStats::frames_underrun).
+  uint64_t frames_underrun = 0;
   audio::EchoStats echo;  ///< when echo cancellation runs
   struct Heard {
     uint32_t id = 0;
@@ -71,7 +74,8 @@ class SiteVoice {
   struct Heard;
   void run();
   void capture(int64_t captured_us);
-  void play(int64_t now_us);
+  /// `underrun`: the loop is a whole block late; the block is silence, the voices hold.
+  void play(int64_t now_us, bool underrun);
 
   SiteVoiceConfig config_;
   std::unique_ptr<Microphone> mic_;

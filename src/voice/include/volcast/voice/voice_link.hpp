@@ -66,6 +66,10 @@ struct VoiceStats {
   uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
   /// 20 ms blocks the loudspeaker has played (its file's length: sample 0 at started_us).
   uint64_t frames_played = 0;
+  /// Of frames_played: blocks the loop was too late for (a whole block behind: its thread did not
+  /// run), played as silence while every voice's playout buffer held still, the late block heard
+  /// as a pause instead of the speech its stall held up being lost.
+  uint64_t frames_underrun = 0;
   double bytes_per_second = 0;    ///< sent, over the frames captured while not muted
   bool hrtf = false;              ///< the spatial mixer runs with HRTF
   std::vector<HeardVoice> heard;  ///< by id
@@ -102,6 +106,7 @@ class VoiceLink {
   void run();
   void capture(std::span<const float, audio::kFrameSamples> block, int64_t capture_us);
   void play(int64_t now_us);
+  void play_underrun();
 
   Participant& participant_;
   VoiceConfig config_;

@@ -459,8 +459,9 @@ TEST(SessionChannel, BurstsOfQueuedMessagesArriveWholeAndInOrder) {
 // Queued-stream messages (voice packets, kQueuedStreamKey) of several streams wait
 // (ServerConfig::stream_coalesce_us) to go out together; another kind of message sends them at
 // once. Interleaved, with one stream alone at the end (nothing else comes to send it), they all
-// arrive once each, in the order they were queued (a loaded machine may stall the viewer's thread
-// past 8 of one stream: the oldest are dropped then, and counted, never the other messages).
+// arrive once each, in the order they were queued. None is dropped: the viewer reads, so its socket
+// takes bytes, and a viewer's thread that a loaded machine stalled past 8 of one stream is not a
+// slow receiver (session_port.hpp).
 TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
   SessionChannelSite s(uint32_t{1} << 16);
   ASSERT_NE(s.viewer, 0u);
@@ -502,7 +503,7 @@ TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
   s.server.stop();
   EXPECT_EQ(s.error, "");
   const auto& got = s.got;
-  EXPECT_LT(lost, sent.size() / 4);
+  EXPECT_EQ(lost, 0u);
   ASSERT_EQ(got.size() + lost, sent.size());
   // In order: each one received is the next sent that was not dropped; only voice is dropped.
   size_t next = 0;

@@ -112,18 +112,25 @@ TEST(SessionMessages, RoundTripAndRefuseBadFields) {
 }
 
 // A receiver's queue (session_port.hpp): a voice stream's packets queue up to
-// kMaxQueuedPerStream and then lose the oldest, without touching other keys; a coalescing key
-// replaces; key 0 appends.
+// kMaxQueuedPerStream while the receiver is behind and then lose the oldest, without touching other
+// keys; a coalescing key replaces; key 0 appends.
 TEST(SessionMessages, AQueuedStreamDropsItsOldestOthersCoalesceOrAppend) {
   std::deque<std::pair<uint64_t, int>> q;
   const uint64_t voice_a = kQueuedStreamKey | 1, voice_b = kQueuedStreamKey | 2, pose = 7;
-  EXPECT_EQ(queue_session_message(q, pose, 100), 0u);
-  for (int i = 0; i < int(kMaxQueuedPerStream); ++i) queue_session_message(q, voice_a, i);
-  queue_session_message(q, voice_b, 50);
-  EXPECT_EQ(queue_session_message(q, voice_a, 8), 1u);  // 0 goes
-  EXPECT_EQ(queue_session_message(q, pose, 101), 0u);   // replaces 100 where it stands
-  queue_session_message(q, 0, 200);
-  queue_session_message(q, 0, 201);
+  int asked = 0;
+  const auto behind = [&] {
+    ++asked;
+    return true;
+  };
+  EXPECT_EQ(queue_session_message(q, pose, 100, behind), 0u);
+  for (int i = 0; i < int(kMaxQueuedPerStream); ++i) queue_session_message(q, voice_a, i, behind);
+  queue_session_message(q, voice_b, 50, behind);
+  EXPECT_EQ(asked, 0) << "asked only once a stream has kMaxQueuedPerStream queued";
+  EXPECT_EQ(queue_session_message(q, voice_a, 8, behind), 1u);  // 0 goes
+  EXPECT_EQ(asked, 1);
+  EXPECT_EQ(queue_session_message(q, pose, 101, behind), 0u);  // replaces 100 where it stands
+  queue_session_message(q, 0, 200, behind);
+  queue_session_message(q, 0, 201, behind);
   std::vector<int> a, all;
   for (const auto& [key, v] : q) {
     all.push_back(v);
@@ -134,6 +141,20 @@ TEST(SessionMessages, AQueuedStreamDropsItsOldestOthersCoalesceOrAppend) {
   EXPECT_EQ(std::count(all.begin(), all.end(), 50), 1);
   EXPECT_EQ(all.back(), 201);
   EXPECT_EQ(q.size(), 1 + kMaxQueuedPerStream + 1 + 2);
+}
+
+// The sender's own backlog (a loaded machine did not run the thread that writes, while the socket
+// takes bytes) loses nothing up to kMaxHeldPerStream, 1 s of voice: then the oldest goes.
+TEST(SessionMessages, AQueuedStreamKeepsASendersBacklogUpToASecond) {
+  std::deque<std::pair<uint64_t, int>> q;
+  const uint64_t voice = kQueuedStreamKey | 1;
+  const auto writable = [] { return false; };
+  for (int i = 0; i < int(kMaxHeldPerStream); ++i)
+    EXPECT_EQ(queue_session_message(q, voice, i, writable), 0u) << i;
+  EXPECT_EQ(queue_session_message(q, voice, int(kMaxHeldPerStream), writable), 1u);
+  ASSERT_EQ(q.size(), kMaxHeldPerStream);
+  EXPECT_EQ(q.front().second, 1);
+  EXPECT_EQ(q.back().second, int(kMaxHeldPerStream));
 }
 
 // The message table (message_table.hpp): every type once, with its sender and limits, and a

@@ -45,6 +45,7 @@ constexpr size_t kReadChunkBytes = 1 << 20;
 struct Client::Impl {
   ClientConfig config;
   std::unique_ptr<Connection> connection;
+  std::atomic<int> socket{-1};  // connection's fd() once connected, for other threads
   protocol::Welcome welcome;
   uint32_t frame_set_limit = 0;  // protocol::frame_set_payload_limit(welcome)
   int64_t clock_offset_us = 0;
@@ -460,6 +461,7 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
           where, tls.server_fingerprint, config.known_servers);
     impl_->connection = std::move(tls.connection);
   }
+  impl_->socket = impl_->connection->fd();
   const auto deadline = Impl::deadline_in(config.handshake_timeout_ms);
   const int64_t sent_us = wall_clock_us();
   protocol::Hello hello;
@@ -593,7 +595,8 @@ void Client::post_session(std::vector<uint8_t> message, uint64_t coalesce_key) {
   Impl& m = *impl_;
   {
     std::lock_guard lock(m.outbox_mutex);
-    queue_session_message(m.outbox, coalesce_key, std::move(message));
+    queue_session_message(m.outbox, coalesce_key, std::move(message),
+                          [&] { return send_buffer_full(m.socket.load()); });
   }
   const uint64_t one = 1;
   [[maybe_unused]] const auto n = ::write(m.wake_fd, &one, sizeof one);

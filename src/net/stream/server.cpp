@@ -317,7 +317,9 @@ bool Server::Impl::queue_session(Viewer& v, std::shared_ptr<const std::vector<ui
   if (v.outbox.size() >= 4096)
     v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
   else
-    v.report.session_dropped += queue_session_message(v.outbox, coalesce_key, std::move(message));
+    v.report.session_dropped +=
+        queue_session_message(v.outbox, coalesce_key, std::move(message),
+                              [&] { return v.connection && v.connection->send_buffer_full(); });
   const bool hold = v.kicked.empty() && v.outbox_streams_only && config.stream_coalesce_us > 0 &&
                     !streams_complete(v, now);
   if (!v.kicked.empty() || (!hold && !v.outbox_woken)) {

@@ -19,6 +19,15 @@
 #include "volcast/core/error.hpp"
 
 namespace volcast {
+
+bool send_buffer_full(int fd) {
+  pollfd p{fd, POLLOUT, 0};
+  return fd >= 0 && ::poll(&p, 1, 0) == 0;
+}
+
+bool Connection::send_buffer_full() const {
+  return volcast::send_buffer_full(fd());
+}
 namespace {
 
 using Clock = std::chrono::steady_clock;

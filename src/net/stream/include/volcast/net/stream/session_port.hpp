@@ -11,22 +11,29 @@
 namespace volcast {
 
 /// A coalesce key with this bit set marks a stream of messages that must not replace each other
-/// (voice: every packet plays): up to kMaxQueuedPerStream of one key wait for a receiver; one more
-/// drops the oldest of them (a slow receiver loses its oldest audio first; nobody else waits).
+/// (voice: every packet plays). A receiver that does not keep up loses its oldest first, and
+/// nobody else waits: with kMaxQueuedPerStream of one key queued while its connection's send
+/// buffer is full (the receiver or its path is slow), one more drops the oldest of them. A
+/// backlog of the sending thread's own (a loaded machine did not run it: the socket takes bytes)
+/// is no reason to lose speech: it is kept up to kMaxHeldPerStream, 1 s of voice.
 inline constexpr uint64_t kQueuedStreamKey = uint64_t{1} << 62;
 inline constexpr size_t kMaxQueuedPerStream = 8;
+inline constexpr size_t kMaxHeldPerStream = 50;
 
 /// Queues `message` under `key` in `outbox` (pairs of key and message, in send order): key 0
 /// appends; a key with kQueuedStreamKey appends after dropping the oldest of its key when
-/// kMaxQueuedPerStream are queued; any other key replaces a queued message with the same key, or
-/// appends. Returns the number of messages dropped (0 or 1). For Server and Client outboxes.
-template <typename Outbox, typename Message>
-size_t queue_session_message(Outbox& outbox, uint64_t key, Message message) {
+/// kMaxQueuedPerStream are queued and `receiver_behind()` says so, or kMaxHeldPerStream are; any
+/// other key replaces a queued message with the same key, or appends. `receiver_behind` (a
+/// callable returning bool, e.g. Connection::send_buffer_full) is called only at that point.
+/// Returns the number of messages dropped (0 or 1). For Server and Client outboxes.
+template <typename Outbox, typename Message, typename Behind>
+size_t queue_session_message(Outbox& outbox, uint64_t key, Message message,
+                             Behind&& receiver_behind) {
   size_t dropped = 0;
   if (key & kQueuedStreamKey) {
     size_t queued = 0;
     for (const auto& m : outbox) queued += m.first == key;
-    if (queued >= kMaxQueuedPerStream)
+    if (queued >= kMaxHeldPerStream || (queued >= kMaxQueuedPerStream && receiver_behind()))
       for (auto it = outbox.begin(); it != outbox.end(); ++it)
         if (it->first == key) {
           outbox.erase(it);

@@ -60,12 +60,19 @@ class Connection {
   virtual int handshake_step() = 0;
   /// The socket, for poll(2) by a caller multiplexing many connections (it stays owned here).
   virtual int fd() const = 0;
+  /// send_buffer_full(fd()).
+  bool send_buffer_full() const;
   /// "address:port" of the peer, for logs.
   virtual std::string peer() const = 0;
   /// Ends the connection: calls blocked in other threads return by throwing Error. Thread-safe
   /// and idempotent.
   virtual void shutdown() = 0;
 };
+
+/// Whether socket `fd`'s send buffer is full now (poll(2) gives no POLLOUT): its peer or path
+/// takes bytes slower than they are written. False for a socket that takes bytes, or fd < 0.
+/// Thread-safe: a write may be blocked on the socket in another thread.
+bool send_buffer_full(int fd);
 
 /// Connects over TCP (TCP_NODELAY and keepalive on), trying each address HOST resolves to within
 /// `timeout_ms` in all. Throws Error("cannot connect to HOST:PORT: reason").

@@ -1,6 +1,7 @@
 // The shared encoded stream: one encoding per tier, identical bytes for every viewer of a tier,
 // key frames for joiners, pacing that follows the path. Real recordings (the hands sequence).
 #include <gtest/gtest.h>
+#include <sys/socket.h>
 
 #include <fmt/format.h>
 #include <array>
@@ -515,6 +516,31 @@ TEST(SessionChannel, HeldVoicePacketsArriveInOrderWithTheOtherMessages) {
     ASSERT_LT(next, sent.size()) << "received message " << i << " is out of order";
     ++next;
   }
+}
+
+// What tells a slow receiver from a sending thread that did not run (session_port.hpp): a socket
+// whose peer does not read fills its send buffer and reports it full; once the peer has read it
+// all, it takes bytes again.
+TEST(SessionChannel, ASocketsSendBufferIsFullOnlyWhileItsPeerDoesNotRead) {
+  TcpListener listener("127.0.0.1", 0);
+  const std::unique_ptr<Connection> reader = connect_tcp("127.0.0.1", listener.port(), 5000);
+  const std::unique_ptr<Connection> writer = listener.accept();
+  ASSERT_TRUE(reader && writer);
+  EXPECT_FALSE(writer->send_buffer_full());
+  EXPECT_FALSE(send_buffer_full(-1));
+  std::vector<uint8_t> chunk(64 << 10, 7);
+  size_t written = 0;
+  for (ssize_t n = 0; (n = ::send(writer->fd(), chunk.data(), chunk.size(), MSG_DONTWAIT)) > 0;)
+    written += size_t(n);
+  ASSERT_GT(written, 0u);
+  EXPECT_TRUE(writer->send_buffer_full()) << written << " bytes unread";
+  size_t read = 0;
+  while (read < written) {
+    ASSERT_TRUE(reader->wait(-1, 10'000).readable);
+    read += reader->read_available(chunk);
+  }
+  EXPECT_EQ(read, written);
+  EXPECT_FALSE(writer->send_buffer_full());
 }
 
 // While several talk, a viewer's voice packets wait for each talker's packet of the frame and go

@@ -39,6 +39,7 @@ class FileMicrophone final : public Microphone {
     return at;
   }
   bool ended() const override { return blocks_ * kFrameSamples >= samples_.size(); }
+  bool on_wall_clock() const override { return true; }
 
  private:
   std::vector<float> samples_;
@@ -52,6 +53,7 @@ class FileSpeaker final : public Speaker {
   int channels() const override { return channels_; }
   void write(std::span<const float> block) override { sink_.write(block); }
   int64_t latency_us() const override { return 0; }
+  bool on_wall_clock() const override { return true; }
 
  private:
   audio::WavSink sink_;
@@ -118,6 +120,7 @@ class DeviceMicrophone final : public Microphone {
     return wall_clock_us() - kFrameUs - static_cast<int64_t>((info ? info->inputLatency : 0) * 1e6);
   }
   bool ended() const override { return false; }
+  bool on_wall_clock() const override { return false; }
 
  private:
   std::string spec_;
@@ -137,6 +140,7 @@ class DeviceSpeaker final : public Speaker {
     if (e != paNoError && e != paOutputUnderflowed)
       throw Error("loudspeaker '" + spec_ + "': " + Pa_GetErrorText(e));
   }
+  bool on_wall_clock() const override { return false; }
   int64_t latency_us() const override {
     const PaStreamInfo* info = Pa_GetStreamInfo(stream_);
     return static_cast<int64_t>((info ? info->outputLatency : 0) * 1e6);

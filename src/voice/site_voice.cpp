@@ -66,6 +66,7 @@ void SiteVoice::run() {
     std::lock_guard lock(mutex_);
     stats_.started_us = start;
   }
+  const bool wall_clock_paced = (!mic_ || mic_->on_wall_clock()) && (!speaker_ || speaker_->on_wall_clock());
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
       int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played
@@ -81,7 +82,7 @@ void SiteVoice::run() {
       }
       const int64_t now = wall_clock_us();
       // A whole block behind: the loudspeaker ran dry, the voices wait (VoiceLink::run).
-      play(now, now - due >= kFrameUs);
+      play(now, wall_clock_paced && now - due >= kFrameUs);
     }
   } catch (const Error& e) {
     spdlog::error("OR site voice: {}", e.what());

@@ -136,6 +136,7 @@ void VoiceLink::run() {
     stats_.started_us = at;
   };
   started(start);
+  const bool wall_clock_paced = (!d.mic || d.mic->on_wall_clock()) && (!d.speaker || d.speaker->on_wall_clock());
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
       int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played
@@ -154,8 +155,9 @@ void VoiceLink::run() {
       // A whole block behind (this thread did not run: a loaded machine): the loudspeaker ran
       // dry. That block is silence and every voice's play position waits (VoiceStream::hold), as
       // after a stall of its stream: its packets, held up by the same stall, are often not here
-      // yet, and would be lost as late if it played on through it.
-      if (now - due >= kFrameUs)
+      // yet, and would be lost as late if it played on through it. Only where the wall clock
+      // paces the loop (files): a sound device keeps its own clock, and its own underruns.
+      if (wall_clock_paced && now - due >= kFrameUs)
         play_underrun();
       else
         play(now);

@@ -351,6 +351,7 @@ struct SimulatedRoom {
       return at;
     }
     bool ended() const override { return false; }
+    bool on_wall_clock() const override { return true; }
   };
   struct Speaker final : voice::Speaker {
     SimulatedRoom& room;
@@ -361,6 +362,7 @@ struct SimulatedRoom {
       room.air.insert(room.air.end(), block.begin(), block.end());
     }
     int64_t latency_us() const override { return 0; }
+    bool on_wall_clock() const override { return true; }
   };
 };
 

@@ -131,10 +131,10 @@ class VoiceStream {
   /// Plays the next 20 ms into `out` (float [-1, 1]); call once per 20 ms of the playout clock.
   PlayedFrame next(std::span<float, kFrameSamples> out);
   /// In place of next() for a block the listener could not play (its loop ran a whole block
-  /// late: a loaded machine; the loudspeaker played silence). kSpurt: the playout clock advances,
-  /// the play position does not -- what was due plays at the next next(), a block later, as a
-  /// stalled stream resumes (its packets, held up by the same stall, are then on time), and the
-  /// delay gained is given back where no one hears it. kSpeexdsp: played into nothing (speexdsp
+  /// late: a loaded machine; the loudspeaker, a file, got silence). kSpurt: the playout clock
+  /// advances, the play position does not -- what was due plays at the next next(), a block later,
+  /// as a stalled stream resumes (its packets, held up by the same stall, are then on time), and
+  /// the delay gained is given back where no one hears it. kSpeexdsp: played into nothing (speexdsp
   /// has no pause), as next() would.
   void hold();
   VoiceStreamStats stats() const;

@@ -24,6 +24,9 @@ class Microphone {
   virtual int64_t read(std::span<float, audio::kFrameSamples> out) = 0;
   /// A file's samples have all been read (always false for a device).
   virtual bool ended() const = 0;
+  /// Paced by the wall clock (a file read in real time, a simulation); false for a sound device,
+  /// which keeps its own clock (and its own underruns).
+  virtual bool on_wall_clock() const = 0;
 };
 
 /// A loudspeaker: 20 ms blocks of `channels()` interleaved channels.
@@ -37,6 +40,9 @@ class Speaker {
   /// How long a sample written now takes to be heard (µs): the device's output latency, 0 for a
   /// file.
   virtual int64_t latency_us() const = 0;
+  /// A file (written as blocks come: the caller's clock is its clock), or a simulation; false for
+  /// a sound device, which plays at its own clock.
+  virtual bool on_wall_clock() const = 0;
 };
 
 /// `spec`: a path ending in .wav (read as mono 48 kHz: mixed down and resampled), or a device:

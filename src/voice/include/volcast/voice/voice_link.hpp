@@ -66,9 +66,10 @@ struct VoiceStats {
   uint64_t frames_captured = 0, packets_sent = 0, dtx_frames = 0, bytes_sent = 0;
   /// 20 ms blocks the loudspeaker has played (its file's length: sample 0 at started_us).
   uint64_t frames_played = 0;
-  /// Of frames_played: blocks the loop was too late for (a whole block behind: its thread did not
-  /// run), played as silence while every voice's playout buffer held still, the late block heard
-  /// as a pause instead of the speech its stall held up being lost.
+  /// Of frames_played: blocks the loop was a whole block late for (its thread did not run),
+  /// played as silence while every voice's playout buffer held still (VoiceStream::hold): the
+  /// stall heard as a pause, not the speech it held up lost. Files only: a sound device keeps its
+  /// own clock.
   uint64_t frames_underrun = 0;
   double bytes_per_second = 0;    ///< sent, over the frames captured while not muted
   bool hrtf = false;              ///< the spatial mixer runs with HRTF

@@ -66,7 +66,8 @@ void SiteVoice::run() {
     std::lock_guard lock(mutex_);
     stats_.started_us = start;
   }
-  const bool wall_clock_paced = (!mic_ || mic_->on_wall_clock()) && (!speaker_ || speaker_->on_wall_clock());
+  const bool wall_clock_paced =
+      (!mic_ || mic_->on_wall_clock()) && (!speaker_ || speaker_->on_wall_clock());
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
       int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played

@@ -136,7 +136,8 @@ void VoiceLink::run() {
     stats_.started_us = at;
   };
   started(start);
-  const bool wall_clock_paced = (!d.mic || d.mic->on_wall_clock()) && (!d.speaker || d.speaker->on_wall_clock());
+  const bool wall_clock_paced =
+      (!d.mic || d.mic->on_wall_clock()) && (!d.speaker || d.speaker->on_wall_clock());
   try {
     for (int64_t tick = 0; !stopping_; ++tick) {
       int64_t due = start + (tick + 1) * kFrameUs;  // this block's end: when it is played

@@ -2,6 +2,8 @@
 
 #include <opus.h>
 
+#include <cstring>
+#include <memory>
 #include <string>
 
 #include "volcast/core/error.hpp"
@@ -81,6 +83,8 @@ std::span<const uint8_t> VoiceEncoder::encode(std::span<const float, kFrameSampl
 
 struct VoiceDecoder::Codec {
   OpusDecoder* dec = nullptr;
+  size_t size = 0;                   // opus_decoder_get_size(1), bytes
+  std::unique_ptr<uint8_t[]> saved;  // save()'s copy of *dec
   ~Codec() { opus_decoder_destroy(dec); }
 };
 
@@ -89,6 +93,9 @@ VoiceDecoder::VoiceDecoder() : codec_(std::make_unique<Codec>()) {
   codec_->dec = opus_decoder_create(kSampleRate, 1, &err);
   if (codec_->dec == nullptr)
     throw Error(std::string("opus_decoder_create: ") + opus_strerror(err));
+  codec_->size = static_cast<size_t>(opus_decoder_get_size(1));
+  codec_->saved = std::make_unique<uint8_t[]>(codec_->size);
+  save();
 }
 
 VoiceDecoder::~VoiceDecoder() = default;
@@ -120,6 +127,14 @@ void VoiceDecoder::decode_fec(std::span<const uint8_t> next_packet,
 
 void VoiceDecoder::conceal(std::span<float, kFrameSamples> out) {
   run_decode(codec_->dec, nullptr, 0, out.data(), 0);
+}
+
+void VoiceDecoder::save() {
+  std::memcpy(codec_->saved.get(), codec_->dec, codec_->size);
+}
+
+void VoiceDecoder::restore() {
+  std::memcpy(codec_->dec, codec_->saved.get(), codec_->size);
 }
 
 }  // namespace volcast::audio

@@ -145,9 +145,9 @@ void SpurtBuffer::put(uint32_t sequence, uint32_t frame, int64_t capture_us,
       diff(play_frame_, frame) <= kMaxStall) {
     // The packet after the last one played, late: the stream stalled (TCP retransmitting)
     // and only concealment has played since. Resume where it stopped, the stall heard as a
-    // pause, rather than lose what is held up behind it.
-    stats.frames_inserted += player_.pending;
-    player_.pending = 0;
+    // pause, rather than lose what is held up behind it; decoded as if the concealment had not
+    // played (VoicePlayer::resume).
+    player_.resume();
     play_frame_ = frame;
   }
   if ((player_.started && diff(sequence, player_.last_seq) <= 0) ||

@@ -36,6 +36,12 @@ bool SequenceWindow::note(uint32_t sequence, VoiceStreamStats& stats) {
   return true;
 }
 
+void VoicePlayer::resume() {
+  stats.frames_inserted += pending;
+  pending = 0;
+  if (since_last > 0) decoder.restore();
+}
+
 void VoicePlayer::restart_sequence(uint32_t sequence, uint32_t frame) {
   last_seq = sequence - 1;
   last_frame = frame - 1;
@@ -97,9 +103,9 @@ PlayedFrame VoicePlayer::play_idle(std::span<float, kFrameSamples> out) {
     std::fill(out.begin(), out.end(), 0.0f);
     return {PlayedFrame::Source::kSilence, 0, 0};
   }
+  left_packet();
   decoder.conceal(out);  // fades into comfort noise
   ++pending;
-  ++since_last;
   talking = false;
   return estimate(PlayedFrame::Source::kSilence, last_frame + since_last);
 }
@@ -108,7 +114,7 @@ PlayedFrame VoicePlayer::play_missing(uint32_t frame, const Slot* next,
                                       std::span<float, kFrameSamples> out) {
   if (!started) return play_idle(out);
   const int32_t k = diff(frame, last_frame);  // 1 for the first frame of the gap
-  ++since_last;
+  left_packet();
   if (next != nullptr) {
     const int32_t lost =
         std::min(diff(next->sequence, last_seq), diff(next->frame, last_frame)) - 1;
@@ -135,8 +141,8 @@ PlayedFrame VoicePlayer::play_missing(uint32_t frame, const Slot* next,
 PlayedFrame VoicePlayer::play_insertion(uint32_t frame, bool as_speech,
                                         std::span<float, kFrameSamples> out) {
   if (!started) return play_idle(out);
+  left_packet();
   decoder.conceal(out);
-  ++since_last;
   if (as_speech) {
     ++stats.frames_concealed;
     return estimate(PlayedFrame::Source::kConcealed, frame);

@@ -55,6 +55,9 @@ struct VoicePlayer {
   uint32_t since_last = 0;  // frames played since it
   uint64_t pending = 0;     // gap frames played as provisional silence
 
+  /// The stream stalled and resumes at the packet after the last one played: the frames played
+  /// since count as inserted (a pause), and the decoder goes back to where that packet left it.
+  void resume();
   /// The sender restarted at `sequence`/`frame`: count from there.
   void restart_sequence(uint32_t sequence, uint32_t frame);
   /// Plays `slot`'s packet: decode() then played().
@@ -78,6 +81,10 @@ struct VoicePlayer {
 
  private:
   void resolve_gap(uint32_t sequence, uint32_t frame);
+  /// One more frame played without a packet: at the first, the decoder's state is saved.
+  void left_packet() {
+    if (since_last++ == 0) decoder.save();
+  }
   void advance(const Slot& slot);
   PlayedFrame estimate(PlayedFrame::Source source, uint32_t frame) const {
     return {source, frame, last_capture_us + int64_t{diff(frame, last_frame)} * kFrameUs};

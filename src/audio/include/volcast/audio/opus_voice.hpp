@@ -60,6 +60,14 @@ class VoiceDecoder {
   void decode_fec(std::span<const uint8_t> next_packet, std::span<float, kFrameSamples> out);
   /// Packet-loss concealment (Opus PLC; comfort noise after DTX) for a frame with no packet.
   void conceal(std::span<float, kFrameSamples> out);
+  /// Keeps the decoder's state (libopus: a flat, position-independent structure that "can be
+  /// freely copied", opus.h) for restore(). Copies into storage the constructor allocated: no
+  /// allocation.
+  void save();
+  /// Goes back to the state save() kept (the initial state if save() was never called): a stream
+  /// that resumes after a stall decodes its next packet as if the concealment played meanwhile
+  /// had not been.
+  void restore();
 
  private:
   struct Codec;

@@ -220,6 +220,26 @@ inline AsSaid heard_as_said(std::span<const float> heard, const std::filesystem:
   return out;
 }
 
+/// The mouth-to-ear latency, in ms, at which a listener played each of `speaker`'s frames from
+/// its packet or FEC, by its played log: the frame's block on the loudspeaker file's time line
+/// minus where the frame was said (`mic_start_us`: the speaker's first sample on that time line,
+/// µs). Index: frame number; NaN where a frame was not played from a packet.
+inline std::vector<double> played_latencies_ms(const std::filesystem::path& played_log,
+                                               uint32_t speaker, int64_t mic_start_us) {
+  constexpr double frame_ms = 1000.0 * double(audio::kFrameSamples) / audio::kSampleRate;
+  std::vector<double> out;
+  std::ifstream in(played_log);
+  unsigned long long block = 0;
+  uint32_t id = 0, frame = 0;
+  char how = 0;
+  while (in >> block >> id >> how >> frame) {
+    if (id != speaker || (how != 'p' && how != 'f')) continue;
+    if (out.size() <= frame) out.resize(size_t(frame) + 1, std::nan(""));
+    out[frame] = (double(block) - double(frame)) * frame_ms - double(mic_start_us) / 1000.0;
+  }
+  return out;
+}
+
 /// How well `phrase`, said at microphone sample `said_at`, came through to `as_said`: placed
 /// where it lands within 30 ms (the codec's and the resampler's delay), its correlation there over
 /// the frames played from packets. A frame a loaded machine's late packet left to concealment is

@@ -51,8 +51,8 @@ void record_talk(const std::filesystem::path& dir, const std::string& file,
   const pid_t pid = test::spawn_recorder(s.link(), file);
   ASSERT_NE(pid, 0);
   ASSERT_TRUE(eventually([&] { return a.other("Recorder").has_value(); }));
-  test::speak(a, dir / "a.wav", said);
-  std::this_thread::sleep_for(300ms);  // the last packets' way to the recorder
+  // The last packets' way to the recorder: every packet A sent, in the recorder's file.
+  ASSERT_TRUE(test::recorded_voices(file, test::speak(a, dir / "a.wav", said)));
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);

@@ -338,12 +338,13 @@ TEST(Voice, SpeechCrossesAnImpairedPath) {
 
 // A room for the OR site's microphone and loudspeaker (synthetic): what the loudspeaker plays
 // reaches the microphone 30 ms later at half its amplitude, plus the OR's own talker (a real
-// voice, from `local`), in real time.
+// voice, from `local`, from the microphone's sample `local_from` on), in real time.
 struct SimulatedRoom {
   std::mutex mutex;
   std::deque<float> air;    // played, not yet heard
   std::vector<float> echo;  // every sample of echo the microphone picked up
   std::vector<float> local;
+  size_t local_from = SIZE_MAX;
   size_t heard = 0;
   int64_t start_us = 0;
 
@@ -365,7 +366,8 @@ struct SimulatedRoom {
           room.air.pop_front();
         }
         room.echo.push_back(e);
-        x = e + (room.heard < room.local.size() ? room.local[room.heard] : 0.0f);
+        const size_t i = room.heard - room.local_from;  // wraps to huge before local_from
+        x = e + (room.heard >= room.local_from && i < room.local.size() ? room.local[i] : 0.0f);
         ++room.heard;
       }
       return at;
@@ -388,7 +390,8 @@ struct SimulatedRoom {
 
 // The OR site: B's voice plays on the OR's loudspeaker and comes back into its microphone (the
 // simulated room); echo cancellation removes it: B hears its own voice back >= 20 dB below the
-// echo the microphone picked up. The OR's own talker still reaches B.
+// echo the microphone picked up. The OR's own talker, once B's voice has played out, still
+// reaches B.
 TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
   std::atomic<voice::SiteVoice*> site_voice{nullptr};
   SessionHubConfig config;
@@ -405,8 +408,7 @@ TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
   SimulatedRoom room;
   room.start_us = wall_clock_us() + 300'000;
   const std::vector<float> or_phrase = test::speech("Side_Left");
-  room.local.assign(b_said.size() + samples(0.5), 0.0f);
-  room.local.insert(room.local.end(), or_phrase.begin(), or_phrase.end());
+  room.local = or_phrase;
   voice::VoiceConfig cb;
   cb.mic = test::write_voice(dir / "b.wav", b_said).string();
   cb.mic_start_us = room.start_us;
@@ -421,10 +423,37 @@ TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
                        [&](const session::VoicePacketView& p) { s.hub.site_voice(p); });
     site_voice = &v;
     voice::VoiceLink vb(b.p(), cb);
+    // The OR's talker speaks 0.5 s after the loudspeaker played B's last packet, not at a time
+    // set in advance: a loaded machine delays B's voice at the OR (a stalled path, a held
+    // loop), and the OR's phrase then began under it -- double talk, which the canceller
+    // rightly damps (CI: its first 16 frames 10-20 dB down, 0.649).
+    ASSERT_TRUE(eventually([&] { return vb.mic_ended(); }, 30s));
+    const uint64_t b_sent = vb.stats().packets_sent;
+    uint64_t played_then = 0;
+    int delay_ms = 0;
+    ASSERT_TRUE(eventually(
+        [&] {
+          const voice::SiteVoiceStats now = v.stats();
+          for (const auto& h : now.heard)
+            if (h.id == b.now().id && h.stream.packets >= b_sent) {
+              played_then = now.frames_played;
+              delay_ms = h.stream.delay_ms;
+              return true;
+            }
+          return false;
+        },
+        30s));
+    // Its last packet, due delay_ms after it arrived, and a frame more: counted in blocks played.
+    const uint64_t blocks = uint64_t(delay_ms) / 20 + 2;
+    ASSERT_TRUE(eventually([&] { return v.stats().frames_played >= played_then + blocks; }, 30s));
+    {
+      std::lock_guard lock(room.mutex);
+      room.local_from = room.heard + samples(0.5);
+    }
     ASSERT_TRUE(eventually(
         [&] {
           std::lock_guard lock(room.mutex);
-          return room.heard > room.local.size() + samples(0.5);
+          return room.heard > room.local_from + room.local.size() + samples(0.5);
         },
         30s));
     // The OR's phrase's way to B: every packet the OR sent, played into B's file.
@@ -458,7 +487,7 @@ TEST(Voice, OrSiteCancelsItsLoudspeakersEcho) {
   // time line as B played it (B's played log: a stall of a loaded machine, resumed as a pause,
   // is taken out again). The canceller's band split shifts bands of different pitch by up to a
   // millisecond against each other, so the phrase is compared below about 2 kHz (align_band).
-  const size_t or_said_at = room.local.size() - or_phrase.size();
+  const size_t or_said_at = room.local_from;
   const test::AsSaid as_said =
       test::heard_as_said(b_heard, dir / "b_played.tsv", 1);  // the OR site is participant 1
   const test::Heard found = test::heard_where_said(or_phrase, as_said, or_said_at, true);

@@ -207,6 +207,15 @@ Playout play(const std::vector<Sent>& sent, const std::vector<int64_t>& arrival_
   return result;
 }
 
+// The first packet of the first talk spurt with 40 packets in a row after it (0: none).
+size_t first_long_spurt(const std::vector<Sent>& sent) {
+  for (size_t i = 0, run = 0; i + 1 < sent.size(); ++i) {
+    run = sent[i + 1].frame == sent[i].frame + 1 ? run + 1 : 0;
+    if (run == 40) return i - 39;
+  }
+  return 0;
+}
+
 std::vector<int64_t> in_time(const std::vector<Sent>& sent) {
   std::vector<int64_t> arrival;
   for (const Sent& s : sent) arrival.push_back((int64_t{s.frame} + 1) * kFrameUs + 2000);
@@ -459,11 +468,7 @@ TEST(VoiceStream, LossIsToldFromDtxOnceTheNextPacketPlays) {
 // are lost.
 TEST(VoiceStream, AListenersOwnStallHoldsTheVoiceInsteadOfLosingIt) {
   const std::vector<Sent> sent = encode_speech();
-  size_t spurt = 0;  // the first packet of 40 in a row
-  for (size_t i = 0, run = 0; i + 1 < sent.size() && spurt == 0; ++i) {
-    run = sent[i + 1].frame == sent[i].frame + 1 ? run + 1 : 0;
-    if (run == 40) spurt = i - 39;
-  }
+  const size_t spurt = first_long_spurt(sent);
   ASSERT_GT(spurt, 0u);
   const std::vector<int64_t> arrival = in_time(sent);
   const int64_t stall_from = sent[spurt].frame + 15, stall_ticks = 12;
@@ -505,11 +510,7 @@ TEST(VoiceStream, AListenersOwnStallHoldsTheVoiceInsteadOfLosingIt) {
 // the pause came out garbled (CI: two loud frames at 0.76 and 0.79 correlation).
 TEST(VoiceStream, AStalledStreamResumesAsIfTheConcealmentHadNotPlayed) {
   const std::vector<Sent> sent = encode_speech();
-  size_t spurt = 0;  // the first packet of 40 in a row
-  for (size_t i = 0, run = 0; i + 1 < sent.size() && spurt == 0; ++i) {
-    run = sent[i + 1].frame == sent[i].frame + 1 ? run + 1 : 0;
-    if (run == 40) spurt = i - 39;
-  }
+  const size_t spurt = first_long_spurt(sent);
   ASSERT_GT(spurt, 0u);
   size_t end = spurt;  // the spurt's last packet
   while (end + 1 < sent.size() && sent[end + 1].frame == sent[end].frame + 1) ++end;

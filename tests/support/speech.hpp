@@ -220,6 +220,29 @@ inline AsSaid heard_as_said(std::span<const float> heard, const std::filesystem:
   return out;
 }
 
+/// AsSaid from what a browser page played (`heard`: a channel of its heard.wav, or both mixed) and
+/// its played log (drive.mjs's heard_played.tsv, voice.js Voice.heardLog: per 128-sample quantum
+/// a speaker played audio in, the quantum's first sample in `heard`, the speaker's id, and the
+/// speaker's sample there), for `speaker`'s id. The page conceals nothing: `from_packet` marks
+/// the speaker's frames it played audio of, a frame it never had stays silent and counted out.
+inline AsSaid page_heard_as_said(std::span<const float> heard,
+                                 const std::filesystem::path& played_log, uint32_t speaker) {
+  constexpr size_t quantum = 128, n = audio::kFrameSamples;
+  AsSaid out;
+  std::ifstream in(played_log);
+  long long at = 0, sample = 0;
+  uint32_t id = 0;
+  while (in >> at >> id >> sample) {
+    if (id != speaker || at < 0 || sample < 0 || size_t(at) + quantum > heard.size()) continue;
+    const size_t end = size_t(sample) + quantum, frames = (end + n - 1) / n;
+    if (out.samples.size() < frames * n) out.samples.resize(frames * n, 0.0f);
+    if (out.from_packet.size() < frames) out.from_packet.resize(frames, 0);
+    std::copy_n(heard.begin() + at, quantum, out.samples.begin() + sample);
+    for (size_t f = size_t(sample) / n; f < frames; ++f) out.from_packet[f] = 1;
+  }
+  return out;
+}
+
 /// The mouth-to-ear latency, in ms, at which a listener played each of `speaker`'s frames from
 /// its packet or FEC, by its played log: the frame's block on the loudspeaker file's time line
 /// minus where the frame was said (`mic_start_us`: the speaker's first sample on that time line,

@@ -703,6 +703,7 @@ function startVoice() {
                                            processing: params.get('processing') !== '0',
                                            record: Number(params.get('record') || 0)});
   window.volcastHeard = () => voice.heard();
+  window.volcastHeardLog = () => voice.heardLog();
   voice.start().catch((err) => { voice.error = `${err.name || 'Error'}: ${err.message}`; });
 }
 

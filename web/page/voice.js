@@ -30,6 +30,8 @@ export class Voice {
     this.error = '';
     this.recorded = [[], []];
     this.recordedSamples = 0;
+    this.recordedAt = [];      // [sample in the recording, the context's sample] per block
+    this.playedLog = [];       // [id, context sample, sender's sample] per quantum played
     this.ctx = null;
     this.mic = false;
     this.followedAt = 0;  // performance.now() of the last follow()
@@ -123,8 +125,15 @@ export class Voice {
   // The worker heard a new speaker: its playout worklet and place in the room.
   addSpeaker(id) {
     if (!this.ctx || this.speakers.has(id)) return;
+    const log = this.options.record > 0;
     const node = new AudioWorkletNode(this.ctx, 'volcast-playout', {numberOfInputs: 0,
-                                      outputChannelCount: [1]});
+                                      outputChannelCount: [1], processorOptions: {log}});
+    if (log) {
+      node.port.onmessage = (e) => {
+        for (let i = 0; i + 1 < e.data.length; i += 2)
+          this.playedLog.push([id, e.data[i], e.data[i + 1]]);
+      };
+    }
     const gain = this.ctx.createGain();
     const panner = new PannerNode(this.ctx, {panningModel: 'HRTF', distanceModel: 'inverse',
                                              refDistance: 1, rolloffFactor: 1});
@@ -179,8 +188,9 @@ export class Voice {
 
   speaking(id) { return !!this.stats.heard?.[id]?.speaking; }
 
-  keep(block) {
+  keep({frame, out: block}) {
     if (this.recordedSamples >= this.options.record * RATE) return;
+    this.recordedAt.push([this.recordedSamples, frame, block[0].length]);
     this.recorded[0].push(block[0]);
     this.recorded[1].push(block[1]);
     this.recordedSamples += block[0].length;
@@ -214,6 +224,23 @@ export class Voice {
     let s = '';
     for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
     return btoa(s);
+  }
+
+  // The played log of what heard() holds (tests): one line per 128-sample quantum a speaker
+  // played audio in: the quantum's first sample in heard()'s file, the speaker's id, and the
+  // speaker's sample there (its frame number x 960 + the offset in the frame; the quantum's
+  // sample j is the speaker's sample + j). Tab-separated text.
+  heardLog() {
+    const lines = [];
+    let b = 0;
+    for (const [id, frame, cursor] of [...this.playedLog].sort((x, y) => x[1] - y[1])) {
+      while (b < this.recordedAt.length &&
+             this.recordedAt[b][1] + this.recordedAt[b][2] <= frame) ++b;
+      if (b === this.recordedAt.length) break;
+      const [at, from, n] = this.recordedAt[b];
+      if (frame >= from && frame + 128 <= from + n) lines.push(`${at + frame - from}\t${id}\t${cursor}\n`);
+    }
+    return lines.join('');
   }
 
   // What window.volcast.voice shows: the worker's figures, names and this side's state.

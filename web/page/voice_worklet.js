@@ -13,8 +13,12 @@
 //   other frame that comes after its time is dropped and the delay grows by a frame (up to
 //   200 ms); 10 s without a late frame, or more than target + 100 ms waiting, skip a frame of
 //   silence (the delay shrinks, down to 40 ms). Posts the worker its cursor and counts every
-//   100 ms.
-// - volcast-tap: what the page plays (stereo), posted in blocks of 0.5 s (what it heard, for tests).
+//   100 ms. With processorOptions.log (a page that keeps what it plays, for tests), also posts
+//   its node, every 100 ms, the played log: for each 128-sample quantum it played audio in, the
+//   quantum's first sample (`currentFrame`, the context's) and the cursor there (the sender's
+//   sample): the quantum's sample j is the sender's sample cursor + j.
+// - volcast-tap: what the page plays (stereo), posted in blocks of up to 0.5 s of consecutive
+//   quanta (what it heard, for tests), each with the context's sample it starts at.
 const FRAME = 960;
 const MIN_TARGET = 2 * FRAME;   // 40 ms
 const MAX_TARGET = 10 * FRAME;  // 200 ms
@@ -47,8 +51,9 @@ class Capture extends AudioWorkletProcessor {
 }
 
 class Playout extends AudioWorkletProcessor {
-  constructor() {
+  constructor(options) {
     super();
+    this.log = options?.processorOptions?.log ? [] : null;  // [currentFrame, cursor, ...]
     this.frames = new Map();  // frame number -> Float32Array (960), not yet played
     this.cursor = null;       // the sample being played, on the sender's time line (frame * 960)
     this.newest = -1;         // the newest frame number received
@@ -110,6 +115,8 @@ class Playout extends AudioWorkletProcessor {
       this.skipped += FRAME;
       this.calm = 0;
     }
+    const from = this.cursor;
+    let any = false;
     let i = 0;
     while (i < out.length) {
       const f = Math.floor(this.cursor / FRAME);
@@ -118,6 +125,7 @@ class Playout extends AudioWorkletProcessor {
       const pcm = this.frames.get(f);
       if (pcm) {
         out.set(pcm.subarray(offset, offset + n), i);
+        any = true;
         if (this.played === null || f > this.played) this.played = f;
       } else {
         out.fill(0, i, i + n);
@@ -127,10 +135,17 @@ class Playout extends AudioWorkletProcessor {
       if (offset + n === FRAME) this.frames.delete(f);
     }
     this.calm += out.length;
-    if (++this.quanta % 38 === 0 && this.worker)  // about every 100 ms
-      this.worker.postMessage({cursor: this.cursor, target: this.target, late: this.late,
-                               skipped: this.skipped, resumed: this.resumed,
-                               inserted: this.inserted});
+    if (this.log && any) this.log.push(currentFrame, from);
+    if (++this.quanta % 38 === 0) {  // about every 100 ms
+      if (this.worker)
+        this.worker.postMessage({cursor: this.cursor, target: this.target, late: this.late,
+                                 skipped: this.skipped, resumed: this.resumed,
+                                 inserted: this.inserted});
+      if (this.log && this.log.length) {
+        this.port.postMessage(this.log);
+        this.log = [];
+      }
+    }
     return true;
   }
 }
@@ -140,8 +155,19 @@ class Tap extends AudioWorkletProcessor {
     super();
     this.block = [new Float32Array(sampleRate / 2), new Float32Array(sampleRate / 2)];
     this.filled = 0;
+    this.frame = 0;  // the context's sample of the block's first
+  }
+  // Posts the block kept so far.
+  flush() {
+    const out = this.block.map((b) => b.slice(0, this.filled));
+    this.port.postMessage({frame: this.frame, out}, out.map((b) => b.buffer));
+    this.filled = 0;
   }
   process(inputs) {
+    // Chromium does not call a processor for every quantum (not while the graph changes, it
+    // seems): a block holds consecutive quanta only.
+    if (this.filled > 0 && currentFrame !== this.frame + this.filled) this.flush();
+    if (this.filled === 0) this.frame = currentFrame;
     const input = inputs[0];
     const n = 128;
     for (let c = 0; c < 2; ++c) {
@@ -150,11 +176,7 @@ class Tap extends AudioWorkletProcessor {
       else this.block[c].fill(0, this.filled, this.filled + n);
     }
     this.filled += n;
-    if (this.filled + n > this.block[0].length) {
-      const out = this.block.map((b) => b.slice(0, this.filled));
-      this.port.postMessage(out, out.map((b) => b.buffer));
-      this.filled = 0;
-    }
+    if (this.filled + n > this.block[0].length) this.flush();
     return true;
   }
 }

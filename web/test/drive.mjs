@@ -19,7 +19,8 @@
 // overlay toggled), as a person at the keyboard would.
 // --mic FILE: Chromium's fake microphone plays the WAV file once (then silence), as a person
 // speaking; --voice S: once the page has heard someone's voice, S seconds more, then writes what
-// it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav.
+// it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav, and its played
+// log (window.volcastHeardLog: Voice.heardLog in voice.js) to DIR/heard_played.tsv.
 // --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
 // --ar X,Y,Z,DX,DY,DZ: IWER's headset enters immersive-ar instead (the page shows the others'
 // pointers and annotations over the passthrough); once the page has drawn another participant's
@@ -271,6 +272,7 @@ try {
     await page.waitForTimeout(voiceSeconds * 1000);
     const wav = await page.evaluate(() => window.volcastHeard());
     writeFileSync(`${out}/heard.wav`, Buffer.from(wav, 'base64'));
+    writeFileSync(`${out}/heard_played.tsv`, await page.evaluate(() => window.volcastHeardLog()));
     s = await state();
   }
   if (args.includes('--bench') && s.phase !== 'error') {

@@ -55,13 +55,12 @@ VideoResult stream(const std::string& codec, const std::vector<DepthImage>& fram
 
 TEST_F(VideoDepth, KeepsTheValidMaskExactAndTheErrorSmallOnRealSets) {
   // Measured (mean / max error over valid pixels): see the bench; the bounds leave a margin.
+  const auto kinect = test::real_depth_frames("kinect");
+  const auto hands = test::real_depth_frames("hands", 40);
   for (const std::string codec : {"h264", "hevc"}) {
-    auto kinect = test::real_depth_frames("kinect");
     const VideoResult k = stream(codec, {kinect[0], kinect[0], kinect[0]});
     EXPECT_LT(k.mean_error, 3.0) << codec;
     EXPECT_GT(k.ratio, 20.0) << codec;  // RVL: 4.15x
-    auto hands = test::real_depth_frames("hands");
-    hands.resize(40);
     const VideoResult h = stream(codec, hands);
     EXPECT_LT(h.mean_error, 10.0) << codec;
     EXPECT_GT(h.ratio, 15.0) << codec;  // RVL: 3.50x
@@ -83,7 +82,7 @@ TEST_F(VideoDepth, HandlesOddAndDegenerateSizes) {
 }
 
 TEST_F(VideoDepth, DeltaWithoutKeyFrameIsAnErrorAndAKeyFrameResynchronises) {
-  const auto frames = test::real_depth_frames("hands");
+  const auto frames = test::real_depth_frames("hands", 4);
   for (const std::string codec : {"h264", "hevc"}) {
     auto enc = make_depth_encoder(codec);
     std::vector<uint8_t> bytes;

@@ -35,7 +35,7 @@ fs::path kinect_mkv() {
   return data_dir() / "k4a-recording" / "recording.mkv";
 }
 
-std::vector<DepthImage> real_depth_frames(const std::string& set) {
+std::vector<DepthImage> real_depth_frames(const std::string& set, size_t count) {
   std::vector<fs::path> files;
   fs::path dir;
   if (set == "hands") dir = hands_dir() / "depth";
@@ -51,6 +51,7 @@ std::vector<DepthImage> real_depth_frames(const std::string& set) {
       files.push_back(e.path());
   }
   std::sort(files.begin(), files.end());
+  if (files.size() > count) files.resize(count);
   std::vector<DepthImage> out;
   for (const auto& f : files) out.push_back(read_depth_png(f));
   return out;

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -15,8 +16,10 @@ std::filesystem::path data_dir();
 std::filesystem::path hands_dir();   ///< rgbd-hands-640x360 (207 frames)
 std::filesystem::path kinect_mkv();  ///< k4a-recording/recording.mkv
 /// Every real depth frame of one set, by name: "hands" (207), "kinect" (1), "4cam" (4),
-/// "binned" (6).
-std::vector<DepthImage> real_depth_frames(const std::string& set);
+/// "binned" (6); or only its first `count` (each PNG read costs: a test that codes a few frames
+/// reads a few).
+std::vector<DepthImage> real_depth_frames(const std::string& set,
+                                          size_t count = std::numeric_limits<size_t>::max());
 /// Colour frame `index` (0..206) of the hands sequence, decoded from its JPEG (BGRA, 640x360).
 ColorImage hands_color_image(int index);
 /// A fresh empty temporary folder for one test (`name` and the process id under the system's

@@ -6,8 +6,11 @@
 #include <sys/types.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -89,6 +92,28 @@ inline bool recorded_voices(const std::filesystem::path& file, uint64_t packets)
       [&] {
         try {
           return RecordingReader(file).info().voices.size() >= packets;
+        } catch (const Error&) {
+          return false;  // not yet written far enough to read
+        }
+      },
+      std::chrono::seconds(30));
+}
+
+/// Waits (up to 30 s) until the recording `file`, while its recorder writes it, holds a frame set
+/// captured at or after its last voice packet. A replay plays each voice beside the frame set it
+/// was captured with (record/timeline.cpp, voice_plan): a voice captured more than a frame
+/// interval after the file's last frame set is not replayed. False if it does not.
+inline bool recorded_frame_set_after_voices(const std::filesystem::path& file) {
+  return eventually(
+      [&] {
+        try {
+          const RecordingInfo info = RecordingReader(file).info();
+          int64_t last_voice = std::numeric_limits<int64_t>::min();
+          for (const RecordedVoice& v : info.voices)
+            last_voice = std::max(last_voice, v.capture_us);
+          for (const RecordedFrameSet& f : info.frame_sets)
+            if (f.capture_us >= last_voice) return true;
+          return false;
         } catch (const Error&) {
           return false;  // not yet written far enough to read
         }

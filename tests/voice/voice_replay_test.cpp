@@ -51,8 +51,10 @@ void record_talk(const std::filesystem::path& dir, const std::string& file,
   const pid_t pid = test::spawn_recorder(s.link(), file);
   ASSERT_NE(pid, 0);
   ASSERT_TRUE(eventually([&] { return a.other("Recorder").has_value(); }));
-  // The last packets' way to the recorder: every packet A sent, in the recorder's file.
+  // The last packets' way to the recorder: every packet A sent, in the recorder's file, and a
+  // frame set captured after the last of them (a replay plays a voice beside its frame set).
   ASSERT_TRUE(test::recorded_voices(file, test::speak(a, dir / "a.wav", said)));
+  ASSERT_TRUE(test::recorded_frame_set_after_voices(file));
   kill(pid, SIGTERM);
   int status = 0;
   waitpid(pid, &status, 0);

@@ -22,6 +22,8 @@ constexpr float kQuietFloor = 1e-3f;     // -60 dBFS RMS
 constexpr float kQuietRatio = 0.1f;      // 20 dB under the recent level
 constexpr float kLevelDecay = 0.98f;     // per frame: the level falls 20 dB in 2.3 s
 constexpr int32_t kMaxStall = 10;        // frames: a stalled stream resumes after at most 200 ms
+constexpr int32_t kMaxLateSpurt = 50;    // frames: a talk spurt starts at most 1 s late (in
+                                         // silence: a pause inside a spurt is heard)
 constexpr uint32_t kLongSpurt = 150;     // frames (3 s): a spurt this long may shrink the delay
 
 class SpurtBuffer final : public Buffer {
@@ -141,14 +143,23 @@ void SpurtBuffer::put(uint32_t sequence, uint32_t frame, int64_t capture_us,
   }
   remember(diff(frame, tick_));
   if (anchored_ && player_.started && sequence == player_.last_seq + 1 &&
-      frame == player_.last_frame + 1 && diff(frame, play_frame_) < 0 &&
-      diff(play_frame_, frame) <= kMaxStall) {
-    // The packet after the last one played, late: the stream stalled (TCP retransmitting)
-    // and only concealment has played since. Resume where it stopped, the stall heard as a
-    // pause, rather than lose what is held up behind it; decoded as if the concealment had not
-    // played (VoicePlayer::resume).
-    player_.resume();
-    play_frame_ = frame;
+      diff(frame, play_frame_) < 0) {
+    // The packet after the last one played, late: the stream stalled (TCP retransmitting, a
+    // loaded machine's thread not run) and only concealment or silence has played since.
+    const int32_t behind = diff(play_frame_, frame);
+    if (frame == player_.last_frame + 1 && behind <= kMaxStall) {
+      // Inside a talk spurt: resume where it stopped, the stall heard as a pause, rather than
+      // lose what is held up behind it; decoded as if the concealment had not played
+      // (VoicePlayer::resume).
+      player_.resume();
+      play_frame_ = frame;
+    } else if (diff(frame, player_.last_frame) > 1 && !player_.talking && behind <= kMaxLateSpurt) {
+      // The first packet of a talk spurt (after DTX): the spurt starts late, the silence before
+      // it stretched by the frames already played as silence in its place, rather than lose its
+      // first words (start_spurt places it at the next next()).
+      player_.stats.frames_inserted += static_cast<uint64_t>(behind);
+      play_frame_ = frame;
+    }
   }
   if ((player_.started && diff(sequence, player_.last_seq) <= 0) ||
       (anchored_ && diff(frame, play_frame_) < 0)) {

@@ -537,6 +537,64 @@ TEST(VoiceStream, AStalledStreamResumesAsIfTheConcealmentHadNotPlayed) {
       differing, end - late + 1);
 }
 
+// A stream stalled in the silence before a talk spurt (TCP, or a loaded machine's thread that
+// puts packets not run: the spurt's first packet and every one behind it held up 240 ms, 12
+// frames, past their time): the spurt starts late, the silence before it stretched, and every
+// packet plays, in order. Before, its first packets were dropped as late and the spurt's first
+// 200 ms never played (a loaded run of SessionThroughRelays.AVoiceCrossesTwoRelays: frames 15-25
+// of a phrase played as silence). Held up more than 1 s, the spurt's start is lost as late: the
+// delay is not stretched without bound.
+TEST(VoiceStream, ATalkSpurtWhoseStartComesLateStartsLateInsteadOfLosingItsFirstWords) {
+  const std::vector<Sent> sent = encode_speech();
+  size_t spurt = 0;  // the first packet of the second talk spurt
+  for (size_t i = 1; i < sent.size() && spurt == 0; ++i)
+    if (sent[i].frame > sent[i - 1].frame + 1) spurt = i;
+  ASSERT_GT(spurt, 0u);
+  size_t end = spurt;  // its last packet
+  while (end + 1 < sent.size() && sent[end + 1].frame == sent[end].frame + 1) ++end;
+  const std::vector<int64_t> on_time = in_time(sent);
+  const auto stalled = [&](int64_t by_us) {
+    std::vector<int64_t> arrival = on_time;
+    for (size_t i = spurt; i < sent.size(); ++i)
+      arrival[i] = std::max(on_time[i], on_time[spurt] + by_us);
+    return arrival;
+  };
+  VoiceStream a, b, c;
+  const Playout without = play(sent, on_time, a), with = play(sent, stalled(240'000), b);
+  EXPECT_EQ(without.stats.late, 0u);
+  EXPECT_EQ(with.stats.late, 0u);
+  EXPECT_EQ(with.stats.lost, 0u);
+  EXPECT_EQ(with.stats.frames_from_packets + with.stats.frames_skipped, sent.size());
+  EXPECT_EQ(with.stats.frames_concealed, 0u);
+  EXPECT_GE(with.stats.frames_inserted, without.stats.frames_inserted + 10)
+      << "the silence before the spurt is stretched";
+  // The spurt's frames: each played from its packet, and loud ones as they sound on time (its
+  // first frames follow a longer silence: the decoder's comfort noise leads into them otherwise).
+  size_t silent = 0;
+  double ab = 0, aa = 0, bb = 0;
+  for (size_t i = spurt; i <= end; ++i) {
+    const size_t at = size_t(sent[i].frame) * kFrameSamples;
+    double e = 0;
+    for (size_t k = 0; k < kFrameSamples; ++k) {
+      const double x = without.aligned[at + k], y = with.aligned[at + k];
+      ab += x * y, aa += x * x, bb += y * y, e += y * y;
+    }
+    silent += e == 0;
+  }
+  EXPECT_EQ(silent, 0u) << "of the spurt's " << end - spurt + 1 << " frames";
+  const double correlation = ab / std::sqrt(aa * bb);
+  EXPECT_GE(correlation, 0.99);
+  // Past the bound: the spurt's start is lost as late, as before.
+  const Playout too_late = play(sent, stalled(1'200'000), c);
+  EXPECT_GT(too_late.stats.late, 0u);
+  std::printf(
+      "a talk spurt 240 ms late: %llu late, %llu silent frames inserted (%llu on time), its %zu "
+      "frames at %.4f correlation with the spurt on time; 1.2 s late: %llu late\n",
+      (unsigned long long)with.stats.late, (unsigned long long)with.stats.frames_inserted,
+      (unsigned long long)without.stats.frames_inserted, end - spurt + 1, correlation,
+      (unsigned long long)too_late.stats.late);
+}
+
 // The two playout buffers on the same arrivals over a lossy TCP path (simulated, 3 seeds): the
 // talk-spurt buffer changes its delay only in silence or across quiet frames, so its phrases keep
 // their shape, and resumes a stalled stream where speexdsp drops what came late. The figures are

@@ -254,8 +254,10 @@ TEST(SessionThroughRelays, AVoiceCrossesTwoRelays) {
     const std::span<const float> phrase =
         std::span<const float>(said).subspan(starts[i], test::speech(names[i]).size());
     const test::Heard found = test::heard_where_said(phrase, as_said, starts[i]);
-    std::printf("phrase '%s': correlation %.3f where it was said\n", names[i].c_str(),
-                found.correlation);
+    std::printf(
+        "phrase '%s': correlation %.3f where it was said over %zu frames from packets (%zu "
+        "not)\n",
+        names[i].c_str(), found.correlation, found.frames, found.concealed);
     EXPECT_GE(found.correlation, 0.9) << names[i];
   }
   EXPECT_GT(r.s.hub.stats().voice_out, 100u);

@@ -777,7 +777,7 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   // Voice is under test, not the picture: the cameras drawn plain (splats), once a second.
   const nlohmann::json page =
       drive(s.site.server.web_link("127.0.0.1") + kPinned +
-                "&name=Web&record=20&fps=1&surface=splats&blend=0",
+                "&name=Web&record=20&fps=1&surface=splats&blend=0&processing=0",
             out, "--frames 3 --mic " + web_mic.string() + " --voice 7 --volume Talker:0.5");
   done = true;
   talk.join();
@@ -789,6 +789,11 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   const nlohmann::json& v = page["voice"];
   EXPECT_EQ(v["error"], "") << v.dump();
   EXPECT_TRUE(v["mic"]);
+  // The microphone as Chromium gave it: without its processing, as the page asked.
+  EXPECT_EQ(v["processing"], nlohmann::json({{"echoCancellation", false},
+                                             {"noiseSuppression", false},
+                                             {"autoGainControl", false}}))
+      << v.dump();
   EXPECT_GT(v["packetsSent"].get<int>(), 100) << "three phrases of 1.4 s, 20 ms a packet";
   EXPECT_GT(v["dtxFrames"].get<int>(), 10) << "the silences are not sent (DTX)";
   EXPECT_EQ(v["badPackets"], 0);
@@ -798,10 +803,13 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   // late packet left to concealment is counted out. The page's frame 0 is not its microphone
   // file's sample 0 (Chromium plays the file from when getUserMedia opens it): the warm-up phrase,
   // found anywhere, gives that offset once, and each phrase measured must be where it was said
-  // after it (within 30 ms: the codecs' and resamplers' delays). Through Chromium's echo
-  // canceller, noise suppressor and gain control 0.71-0.74 there (4.6 ms and 0.2 ms from where it
-  // was said); a stall or a concealed frame no longer counts against it; a wrong or silent stream
-  // stays below 0.3.
+  // after it (within 30 ms: the codecs' and resamplers' delays). The page takes its microphone
+  // without Chromium's echo canceller, noise suppressor and gain control (processing=0): through
+  // them the same phrases measured 0.64-0.74 from run to run on one machine (theirs to vary, and
+  // a loaded CI run fell under the 0.6 it was held to), without them 0.940-0.942 and 0.887 in
+  // 3 loaded runs (0.0 ms from where they were said): what the page's own path does to speech
+  // (capture worklet, WebCodecs' Opus, the session, the listener's playout buffer) is then all
+  // that is measured, and it is held to 0.85.
   const audio::Pcm at_listener = audio::read_wav(dir / "listener_heard.wav");
   ASSERT_NE(web_id.load(), 0u);
   const test::AsSaid as_said =
@@ -824,7 +832,7 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
         web_said_names[i].c_str(), found.correlation, found.frames, found.concealed,
         double(found.at.offset - at) * 1000.0 / audio::kSampleRate);
     EXPECT_GT(found.frames, 0u) << web_said_names[i];
-    EXPECT_GE(found.correlation, 0.6) << web_said_names[i];
+    EXPECT_GE(found.correlation, 0.85) << web_said_names[i];
   }
   const voice::VoiceStats heard_by_listener = listening.stats();
   const auto from_web = std::find_if(heard_by_listener.heard.begin(), heard_by_listener.heard.end(),

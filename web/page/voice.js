@@ -73,7 +73,12 @@ export class Voice {
     const on = this.options.processing !== false;
     this.stream = await navigator.mediaDevices.getUserMedia(
         {audio: {echoCancellation: on, noiseSuppression: on, autoGainControl: on, channelCount: 1}});
-    this.inputLatencyS = this.stream.getAudioTracks()[0].getSettings().latency || 0;
+    const settings = this.stream.getAudioTracks()[0].getSettings();
+    this.inputLatencyS = settings.latency || 0;
+    // What the browser applied (it may refuse a constraint): shown in summary().
+    this.processing = {echoCancellation: !!settings.echoCancellation,
+                       noiseSuppression: !!settings.noiseSuppression,
+                       autoGainControl: !!settings.autoGainControl};
     const node = new AudioWorkletNode(this.ctx, 'volcast-capture', {numberOfOutputs: 0});
     const channel = new MessageChannel();
     node.port.postMessage(channel.port1, [channel.port1]);
@@ -252,6 +257,7 @@ export class Voice {
                    volume: this.speakers.get(Number(id))?.volume ?? 1};
     }
     return {...this.stats, started: !!this.ctx, mic: this.mic && !!this.stats.mic, muted: this.muted,
-            talking: this.talking, error: this.error || this.stats.error || '', heard};
+            talking: this.talking, error: this.error || this.stats.error || '', heard,
+            processing: this.processing || null};
   }
 }

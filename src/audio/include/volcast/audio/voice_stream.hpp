@@ -32,7 +32,10 @@
 //    spurt only after 3 s of talk: a microphone that never falls silent). A stalled stream (TCP
 //    holding packets behind a retransmission: the packet after the last one played arrives after
 //    its time, up to 200 ms late) is resumed where it stopped, the stall heard as a pause (its
-//    frames counted in frames_inserted), instead of losing what was held up. Other late packets are
+//    frames counted in frames_inserted), instead of losing what was held up. A talk spurt whose
+//    first packet arrives after its time (the stream stalled in the silence before it), up to 1 s
+//    late, starts late: the silence is stretched (the frames already played as silence in its
+//    place counted in frames_inserted) rather than its first words lost. Other late packets are
 //    counted and concealed where they were due.
 //  - kSpeexdsp: speexdsp's adaptive jitter buffer (speex/speex_jitter.h), the baseline: it grows
 //    and shrinks its delay whenever its histogram says so, also in the middle of a word. On

@@ -21,9 +21,8 @@ constexpr int32_t kMaxOverMedian = 10;   // the delay exceeds the median packet'
 constexpr float kQuietFloor = 1e-3f;     // -60 dBFS RMS
 constexpr float kQuietRatio = 0.1f;      // 20 dB under the recent level
 constexpr float kLevelDecay = 0.98f;     // per frame: the level falls 20 dB in 2.3 s
-constexpr int32_t kMaxStall = 10;        // frames: a stalled stream resumes after at most 200 ms
-constexpr int32_t kMaxLateSpurt = 50;    // frames: a talk spurt starts at most 1 s late (in
-                                         // silence: a pause inside a spurt is heard)
+constexpr int32_t kMaxStall = 50;        // frames: a stalled stream resumes, and a talk spurt
+                                         // starts, at most 1 s late
 constexpr uint32_t kLongSpurt = 150;     // frames (3 s): a spurt this long may shrink the delay
 
 class SpurtBuffer final : public Buffer {
@@ -153,7 +152,7 @@ void SpurtBuffer::put(uint32_t sequence, uint32_t frame, int64_t capture_us,
       // (VoicePlayer::resume).
       player_.resume();
       play_frame_ = frame;
-    } else if (diff(frame, player_.last_frame) > 1 && !player_.talking && behind <= kMaxLateSpurt) {
+    } else if (diff(frame, player_.last_frame) > 1 && !player_.talking && behind <= kMaxStall) {
       // The first packet of a talk spurt (after DTX): the spurt starts late, the silence before
       // it stretched by the frames already played as silence in its place, rather than lose its
       // first words (start_spurt places it at the next next()).

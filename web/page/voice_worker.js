@@ -238,7 +238,8 @@ function voiceStats() {
                    transitMsP99: voicePercentile(s.transitMs, 0.99),
                    speaking: now - s.loudAt < 300, late: s.playout.late || 0,
                    skippedMs: (s.playout.skipped || 0) / 48, delayMs: (s.playout.target || 0) / 48,
-                   resumed: s.playout.resumed || 0, insertedMs: (s.playout.inserted || 0) / 48};
+                   resumed: s.playout.resumed || 0, insertedMs: (s.playout.inserted || 0) / 48,
+                   restarts: s.playout.restarts || 0};
   const t = voice.sent;
   const seconds = (t.lastUs - t.firstUs) / 1e6;
   return {mic: !!voice.encoder, error: voice.error, packetsSent: t.packets, framesCaptured: t.frames,

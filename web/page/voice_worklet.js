@@ -8,11 +8,15 @@
 //   frame plays `target` (60 ms) after it arrives (the silence before it is stretched or cut,
 //   unheard, never back onto a frame played). The frame after the last one played, arriving
 //   after its time while only silence has played since (TCP held the stream up behind a
-//   retransmission), resumes the stream where it stopped, up to 200 ms late: the stall is heard
+//   retransmission), resumes the stream where it stopped, up to 1 s late: the stall is heard
 //   as a pause, not as lost words (as Volcast's native buffer, audio/spurt_buffer.cpp). Any
 //   other frame that comes after its time is dropped and the delay grows by a frame (up to
 //   200 ms); 10 s without a late frame, or more than target + 100 ms waiting, skip a frame of
-//   silence (the delay shrinks, down to 40 ms). Posts the worker its cursor and counts every
+//   silence (the delay shrinks, down to 40 ms). Frames that wait longer than the delay because
+//   this thread was not run for a while (the context's clock stays behind by as long) all play,
+//   up to 5 s of them, and the silence after them brings the delay down again; a frame more than
+//   5 s behind the play position or 5 s ahead is a sender whose frame clock jumped: it plays
+//   `target` from now, what waited dropped. Posts the worker its cursor and counts every
 //   100 ms. With processorOptions.log (a page that keeps what it plays, for tests), also posts
 //   its node, every 100 ms, the played log: for each 128-sample quantum it played audio in, the
 //   quantum's first sample (`currentFrame`, the context's) and the cursor there (the sender's
@@ -23,7 +27,9 @@ const FRAME = 960;
 const MIN_TARGET = 2 * FRAME;   // 40 ms
 const MAX_TARGET = 10 * FRAME;  // 200 ms
 const SLACK = 5 * FRAME;        // 100 ms above the target
-const MAX_STALL = 10 * FRAME;   // 200 ms: the longest stall a stream resumes after
+const MAX_STALL = 50 * FRAME;   // 1 s: the longest stall a stream resumes after
+const MAX_BEHIND = 250 * FRAME; // 5 s behind the play position: the sender's clock restarted
+const MAX_AHEAD = 250 * FRAME;  // 5 s ahead: the most this worklet keeps waiting
 
 class Capture extends AudioWorkletProcessor {
   constructor() {
@@ -63,6 +69,7 @@ class Playout extends AudioWorkletProcessor {
     this.skipped = 0;         // samples of silence skipped to bring the delay down
     this.resumed = 0;         // stalls resumed (the frame after the last played came late)
     this.inserted = 0;        // samples of pause: stalls resumed, silence before spurts stretched
+    this.restarts = 0;        // senders that jumped (what waited dropped)
     this.calm = 0;            // samples played since the last late frame or shrink
     this.quanta = 0;
     this.worker = null;
@@ -73,8 +80,13 @@ class Playout extends AudioWorkletProcessor {
   }
   put(frame, pcm, spurt) {
     const start = frame * FRAME;
-    if (this.cursor === null || Math.abs(start - this.cursor) > sampleRate) {
-      // The first frame, or a sender that jumped more than a second: play it `target` from now.
+    if (this.cursor === null || start < this.cursor - MAX_BEHIND || start > this.cursor + MAX_AHEAD) {
+      // The first frame, or a sender that jumped (its frame clock restarted): play it `target`
+      // from now, what waited dropped. Not a frame far ahead of the play position alone: this
+      // worklet's own thread, not run for a while (a loaded machine; the context's clock stays
+      // behind by as long), finds every frame that arrived meanwhile waiting, and plays them.
+      if (this.cursor !== null) ++this.restarts;
+      this.frames.clear();
       this.cursor = start - this.target;
     } else if (spurt && this.frames.size === 0) {
       // A talk spurt's first frame while nothing waits (the cursor is in silence, so moving it
@@ -140,7 +152,7 @@ class Playout extends AudioWorkletProcessor {
       if (this.worker)
         this.worker.postMessage({cursor: this.cursor, target: this.target, late: this.late,
                                  skipped: this.skipped, resumed: this.resumed,
-                                 inserted: this.inserted});
+                                 inserted: this.inserted, restarts: this.restarts});
       if (this.log && this.log.length) {
         this.port.postMessage(this.log);
         this.log = [];

@@ -31,8 +31,10 @@
 //    to grow, one quiet packet decoded but not played (frames_skipped) to shrink (inside a
 //    spurt only after 3 s of talk: a microphone that never falls silent). A stalled stream (TCP
 //    holding packets behind a retransmission: the packet after the last one played arrives after
-//    its time, up to 200 ms late) is resumed where it stopped, the stall heard as a pause (its
-//    frames counted in frames_inserted), instead of losing what was held up. A talk spurt whose
+//    its time, up to 1 s late: a loaded sender or path, as NetEq plays on in sequence) is resumed
+//    where it stopped, the stall heard as a pause (its frames counted in frames_inserted), instead
+//    of losing what was held up; the rest of the spurt plays that much later, and the next
+//    spurt's start gives the delay back. A talk spurt whose
 //    first packet arrives after its time (the stream stalled in the silence before it), up to 1 s
 //    late, starts late: the silence is stretched (the frames already played as silence in its
 //    place counted in frames_inserted) rather than its first words lost. Other late packets are

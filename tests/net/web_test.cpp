@@ -800,37 +800,49 @@ TEST(WebBrowser, SpeaksToANativeParticipantAndHearsOne) {
   // The listener's loudspeaker holds what the page's microphone said, put back on the page's
   // time line by the listener's played log (test::heard_as_said): a stall of a loaded machine,
   // resumed by a playout buffer as a pause inside a phrase, is taken out again, and a frame its
-  // late packet left to concealment is counted out. The page's frame 0 is not its microphone
-  // file's sample 0 (Chromium plays the file from when getUserMedia opens it): the warm-up phrase,
-  // found anywhere, gives that offset once, and each phrase measured must be where it was said
-  // after it (within 30 ms: the codecs' and resamplers' delays). The page takes its microphone
-  // without Chromium's echo canceller, noise suppressor and gain control (processing=0): through
-  // them the same phrases measured 0.64-0.74 from run to run on one machine (theirs to vary, and
-  // a loaded CI run fell under the 0.6 it was held to), without them 0.940-0.942 and 0.887 in
-  // 3 loaded runs (0.0 ms from where they were said): what the page's own path does to speech
-  // (capture worklet, WebCodecs' Opus, the session, the listener's playout buffer) is then all
-  // that is measured, and it is held to 0.85.
+  // late packet left to concealment is counted out. It is compared with what the microphone gave
+  // the page (captured.wav: the page's frames by the numbers its packets carry), at the same
+  // frames: what the page's own path does to speech (capture worklet, WebCodecs' Opus, the
+  // session, the listener's playout buffer), held to 0.85 (0.940 and 0.887 unloaded: Opus at
+  // 32 kbit/s; 6.4 ms later: its look-ahead). Chromium's capture is measured apart,
+  // against the microphone file (0.996-1.000 unloaded): each phrase must be in what the page got,
+  // within 100 ms of where it was said (the warm-up phrase gives where the file starts: Chromium
+  // plays it from when getUserMedia opens it). A starved renderer's capture drops input (a loaded
+  // run's phrase, in 10 ms pieces: the next phrase 30 ms earlier, the listener's copy of it at 0.79
+  // against the file with every packet played); that is Chromium's, not the page's. The page takes
+  // its microphone without Chromium's echo canceller, noise suppressor and gain control
+  // (processing=0): through them the same phrases measured 0.64-0.74 from run to run.
   const audio::Pcm at_listener = audio::read_wav(dir / "listener_heard.wav");
+  const audio::Pcm captured = audio::read_wav(out / "captured.wav");
+  ASSERT_EQ(captured.channels, 1);
   ASSERT_NE(web_id.load(), 0u);
   const test::AsSaid as_said =
       test::heard_as_said(at_listener.samples, dir / "listener_played.tsv", web_id);
   const std::vector<float> warm_up = test::speech(web_said_names[0]);
-  ASSERT_GT(as_said.samples.size(), warm_up.size());
-  const test::Alignment warm = test::align(warm_up, as_said.samples, 0,
-                                           std::ptrdiff_t(as_said.samples.size() - warm_up.size()));
+  ASSERT_GT(captured.samples.size(), warm_up.size());
+  const test::Alignment warm = test::align(
+      warm_up, captured.samples, 0, std::ptrdiff_t(captured.samples.size() - warm_up.size()));
   const std::ptrdiff_t file_to_frames = warm.offset - std::ptrdiff_t(web_starts[0]);
   std::printf("browser -> native: the warm-up phrase at the page's sample %td (correlation %.3f)\n",
               warm.offset, warm.correlation);
+  EXPECT_GE(warm.correlation, 0.5) << "the page's microphone (Chromium's capture)";
   for (size_t i = 1; i < web_said_names.size(); ++i) {
     const std::vector<float> phrase = test::speech(web_said_names[i]);
-    const std::ptrdiff_t at = std::ptrdiff_t(web_starts[i]) + file_to_frames;
-    ASSERT_GE(at, 0);
-    const test::Heard found = test::heard_where_said(phrase, as_said, size_t(at));
+    const std::ptrdiff_t said = std::ptrdiff_t(web_starts[i]) + file_to_frames;
+    ASSERT_GE(said, 4800);
+    const test::Alignment mic = test::align(phrase, captured.samples, said - 4800, said + 4800);
+    ASSERT_GE(mic.offset, 0);
+    ASSERT_LE(size_t(mic.offset) + phrase.size(), captured.samples.size());
+    const std::span<const float> got(captured.samples.data() + mic.offset, phrase.size());
+    const test::Heard found = test::heard_where_said(got, as_said, size_t(mic.offset));
     std::printf(
-        "browser -> native '%s': correlation %.3f where it was said, over %zu frames from "
-        "packets (%zu concealed), %.1f ms from there\n",
-        web_said_names[i].c_str(), found.correlation, found.frames, found.concealed,
-        double(found.at.offset - at) * 1000.0 / audio::kSampleRate);
+        "browser -> native '%s': the page's microphone gave it at %.3f, %.1f ms from where it was "
+        "said; the listener %.3f against that, over %zu frames from packets (%zu concealed), "
+        "%.1f ms from there\n",
+        web_said_names[i].c_str(), mic.correlation,
+        double(mic.offset - said) * 1000.0 / audio::kSampleRate, found.correlation, found.frames,
+        found.concealed, double(found.at.offset - mic.offset) * 1000.0 / audio::kSampleRate);
+    EXPECT_GE(mic.correlation, 0.5) << web_said_names[i] << ": the page's microphone";
     EXPECT_GT(found.frames, 0u) << web_said_names[i];
     EXPECT_GE(found.correlation, 0.85) << web_said_names[i];
   }

@@ -704,6 +704,7 @@ function startVoice() {
                                            record: Number(params.get('record') || 0)});
   window.volcastHeard = () => voice.heard();
   window.volcastHeardLog = () => voice.heardLog();
+  window.volcastCaptured = () => voice.captured();
   voice.start().catch((err) => { voice.error = `${err.name || 'Error'}: ${err.message}`; });
 }
 
@@ -1047,6 +1048,8 @@ function start() {
         if (!session.others.has(id)) renderer.removeAvatar(id);
     } else if (m.type === 'voice-speaker-needed') {
       if (voice) voice.addSpeaker(m.id);
+    } else if (m.type === 'voice-captured') {
+      if (voice?.onCaptured) voice.onCaptured(m.samples);
     } else if (m.type === 'voice-stats') {
       if (voice) {
         voice.stats = m.stats;

@@ -16,6 +16,32 @@ const SITE_POSITION = [0, 1.5, 0];   // above the table, as VoiceConfig::site_po
 // without the browser's echo cancellation, noise suppression and gain control, for a headset or
 // a speakerphone that does its own), record (keep what is played, stereo, up to this many
 // seconds: heard()).
+// Channels of equal length (float, [-1, 1]) as a 16-bit PCM WAV file at RATE, base64.
+function wavBase64(channels) {
+  const n = channels[0].length, c = channels.length;
+  const bytes = new Uint8Array(44 + n * 2 * c);
+  const v = new DataView(bytes.buffer);
+  const text = (at, s) => [...s].forEach((ch, i) => v.setUint8(at + i, ch.charCodeAt(0)));
+  text(0, 'RIFF');
+  v.setUint32(4, 36 + n * 2 * c, true);
+  text(8, 'WAVEfmt ');
+  v.setUint32(16, 16, true);
+  v.setUint16(20, 1, true);  // PCM
+  v.setUint16(22, c, true);
+  v.setUint32(24, RATE, true);
+  v.setUint32(28, RATE * 2 * c, true);
+  v.setUint16(32, 2 * c, true);
+  v.setUint16(34, 16, true);
+  text(36, 'data');
+  v.setUint32(40, n * 2 * c, true);
+  for (let i = 0, at = 44; i < n; ++i)
+    for (let ch = 0; ch < c; ++ch, at += 2)
+      v.setInt16(at, Math.max(-32768, Math.min(32767, Math.round(channels[ch][i] * 32767))), true);
+  let s = '';
+  for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
+  return btoa(s);
+}
+
 export class Voice {
   constructor(session, worker, nowServerUs, options) {
     this.session = session;
@@ -64,7 +90,8 @@ export class Voice {
     this.sendClock();
     this.clockTimer = setInterval(() => this.sendClock(), 1000);
     this.worker.postMessage({type: 'voice', capture, muted: this.muted,
-                             pushToTalk: !!this.options.pushToTalk}, capture ? [capture] : []);
+                             pushToTalk: !!this.options.pushToTalk, keep: this.options.record},
+                            capture ? [capture] : []);
     this.sendState();
   }
 
@@ -201,34 +228,31 @@ export class Voice {
     this.recordedSamples += block[0].length;
   }
 
+  // The context time (s) up to which what was played is kept (record > 0; tests): the end of the
+  // tap's newest block posted.
+  keptTo() {
+    const last = this.recordedAt[this.recordedAt.length - 1];
+    return last ? (last[1] + last[2]) / RATE : 0;
+  }
+
   // What was played since start (stereo, 48 kHz) as a 16-bit WAV file, base64 (tests).
   heard() {
-    const n = this.recordedSamples;
-    const bytes = new Uint8Array(44 + n * 4);
-    const v = new DataView(bytes.buffer);
-    const text = (at, s) => [...s].forEach((c, i) => v.setUint8(at + i, c.charCodeAt(0)));
-    text(0, 'RIFF');
-    v.setUint32(4, 36 + n * 4, true);
-    text(8, 'WAVEfmt ');
-    v.setUint32(16, 16, true);
-    v.setUint16(20, 1, true);   // PCM
-    v.setUint16(22, 2, true);   // stereo
-    v.setUint32(24, RATE, true);
-    v.setUint32(28, RATE * 4, true);
-    v.setUint16(32, 4, true);
-    v.setUint16(34, 16, true);
-    text(36, 'data');
-    v.setUint32(40, n * 4, true);
-    let at = 44;
-    for (let b = 0; b < this.recorded[0].length; ++b)
-      for (let i = 0; i < this.recorded[0][b].length; ++i, at += 4)
-        for (let c = 0; c < 2; ++c) {
-          const x = Math.round(this.recorded[c][b][i] * 32767);
-          v.setInt16(at + 2 * c, Math.max(-32768, Math.min(32767, x)), true);
-        }
-    let s = '';
-    for (let i = 0; i < bytes.length; i += 0x8000) s += String.fromCharCode(...bytes.subarray(i, i + 0x8000));
-    return btoa(s);
+    const join = (blocks) => {
+      const out = new Float32Array(this.recordedSamples);
+      let at = 0;
+      for (const b of blocks) { out.set(b, at); at += b.length; }
+      return out;
+    };
+    return wavBase64([join(this.recorded[0]), join(this.recorded[1])]);
+  }
+
+  // What the microphone gave the page (mono, 48 kHz; the first `record` seconds), its frame f at
+  // sample f x 960 (the frame numbers its packets carry), as a 16-bit WAV file, base64 (tests).
+  captured() {
+    return new Promise((resolve) => {
+      this.onCaptured = (samples) => resolve(wavBase64([samples]));
+      this.worker.postMessage({type: 'voice-captured'});
+    });
   }
 
   // The played log of what heard() holds (tests): one line per 128-sample quantum a speaker
@@ -258,6 +282,7 @@ export class Voice {
     }
     return {...this.stats, started: !!this.ctx, mic: this.mic && !!this.stats.mic, muted: this.muted,
             talking: this.talking, error: this.error || this.stats.error || '', heard,
-            processing: this.processing || null};
+            processing: this.processing || null, contextTime: this.ctx ? this.ctx.currentTime : 0,
+            keptTo: this.keptTo(), keptFull: this.recordedSamples >= (this.options.record || 0) * RATE};
   }
 }

@@ -14,7 +14,10 @@
 // decoded minus its capture time, plus what waits before it in the playout buffer and the audio
 // output's latency.
 //
-// From the page: {type: 'voice', capture: MessagePort | null, muted, pushToTalk};
+// From the page: {type: 'voice', capture: MessagePort | null, muted, pushToTalk, keep (seconds of
+//   the microphone's frames to keep, by frame number: tests)}; {type: 'voice-captured'} (answered
+//   with {type: 'voice-captured', samples: Float32Array}: the frames kept, frame f at f x 960,
+//   zeros where none);
 //   {type: 'voice-state', joined, muted, talking}; {type: 'voice-clock', contextTime, serverUs}
 //   (the server clock of the audio context's time, minus the input and output latencies: a
 //   sample the capture worklet stamps `contextTime` was taken at `serverUs`), outputLatencyS;
@@ -48,6 +51,7 @@ const voice = {
   speakers: new Map(),  // id -> speaker (voiceSpeaker)
   malformed: 0,
   micDbfs: -120, micPeakDbfs: -120,  // the microphone's newest and loudest frame (RMS)
+  kept: [], keepFrames: 0,  // the microphone's frames by number, the first keepFrames (tests)
 };
 
 function voicePercentile(a, p) {
@@ -60,6 +64,7 @@ async function voiceStart(m) {
   voice.on = true;
   voice.muted = !!m.muted;
   voice.pushToTalk = !!m.pushToTalk;
+  voice.keepFrames = Math.round((m.keep || 0) * VOICE_RATE / VOICE_FRAME);
   setInterval(() => postMessage({type: 'voice-stats', stats: voiceStats()}), 250);
   if (!m.capture) return;
   try {
@@ -77,6 +82,7 @@ async function voiceStart(m) {
 function voiceCaptured(samples, time) {
   const frame = voice.frame++;
   ++voice.sent.frames;
+  if (frame < voice.keepFrames) voice.kept[frame] = samples;  // AudioData below copies them
   let e = 0;
   for (let i = 0; i < samples.length; ++i) e += samples[i] * samples[i];
   voice.micDbfs = 10 * Math.log10(e / samples.length + 1e-12);
@@ -129,6 +135,11 @@ function voiceEncoded(chunk) {
 
 function voiceControl(m) {
   if (m.type === 'voice') voiceStart(m);
+  else if (m.type === 'voice-captured') {
+    const samples = new Float32Array(voice.kept.length * VOICE_FRAME);
+    voice.kept.forEach((f, k) => samples.set(f, k * VOICE_FRAME));
+    postMessage({type: 'voice-captured', samples}, [samples.buffer]);
+  }
   else if (m.type === 'voice-state') Object.assign(voice, {joined: m.joined, muted: m.muted, talking: m.talking});
   else if (m.type === 'voice-clock') Object.assign(voice, {clock: m, outputLatencyS: m.outputLatencyS});
   else if (m.type === 'voice-speaker') {
@@ -239,7 +250,7 @@ function voiceStats() {
                    speaking: now - s.loudAt < 300, late: s.playout.late || 0,
                    skippedMs: (s.playout.skipped || 0) / 48, delayMs: (s.playout.target || 0) / 48,
                    resumed: s.playout.resumed || 0, insertedMs: (s.playout.inserted || 0) / 48,
-                   restarts: s.playout.restarts || 0};
+                   restarts: s.playout.restarts || 0, waitingMs: (s.playout.ahead || 0) / 48};
   const t = voice.sent;
   const seconds = (t.lastUs - t.firstUs) / 1e6;
   return {mic: !!voice.encoder, error: voice.error, packetsSent: t.packets, framesCaptured: t.frames,

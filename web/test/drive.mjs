@@ -18,9 +18,10 @@
 // second and 10 frames at least (it turns), G again (release), and ] 2 O on the monitor (next slice, liver window,
 // overlay toggled), as a person at the keyboard would.
 // --mic FILE: Chromium's fake microphone plays the WAV file once (then silence), as a person
-// speaking; --voice S: once the page has heard someone's voice, S seconds more, then writes what
-// it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav, and its played
-// log (window.volcastHeardLog: Voice.heardLog in voice.js) to DIR/heard_played.tsv.
+// speaking; --voice S: once the page has heard someone's voice, S seconds more and until it has
+// played what it received (a loaded page's audio runs behind), then writes what it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav, and its played
+// log (window.volcastHeardLog: Voice.heardLog in voice.js) to DIR/heard_played.tsv; with --mic,
+// also what the microphone gave the page, on its frame numbers, to DIR/captured.wav.
 // --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
 // --ar X,Y,Z,DX,DY,DZ: IWER's headset enters immersive-ar instead (the page shows the others'
 // pointers and annotations over the passthrough); once the page has drawn another participant's
@@ -270,9 +271,23 @@ try {
                                      Object.values(window.volcast.voice.heard).some((h) => h.frames > 0),
                                null, {timeout: bound(60000)});
     await page.waitForTimeout(voiceSeconds * 1000);
+    // Then until the page has played what it received: a loaded page's audio thread, not run for
+    // a while, leaves its context's clock behind the wall's for good (a CI run's page played
+    // 1.5 s behind). Every speaker's playout has nothing waiting, and what the page kept reaches
+    // the context time where that held (its tap posts blocks of up to 0.5 s).
+    await page.waitForFunction(() => Object.values(window.volcast.voice.heard)
+                                          .every((h) => h.waitingMs === 0),
+                               null, {timeout: bound(60000)});
+    const played = await page.evaluate(() => window.volcast.voice.contextTime);
+    await page.waitForFunction((t) => window.volcast.voice.keptTo >= t || window.volcast.voice.keptFull,
+                               played, {timeout: bound(60000)});
     const wav = await page.evaluate(() => window.volcastHeard());
     writeFileSync(`${out}/heard.wav`, Buffer.from(wav, 'base64'));
     writeFileSync(`${out}/heard_played.tsv`, await page.evaluate(() => window.volcastHeardLog()));
+    if (mic) {
+      const captured = await page.evaluate(() => window.volcastCaptured());
+      writeFileSync(`${out}/captured.wav`, Buffer.from(captured, 'base64'));
+    }
     s = await state();
   }
   if (args.includes('--bench') && s.phase !== 'error') {

@@ -11,11 +11,6 @@ const RATE = 48000;
 const SITE_ID = 1;                   // the OR site's microphone (messages.hpp)
 const SITE_POSITION = [0, 1.5, 0];   // above the table, as VoiceConfig::site_position
 
-// worker: the stream worker. options: mic (send the microphone), muted (start muted), pushToTalk
-// (send only while setTalking(true)), volumes (Map: display name -> gain), processing (false:
-// without the browser's echo cancellation, noise suppression and gain control, for a headset or
-// a speakerphone that does its own), record (keep what is played, stereo, up to this many
-// seconds: heard()).
 // Channels of equal length (float, [-1, 1]) as a 16-bit PCM WAV file at RATE, base64.
 function wavBase64(channels) {
   const n = channels[0].length, c = channels.length;
@@ -42,6 +37,11 @@ function wavBase64(channels) {
   return btoa(s);
 }
 
+// worker: the stream worker. options: mic (send the microphone), muted (start muted), pushToTalk
+// (send only while setTalking(true)), volumes (Map: display name -> gain), processing (false:
+// without the browser's echo cancellation, noise suppression and gain control, for a headset or
+// a speakerphone that does its own), record (keep what is played, stereo, and what the
+// microphone gave, up to this many seconds: heard(), captured()).
 export class Voice {
   constructor(session, worker, nowServerUs, options) {
     this.session = session;
@@ -283,6 +283,7 @@ export class Voice {
     return {...this.stats, started: !!this.ctx, mic: this.mic && !!this.stats.mic, muted: this.muted,
             talking: this.talking, error: this.error || this.stats.error || '', heard,
             processing: this.processing || null, contextTime: this.ctx ? this.ctx.currentTime : 0,
-            keptTo: this.keptTo(), keptFull: this.recordedSamples >= (this.options.record || 0) * RATE};
+            keptTo: this.keptTo(),
+            keptFull: this.recordedSamples >= (this.options.record || 0) * RATE};
   }
 }

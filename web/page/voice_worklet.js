@@ -16,9 +16,10 @@
 //   this thread was not run for a while (the context's clock stays behind by as long) all play,
 //   up to 5 s of them, and the silence after them brings the delay down again; a frame more than
 //   5 s behind the play position or 5 s ahead is a sender whose frame clock jumped: it plays
-//   `target` from now, what waited dropped. Posts the worker its cursor, counts, and how much of what it
-//   received is still to play (`ahead`, samples) every 100 ms. With processorOptions.log (a page that keeps what it plays, for tests), also posts
-//   its node, every 100 ms, the played log: for each 128-sample quantum it played audio in, the
+//   `target` from now, what waited dropped. Posts the worker its cursor, counts, and how much of
+//   what it received is still to play (`ahead`, samples) every 100 ms. With processorOptions.log
+//   (a page that keeps what it plays, for tests), also posts its node, every 100 ms, the played
+//   log: for each 128-sample quantum it played audio in, the
 //   quantum's first sample (`currentFrame`, the context's) and the cursor there (the sender's
 //   sample): the quantum's sample j is the sender's sample cursor + j.
 // - volcast-tap: what the page plays (stereo), posted in blocks of up to 0.5 s of consecutive

@@ -19,9 +19,10 @@
 // overlay toggled), as a person at the keyboard would.
 // --mic FILE: Chromium's fake microphone plays the WAV file once (then silence), as a person
 // speaking; --voice S: once the page has heard someone's voice, S seconds more and until it has
-// played what it received (a loaded page's audio runs behind), then writes what it played (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav, and its played
-// log (window.volcastHeardLog: Voice.heardLog in voice.js) to DIR/heard_played.tsv; with --mic,
-// also what the microphone gave the page, on its frame numbers, to DIR/captured.wav.
+// played what it received (a loaded page's audio runs behind), then writes what it played
+// (window.volcastHeard, the page fragment's record=S) to DIR/heard.wav, and its played log
+// (window.volcastHeardLog: Voice.heardLog in voice.js) to DIR/heard_played.tsv; with --mic, also
+// what the microphone gave the page, on its frame numbers, to DIR/captured.wav.
 // --volume NAME:GAIN: sets participant NAME's volume slider (the people panel) to GAIN (0-2).
 // --ar X,Y,Z,DX,DY,DZ: IWER's headset enters immersive-ar instead (the page shows the others'
 // pointers and annotations over the passthrough); once the page has drawn another participant's
@@ -279,7 +280,8 @@ try {
                                           .every((h) => h.waitingMs === 0),
                                null, {timeout: bound(60000)});
     const played = await page.evaluate(() => window.volcast.voice.contextTime);
-    await page.waitForFunction((t) => window.volcast.voice.keptTo >= t || window.volcast.voice.keptFull,
+    await page.waitForFunction((t) => window.volcast.voice.keptTo >= t ||
+                                      window.volcast.voice.keptFull,
                                played, {timeout: bound(60000)});
     const wav = await page.evaluate(() => window.volcastHeard());
     writeFileSync(`${out}/heard.wav`, Buffer.from(wav, 'base64'));

@@ -502,6 +502,39 @@ TEST(VoiceStream, AListenersOwnStallHoldsTheVoiceInsteadOfLosingIt) {
               (unsigned long long)held.late, (unsigned long long)on.late);
 }
 
+// The packets from frame 15 of the first long talk spurt on held up `stall_us` (every packet
+// behind the late one waiting for it, as TCP holds them): the stalled stream's figures, and how
+// many of the spurt's frames from the late packet on differ, sample for sample, from the same
+// stream played on time.
+namespace {
+struct MidSpurtStall {
+  VoiceStreamStats stats;
+  size_t differing = 0, frames = 0;
+};
+MidSpurtStall stall_mid_spurt(int64_t stall_us) {
+  const std::vector<Sent> sent = encode_speech();
+  const size_t spurt = first_long_spurt(sent);
+  EXPECT_GT(spurt, 0u);
+  size_t end = spurt;  // the spurt's last packet
+  while (end + 1 < sent.size() && sent[end + 1].frame == sent[end].frame + 1) ++end;
+  const size_t late = spurt + 15;
+  const std::vector<int64_t> on_time = in_time(sent);
+  std::vector<int64_t> stalled = on_time;
+  for (size_t i = late; i < sent.size(); ++i)
+    stalled[i] = std::max(on_time[i], on_time[late] + stall_us);
+  VoiceStream a, b;
+  const Playout without = play(sent, on_time, a), with = play(sent, stalled, b);
+  MidSpurtStall out{with.stats, 0, end - late + 1};
+  for (size_t i = late; i <= end; ++i) {
+    const size_t at = size_t(sent[i].frame) * kFrameSamples;
+    out.differing += !std::equal(with.aligned.begin() + std::ptrdiff_t(at),
+                                 with.aligned.begin() + std::ptrdiff_t(at + kFrameSamples),
+                                 without.aligned.begin() + std::ptrdiff_t(at));
+  }
+  return out;
+}
+}  // namespace
+
 // A stream stalled in the middle of a talk spurt (TCP: one packet held up 60 ms, every packet
 // behind it waiting for it) plays concealment until the packet comes, then resumes where it
 // stopped. The decoder goes back to where the last packet left it (VoiceDecoder::save/restore):
@@ -509,32 +542,14 @@ TEST(VoiceStream, AListenersOwnStallHoldsTheVoiceInsteadOfLosingIt) {
 // without the stall, sample for sample. Decoded on from the concealment instead, the frames after
 // the pause came out garbled (CI: two loud frames at 0.76 and 0.79 correlation).
 TEST(VoiceStream, AStalledStreamResumesAsIfTheConcealmentHadNotPlayed) {
-  const std::vector<Sent> sent = encode_speech();
-  const size_t spurt = first_long_spurt(sent);
-  ASSERT_GT(spurt, 0u);
-  size_t end = spurt;  // the spurt's last packet
-  while (end + 1 < sent.size() && sent[end + 1].frame == sent[end].frame + 1) ++end;
-  const size_t late = spurt + 15;
-  const std::vector<int64_t> on_time = in_time(sent);
-  std::vector<int64_t> stalled = on_time;
-  for (size_t i = late; i < sent.size(); ++i)
-    stalled[i] = std::max(on_time[i], on_time[late] + 60'000);
-  VoiceStream a, b;
-  const Playout without = play(sent, on_time, a), with = play(sent, stalled, b);
+  const MidSpurtStall with = stall_mid_spurt(60'000);
   EXPECT_EQ(with.stats.late, 0u);
   EXPECT_EQ(with.stats.lost, 0u);
   EXPECT_GE(with.stats.frames_inserted, 2u) << "the stall is heard as a pause";
-  size_t differing = 0;
-  for (size_t i = late; i <= end; ++i) {
-    const size_t at = size_t(sent[i].frame) * kFrameSamples;
-    differing += !std::equal(with.aligned.begin() + std::ptrdiff_t(at),
-                             with.aligned.begin() + std::ptrdiff_t(at + kFrameSamples),
-                             without.aligned.begin() + std::ptrdiff_t(at));
-  }
-  EXPECT_EQ(differing, 0u) << "of " << end - late + 1 << " frames from the late packet on";
+  EXPECT_EQ(with.differing, 0u) << "of " << with.frames << " frames from the late packet on";
   std::printf(
       "a 60 ms stall mid-spurt: %zu of %zu frames after it differ from the stream without\n",
-      differing, end - late + 1);
+      with.differing, with.frames);
 }
 
 // The same stall, 600 ms long (a loaded sender -- a browser page whose audio thread was not run --
@@ -542,33 +557,15 @@ TEST(VoiceStream, AStalledStreamResumesAsIfTheConcealmentHadNotPlayed) {
 // phrase so): resumed too, every frame after it as without the stall. Before, a stream resumed
 // only up to 200 ms: what a longer stall held up was dropped as late.
 TEST(VoiceStream, AStreamStalledForMostOfASecondResumesToo) {
-  const std::vector<Sent> sent = encode_speech();
-  const size_t spurt = first_long_spurt(sent);
-  ASSERT_GT(spurt, 0u);
-  size_t end = spurt;
-  while (end + 1 < sent.size() && sent[end + 1].frame == sent[end].frame + 1) ++end;
-  const size_t late = spurt + 15;
-  const std::vector<int64_t> on_time = in_time(sent);
-  std::vector<int64_t> stalled = on_time;
-  for (size_t i = late; i < sent.size(); ++i)
-    stalled[i] = std::max(on_time[i], on_time[late] + 600'000);
-  VoiceStream a, b;
-  const Playout without = play(sent, on_time, a), with = play(sent, stalled, b);
+  const MidSpurtStall with = stall_mid_spurt(600'000);
   EXPECT_EQ(with.stats.late, 0u);
   EXPECT_EQ(with.stats.lost, 0u);
   EXPECT_GE(with.stats.frames_inserted, 25u) << "the stall is heard as a pause";
-  size_t differing = 0;
-  for (size_t i = late; i <= end; ++i) {
-    const size_t at = size_t(sent[i].frame) * kFrameSamples;
-    differing += !std::equal(with.aligned.begin() + std::ptrdiff_t(at),
-                             with.aligned.begin() + std::ptrdiff_t(at + kFrameSamples),
-                             without.aligned.begin() + std::ptrdiff_t(at));
-  }
-  EXPECT_EQ(differing, 0u) << "of " << end - late + 1 << " frames from the late packet on";
+  EXPECT_EQ(with.differing, 0u) << "of " << with.frames << " frames from the late packet on";
   std::printf(
       "a 600 ms stall mid-spurt: %llu late, %llu frames of pause, %zu of %zu frames differ\n",
       (unsigned long long)with.stats.late, (unsigned long long)with.stats.frames_inserted,
-      differing, end - late + 1);
+      with.differing, with.frames);
 }
 
 // A stream stalled in the silence before a talk spurt (TCP, or a loaded machine's thread that

@@ -395,9 +395,24 @@ struct Tried {
   RigidTransform p_from_c;
 };
 
-// Camera c against placed camera p: each hypothesis (its start, then the features'), refined by
+// How far the 3 cm level moved a hypothesis past where the coarse levels left it, on the real
+// four-camera room (issue 51): at most 9 cm and 1.6 deg, and the free-space share by at most 1.5
+// points. A coarse result farther than these margins beyond a limit is rejected without it.
+constexpr double kFineMoveMarginM = 0.25;
+constexpr double kFineMoveMarginDeg = 5.0;
+// Coarse results this close (metres, degrees) start the 3 cm level at the same place: it is run
+// once for them (RANSAC's hypotheses often agree with the start or with each other).
+constexpr double kSameCoarseM = 0.002;
+constexpr double kSameCoarseDeg = 0.1;
+
+double angle_deg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle() * 180 / M_PI;
+}
+
+// Camera c against placed camera p: each hypothesis (its start, then the features') refined by
 // ICP, kept when it agrees with what both saw (free space) and stays near c's start; the best
-// into `t`.
+// into `t`. The coarse levels run for every hypothesis; the 3 cm level (most of the cost) only for
+// those that could still be kept and do not repeat an earlier one's coarse result.
 void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<RigidTransform>>& pose,
               Tried& t) {
   const TargetlessOptions& o = w.o;
@@ -407,29 +422,63 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
   const Features& fc = w.features_of(c);
   for (const RigidTransform& g : global_candidates(fc, w.features_of(p), o))
     hypotheses.push_back(g);
+  const auto violations_at = [&](const RigidTransform& p_from_c) {
+    return std::max(free_space_violations(w.sparse[c], p_from_c, w.cameras[p].depth,
+                                          w.cameras[p].intrinsics, o.free_space_margin_m),
+                    free_space_violations(w.sparse[p], p_from_c.inverse(), w.cameras[c].depth,
+                                          w.cameras[c].intrinsics, o.free_space_margin_m));
+  };
+  struct Refined {
+    RigidTransform coarse;
+    PairFit fit;
+    double violations;
+  };
+  std::vector<Refined> refined;
   for (size_t h = 0; h < hypotheses.size(); ++h) {
-    const RigidTransform& g = hypotheses[h];
     const bool is_start = h < from_start;
-    const PairFit f = icp(w.levels[c], w.levels[p], g, o, is_start ? 0 : 1, 2);
-    const double seen_by_p =
-        free_space_violations(w.sparse[c], f.target_from_source, w.cameras[p].depth,
-                              w.cameras[p].intrinsics, o.free_space_margin_m);
-    const double seen_by_c =
-        free_space_violations(w.sparse[p], f.target_from_source.inverse(), w.cameras[c].depth,
-                              w.cameras[c].intrinsics, o.free_space_margin_m);
-    const double violations = std::max(seen_by_p, seen_by_c);
-    const bool near = near_start(w.start[c], *pose[p] * f.target_from_source, o);
-    const bool ok = violations <= o.max_free_space_violations && near;
-    w.note(cam(c) + " against " + cam(p) + (is_start ? ": its start" : ": features + RANSAC") +
-           ", then ICP: " + format_fixed(f.fitness * 100, 1) + "% overlap, RMS " +
-           format_fixed(f.rms_m * 1e3, 1) + " mm, " + format_fixed(violations * 100, 1) +
-           "% in the other's free space" +
+    const std::string what = cam(c) + " against " + cam(p) +
+                             (is_start ? ": its start" : ": features + RANSAC") + ", then ICP";
+    const PairFit coarse = icp(w.levels[c], w.levels[p], hypotheses[h], o, is_start ? 0 : 1, 1);
+    const RigidTransform& g = coarse.target_from_source;
+    const RigidTransform world_from_c = *pose[p] * g;
+    const double coarse_violations = violations_at(g);
+    if (w.start[c]) {
+      const double off_m = (world_from_c.translation - w.start[c]->translation).norm();
+      const double off_deg = angle_deg(w.start[c]->rotation, world_from_c.rotation);
+      if (off_m > o.start_tolerance_m + kFineMoveMarginM ||
+          off_deg > o.start_tolerance_deg + kFineMoveMarginDeg) {
+        w.note(what + " to " + format_fixed(o.icp_voxels_m[1] * 100, 0) +
+               " cm: " + format_fixed(off_m, 2) + " m / " + format_fixed(off_deg, 0) +
+               " deg from its start (rejected: too far from its start)");
+        continue;
+      }
+    }
+    if (coarse_violations > 2 * o.max_free_space_violations) {
+      w.note(what + " to " + format_fixed(o.icp_voxels_m[1] * 100, 0) + " cm: " +
+             format_fixed(coarse_violations * 100, 1) + "% in the other's free space (rejected)");
+      continue;
+    }
+    const auto earlier = std::find_if(refined.begin(), refined.end(), [&](const Refined& r) {
+      return (r.coarse.translation - g.translation).norm() <= kSameCoarseM &&
+             angle_deg(r.coarse.rotation, g.rotation) <= kSameCoarseDeg;
+    });
+    const bool repeated = earlier != refined.end();
+    if (!repeated) {
+      const PairFit fine = icp(w.levels[c], w.levels[p], g, o, 2, 2);
+      refined.push_back({g, fine, violations_at(fine.target_from_source)});
+    }
+    const Refined& r = repeated ? *earlier : refined.back();
+    const bool near = near_start(w.start[c], *pose[p] * r.fit.target_from_source, o);
+    const bool ok = r.violations <= o.max_free_space_violations && near;
+    w.note(what + ": " + format_fixed(r.fit.fitness * 100, 1) + "% overlap, RMS " +
+           format_fixed(r.fit.rms_m * 1e3, 1) + " mm, " + format_fixed(r.violations * 100, 1) +
+           "% in the other's free space" + (repeated ? " (as an earlier hypothesis)" : "") +
            (ok     ? ""
             : near ? " (rejected)"
                    : " (rejected: too far from its start)"));
-    if (ok && f.fitness > t.score) {
-      t.score = f.fitness;
-      t.p_from_c = f.target_from_source;
+    if (ok && r.fit.fitness > t.score) {
+      t.score = r.fit.fitness;
+      t.p_from_c = r.fit.target_from_source;
     }
   }
 }

@@ -441,7 +441,6 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
     const PairFit coarse = icp(w.levels[c], w.levels[p], hypotheses[h], o, is_start ? 0 : 1, 1);
     const RigidTransform& g = coarse.target_from_source;
     const RigidTransform world_from_c = *pose[p] * g;
-    const double coarse_violations = violations_at(g);
     if (w.start[c]) {
       const double off_m = (world_from_c.translation - w.start[c]->translation).norm();
       const double off_deg = angle_deg(w.start[c]->rotation, world_from_c.rotation);
@@ -453,6 +452,7 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
         continue;
       }
     }
+    const double coarse_violations = violations_at(g);
     if (coarse_violations > 2 * o.max_free_space_violations) {
       w.note(what + " to " + format_fixed(o.icp_voxels_m[1] * 100, 0) + " cm: " +
              format_fixed(coarse_violations * 100, 1) + "% in the other's free space (rejected)");

@@ -1,6 +1,8 @@
 // A pose script's pointing and drawing (session_client.hpp ScriptedPointing).
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "volcast/pipeline/session_client.hpp"
 
 namespace volcast {
@@ -55,6 +57,17 @@ void ScriptedPointing::finish(Participant& p, const Eigen::Vector3f& hand) {
   stroke_.clear();
 }
 
+void ScriptedPointing::sweep(const Eigen::Vector3f& hand, double until_s) {
+  if (!active_ || active_->kind != ScriptedDrawing::Kind::kStroke) return;
+  const double end_s = active_->t_s + active_->for_s;
+  for (; swept_s_ <= std::min(until_s, end_s); swept_s_ += kSweepStep_s) {
+    const std::optional<Eigen::Vector3f> met =
+        hit(hand, along(active_->points, (swept_s_ - active_->t_s) / active_->for_s));
+    if (met && (stroke_.empty() || (*met - stroke_.back()).norm() > 0.003f))
+      stroke_.push_back(*met);
+  }
+}
+
 void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double script_s) {
   if (!began_s_) {
     if (surfaces_ && !surfaces_->ready()) return;  // nothing to point at yet
@@ -64,13 +77,25 @@ void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double 
                    *began_s_);
   }
   const double t_s = script_s - *began_s_;
-  if (active_ && t_s >= active_->t_s + active_->for_s) finish(p, hand);
-  while (next_ < script_.drawing.size() && script_.drawing[next_].t_s <= t_s) {
+  // What became due since the last step, in script order: the active item ends (its stroke swept
+  // to its end) before an item that starts later; an item that starts before it ends cuts it
+  // short there.
+  for (;;) {
+    const double end_s = active_ ? active_->t_s + active_->for_s : t_s + 1;
+    const bool next_due = next_ < script_.drawing.size() && script_.drawing[next_].t_s <= t_s;
+    if (active_ && end_s <= t_s && (!next_due || end_s <= script_.drawing[next_].t_s)) {
+      sweep(hand, end_s);
+      finish(p, hand);
+      continue;
+    }
+    if (!next_due) break;
     const ScriptedDrawing& d = script_.drawing[next_++];
     using Kind = ScriptedDrawing::Kind;
     if (d.kind == Kind::kPoint || d.kind == Kind::kStroke) {
+      sweep(hand, d.t_s);
       finish(p, hand);
       active_ = d;
+      swept_s_ = d.t_s;
       continue;
     }
     session::Annotation a;
@@ -81,14 +106,12 @@ void ScriptedPointing::step(Participant& p, const Eigen::Vector3f& hand, double 
     p.annotate(std::move(a));
   }
   if (!active_) return;
+  sweep(hand, t_s);
   const Eigen::Vector3f aim = active_->kind == ScriptedDrawing::Kind::kStroke
                                   ? along(active_->points, (t_s - active_->t_s) / active_->for_s)
                                   : active_->points[0];
   const std::optional<Eigen::Vector3f> met = hit(hand, aim);
   p.point(true, hand, met.has_value(), met.value_or(aim));
-  if (active_->kind == ScriptedDrawing::Kind::kStroke && met &&
-      (stroke_.empty() || (*met - stroke_.back()).norm() > 0.003f))
-    stroke_.push_back(*met);
 }
 
 }  // namespace volcast

@@ -300,6 +300,37 @@ TEST(Annotations, APoseScriptsDrawingParsesAndItsMistakesAreNamed) {
       std::string::npos);
 }
 
+// A stroke at 0.3 s for 0.6 s across the camera's view of its middle, 40 cm ahead of it, and a
+// label at 1.0 s below it (room frame = site frame here).
+std::vector<ScriptedDrawing> stroke_and_label(const RigidTransform& site_from_camera) {
+  const auto ahead = [&](double x, double y) -> Eigen::Vector3f {
+    return (site_from_camera * Eigen::Vector3d(x, y, 0.4)).cast<float>();
+  };
+  ScriptedDrawing stroke{ScriptedDrawing::Kind::kStroke, 0.3, 0.6, {}, ""};
+  for (int i = 0; i <= 8; ++i) stroke.points.push_back(ahead(-0.08 + 0.02 * i, 0.02));
+  return {stroke, {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
+}
+
+// `drawn` is that stroke (4 points at least) and label, in order, each point where the camera
+// measured the live cloud (within 2 cm along its ray).
+void expect_stroke_and_label_on(const std::vector<Annotation>& drawn,
+                                const CameraCalibration& camera, const CameraFrame& frame) {
+  ASSERT_EQ(drawn.size(), 2u);
+  EXPECT_EQ(drawn[0].kind, AnnotationKind::kStroke);
+  EXPECT_GE(drawn[0].points.size(), 4u);
+  EXPECT_EQ(drawn[1].text, "here");
+  const RigidTransform camera_from_site = camera.world_from_camera.inverse();
+  for (const Annotation& a : drawn)
+    for (const Eigen::Vector3f& p : a.points) {
+      const Eigen::Vector3d q = camera_from_site * p.cast<double>();
+      const auto uv = project_normalized(camera.depth, {q.x() / q.z(), q.y() / q.z()});
+      ASSERT_TRUE(uv.has_value());
+      const uint16_t mm = frame.depth.at(int(std::lround(uv->x())), int(std::lround(uv->y())));
+      ASSERT_NE(mm, 0);
+      EXPECT_NEAR(q.z() * 1000, mm, 20) << "a point of the " << to_string(a.kind);
+    }
+}
+
 // A pose script's stroke over the real hands site: the pointer sweeps its path, and the stroke
 // the others receive lies on the live surface (each point where the site camera measured it,
 // within 2 cm along the camera's ray), as does the label's pin; the pointer is shown meanwhile.
@@ -311,11 +342,7 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   CameraFrame frame;
   test::HandsSite::sources()[0]->next(frame);
   auto surfaces = std::make_shared<LiveSurfaces>();
-  // The aim: the camera's view of its middle, 40 cm ahead of it (room frame = site frame here).
   const RigidTransform& site_from_camera = camera.world_from_camera;
-  const auto ahead = [&](double x, double y) -> Eigen::Vector3f {
-    return (site_from_camera * Eigen::Vector3d(x, y, 0.4)).cast<float>();
-  };
   SessionClientOptions drawer = test::named("Mentor");
   drawer.surfaces = surfaces;
   drawer.script.loop = false;
@@ -323,10 +350,7 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   k.hands = true;
   k.right = site_from_camera.translation.cast<float>();
   drawer.script.keys = {k};
-  ScriptedDrawing stroke{ScriptedDrawing::Kind::kStroke, 0.3, 0.6, {}, ""};
-  for (int i = 0; i <= 8; ++i) stroke.points.push_back(ahead(-0.08 + 0.02 * i, 0.02));
-  drawer.script.drawing = {stroke,
-                           {ScriptedDrawing::Kind::kLabel, 1.0, 0, {ahead(0, -0.03)}, "here"}};
+  drawer.script.drawing = stroke_and_label(site_from_camera);
   auto watcher = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
   auto mentor = std::make_unique<test::TestParticipant>(s, drawer);
   // 90 poses published (at most 60 a second): past the drawing's times, with no frame yet.
@@ -346,20 +370,35 @@ TEST(Annotations, AScriptedStrokeLiesWhereItsRaysMetTheLiveCloud) {
   EXPECT_TRUE(pointer_seen);
   EXPECT_TRUE(eventually([&] { return mentor->session->script_done(); })) << "drawn, pointer away";
   EXPECT_TRUE(eventually([&] { return watcher->now().pointers.empty(); })) << "put away";
-  const auto drawn = watcher->now().annotations;
-  EXPECT_EQ(drawn[0].kind, AnnotationKind::kStroke);
-  EXPECT_GE(drawn[0].points.size(), 4u);
-  EXPECT_EQ(drawn[1].text, "here");
-  const RigidTransform camera_from_site = site_from_camera.inverse();
-  for (const Annotation& a : drawn)
-    for (const Eigen::Vector3f& p : a.points) {
-      const Eigen::Vector3d q = camera_from_site * p.cast<double>();
-      const auto uv = project_normalized(camera.depth, {q.x() / q.z(), q.y() / q.z()});
-      ASSERT_TRUE(uv.has_value());
-      const uint16_t mm = frame.depth.at(int(std::lround(uv->x())), int(std::lround(uv->y())));
-      ASSERT_NE(mm, 0);
-      EXPECT_NEAR(q.z() * 1000, mm, 20) << "a point of the " << to_string(a.kind);
-    }
+  expect_stroke_and_label_on(watcher->now().annotations, camera, frame);
+}
+
+// The same drawing stepped as a starved pose thread steps it: once when the clouds are there and
+// once 2 s later, both items due and the stroke's 0.6 s over (a loaded CI run's mentor drew no
+// stroke: its thread did not run while the stroke lasted, and the stroke met the clouds 0 times).
+// Its rays are cast along its whole path all the same: both are drawn, in script order, on the
+// live surface.
+TEST(Annotations, AStrokeSteppedOnlyAfterItEndedIsDrawnWhole) {
+  test::SessionSite s;
+  const CameraCalibration camera = s.site.player.cameras()[0].calibration;
+  CameraFrame frame;
+  test::HandsSite::sources()[0]->next(frame);
+  auto surfaces = std::make_shared<LiveSurfaces>();
+  surfaces->update(std::span(&camera, 1), std::vector{std::make_shared<const CameraFrame>(frame)},
+                   RigidTransform{});
+  auto watcher = std::make_unique<test::TestParticipant>(s, test::hand_driven("Surgeon"));
+  auto mentor = std::make_unique<test::TestParticipant>(s, test::hand_driven("Mentor"));
+  ASSERT_TRUE(eventually([&] { return watcher->other("Mentor") && mentor->now().joined; }, 30s));
+  PoseScript script;
+  script.drawing = stroke_and_label(camera.world_from_camera);
+  ScriptedPointing pointing(script, surfaces);
+  const Eigen::Vector3f hand = camera.world_from_camera.translation.cast<float>();  // room frame
+  pointing.step(mentor->p(), hand, 5.0);  // the clouds are there: the drawing's times start
+  EXPECT_FALSE(pointing.done());
+  pointing.step(mentor->p(), hand, 7.0);
+  EXPECT_TRUE(pointing.done()) << "both drawn, the pointer put away";
+  ASSERT_TRUE(eventually([&] { return watcher->now().annotations.size() == 2; }, 30s));
+  expect_stroke_and_label_on(watcher->now().annotations, camera, frame);
 }
 
 }  // namespace

@@ -99,7 +99,9 @@ class ScriptedObjects {
 /// The pointing and drawing of a pose script (PoseScript::drawing), performed by a participant
 /// as time goes, the right hand's laser pointer aimed from the hand at the script's room-frame
 /// points: a "point" shows the pointer on its point for its time; a "stroke" sweeps the aim along
-/// its path (at constant speed along it) with the pointer shown and, when it ends, draws the
+/// its path (at constant speed along it) with the pointer shown, a ray every 1/60 s of script
+/// time however seldom step() runs (from the hand of the step that casts it: a loaded machine may
+/// not run the pose thread for the stroke's whole time), and, when it ends, draws the
 /// points where the rays met the live clouds (one within 3 mm of the last is skipped; at most
 /// kMaxStrokePoints, evenly thinned; none drawn if fewer than 2 met anything); an "arrow" and a
 /// "label" are drawn at once where the rays at their points meet the clouds, or at the points
@@ -120,12 +122,16 @@ class ScriptedPointing {
 
  private:
   std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& hand, const Eigen::Vector3f& at) const;
+  // Casts the active stroke's rays due from swept_s_ up to `until_s` (at most its end).
+  void sweep(const Eigen::Vector3f& hand, double until_s);
   void finish(Participant& participant, const Eigen::Vector3f& hand);
+  static constexpr double kSweepStep_s = 1.0 / 60;  // a stroke's ray per pose at 60 Hz
   PoseScript script_;
   std::shared_ptr<const LiveSurfaces> surfaces_;
   size_t next_ = 0;
   std::optional<ScriptedDrawing> active_;
   std::vector<Eigen::Vector3f> stroke_;  // the active stroke's hits
+  double swept_s_ = 0;                   // script time its rays were cast up to (exclusive)
   std::optional<double> began_s_;        // the script's time when the site's clouds came
 };
 

@@ -99,6 +99,21 @@ inline bool recorded_voices(const std::filesystem::path& file, uint64_t packets)
       std::chrono::seconds(30));
 }
 
+/// Waits (up to 30 s) until the recording `file`, while its recorder writes it, holds a frame
+/// set: what a speaker sends after that is captured after the file's first frame set (a replay
+/// plays no voice captured before it: record/timeline.cpp, voice_plan). False if it does not.
+inline bool recorded_a_frame_set(const std::filesystem::path& file) {
+  return eventually(
+      [&] {
+        try {
+          return !RecordingReader(file).info().frame_sets.empty();
+        } catch (const Error&) {
+          return false;  // not yet written far enough to read
+        }
+      },
+      std::chrono::seconds(30));
+}
+
 /// Waits (up to 30 s) until the recording `file`, while its recorder writes it, holds a frame set
 /// captured at or after its last voice packet. A replay plays each voice beside the frame set it
 /// was captured with (record/timeline.cpp, voice_plan): a voice captured more than a frame

@@ -28,6 +28,7 @@ struct VoiceLink::Speaker {
   bool volume_set = false;  // by set_volume, or from VoiceConfig::volumes once the name is known
   Loudness loudness;
   Latencies latencies;
+  int64_t played_frame = -1;  // HeardVoice::played_frame
 };
 
 namespace {
@@ -204,6 +205,7 @@ void VoiceLink::play(int64_t now_us) {
   std::lock_guard lock(mutex_);
   for (auto& [id, speaker] : speakers_) {
     const audio::PlayedFrame played = speaker->stream.next(d.heard);
+    speaker->played_frame = std::max<int64_t>(speaker->played_frame, played.frame);
     if (d.played)
       std::fprintf(d.played->file, "%llu\t%u\t%c\t%u\n",
                    static_cast<unsigned long long>(stats_.frames_played), id,
@@ -266,6 +268,7 @@ VoiceStats VoiceLink::stats() const {
     h.stream = speaker->stream.stats();
     h.latency_ms_p50 = speaker->latencies.percentile(0.5);
     h.latency_ms_p99 = speaker->latencies.percentile(0.99);
+    h.played_frame = speaker->played_frame;
     h.speaking = speaker->loudness.speaking();
     h.volume = speaker->volume;
     for (const RemoteParticipant& r : s.others)

@@ -55,6 +55,20 @@ inline bool heard_through(const voice::VoiceLink& listener, uint32_t id, uint64_
   return arrived && played_until(listener, wall_clock_us() + (int64_t(delay_ms) + 100) * 1000);
 }
 
+/// Waits (up to 30 s) until `listener` has played speaker `id`'s time line through its frame
+/// `frame` (HeardVoice::played_frame): what that speaker's microphone held up to there, sent or
+/// not (the silence after a phrase is not sent), is in the listener's file and its played log.
+/// False if that does not happen.
+inline bool played_through_frame(const voice::VoiceLink& listener, uint32_t id, int64_t frame) {
+  return eventually(
+      [&] {
+        for (const voice::HeardVoice& h : listener.stats().heard)
+          if (h.id == id && h.played_frame >= frame) return true;
+        return false;
+      },
+      std::chrono::seconds(30));
+}
+
 /// Starts `volcast record --connect LINK --out FILE --session SESSION`; returns its pid, 0 when
 /// it could not be started (a test failure is added).
 inline pid_t spawn_recorder(const std::string& link, const std::string& file,

@@ -193,6 +193,14 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
     // catches up).
     ASSERT_TRUE(test::heard_through(vc, a.now().id, va.stats().packets_sent));
     ASSERT_TRUE(test::heard_through(vc, b.now().id, vb.stats().packets_sent));
+    // And C has played both time lines to the microphones' end: the phrase's quiet last frames
+    // are not sent, and are in C's played log only once C's loop has played on past them (a
+    // loaded run whose C held B's voice back played B's last packet in its last block: the
+    // phrase's last 115 ms were missing from what C heard of B).
+    const auto last_frame =
+        int64_t((b_mic.size() + audio::kFrameSamples - 1) / audio::kFrameSamples) - 1;
+    ASSERT_TRUE(test::played_through_frame(vc, a.now().id, last_frame));
+    ASSERT_TRUE(test::played_through_frame(vc, b.now().id, last_frame));
     heard = vc.stats();
     EXPECT_EQ(vc.error(), "");
   }

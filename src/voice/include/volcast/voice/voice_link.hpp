@@ -54,6 +54,11 @@ struct HeardVoice {
   std::string name;
   audio::VoiceStreamStats stream;
   double latency_ms_p50 = 0, latency_ms_p99 = 0;  ///< mouth-to-ear, played frames
+  /// The newest of its frames the loudspeaker has played, from a packet or not (FEC, concealment,
+  /// the silence after a talk spurt), numbered on its microphone's time line (a frame is 20 ms
+  /// of it; VoiceConfig::played_log's fourth column); -1 before the first. A file's listener
+  /// knows from it that a speaker's time line has been played up to a point (the tests' wait).
+  int64_t played_frame = -1;
   bool speaking = false;  ///< voice energy in the last 300 ms (the avatar's speaking indicator)
   bool muted = false;     ///< its microphone is muted (the avatar's badge)
   float volume = 1;  ///< the gain it plays at: set_volume's, else VoiceConfig::volumes' by name

@@ -29,7 +29,7 @@
 //   'welcome' again with reconnected true and outageMs; {type: 'stale', count}.
 'use strict';
 
-importScripts('volcast_decoder.js', 'case_wire.js', 'voice_worker.js');
+importScripts('volcast_decoder.js', 'case_wire.js', 'clock.js', 'voice_worker.js');
 
 const MAGIC = 0x54534356;  // "VCST" little-endian
 const VERSION = 5;
@@ -52,7 +52,8 @@ let check = false;
 let inbox = [];  // received chunks (Uint8Array), consumed from the front
 let inboxBytes = 0;
 let decoding = false;
-let clockOffsetUs = 0;
+let clockOffsetUs = 0;  // the server's clock - ours (clock.js)
+let helloSentUs = 0;    // when this connection's Hello went out, our clock
 let start = null;  // the page's 'start' message: link, tier, adaptation
 let tier = {depth: '', color: '', quality: 0, divisor: 1};  // as the server last said
 // Reconnecting (as the native viewer, receiver.hpp): a connection that closes, or brings no
@@ -596,7 +597,7 @@ async function drain() {
                                                      c.height !== cameras[i].height)))
           throw new Error(`the site came back with other cameras (${w.cameras.length})`);
         cameras = w.cameras;
-        clockOffsetUs = w.serverUs - receivedUs;
+        clockOffsetUs = handshakeClockOffsetUs(w.serverUs, helloSentUs, receivedUs);
         for (const c of cameras) c.rays = rayTable(c);
         setBalanceCameras();
         const outageMs = cutAt ? performance.now() - cutAt : 0;
@@ -714,7 +715,10 @@ function connect() {
   socket = new WebSocket(start.url);
   socket.binaryType = 'arraybuffer';
   lastMessageMs = performance.now();
-  socket.onopen = () => socket.send(hello(start));
+  socket.onopen = () => {
+    helloSentUs = wallUs();
+    socket.send(hello(start));
+  };
   socket.onmessage = (ev) => {
     if (g !== generation) return;
     lastMessageMs = performance.now();

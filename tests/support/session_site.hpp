@@ -2,6 +2,8 @@
 // A virtual-OR session for tests: the real hands site (hands_site.hpp) served with a SessionHub,
 // and participants, each with its own connection, a thread receiving on it (session messages
 // arrive there) and a SessionClient publishing its pose script (and camera).
+#include <gtest/gtest.h>
+
 #include <atomic>
 #include <cmath>
 #include <memory>
@@ -142,8 +144,12 @@ inline SessionClientOptions hand_driven(const std::string& name) {
 }
 
 /// Publishes `p`'s head at `room_position` (room frame, metres), turned `yaw_degrees` about +y
-/// from facing -z, as the play-area pose it must publish; the hands with it.
+/// from facing -z, as the play-area pose it must publish; the hands with it. Waits first until
+/// `p` knows it joined: the hub may tell the others before its own Joined reaches it (a loaded
+/// run: C saw B, B's pose was published before B's Joined and skipped), and a participant
+/// publishes nothing, and has no spot, before that.
 inline void stand(TestParticipant& p, const Eigen::Vector3f& room_position, float yaw_degrees = 0) {
+  if (!eventually([&] { return p.now().joined; })) ADD_FAILURE() << "stand: never joined";
   const RigidTransform room_from_playarea = session::room_from_playarea(p.now().spot);
   const RigidTransform playarea_from_room = room_from_playarea.inverse();
   BodyPose body;

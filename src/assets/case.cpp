@@ -64,19 +64,19 @@ void add_label_parts(Case& c, const fs::path& file, const LabelVolume& volume,
                      const CaseLoadOptions& options) {
   if (options.progress) options.progress("labels: " + spec.name);
   const std::vector<uint8_t> mask = select(volume, spec.selector);
-  const auto make = [&](const std::string& name, const std::vector<uint8_t>& m, size_t voxels) {
+  const auto make = [&](const std::string& name, const MaskComponent& m) {
     CasePart p;
     p.name = name;
     p.group = group;
     p.source = file;
     p.mesh = extract_surface(volume, m, surface);
-    p.voxels = voxels;
-    p.voxel_volume_ml = static_cast<double>(voxels) * volume.voxel_volume_mm3() / 1000.0;
+    p.voxels = m.voxels;
+    p.voxel_volume_ml = static_cast<double>(m.voxels) * volume.voxel_volume_mm3() / 1000.0;
     if (p.mesh.indices.empty()) return;
     c.parts.push_back(finish(std::move(p), rgba.value_or(default_part_rgba(spec.name))));
   };
   if (!spec.components) {
-    make(spec.name, mask, static_cast<size_t>(std::count(mask.begin(), mask.end(), uint8_t{1})));
+    make(spec.name, crop_to_box(volume, mask));
     return;
   }
   const std::vector<MaskComponent> parts = connected_components(volume, mask, spec.min_voxels);
@@ -85,8 +85,7 @@ void add_label_parts(Case& c, const fs::path& file, const LabelVolume& volume,
                 std::to_string(parts.size()) + " components of at least " +
                 std::to_string(spec.min_voxels) + " voxels; a case holds at most " +
                 std::to_string(kMaxCaseParts) + " parts: raise min_voxels");
-  for (size_t i = 0; i < parts.size(); ++i)
-    make(spec.name + " " + std::to_string(i + 1), parts[i].mask, parts[i].voxels);
+  for (size_t i = 0; i < parts.size(); ++i) make(spec.name + " " + std::to_string(i + 1), parts[i]);
 }
 
 Eigen::Vector4f rgba_from(const json& j, const std::string& name) {

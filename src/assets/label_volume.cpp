@@ -16,6 +16,8 @@
 #include <vtkWindowedSincPolyDataFilter.h>
 #include <vtkXMLImageDataReader.h>
 
+#include <algorithm>
+#include <iterator>
 #include <numeric>
 
 #include "volcast/core/error.hpp"
@@ -24,27 +26,35 @@ namespace volcast {
 
 namespace {
 
-// The mask as a VTK image padded by one empty voxel on every side.
-vtkNew<vtkImageData> padded_image(const LabelVolume& grid, const std::vector<uint8_t>& mask) {
-  const size_t n = static_cast<size_t>(grid.dims[0]) * grid.dims[1] * grid.dims[2];
-  if (mask.size() != n) throw Error("surface: the mask does not match the volume's grid");
+void check_grid(const LabelVolume& grid, const std::vector<uint8_t>& mask, const char* what) {
+  if (mask.size() != static_cast<size_t>(grid.dims[0]) * grid.dims[1] * grid.dims[2])
+    throw Error(std::string(what) + ": the mask does not match the volume's grid");
+}
+
+// The structure as a VTK image over its box padded by one empty voxel on every side; the image's
+// origin puts each voxel where it is in the volume's case frame.
+vtkNew<vtkImageData> padded_image(const LabelVolume& grid, const MaskComponent& s) {
+  const VoxelBox& box = s.box;
+  for (int a = 0; a < 3; ++a)
+    if (box.lo[a] < 0 || box.hi[a] > grid.dims[a])
+      throw Error("surface: the structure's box is not inside the volume's grid");
+  if (s.mask.size() != box.voxels())
+    throw Error("surface: the structure's mask does not fill its box");
+  const int nx = box.size(0), ny = box.size(1), nz = box.size(2);
   vtkNew<vtkImageData> image;
-  image->SetDimensions(grid.dims[0] + 2, grid.dims[1] + 2, grid.dims[2] + 2);
+  image->SetDimensions(nx + 2, ny + 2, nz + 2);
   image->SetSpacing(grid.spacing_mm.data());
-  const Eigen::Vector3d origin = grid.origin_mm - grid.spacing_mm;
+  const Eigen::Vector3d origin =
+      grid.origin_mm + (Eigen::Vector3d(box.lo[0], box.lo[1], box.lo[2]) - Eigen::Vector3d::Ones())
+                           .cwiseProduct(grid.spacing_mm);
   image->SetOrigin(origin.data());
   image->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
   auto* out = static_cast<uint8_t*>(image->GetScalarPointer());
-  std::fill_n(out, static_cast<size_t>(grid.dims[0] + 2) * (grid.dims[1] + 2) * (grid.dims[2] + 2),
-              uint8_t{0});
-  for (int k = 0; k < grid.dims[2]; ++k)
-    for (int j = 0; j < grid.dims[1]; ++j) {
-      const uint8_t* row = mask.data() + grid.index(0, j, k);
-      uint8_t* dst =
-          out +
-          ((static_cast<size_t>(k + 1) * (grid.dims[1] + 2) + j + 1) * (grid.dims[0] + 2) + 1);
-      std::copy_n(row, grid.dims[0], dst);
-    }
+  std::fill_n(out, static_cast<size_t>(nx + 2) * (ny + 2) * (nz + 2), uint8_t{0});
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      std::copy_n(s.mask.data() + (static_cast<size_t>(k) * ny + j) * nx, nx,
+                  out + ((static_cast<size_t>(k + 1) * (ny + 2) + j + 1) * (nx + 2) + 1));
   return image;
 }
 
@@ -124,20 +134,56 @@ std::vector<uint8_t> select(const LabelVolume& volume, const LabelSelector& sele
   return mask;
 }
 
+MaskComponent crop_to_box(const LabelVolume& grid, const std::vector<uint8_t>& mask) {
+  check_grid(grid, mask, "crop");
+  const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
+  MaskComponent out;
+  VoxelBox& box = out.box;
+  box.lo = {nx, ny, nz};
+  box.hi = {0, 0, 0};
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j) {
+      const uint8_t* row = mask.data() + grid.index(0, j, k);
+      const uint8_t* first = std::find(row, row + nx, uint8_t{1});
+      if (first == row + nx) continue;
+      const uint8_t* last = std::find(std::make_reverse_iterator(row + nx),
+                                      std::make_reverse_iterator(row), uint8_t{1})
+                                .base() -
+                            1;
+      box.lo = {std::min(box.lo[0], static_cast<int>(first - row)), std::min(box.lo[1], j),
+                std::min(box.lo[2], k)};
+      box.hi = {std::max(box.hi[0], static_cast<int>(last - row) + 1), std::max(box.hi[1], j + 1),
+                std::max(box.hi[2], k + 1)};
+    }
+  if (box.empty()) return MaskComponent{};
+  out.mask.resize(box.voxels());
+  for (int k = box.lo[2]; k < box.hi[2]; ++k)
+    for (int j = box.lo[1]; j < box.hi[1]; ++j) {
+      const uint8_t* row = mask.data() + grid.index(box.lo[0], j, k);
+      uint8_t* dst = out.mask.data() + box.index(box.lo[0], j, k);
+      for (int i = 0; i < box.size(0); ++i) {
+        dst[i] = row[i] == 1;
+        out.voxels += dst[i];
+      }
+    }
+  return out;
+}
+
 std::vector<MaskComponent> connected_components(const LabelVolume& grid,
                                                 const std::vector<uint8_t>& mask,
                                                 size_t min_voxels) {
+  check_grid(grid, mask, "components");
   const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
-  if (mask.size() != static_cast<size_t>(nx) * ny * nz)
-    throw Error("components: the mask does not match the volume's grid");
-  // Flood fill with an explicit stack (6-connectivity).
+  // Flood fill with an explicit stack (6-connectivity); each component's size and box.
   std::vector<uint32_t> label(mask.size(), 0);
   std::vector<size_t> sizes{0};
+  std::vector<VoxelBox> boxes{VoxelBox{}};
   std::vector<size_t> stack;
   for (size_t start = 0; start < mask.size(); ++start) {
     if (!mask[start] || label[start]) continue;
     const auto id = static_cast<uint32_t>(sizes.size());
     size_t count = 0;
+    VoxelBox box{{nx, ny, nz}, {0, 0, 0}};
     stack.push_back(start);
     label[start] = id;
     while (!stack.empty()) {
@@ -146,6 +192,8 @@ std::vector<MaskComponent> connected_components(const LabelVolume& grid,
       ++count;
       const int i = static_cast<int>(at % nx), j = static_cast<int>((at / nx) % ny),
                 k = static_cast<int>(at / (static_cast<size_t>(nx) * ny));
+      box.lo = {std::min(box.lo[0], i), std::min(box.lo[1], j), std::min(box.lo[2], k)};
+      box.hi = {std::max(box.hi[0], i + 1), std::max(box.hi[1], j + 1), std::max(box.hi[2], k + 1)};
       const auto visit = [&](int a, int b, int c) {
         if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return;
         const size_t n = grid.index(a, b, c);
@@ -155,6 +203,7 @@ std::vector<MaskComponent> connected_components(const LabelVolume& grid,
       visit(i, j, k - 1), visit(i, j, k + 1);
     }
     sizes.push_back(count);
+    boxes.push_back(box);
   }
   std::vector<uint32_t> order;
   for (uint32_t id = 1; id < sizes.size(); ++id)
@@ -162,21 +211,33 @@ std::vector<MaskComponent> connected_components(const LabelVolume& grid,
   std::stable_sort(order.begin(), order.end(),
                    [&](uint32_t a, uint32_t b) { return sizes[a] > sizes[b]; });
   std::vector<MaskComponent> out(order.size());
-  std::vector<int> slot(sizes.size(), -1);
   for (size_t s = 0; s < order.size(); ++s) {
-    slot[order[s]] = static_cast<int>(s);
-    out[s].mask.assign(mask.size(), 0);
-    out[s].voxels = sizes[order[s]];
+    const uint32_t id = order[s];
+    MaskComponent& c = out[s];
+    c.box = boxes[id];
+    c.voxels = sizes[id];
+    c.mask.assign(c.box.voxels(), 0);
+    for (int k = c.box.lo[2]; k < c.box.hi[2]; ++k)
+      for (int j = c.box.lo[1]; j < c.box.hi[1]; ++j) {
+        const uint32_t* row = label.data() + grid.index(c.box.lo[0], j, k);
+        uint8_t* dst = c.mask.data() + c.box.index(c.box.lo[0], j, k);
+        for (int i = 0; i < c.box.size(0); ++i) dst[i] = row[i] == id;
+      }
   }
-  for (size_t i = 0; i < mask.size(); ++i)
-    if (label[i] && slot[label[i]] >= 0) out[slot[label[i]]].mask[i] = 1;
   return out;
 }
 
 TriangleMesh extract_surface(const LabelVolume& grid, const std::vector<uint8_t>& mask,
                              const SurfaceOptions& options) {
-  vtkNew<vtkImageData> image = padded_image(grid, mask);
-  if (std::none_of(mask.begin(), mask.end(), [](uint8_t m) { return m != 0; })) return {};
+  return extract_surface(grid, crop_to_box(grid, mask), options);
+}
+
+TriangleMesh extract_surface(const LabelVolume& grid, const MaskComponent& structure,
+                             const SurfaceOptions& options) {
+  if (structure.box.empty() && structure.mask.empty()) return {};
+  vtkNew<vtkImageData> image = padded_image(grid, structure);
+  if (std::none_of(structure.mask.begin(), structure.mask.end(), [](uint8_t m) { return m != 0; }))
+    return {};
   vtkNew<vtkDiscreteFlyingEdges3D> surface;
   surface->SetInputData(image);
   surface->SetValue(0, 1);

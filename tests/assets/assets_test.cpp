@@ -165,6 +165,94 @@ TEST(CaseLabels, Ircad01MeshesAreClosedAndMatchTheirVoxels) {
   std::printf("[ figures ] ircad01-labelmap: %zu tumours, load %.0f ms\n", sizes.size(), c.load_ms);
 }
 
+// Synthetic label volume (exact behaviour only): each structure is cut to its own box, and its
+// surface made over that box lies where the voxels are in the volume's case frame.
+TEST(LabelSurfaces, EachStructureIsMeshedOverItsOwnBoxWhereItLies) {
+  LabelVolume v;
+  v.dims[0] = 40, v.dims[1] = 30, v.dims[2] = 20;
+  v.spacing_mm = {0.8, 0.7, 2.5};
+  v.origin_mm = {-10, 5, 3};
+  v.labels.assign(size_t(40) * 30 * 20, 0);
+  VoxelBox ball_box{{40, 30, 20}, {0, 0, 0}};
+  size_t ball = 0;
+  for (int k = 0; k < 20; ++k)  // a ball (label 1), radius 9 mm, inside the volume
+    for (int j = 0; j < 30; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const Eigen::Vector3d p = Eigen::Vector3d(i - 24, j - 15, k - 9).cwiseProduct(v.spacing_mm);
+        if (p.norm() > 9) continue;
+        v.labels[v.index(i, j, k)] = 1, ++ball;
+        ball_box.lo = {std::min(ball_box.lo[0], i), std::min(ball_box.lo[1], j),
+                       std::min(ball_box.lo[2], k)};
+        ball_box.hi = {std::max(ball_box.hi[0], i + 1), std::max(ball_box.hi[1], j + 1),
+                       std::max(ball_box.hi[2], k + 1)};
+      }
+  for (int k = 0; k < 3; ++k)  // a 3x3x3 cube in the volume's corner, touching its border
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) v.labels[v.index(i, j, k)] = 1;
+  for (int i = 36; i < 40; ++i) v.labels[v.index(i, 29, 19)] = 1;  // 4 voxels: under min_voxels
+  const std::vector<uint8_t> mask = select(v, {1, 1});
+
+  const std::vector<MaskComponent> parts = connected_components(v, mask, 10);
+  ASSERT_EQ(parts.size(), 2u);
+  EXPECT_EQ(parts[0].voxels, ball);  // largest first
+  EXPECT_EQ(parts[0].box.lo, ball_box.lo);
+  EXPECT_EQ(parts[0].box.hi, ball_box.hi);
+  EXPECT_EQ(parts[1].voxels, 27u);
+  EXPECT_EQ(parts[1].box.lo, (std::array<int, 3>{0, 0, 0}));
+  EXPECT_EQ(parts[1].box.hi, (std::array<int, 3>{3, 3, 3}));
+  for (const MaskComponent& c : parts) {
+    ASSERT_EQ(c.mask.size(), c.box.voxels());
+    EXPECT_EQ(size_t(std::count(c.mask.begin(), c.mask.end(), uint8_t{1})), c.voxels);
+    for (int k = c.box.lo[2]; k < c.box.hi[2]; ++k)  // the box's mask is the volume's there
+      for (int j = c.box.lo[1]; j < c.box.hi[1]; ++j)
+        for (int i = c.box.lo[0]; i < c.box.hi[0]; ++i)
+          ASSERT_EQ(c.mask[c.box.index(i, j, k)], mask[v.index(i, j, k)]) << i << " " << j;
+  }
+  const MaskComponent whole = crop_to_box(v, mask);
+  EXPECT_EQ(whole.voxels, ball + 27 + 4);
+  EXPECT_EQ(whole.box.lo, (std::array<int, 3>{0, 0, 0}));
+  EXPECT_EQ(whole.box.hi, (std::array<int, 3>{40, 30, 20}));
+  EXPECT_TRUE(crop_to_box(v, std::vector<uint8_t>(mask.size(), 0)).box.empty());
+
+  // The ball's surface: closed, around the ball's centre, its volume the voxels'.
+  const TriangleMesh m = extract_surface(v, parts[0]);
+  ASSERT_FALSE(m.indices.empty());
+  EXPECT_TRUE(closed_surface(m));
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& p : m.positions) mean += p.cast<double>();
+  mean /= double(m.positions.size());
+  const Eigen::Vector3d centre =
+      v.origin_mm + Eigen::Vector3d(24, 15, 9).cwiseProduct(v.spacing_mm);
+  EXPECT_LT((mean - centre).norm(), 0.5) << mean.transpose();
+  const double voxels_mm3 = double(ball) * v.voxel_volume_mm3();
+  EXPECT_NEAR(enclosed_volume(m), voxels_mm3, 0.1 * voxels_mm3);
+
+  // The corner cube's surface is closed although the cube touches the volume's border, and the
+  // same cube moved by (7, 4, 3) voxels gives the same surface moved by as many millimetres.
+  const TriangleMesh corner = extract_surface(v, parts[1]);
+  EXPECT_TRUE(closed_surface(corner));
+  LabelVolume moved = v;
+  std::fill(moved.labels.begin(), moved.labels.end(), 0);
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) moved.labels[moved.index(i + 7, j + 4, k + 3)] = 1;
+  const TriangleMesh shifted = extract_surface(moved, select(moved, {1, 1}));
+  ASSERT_EQ(shifted.positions.size(), corner.positions.size());
+  ASSERT_EQ(shifted.indices, corner.indices);
+  const Eigen::Vector3f by = Eigen::Vector3d(7, 4, 3).cwiseProduct(v.spacing_mm).cast<float>();
+  for (size_t i = 0; i < corner.positions.size(); ++i)
+    ASSERT_LT((shifted.positions[i] - by - corner.positions[i]).norm(), 1e-3f) << i;
+
+  // A box outside the grid, or a mask that does not fill its box, is refused.
+  MaskComponent outside = parts[1];
+  outside.box.hi[0] = 41;
+  outside.box.lo[0] = 38;
+  EXPECT_THROW(extract_surface(v, outside), Error);
+  MaskComponent short_mask = parts[1];
+  short_mask.mask.pop_back();
+  EXPECT_THROW(extract_surface(v, short_mask), Error);
+}
+
 // DCMTK's own image module (modality LUT applied) reads the same HU as the series.
 TEST(CaseDicom, HounsfieldUnitsMatchDcmtkAndTheOverlaySitsOnTheLiver) {
   const fs::path folder = medical() / "ct-liver-3slices";

@@ -5,6 +5,7 @@
 // quadric decimation to a triangle budget -- the pipeline 3D Slicer uses to make models from
 // segmentations.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -43,12 +44,34 @@ struct LabelSelector {
 /// A structure as a binary voxel mask (1 inside), same grid as the volume.
 std::vector<uint8_t> select(const LabelVolume& volume, const LabelSelector& selector);
 
-/// A connected part of a mask (6-connected voxels).
-struct MaskComponent {
-  std::vector<uint8_t> mask;  ///< same grid as the volume, 1 inside this component only
-  size_t voxels = 0;
+/// A box of a volume's voxels: `lo` the first voxel inside, `hi` one past the last, voxel indices
+/// (i, j, k) of the volume's grid.
+struct VoxelBox {
+  std::array<int, 3> lo{0, 0, 0};
+  std::array<int, 3> hi{0, 0, 0};
+  int size(int axis) const { return hi[axis] - lo[axis]; }
+  bool empty() const { return size(0) <= 0 || size(1) <= 0 || size(2) <= 0; }
+  size_t voxels() const { return empty() ? 0 : static_cast<size_t>(size(0)) * size(1) * size(2); }
+  /// Where the volume's voxel (i, j, k), inside the box, is in a mask over the box (x fastest).
+  size_t index(int i, int j, int k) const {
+    return (static_cast<size_t>(k - lo[2]) * size(1) + (j - lo[1])) * size(0) + (i - lo[0]);
+  }
 };
-/// The mask's 6-connected components of at least `min_voxels` voxels, largest first.
+
+/// A structure as a binary mask over the smallest box of the volume's grid that holds it: a
+/// tumour of a few hundred voxels is not a copy of the whole CT's grid.
+struct MaskComponent {
+  VoxelBox box;
+  std::vector<uint8_t> mask;  ///< box.voxels() bytes, x fastest: 1 inside the structure
+  size_t voxels = 0;          ///< how many are 1
+};
+
+/// A whole-grid mask cut to the smallest box holding its 1 voxels (an empty box and mask when it
+/// has none). Throws Error if the mask does not match the volume's grid.
+MaskComponent crop_to_box(const LabelVolume& grid, const std::vector<uint8_t>& mask);
+
+/// The mask's 6-connected components of at least `min_voxels` voxels, largest first, each over
+/// its own box. Throws Error if the mask does not match the volume's grid.
 std::vector<MaskComponent> connected_components(const LabelVolume& grid,
                                                 const std::vector<uint8_t>& mask,
                                                 size_t min_voxels = 1);
@@ -64,6 +87,11 @@ struct SurfaceOptions {
 /// millimetres, triangles facing outward, smooth normals. Empty when the mask is. Throws Error if
 /// the mask does not match the volume's grid.
 TriangleMesh extract_surface(const LabelVolume& grid, const std::vector<uint8_t>& mask,
+                             const SurfaceOptions& options = {});
+/// The same for a structure over its box (crop_to_box, connected_components): the surface only
+/// visits the box (padded by one empty voxel), in the volume's case frame. Throws Error if the
+/// box is not inside the grid or the mask does not fill the box.
+TriangleMesh extract_surface(const LabelVolume& grid, const MaskComponent& structure,
                              const SurfaceOptions& options = {});
 
 }  // namespace volcast

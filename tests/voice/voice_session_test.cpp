@@ -13,7 +13,10 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
+#include <fstream>
+#include <map>
 #include <mutex>
+#include <set>
 
 #include "support/session_site.hpp"
 #include "support/speech.hpp"
@@ -201,10 +204,27 @@ TEST(Voice, ThreeParticipantsHearEachVoiceFromItsSpeaker) {
       return link;
     };
     const auto va = speak(a, ca);
+    ASSERT_FALSE(HasFailure()) << "C heard A to its end";
     const auto vb = speak(b, cb);
-    ASSERT_FALSE(HasFailure());
+    ASSERT_FALSE(HasFailure()) << "C heard B to its end";
     heard = vc.stats();
     EXPECT_EQ(vc.error(), "");
+  }
+  // One voice at a time in what C played (its played log: block, speaker, how, frame): no block
+  // played a frame of both phrases (silence, and the quiet packets a speaker sends after its
+  // phrase, aside).
+  {
+    std::ifstream log(dir / "c_played.tsv");
+    std::map<uint64_t, std::set<uint32_t>> voiced;
+    uint64_t block = 0;
+    uint32_t id = 0, frame = 0;
+    char how = 0;
+    while (log >> block >> id >> how >> frame)
+      if (how != 's' && int64_t{frame} <= last_frame) voiced[block].insert(id);
+    ASSERT_FALSE(voiced.empty());
+    size_t both = 0;
+    for (const auto& entry : voiced) both += entry.second.size() > 1;
+    EXPECT_EQ(both, 0u) << "blocks in which C played A and B at once";
   }
   std::printf("HRTF: %s\n", heard.hrtf ? "on" : "off (panning)");
   const audio::Pcm out = audio::read_wav(dir / "c_heard.wav");

@@ -575,6 +575,113 @@ TEST(SessionChannel, VoicePacketsGoOutOnceEachTalkerHasOneAndALoneTalkersAtOnce)
   EXPECT_EQ(s.error, "");
 }
 
+// A participant's messages leave while a long message reaches it (the case's megabytes, over a
+// slow path or on a loaded machine): the server then hears from it, and does not time it out
+// (hub.cpp's presence timeout), before that message's last byte. A fake server on plain TCP sends
+// a 3 MiB session message's first 256 KiB and waits for what the viewer posts meanwhile; the
+// viewer posts once the long message's header has arrived (the handler's payload limit is asked
+// then). Only then does the server send the rest: it arrives whole, after the post.
+TEST(SessionChannel, AMessagePostedWhileALongOneArrivesLeavesBeforeItsLastByte) {
+  constexpr uint8_t kLong = 0x4e, kPosted = 0x41;
+  std::vector<uint8_t> long_payload(3 << 20);
+  for (size_t i = 0; i < long_payload.size(); ++i) long_payload[i] = static_cast<uint8_t>(i * 13);
+  const std::vector<uint8_t> posted_payload(300, 7);
+  TcpListener listener("127.0.0.1", 0);
+  std::atomic<bool> heard_before_tail{false};
+  std::string server_error;
+  std::thread server([&] {
+    try {
+      const std::unique_ptr<Connection> c = listener.accept();
+      // Reads one whole message of the viewer's; returns its header and payload.
+      const auto read_message = [&](std::vector<uint8_t>& payload) {
+        uint8_t header[protocol::kHeaderBytes];
+        c->read_exact(header, 20000);
+        const protocol::Header h = protocol::parse_header(header);
+        payload.resize(h.payload_bytes);
+        c->read_exact(payload, 20000);
+        return h;
+      };
+      std::vector<uint8_t> payload;
+      ASSERT_EQ(read_message(payload).type, protocol::MessageType::kHello);
+      protocol::CameraInfo camera;
+      camera.calibration.depth.width = 64;
+      camera.calibration.depth.height = 48;
+      camera.calibration.depth.fx = camera.calibration.depth.fy = 50;
+      c->write_all(protocol::message(protocol::MessageType::kWelcome,
+                                     protocol::serialize(protocol::Welcome{{camera}, 0})),
+                   20000);
+      uint8_t header[protocol::kHeaderBytes];
+      protocol::write_header(static_cast<protocol::MessageType>(0x0200 | kLong),
+                             static_cast<uint32_t>(long_payload.size()), header);
+      c->write_all(header, 20000);
+      const size_t head = 256 << 10;
+      c->write_all(std::span(long_payload).first(head), 20000);
+      // The viewer's own control messages (if any) may come first; then its post.
+      for (protocol::Header h = read_message(payload);; h = read_message(payload))
+        if (h.channel == protocol::Channel::kSession) {
+          heard_before_tail =
+              static_cast<uint8_t>(static_cast<uint16_t>(h.type) & 0xff) == kPosted &&
+              payload == posted_payload;
+          break;
+        }
+      c->write_all(std::span(long_payload).subspan(head), 20000);
+      // Held open until the viewer closes.
+      std::vector<uint8_t> rest(1);
+      c->read_exact(rest, 30000);
+    } catch (const std::exception& e) {
+      server_error = e.what();  // the viewer closing ends it: checked only as a report
+    }
+  });
+  ClientConfig config;
+  config.port = listener.port();
+  config.insecure = true;  // the fake server speaks plain TCP on loopback
+  config.depth_codec = config.color_codec = "raw";
+  config.handshake_timeout_ms = 20000;
+  config.receive_timeout_ms = 30000;
+  Client client(config);
+  std::mutex mutex;
+  std::vector<std::vector<uint8_t>> got;
+  std::atomic<bool> header_seen{false};
+  client.set_session_handler(
+      [&](uint8_t type, std::span<const uint8_t> payload) {
+        std::lock_guard lock(mutex);
+        if (type == kLong) got.emplace_back(payload.begin(), payload.end());
+      },
+      [&](uint8_t type) -> uint32_t {
+        if (type == kLong && !header_seen.exchange(true))
+          client.post_session(protocol::message(
+              static_cast<protocol::MessageType>(0x0200 | kPosted), posted_payload));
+        return 4 << 20;
+      });
+  std::string client_error;
+  std::thread receiver([&] {
+    ReceivedFrameSet rx;
+    try {
+      while (client.receive(rx)) {
+      }
+    } catch (const std::exception& e) {
+      client_error = e.what();
+    }
+  });
+  for (int i = 0; i < 1500; ++i) {
+    {
+      std::lock_guard lock(mutex);
+      if (!got.empty()) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  client.close();
+  receiver.join();
+  server.join();
+  EXPECT_TRUE(header_seen);
+  EXPECT_TRUE(heard_before_tail) << "the viewer's post did not reach the server before the "
+                                    "long message's last byte";
+  EXPECT_EQ(client_error, "");
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_TRUE(got[0] == long_payload) << "the long message arrived changed";
+}
+
 // Pacer on a simulated path (synthetic timings, exact behaviour): 100 ms round trip, 80 Mbit/s,
 // frame sets of 100 kB every 33 ms -- the window must grow past the 2 frame sets that capped the
 // old fixed window, and stay bounded.

@@ -39,6 +39,9 @@ using Kind = ClientError::Kind;
 // A payload is read this much at a time, its buffer growing only as bytes arrive: a header that
 // promises a large payload and is followed by silence costs little.
 constexpr size_t kReadChunkBytes = 1 << 20;
+// Session messages posted while a long message arrives (a participant's pose while the case's
+// megabytes do) leave after at most this much more of it has been read, not after all of it.
+constexpr size_t kSendBetweenBytes = 64 << 10;
 
 }  // namespace
 
@@ -69,6 +72,7 @@ struct Client::Impl {
   std::function<uint32_t(uint8_t)> session_max_payload;
   std::mutex outbox_mutex;
   std::deque<std::pair<uint64_t, std::vector<uint8_t>>> outbox;
+  std::atomic<bool> outbox_posted{false};  // set by post_session, cleared by flush_outbox
   int wake_fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
   std::vector<std::vector<uint8_t>> sending;
 
@@ -78,6 +82,7 @@ struct Client::Impl {
   void flush_outbox() {
     uint64_t v;
     [[maybe_unused]] const auto n = ::read(wake_fd, &v, sizeof v);
+    outbox_posted = false;
     sending.clear();
     {
       std::lock_guard lock(outbox_mutex);
@@ -194,20 +199,27 @@ struct Client::Impl {
   }
 
   // Reads `n` bytes into buffer[at, at + n) -- through the transport, or `raw` (outside TLS) --
-  // growing the buffer only as they arrive (kReadChunkBytes at a time), all before `deadline`;
-  // false after close(). Throws ClientError like read_message.
+  // growing the buffer only as they arrive, all before `deadline`; false after close(). Through
+  // the transport after the handshake, session messages posted meanwhile are sent every
+  // kSendBetweenBytes: the server hears from a participant while a long message reaches it over a
+  // slow path or on a loaded machine (hub.cpp's presence timeout). Throws ClientError like
+  // read_message.
   bool read_bytes(size_t at, size_t n, bool raw, std::optional<Clock::time_point> deadline,
                   bool handshake) {
+    const bool send_between = !raw && !handshake;
     for (size_t done = 0; done < n;) {
-      const size_t end = std::min(n, done + kReadChunkBytes);
+      const size_t end = std::min(n, done + (send_between ? kSendBetweenBytes : kReadChunkBytes));
       if (buffer.size() < at + end) buffer.resize(at + end);  // capacity at least doubles
       const auto chunk = std::span(buffer).subspan(at + done, end - done);
       const int left_ms = ms_left(deadline);
       try {
+        if (send_between && outbox_posted) flush_outbox();
         if (raw)
           connection->read_raw(chunk, left_ms);
         else
           connection->read_exact(chunk, left_ms);
+      } catch (const ClientError&) {
+        throw;  // from flush_outbox: the connection was lost while sending
       } catch (const Error& e) {
         if (closed) return false;
         if (timed_out(e, deadline))
@@ -598,6 +610,7 @@ void Client::post_session(std::vector<uint8_t> message, uint64_t coalesce_key) {
     queue_session_message(m.outbox, coalesce_key, std::move(message),
                           [&] { return send_buffer_full(m.socket.load()); });
   }
+  m.outbox_posted = true;
   const uint64_t one = 1;
   [[maybe_unused]] const auto n = ::write(m.wake_fd, &one, sizeof one);
 }

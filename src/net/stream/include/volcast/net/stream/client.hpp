@@ -165,7 +165,8 @@ class Client {
   using SessionHandler = std::function<void(uint8_t type, std::span<const uint8_t> payload)>;
   void set_session_handler(SessionHandler handler, std::function<uint32_t(uint8_t)> max_payload);
   /// Queues a whole session message (header included) for the server; the thread in receive()
-  /// writes it as soon as it is not reading a message (within about one frame set). A
+  /// writes it between messages, or within the next 64 KiB of a long one it is reading (a case
+  /// of megabytes; not inside a sealed frame set's body, read outside TLS: within one). A
   /// `coalesce_key` != 0 replaces a queued message with the same key (only the newest pose is
   /// sent on). Thread-safe; returns at once. Messages queued while nobody is in receive() wait
   /// for it.

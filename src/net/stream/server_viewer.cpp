@@ -270,6 +270,10 @@ void Server::Impl::stream(Viewer& v) {
       last_sequence = frames->sequence;
       continue;
     }
+    // The round trip counts from the write's start: a clock read after it returned is late by
+    // however long this thread then waited for a core, and a round trip shorter than the path's
+    // (a loaded run measured 96.7 ms on a 100 ms path) would shrink the window below it.
+    const int64_t send_us = steady_us();
     size_t bytes = 0;
     if (c.encrypted() && c.carries_raw() && !frames->sealed.empty()) {
       // Key, tags and digests inside this viewer's TLS session; the sealed body after them,
@@ -285,7 +289,7 @@ void Server::Impl::stream(Viewer& v) {
       bytes = prefix.size() + frames->body.size();
     }
     if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
-    pacer.on_send(frames->sequence, bytes, steady_us());
+    pacer.on_send(frames->sequence, bytes, send_us);
     std::lock_guard lock(mutex);
     const uint64_t step = uint64_t(tier.encoder.key().frame_divisor);  // the tier's own spacing
     if (last_sequence > 0 && frames->sequence > last_sequence + step) {

@@ -21,6 +21,8 @@ class Pacer {
 
   /// True if a frame set of `bytes` may be sent now.
   bool can_send(size_t bytes) const;
+  /// Frame set `sequence` of `bytes` sent; `now_us` (steady clock) when its write began: its
+  /// round trip counts from there, never from a later clock reading.
   void on_send(uint64_t sequence, size_t bytes, int64_t now_us);
   /// Takes the Ack of `sequence`. Returns false (and changes nothing) if it is not in flight.
   bool on_ack(uint64_t sequence, int64_t now_us);

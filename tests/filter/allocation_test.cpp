@@ -32,7 +32,7 @@ void operator delete(void* p, size_t) noexcept {
 namespace volcast {
 namespace {
 
-TEST(FilterChain, AllocatesNothingPerFrameOnceWarm) {
+TEST(FilterChainAllocation, AllocatesNothingPerFrameOnceWarm) {
   auto src = open_source(test::hands_dir(),
                          SourceOptions{Intrinsics{0, 0, 460, 460, 320, 180}, {}, {}, {}});
   std::vector<CameraFrame> frames;

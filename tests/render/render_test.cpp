@@ -156,7 +156,7 @@ double fraction_covered(const ColorImage& image) {
   return static_cast<double>(covered) / static_cast<double>(image.bgra.size() / 4);
 }
 
-TEST(CameraRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
+TEST(CameraRendererOnGpu, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
   // The real Azure Kinect frame (lens model with distortion: the rays come from the ray table),
   // placed away from the world origin and turned, seen from the side.
   auto src = open_source(test::kinect_mkv());
@@ -194,7 +194,7 @@ TEST(CameraRenderer, GpuReconstructionDrawsWhatTheCpuCloudDraws) {
 
 // The avatar filter in the vertex shaders drops the points the CPU filter drops: a sphere around a
 // point of the real scene, with a headset box inside it, drawn both ways.
-TEST(CameraRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
+TEST(CameraRendererOnGpu, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
   auto src = open_source(test::kinect_mkv());
   const CameraFrame f = src->next();
   CameraCalibration cal = src->calibration();
@@ -248,7 +248,7 @@ TEST(CameraRenderer, GpuAvatarFilterDrawsWhatTheCpuFilteredCloudDraws) {
   EXPECT_LT(fraction_differing(unfiltered, from_gpu_cloud, 12), 0.001);
 }
 
-TEST(CameraRenderer, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
+TEST(CameraRendererOnGpu, GpuReconstructionSkipsInvalidPixelsAndDrawsColourlessOnesGray) {
   // Synthetic (labelled): a 4x2 pinhole camera at the origin looking down +z; two valid pixels,
   // red at (0, 0) and green at (3, 1), the rest depth 0 with a blue colour that must not appear.
   CameraCalibration cal;

@@ -155,7 +155,7 @@ TEST(PoseSliders, MoveInMillimetresAlongWorldAxesAndTurnInPlace) {
   EXPECT_LT((turned.rotation * Eigen::Vector3d::UnitZ() - expected).norm(), 1e-6);
 }
 
-TEST(SiteConfig, RotationIsRzTimesRyTimesRx) {
+TEST(ViewerSiteConfig, RotationIsRzTimesRyTimesRx) {
   const Eigen::Matrix3d rx = rotation_from_degrees({90, 0, 0});
   EXPECT_LT((rx * Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitZ()).norm(), 1e-12);
   const Eigen::Matrix3d rz = rotation_from_degrees({0, 0, 90});
@@ -166,7 +166,7 @@ TEST(SiteConfig, RotationIsRzTimesRyTimesRx) {
   EXPECT_LT((both * Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitZ()).norm(), 1e-12);
 }
 
-TEST(SiteConfig, AnglesRoundTripThroughTheRotation) {
+TEST(ViewerSiteConfig, AnglesRoundTripThroughTheRotation) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> any(-179.9, 179.9), tilt(-89.9, 89.9);
   for (int i = 0; i < 200; ++i) {
@@ -180,7 +180,7 @@ TEST(SiteConfig, AnglesRoundTripThroughTheRotation) {
   }
 }
 
-TEST(SiteConfig, SlidersSavedToTheSiteConfigReadBackAsTheSamePoseKeepingOtherKeys) {
+TEST(ViewerSiteConfig, SlidersSavedToTheSiteConfigReadBackAsTheSamePoseKeepingOtherKeys) {
   const fs::path dir = test::temp_dir("site_poses");
   const fs::path file = dir / "site.json";
   std::ofstream(file) << R"({"cameras": [
@@ -214,7 +214,7 @@ TEST(SiteConfig, SlidersSavedToTheSiteConfigReadBackAsTheSamePoseKeepingOtherKey
   EXPECT_FALSE(fs::exists(file.string() + ".tmp"));
 }
 
-TEST(SiteConfig, SaveCreatesAMissingFileHoldingOnlyThePoses) {
+TEST(ViewerSiteConfig, SaveCreatesAMissingFileHoldingOnlyThePoses) {
   const fs::path file = test::temp_dir("site_new") / "new.json";
   const std::vector<RigidTransform> poses = {some_pose(0, 0, 0, {1, 2, 3})};
   write_site_poses(file, poses);
@@ -228,7 +228,7 @@ TEST(SiteConfig, SaveCreatesAMissingFileHoldingOnlyThePoses) {
   EXPECT_EQ(j["cameras"][0].size(), 1u);  // only "world_from_camera"
 }
 
-TEST(SiteConfig, AMalformedPoseIsAnErrorNamingTheFileCameraAndKey) {
+TEST(ViewerSiteConfig, AMalformedPoseIsAnErrorNamingTheFileCameraAndKey) {
   const fs::path file = test::temp_dir("site_bad") / "bad.json";
   const auto error_for = [&](const std::string& pose) {
     std::ofstream(file) << R"({"cameras": [{"source": "a"}, {"source": "b", "world_from_camera": )"

@@ -12,11 +12,13 @@
 #include "support/session_site.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/net/stream/session_port.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/annotations.hpp"
 #include "volcast/session/hub.hpp"
 #include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/rate_limit.hpp"
 #include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
@@ -208,6 +210,37 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
   const std::vector<uint8_t> one = {0};
   EXPECT_EQ(test::error_of([&] { session::find_message(0x09)->check(one); }),
             "malformed heartbeat: not empty");
+}
+
+// A client that talks (50 voice packets a second) and whose thread or link stalls holds up to
+// kMaxHeldPerStream packets (session_port.hpp) and then sends them at once: the server's voice
+// limit admits every packet of it, after any stall, stall after stall. (A loaded run's client held
+// a second of voice and the server dropped 11 of its 51: the limit's burst was 40.)
+TEST(SessionLimits, AVoiceBacklogAClientHoldsPassesTheServersLimit) {
+  const uint8_t voice = static_cast<uint8_t>(Type::kVoice);
+  EXPECT_GE(session::limit_of(voice).burst, double(kMaxHeldPerStream));
+  session::RateLimiter limiter;
+  int64_t now_us = 1'000'000;
+  size_t sent = 0, dropped = 0;
+  const auto send = [&](size_t packets) {
+    for (size_t i = 0; i < packets; ++i, ++sent)
+      dropped += !limiter.admit(7, voice, now_us).admitted;
+  };
+  const auto talk = [&](int seconds) {  // one packet every 20 ms
+    for (int i = 0; i < 50 * seconds; ++i, now_us += 20'000) send(1);
+  };
+  talk(2);
+  for (int stall_ms : {1000, 300, 2000, 1000, 1000, 500, 1000}) {
+    now_us += int64_t{stall_ms} * 1000;  // the packets said meanwhile wait in the outbox
+    send(std::min<size_t>(kMaxHeldPerStream, size_t(stall_ms) / 20));
+    talk(1);
+  }
+  EXPECT_EQ(dropped, 0u) << "of " << sent;
+  // A sender past what a client holds is still limited: a flood loses what is over the burst.
+  now_us += 10'000'000;
+  const size_t before = dropped;
+  send(1000);
+  EXPECT_EQ(dropped - before, 1000u - size_t(session::limit_of(voice).burst));
 }
 
 TEST(SessionRoom, FreeSpotsKeepOutOfWallsAndTable) {

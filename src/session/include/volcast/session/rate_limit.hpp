@@ -19,8 +19,8 @@
 //   teleports 0x06       4 a second, 8 at once
 //   lobby: list 0x01, join 0x02, leave 0x03   2 a second, 5 at once
 //   avatar camera 0x07   1 a second, 2 at once (sent once; twice is refused by the hub)
-//   voice 0x0e           60 a second, 40 at once (50 a second while talking, a burst after a
-//                        stall of the sender's link)
+//   voice 0x0e           60 a second, 100 at once (50 a second while talking; after a stall
+//                        of the sender's link or thread, the up to 50 its client held at once)
 //   voice state 0x0f     5 a second, 10 at once (mute toggles)
 // and the sessions one participant (one connection) may create (kSessionCreation): 4 at once,
 // then one every 15 s.

@@ -2,10 +2,9 @@
 # tests, written to OUT for ctest to include (tests/CMakeLists.txt, volcast_discover_suites).
 #
 # PER_SUITE: one ctest test per suite (but those in PER_TEST_SUITES), named after it and run in one
-# process
-# (`--gtest_filter=Suite.*`): its tests share the process's start-up (the dynamic loader, the
-# sanitizers, the libraries' static initialisers: 0.3-0.8 CPU seconds for a binary that links every
-# library). Otherwise one ctest test per test, named Suite.Test, in a process of its own. A test
+# process (`--gtest_filter=Suite.*`): its tests share the process's start-up (the dynamic loader,
+# the sanitizers, the libraries' static initialisers: 0.3-0.8 CPU seconds for a binary that links
+# every library). Otherwise one ctest test per test, named Suite.Test, in a process of its own. A test
 # named ALONE runs as a ctest test of its own, RUN_SERIAL; a DISABLED_ test is listed as a disabled
 # ctest test, as gtest_discover_tests lists it. A ctest test whose every test skipped is skipped
 # (the skip expression names its test count, so one where any test ran is not).

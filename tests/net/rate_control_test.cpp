@@ -11,16 +11,22 @@
 namespace volcast {
 namespace {
 
-// A simulated viewer: frame sets at 30 fps of the current rung's size, through a path of
-// `path_bits` per second (0: unlimited) with a 20 ms round trip; a frame set that would queue more
-// than 150 ms behind the others is skipped, as the server's pacing does. The minimum round trip is
-// the smallest seen, as the pacer's (pacing.hpp): it includes a frame set's own transmission.
+// A simulated viewer: frame sets every `period_us` (30 fps: the rung's rate; slower: a slow site)
+// of the current rung's size, through a path of `path_bits` per second (0: unlimited) with a 20 ms
+// round trip, each Ack `late_us` later still (a loaded machine's scheduling, not a queue); a frame
+// set that would queue more than 150 ms behind the others is skipped, as the server's pacing does.
+// Each send tells whether every earlier frame set was acknowledged (the server's frames in
+// flight). The minimum round trip is the smallest seen, as the pacer's (pacing.hpp): it includes
+// a frame set's own transmission.
 struct SimPath {
   std::vector<double> rung_bits{60e6, 30e6, 12e6, 4e6};
   std::vector<char> allowed{1, 1, 1, 1};
   double path_bits = 0;
+  int64_t period_us = 33'333;
+  int64_t late_us = 0;
   int64_t now = 0;
-  int64_t link_free = 0;  // when the bottleneck has sent everything given to it
+  int64_t link_free = 0;    // when the bottleneck has sent everything given to it
+  int64_t acked_until = 0;  // when the last frame set sent is acknowledged
   int64_t min_rtt = INT64_MAX;
   std::vector<std::pair<int64_t, size_t>> switches;  // (time, rung)
   std::vector<int64_t> notices;
@@ -28,17 +34,19 @@ struct SimPath {
   // Runs `seconds` of frame sets through `rc`, applying its decisions.
   void run(RateController& rc, double seconds) {
     const int64_t end = now + int64_t(seconds * 1e6);
-    for (; now < end; now += 33'333) {
+    for (; now < end; now += period_us) {
       const size_t bytes = size_t(rung_bits[rc.rung()] / 8 / 30);
       const int64_t start = std::max(now, link_free);
       if (path_bits > 0 && start - now > 150'000) {
         rc.on_skip(now);
       } else {
+        rc.on_send(now, acked_until <= now);
         const int64_t sent = path_bits > 0 ? start + int64_t(double(bytes) * 8e6 / path_bits) : now;
         link_free = sent;
-        const int64_t rtt = sent + 20'000 - now;
+        const int64_t rtt = sent + 20'000 + late_us - now;
         min_rtt = std::min(min_rtt, rtt);
-        rc.on_ack(sent + 20'000, bytes, rtt, min_rtt);
+        acked_until = now + rtt;
+        rc.on_ack(acked_until, bytes, rtt, min_rtt);
       }
       RateDecision d;
       if (rc.decide(now, rung_bits, allowed, d)) {
@@ -133,6 +141,54 @@ TEST(RateControl, ASlowSiteWithoutAQueueIsNotTakenForASlowPath) {
     RateDecision d;
     EXPECT_FALSE(rc.decide(now, rates, allowed, d)) << d.reason;
   }
+}
+
+TEST(RateControl, ASlowSiteWhoseAcksAllComeLateOnAFastPathKeepsTheBestRung) {
+  // The server's first seconds on a loaded machine (a quiet clean run of 568b2a0 stepped a viewer
+  // of an unlimited path down: "the path delivers 2.0 Mbit/s (queue 55 ms, 0 frame sets missed)
+  // where this tier needs 7.4"): the site makes 12 frame sets a second, 40 % of the rung's rate,
+  // and after the first second every Ack comes 55 ms late. Goodput is short of the rung's rate and
+  // the Acks read as a standing queue, but each frame set was acknowledged before the next was
+  // sent: the window is application-limited, the path is not the limit.
+  SimPath p;
+  p.period_us = 83'333;
+  RateController rc(4, 0, quick());
+  p.run(rc, 1);
+  p.late_us = 55'000;
+  p.run(rc, 10);
+  EXPECT_TRUE(p.switches.empty()) << "stepped down to " << p.switches.front().second;
+  EXPECT_TRUE(p.notices.empty());
+  EXPECT_EQ(rc.rung(), 0u);
+  // The same Acks without the sends (as before the windows were marked): a deficit and a queue,
+  // congested -- what the marking keeps from a step down.
+  RateController unmarked(4, 0, quick());
+  const std::vector<double> rates{60e6, 30e6, 12e6, 4e6};
+  const std::vector<char> allowed{1, 1, 1, 1};
+  bool stepped = false;
+  for (int64_t now = 0; now < 11'000'000 && !stepped; now += 83'333) {
+    const int64_t late = now >= 1'000'000 ? 55'000 : 0;
+    unmarked.on_ack(now + 20'000 + late, size_t(60e6 / 8 / 30), 20'000 + late, 20'000);
+    RateDecision d;
+    stepped = unmarked.decide(now + 20'000 + late, rates, allowed, d) && d.rung > 0;
+  }
+  EXPECT_TRUE(stepped);
+}
+
+TEST(RateControl, ASlowSiteOnAPathSlowerStillStepsDown) {
+  // The same slow site (12 frame sets a second: 24 Mbit/s of rung 0) through a 10 Mbit/s path:
+  // each frame set takes 200 ms, the path never drains between them, so no window is
+  // application-limited, and it steps down within a second.
+  SimPath p;
+  p.period_us = 83'333;
+  RateController rc(4, 0, quick());
+  p.run(rc, 2);
+  ASSERT_TRUE(p.switches.empty());
+  p.path_bits = 10e6;
+  const int64_t shrunk = p.now;
+  p.run(rc, 3);
+  ASSERT_FALSE(p.switches.empty());
+  EXPECT_LE(p.switches.front().first - shrunk, 1'000'000) << "stepped down within 1 s";
+  EXPECT_GT(rc.rung(), 0u);
 }
 
 TEST(RateControl, LateAcksNowAndThenAreNotAQueueAndARecoveredPathIsProbedThroughThem) {

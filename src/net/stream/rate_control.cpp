@@ -19,6 +19,7 @@ void RateController::trim(int64_t now_us) {
   // goodput.
   while (acked_.size() > 2 && acked_.front().time_us < from) acked_.pop_front();
   while (!skips_.empty() && skips_.front() < from) skips_.pop_front();
+  while (!sent_.empty() && sent_.front().time_us < from) sent_.pop_front();
   queue_ms_ = acked_.empty() ? 0 : acked_.front().queue_ms;
   for (const Acked& a : acked_) queue_ms_ = std::min(queue_ms_, a.queue_ms);
 }
@@ -33,6 +34,19 @@ void RateController::on_skip(int64_t now_us, uint64_t n) {
   if (window_start_us_ < 0) window_start_us_ = now_us;
   for (uint64_t i = 0; i < std::min<uint64_t>(n, 64); ++i) skips_.push_back(now_us);
   trim(now_us);
+}
+
+void RateController::on_send(int64_t now_us, bool drained) {
+  if (window_start_us_ < 0) window_start_us_ = now_us;
+  sent_.push_back({now_us, drained});
+  trim(now_us);
+}
+
+bool RateController::app_limited() const {
+  if (!skips_.empty() || sent_.size() < 2) return false;
+  const auto drained =
+      std::count_if(sent_.begin(), sent_.end(), [](const Sent& s) { return s.drained; });
+  return drained >= 2 && 2 * size_t(drained) >= sent_.size();
 }
 
 double RateController::goodput_bits(int64_t now_us) const {
@@ -68,7 +82,7 @@ bool RateController::decide(int64_t now_us, std::span<const double> rate_bits,
   const bool measured = now_us - window_start_us_ >= config_.window_us;
   const double rate = rate_of(rung_, rate_bits);
   const double good = goodput_bits(now_us);
-  const bool deficit = measured && rate > 0 && good < config_.deficit * rate;
+  const bool deficit = measured && rate > 0 && good < config_.deficit * rate && !app_limited();
   const bool queue = queue_ms_ > config_.queue_ms;
   const bool skips = static_cast<int>(skips_.size()) >= config_.min_skips;
   if (deficit && (queue || skips)) {
@@ -123,6 +137,7 @@ void RateController::switched(size_t rung, int64_t now_us, bool up) {
   rung_ = std::min(rung, rungs_ - 1);
   acked_.clear();
   skips_.clear();
+  sent_.clear();
   window_start_us_ = now_us;
   congested_since_ = -1;
   clear_since_ = now_us;

@@ -289,6 +289,7 @@ void Server::Impl::stream(Viewer& v) {
       bytes = prefix.size() + frames->body.size();
     }
     if (pacer.frames_in_flight() == 0) last_progress = std::chrono::steady_clock::now();
+    rc.on_send(send_us, pacer.frames_in_flight() == 0);
     pacer.on_send(frames->sequence, bytes, send_us);
     std::lock_guard lock(mutex);
     const uint64_t step = uint64_t(tier.encoder.key().frame_divisor);  // the tier's own spacing

@@ -17,6 +17,13 @@
 // below the stream's rate alone may be a site that encodes slowly; with a queue or skips it is the
 // path. Congested for `congest_us` on end: step down at once to the best rung whose rate is at most
 // `fill` x goodput (not one rung at a time: a path that halved is left within about one window).
+// A window is *application-limited* -- BBR's app-limited delivery-rate samples (Cheng et al.,
+// "Delivery Rate Estimation", IETF draft-cheng-iccrg-delivery-rate-estimation, 2.2) -- when
+// nothing in it was missed and at least half its frame sets (two or more) went out with nothing
+// in flight: the path had delivered everything before the site made more, so a goodput below the
+// rung's rate is the site's (slow to start, loaded), and Acks late by the viewer's or server's
+// scheduling are no queue. It is never congested. A path slower than the site cannot drain
+// between frame sets without missing some, so it still steps down.
 //
 // Up, without oscillating: after `hold_us` without congestion (and a queue under `queue_ms`) it
 // probes the next rung up. A probe that ends in congestion within `probe_us` steps back and doubles
@@ -67,6 +74,8 @@ class RateController {
   void on_ack(int64_t now_us, size_t bytes, int64_t rtt_us, int64_t min_rtt_us);
   /// `n` frame sets of the rung this viewer missed (pacing, latency budget).
   void on_skip(int64_t now_us, uint64_t n = 1);
+  /// A frame set sent; `drained`: every frame set sent before it had been acknowledged.
+  void on_send(int64_t now_us, bool drained);
 
   /// What to do now. `rate_bits` per rung (0: unknown); `allowed` per rung (a floor, the cap, a
   /// tier the server refused). Returns true and fills `out` when the rung should change or a
@@ -97,6 +106,12 @@ class RateController {
   };
   std::deque<Acked> acked_;
   std::deque<int64_t> skips_;
+  struct Sent {
+    int64_t time_us;
+    bool drained;
+  };
+  std::deque<Sent> sent_;
+  bool app_limited() const;
   double queue_ms_ = 0;
   int64_t window_start_us_ = -1;  // when the current rung's measurements began
   int64_t congested_since_ = -1;

@@ -1,10 +1,10 @@
 # Run at build time (cmake -P, after a test binary links): the ctest tests of TEST_EXE's GoogleTest
 # tests, written to OUT for ctest to include (tests/CMakeLists.txt, volcast_discover_suites).
 #
-# PER_SUITE: one ctest test per suite, named after it and run in one process
-# (`--gtest_filter=Suite.*`): its tests share the process's start-up (the dynamic loader, the
-# sanitizers, the libraries' static initialisers: 0.3-0.8 CPU seconds for a binary that links every
-# library). Otherwise one ctest test per test, named Suite.Test, in a process of its own. A test
+# PER_SUITE: one ctest test per suite (but those in PER_TEST_SUITES), named after it and run in one
+# process (`--gtest_filter=Suite.*`): its tests share the process's start-up (the dynamic loader,
+# the sanitizers, the libraries' static initialisers: 0.3-0.8 CPU seconds for a binary that links
+# every library). Otherwise one ctest test per test, named Suite.Test, in a process of its own. A test
 # named ALONE runs as a ctest test of its own, RUN_SERIAL; a DISABLED_ test is listed as a disabled
 # ctest test, as gtest_discover_tests lists it. A ctest test whose every test skipped is skipped
 # (the skip expression names its test count, so one where any test ran is not).
@@ -12,7 +12,8 @@
 # A ctest test's TIMEOUT is 600 s and 60 s more per test after its first: it only bounds a broken
 # run.
 #
-# Inputs (-D): TEST_EXE, OUT, WORKDIR, LABEL; optional PER_SUITE (ON/OFF), COST (seconds per test:
+# Inputs (-D): TEST_EXE, OUT, WORKDIR, LABEL; optional PER_SUITE (ON/OFF), PER_TEST_SUITES (suite
+# names separated by commas: one ctest test per test even so), COST (seconds per test:
 # a suite's COST is that times its tests), LOCK (a RESOURCE_LOCK), ENVIRONMENT (one NAME=VALUE, no
 # ';'), ALONE (a full test name).
 execute_process(COMMAND "${TEST_EXE}" --gtest_list_tests WORKING_DIRECTORY "${WORKDIR}"
@@ -84,8 +85,25 @@ function(add_one name filter n extra)
   set(script "${script}" PARENT_SCOPE)
 endfunction()
 
+string(REPLACE "," ";" per_test_suites "${PER_TEST_SUITES}")
+foreach(suite IN LISTS per_test_suites)
+  if(NOT DEFINED count_${suite})
+    message(FATAL_ERROR "${TEST_EXE}: PER_TEST_SUITES names ${suite}, which is not one of its suites")
+  endif()
+endforeach()
 if(PER_SUITE)
+  foreach(name IN LISTS tests)
+    string(REGEX REPLACE "\\..*" "" suite "${name}")
+    list(FIND per_test_suites "${suite}" at)
+    if(at GREATER -1)
+      add_one("${name}" "${name}" 1 "")
+    endif()
+  endforeach()
   foreach(suite IN LISTS suites)
+    list(FIND per_test_suites "${suite}" at)
+    if(at GREATER -1)
+      continue()
+    endif()
     set(filter "${suite}.*")
     if(ALONE AND ALONE MATCHES "^${suite}\\.")
       string(APPEND filter ":-${ALONE}")

@@ -26,7 +26,8 @@ void RateController::trim(int64_t now_us) {
 
 void RateController::on_ack(int64_t now_us, size_t bytes, int64_t rtt_us, int64_t min_rtt_us) {
   if (window_start_us_ < 0) window_start_us_ = now_us;
-  acked_.push_back({now_us, bytes, double(std::max<int64_t>(0, rtt_us - min_rtt_us)) / 1000});
+  acked_.push_back({now_us, bytes, double(std::max<int64_t>(0, rtt_us - min_rtt_us)) / 1000,
+                    double(bytes) * 8e6 / double(std::max<int64_t>(1, rtt_us))});
   trim(now_us);
 }
 
@@ -47,6 +48,13 @@ bool RateController::app_limited() const {
   const auto drained =
       std::count_if(sent_.begin(), sent_.end(), [](const Sent& s) { return s.drained; });
   return drained >= 2 && 2 * size_t(drained) >= sent_.size();
+}
+
+bool RateController::room_for(double rate_bits, int64_t now_us) const {
+  const int64_t from = now_us - config_.window_us;
+  return std::any_of(acked_.begin(), acked_.end(), [&](const Acked& a) {
+    return a.time_us >= from && a.rate_bits >= config_.room * rate_bits;
+  });
 }
 
 double RateController::goodput_bits(int64_t now_us) const {
@@ -82,7 +90,8 @@ bool RateController::decide(int64_t now_us, std::span<const double> rate_bits,
   const bool measured = now_us - window_start_us_ >= config_.window_us;
   const double rate = rate_of(rung_, rate_bits);
   const double good = goodput_bits(now_us);
-  const bool deficit = measured && rate > 0 && good < config_.deficit * rate && !app_limited();
+  const bool deficit = measured && rate > 0 && good < config_.deficit * rate && !app_limited() &&
+                       !room_for(rate, now_us);
   const bool queue = queue_ms_ > config_.queue_ms;
   const bool skips = static_cast<int>(skips_.size()) >= config_.min_skips;
   if (deficit && (queue || skips)) {

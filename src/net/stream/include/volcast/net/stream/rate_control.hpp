@@ -24,6 +24,12 @@
 // rung's rate is the site's (slow to start, loaded), and Acks late by the viewer's or server's
 // scheduling are no queue. It is never congested. A path slower than the site cannot drain
 // between frame sets without missing some, so it still steps down.
+// A window also has *room* -- and is never congested -- when one of its Acks delivered its frame
+// set at `room` x the rung's rate or faster: bytes over round trip is a lower bound of what the
+// path carries (a frame set cannot cross a narrower bottleneck faster; BBR's delivery rate,
+// Cardwell et al.), so frame sets held back or missed in it were held by a viewer that acknowledged
+// late now and then (its thread on a loaded machine), not by the path. A viewer slow to decode,
+// which acknowledges after decoding, has round trips as slow as its decoding and still steps down.
 //
 // Up, without oscillating: after `hold_us` without congestion (and a queue under `queue_ms`) it
 // probes the next rung up. A probe that ends in congestion within `probe_us` steps back and doubles
@@ -50,6 +56,7 @@ struct RateControlConfig {
   double deficit = 0.85;         ///< goodput below this x the rung's rate: a deficit
   double queue_ms = 20;          ///< smoothed queueing delay above this: a queue
   int min_skips = 2;             ///< frame sets missed in the window: a queue's other sign
+  double room = 1.0;             ///< an Ack at this x the rung's rate (bytes / round trip): room
   int64_t congest_us = 250'000;  ///< congested this long: step down
   double fill = 0.8;             ///< step down to a rung of at most this x goodput
   int64_t hold_us = 4'000'000;   ///< clear this long after a change: probe up
@@ -102,7 +109,8 @@ class RateController {
   struct Acked {
     int64_t time_us;
     size_t bytes;
-    double queue_ms;  // its round trip less the path's minimum
+    double queue_ms;   // its round trip less the path's minimum
+    double rate_bits;  // its bytes over its round trip, bits per second
   };
   std::deque<Acked> acked_;
   std::deque<int64_t> skips_;
@@ -112,6 +120,7 @@ class RateController {
   };
   std::deque<Sent> sent_;
   bool app_limited() const;
+  bool room_for(double rate_bits, int64_t now_us) const;
   double queue_ms_ = 0;
   int64_t window_start_us_ = -1;  // when the current rung's measurements began
   int64_t congested_since_ = -1;

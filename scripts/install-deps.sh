@@ -9,7 +9,7 @@ packages=(
   libzstd-dev liblz4-dev
   libepoxy-dev libegl-dev libegl-mesa0 libgl1-mesa-dri
   libglfw3-dev libxrandr-dev libimgui-dev libopenxr-dev xvfb xauth
-  libopen3d-dev
+  libopen3d-dev libnanoflann-dev
   clang-14 libclang-rt-14-dev lld ccache stress-ng
   libwebsocketpp-dev emscripten chromium nodejs
   libassimp-dev libvtk9-dev libdcmtk-dev libmatroska-dev

@@ -1,22 +1,21 @@
 #include "volcast/calibrate/targetless.hpp"
 
-#include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/pipelines/registration/Feature.h>
-#include <open3d/pipelines/registration/GlobalOptimization.h>
-#include <open3d/pipelines/registration/PoseGraph.h>
-#include <open3d/pipelines/registration/Registration.h>
-#include <open3d/pipelines/registration/RobustKernel.h>
 #include <open3d/utility/Logging.h>
 #include <open3d/utility/Random.h>
 #include <spdlog/fmt/fmt.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <memory>
 
+#include "volcast/calibrate/feature_ransac.hpp"
+#include "volcast/calibrate/point_to_plane.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/core/worker_pool.hpp"
 
 namespace volcast {
 namespace {
@@ -24,6 +23,7 @@ namespace {
 namespace o3g = open3d::geometry;
 namespace o3r = open3d::pipelines::registration;
 using Cloud = std::shared_ptr<o3g::PointCloud>;
+using SurfacePtr = std::shared_ptr<const icp::Surface>;
 
 std::string cam(size_t i) {
   return "camera " + std::to_string(i);
@@ -69,21 +69,37 @@ Cloud prepare_fine(const std::vector<Eigen::Vector3d>& points, double radius_m) 
   return down;
 }
 
-// One cloud at every ICP level, with normals (levels 0..2: voxel centroids; 3: samples).
+SurfacePtr surface(const o3g::PointCloud& cloud) {
+  return std::make_shared<const icp::Surface>(cloud.points_, cloud.normals_);
+}
+
+// One cloud at every ICP level, with normals and its k-d tree (levels 0..2: voxel centroids;
+// 3: samples).
 constexpr int kLevels = 4;
 struct Levels {
-  Cloud level[kLevels];
+  SurfacePtr level[kLevels];
 };
 
 Levels prepare_levels(const std::vector<Eigen::Vector3d>& points, const TargetlessOptions& o) {
-  return {{prepare(points, o.icp_voxels_m[0]), prepare(points, o.icp_voxels_m[1]),
-           prepare(points, o.icp_voxels_m[2]), prepare_fine(points, 3 * o.icp_voxels_m[2])}};
+  return {{surface(*prepare(points, o.icp_voxels_m[0])),
+           surface(*prepare(points, o.icp_voxels_m[1])),
+           surface(*prepare(points, o.icp_voxels_m[2])),
+           surface(*prepare_fine(points, 3 * o.icp_voxels_m[2]))}};
 }
 
-Cloud transformed(const o3g::PointCloud& cloud, const RigidTransform& t) {
-  auto out = std::make_shared<o3g::PointCloud>(cloud);
-  out->Transform(matrix(t));
-  return out;
+// `surface` placed in a target frame by target_from_surface (a query's partner).
+icp::Placed placed(const SurfacePtr& surface, const RigidTransform& target_from_surface) {
+  return {surface.get(), target_from_surface.rotation, target_from_surface.translation};
+}
+
+// What ICP aligns to, per level: one camera's surface (in its frame), or all other cameras'
+// placed in the world.
+using Target = std::array<std::vector<icp::Placed>, kLevels>;
+
+Target alone(const Levels& levels) {
+  Target t;
+  for (int l = 0; l < kLevels; ++l) t[static_cast<size_t>(l)] = {placed(levels.level[l], {})};
+  return t;
 }
 
 struct PairFit {
@@ -95,25 +111,24 @@ struct PairFit {
 // Coarse-to-fine point-to-plane ICP with a Tukey loss from `start`, over levels `first`..`last`
 // (2: the coarse ones, for checking hypotheses; 3: down to the samples). Fitness and RMS at the
 // last level run, within the overlap distance.
-PairFit icp(const Levels& source, const Levels& target, const RigidTransform& start,
-            const TargetlessOptions& o, int first, int last) {
+PairFit icp(const Levels& source, const Target& target, const RigidTransform& start,
+            const TargetlessOptions& o, int first, int last, WorkerPool& pool) {
   Eigen::Matrix4d t = matrix(start);
   for (int level = first; level <= last; ++level) {
     const double voxel = o.icp_voxels_m[level];
-    auto kernel = std::make_shared<o3r::TukeyLoss>(voxel);
-    const auto r =
-        o3r::RegistrationICP(*source.level[level], *target.level[level], voxel * 2.0, t,
-                             o3r::TransformationEstimationPointToPlane(kernel),
-                             o3r::ICPConvergenceCriteria(1e-8, 1e-8, level < 2 ? 60 : 30));
-    t = r.transformation_;
+    icp::Criteria criteria;
+    criteria.max_iterations = level < 2 ? 60 : 30;
+    t = icp::point_to_plane(source.level[level]->points(), target[static_cast<size_t>(level)],
+                            voxel * 2.0, t, voxel, criteria, &pool)
+            .target_from_source;
   }
-  const auto eval =
-      o3r::EvaluateRegistration(*source.level[last], *target.level[last],
-                                std::max(o.overlap_distance_m, o.icp_voxels_m[last]), t);
+  const icp::Fit eval =
+      icp::evaluate(source.level[last]->points(), target[static_cast<size_t>(last)],
+                    std::max(o.overlap_distance_m, o.icp_voxels_m[last]), t, &pool);
   PairFit fit;
   fit.target_from_source = rigid(t);
-  fit.fitness = eval.fitness_;
-  fit.rms_m = eval.inlier_rmse_;
+  fit.fitness = eval.fitness;
+  fit.rms_m = eval.inlier_rms_m;
   return fit;
 }
 
@@ -174,69 +189,38 @@ Features compute_features(const std::vector<Eigen::Vector3d>& points, const Targ
   return f;
 }
 
-// What RANSAC draws from: the feature matches of `s` into `d` (each source point to its nearest
-// target feature, kept where that target point's nearest source feature is the same point; all of
-// them when fewer than 9 agree), as Open3D's RegistrationRANSACBasedOnFeatureMatching makes them,
-// and the matched points alone: point k of `source` and of `target` is match k. RANSAC reads only
-// the matched points, but copies its whole source for every hypothesis it scores.
-struct Matches {
-  o3g::PointCloud source, target;
-  o3r::CorrespondenceSet pairs;
-};
-
-Matches match(const o3g::PointCloud& s, const o3g::PointCloud& d, const o3r::Feature& fs,
-              const o3r::Feature& fd) {
-  const auto nearest = [](const o3g::KDTreeFlann& tree, const o3r::Feature& f, int i) {
-    std::vector<int> index(1);
-    std::vector<double> dist2(1);
-    tree.SearchKNN(Eigen::VectorXd(f.data_.col(i)), 1, index, dist2);
-    return index[0];
-  };
-  const int ns = static_cast<int>(s.points_.size()), nd = static_cast<int>(d.points_.size());
-  if (ns == 0 || nd == 0) return {};
-  const o3g::KDTreeFlann tree_d(fd), tree_s(fs);
-  std::vector<int> s_to_d(static_cast<size_t>(ns)), d_to_s(static_cast<size_t>(nd));
-  for (int i = 0; i < ns; ++i) s_to_d[static_cast<size_t>(i)] = nearest(tree_d, fs, i);
-  for (int j = 0; j < nd; ++j) d_to_s[static_cast<size_t>(j)] = nearest(tree_s, fd, j);
-  o3r::CorrespondenceSet mutual;
-  for (int i = 0; i < ns; ++i) {
-    const int j = s_to_d[static_cast<size_t>(i)];
-    if (d_to_s[static_cast<size_t>(j)] == i) mutual.emplace_back(i, j);
-  }
-  if (mutual.size() < 9) {  // ransac_n (3) x 3, as Open3D falls back
-    mutual.clear();
-    for (int i = 0; i < ns; ++i) mutual.emplace_back(i, s_to_d[static_cast<size_t>(i)]);
-  }
-  Matches m;
-  for (int k = 0; k < static_cast<int>(mutual.size()); ++k) {
-    m.source.points_.push_back(s.points_[static_cast<size_t>(mutual[static_cast<size_t>(k)](0))]);
-    m.target.points_.push_back(d.points_[static_cast<size_t>(mutual[static_cast<size_t>(k)](1))]);
-    m.pairs.emplace_back(k, k);
+// What RANSAC draws from: the feature matches of `s` into `d` (match_features), as matched
+// points: point k of `source` and of `target` is match k.
+icp::Matches match(const o3g::PointCloud& s, const o3g::PointCloud& d, const o3r::Feature& fs,
+                   const o3r::Feature& fd) {
+  icp::Matches m;
+  for (const auto& [i, j] : icp::match_features(fs.data_, fd.data_)) {
+    m.source.push_back(s.points_[static_cast<size_t>(i)]);
+    m.target.push_back(d.points_[static_cast<size_t>(j)]);
   }
   return m;
 }
 
 // FPFH + RANSAC over the whole clouds and over the off-plane points: target_from_source from
-// features alone (no start). The matches are made once per kind, for every trial.
+// features alone (no start). The matches are made once per kind, for every trial; each trial
+// draws its own hypotheses (its own seed).
 std::vector<RigidTransform> global_candidates(const Features& s, const Features& d,
-                                              const TargetlessOptions& o) {
-  const double v = o.feature_voxel_m;
-  const o3r::CorrespondenceCheckerBasedOnEdgeLength edges(0.9);
-  const o3r::CorrespondenceCheckerBasedOnDistance distance(v * 1.5);
-  std::optional<Matches> whole_m, off_m;
+                                              const TargetlessOptions& o, WorkerPool& pool) {
+  std::optional<icp::Matches> whole_m, off_m;
   std::vector<RigidTransform> out;
   for (int trial = 0; trial < o.global_trials; ++trial) {
     // Alternate: features over the whole cloud, and over what is off its large planes.
     const bool whole = trial % 2 == 0;
-    std::optional<Matches>& m = whole ? whole_m : off_m;
+    std::optional<icp::Matches>& m = whole ? whole_m : off_m;
     if (!m)
       m = whole ? match(*s.whole, *d.whole, *s.whole_f, *d.whole_f)
                 : match(*s.off, *d.off, *s.off_f, *d.off_f);
-    if (m->pairs.size() < 3) continue;  // no hypothesis (Open3D returns an empty result)
-    const auto r = o3r::RegistrationRANSACBasedOnCorrespondence(
-        m->source, m->target, m->pairs, v * 1.5, o3r::TransformationEstimationPointToPoint(false),
-        3, {edges, distance}, o3r::RANSACConvergenceCriteria(o.ransac_iterations, 0.9999));
-    if (r.correspondence_set_.size() >= 10) out.push_back(rigid(r.transformation_));
+    icp::RansacOptions r;
+    r.max_distance_m = o.feature_voxel_m * 1.5;
+    r.max_iterations = o.ransac_iterations;
+    r.seed = o.seed + static_cast<uint32_t>(trial);
+    const auto fit = icp::ransac_rigid(*m, r, &pool);
+    if (fit && fit->inliers >= 10) out.push_back(rigid(fit->target_from_source));
   }
   return out;
 }
@@ -275,38 +259,36 @@ double translation_conditioning(const Eigen::Matrix3d& normals) {
 // Each placed camera's overlap with the other placed cameras at world_from_camera, from its
 // samples with normals (prepare_fine, camera frame); an unplaced camera (nullopt) gets an empty
 // CameraOverlap and is no one's partner.
-std::vector<CameraOverlap> overlap(std::span<const Cloud> samples,
+std::vector<CameraOverlap> overlap(std::span<const SurfacePtr> samples,
                                    std::span<const std::optional<RigidTransform>> world_from_camera,
                                    double overlap_distance_m) {
-  std::vector<Cloud> world(samples.size());
-  for (size_t c = 0; c < samples.size(); ++c)
-    if (world_from_camera[c]) world[c] = transformed(*samples[c], *world_from_camera[c]);
-  std::vector<CameraOverlap> out(samples.size());
-  for (size_t c = 0; c < samples.size(); ++c) {
-    if (!world[c]) continue;
-    o3g::PointCloud others;
-    for (size_t d = 0; d < samples.size(); ++d)
-      if (d != c && world[d]) others += *world[d];
-    if (others.points_.empty() || world[c]->points_.empty()) continue;
-    o3g::KDTreeFlann tree(others);
-    std::vector<int> index(1);
-    std::vector<double> dist2(1);
+  const size_t n_cameras = samples.size();
+  std::vector<CameraOverlap> out(n_cameras);
+  const double max_d2 = overlap_distance_m * overlap_distance_m;
+  for (size_t c = 0; c < n_cameras; ++c) {
+    if (!world_from_camera[c] || !samples[c] || samples[c]->points().empty()) continue;
+    std::vector<icp::Placed> others;  // in the world
+    for (size_t d = 0; d < n_cameras; ++d)
+      if (d != c && world_from_camera[d] && samples[d] && !samples[d]->points().empty())
+        others.push_back(placed(samples[d], *world_from_camera[d]));
+    if (others.empty()) continue;
+    const RigidTransform& world_from_c = *world_from_camera[c];
     double sum = 0;
     int n = 0;
     Eigen::Matrix3d normals = Eigen::Matrix3d::Zero();
-    for (const Eigen::Vector3d& p : world[c]->points_) {
-      if (tree.SearchKNN(p, 1, index, dist2) < 1 ||
-          dist2[0] > overlap_distance_m * overlap_distance_m)
-        continue;
-      const Eigen::Vector3d& normal = others.normals_[index[0]];
-      const double r = (p - others.points_[index[0]]).dot(normal);
+    icp::Neighbour partner;
+    for (const Eigen::Vector3d& q : samples[c]->points()) {
+      const Eigen::Vector3d p = world_from_c * q;
+      if (!icp::nearest(others, p, max_d2, partner)) continue;
+      const Eigen::Vector3d& normal = partner.normal;
+      const double r = (p - partner.point).dot(normal);
       sum += r * r;
       normals += normal * normal.transpose();
       ++n;
     }
     out[c].conditioning = translation_conditioning(normals);
     out[c].points = n;
-    out[c].fraction = static_cast<double>(n) / static_cast<double>(world[c]->points_.size());
+    out[c].fraction = static_cast<double>(n) / static_cast<double>(samples[c]->points().size());
     out[c].rms_m = n ? std::sqrt(sum / n) : 0;
   }
   return out;
@@ -349,9 +331,9 @@ std::vector<CameraOverlap> measure_overlap(
   if (clouds.size() != world_from_camera.size())
     throw Error("measure_overlap: " + std::to_string(clouds.size()) + " clouds but " +
                 std::to_string(world_from_camera.size()) + " poses");
-  std::vector<Cloud> samples(clouds.size());
+  std::vector<SurfacePtr> samples(clouds.size());
   for (size_t c = 0; c < clouds.size(); ++c)
-    if (world_from_camera[c]) samples[c] = prepare_fine(clouds[c], 3 * voxel_m);
+    if (world_from_camera[c]) samples[c] = surface(*prepare_fine(clouds[c], 3 * voxel_m));
   return overlap(samples, world_from_camera, overlap_distance_m);
 }
 
@@ -366,9 +348,10 @@ struct Work {
   std::span<const std::optional<RigidTransform>> start;
   const TargetlessOptions& o;
   std::function<void(const std::string&)> note;
+  WorkerPool& pool;  // the ICP's passes over the points
   std::vector<std::vector<Eigen::Vector3d>> sparse;
   std::vector<Levels> levels;
-  std::vector<Cloud> samples;
+  std::vector<SurfacePtr> samples;
   std::vector<std::optional<Features>> features;
 
   bool usable(size_t c) const { return cameras[c].cloud.size() >= 100; }
@@ -420,7 +403,7 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
   if (w.start[c]) hypotheses.push_back(pose[p]->inverse() * *w.start[c]);
   const size_t from_start = hypotheses.size();
   const Features& fc = w.features_of(c);
-  for (const RigidTransform& g : global_candidates(fc, w.features_of(p), o))
+  for (const RigidTransform& g : global_candidates(fc, w.features_of(p), o, w.pool))
     hypotheses.push_back(g);
   const auto violations_at = [&](const RigidTransform& p_from_c) {
     return std::max(free_space_violations(w.sparse[c], p_from_c, w.cameras[p].depth,
@@ -434,11 +417,12 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
     double violations;
   };
   std::vector<Refined> refined;
+  const Target to_p = alone(w.levels[p]);
   for (size_t h = 0; h < hypotheses.size(); ++h) {
     const bool is_start = h < from_start;
     const std::string what = cam(c) + " against " + cam(p) +
                              (is_start ? ": its start" : ": features + RANSAC") + ", then ICP";
-    const PairFit coarse = icp(w.levels[c], w.levels[p], hypotheses[h], o, is_start ? 0 : 1, 1);
+    const PairFit coarse = icp(w.levels[c], to_p, hypotheses[h], o, is_start ? 0 : 1, 1, w.pool);
     const RigidTransform& g = coarse.target_from_source;
     const RigidTransform world_from_c = *pose[p] * g;
     if (w.start[c]) {
@@ -464,7 +448,7 @@ void try_pair(Work& w, size_t c, size_t p, const std::vector<std::optional<Rigid
     });
     const bool repeated = earlier != refined.end();
     if (!repeated) {
-      const PairFit fine = icp(w.levels[c], w.levels[p], g, o, 2, 2);
+      const PairFit fine = icp(w.levels[c], to_p, g, o, 2, 2, w.pool);
       refined.push_back({g, fine, violations_at(fine.target_from_source)});
     }
     const Refined& r = repeated ? *earlier : refined.back();
@@ -532,13 +516,17 @@ void refine_jointly(const Work& w, size_t ref, std::vector<std::optional<RigidTr
       // From the coarsest level in the first round (a start may be 20 cm off), down to the
       // samples in the last; the others at those levels only.
       const int first = round == 0 ? 0 : 1, last = round + 1 < o.joint_rounds ? 2 : 3;
-      Levels others;
-      for (int l = first; l <= last; ++l) {
-        others.level[l] = std::make_shared<o3g::PointCloud>();
+      // Merged per level: ICP's many passes then search one tree, not one per camera.
+      Target others;  // in the world
+      std::array<SurfacePtr, kLevels> merged;
+      for (size_t l = static_cast<size_t>(first); l <= static_cast<size_t>(last); ++l) {
+        std::vector<icp::Placed> parts;
         for (size_t d = 0; d < n; ++d)
-          if (d != c && pose[d]) *others.level[l] += *transformed(*w.levels[d].level[l], *pose[d]);
+          if (d != c && pose[d]) parts.push_back(placed(w.levels[d].level[l], *pose[d]));
+        merged[l] = icp::merged(parts);
+        others[l] = {placed(merged[l], {})};
       }
-      const PairFit f = icp(w.levels[c], others, *pose[c], o, first, last);
+      const PairFit f = icp(w.levels[c], others, *pose[c], o, first, last, w.pool);
       pose[c] = f.target_from_source;
       if (round == o.joint_rounds - 1)
         w.note(cam(c) + " against all others: ICP " + format_fixed(f.fitness * 100, 1) +
@@ -595,6 +583,7 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
   open3d::utility::SetVerbosityLevel(open3d::utility::VerbosityLevel::Error);
   open3d::utility::random::Seed(static_cast<int>(o.seed));
   TargetlessResult result;
+  WorkerPool pool;
   Work w{cameras,
          start,
          o,
@@ -602,9 +591,10 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
            result.log.push_back(line);
            if (o.progress) o.progress(line);
          },
+         pool,
          std::vector<std::vector<Eigen::Vector3d>>(n),
          std::vector<Levels>(n),
-         std::vector<Cloud>(n),
+         std::vector<SurfacePtr>(n),
          std::vector<std::optional<Features>>(n)};
   result.world_from_camera.assign(n, std::nullopt);
   result.conditioning.assign(n, 0);
@@ -616,7 +606,7 @@ TargetlessResult register_targetless(std::span<const TargetlessCamera> cameras,
   // placement, at the result) and the ICP levels serve every pair and round.
   for (size_t c = 0; c < n; ++c) {
     const std::vector<Eigen::Vector3d>& cloud = cameras[c].cloud;
-    w.samples[c] = prepare_fine(cloud, 3 * o.icp_voxels_m[3]);
+    w.samples[c] = surface(*prepare_fine(cloud, 3 * o.icp_voxels_m[3]));
     w.sparse[c] = o3g::PointCloud(cloud).VoxelDownSample(0.05)->points_;
     if (w.usable(c)) w.levels[c] = prepare_levels(cloud, o);
   }

@@ -4,8 +4,10 @@
 // Rusu et al., ICRA 2009) -- several hypotheses per pair, each refined by ICP and kept only if it
 // agrees with what both cameras saw (neither may have looked through the other's surfaces: a
 // free-space check) -- then point-to-plane ICP with a robust (Tukey) loss, each camera against all
-// the others together, a few rounds. Features, RANSAC and ICP are Open3D's. Positions in metres;
-// camera frame as in calibration.hpp.
+// the others together, a few rounds. The features (FPFH), normals and voxel grids are Open3D's;
+// RANSAC (feature_ransac.hpp) and ICP (point_to_plane.hpp) are ours, on nanoflann's k-d trees,
+// their result independent of the thread count. Positions in metres; camera frame as in
+// calibration.hpp.
 #include <Eigen/Core>
 #include <functional>
 #include <optional>

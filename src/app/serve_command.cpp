@@ -167,8 +167,11 @@ void open_cameras(const ServeArgs& a, Serving& s) {
                          ? fmt::format(", no color in {} of {} frames", frames - color, frames)
                          : "";
   }
-  if (!s.replay)
-    s.site.emplace(std::move(sources), a.fps, filters, SiteOptions{a.max_read_failures});
+  if (!s.replay) {
+    SiteOptions site_options;
+    site_options.max_read_failures = a.max_read_failures;
+    s.site.emplace(std::move(sources), a.fps, filters, std::move(site_options));
+  }
   auto cameras = s.replay ? s.replay->cameras() : s.site->cameras();
   for (size_t i = 0; i < cameras.size(); ++i) {
     const auto& k = cameras[i].calibration.depth;

@@ -1,7 +1,5 @@
 #include "volcast/calibrate/feature_ransac.hpp"
 
-#include <nanoflann.hpp>
-
 #include <Eigen/Geometry>
 #include <array>
 #include <cmath>
@@ -9,6 +7,7 @@
 #include <limits>
 #include <string>
 
+#include "packed_rows.hpp"
 #include "volcast/calibrate/point_to_plane.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
@@ -16,36 +15,10 @@
 namespace volcast::icp {
 namespace {
 
-// Features as nanoflann reads them: column i of a column-major matrix is dims contiguous doubles.
-struct FeatureColumns {
-  const double* data;
-  size_t dims, count;
-  size_t kdtree_get_point_count() const { return count; }
-  double kdtree_get_pt(uint32_t i, size_t d) const { return data[dims * size_t{i} + d]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
-  }
-};
-// Squared L2 distance read straight from the columns: nanoflann's L2_Adaptor reads each element
-// through the accessor, a call per element in the sanitized build.
-struct FeatureL2 {
-  using ElementType = double;
-  using DistanceType = double;
-  explicit FeatureL2(const FeatureColumns& columns) : data(columns) {}
-  double evalMetric(const double* a, uint32_t b, size_t size) const {
-    const double* p = data.data + data.dims * size_t{b};
-    double sum = 0;
-    for (size_t i = 0; i < size; ++i) sum += (a[i] - p[i]) * (a[i] - p[i]);
-    return sum;
-  }
-  double accum_dist(double a, double b, size_t) const { return (a - b) * (a - b); }
-  const FeatureColumns& data;
-};
 // Leaves of this many features: in 33 dimensions a search visits many leaves, and a longer leaf
 // (a tight loop) costs less than the tree walk to more, shorter ones.
 constexpr size_t kLeaf = 48;
-using FeatureTree = nanoflann::KDTreeSingleIndexAdaptor<FeatureL2, FeatureColumns, -1, uint32_t>;
+using FeatureTree = PackedTree<-1>;
 
 // The nearest feature's column (the tree is not empty).
 struct Nearest {
@@ -82,8 +55,8 @@ std::vector<std::pair<int, int>> match_features(const Eigen::MatrixXd& source_fe
                 " dimensions, target features " + std::to_string(target_features.rows()));
   const size_t dims = static_cast<size_t>(source_features.rows());
   if (source_features.cols() == 0 || target_features.cols() == 0 || dims == 0) return {};
-  const FeatureColumns s{source_features.data(), dims, static_cast<size_t>(source_features.cols())};
-  const FeatureColumns d{target_features.data(), dims, static_cast<size_t>(target_features.cols())};
+  const PackedRows s{source_features.data(), dims, static_cast<size_t>(source_features.cols())};
+  const PackedRows d{target_features.data(), dims, static_cast<size_t>(target_features.cols())};
   const FeatureTree tree_s(static_cast<int>(dims), s,
                            nanoflann::KDTreeSingleIndexAdaptorParams(kLeaf));
   const FeatureTree tree_d(static_cast<int>(dims), d,

@@ -1,7 +1,5 @@
 #include "volcast/calibrate/point_to_plane.hpp"
 
-#include <nanoflann.hpp>
-
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <array>
@@ -9,6 +7,7 @@
 #include <functional>
 #include <limits>
 
+#include "packed_rows.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/worker_pool.hpp"
 
@@ -17,39 +16,13 @@ namespace volcast::icp {
 static_assert(sizeof(Eigen::Vector3d) == 3 * sizeof(double));
 
 struct Surface::Tree {
-  // x, y, z of each point in a row (Eigen::Vector3d is three packed doubles): a plain load,
-  // inlined into the search.
-  struct Points {
-    const double* xyz;
-    size_t count;
-    size_t kdtree_get_point_count() const { return count; }
-    double kdtree_get_pt(uint32_t i, size_t axis) const { return xyz[3 * size_t{i} + axis]; }
-    template <class Box>
-    bool kdtree_get_bbox(Box&) const {
-      return false;
-    }
-  };
-  // Squared distance read straight from the points (nanoflann's adaptor calls the accessor per
-  // coordinate, a call each in the sanitized build).
-  struct L2 {
-    using ElementType = double;
-    using DistanceType = double;
-    explicit L2(const Points& p) : points(p) {}
-    double evalMetric(const double* a, uint32_t b, size_t) const {
-      const double* p = points.xyz + 3 * size_t{b};
-      return (a[0] - p[0]) * (a[0] - p[0]) + (a[1] - p[1]) * (a[1] - p[1]) +
-             (a[2] - p[2]) * (a[2] - p[2]);
-    }
-    double accum_dist(double a, double b, size_t) const { return (a - b) * (a - b); }
-    const Points& points;
-  };
-  using Index = nanoflann::KDTreeSingleIndexAdaptor<L2, Points, 3, uint32_t>;
-  // Leaves of 15 points, as Open3D's KDTreeFlann builds them.
+  // x, y, z of each point in a row (Eigen::Vector3d is three packed doubles); leaves of 15
+  // points, as Open3D's KDTreeFlann builds them.
   explicit Tree(const std::vector<Eigen::Vector3d>& p)
-      : points{p.empty() ? nullptr : p.front().data(), p.size()},
+      : points{p.empty() ? nullptr : p.front().data(), 3, p.size()},
         index(3, this->points, nanoflann::KDTreeSingleIndexAdaptorParams(15)) {}
-  Points points;
-  Index index;
+  PackedRows points;
+  PackedTree<3> index;
 };
 
 namespace {

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <thread>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -20,12 +22,25 @@ constexpr size_t kMaxRememberedErrors = 1024;
 
 SitePlayer::SitePlayer(std::vector<std::unique_ptr<FrameSource>> sources, double fps,
                        const std::vector<FilterConfig>& filters, SiteOptions options)
-    : sources_(std::move(sources)), options_(options), fps_(fps) {
+    : sources_(std::move(sources)), options_(std::move(options)), fps_(fps) {
   if (sources_.empty()) throw Error("a site needs at least one --source");
   if (fps_ == 0)
     for (const auto& s : sources_) fps_ = std::max(fps_, s->fps());
   if (!(fps_ > 0 && fps_ <= 1000)) throw Error("--fps must be in (0, 1000]");
   if (options_.max_read_failures < 1) throw Error("--max-read-failures must be at least 1");
+  if (bool(options_.now_us) != bool(options_.sleep_until_us))
+    throw Error("a site's clock needs both now_us and sleep_until_us");
+  if (!options_.now_us) {
+    options_.now_us = [] {
+      return std::chrono::duration_cast<std::chrono::microseconds>(
+                 std::chrono::steady_clock::now().time_since_epoch())
+          .count();
+    };
+    options_.sleep_until_us = [](int64_t t) {
+      std::this_thread::sleep_until(
+          std::chrono::steady_clock::time_point(std::chrono::microseconds(t)));
+    };
+  }
   if (!filters.empty() && filters.size() != sources_.size())
     throw Error("one filter configuration per camera is needed");
   chains_.resize(sources_.size());
@@ -113,12 +128,10 @@ void SitePlayer::read_failed(size_t i, const std::string& error) {
 }
 
 void SitePlayer::run(const Publish& publish) {
-  using clock = std::chrono::steady_clock;
-  const auto period =
-      std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / fps_));
-  auto next = clock::now();
-  const auto start = next;
-  std::vector<clock::time_point> due(sources_.size(), start);  // when each source's next frame is
+  const auto& now_us = options_.now_us;
+  const int64_t period = std::max<int64_t>(1, std::llround(1e6 / fps_));  // µs per tick
+  int64_t next = now_us();
+  std::vector<int64_t> due(sources_.size(), next);  // when each source's next frame is, µs
   last_frames_.assign(sources_.size(), nullptr);
   buffers_.resize(sources_.size());
   std::vector<CameraFrame> raw(sources_.size());  // a filtered camera's frame before its chain
@@ -127,19 +140,22 @@ void SitePlayer::run(const Publish& publish) {
   std::vector<std::pair<size_t, std::shared_ptr<CameraFrame>>> read;
   uint64_t sequence = 0;
   while (!stop_) {
-    std::this_thread::sleep_until(next);
+    options_.sleep_until_us(next);
     next += period;
-    if (clock::now() > next) next = clock::now() + period;  // overran: skip ticks, never queue
+    const int64_t now = now_us();
+    if (now > next) next = now + period;  // overran: skip ticks, never queue
     auto frames = std::make_shared<CapturedFrameSet>();
-    const auto now = clock::now();
     // Read every source that is due first (capture), then filter (the stage after capture). A
     // camera whose frame fails keeps its last frame; the others go on.
     read.clear();
     for (size_t i = 0; i < sources_.size(); ++i) {
-      if (now < due[i] && last_frames_[i]) continue;  // not its time yet: repeat its last frame
-      due[i] += std::chrono::duration_cast<clock::duration>(
-          std::chrono::duration<double>(1.0 / sources_[i]->fps()));
-      if (due[i] < now) due[i] = now;  // fell behind: never queue source frames either
+      // Not its time yet (its frame is due nearer a later tick): repeat its last frame.
+      if (now + period / 2 < due[i] && last_frames_[i]) continue;
+      const int64_t interval = std::max<int64_t>(1, std::llround(1e6 / sources_[i]->fps()));
+      due[i] += interval;
+      // Fell behind (a stall, or a source faster than the site): its next frame is one interval
+      // after this read. Source frames are never queued either.
+      if (due[i] <= now) due[i] = now + interval;
       try {
         if (chains_[i]) {
           sources_[i]->next(raw[i]);

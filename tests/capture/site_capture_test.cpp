@@ -1,7 +1,8 @@
 // A site whose cameras hit unreadable frames: the bad camera skips them (one warning per file) and
 // repeats its last good frame, is marked failed after N in a row and recovers; the other cameras
 // never stop. Folders are symlinks to the real hands sequence with chosen files replaced (the
-// replacements are synthetic bad files, labelled as such in sequence_folder.hpp).
+// replacements are synthetic bad files, labelled as such in sequence_folder.hpp). Also: frames
+// recycled, and each camera paced at its own rate on a clock the test steps.
 #include <gtest/gtest.h>
 
 #include <condition_variable>
@@ -12,6 +13,7 @@
 #include <set>
 
 #include "support/sequence_folder.hpp"
+#include "support/stepped_clock.hpp"
 #include "support/test_data.hpp"
 #include "support/test_paths.hpp"
 #include "volcast/pipeline/sender.hpp"
@@ -199,6 +201,56 @@ TEST(SiteCapture, FramesAreRecycledOnlyOnceNoFrameSetHoldsThem) {
   EXPECT_LE(addresses[1].size(), 5u);
 }
 
+// Pacing, on a clock the test steps (exact counts whatever the load): a 30 fps and a 5 fps camera
+// in a 30 fps site. The 5 fps camera's frame k is read at the tick nearest k * 200 ms (frame sets
+// 6k + 1 .. 6k + 6 show it). After a 1 s stall (in frame set 10's tick) the site skips the ticks it
+// missed without making up for them: each camera reads one frame (the 5 fps one does not catch up
+// on the four more that fell due), frame sets stay numbered without gaps, and the 5 fps camera's
+// next frame is 200 ms after its read.
+TEST(SiteCapture, EachCameraIsReadAtTheTickNearestItsFrameAndAStallIsNotMadeUp) {
+  auto sources_at = [](double fps0, double fps1) {
+    std::vector<std::unique_ptr<FrameSource>> v;
+    v.push_back(open_source(test::hands_dir(), test::hands_options(fps0)));
+    v.push_back(open_source(test::hands_dir(), test::hands_options(fps1)));
+    return v;
+  };
+  std::vector<int64_t> stamps[2];  // each camera's own frames, read directly
+  {
+    auto reference = sources_at(30, 5);
+    for (int k = 0; k < 24; ++k) stamps[0].push_back(reference[0]->next().device_timestamp_us);
+    for (int k = 0; k < 5; ++k) stamps[1].push_back(reference[1]->next().device_timestamp_us);
+  }
+  test::SteppedClock clock;
+  SitePlayer player(sources_at(30, 5), 30, {}, clock.options());
+  std::mutex m;
+  std::condition_variable cv;
+  std::vector<std::shared_ptr<const CapturedFrameSet>> sets;
+  player.start([&](std::shared_ptr<const CapturedFrameSet> f) {
+    if (f->sequence == 10) clock.advance(1'000'000);  // frame set 10's tick takes 1 s
+    std::lock_guard lock(m);
+    sets.push_back(std::move(f));
+    cv.notify_all();
+  });
+  clock.allow(24);
+  {
+    std::unique_lock lock(m);
+    EXPECT_TRUE(cv.wait_for(lock, std::chrono::seconds(120), [&] { return sets.size() >= 24; }));
+  }
+  clock.release();
+  player.stop();
+  ASSERT_GE(sets.size(), 24u);
+  for (size_t n = 1; n <= 24; ++n) {
+    const CapturedFrameSet& f = *sets[n - 1];
+    ASSERT_EQ(f.sequence, n);
+    // The 30 fps camera: one frame per tick, before and after the stall.
+    EXPECT_EQ(f.cameras[0]->device_timestamp_us, stamps[0][n - 1]) << "frame set " << n;
+    // The 5 fps camera: frame 0 in sets 1-6, frame 1 from set 7 until the stall; then frame 2
+    // (one read) in sets 11-16, frame 3 in 17-22, frame 4 from 23 on.
+    const size_t k = n <= 6 ? 0 : n <= 10 ? 1 : 2 + (n - 11) / 6;
+    EXPECT_EQ(f.cameras[1]->device_timestamp_us, stamps[1][k]) << "frame set " << n;
+  }
+}
+
 TEST(SiteCapture, ACameraWithoutAGoodFrameYetSendsAnEmptyFrame) {
   const fs::path dir = test::hands_sequence(test::temp_dir("site_first_bad"), 4, true);
   test::break_depth(dir, 0, test::BadDepth::kEightBit);
@@ -214,8 +266,8 @@ TEST(SiteCapture, InfoChecksEveryFrameAndNamesTheBadOnes) {
   const fs::path bad = test::break_depth(dir, 5, test::BadDepth::kTruncated);
   std::string out;
   const fs::path json = dir / "info.json";  // stdout alone: logs go to stderr
-  ASSERT_EQ(test::run_command("(" + std::string(test::paths::volcast()) + " info --json " + dir.string() +
-                                  " >" + json.string() + ")",
+  ASSERT_EQ(test::run_command("(" + std::string(test::paths::volcast()) + " info --json " +
+                                  dir.string() + " >" + json.string() + ")",
                               out),
             0)
       << out;
@@ -233,7 +285,8 @@ TEST(SiteCapture, InfoChecksEveryFrameAndNamesTheBadOnes) {
   const fs::path huge = dir / "depth" / test::hands_depth(9).filename();
   fs::remove(huge);
   test::write_png_header_claiming(huge, 20000, 20000);
-  ASSERT_EQ(test::run_command(std::string(test::paths::volcast()) + " info " + dir.string(), out), 0)
+  ASSERT_EQ(test::run_command(std::string(test::paths::volcast()) + " info " + dir.string(), out),
+            0)
       << out;
   EXPECT_NE(out.find("2 cannot be read"), std::string::npos) << out;
   EXPECT_NE(out.find(bad.string()), std::string::npos) << out;

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "support/hands_site.hpp"
+#include "support/stepped_clock.hpp"
 #include "support/test_data.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -258,11 +259,20 @@ TEST(EndToEnd, ServerAppliesEachCamerasFilterChain) {
 
 TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
   // The hands sequence plays at 30 fps, the Azure Kinect recording was made at 5 fps: the site
-  // runs at 30 fps and repeats the Kinect frame until its next one is due.
+  // runs at 30 fps and repeats the Kinect frame until its next one is due. The site runs on a
+  // clock the test steps (one tick per frame set), so what each frame set shows is exact: a new
+  // hands frame in every one, Kinect frame k in frame sets 6k + 1 .. 6k + 6.
   std::vector<std::unique_ptr<FrameSource>> sources = HandsSite::sources();
   sources.push_back(open_source(test::kinect_mkv()));
   EXPECT_DOUBLE_EQ(sources[1]->fps(), 5.0);
-  SitePlayer player(std::move(sources), 0);
+  std::vector<int64_t> kinect_frame_stamps;  // the recording's own frames, in order
+  {
+    auto reference = open_source(test::kinect_mkv());
+    for (int k = 0; k < 7; ++k)
+      kinect_frame_stamps.push_back(reference->next().device_timestamp_us);
+  }
+  test::SteppedClock clock;
+  SitePlayer player(std::move(sources), 0, {}, clock.options());
   EXPECT_DOUBLE_EQ(player.fps(), 30.0);
   ServerConfig config;
   config.port = 0;
@@ -272,28 +282,24 @@ TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
   c.depth_codec = "rvl";
   Client client(c);
   ReceivedFrameSet rx;
-  std::set<int64_t> hands_stamps, kinect_stamps;
-  uint64_t first = 0, last = 0;
-  bool kinect_in_order = true;
-  for (int i = 0; i < 40 && client.receive(rx); ++i) {
-    if (i == 0) first = rx.frames.sequence;
-    last = rx.frames.sequence;
-    if (!kinect_stamps.empty() &&
-        rx.frames.cameras[1].device_timestamp_us < *kinect_stamps.rbegin())
-      kinect_in_order = false;
-    hands_stamps.insert(rx.frames.cameras[0].device_timestamp_us);
-    kinect_stamps.insert(rx.frames.cameras[1].device_timestamp_us);
+  std::vector<int64_t> hands_stamps, kinect_stamps;  // per frame set, 1 .. 40
+  for (uint64_t n = 1; n <= 40; ++n) {
+    clock.allow(1);  // the site's tick n publishes frame set n; nothing newer until it arrives
+    do {
+      ASSERT_TRUE(client.receive(rx));
+    } while (rx.frames.sequence < n);
+    ASSERT_EQ(rx.frames.sequence, n);
+    hands_stamps.push_back(rx.frames.cameras[0].device_timestamp_us);
+    kinect_stamps.push_back(rx.frames.cameras[1].device_timestamp_us);
   }
+  clock.release();
   player.stop();
   server.stop();
-  EXPECT_GT(last, first);
-  EXPECT_EQ(hands_stamps.size(), 40u);  // a new hands frame in every frame set
-  // The 5 fps recording repeats its frames across frame sets (6 per frame when the machine keeps
-  // up; order and counts only, with room for a loaded machine's skipped ticks): far fewer distinct
-  // frames than frame sets, and at least two in 40 frame sets (1.3 s at 30 fps).
-  EXPECT_LE(kinect_stamps.size(), 20u);
-  EXPECT_GE(kinect_stamps.size(), 2u);
-  EXPECT_TRUE(kinect_in_order);
+  for (size_t i = 1; i < hands_stamps.size(); ++i)
+    EXPECT_GT(hands_stamps[i], hands_stamps[i - 1]) << "frame set " << i + 1;
+  for (size_t i = 0; i < kinect_stamps.size(); ++i)
+    EXPECT_EQ(kinect_stamps[i], kinect_frame_stamps[i / 6]) << "frame set " << i + 1;
+  EXPECT_EQ(std::set<int64_t>(kinect_stamps.begin(), kinect_stamps.end()).size(), 7u);
 }
 
 TEST(EndToEnd, ViewerRendersWhatItReceives) {

@@ -17,10 +17,16 @@
 
 namespace volcast {
 
-/// How a site treats cameras whose frames cannot be read.
+/// How a site treats cameras whose frames cannot be read, and the clock it runs on.
 struct SiteOptions {
   /// A camera whose reads fail this many times in a row is marked failed (logged once). At least 1.
   int max_read_failures = 30;
+  /// The site's clock: steady time in µs (any epoch) and a wait until such a time. Both unset:
+  /// std::chrono::steady_clock and a sleep. A test steps a site tick by tick with its own pair
+  /// (each wait returns once the test allows the next tick); SitePlayer::stop() joins the thread,
+  /// so such a wait must return once the test is done.
+  std::function<int64_t()> now_us;
+  std::function<void(int64_t)> sleep_until_us;
 };
 
 /// One camera's read health (SitePlayer::camera_status).
@@ -39,8 +45,11 @@ class SitePlayer {
   using Publish = std::function<void(std::shared_ptr<const CapturedFrameSet>)>;
 
   /// Takes ownership of the sources. `fps` is the site's frame-set rate; 0 = the fastest source's
-  /// rate. Each source is paced at its own rate: between its frames, frame sets repeat its last
-  /// frame (a 5 fps recording in a 30 fps site appears in 6 frame sets, shared, not copied).
+  /// rate. Each source is paced at its own rate: its frame k is due at k / (its fps) after the
+  /// start and is read at the tick nearest that time (or the first tick after it, when ticks were
+  /// skipped); between its frames, frame sets repeat its last frame (a 5 fps recording in a 30 fps
+  /// site appears in 6 frame sets, shared, not copied). A source slower than the site's ticks
+  /// allow is read once per tick and falls behind its own time, never queued.
   /// `filters` holds one configuration per source (or none: no filtering); a camera whose
   /// configuration enables nothing is passed through. Throws Error if a filter chain cannot be
   /// built or an option is out of range.

@@ -211,6 +211,46 @@ TEST(FeatureRansac, MutualMatchesAndTheFallbackWhenFewAgree) {
   EXPECT_TRUE(icp::match_features(Eigen::MatrixXd(4, 0), d).empty());
 }
 
+TEST(FeatureRansac, MatchesAreTheExactMutualNearestFeatures) {
+  // SYNTHETIC: 150 source and 203 target 33-bin histograms (FPFH-like: non-negative, parts of 100;
+  // many leaves of the 33-dimensional tree). Every match is the mutual nearest pair by the plain
+  // sum of squared differences, and every mutual nearest pair is matched.
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 1);
+  auto histograms = [&](int n) {
+    Eigen::MatrixXd f(33, n);
+    for (int c = 0; c < n; ++c)
+      for (int part = 0; part < 3; ++part) {
+        double sum = 0;
+        for (int b = 0; b < 11; ++b) {
+          f(11 * part + b, c) = u(rng) * u(rng);
+          sum += f(11 * part + b, c);
+        }
+        f.middleRows(11 * part, 11).col(c) *= 100 / sum;
+      }
+    return f;
+  };
+  const Eigen::MatrixXd s = histograms(150), d = histograms(203);
+  auto nearest = [](const Eigen::MatrixXd& from, int col, const Eigen::MatrixXd& in) {
+    int at = 0;
+    double best = std::numeric_limits<double>::infinity();
+    for (int c = 0; c < in.cols(); ++c) {
+      double d2 = 0;
+      for (int r = 0; r < in.rows(); ++r)
+        d2 += (from(r, col) - in(r, c)) * (from(r, col) - in(r, c));
+      if (d2 < best) best = d2, at = c;
+    }
+    return at;
+  };
+  std::vector<std::pair<int, int>> mutual;
+  for (int i = 0; i < s.cols(); ++i) {
+    const int j = nearest(s, i, d);
+    if (nearest(d, j, s) == i) mutual.emplace_back(i, j);
+  }
+  ASSERT_GE(mutual.size(), 9u);  // no fallback: the mutual pairs themselves
+  EXPECT_EQ(icp::match_features(s, d), mutual);
+}
+
 TEST(FeatureRansac, FindsTheTransformOfTheInliersAmongWrongMatchesWithAnyThreads) {
   const Scene scene = corner_scene();
   const Eigen::Matrix4d truth = transform({1, 0.2, -0.4}, 35, {0.8, -0.3, 1.1});

@@ -222,6 +222,7 @@ TEST(SiteCapture, EachCameraIsReadAtTheTickNearestItsFrameAndAStallIsNotMadeUp) 
   }
   test::SteppedClock clock;
   SitePlayer player(sources_at(30, 5), 30, {}, clock.options());
+  const test::ReleaseOnExit release{clock};
   std::mutex m;
   std::condition_variable cv;
   std::vector<std::shared_ptr<const CapturedFrameSet>> sets;

@@ -62,4 +62,15 @@ class SteppedClock {
   std::shared_ptr<State> state_ = std::make_shared<State>();
 };
 
+/// Releases `clock` when it goes out of scope: declared after the SitePlayer, so that a test that
+/// returns early (a failed ASSERT) lets the site's thread go before the player's destructor joins
+/// it, instead of hanging.
+struct ReleaseOnExit {
+  SteppedClock& clock;
+  explicit ReleaseOnExit(SteppedClock& c) : clock(c) {}
+  ReleaseOnExit(const ReleaseOnExit&) = delete;
+  ReleaseOnExit& operator=(const ReleaseOnExit&) = delete;
+  ~ReleaseOnExit() { clock.release(); }
+};
+
 }  // namespace volcast::test

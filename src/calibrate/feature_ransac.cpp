@@ -20,26 +20,11 @@ namespace {
 constexpr size_t kLeaf = 48;
 using FeatureTree = PackedTree<-1>;
 
-// The nearest feature's column (the tree is not empty).
-struct Nearest {
-  double d2 = std::numeric_limits<double>::infinity();
-  uint32_t index = 0;
-  bool addPoint(double dist2, uint32_t i) {
-    if (dist2 < d2) {
-      d2 = dist2;
-      index = i;
-    }
-    return true;
-  }
-  double worstDist() const { return d2; }
-  bool full() const { return true; }
-};
-
 // For each column of `queries`, the nearest column of `tree`'s features.
 std::vector<int> nearest_columns(const FeatureTree& tree, const Eigen::MatrixXd& queries) {
   std::vector<int> out(static_cast<size_t>(queries.cols()));
   for (Eigen::Index i = 0; i < queries.cols(); ++i) {
-    Nearest best;
+    NearestBelow best{std::numeric_limits<double>::infinity()};  // the tree is not empty
     tree.findNeighbors(best, queries.data() + i * queries.rows(), nanoflann::SearchParams());
     out[static_cast<size_t>(i)] = static_cast<int>(best.index);
   }

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 namespace volcast::icp {
 
@@ -44,5 +45,22 @@ struct PackedL2 {
 template <int kDims>
 using PackedTree =
     nanoflann::KDTreeSingleIndexAdaptor<PackedL2<kDims>, PackedRows, kDims, uint32_t>;
+
+/// nanoflann's result set for the one nearest row below a squared distance `d2` (infinity: no
+/// bound): the bound prunes the search from the start (Open3D searches unbounded, then drops a
+/// neighbour at or beyond the radius). `index` stays the maximum when no row is below `d2`.
+struct NearestBelow {
+  double d2;
+  uint32_t index = std::numeric_limits<uint32_t>::max();
+  bool addPoint(double dist2, uint32_t i) {
+    if (dist2 < d2) {
+      d2 = dist2;
+      index = i;
+    }
+    return true;
+  }
+  double worstDist() const { return d2; }
+  bool full() const { return true; }
+};
 
 }  // namespace volcast::icp

@@ -25,26 +25,6 @@ struct Surface::Tree {
   PackedTree<3> index;
 };
 
-namespace {
-
-// nanoflann's result set for one neighbour below a squared distance: the bound prunes the search
-// from the start (Open3D searches unbounded, then drops a neighbour at or beyond the radius).
-struct NearestBelow {
-  double d2;
-  uint32_t index = std::numeric_limits<uint32_t>::max();
-  bool addPoint(double dist2, uint32_t i) {
-    if (dist2 < d2) {
-      d2 = dist2;
-      index = i;
-    }
-    return true;
-  }
-  double worstDist() const { return d2; }
-  bool full() const { return true; }
-};
-
-}  // namespace
-
 Surface::Surface(std::vector<Eigen::Vector3d> points, std::vector<Eigen::Vector3d> normals)
     : points_(std::move(points)), normals_(std::move(normals)) {
   if (!normals_.empty() && normals_.size() != points_.size())

@@ -63,7 +63,7 @@ void add_label_parts(Case& c, const fs::path& file, const LabelVolume& volume,
                      std::optional<Eigen::Vector4f> rgba, const SurfaceOptions& surface,
                      const CaseLoadOptions& options) {
   if (options.progress) options.progress("labels: " + spec.name);
-  const std::vector<uint8_t> mask = select(volume, spec.selector);
+  const MaskComponent structure = select_box(volume, spec.selector);
   const auto make = [&](const std::string& name, const MaskComponent& m) {
     CasePart p;
     p.name = name;
@@ -76,10 +76,10 @@ void add_label_parts(Case& c, const fs::path& file, const LabelVolume& volume,
     c.parts.push_back(finish(std::move(p), rgba.value_or(default_part_rgba(spec.name))));
   };
   if (!spec.components) {
-    make(spec.name, crop_to_box(volume, mask));
+    make(spec.name, structure);
     return;
   }
-  const std::vector<MaskComponent> parts = connected_components(volume, mask, spec.min_voxels);
+  const std::vector<MaskComponent> parts = connected_components(structure, spec.min_voxels);
   if (c.parts.size() + parts.size() > kMaxCaseParts)
     throw Error(file.filename().string() + ": '" + spec.name + "' has " +
                 std::to_string(parts.size()) + " components of at least " +

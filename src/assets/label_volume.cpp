@@ -169,16 +169,57 @@ MaskComponent crop_to_box(const LabelVolume& grid, const std::vector<uint8_t>& m
   return out;
 }
 
-std::vector<MaskComponent> connected_components(const LabelVolume& grid,
-                                                const std::vector<uint8_t>& mask,
-                                                size_t min_voxels) {
-  check_grid(grid, mask, "components");
-  const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
-  // Flood fill with an explicit stack (6-connectivity); each component's size and box.
+MaskComponent select_box(const LabelVolume& volume, const LabelSelector& selector) {
+  const int nx = volume.dims[0], ny = volume.dims[1], nz = volume.dims[2];
+  if (volume.labels.size() != static_cast<size_t>(nx) * ny * nz)
+    throw Error("select: the labels do not fill the volume's grid");
+  MaskComponent out;
+  VoxelBox& box = out.box;
+  box.lo = {nx, ny, nz};
+  box.hi = {0, 0, 0};
+  // One pass over the labels for the box (each row's first and last selected voxel), then the mask
+  // over the box only: no whole-grid mask is made.
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j) {
+      const int32_t* row = volume.labels.data() + volume.index(0, j, k);
+      int first = 0;
+      while (first < nx && !selector(row[first])) ++first;
+      if (first == nx) continue;
+      int last = nx - 1;
+      while (!selector(row[last])) --last;
+      box.lo = {std::min(box.lo[0], first), std::min(box.lo[1], j), std::min(box.lo[2], k)};
+      box.hi = {std::max(box.hi[0], last + 1), std::max(box.hi[1], j + 1),
+                std::max(box.hi[2], k + 1)};
+    }
+  if (box.empty()) return MaskComponent{};
+  out.mask.resize(box.voxels());
+  for (int k = box.lo[2]; k < box.hi[2]; ++k)
+    for (int j = box.lo[1]; j < box.hi[1]; ++j) {
+      const int32_t* row = volume.labels.data() + volume.index(box.lo[0], j, k);
+      uint8_t* dst = out.mask.data() + box.index(box.lo[0], j, k);
+      for (int i = 0; i < box.size(0); ++i) {
+        dst[i] = selector(row[i]) ? 1 : 0;
+        out.voxels += dst[i];
+      }
+    }
+  return out;
+}
+
+std::vector<MaskComponent> connected_components(const MaskComponent& structure, size_t min_voxels) {
+  const VoxelBox& whole = structure.box;
+  if (structure.mask.size() != whole.voxels())
+    throw Error("components: the structure's mask does not fill its box");
+  const int nx = whole.size(0), ny = whole.size(1), nz = whole.size(2);
+  const std::vector<uint8_t>& mask = structure.mask;
+  // Flood fill with an explicit stack (6-connectivity) over the structure's box; each component's
+  // size and box (in the box's own voxel indices until the end).
   std::vector<uint32_t> label(mask.size(), 0);
   std::vector<size_t> sizes{0};
   std::vector<VoxelBox> boxes{VoxelBox{}};
   std::vector<size_t> stack;
+  const auto at_index = [&](int a, int b, int c) {
+    return (static_cast<size_t>(c) * ny + b) * nx + a;
+  };
   for (size_t start = 0; start < mask.size(); ++start) {
     if (!mask[start] || label[start]) continue;
     const auto id = static_cast<uint32_t>(sizes.size());
@@ -196,7 +237,7 @@ std::vector<MaskComponent> connected_components(const LabelVolume& grid,
       box.hi = {std::max(box.hi[0], i + 1), std::max(box.hi[1], j + 1), std::max(box.hi[2], k + 1)};
       const auto visit = [&](int a, int b, int c) {
         if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) return;
-        const size_t n = grid.index(a, b, c);
+        const size_t n = at_index(a, b, c);
         if (mask[n] && !label[n]) label[n] = id, stack.push_back(n);
       };
       visit(i - 1, j, k), visit(i + 1, j, k), visit(i, j - 1, k), visit(i, j + 1, k);
@@ -213,18 +254,29 @@ std::vector<MaskComponent> connected_components(const LabelVolume& grid,
   std::vector<MaskComponent> out(order.size());
   for (size_t s = 0; s < order.size(); ++s) {
     const uint32_t id = order[s];
+    const VoxelBox& local = boxes[id];
     MaskComponent& c = out[s];
-    c.box = boxes[id];
     c.voxels = sizes[id];
+    for (int a = 0; a < 3; ++a) {  // the box's voxel indices -> the volume's
+      c.box.lo[a] = local.lo[a] + whole.lo[a];
+      c.box.hi[a] = local.hi[a] + whole.lo[a];
+    }
     c.mask.assign(c.box.voxels(), 0);
-    for (int k = c.box.lo[2]; k < c.box.hi[2]; ++k)
-      for (int j = c.box.lo[1]; j < c.box.hi[1]; ++j) {
-        const uint32_t* row = label.data() + grid.index(c.box.lo[0], j, k);
-        uint8_t* dst = c.mask.data() + c.box.index(c.box.lo[0], j, k);
-        for (int i = 0; i < c.box.size(0); ++i) dst[i] = row[i] == id;
+    for (int k = local.lo[2]; k < local.hi[2]; ++k)
+      for (int j = local.lo[1]; j < local.hi[1]; ++j) {
+        const uint32_t* row = label.data() + at_index(local.lo[0], j, k);
+        uint8_t* dst = c.mask.data() + local.index(local.lo[0], j, k);
+        for (int i = 0; i < local.size(0); ++i) dst[i] = row[i] == id;
       }
   }
   return out;
+}
+
+std::vector<MaskComponent> connected_components(const LabelVolume& grid,
+                                                const std::vector<uint8_t>& mask,
+                                                size_t min_voxels) {
+  check_grid(grid, mask, "components");
+  return connected_components(crop_to_box(grid, mask), min_voxels);
 }
 
 TriangleMesh extract_surface(const LabelVolume& grid, const std::vector<uint8_t>& mask,

@@ -1,8 +1,8 @@
 // The synthetic depth camera (SYNTHETIC data for tests and benchmarks): per pixel, the ray of the
 // real lens model (make_ray_table) against the target's spheres, its rods (finite cylinders), extra
 // balls and the floor; nearest hit; then Azure Kinect-like noise, flying pixels at depth edges,
-// dropout and grazing-angle loss, deterministic for a seed. The target is placed in the world once
-// per image and only the rays that pass near it are tested against its parts.
+// dropout and grazing-angle loss, deterministic for a seed. The scene's parts are placed in the
+// world once per image and each 16 x 16 tile of pixels tests only the parts its rays can reach.
 #include "volcast/calibrate/target_sim.hpp"
 
 #include <Eigen/Geometry>
@@ -52,44 +52,60 @@ void cylinder(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Rod& rod
   hit = {t, (p - a - axis * s).normalized()};
 }
 
-// The target in the world frame, placed once per image, and a ball holding all of it (1 cm to
-// spare): a ray that misses the ball meets none of its spheres and rods.
-struct PlacedTarget {
-  std::vector<Eigen::Vector3d> centres;
-  std::vector<Rod> rods;
-  Eigen::Vector3d bound_centre = Eigen::Vector3d::Zero();
-  double bound_radius = 0;
+// A part of the scene that rays are tested against (a target sphere, a rod, an extra ball) in the
+// world frame, with a ball holding it: a ray that misses the ball misses the part.
+struct Part {
+  enum class Kind { kSphere, kRod } kind = Kind::kSphere;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // the sphere's centre, or the rod's middle
+  double radius = 0;                                 // the sphere's, or the rod's
+  Rod rod;
+  double bound = 0;  // radius of the ball about `centre` holding the part
 };
 
-PlacedTarget place(const SimScene& scene) {
-  PlacedTarget t;
+std::vector<Part> place(const SimScene& scene) {
+  std::vector<Part> parts;
   const TargetModel& m = scene.target;
-  for (const auto& c : m.centres_m) t.centres.push_back(scene.world_from_target * c);
+  for (const auto& c : m.centres_m) {
+    const Eigen::Vector3d w = scene.world_from_target * c;
+    parts.push_back({Part::Kind::kSphere, w, m.sphere_radius_m, {}, m.sphere_radius_m});
+  }
   for (const auto& [a, b] : m.rods_m) {
     const Eigen::Vector3d wa = scene.world_from_target * a, wb = scene.world_from_target * b;
-    t.rods.push_back({wa, (wb - wa).normalized(), (wb - wa).norm()});
+    const Rod rod{wa, (wb - wa).normalized(), (wb - wa).norm()};
+    parts.push_back(
+        {Part::Kind::kRod, (wa + wb) / 2, m.rod_radius_m, rod, rod.length / 2 + m.rod_radius_m});
   }
-  std::vector<std::pair<Eigen::Vector3d, double>> parts;  // every sphere and rod end, its radius
-  for (const auto& c : t.centres) parts.emplace_back(c, m.sphere_radius_m);
-  for (const Rod& r : t.rods) {
-    parts.emplace_back(r.a, m.rod_radius_m);
-    parts.emplace_back(r.a + r.axis * r.length, m.rod_radius_m);
-  }
-  if (parts.empty()) return t;
-  for (const auto& [p, r] : parts) t.bound_centre += p;
-  t.bound_centre /= static_cast<double>(parts.size());
-  for (const auto& [p, r] : parts)
-    t.bound_radius = std::max(t.bound_radius, (p - t.bound_centre).norm() + r);
-  t.bound_radius += 0.01;
-  return t;
+  for (const auto& [c, r] : scene.extra_spheres)
+    parts.push_back({Part::Kind::kSphere, c, r, {}, r});
+  return parts;
 }
 
-// Whether the line through `o` along unit `d` passes within the target's bound.
-bool near_target(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const PlacedTarget& t) {
-  if (t.bound_radius <= 0) return false;
-  const Eigen::Vector3d oc = o - t.bound_centre;
-  const double b = oc.dot(d);
-  return b * b - (oc.squaredNorm() - t.bound_radius * t.bound_radius) >= 0;
+// The pixels are rendered in square tiles: each tile's rays lie in a cone about its mean ray, and
+// only the parts whose ball meets that cone are tested for its pixels (exact: a part outside the
+// cone cannot be hit by any of the tile's rays).
+constexpr int kTile = 16;
+
+// The parts (indices into `parts`) whose ball meets the cone from `o` holding the unit `dirs`.
+void parts_in_cone(const Eigen::Vector3d& o, const std::vector<Eigen::Vector3d>& dirs,
+                   const std::vector<Part>& parts, std::vector<int>& out) {
+  out.clear();
+  if (dirs.empty()) return;
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  for (const auto& d : dirs) axis += d;
+  axis.normalize();
+  double half = 0;  // the cone's half angle, radians
+  for (const auto& d : dirs) half = std::max(half, std::acos(std::clamp(axis.dot(d), -1.0, 1.0)));
+  for (size_t p = 0; p < parts.size(); ++p) {
+    const Eigen::Vector3d v = parts[p].centre - o;
+    const double dist = v.norm();
+    if (dist <= parts[p].bound) {  // the camera is inside the ball: any ray may hit it
+      out.push_back(static_cast<int>(p));
+      continue;
+    }
+    const double to_centre = std::acos(std::clamp(axis.dot(v) / dist, -1.0, 1.0));
+    const double ball = std::asin(parts[p].bound / dist);
+    if (to_centre - ball <= half + 1e-9) out.push_back(static_cast<int>(p));
+  }
 }
 
 }  // namespace
@@ -122,27 +138,45 @@ DepthImage render_sim_depth(const Intrinsics& intrinsics, const RigidTransform& 
   std::vector<double> cosine(exact.size(), 1);      // |cos| between the ray and the surface normal
   std::vector<double> ray_length(exact.size(), 1);  // |(X/Z, Y/Z, 1)|: distance along ray per z
   const Eigen::Vector3d o = world_from_camera.translation;
-  const PlacedTarget target = place(scene);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      if (!std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i])) continue;
-      const Eigen::Vector3d ray_cam(rays.x[i], rays.y[i], 1.0);
-      const Eigen::Vector3d d = (world_from_camera.rotation * ray_cam).normalized();
-      Hit hit;
-      if (near_target(o, d, target)) {
-        for (const auto& c : target.centres) sphere(o, d, c, scene.target.sphere_radius_m, hit);
-        for (const Rod& rod : target.rods) cylinder(o, d, rod, scene.target.rod_radius_m, hit);
-      }
-      for (const auto& [c, r] : scene.extra_spheres) sphere(o, d, c, r, hit);
-      if (scene.floor && d.y() < -1e-9) {
-        const double t = -o.y() / d.y();
-        if (t > 1e-4 && t < hit.t) hit = {t, Eigen::Vector3d::UnitY()};
-      }
-      if (hit.t >= 1e8) continue;
-      exact[i] = hit.t / ray_cam.norm();  // distance along the ray -> z
-      cosine[i] = std::abs(hit.normal.dot(d));
-      ray_length[i] = ray_cam.norm();
+  const std::vector<Part> parts = place(scene);
+  std::vector<Eigen::Vector3d> dirs;  // the tile's unit rays in the world frame
+  std::vector<int> tile_parts;
+  for (int ty = 0; ty < h; ty += kTile)
+    for (int tx = 0; tx < w; tx += kTile) {
+      const int y_end = std::min(h, ty + kTile), x_end = std::min(w, tx + kTile);
+      dirs.clear();
+      for (int y = ty; y < y_end; ++y)
+        for (int x = tx; x < x_end; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i])) continue;
+          dirs.push_back((world_from_camera.rotation * Eigen::Vector3d(rays.x[i], rays.y[i], 1.0))
+                             .normalized());
+        }
+      parts_in_cone(o, dirs, parts, tile_parts);
+      size_t next = 0;  // the tile's valid rays, in the order `dirs` holds them
+      for (int y = ty; y < y_end; ++y)
+        for (int x = tx; x < x_end; ++x) {
+          const size_t i = static_cast<size_t>(y) * w + x;
+          if (!std::isfinite(rays.x[i]) || !std::isfinite(rays.y[i])) continue;
+          const Eigen::Vector3d ray_cam(rays.x[i], rays.y[i], 1.0);
+          const Eigen::Vector3d& d = dirs[next++];
+          Hit hit;
+          for (const int p : tile_parts) {
+            const Part& part = parts[p];
+            if (part.kind == Part::Kind::kSphere)
+              sphere(o, d, part.centre, part.radius, hit);
+            else
+              cylinder(o, d, part.rod, part.radius, hit);
+          }
+          if (scene.floor && d.y() < -1e-9) {
+            const double t = -o.y() / d.y();
+            if (t > 1e-4 && t < hit.t) hit = {t, Eigen::Vector3d::UnitY()};
+          }
+          if (hit.t >= 1e8) continue;
+          exact[i] = hit.t / ray_cam.norm();  // distance along the ray -> z
+          cosine[i] = std::abs(hit.normal.dot(d));
+          ray_length[i] = ray_cam.norm();
+        }
     }
   std::mt19937 rng(noise.seed);
   std::normal_distribution<double> gauss;

@@ -253,6 +253,63 @@ TEST(LabelSurfaces, EachStructureIsMeshedOverItsOwnBoxWhereItLies) {
   EXPECT_THROW(extract_surface(v, short_mask), Error);
 }
 
+// Synthetic label volume (exact behaviour only): a structure selected straight into its box, and
+// its components found over that box, are the whole-grid mask cropped and its components, also
+// where the structure's box starts away from the grid's corner and other labels lie around it.
+TEST(LabelSurfaces, SelectingIntoTheBoxMatchesTheWholeGridMask) {
+  LabelVolume v;
+  v.dims[0] = 31, v.dims[1] = 23, v.dims[2] = 17;
+  v.labels.assign(size_t(31) * 23 * 17, 0);
+  uint32_t state = 7;  // a fixed pseudo-random field of bit-flag labels (LCG)
+  for (int32_t& l : v.labels) {
+    state = state * 1664525u + 1013904223u;
+    l = (state >> 24) & 0x70;  // bits 4..6 anywhere
+  }
+  // Label bit 1 (a "tumour") inside (5..26, 4..19, 3..14): two hollow cubes and a 2-voxel speck,
+  // among the other labels.
+  const auto lump = [&](int i0, int j0, int k0, int n) {
+    for (int k = k0; k < k0 + n; ++k)
+      for (int j = j0; j < j0 + n; ++j)
+        for (int i = i0; i < i0 + n; ++i)
+          if (i != i0 + n / 2 || j != j0 + n / 2 || k != k0 + n / 2)  // hollow in the centre
+            v.labels[v.index(i, j, k)] |= 2;
+  };
+  lump(5, 4, 3, 6);
+  lump(18, 12, 7, 8);
+  v.labels[v.index(26, 5, 3)] |= 2, v.labels[v.index(26, 6, 3)] |= 2;
+  for (const LabelSelector selector : {LabelSelector{2, 2}, LabelSelector{0x30, 0x30}}) {
+    SCOPED_TRACE(selector.mask);
+    const std::vector<uint8_t> mask = select(v, selector);
+    const MaskComponent expected = crop_to_box(v, mask);
+    const MaskComponent boxed = select_box(v, selector);
+    EXPECT_EQ(boxed.box.lo, expected.box.lo);
+    EXPECT_EQ(boxed.box.hi, expected.box.hi);
+    EXPECT_EQ(boxed.voxels, expected.voxels);
+    EXPECT_EQ(boxed.mask, expected.mask);
+    const std::vector<MaskComponent> want = connected_components(v, mask, 3);
+    const std::vector<MaskComponent> got = connected_components(boxed, 3);
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t c = 0; c < got.size(); ++c) {
+      EXPECT_EQ(got[c].box.lo, want[c].box.lo) << c;
+      EXPECT_EQ(got[c].box.hi, want[c].box.hi) << c;
+      EXPECT_EQ(got[c].voxels, want[c].voxels) << c;
+      EXPECT_EQ(got[c].mask, want[c].mask) << c;
+    }
+  }
+  // The tumour bit's box is the lumps' and speck's, away from the grid's corner; two components.
+  const MaskComponent tumours = select_box(v, {2, 2});
+  EXPECT_EQ(tumours.box.lo, (std::array<int, 3>{5, 4, 3}));
+  EXPECT_EQ(tumours.box.hi, (std::array<int, 3>{27, 20, 15}));
+  const std::vector<MaskComponent> lumps = connected_components(tumours, 3);
+  ASSERT_EQ(lumps.size(), 2u);
+  EXPECT_EQ(lumps[0].voxels, 8u * 8 * 8 - 1);  // the larger, first
+  EXPECT_EQ(lumps[0].box.lo, (std::array<int, 3>{18, 12, 7}));
+  EXPECT_EQ(lumps[1].voxels, 6u * 6 * 6 - 1);
+  EXPECT_EQ(lumps[1].box.hi, (std::array<int, 3>{11, 10, 9}));
+  EXPECT_TRUE(select_box(v, {1, 1}).box.empty());
+  EXPECT_TRUE(select_box(v, {1, 1}).mask.empty());
+}
+
 // DCMTK's own image module (modality LUT applied) reads the same HU as the series.
 TEST(CaseDicom, HounsfieldUnitsMatchDcmtkAndTheOverlaySitsOnTheLiver) {
   const fs::path folder = medical() / "ct-liver-3slices";

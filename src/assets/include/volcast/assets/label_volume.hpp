@@ -70,10 +70,20 @@ struct MaskComponent {
 /// has none). Throws Error if the mask does not match the volume's grid.
 MaskComponent crop_to_box(const LabelVolume& grid, const std::vector<uint8_t>& mask);
 
+/// A structure over the smallest box of the volume's grid that holds it: the same as
+/// crop_to_box(grid, select(volume, selector)), without a mask of the whole grid (one pass over the
+/// labels for the box, then one over the box). Throws Error if the labels do not fill the grid.
+MaskComponent select_box(const LabelVolume& volume, const LabelSelector& selector);
+
 /// The mask's 6-connected components of at least `min_voxels` voxels, largest first, each over
 /// its own box. Throws Error if the mask does not match the volume's grid.
 std::vector<MaskComponent> connected_components(const LabelVolume& grid,
                                                 const std::vector<uint8_t>& mask,
+                                                size_t min_voxels = 1);
+/// The same for a structure over its box (select_box, crop_to_box): the flood fill only visits
+/// that box; each component's box is in the volume's voxel indices. Throws Error if the mask does
+/// not fill the box.
+std::vector<MaskComponent> connected_components(const MaskComponent& structure,
                                                 size_t min_voxels = 1);
 
 struct SurfaceOptions {

@@ -286,9 +286,4 @@ struct ExportArgs {
 /// per camera in the Azure Kinect recording layout (at least one of them).
 int run_export(const ExportArgs& args);
 
-/// "DEPTH/COLOR" or "DEPTH/COLOR/QUALITY" -> its parts (quality 0 when absent). Throws Error naming
-/// `flag` if it is not of that form or a codec is unknown.
-std::tuple<std::string, std::string, int> parse_tier(const std::string& text,
-                                                     const std::string& flag);
-
 }  // namespace volcast

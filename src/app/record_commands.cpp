@@ -10,8 +10,7 @@
 
 #include "cli.hpp"
 #include "commands.hpp"
-#include "volcast/codec/color_codec.hpp"
-#include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
@@ -43,39 +42,13 @@ void end_progress() {
 
 }  // namespace
 
-std::tuple<std::string, std::string, int> parse_tier(const std::string& text,
-                                                     const std::string& flag) {
-  const size_t a = text.find('/');
-  const size_t b = a == std::string::npos ? a : text.find('/', a + 1);
-  const auto bad = [&] {
-    return Error(flag + " '" + text +
-                 "' must be DEPTH/COLOR or DEPTH/COLOR/QUALITY (1..100) with codecs this build "
-                 "has (volcast view --help lists them)");
-  };
-  if (a == std::string::npos) throw bad();
-  const std::string depth = text.substr(0, a);
-  const std::string color = text.substr(a + 1, b == std::string::npos ? b : b - a - 1);
-  int quality = 0;
-  if (b != std::string::npos) {
-    const std::string q = text.substr(b + 1);
-    if (q.empty() || q.size() > 3 || q.find_first_not_of("0123456789") != std::string::npos)
-      throw bad();
-    quality = std::stoi(q);
-    if (quality < 1 || quality > 100) throw bad();
-  }
-  try {
-    make_depth_decoder(depth);
-    make_color_decoder(color);
-  } catch (const Error&) {
-    throw bad();
-  }
-  return {depth, color, quality};
-}
-
 int run_record(const RecordArgs& a) {
   ClientConfig c = connect_client_config("record", a.connect, a.connect_file, a.token,
                                          a.fingerprint, a.insecure, a.known_servers);
-  std::tie(c.depth_codec, c.color_codec, c.color_quality) = parse_tier(a.tier, "--tier");
+  const Tier tier = parse_tier(a.tier, "--tier", TierRate::kEveryFrameSet);
+  c.depth_codec = tier.depth_codec;
+  c.color_codec = tier.color_codec;
+  c.color_quality = tier.color_quality;
   c.decode = false;  // the bytes are kept as sent; replay and export decode them
   c.keep_encoded = true;
   Client client(c);
@@ -93,10 +66,8 @@ int run_record(const RecordArgs& a) {
   // never holds up reading, so the server never drops the session's voices queued for us.
   BackgroundRecorder recorder(a.out, stream, wo);
   spdlog::info(
-      "recording {} camera(s), tier {}/{}{} to {} (Ctrl-C stops; the file replays "
-      "whenever it stops)",
-      stream.welcome.cameras.size(), c.depth_codec, c.color_codec,
-      c.color_quality ? fmt::format("/{}", c.color_quality) : "", a.out);
+      "recording {} camera(s), tier {} to {} (Ctrl-C stops; the file replays whenever it stops)",
+      stream.welcome.cameras.size(), to_string(tier), a.out);
   // The session's voices (--session): the recorder joins as a listener; what it hears arrives
   // on this thread, inside client.receive(), and is queued for the recorder's thread.
   std::unique_ptr<SessionClient> listener;

@@ -9,6 +9,7 @@
 #include "cli.hpp"
 #include "commands.hpp"
 #include "volcast/cluster/relay.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/error.hpp"
 
 namespace volcast {
@@ -17,7 +18,7 @@ int run_relay(const ServeArgs& a) {
   const auto low_latency = hold_low_latency(a.low_latency);
   cluster::RelayOptions o;
   o.site = a.nats_site;
-  std::tie(o.depth_codec, o.color_codec, o.color_quality) = parse_tier(a.relay_tier, "--tier");
+  o.tier = parse_tier(a.relay_tier, "--tier", TierRate::kEveryFrameSet);
   o.welcome_timeout_ms = a.welcome_timeout_ms;
   o.relay_name = a.relay_name;
   o.session = !a.relay_no_session;

@@ -15,6 +15,7 @@
 #include "volcast/cluster/session_link.hpp"
 #include "volcast/cluster/session_state.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
@@ -145,8 +146,7 @@ void open_cameras(const ServeArgs& a, Serving& s) {
     for (const std::string& node : a.nats_cameras) {
       cluster::RemoteSiteOptions o;
       o.site = node;
-      std::tie(o.depth_codec, o.color_codec, o.color_quality) =
-          parse_tier(a.nats_camera_tier, "--nats-camera-tier");
+      o.tier = parse_tier(a.nats_camera_tier, "--nats-camera-tier", TierRate::kEveryFrameSet);
       o.fps = a.fps > 0 ? a.fps : 30;
       s.nodes.push_back(std::make_unique<cluster::RemoteSite>(*s.nats, o));
       auto node_sources = s.nodes.back()->sources();
@@ -226,8 +226,10 @@ void add_outlets(const ServeArgs& a, Serving& s) {
   Server& server = *s.server;
   if (!a.record.empty()) {
     RecordingStream stream;
-    std::tie(stream.depth_codec, stream.color_codec, stream.color_quality) =
-        parse_tier(a.record_tier, "--record-tier");
+    const Tier tier = parse_tier(a.record_tier, "--record-tier", TierRate::kEveryFrameSet);
+    stream.depth_codec = tier.depth_codec;
+    stream.color_codec = tier.color_codec;
+    stream.color_quality = tier.color_quality;
     stream.started_us = wall_clock_us();
     stream.origin = "volcast serve --record";
     stream.welcome = {s.cameras, wall_clock_us()};
@@ -240,10 +242,10 @@ void add_outlets(const ServeArgs& a, Serving& s) {
   if (!s.nats) return;
   s.publisher.emplace(*s.nats, a.nats_site, protocol::Welcome{s.cameras, wall_clock_us()});
   for (const std::string& t : a.nats_tiers) {
-    const auto [depth, color, quality] = parse_tier(t, "--nats-tier");
-    s.publisher->publish_tier(server, depth, color, quality);
-    spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)", t,
-                 cluster::tier_subject(a.nats_site, depth, color, quality));
+    const Tier tier = parse_tier(t, "--nats-tier", TierRate::kEveryFrameSet);
+    s.publisher->publish_tier(server, tier);
+    spdlog::info("offering tier {} on NATS as {} (encoded and published while a relay wants it)",
+                 to_string(tier), cluster::tier_subject(a.nats_site, tier));
   }
   if (a.camera_only) return;
   // Participants of relays join this hub's sessions.
@@ -363,10 +365,9 @@ void stop_serving(Serving& s) {
       hs.avatar_frames_in, hs.avatar_frames_out, double(hs.avatar_bytes_out) / 1e6);
   for (const auto& v : s.server->viewers())
     spdlog::info(
-        "viewer {} ({}/{}/{}{}{}): {} frame sets sent, {} skipped ({} over the latency budget), "
+        "viewer {} ({}{}): {} frame sets sent, {} skipped ({} over the latency budget), "
         "{:.1f} MB, path RTT {:.1f} ms, {:.1f} Mbit/s, {} tier switches",
-        v.peer, v.depth_codec, v.color_codec, v.color_quality,
-        v.frame_divisor > 1 ? "@" + std::to_string(v.frame_divisor) : "",
+        v.peer, to_string(Tier{v.depth_codec, v.color_codec, v.color_quality, v.frame_divisor}),
         v.adaptive ? ", adaptive" : "", v.frames_sent, v.frames_dropped, v.frames_stale,
         static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s,
         v.switches.size());

@@ -174,7 +174,7 @@ int run_nats_bench(const BenchArgs& a) {
     site_link.in_order = true;
     cluster::NatsConnection site_nats(site_link);
     cluster::TierPublisher publisher(site_nats, "bench", {site.cameras(), wall_clock_us()});
-    publisher.publish_tier(server, "volcast", "jpeg", 0);
+    publisher.publish_tier(server, Tier{"volcast", "jpeg", 0});
     site.start(server);
     std::vector<std::unique_ptr<cluster::NatsConnection>> links;
     std::vector<std::unique_ptr<cluster::Relay>> relays;

@@ -46,20 +46,20 @@ std::string welcome_subject(const std::string& site) {
   return "volcast." + site + ".welcome";
 }
 
-std::string tier_subject(const std::string& site, const std::string& depth_codec,
-                         const std::string& color_codec, int color_quality) {
+std::string tier_subject(const std::string& site, const Tier& tier) {
   check_subject_token(site, "site name");
-  check_subject_token(depth_codec, "depth codec");
-  check_subject_token(color_codec, "color codec");
-  if (color_quality < 0 || color_quality > 100)
-    throw Error("color quality " + std::to_string(color_quality) + " is not 0..100");
-  return "volcast." + site + ".tier." + depth_codec + "." + color_codec + "." +
-         std::to_string(color_quality);
+  check_subject_token(tier.depth_codec, "depth codec");
+  check_subject_token(tier.color_codec, "color codec");
+  if (tier.color_quality < 0 || tier.color_quality > 100)
+    throw Error("color quality " + std::to_string(tier.color_quality) + " is not 0..100");
+  if (tier.frame_divisor != 1)
+    throw Error("tier " + to_string(tier) + ": a tier on NATS carries every frame set (no @N)");
+  return "volcast." + site + ".tier." + tier.depth_codec + "." + tier.color_codec + "." +
+         std::to_string(tier.color_quality);
 }
 
-std::string want_subject(const std::string& site, const std::string& depth_codec,
-                         const std::string& color_codec, int color_quality) {
-  std::string s = tier_subject(site, depth_codec, color_codec, color_quality);
+std::string want_subject(const std::string& site, const Tier& tier) {
+  std::string s = tier_subject(site, tier);
   return s.replace(s.find(".tier."), 6, ".want.");
 }
 

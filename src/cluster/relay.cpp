@@ -12,8 +12,7 @@ namespace volcast::cluster {
 Relay::Relay(NatsConnection& nats, RelayOptions options)
     : nats_(nats), options_(std::move(options)) {
   const std::string welcome = welcome_subject(options_.site);  // checks the site name
-  const std::string tier = tier_subject(options_.site, options_.depth_codec, options_.color_codec,
-                                        options_.color_quality);
+  const std::string tier = tier_subject(options_.site, options_.tier);
   welcome_sub_ = nats_.subscribe(
       welcome, [this](const std::string&, std::span<const uint8_t> data) { on_welcome(data); });
   {
@@ -27,7 +26,7 @@ Relay::Relay(NatsConnection& nats, RelayOptions options)
   }
   const protocol::Welcome w{cameras_, 0};
   reassembler_ = std::make_unique<Reassembler>(protocol::frame_set_payload_limit(w));
-  decoder_ = std::make_unique<FrameSetDecoder>(options_.depth_codec, options_.color_codec,
+  decoder_ = std::make_unique<FrameSetDecoder>(options_.tier.depth_codec, options_.tier.color_codec,
                                                cameras_);  // throws for a codec we lack
   pool_ = std::make_unique<FramePool>(cameras_.size());
   if (options_.session) {
@@ -37,15 +36,12 @@ Relay::Relay(NatsConnection& nats, RelayOptions options)
   // The upstream tier arrives encoded and passes through: free for the CPU budget, also for a
   // viewer that connects before the first frame set has come.
   if (options_.server.passed_through_tier.empty())
-    options_.server.passed_through_tier =
-        options_.depth_codec + "/" + options_.color_codec +
-        (options_.color_quality ? "/" + std::to_string(options_.color_quality) : "");
+    options_.server.passed_through_tier = to_string(options_.tier);
   server_ = std::make_unique<Server>(cameras_, options_.server);
   if (session_) session_->attach(server_.get());
   tier_sub_ = nats_.subscribe(
       tier, [this](const std::string&, std::span<const uint8_t> data) { on_chunk(data); });
-  interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.depth_codec,
-                                             options_.color_codec, options_.color_quality);
+  interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.tier);
   spdlog::info("relay: site '{}' ({} camera(s)) from {}", options_.site, cameras_.size(), tier);
 }
 
@@ -95,8 +91,8 @@ void Relay::on_chunk(std::span<const uint8_t> data) {
 bool Relay::need_images() const {
   if (!decoder_->stateless() || last_images_.empty()) return true;  // deltas: decode every one
   for (const TierReport& t : server_->tiers())
-    if (t.depth_codec != options_.depth_codec || t.color_codec != options_.color_codec ||
-        t.color_quality != options_.color_quality)
+    if (t.depth_codec != options_.tier.depth_codec || t.color_codec != options_.tier.color_codec ||
+        t.color_quality != options_.tier.color_quality)
       return true;  // a tier encoded here, from the images
   return false;
 }
@@ -157,9 +153,9 @@ void Relay::relay(const ChunkedFrameSet& f) {
   frames->cameras = last_images_;
   frames->images_stale = !decoded_now;
   auto body = std::make_shared<EncodedFrameSetBody>();
-  body->depth_codec = options_.depth_codec;
-  body->color_codec = options_.color_codec;
-  body->color_quality = options_.color_quality;
+  body->depth_codec = options_.tier.depth_codec;
+  body->color_codec = options_.tier.color_codec;
+  body->color_quality = options_.tier.color_quality;
   body->position = f.sequence;
   body->key = f.key;
   body->body.assign(f.body.begin(), f.body.end());

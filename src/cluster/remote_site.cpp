@@ -107,8 +107,7 @@ RemoteSite::RemoteSite(NatsConnection& nats, RemoteSiteOptions options)
     throw Error("capture node: max_wait_ms >= 0 and stale_ms >= 1");
   state_->options = options_;
   const std::string welcome = welcome_subject(options_.site);  // checks the name
-  const std::string tier = tier_subject(options_.site, options_.depth_codec, options_.color_codec,
-                                        options_.color_quality);
+  const std::string tier = tier_subject(options_.site, options_.tier);
   welcome_sub_ = nats_.subscribe(
       welcome, [this](const std::string&, std::span<const uint8_t> data) { on_welcome(data); });
   std::vector<protocol::CameraInfo> cameras;
@@ -124,13 +123,12 @@ RemoteSite::RemoteSite(NatsConnection& nats, RemoteSiteOptions options)
   }
   reassembler_ = std::make_unique<Reassembler>(
       protocol::frame_set_payload_limit(protocol::Welcome{cameras, 0}));
-  decoder_ = std::make_unique<FrameSetDecoder>(options_.depth_codec, options_.color_codec,
+  decoder_ = std::make_unique<FrameSetDecoder>(options_.tier.depth_codec, options_.tier.color_codec,
                                                cameras);  // throws for a codec we lack
   state_->pool = FramePool(cameras.size());
   tier_sub_ = nats_.subscribe(
       tier, [this](const std::string&, std::span<const uint8_t> data) { on_chunk(data); });
-  interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.depth_codec,
-                                             options_.color_codec, options_.color_quality);
+  interest_ = std::make_unique<TierInterest>(nats_, options_.site, options_.tier);
   spdlog::info("capture node '{}': {} camera(s) from {}", options_.site, cameras.size(), tier);
 }
 

@@ -49,14 +49,11 @@ void TierPublisher::publish_welcome() {
   }
 }
 
-void TierPublisher::publish_tier(Server& server, const std::string& depth_codec,
-                                 const std::string& color_codec, int color_quality) {
+void TierPublisher::publish_tier(Server& server, const Tier& tier) {
   Offered t;
   t.server = &server;
-  t.depth = depth_codec;
-  t.color = color_codec;
-  t.quality = color_quality;
-  t.subject = tier_subject(site_, depth_codec, color_codec, color_quality);  // checks the names
+  t.tier = tier;
+  t.subject = tier_subject(site_, tier);  // checks the names
   size_t index = 0;
   {
     std::lock_guard lock(demand_mutex_);
@@ -64,7 +61,7 @@ void TierPublisher::publish_tier(Server& server, const std::string& depth_codec,
     offered_.push_back(std::move(t));
   }
   wants_.push_back(nats_.subscribe(
-      want_subject(site_, depth_codec, color_codec, color_quality),
+      want_subject(site_, tier),
       [this, index](const std::string&, std::span<const uint8_t> data) { on_want(index, data); }));
 }
 
@@ -77,7 +74,7 @@ void TierPublisher::on_want(size_t index, std::span<const uint8_t> data) {
     if (!t.tap) {
       const size_t max_message = nats_.max_payload();
       t.tap = t.server->add_tier_tap(
-          t.depth, t.color, t.quality,
+          t.tier.depth_codec, t.tier.color_codec, t.tier.color_quality,
           [this, subject = t.subject, max_message](const TierFrameSet& f) {
             std::lock_guard lock(mutex_);
             try {
@@ -100,7 +97,7 @@ void TierPublisher::on_want(size_t index, std::span<const uint8_t> data) {
       std::lock_guard stats_lock(mutex_);
       ++stats_.starts;
     } else if (key) {  // a new tap begins at a key frame set anyway
-      t.server->request_key_frame(t.depth, t.color, t.quality);
+      t.server->request_key_frame(t.tier.depth_codec, t.tier.color_codec, t.tier.color_quality);
       std::lock_guard stats_lock(mutex_);
       ++stats_.key_requests;
     }
@@ -129,10 +126,9 @@ PublisherStats TierPublisher::stats() const {
   return stats_;
 }
 
-TierInterest::TierInterest(NatsConnection& nats, const std::string& site,
-                           const std::string& depth_codec, const std::string& color_codec,
-                           int color_quality, int interval_ms)
-    : nats_(nats), subject_(want_subject(site, depth_codec, color_codec, color_quality)) {
+TierInterest::TierInterest(NatsConnection& nats, const std::string& site, const Tier& tier,
+                           int interval_ms)
+    : nats_(nats), subject_(want_subject(site, tier)) {
   say(true);
   last_key_ = Clock::now();
   thread_ = std::thread([this, interval_ms] {

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include "frame_feed_state.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/receiver.hpp"
@@ -141,10 +142,7 @@ bool DrawPace::take(FrameFeed& feed, std::vector<std::shared_ptr<const CameraFra
 }
 
 std::string tier_label(const TierState& t) {
-  std::string s = t.depth_codec + "/" + t.color_codec;
-  if (t.color_quality > 0) s += "/" + std::to_string(t.color_quality);
-  if (t.frame_divisor > 1) s += "@" + std::to_string(t.frame_divisor);
-  return s;
+  return to_string(Tier{t.depth_codec, t.color_codec, t.color_quality, t.frame_divisor});
 }
 
 }  // namespace volcast

@@ -29,6 +29,7 @@
 #include <thread>
 
 #include "frame_feed_state.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/image_io.hpp"
@@ -162,8 +163,7 @@ void open_feed(FrameFeed::State& box, const protocol::Welcome& welcome, const Vi
   box.live.color_codec = opt.client.color_codec;
   box.live.adaptive = opt.client.adapt;
   box.live.tier =
-      opt.client.depth_codec + "/" + opt.client.color_codec +
-      (opt.client.color_quality > 0 ? "/" + std::to_string(opt.client.color_quality) : "");
+      to_string(Tier{opt.client.depth_codec, opt.client.color_codec, opt.client.color_quality});
   box.live.cameras.resize(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
     box.live.cameras[i].description = printable(cams[i].description);

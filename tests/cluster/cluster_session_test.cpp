@@ -56,7 +56,7 @@ struct RelayedSession {
   std::optional<Relay> one, two;
 
   RelayedSession() {
-    publisher.publish_tier(s.site.server, "volcast", "jpeg", 0);
+    publisher.publish_tier(s.site.server, Tier{"volcast", "jpeg", 0});
     s.hub.attach_remote(&bridge);
     one.emplace(link_one, options("one"));
     two.emplace(link_two, options("two"));

@@ -168,12 +168,20 @@ TEST(Chunks, HostileChunksAreRefusedBeforeAnythingIsAllocatedForThem) {
 }
 
 TEST(NatsSubjects, SiteAndCodecNamesMustBeSubjectTokens) {
-  EXPECT_EQ(tier_subject("or1", "volcast-t", "jpeg", 80), "volcast.or1.tier.volcast-t.jpeg.80");
+  EXPECT_EQ(tier_subject("or1", Tier{"volcast-t", "jpeg", 80}),
+            "volcast.or1.tier.volcast-t.jpeg.80");
   EXPECT_EQ(welcome_subject("or1"), "volcast.or1.welcome");
   for (const char* bad : {"", "a.b", "a*", ">", "a b"})
     EXPECT_NE(test::error_of([&] { welcome_subject(bad); }).find("NATS subject token"),
               std::string::npos)
         << bad;
+  // A tier on NATS carries every frame set: a divided one has no subject.
+  EXPECT_NE(test::error_of([] {
+              tier_subject("or1", Tier{"volcast", "jpeg", 0, 2});
+            }).find("no @N"),
+            std::string::npos);
+  EXPECT_EQ(want_subject("or1", Tier{"volcast-t", "jpeg", 80}),
+            "volcast.or1.want.volcast-t.jpeg.80");
   EXPECT_EQ(parse_nats_urls("nats://a:1,nats://b:2").size(), 2u);
   EXPECT_NE(test::error_of([] { parse_nats_urls("nats://a:1,"); }), "");
 }
@@ -195,7 +203,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   NatsConnection subscriber(nats_at(nats_server.url(0)));
   Reassembler reassembler(64 << 20);
   bool first_key = false;
-  auto tier = subscriber.subscribe(tier_subject("or", "volcast", "jpeg", 0),
+  auto tier = subscriber.subscribe(tier_subject("or", Tier{"volcast", "jpeg", 0}),
                                    [&](const std::string&, auto data) {
                                      if (!reassembler.add(data)) return;
                                      std::lock_guard lock(mutex);
@@ -211,8 +219,8 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   EXPECT_EQ(publisher_link.max_payload(), 65536u);
   {
     TierPublisher publisher(publisher_link, "or", {site.player.cameras(), 0});
-    publisher.publish_tier(site.server, "volcast", "jpeg", 0);
-    TierInterest want(subscriber, "or", "volcast", "jpeg", 0);  // published while wanted
+    publisher.publish_tier(site.server, Tier{"volcast", "jpeg", 0});
+    TierInterest want(subscriber, "or", Tier{"volcast", "jpeg", 0});  // published while wanted
     ASSERT_TRUE(test::eventually(
         [&] {
           std::lock_guard lock(mutex);
@@ -247,7 +255,7 @@ TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
   test::HandsSite site(30);
   NatsConnection link(nats_at(nats_server.url(0)));
   TierPublisher publisher(link, "or", {site.player.cameras(), 0}, 1000, 1000);
-  publisher.publish_tier(site.server, "trvl", "jpeg", 0);
+  publisher.publish_tier(site.server, Tier{"trvl", "jpeg", 0});
   std::this_thread::sleep_for(1500ms);
   EXPECT_TRUE(site.server.tiers().empty()) << "nobody wants it: nothing is encoded";
   EXPECT_EQ(publisher.stats().frame_sets, 0u);
@@ -255,13 +263,13 @@ TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
   Reassembler reassembler(64 << 20);
   std::atomic<int> complete{0};
   std::atomic<bool> first_key{false};
-  auto tier = subscriber.subscribe(tier_subject("or", "trvl", "jpeg", 0),
+  auto tier = subscriber.subscribe(tier_subject("or", Tier{"trvl", "jpeg", 0}),
                                    [&](const std::string&, auto data) {
                                      if (!reassembler.add(data)) return;
                                      if (complete++ == 0) first_key = reassembler.done().key;
                                    });
   {
-    TierInterest want(subscriber, "or", "trvl", "jpeg", 0, 200);
+    TierInterest want(subscriber, "or", Tier{"trvl", "jpeg", 0}, 200);
     ASSERT_TRUE(test::eventually([&] { return complete >= 20; }, 60s));
     EXPECT_TRUE(first_key) << "a subscriber starts at a key frame set";
     ASSERT_EQ(site.server.tiers().size(), 1u);
@@ -299,10 +307,11 @@ TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {
 }
 )");
   NatsConnection student(nats_at(nats_server.url(0), "student", "stud-pw"));
-  EXPECT_NO_THROW(student.subscribe(tier_subject("lecture", "volcast", "jpeg", 0),
+  EXPECT_NO_THROW(student.subscribe(tier_subject("lecture", Tier{"volcast", "jpeg", 0}),
                                     [](const std::string&, auto) {}));
   const std::string refused = test::error_of([&] {
-    student.subscribe(tier_subject("or", "volcast", "jpeg", 0), [](const std::string&, auto) {});
+    student.subscribe(tier_subject("or", Tier{"volcast", "jpeg", 0}),
+                      [](const std::string&, auto) {});
   });
   EXPECT_NE(refused.find("volcast.or.tier.volcast.jpeg.0"), std::string::npos) << refused;
   EXPECT_NE(refused.find("ermission"), std::string::npos) << refused;
@@ -388,7 +397,7 @@ struct PublishedSite {
     });
     link.emplace(nats_at(nats_server.url(0)));
     publisher.emplace(*link, "or", protocol::Welcome{site.player.cameras(), 0});
-    publisher->publish_tier(site.server, depth, color, 0);
+    publisher->publish_tier(site.server, Tier{depth, color, 0});
   }
   ~PublishedSite() {
     site.player.stop();
@@ -490,7 +499,7 @@ TEST(Relay, ALateViewerOfATemporalTierStartsAtAKeyFrameSet) {
   PublishedSite origin("relay_late", "trvl", "jpeg", site_config);
   NatsConnection relay_link(nats_at(origin.nats_server.url(0)));
   RelayOptions o = relay_options();
-  o.depth_codec = "trvl";
+  o.tier.depth_codec = "trvl";
   Relay relay(relay_link, o);
   // The relay came in mid-stream: deltas before the site's next key frame set are dropped.
   ASSERT_TRUE(test::eventually([&] { return relay.stats().frame_sets >= 30; }, 60s));
@@ -565,7 +574,7 @@ TEST(Relay, ARelayOutlivesTheKillOfItsNatsNodeInAThreeNodeCluster) {
   NatsConnection site_nats(site_link);
   EXPECT_EQ(site_nats.connected_url(), nats.url(0));
   TierPublisher publisher(site_nats, "or", {site.player.cameras(), 0});
-  publisher.publish_tier(site.server, "volcast", "jpeg", 0);
+  publisher.publish_tier(site.server, Tier{"volcast", "jpeg", 0});
   NatsOptions relay_link;
   relay_link.urls = nats.urls(1);
   relay_link.in_order = true;

@@ -11,6 +11,7 @@
 
 #include "support/test_data.hpp"
 #include "volcast/codec/registry.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 
@@ -253,6 +254,44 @@ TEST_F(CodecRegistry, RefusesDuplicateAndInconsistentEntries) {
   ColorCodecInfo color = color_codec_info("h264");
   EXPECT_THROW(register_color_codec(color), Error);
   EXPECT_EQ(find_depth_codec("rvl-but-lossy"), nullptr);
+}
+
+// A tier is parsed and written one way for every flag and the server (volcast/codec/tier.hpp):
+// what to_string writes parses back to the same tier, and each malformed part is named.
+TEST_F(CodecRegistry, ATierParsesAndPrintsOneWayAndEachBadPartIsRefused) {
+  const Tier ladder = parse_tier("h264/h264/50@2", "server: ladder rung");
+  EXPECT_EQ(ladder, (Tier{"h264", "h264", 50, 2}));
+  EXPECT_EQ(to_string(ladder), "h264/h264/50@2");
+  for (const char* text : {"volcast/jpeg", "volcast-n2/jpeg/70", "trvl/none", "rvl/raw@8"}) {
+    EXPECT_EQ(to_string(parse_tier(text, "--tier")), text);
+    EXPECT_EQ(parse_tier(to_string(parse_tier(text, "--tier")), "--tier"),
+              parse_tier(text, "--tier"));
+  }
+  // Quality 0 is the codec's default (the server took it, `record --tier` refused it): one rule.
+  EXPECT_EQ(parse_tier("volcast/jpeg/0", "--tier", TierRate::kEveryFrameSet),
+            (Tier{"volcast", "jpeg", 0, 1}));
+  EXPECT_EQ(to_string(Tier{"volcast", "jpeg", 0, 1}), "volcast/jpeg");
+  const auto error_of = [](const std::string& text, TierRate rate = TierRate::kAny) {
+    try {
+      parse_tier(text, "--record-tier", rate);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  for (const char* bad :
+       {"volcast", "volcast/", "/jpeg", "nope/jpeg", "volcast/nope", "volcast/jpeg/101",
+        "volcast/jpeg/-1", "volcast/jpeg/7x", "volcast/jpeg/1000", "volcast/jpeg@0",
+        "volcast/jpeg@9", "volcast/jpeg@", "volcast/jpeg/50/1", ""}) {
+    const std::string e = error_of(bad);
+    EXPECT_EQ(e.rfind("--record-tier '" + std::string(bad) + "' must be DEPTH/COLOR", 0), 0u)
+        << bad << ": " << e;
+  }
+  // A recording, a NATS tier or a client's request carries every frame set: @N is refused there,
+  // by name, and only there.
+  EXPECT_NE(error_of("volcast/jpeg@2", TierRate::kEveryFrameSet).find("no @N"), std::string::npos);
+  EXPECT_EQ(error_of("volcast/jpeg@2"), "");
+  EXPECT_EQ(error_of("volcast/jpeg/50", TierRate::kEveryFrameSet), "");
 }
 
 }  // namespace

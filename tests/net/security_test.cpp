@@ -488,6 +488,12 @@ TEST(Door, ThePassedThroughTierIsFreeBeforeItsFirstFrameSet) {
   server.stop();
   config.passed_through_tier = "volcast/jpeg@2";
   EXPECT_NE(error_of([&] { Server{cameras, config}; }).find("no @N"), std::string::npos);
+  config.passed_through_tier.clear();  // an offered tier carries every frame set too
+  config.offered_tiers = {"volcast/jpeg", "trvl/none@2"};
+  EXPECT_EQ(error_of([&] {
+              Server{cameras, config};
+            }).rfind("server: offered tier 'trvl/none@2'", 0),
+            0u);
 }
 
 TEST(Door, PingsBeforeTheHelloGetNoPongAndAFloodIsClosedAtItsByteBudget) {

@@ -44,7 +44,7 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.connection = std::move(a.connection);
     v.report.peer = v.connection->peer();
     v.report.connected = true;
-    const detail::TierKey& key = v.tier->encoder.key();  // known codecs: subscribe checked them
+    const volcast::Tier& key = v.tier->encoder.key();  // known codecs: subscribe checked them
     v.report.depth_codec = key.depth_codec;
     v.report.color_codec = key.color_codec;
     v.report.color_quality = key.color_quality;
@@ -111,15 +111,13 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   if (config.handshake_timeout_ms < 1 || config.max_pending < 1 ||
       config.max_pending_per_address < 1)
     throw Error("server: handshake timeout and pending-handshake limits must be at least 1");
+  // An offered tier and a publisher's (passed-through) tier carry every frame set: @N is the
+  // ladder's alone.
   for (const auto& t : config.offered_tiers)
-    if (detail::parse_tier(t, "offered tier").frame_divisor != 1)
-      throw Error("server: offered tier '" + t + "': @N is for the ladder (--ladder) only");
-  if (!config.passed_through_tier.empty()) {
-    impl_->passed_through = detail::parse_tier(config.passed_through_tier, "passed-through tier");
-    if (impl_->passed_through->frame_divisor != 1)
-      throw Error("server: passed-through tier '" + config.passed_through_tier +
-                  "': a publisher's tier has every frame set (no @N)");
-  }
+    parse_tier(t, "server: offered tier", TierRate::kEveryFrameSet);
+  if (!config.passed_through_tier.empty())
+    impl_->passed_through = parse_tier(config.passed_through_tier, "server: passed-through tier",
+                                       TierRate::kEveryFrameSet);
   const bool default_ladder_given = config.ladder == default_ladder();
   const bool sized = config.ladder_sizes.size() == config.ladder.size();
   for (size_t i = 0; i < config.ladder.size(); ++i) {
@@ -134,10 +132,10 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
          !find_color_codec(t.substr(slash + 1, t.find_first_of("/@", slash + 1) - slash - 1))))
       continue;
     // With an offer list, the ladder keeps only what is offered (the operator's list wins).
-    detail::TierKey key = detail::parse_tier(t, "ladder rung");
+    volcast::Tier key = parse_tier(t, "server: ladder rung");
     bool offered = config.offered_tiers.empty();
     for (const auto& o : config.offered_tiers) {
-      const detail::TierKey k = detail::parse_tier(o, "offered tier");
+      const volcast::Tier k = parse_tier(o, "server: offered tier");
       offered |= k.depth_codec == key.depth_codec && k.color_codec == key.color_codec &&
                  (o.find('/', o.find('/') + 1) == std::string::npos ||
                   k.color_quality == key.color_quality);
@@ -213,7 +211,7 @@ void Server::remove_tier_tap(uint64_t id) {
 void Server::request_key_frame(const std::string& depth_codec, const std::string& color_codec,
                                int color_quality) {
   std::lock_guard lock(impl_->mutex);
-  const detail::TierKey key{depth_codec, color_codec, color_quality, 1};
+  const volcast::Tier key{depth_codec, color_codec, color_quality, 1};
   for (const auto& tier : impl_->tiers)
     if (tier->encoder.key() == key && !tier->stop) tier->key_wanted = true;
 }

@@ -32,10 +32,10 @@ constexpr int64_t kRefusedForUs = 10'000'000;  // a rung the budget refused is l
 constexpr size_t kSwitchesKept = 64;
 }  // namespace
 
-double Server::Impl::tier_bits(const detail::TierKey& key) const {
+double Server::Impl::tier_bits(const volcast::Tier& key) const {
   for (const auto& t : tiers)
     if (!t->stop && t->encoder.key() == key && t->report.mbit_s > 0) return t->report.mbit_s * 1e6;
-  const auto it = learned_bits.find(detail::tier_name(key));
+  const auto it = learned_bits.find(to_string(key));
   return it == learned_bits.end() ? 0 : it->second;
 }
 
@@ -43,7 +43,7 @@ void Server::Impl::allowed_rungs(const Viewer& v, int64_t now, std::vector<char>
                                  bool cap) const {
   ok.assign(ladder.size(), 0);
   for (size_t r = v.top; r < ladder.size(); ++r) {
-    const detail::TierKey& k = ladder[r];
+    const volcast::Tier& k = ladder[r];
     if ((v.adapt & protocol::Hello::kKeepLossless) && !depth_codec_info(k.depth_codec).lossless)
       continue;
     if ((v.adapt & protocol::Hello::kKeepFullRate) && k.frame_divisor > 1) continue;
@@ -100,7 +100,7 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) 
 }
 
 void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double goodput_bits) {
-  const detail::TierKey& k = v.tier->encoder.key();
+  const volcast::Tier& k = v.tier->encoder.key();
   protocol::TierChange m{k.depth_codec,
                          k.color_codec,
                          k.color_quality,
@@ -112,7 +112,7 @@ void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double
 }
 
 bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_bits) {
-  const std::string from = detail::tier_name(v.tier->encoder.key());
+  const std::string from = to_string(v.tier->encoder.key());
   const auto record = [&](ViewerReport& r, const std::string& to, const std::string& reason) {
     r.switches.push_back({wall_clock_us(), from, to, reason});
     if (r.switches.size() > kSwitchesKept) r.switches.erase(r.switches.begin());
@@ -132,7 +132,7 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
   {
     std::lock_guard lock(mutex);
     const int64_t now = steady_us();
-    const detail::TierKey& key = ladder[d.rung];
+    const volcast::Tier& key = ladder[d.rung];
     // Off its tier while the budget is checked: the tier it leaves costs nothing once it has no
     // viewer.
     std::shared_ptr<Tier> old = std::move(v.tier);
@@ -143,8 +143,8 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
       v.tier = std::move(old);
       v.tier->subscribers.push_back(&v.wake);  // stays where it was
       v.refused_until[d.rung] = now + kRefusedForUs;
-      spdlog::info("viewer {}: rung {} ({}) refused: {}", v.report.peer, d.rung,
-                   detail::tier_name(key), e.what());
+      spdlog::info("viewer {}: rung {} ({}) refused: {}", v.report.peer, d.rung, to_string(key),
+                   e.what());
       return false;
     }
     v.report.depth_codec = key.depth_codec;
@@ -153,7 +153,7 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
     v.report.frame_divisor = key.frame_divisor;
     v.report.rung = static_cast<int>(d.rung);
     // In the same locked step as the rung: a report never shows a rung without its switch.
-    to = detail::tier_name(key);
+    to = to_string(key);
     record(v.report, to, d.reason);
   }
   spdlog::info("viewer {}: {} -> {}: {}", v.report.peer, from, to, d.reason);

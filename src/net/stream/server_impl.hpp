@@ -103,7 +103,7 @@ struct Server::Impl {
   uint64_t site_pixels = 0;  // depth pixels of every camera together
 
   struct Tier {
-    Tier(detail::TierKey key, size_t cameras) : encoder(std::move(key), cameras) {}
+    Tier(volcast::Tier key, size_t cameras) : encoder(std::move(key), cameras) {}
     detail::TierEncoder encoder;  // used by the tier's thread only
     std::thread thread;
     // Guarded by Impl::mutex:
@@ -162,7 +162,7 @@ struct Server::Impl {
     std::vector<std::string> decodes;  // Hello::decodes: empty, any
     size_t top = 0;
     std::vector<int64_t> refused_until;
-    detail::TierKey hello_key;
+    volcast::Tier hello_key;
     std::string address;  // the peer's IP address (per-address tier limits)
     std::thread thread;
     WakeFd wake;
@@ -170,9 +170,9 @@ struct Server::Impl {
     std::atomic<bool> done{false};
   };
   std::list<Viewer> viewers;
-  std::vector<detail::TierKey> ladder;            // config.ladder parsed
-  std::optional<detail::TierKey> passed_through;  // config.passed_through_tier parsed: free
-  std::vector<double> ladder_sizes;               // its rungs' relative sizes, or empty
+  std::vector<volcast::Tier> ladder;            // config.ladder parsed
+  std::optional<volcast::Tier> passed_through;  // config.passed_through_tier parsed: free
+  std::vector<double> ladder_sizes;             // its rungs' relative sizes, or empty
   // Each tier's last measured rate (bits/s) by name, kept after it stops: a rung not running now
   // is judged by what it produced last.
   std::map<std::string, double> learned_bits;
@@ -207,7 +207,7 @@ struct Server::Impl {
   // the CPU budget, or the tiers `address` holds alone past its share (the count, half the
   // budget). The costliest tiers are the first not to fit. Caller holds mutex.
   // `share` false: the total alone (a ladder rung: the operator's own list, one tier a viewer).
-  void check_tier_budget(const detail::TierKey& key, double encode_ns, const std::string& address,
+  void check_tier_budget(const volcast::Tier& key, double encode_ns, const std::string& address,
                          bool share = true) const;
 
   // Joins the threads of viewers that have ended (keeping their reports) and of tiers nobody
@@ -224,7 +224,7 @@ struct Server::Impl {
   // Finds or makes the tier and subscribes `wake` (if not null) to it. A new tier for a viewer
   // from `address` must fit the CPU budget (check_tier_budget); one for a tap (`address` null)
   // is made regardless. Caller holds mutex. Throws Error.
-  std::shared_ptr<Tier> subscribe(const detail::TierKey& key, const WakeFd* wake,
+  std::shared_ptr<Tier> subscribe(const volcast::Tier& key, const WakeFd* wake,
                                   const std::string* address, bool share = true);
 
   // Unsubscribes `wake` from `tier` (takes mutex).
@@ -272,7 +272,7 @@ struct Server::Impl {
     return (v.adapt & protocol::Hello::kAdapt) && !ladder.empty();
   }
   // The rate (bits/s) of `key`'s tier: measured while it runs, else learned, else 0. Mutex held.
-  double tier_bits(const detail::TierKey& key) const;
+  double tier_bits(const volcast::Tier& key) const;
   // Per rung into `ok` (capacity reused), whether `v` may be put on it now (floors, its cap if
   // `cap`, its best rung, budget refusals). Mutex held.
   void allowed_rungs(const Viewer& v, int64_t now, std::vector<char>& ok, bool cap = true) const;

@@ -44,7 +44,7 @@ bool Server::Impl::held_alone_by(const Tier& tier, const std::string& address) c
 // Throws Error if a new tier `key` costing `encode_ns` per frame set would take the tiers past
 // the CPU budget, or the tiers `address` holds alone past its share (the count, half the
 // budget). The costliest tiers are the first not to fit. Caller holds mutex.
-void Server::Impl::check_tier_budget(const detail::TierKey& key, double encode_ns,
+void Server::Impl::check_tier_budget(const volcast::Tier& key, double encode_ns,
                                      const std::string& address, bool share) const {
   const double fps = site_fps();
   const double cost = encode_ns * fps / 1e9;
@@ -61,7 +61,7 @@ void Server::Impl::check_tier_budget(const detail::TierKey& key, double encode_n
       ++alone_count;
     }
   }
-  const std::string name = detail::tier_name(key);
+  const std::string name = to_string(key);
   // Each reason fits the 200 characters a viewer shows of a Reject.
   if (total + cost > budget_cores)
     throw Error(fmt::format(
@@ -143,7 +143,7 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
       // A replayed frame set recorded on this tier brings its own key frame sets: passing its
       // deltas through beats making keys on schedule.
       const EncodedFrameSetBody* pre = frames->encoded.get();
-      const detail::TierKey& tk = tier->encoder.key();
+      const volcast::Tier& tk = tier->encoder.key();
       // A tier that encodes every Nth frame set waits for the next whose sequence N divides.
       if (tk.frame_divisor > 1 && frames->sequence % uint64_t(tk.frame_divisor) != 0) {
         last_sequence = frames->sequence;
@@ -199,7 +199,7 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
                              double(tier->produced.size()) /
                              double(std::max<size_t>(tier->produced.size() - 1, 1));
       tier->report.mbit_s = double(bytes) * 8 / span_us;
-      learned_bits[detail::tier_name(tier->encoder.key())] = tier->report.mbit_s * 1e6;
+      learned_bits[to_string(tier->encoder.key())] = tier->report.mbit_s * 1e6;
     }
     for (const WakeFd* w : tier->subscribers) w->signal();
     if (tier->taps.empty()) continue;
@@ -218,7 +218,7 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
 // Finds or makes the tier and subscribes `wake` (if not null) to it. A new tier for a viewer
 // from `address` must fit the CPU budget (check_tier_budget); one for a tap (`address` null)
 // is made regardless. Caller holds mutex. Throws Error.
-std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const detail::TierKey& key,
+std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const volcast::Tier& key,
                                                             const WakeFd* wake,
                                                             const std::string* address,
                                                             bool share) {

@@ -32,8 +32,8 @@ void Server::Impl::serve_viewer(Viewer& v) {
     protocol::Welcome welcome{cameras, wall_clock_us()};
     c.write_all(protocol::message(protocol::MessageType::kWelcome, protocol::serialize(welcome)),
                 config.stall_timeout_ms);
-    spdlog::info("viewer {} connected (tier {}{})", v.report.peer,
-                 detail::tier_name(v.tier->encoder.key()), adaptive(v) ? ", adaptive" : "");
+    spdlog::info("viewer {} connected (tier {}{})", v.report.peer, to_string(v.tier->encoder.key()),
+                 adaptive(v) ? ", adaptive" : "");
     if (adaptive(v))  // its first tier, and why (its Hello named the best it wants, if a rung)
       send_tier_change(v,
                        v.decodes.empty()

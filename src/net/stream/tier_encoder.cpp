@@ -30,50 +30,13 @@ double ns_per_pixel(const Info& info, const std::vector<Info>& all) {
 
 }  // namespace
 
-double tier_encode_ns(const TierKey& key, uint64_t pixels) {
+double tier_encode_ns(const Tier& key, uint64_t pixels) {
   const double depth = ns_per_pixel(depth_codec_info(key.depth_codec), all_depth_codecs());
   const double color = ns_per_pixel(color_codec_info(key.color_codec), all_color_codecs());
   return (depth + color) * static_cast<double>(pixels);
 }
 
-TierKey parse_tier(const std::string& text, const std::string& what) {
-  const auto bad = [&] {
-    return Error("server: " + what + " '" + text +
-                 "' must be DEPTH/COLOR or DEPTH/COLOR/QUALITY, optionally @N (every Nth frame "
-                 "set, N 1..8), with codecs this build has (volcast view --help lists them) and "
-                 "a quality 0..100 (0: the codec's default)");
-  };
-  const auto number = [&](const std::string& q, int lo, int hi) {
-    const bool digits =
-        !q.empty() && q.size() <= 3 && q.find_first_not_of("0123456789") == std::string::npos;
-    const int v = digits ? std::stoi(q) : -1;
-    if (v < lo || v > hi) throw bad();
-    return v;
-  };
-  TierKey key;
-  std::string rest = text;
-  if (const size_t at = rest.find('@'); at != std::string::npos) {
-    key.frame_divisor = number(rest.substr(at + 1), 1, 8);
-    rest.resize(at);
-  }
-  const size_t a = rest.find('/');
-  if (a == std::string::npos) throw bad();
-  const size_t b = rest.find('/', a + 1);
-  key.depth_codec = rest.substr(0, a);
-  key.color_codec = rest.substr(a + 1, b == std::string::npos ? b : b - a - 1);
-  if (b != std::string::npos) key.color_quality = number(rest.substr(b + 1), 0, 100);
-  if (!find_depth_codec(key.depth_codec) || !find_color_codec(key.color_codec)) throw bad();
-  return key;
-}
-
-std::string tier_name(const TierKey& key) {
-  std::string s = key.depth_codec + "/" + key.color_codec;
-  if (key.color_quality > 0) s += "/" + std::to_string(key.color_quality);
-  if (key.frame_divisor > 1) s += "@" + std::to_string(key.frame_divisor);
-  return s;
-}
-
-TierEncoder::TierEncoder(TierKey key, size_t cameras) : key_(std::move(key)) {
+TierEncoder::TierEncoder(Tier key, size_t cameras) : key_(std::move(key)) {
   for (size_t i = 0; i < cameras; ++i) {
     depth_.push_back(make_depth_encoder(key_.depth_codec));
     color_.push_back(make_color_encoder(key_.color_codec));

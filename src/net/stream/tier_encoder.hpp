@@ -7,31 +7,18 @@
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/core/worker_pool.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 
 namespace volcast::detail {
 
-struct TierKey {
-  std::string depth_codec, color_codec;
-  int color_quality = 0;
-  int frame_divisor = 1;  ///< 1..8: the tier encodes the site frame sets whose sequence it divides
-  bool operator==(const TierKey&) const = default;
-};
-
-/// Parses "DEPTH/COLOR", "DEPTH/COLOR/QUALITY" or either with "@N" (every Nth frame set, N 1..8),
-/// e.g. "h264/h264/50@2". Throws Error naming `what` (e.g. "offered tier") and the text for an
-/// unknown codec, a quality outside 0..100 or a divisor outside 1..8.
-TierKey parse_tier(const std::string& text, const std::string& what);
-/// "volcast/jpeg/80", "h264/h264/50@2" (quality 0 and divisor 1 left out).
-std::string tier_name(const TierKey& key);
-
 /// Estimated CPU time (ns, one thread) to encode one frame set of tier `key` for a site of
 /// `pixels` depth pixels in all (each with a registered color pixel): the codecs'
 /// encode_ns_per_pixel (registry.hpp) times `pixels`; a codec without a figure is charged as the
 /// costliest registered one of its kind. Throws Error naming an unknown codec.
-double tier_encode_ns(const TierKey& key, uint64_t pixels);
+double tier_encode_ns(const Tier& key, uint64_t pixels);
 
 /// One encoded frame set of a tier: the FrameSet body every viewer of the tier is sent.
 struct EncodedFrames {
@@ -51,8 +38,8 @@ struct EncodedFrames {
 class TierEncoder {
  public:
   /// Throws Error naming an unknown codec.
-  TierEncoder(TierKey key, size_t cameras);
-  const TierKey& key() const { return key_; }
+  TierEncoder(Tier key, size_t cameras);
+  const Tier& key() const { return key_; }
   /// Encodes `frames` (key frames forced if `key`), the cameras' depth and color in parallel on
   /// `pool`, into a recycled buffer. A camera with an empty color image gets a zero-length color
   /// stream (no color, see protocol.hpp) without calling its color encoder, and its next
@@ -76,7 +63,7 @@ class TierEncoder {
   // Numbers `out` as the tier's next frame set and seals it if asked.
   void finish(uint64_t sequence, const std::shared_ptr<EncodedFrames>& out,
               const protocol::SenderTimes& times, WorkerPool& pool, bool seal);
-  TierKey key_;
+  Tier key_;
   std::vector<std::unique_ptr<DepthEncoder>> depth_;
   std::vector<std::unique_ptr<ColorEncoder>> color_;
   std::vector<protocol::EncodedCamera> encoded_;

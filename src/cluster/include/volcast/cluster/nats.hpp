@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
+
 namespace volcast::cluster {
 
 /// Throws Error unless `token` is usable as one token of a NATS subject: 1..64 characters of
@@ -24,12 +26,12 @@ namespace volcast::cluster {
 void check_subject_token(const std::string& token, const std::string& what);
 
 std::string welcome_subject(const std::string& site);
-/// "volcast.<site>.tier.<depth>.<color>.<quality>"; codec names are tokens ("volcast-t", "jpeg").
-std::string tier_subject(const std::string& site, const std::string& depth_codec,
-                         const std::string& color_codec, int color_quality);
-/// "volcast.<site>.want.<depth>.<color>.<quality>" (tier_subject's tokens).
-std::string want_subject(const std::string& site, const std::string& depth_codec,
-                         const std::string& color_codec, int color_quality);
+/// "volcast.<site>.tier.<depth>.<color>.<quality>" (quality 0: the codec's default); codec names
+/// are tokens ("volcast-t", "jpeg"). A tier on NATS carries every frame set: throws Error for a
+/// tier with @N, a name that is no token or a quality outside 0..100.
+std::string tier_subject(const std::string& site, const Tier& tier);
+/// "volcast.<site>.want.<depth>.<color>.<quality>" (tier_subject's tokens and checks).
+std::string want_subject(const std::string& site, const Tier& tier);
 
 struct NatsOptions {
   std::vector<std::string> urls;  ///< e.g. nats://127.0.0.1:4222; several: a cluster

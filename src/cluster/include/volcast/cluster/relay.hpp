@@ -30,6 +30,7 @@
 #include "volcast/cluster/nats.hpp"
 #include "volcast/cluster/session_link.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/frame_pool.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/protocol/protocol.hpp"
@@ -41,8 +42,7 @@ struct RelayOptions {
   std::string site = "or";  ///< the site's subject token (TierPublisher's)
   /// The published tier taken from NATS (quality 0: the codec default). Viewers asking for it get
   /// the publisher's bytes; other tiers are encoded here from the decoded frames.
-  std::string depth_codec = "volcast", color_codec = "jpeg";
-  int color_quality = 0;
+  Tier tier{"volcast", "jpeg"};
   int welcome_timeout_ms = 10000;  ///< give up unless the site's Welcome arrives this soon
   /// The virtual OR's session: viewers' session messages go to the site's hub and back
   /// (session_link.hpp), so they join the site's sessions through this relay. Off: they are

@@ -25,6 +25,7 @@
 #include "volcast/cluster/chunks.hpp"
 #include "volcast/cluster/nats.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/net/protocol/frame_set.hpp"
 #include "volcast/net/protocol/protocol.hpp"
 
@@ -33,8 +34,7 @@ namespace volcast::cluster {
 struct RemoteSiteOptions {
   std::string site;  ///< the capture node's site token (its serve --nats-site)
   /// The node's published tier (its --nats-tier): lossless depth keeps the node's depth exact.
-  std::string depth_codec = "volcast", color_codec = "jpeg";
-  int color_quality = 0;
+  Tier tier{"volcast", "jpeg"};
   double fps = 30;                 ///< the site's frame-set rate: the node cameras' fps()
   int welcome_timeout_ms = 10000;  ///< give up unless the node's Welcome arrives this soon
   int max_wait_ms = 10;            ///< longest a tick waits for a node's newer frame set

@@ -47,16 +47,14 @@ class TierPublisher {
   /// frame set on; a want with bit 0 set asks the tier for a key frame set. A failed publish is
   /// counted (stats().errors), never thrown into the server. Throws Error for codec names that
   /// are no subject tokens, or if the want subscription is refused.
-  void publish_tier(Server& server, const std::string& depth_codec, const std::string& color_codec,
-                    int color_quality);
+  void publish_tier(Server& server, const Tier& tier);
 
   PublisherStats stats() const;
 
  private:
   struct Offered {
     Server* server = nullptr;
-    std::string depth, color;
-    int quality = 0;
+    Tier tier;
     std::string subject;
     uint64_t tap = 0;  // the server's tap while wanted, else 0
     std::chrono::steady_clock::time_point wanted;
@@ -84,8 +82,8 @@ class TierPublisher {
 class TierInterest {
  public:
   /// Throws Error for names that are no subject tokens.
-  TierInterest(NatsConnection& nats, const std::string& site, const std::string& depth_codec,
-               const std::string& color_codec, int color_quality, int interval_ms = 1000);
+  TierInterest(NatsConnection& nats, const std::string& site, const Tier& tier,
+               int interval_ms = 1000);
   ~TierInterest();
   TierInterest(const TierInterest&) = delete;
   TierInterest& operator=(const TierInterest&) = delete;

@@ -52,7 +52,7 @@ struct TierEvent {
   std::string reason;
 };
 
-/// "volcast/jpeg/70", "h264/h264/50@2": a TierState as people read it.
+/// "volcast/jpeg/70", "h264/h264/50@2": a TierState as people read it (to_string of its Tier).
 std::string tier_label(const TierState& t);
 
 /// Figures while the session runs, for a viewer's panel: refreshed about twice a second by the

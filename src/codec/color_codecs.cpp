@@ -6,11 +6,7 @@
 #include "volcast/core/jpeg.hpp"
 
 namespace volcast {
-namespace {
-
-constexpr size_t kHeader = 12;
-
-}  // namespace
+namespace {}  // namespace
 
 void ColorEncoder::set_quality(int quality) {
   if (quality < 1 || quality > 100)
@@ -43,22 +39,10 @@ class JpegDecoder final : public ColorDecoder {
 class RawEncoder final : public ColorEncoder {
  public:
   bool encode(const ColorImage& image, bool, std::vector<uint8_t>& out) override {
-    out.resize(kHeader + image.bgra.size());
-    const uint8_t header[kHeader] = {'V',
-                                     'C',
-                                     1,
-                                     0,
-                                     0,
-                                     0,
-                                     0,
-                                     0,
-                                     uint8_t(image.width),
-                                     uint8_t(image.width >> 8),
-                                     uint8_t(image.height),
-                                     uint8_t(image.height >> 8)};
-    std::memcpy(out.data(), header, kHeader);
+    out.resize(kColorHeaderBytes + image.bgra.size());
+    write_color_header({kColorCodecRaw, false, image.width, image.height}, out);
     if (!image.bgra.empty())
-      std::memcpy(out.data() + kHeader, image.bgra.data(), image.bgra.size());
+      std::memcpy(out.data() + kColorHeaderBytes, image.bgra.data(), image.bgra.size());
     return true;
   }
   std::string_view name() const override { return "raw"; }
@@ -67,13 +51,14 @@ class RawEncoder final : public ColorEncoder {
 class RawDecoder final : public ColorDecoder {
  public:
   void decode(std::span<const uint8_t> d, ColorImage& out) override {
-    if (d.size() < kHeader || d[0] != 'V' || d[1] != 'C' || d[2] != 1)
-      throw Error("raw color: not a Volcast raw color frame");
-    const int w = d[8] | d[9] << 8, h = d[10] | d[11] << 8;
-    if (d.size() != kHeader + static_cast<size_t>(w) * h * 4)
+    const std::optional<ColorHeader> header = read_color_header(d);
+    if (!header) throw Error("raw color: not a Volcast raw color frame");
+    const int w = header->width, h = header->height;
+    if (d.size() != kColorHeaderBytes + static_cast<size_t>(w) * h * 4)
       throw Error("raw color: body size does not match the header");
     if (out.width != w || out.height != h) out = ColorImage(w, h);
-    if (!out.bgra.empty()) std::memcpy(out.bgra.data(), d.data() + kHeader, out.bgra.size());
+    if (!out.bgra.empty())
+      std::memcpy(out.bgra.data(), d.data() + kColorHeaderBytes, out.bgra.size());
   }
 };
 
@@ -92,6 +77,29 @@ class NoneDecoder final : public ColorDecoder {
 };
 
 }  // namespace
+
+void write_color_header(const ColorHeader& header, std::span<uint8_t> out) {
+  if (out.size() < kColorHeaderBytes) throw Error("color header: fewer than 12 bytes to write to");
+  const auto w = static_cast<uint16_t>(header.width), h = static_cast<uint16_t>(header.height);
+  const uint8_t bytes[kColorHeaderBytes] = {'V',
+                                            'C',
+                                            1,
+                                            header.codec_id,
+                                            uint8_t(header.key ? 1 : 0),
+                                            0,
+                                            0,
+                                            0,
+                                            uint8_t(w),
+                                            uint8_t(w >> 8),
+                                            uint8_t(h),
+                                            uint8_t(h >> 8)};
+  std::memcpy(out.data(), bytes, kColorHeaderBytes);
+}
+
+std::optional<ColorHeader> read_color_header(std::span<const uint8_t> f) {
+  if (f.size() < kColorHeaderBytes || f[0] != 'V' || f[1] != 'C' || f[2] != 1) return std::nullopt;
+  return ColorHeader{f[3], (f[4] & 1) != 0, f[8] | f[9] << 8, f[10] | f[11] << 8};
+}
 
 namespace detail {
 std::unique_ptr<ColorEncoder> make_jpeg_color_encoder() {

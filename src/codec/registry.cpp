@@ -206,8 +206,8 @@ std::optional<DeclaredSize> declared_depth_size(std::span<const uint8_t> f) {
 }
 
 std::optional<DeclaredSize> declared_color_size(std::span<const uint8_t> f) {
-  if (f.size() >= 12 && f[0] == 'V' && f[1] == 'C')
-    return DeclaredSize{f[8] | f[9] << 8, f[10] | f[11] << 8};
+  if (const std::optional<ColorHeader> h = read_color_header(f))
+    return DeclaredSize{h->width, h->height};
   if (f.size() >= 2 && f[0] == 0xff && f[1] == 0xd8) {
     DeclaredSize size;
     try {

@@ -211,13 +211,10 @@ class VideoDepthDecoder final : public DepthDecoder {
   std::vector<uint8_t> runs_;
 };
 
-constexpr size_t kColorHeader = 12;
-
 // A BGRA row stride with room for swscale's vector loads and stores past the row's end.
 int padded_stride(int width) {
   return (width * 4 + 64 + 63) & ~63;
 }
-constexpr uint8_t kColorH264 = 2;
 
 class H264ColorEncoder final : public ColorEncoder {
  public:
@@ -246,21 +243,9 @@ class H264ColorEncoder final : public ColorEncoder {
                   scratch_.data() + static_cast<size_t>(y) * stride);
     const uint8_t* src[1] = {scratch_.data()};
     sws_scale(sws_, src, &stride, 0, image.height, f->data, f->linesize);
-    out.resize(kColorHeader);
+    out.resize(kColorHeaderBytes);
     const bool key = video_.encode(key_frame, out);
-    const uint8_t header[kColorHeader] = {'V',
-                                          'C',
-                                          1,
-                                          kColorH264,
-                                          uint8_t(key ? 1 : 0),
-                                          0,
-                                          0,
-                                          0,
-                                          uint8_t(image.width),
-                                          uint8_t(image.width >> 8),
-                                          uint8_t(image.height),
-                                          uint8_t(image.height >> 8)};
-    std::copy(header, header + kColorHeader, out.begin());
+    write_color_header({kColorCodecH264, key, image.width, image.height}, out);
     return key;
   }
   std::string_view name() const override { return "h264"; }
@@ -280,10 +265,11 @@ class H264ColorDecoder final : public ColorDecoder {
       out = ColorImage();
       return;
     }
-    if (d.size() < kColorHeader || d[0] != 'V' || d[1] != 'C' || d[2] != 1 || d[3] != kColorH264)
+    const std::optional<ColorHeader> header = read_color_header(d);
+    if (!header || header->codec_id != kColorCodecH264)
       throw Error("h264 color: not a Volcast H.264 color frame");
-    const int w = d[8] | d[9] << 8, h = d[10] | d[11] << 8;
-    const AVFrame* f = video_.decode(d.subspan(kColorHeader), d[4] & 1);
+    const int w = header->width, h = header->height;
+    const AVFrame* f = video_.decode(d.subspan(kColorHeaderBytes), header->key);
     if (f->format != AV_PIX_FMT_YUV420P || f->width != w || f->height != h)
       throw Error("h264 color: the video does not match the header");
     if (out.width != w || out.height != h) out = ColorImage(w, h);

@@ -10,6 +10,7 @@
 #include "support/test_data.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
+#include "volcast/codec/registry.hpp"
 #include "volcast/codec_video/video_codecs.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/jpeg.hpp"
@@ -384,6 +385,28 @@ TEST(ColorCodecs, RawIsExactAndChecksItsSize) {
   EXPECT_EQ(out, image);
   bytes.pop_back();
   EXPECT_THROW(make_color_decoder("raw")->decode(bytes, out), Error);
+  // The 12-byte header as color_codec.hpp writes it down, byte for byte.
+  const std::vector<uint8_t> head(bytes.begin(), bytes.begin() + kColorHeaderBytes);
+  EXPECT_EQ(head, (std::vector<uint8_t>{'V', 'C', 1, 0, 0, 0, 0, 0, 5, 0, 3, 0}));
+}
+
+TEST(ColorCodecs, TheColorHeaderHasOneWriterAndOneReader) {
+  std::vector<uint8_t> bytes(kColorHeaderBytes);
+  write_color_header({kColorCodecH264, true, 1280, 720}, bytes);
+  EXPECT_EQ(bytes, (std::vector<uint8_t>{'V', 'C', 1, 2, 1, 0, 0, 0, 0x00, 0x05, 0xd0, 0x02}));
+  const auto h = read_color_header(bytes);
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->codec_id, kColorCodecH264);
+  EXPECT_TRUE(h->key);
+  EXPECT_EQ(h->width, 1280);
+  EXPECT_EQ(h->height, 720);
+  EXPECT_EQ(declared_color_size(bytes)->width, 1280);
+  bytes[2] = 2;  // another version: not ours to read
+  EXPECT_FALSE(read_color_header(bytes));
+  bytes[2] = 1;
+  EXPECT_FALSE(read_color_header(std::span(bytes).first(11)));
+  std::vector<uint8_t> short_out(11);
+  EXPECT_THROW(write_color_header({}, short_out), Error);
 }
 
 }  // namespace

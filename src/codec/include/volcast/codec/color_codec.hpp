@@ -14,6 +14,7 @@
 // Color codec ids in byte 3 of the 'V' 'C' header: 0 raw, 2 h264 (1 is unused).
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -42,6 +43,21 @@ class ColorDecoder {
   /// Decodes into `out` (resized, reused). Throws Error on corrupt or truncated data.
   virtual void decode(std::span<const uint8_t> data, ColorImage& out) = 0;
 };
+
+/// The 12-byte header of Volcast's own color frames (raw, h264), above: its one writer and reader.
+inline constexpr size_t kColorHeaderBytes = 12;
+inline constexpr uint8_t kColorCodecRaw = 0;   ///< byte 3
+inline constexpr uint8_t kColorCodecH264 = 2;  ///< byte 3
+struct ColorHeader {
+  uint8_t codec_id = kColorCodecRaw;
+  bool key = true;  ///< byte 4 bit 0 (h264; raw frames write 0 there and are all key frames)
+  int width = 0, height = 0;  ///< pixels, 0..65535
+};
+/// Writes `header` to out[0..11]; `out` must hold at least kColorHeaderBytes bytes.
+void write_color_header(const ColorHeader& header, std::span<uint8_t> out);
+/// The header at the start of `frame` if it has 12 bytes starting 'V' 'C' 1 (version), else
+/// nullopt; the caller checks the codec id and the body.
+std::optional<ColorHeader> read_color_header(std::span<const uint8_t> frame);
 
 /// Names of the registered color codecs (registry.hpp), in registration order: jpeg, raw, none,
 /// then h264 once volcast_codec_video's register_video_codecs() has run.

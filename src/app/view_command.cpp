@@ -147,25 +147,18 @@ std::unique_ptr<SessionClient> join_session(const ViewArgs& a, ViewerOptions& op
         "microphone sends nothing");
   // Made once connected, before the presenter starts; destroyed once it has returned.
   auto voice = std::make_shared<std::unique_ptr<voice::VoiceLink>>();
-  opt.on_connected = [client, voice, voice_config](Client& c) {
-    client->start(c);
-    if (voice_config && client->participant())
-      *voice = std::make_unique<voice::VoiceLink>(*client->participant(), *voice_config);
+  ParticipantLife life;
+  life.session_name = session_name;
+  life.joined = [voice, voice_config](SessionClient& c) {
+    if (voice_config) *voice = std::make_unique<voice::VoiceLink>(*c.participant(), *voice_config);
   };
-  opt.on_reconnected = [client](Client& c) { client->reattach(c); };
-  const std::string voice_json = a.voice_json;
-  opt.on_finished = [client, session_name, voice, voice_json](ViewerResult& r) {
-    if (*voice) {
-      (*voice)->stop();
-      report_voice((*voice)->stats(), voice_json);
-      voice->reset();
-    }
-    client->stop();
-    if (Participant* p = client->participant()) {
-      r.session = p->stats();
-      r.session_name = session_name;
-    }
+  life.leaving = [voice, voice_json = a.voice_json](SessionClient&, ViewerResult&) {
+    if (!*voice) return;
+    (*voice)->stop();
+    report_voice((*voice)->stats(), voice_json);
+    voice->reset();
   };
+  live_in_viewer(*client, opt, std::move(life));
   SessionSceneOptions scene;
   scene.pass = opt.pass;
   scene.keep_radius_m = a.avatar_radius;

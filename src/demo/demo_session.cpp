@@ -290,23 +290,19 @@ std::vector<std::unique_ptr<Person>> demo_participants(const DemoArgs& a, const 
     Person* raw = p.get();
     std::optional<voice::VoiceConfig> talking;
     if (talk) talking = demo::participant_voice(*talk, p->file);
-    v.on_connected = [raw, talking](Client& c) {
-      raw->session->start(c);
-      if (talking && raw->session->participant())
-        raw->voice = std::make_unique<voice::VoiceLink>(*raw->session->participant(), *talking);
+    v.reconnect = true;  // after a cut it rejoins as itself (live_in_viewer)
+    ParticipantLife life;
+    life.session_name = "OR";
+    life.joined = [raw, talking](SessionClient& c) {
+      if (talking) raw->voice = std::make_unique<voice::VoiceLink>(*c.participant(), *talking);
     };
-    v.on_finished = [raw](ViewerResult& r) {
-      if (raw->voice) {
-        raw->voice->stop();
-        raw->heard = raw->voice->stats();
-        raw->voice.reset();
-      }
-      raw->session->stop();
-      if (Participant* part = raw->session->participant()) {
-        r.session = part->stats();
-        r.session_name = "OR";
-      }
+    life.leaving = [raw](SessionClient&, ViewerResult&) {
+      if (!raw->voice) return;
+      raw->voice->stop();
+      raw->heard = raw->voice->stats();
+      raw->voice.reset();
     };
+    live_in_viewer(*client, v, std::move(life));
     v.presenter = session_presenter(
         v, [client] { return client->participant(); }, {}, 2, surfaces);
     people.push_back(std::move(p));
@@ -333,9 +329,8 @@ std::unique_ptr<Person> demo_or_display(const DemoArgs& a, const fs::path& out,
   v.screenshot = out / "or_display.png";
   v.stats_json = out / "or_display.json";
   v.stop = a.stop;
-  Person* raw = p.get();
-  v.on_connected = [raw](Client& c) { raw->session->start(c); };
-  v.on_finished = [raw](ViewerResult&) { raw->session->stop(); };
+  v.reconnect = true;
+  live_in_viewer(*client, v, {"OR", {}, {}});
   v.presenter = or_display_presenter(
       v, 0, [client] { return client->participant(); }, 2);
   return p;

@@ -184,6 +184,24 @@ void SessionClient::stop() {
   if (participant_) participant_->detach();
 }
 
+void live_in_viewer(SessionClient& client, ViewerOptions& viewer, ParticipantLife life) {
+  auto shared = std::make_shared<ParticipantLife>(std::move(life));
+  SessionClient* c = &client;
+  viewer.on_connected = [c, shared](Client& connection) {
+    c->start(connection);
+    if (shared->joined && c->participant()) shared->joined(*c);
+  };
+  viewer.on_reconnected = [c](Client& connection) { c->reattach(connection); };
+  viewer.on_finished = [c, shared](ViewerResult& result) {
+    if (shared->leaving) shared->leaving(*c, result);
+    c->stop();
+    if (Participant* p = c->participant()) {
+      result.session = p->stats();
+      result.session_name = shared->session_name;
+    }
+  };
+}
+
 void SessionClient::run_poses() {
   using clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<clock::duration>(

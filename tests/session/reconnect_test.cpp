@@ -67,9 +67,10 @@ TEST(Reconnect, AViewerWhosePathStallsShowsReconnectingThenRejoinsAsItselfAndGoe
   opt.stale_ms = 1000;
   opt.presenter = watch.presenter();
   opt.stop = &stop;
-  opt.on_connected = [&](Client& c) { a.start(c); };
-  opt.on_reconnected = [&](Client& c) { a.reattach(c); };
-  opt.on_finished = [&](ViewerResult&) { a.stop(); };
+  int joined = 0, left = 0;  // the one participant lifecycle (the window's, the demo's)
+  live_in_viewer(
+      a, opt,
+      {"OR", [&](SessionClient&) { ++joined; }, [&](SessionClient&, ViewerResult&) { ++left; }});
   ViewerResult result;
   std::string error;
   std::thread viewer([&] {
@@ -103,6 +104,9 @@ TEST(Reconnect, AViewerWhosePathStallsShowsReconnectingThenRejoinsAsItselfAndGoe
 
   stop = true;
   viewer.join();
+  EXPECT_EQ(joined, 1) << "joined once: the cut is a rejoin, not a second join";
+  EXPECT_EQ(left, 1);
+  EXPECT_EQ(result.session_name, "OR");
   EXPECT_EQ(result.ended, ViewerEnd::kInterrupted) << result.error;
   ASSERT_EQ(result.outages.size(), 1u);
   EXPECT_GT(result.outages[0].back_us, result.outages[0].lost_us);

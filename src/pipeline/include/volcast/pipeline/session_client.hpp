@@ -5,6 +5,7 @@
 // camera's rate and uploads each frame as its avatar stream (session/participant.hpp).
 #include <atomic>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <thread>
@@ -13,6 +14,7 @@
 #include "volcast/capture/source.hpp"
 #include "volcast/net/stream/client.hpp"
 #include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/pipeline/receiver.hpp"
 #include "volcast/session/participant.hpp"
 #include "volcast/session/pose_script.hpp"
 
@@ -167,5 +169,23 @@ class SessionClient {
   std::atomic<bool> stopping_{false}, script_done_{false};
   std::thread poses_, frames_;
 };
+
+/// What a participant does around its life in a viewer (live_in_viewer), beyond joining, rejoining
+/// and leaving.
+struct ParticipantLife {
+  std::string session_name;  ///< written to ViewerResult::session_name when it leaves
+  /// Once joined on the first connection (not again after a cut): e.g. its voice starts.
+  std::function<void(SessionClient&)> joined;
+  /// Once receiving has ended, before it stops: e.g. its voice stops and reports.
+  std::function<void(SessionClient&, ViewerResult&)> leaving;
+};
+
+/// The one lifecycle of a participant that watches the stream through run_viewer (the window, the
+/// headset, the demo's participants, the benchmarks' and tests' viewers): sets `viewer`'s
+/// on_connected (SessionClient::start, then life.joined), on_reconnected (reattach: after a cut it
+/// rejoins as itself on the new connection, when viewer.reconnect is on) and on_finished
+/// (life.leaving, stop, and the participant's session figures into the result). `client` must
+/// outlive run_viewer; `viewer`'s other fields are left as they are.
+void live_in_viewer(SessionClient& client, ViewerOptions& viewer, ParticipantLife life = {});
 
 }  // namespace volcast

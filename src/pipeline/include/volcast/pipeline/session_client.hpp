@@ -181,7 +181,7 @@ struct ParticipantLife {
 };
 
 /// The one lifecycle of a participant that watches the stream through run_viewer (the window, the
-/// headset, the demo's participants, the benchmarks' and tests' viewers): sets `viewer`'s
+/// headset, the OR display, the demo's participants and OR display): sets `viewer`'s
 /// on_connected (SessionClient::start, then life.joined), on_reconnected (reattach: after a cut it
 /// rejoins as itself on the new connection, when viewer.reconnect is on) and on_finished
 /// (life.leaving, stop, and the participant's session figures into the result). `client` must

@@ -2,6 +2,7 @@
 // (pure), site config poses, the desktop window under Xvfb against a real stream (its voice keys
 // reaching another participant), and OpenXR's stereo path (headless) and missing runtime.
 #include <gtest/gtest.h>
+#include <unistd.h>
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
 
@@ -646,9 +647,14 @@ TEST(DesktopViewer, PushToTalkWithVAndMuteWithMReachTheOthers) {
 
 TEST(Xr, AMissingRuntimeIsReportedCleanly) {
   const test::ScopedEnv runtime("XR_RUNTIME_JSON", "/nonexistent/openxr_runtime.json");
+  // The loader was quieted before main() (xr_common.cpp), so asking for a runtime never changes
+  // the environment: setenv there raced another thread's getenv (a JPEG encode) and crashed it.
+  ASSERT_NE(std::getenv("XR_LOADER_DEBUG"), nullptr);
+  char** const environment = environ;
   std::string why;
   bool available = true;
   EXPECT_NO_THROW(available = xr_available(&why));
+  EXPECT_EQ(environ, environment);
   EXPECT_FALSE(available);
   EXPECT_NE(why.find("no runtime available (XR_ERROR_"), std::string::npos) << why;
   EXPECT_EQ(why.find('\n'), std::string::npos) << why;  // one line

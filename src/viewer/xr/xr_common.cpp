@@ -29,10 +29,16 @@ XrResult xr_check(XrResult result, const char* call) {
   return result;
 }
 
+// The loader logs its failures to stderr (several lines for a missing runtime); we report the
+// result in one line instead. It reads XR_LOADER_DEBUG at its first call. Set here, while the
+// program's static objects are made and before main() starts a thread: setenv may move the
+// environment while another thread's getenv reads it (libturbojpeg calls getenv on every encode
+// and decode; a headset's first frame crashed a server's encoder thread that way).
+[[maybe_unused]] const bool kQuietLoader = [] {
+  return setenv("XR_LOADER_DEBUG", "none", 0) == 0;
+}();
+
 XrResult create_gl_instance(XrInstance* instance) {
-  // The loader logs its failures to stderr (several lines for a missing runtime); we report the
-  // result in one line instead. It reads XR_LOADER_DEBUG once, at its first call.
-  setenv("XR_LOADER_DEBUG", "none", 0);
   uint32_t count = 0;
   XrResult r = xrEnumerateInstanceExtensionProperties(nullptr, 0, &count, nullptr);
   if (XR_FAILED(r)) return r;

@@ -407,8 +407,11 @@ void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> 
     case Type::kAvatarCamera: {
       session::AvatarCamera cam = session::parse_avatar_camera(payload);
       if (!in_session("avatar camera")) return;
-      if (m->camera) throw Error("avatar camera announced twice");
+      // Once per connection: a participant that rejoined after a cut (take_over) announces its
+      // camera again on its new one, and the others take it as new (it may have changed).
+      if (m->camera && m->camera_viewer == viewer) throw Error("avatar camera announced twice");
       m->camera = std::move(cam);
+      m->camera_viewer = viewer;
       m->info.has_camera = true;
       m->camera_message = share(session::forward(Type::kAvatarCameraFrom, m->info.id, payload));
       for (const auto& [pid, other] : m->session->members)

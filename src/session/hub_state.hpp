@@ -61,6 +61,7 @@ struct SessionHub::Member {
   Clock::time_point last_seen = Clock::now();
   bool dropping = false;  // its last message was malformed: it leaves as kDropped
   std::optional<session::AvatarCamera> camera;
+  uint64_t camera_viewer = 0;            // the connection that announced `camera`: once each
   Shared camera_message, last_pose;      // forwarded forms, for participants who join later
   Shared voice_state;                    // forwarded VoiceState, for participants who join later
   uint32_t malformed_voice = 0;          // voice packets refused (voice_messages.hpp)

@@ -9,6 +9,7 @@
 #include <set>
 #include <thread>
 
+#include "support/hub_outlet.hpp"
 #include "support/session_site.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/net/stream/client.hpp"
@@ -354,6 +355,53 @@ TEST(Session, AReconnectingParticipantGetsItsOwnPlaceBackAndTheOthersSeeNobodyLe
   stop = true;
   second->close();
   receiving.join();
+}
+
+// A camera avatar is announced once per connection: a second announcement on one connection drops
+// its sender (its frames would no longer match what the others decode), while a participant that
+// rejoined after a cut announces it again on its new connection, and the others take the new one.
+// On a hub without a server.
+TEST(Session, AnAvatarCameraIsAnnouncedOncePerConnectionAndAgainAfterARejoin) {
+  SessionHub hub;
+  test::Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  const auto send = [&](uint64_t viewer, session::Type type, const std::vector<uint8_t>& p) {
+    hub.on_message(viewer, static_cast<uint8_t>(type), p);
+  };
+  session::Join a;
+  a.session = "OR";
+  a.name = "Dr. A";
+  a.has_camera = true;
+  a.rejoin_key = {7, 8};
+  send(10, session::Type::kJoin, session::serialize(a));
+  test::join(hub, 11, "OR", "Dr. B");
+  session::AvatarCamera cam;
+  cam.calibration.depth = Intrinsics{640, 360, 460, 460, 320, 180};
+  cam.depth_codec = "volcast";
+  cam.color_codec = "jpeg";
+  send(10, session::Type::kAvatarCamera, session::serialize(cam));
+  ASSERT_EQ(out.of(11, session::Type::kAvatarCameraFrom).size(), 1u);
+
+  send(20, session::Type::kJoin, session::serialize(a));  // its path was cut: a new connection
+  ASSERT_EQ(hub.stats().rejoins, 1u);
+  cam.calibration.depth = Intrinsics{320, 180, 230, 230, 160, 90};  // and its camera changed
+  send(20, session::Type::kAvatarCamera, session::serialize(cam));
+  const auto announced = out.of(11, session::Type::kAvatarCameraFrom);
+  ASSERT_EQ(announced.size(), 2u);
+  EXPECT_EQ(session::parse_avatar_camera(session::split_forwarded(announced[1]).second)
+                .calibration.depth.width,
+            320);
+  EXPECT_EQ(hub.stats().dropped, 0u);
+  EXPECT_EQ(hub.members("OR").size(), 3u);  // the OR site, A and B
+
+  // Twice on one connection: refused, and the server ends that connection (on_message throws).
+  EXPECT_NE(test::error_of([&] {
+              send(20, session::Type::kAvatarCamera, session::serialize(cam));
+            }).find("avatar camera announced twice"),
+            std::string::npos);
+  EXPECT_EQ(hub.stats().dropped, 1u);
+  EXPECT_EQ(out.of(11, session::Type::kAvatarCameraFrom).size(), 2u);
 }
 
 // Eight participants (the idle script at 60 Hz) see all seven others; one is killed (its

@@ -45,8 +45,9 @@
 //   0x07 AvatarCamera   the participant's RGB-D camera: calibration (calibration_wire.hpp;
 //                       its pose is playarea_from_camera) | depth codec string | color codec
 //                       string. The depth codec must be lossless and not temporal (a receiver
-//                       joining later decodes any frame), the color codec not temporal. Sent once,
-//                       before frames.
+//                       joining later decodes any frame), the color codec not temporal. Sent once
+//                       per connection, before frames (a second one drops the sender); a member
+//                       taken over by a rejoin sends it again on its new connection.
 //   0x08 AvatarFrame    sequence u64 | capture time i64 | depth bytes | color bytes (each a codec
 //                       stream of the announced codecs, the announced size). Coalesced like poses.
 //   0x09 Heartbeat      empty: presence while nothing else is sent.

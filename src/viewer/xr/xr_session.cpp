@@ -1,5 +1,5 @@
-// The OpenXR presenter: instance, session bound to a hidden GLFW window's GLX context, stereo
-// swapchains with an FBO each, and the frame loop.
+// The OpenXR presenter: the frame loop over the rig (xr_rig.hpp: the instance, the session bound
+// to a hidden GLFW window's GLX context, stereo swapchains with an FBO each).
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -21,276 +21,16 @@
 #include "volcast/voice/voice_controls.hpp"
 #include "xr_common.hpp"
 #include "xr_controllers.hpp"
-
-// Platform headers last: Xlib's macros (None, Success, Status, ...) would break Eigen above.
-#include <X11/Xlib.h>
-#include <epoxy/gl.h>
-#include <epoxy/glx.h>
-#define GLFW_INCLUDE_NONE
-#include <GLFW/glfw3.h>
-#define GLFW_EXPOSE_NATIVE_X11
-#define GLFW_EXPOSE_NATIVE_GLX
-#include <GLFW/glfw3native.h>  // glfwGetX11Display, glfwGetGLXContext, glfwGetGLXWindow
-#define XR_USE_PLATFORM_XLIB
-#define XR_USE_GRAPHICS_API_OPENGL
-#include <openxr/openxr_platform.h>
+#include "xr_rig.hpp"
 
 namespace volcast {
 namespace {
 
-// glfwInit() .. glfwTerminate() and a hidden window whose OpenGL 4.5 core context (GLX) is
-// current on this thread: the context the session renders with.
-struct HiddenContext {
-  GLFWwindow* window = nullptr;
-  HiddenContext() {
-    if (!glfwInit()) throw Error("OpenXR needs an X display for its OpenGL context (GLX)");
-    glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
-    glfwWindowHint(GLFW_CONTEXT_CREATION_API, GLFW_NATIVE_CONTEXT_API);
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
-    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 5);
-    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-    window = glfwCreateWindow(64, 64, "volcast (OpenXR)", nullptr, nullptr);
-    if (!window) {
-      glfwTerminate();
-      throw Error("OpenXR: cannot make an OpenGL 4.5 core context (GLX) for the session");
-    }
-    glfwMakeContextCurrent(window);
-    glfwSwapInterval(0);  // the runtime paces frames (xrWaitFrame)
-  }
-  ~HiddenContext() {
-    glfwDestroyWindow(window);
-    glfwTerminate();
-  }
-  HiddenContext(const HiddenContext&) = delete;
-  HiddenContext& operator=(const HiddenContext&) = delete;
-};
-
-// An OpenXR handle destroyed with its function.
-template <typename Handle, XrResult (*destroy)(Handle)>
-struct XrHandle {
-  Handle handle = XR_NULL_HANDLE;
-  XrHandle() = default;
-  ~XrHandle() {
-    if (handle != XR_NULL_HANDLE) destroy(handle);
-  }
-  XrHandle(const XrHandle&) = delete;
-  XrHandle& operator=(const XrHandle&) = delete;
-};
-using Instance = XrHandle<XrInstance, xrDestroyInstance>;
-using Session = XrHandle<XrSession, xrDestroySession>;
-using Space = XrHandle<XrSpace, xrDestroySpace>;
-using Swapchain = XrHandle<XrSwapchain, xrDestroySwapchain>;
-
-// The runtime lost the instance or the session (XR_ERROR_INSTANCE_LOST, XR_ERROR_SESSION_LOST, with
-// or without a loss pending event before): the viewer's session ends as closed, not on an error.
-struct Lost {};
-
-// xr_check for the calls of a running session: throws Lost for a lost instance or session.
-XrResult xr_check_live(XrResult result, const char* call) {
-  if (result == XR_ERROR_INSTANCE_LOST || result == XR_ERROR_SESSION_LOST) throw Lost{};
-  return xr_check(result, call);
-}
-
-// One eye: its swapchain, the swapchain's images, and an FBO with a depth renderbuffer that each
-// acquired image is attached to.
-struct Eye {
-  Swapchain swapchain;
-  std::vector<XrSwapchainImageOpenGLKHR> images;
-  int width = 0, height = 0;
-  GLuint framebuffer = 0, depth = 0;
-  ~Eye() {
-    glDeleteFramebuffers(1, &framebuffer);
-    glDeleteRenderbuffers(1, &depth);
-  }
-};
-
-XrGraphicsBindingOpenGLXlibKHR glx_binding(GLFWwindow* window) {
-  auto binding =
-      xr_struct<XrGraphicsBindingOpenGLXlibKHR>(XR_TYPE_GRAPHICS_BINDING_OPENGL_XLIB_KHR);
-  binding.xDisplay = glfwGetX11Display();
-  binding.glxContext = glfwGetGLXContext(window);
-  binding.glxDrawable = glfwGetGLXWindow(window);
-  int id = 0;
-  glXQueryContext(binding.xDisplay, binding.glxContext, GLX_FBCONFIG_ID, &id);
-  const int attributes[] = {GLX_FBCONFIG_ID, id, None};
-  int count = 0;
-  GLXFBConfig* configs =
-      glXChooseFBConfig(binding.xDisplay, DefaultScreen(binding.xDisplay), attributes, &count);
-  if (configs && count > 0) {
-    binding.glxFBConfig = configs[0];
-    if (XVisualInfo* visual = glXGetVisualFromFBConfig(binding.xDisplay, configs[0])) {
-      binding.visualid = static_cast<uint32_t>(visual->visualid);
-      XFree(visual);
-    }
-  }
-  if (configs) XFree(configs);
-  return binding;
-}
-
-// GL_SRGB8_ALPHA8 where offered (our colors are sRGB-encoded already and GL_FRAMEBUFFER_SRGB stays
-// off, so they are stored as they are and shown right), else GL_RGBA8, else the runtime's first.
-int64_t pick_format(XrSession session) {
-  uint32_t count = 0;
-  xr_check(xrEnumerateSwapchainFormats(session, 0, &count, nullptr), "xrEnumerateSwapchainFormats");
-  std::vector<int64_t> formats(count);
-  xr_check(xrEnumerateSwapchainFormats(session, count, &count, formats.data()),
-           "xrEnumerateSwapchainFormats");
-  for (const int64_t wanted : {int64_t{GL_SRGB8_ALPHA8}, int64_t{GL_RGBA8}})
-    if (std::find(formats.begin(), formats.end(), wanted) != formats.end()) return wanted;
-  if (formats.empty()) throw Error("OpenXR: the runtime offers no swapchain format");
-  return formats.front();
-}
-
-XrReferenceSpaceType pick_space(XrSession session) {
-  uint32_t count = 0;
-  xr_check(xrEnumerateReferenceSpaces(session, 0, &count, nullptr), "xrEnumerateReferenceSpaces");
-  std::vector<XrReferenceSpaceType> spaces(count);
-  xr_check(xrEnumerateReferenceSpaces(session, count, &count, spaces.data()),
-           "xrEnumerateReferenceSpaces");
-  return std::find(spaces.begin(), spaces.end(), XR_REFERENCE_SPACE_TYPE_STAGE) != spaces.end()
-             ? XR_REFERENCE_SPACE_TYPE_STAGE
-             : XR_REFERENCE_SPACE_TYPE_LOCAL;
-}
-
-void make_eye(XrSession session, const XrViewConfigurationView& config, int64_t format, Eye& eye) {
-  eye.width = static_cast<int>(config.recommendedImageRectWidth);
-  eye.height = static_cast<int>(config.recommendedImageRectHeight);
-  auto info = xr_struct<XrSwapchainCreateInfo>(XR_TYPE_SWAPCHAIN_CREATE_INFO);
-  info.usageFlags = XR_SWAPCHAIN_USAGE_COLOR_ATTACHMENT_BIT | XR_SWAPCHAIN_USAGE_SAMPLED_BIT;
-  info.format = format;
-  info.sampleCount = 1;
-  info.width = config.recommendedImageRectWidth;
-  info.height = config.recommendedImageRectHeight;
-  info.faceCount = info.arraySize = info.mipCount = 1;
-  xr_check(xrCreateSwapchain(session, &info, &eye.swapchain.handle), "xrCreateSwapchain");
-  uint32_t count = 0;
-  xr_check(xrEnumerateSwapchainImages(eye.swapchain.handle, 0, &count, nullptr),
-           "xrEnumerateSwapchainImages");
-  eye.images.assign(count,
-                    xr_struct<XrSwapchainImageOpenGLKHR>(XR_TYPE_SWAPCHAIN_IMAGE_OPENGL_KHR));
-  xr_check(
-      xrEnumerateSwapchainImages(eye.swapchain.handle, count, &count,
-                                 reinterpret_cast<XrSwapchainImageBaseHeader*>(eye.images.data())),
-      "xrEnumerateSwapchainImages");
-  glCreateRenderbuffers(1, &eye.depth);
-  glNamedRenderbufferStorage(eye.depth, GL_DEPTH_COMPONENT24, eye.width, eye.height);
-  glCreateFramebuffers(1, &eye.framebuffer);
-  glNamedFramebufferRenderbuffer(eye.framebuffer, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, eye.depth);
-}
-
-// Draws `view` into the eye's next swapchain image.
-void draw_eye(Eye& eye, const std::function<void(const RenderTarget&)>& draw) {
-  uint32_t index = 0;
-  xr_check_live(xrAcquireSwapchainImage(eye.swapchain.handle, nullptr, &index),
-                "xrAcquireSwapchainImage");
-  auto wait = xr_struct<XrSwapchainImageWaitInfo>(XR_TYPE_SWAPCHAIN_IMAGE_WAIT_INFO);
-  wait.timeout = XR_INFINITE_DURATION;
-  xr_check_live(xrWaitSwapchainImage(eye.swapchain.handle, &wait), "xrWaitSwapchainImage");
-  glNamedFramebufferTexture(eye.framebuffer, GL_COLOR_ATTACHMENT0, eye.images[index].image, 0);
-  draw(RenderTarget{eye.framebuffer, 0, 0, eye.width, eye.height});
-  xr_check_live(xrReleaseSwapchainImage(eye.swapchain.handle, nullptr), "xrReleaseSwapchainImage");
-}
-
-// Handles the pending events; false once the viewer should end (exiting, loss pending). A lost
-// instance throws Lost.
-bool poll_events(XrInstance instance, XrSession session, bool& running) {
-  for (;;) {
-    auto event = xr_struct<XrEventDataBuffer>(XR_TYPE_EVENT_DATA_BUFFER);
-    if (xr_check_live(xrPollEvent(instance, &event), "xrPollEvent") == XR_EVENT_UNAVAILABLE)
-      return true;
-    if (event.type == XR_TYPE_EVENT_DATA_INSTANCE_LOSS_PENDING) return false;
-    if (event.type == XR_TYPE_EVENT_DATA_SESSION_STATE_CHANGED) {
-      const auto& changed = reinterpret_cast<const XrEventDataSessionStateChanged&>(event);
-      switch (changed.state) {
-        case XR_SESSION_STATE_READY: {
-          auto begin = xr_struct<XrSessionBeginInfo>(XR_TYPE_SESSION_BEGIN_INFO);
-          begin.primaryViewConfigurationType = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
-          xr_check_live(xrBeginSession(session, &begin), "xrBeginSession");
-          running = true;
-          spdlog::info("OpenXR: session running");
-          break;
-        }
-        case XR_SESSION_STATE_STOPPING:
-          xr_check_live(xrEndSession(session), "xrEndSession");
-          running = false;
-          break;
-        case XR_SESSION_STATE_EXITING:
-        case XR_SESSION_STATE_LOSS_PENDING:
-          return false;
-        default:
-          break;
-      }
-    }
-  }
-}
-
-// The OpenXR objects of the presenter, made in this order (open_instance, open_session,
-// make_eyes) and destroyed in reverse: the instance and its head-mounted system, the session bound
-// to the hidden window's GLX context, its reference space (STAGE where offered, else LOCAL) and
-// one Eye per view of the stereo configuration.
-struct XrRig {
-  Instance instance;
-  XrSystemId system = XR_NULL_SYSTEM_ID;
-  Session session;
-  Space space;
-  float eye_height = 0;  // STAGE: XrOptions::eye_height_m (its floor is at 0); LOCAL: 0
-  uint32_t view_count = 0;
-  std::vector<Eye> eyes;
-};
-
-constexpr auto kStereo = XR_VIEW_CONFIGURATION_TYPE_PRIMARY_STEREO;
-
-// The instance with XR_KHR_opengl_enable and its head-mounted display; checks the runtime's
-// OpenGL requirements (which OpenXR requires asking for before xrCreateSession).
-void open_instance(XrRig& rig) {
-  xr_check(create_gl_instance(&rig.instance.handle), "xrCreateInstance");
-  auto system_info = xr_struct<XrSystemGetInfo>(XR_TYPE_SYSTEM_GET_INFO);
-  system_info.formFactor = XR_FORM_FACTOR_HEAD_MOUNTED_DISPLAY;
-  xr_check(xrGetSystem(rig.instance.handle, &system_info, &rig.system), "xrGetSystem");
-  PFN_xrGetOpenGLGraphicsRequirementsKHR requirements_of = nullptr;
-  xr_check(xrGetInstanceProcAddr(rig.instance.handle, "xrGetOpenGLGraphicsRequirementsKHR",
-                                 reinterpret_cast<PFN_xrVoidFunction*>(&requirements_of)),
-           "xrGetInstanceProcAddr(xrGetOpenGLGraphicsRequirementsKHR)");
-  auto requirements =
-      xr_struct<XrGraphicsRequirementsOpenGLKHR>(XR_TYPE_GRAPHICS_REQUIREMENTS_OPENGL_KHR);
-  xr_check(requirements_of(rig.instance.handle, rig.system, &requirements),
-           "xrGetOpenGLGraphicsRequirementsKHR");  // required before xrCreateSession
-  if (requirements.minApiVersionSupported > XR_MAKE_VERSION(4, 5, 0))
-    throw Error("OpenXR: the runtime needs a newer OpenGL than 4.5");
-}
-
-// The session on `window`'s GLX context and its reference space.
-void open_session(XrRig& rig, GLFWwindow* window, const XrOptions& o) {
-  const XrGraphicsBindingOpenGLXlibKHR binding = glx_binding(window);
-  auto session_info = xr_struct<XrSessionCreateInfo>(XR_TYPE_SESSION_CREATE_INFO);
-  session_info.next = &binding;
-  session_info.systemId = rig.system;
-  xr_check(xrCreateSession(rig.instance.handle, &session_info, &rig.session.handle),
-           "xrCreateSession");
-  auto space_info = xr_struct<XrReferenceSpaceCreateInfo>(XR_TYPE_REFERENCE_SPACE_CREATE_INFO);
-  space_info.referenceSpaceType = pick_space(rig.session.handle);
-  space_info.poseInReferenceSpace.orientation.w = 1;
-  xr_check(xrCreateReferenceSpace(rig.session.handle, &space_info, &rig.space.handle),
-           "xrCreateReferenceSpace");
-  rig.eye_height =
-      space_info.referenceSpaceType == XR_REFERENCE_SPACE_TYPE_STAGE ? o.eye_height_m : 0;
-}
-
-// One eye per view of the stereo configuration, at the runtime's recommended size.
-void make_eyes(XrRig& rig) {
-  xr_check(xrEnumerateViewConfigurationViews(rig.instance.handle, rig.system, kStereo, 0,
-                                             &rig.view_count, nullptr),
-           "xrEnumerateViewConfigurationViews");
-  std::vector<XrViewConfigurationView> configs(
-      rig.view_count, xr_struct<XrViewConfigurationView>(XR_TYPE_VIEW_CONFIGURATION_VIEW));
-  xr_check(xrEnumerateViewConfigurationViews(rig.instance.handle, rig.system, kStereo,
-                                             rig.view_count, &rig.view_count, configs.data()),
-           "xrEnumerateViewConfigurationViews");
-  const int64_t format = pick_format(rig.session.handle);
-  rig.eyes = std::vector<Eye>(rig.view_count);
-  for (uint32_t i = 0; i < rig.view_count; ++i)
-    make_eye(rig.session.handle, configs[i], format, rig.eyes[i]);
-}
+using xr::HiddenContext;
+using xr::kStereo;
+using xr::Lost;
+using xr::xr_check_live;
+using xr::XrRig;
 
 // The frame loop's state (render thread): what it draws with and what it keeps between frames.
 struct FrameLoop {
@@ -481,7 +221,7 @@ struct FrameLoop {
     for (uint32_t i = 0; i < rig.view_count; ++i) {
       const View view =
           xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m);
-      draw_eye(rig.eyes[i], [&](const RenderTarget& target) {
+      xr::draw_eye(rig.eyes[i], [&](const RenderTarget& target) {
         if (participant) {
           SessionSceneOptions so = o.scene;
           so.pass = pass;
@@ -565,9 +305,7 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   renderer.set_avatar_filter(o.avatar_filter);
 
   XrRig rig;
-  open_instance(rig);
-  open_session(rig, context.window, o);
-  make_eyes(rig);
+  xr::open_rig(rig, context.window, o);
   spdlog::info("OpenXR: {} eyes of {}x{}, {} space, {}", rig.view_count,
                rig.view_count ? rig.eyes[0].width : 0, rig.view_count ? rig.eyes[0].height : 0,
                rig.eye_height > 0 ? "STAGE" : "LOCAL", result.renderer);
@@ -577,7 +315,7 @@ void present(FrameFeed& feed, ViewerResult& result, const XrOptions& o) {
   try {
     while (!feed.finished()) {
       glfwPollEvents();
-      if (!poll_events(rig.instance.handle, rig.session.handle, loop.running)) break;
+      if (!xr::poll_events(rig.instance.handle, rig.session.handle, loop.running)) break;
       loop.take_frames(feed);
       if (!loop.running) continue;
       if (loop.render_frame() && loop.started) {

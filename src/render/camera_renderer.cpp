@@ -77,35 +77,7 @@ struct CameraUniforms {
         filter(p) {}
 };
 
-void check_options(const CameraPassOptions& o) {
-  if (!(o.fixed_point_px >= 1 && o.fixed_point_px <= 64))
-    throw Error(
-        fmt::format("{}: fixed_point_px {} is outside 1..64 pixels", kPass, o.fixed_point_px));
-  if (!(o.splat_scale > 0 && o.splat_scale <= 16))
-    throw Error(fmt::format("{}: splat_scale {} is outside (0, 16]", kPass, o.splat_scale));
-  if (!(o.max_edge_ratio > 0))
-    throw Error(fmt::format("{}: max_edge_ratio {} must be positive", kPass, o.max_edge_ratio));
-  if (!(o.blend_depth_m > 0 && o.blend_depth_m <= 1))
-    throw Error(
-        fmt::format("{}: blend_depth_m {} is outside (0, 1] metres", kPass, o.blend_depth_m));
-  if (!(o.edge_px >= 1 && o.edge_px <= 16))
-    throw Error(fmt::format("{}: edge_px {} is outside 1..16 pixels", kPass, o.edge_px));
-  if (!(o.erode_depth_m >= 0 && o.erode_depth_m <= 1))
-    throw Error(
-        fmt::format("{}: erode_depth_m {} is outside [0, 1] metres", kPass, o.erode_depth_m));
-}
-
 }  // namespace
-
-const char* to_string(Surface surface) {
-  return surface == Surface::kMesh ? "mesh" : "splats";
-}
-
-Surface parse_surface(const std::string& name) {
-  if (name == "splats" || name == "splat") return Surface::kSplats;
-  if (name == "mesh") return Surface::kMesh;
-  throw Error("unknown surface '" + name + "' (splats or mesh)");
-}
 
 struct CameraRenderer::Impl {
   GLuint splat_program = 0, mesh_program = 0, resolve_program = 0, mesh_index_program = 0,
@@ -457,7 +429,7 @@ void CameraRenderer::upload(size_t camera, const CameraFrame& frame) {
 void CameraRenderer::draw_cameras(const View& view, const RenderTarget& target,
                                   const CameraPassOptions& options) {
   Impl& r = *impl_;
-  check_options(options);
+  check_pass_options(options);
   const bool mesh = options.surface == Surface::kMesh;
   r.stamp(0);
   glBindVertexArray(r.empty_vao);

@@ -125,6 +125,11 @@ struct CameraPassOptions {
   std::vector<CameraLook> cameras;
 };
 
+/// Throws Error("camera renderer: <field> <value> is outside <range>") for the first option out of
+/// its range: fixed_point_px 1..64 px, splat_scale (0, 16], max_edge_ratio > 0, blend_depth_m
+/// (0, 1] m, edge_px 1..16 px, erode_depth_m [0, 1] m. draw_cameras() calls it first.
+void check_pass_options(const CameraPassOptions& o);
+
 /// GPU time (milliseconds, OpenGL timestamp queries) of one draw_cameras() call's passes, for
 /// benchmarks (CameraRenderer::time_passes). updates: the per-image passes (the mesh's triangles,
 /// reliability), zero when no camera had new images; then either plain (one draw of every camera)

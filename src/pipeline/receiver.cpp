@@ -16,7 +16,7 @@
 //   6. wind down              stop the watchdog, close the connection, let the render thread draw
 //                             what is pending (RenderThread::finish)
 //   7. the figures            set_end, camera_figures, on_finished, finish (the JSON, and
-//                             ViewerError on an error)
+//                             ViewerError on an error; how a session ends: viewer_end.cpp)
 #include "volcast/pipeline/receiver.hpp"
 
 #include <fmt/format.h>
@@ -29,6 +29,7 @@
 #include <thread>
 
 #include "frame_feed_state.hpp"
+#include "viewer_end.hpp"
 #include "volcast/codec/tier.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
@@ -37,6 +38,12 @@
 
 namespace volcast {
 namespace {
+
+using viewer_end::fail;
+using viewer_end::finish;
+using viewer_end::is_cut;
+using viewer_end::message_of;
+using viewer_end::set_end;
 
 using Frames = std::vector<std::shared_ptr<const CameraFrame>>;
 
@@ -71,63 +78,6 @@ void update_live(LiveStats& live, const std::vector<Accumulator>& total,
   }
   live.stages = stages.summary();
   live.frame_sets_received = received;
-}
-
-// What ended a session that threw `error`.
-ViewerEnd end_of(const std::exception_ptr& error) {
-  try {
-    std::rethrow_exception(error);
-  } catch (const ClientError& e) {
-    switch (e.kind()) {
-      case ClientError::Kind::kTimedOut:
-        return ViewerEnd::kTimedOut;
-      case ClientError::Kind::kRejected:
-        return ViewerEnd::kRejected;
-      case ClientError::Kind::kProtocol:
-        return ViewerEnd::kProtocolError;
-      case ClientError::Kind::kConnectionLost:
-        return ViewerEnd::kConnectionLost;
-    }
-  } catch (...) {
-  }
-  return ViewerEnd::kError;
-}
-
-std::string message_of(const std::exception_ptr& error) {
-  try {
-    std::rethrow_exception(error);
-  } catch (const std::exception& e) {
-    return e.what();
-  } catch (...) {
-    return "unknown error";
-  }
-}
-
-bool is_error(ViewerEnd end) {
-  return end >= ViewerEnd::kTimedOut;
-}
-
-// Every end of a session: writes the figures if asked, and throws ViewerError on an error.
-ViewerResult finish(const ViewerOptions& opt, ViewerResult result) {
-  if (!opt.stats_json.empty()) {
-    try {
-      write_stats_json(opt.stats_json, result);
-    } catch (const std::exception& e) {
-      if (!is_error(result.ended)) throw;
-      spdlog::error("{}", e.what());  // the session's own error is the one to report
-    }
-  }
-  if (is_error(result.ended)) {
-    const std::string message = result.error;
-    throw ViewerError(message, std::make_shared<const ViewerResult>(std::move(result)));
-  }
-  return result;
-}
-
-// Records an error that ended the session before anything was received.
-void fail(ViewerResult& result, const std::exception_ptr& error) {
-  result.ended = end_of(error);
-  result.error = message_of(error);
 }
 
 // 1. Connect (calling thread): TCP/TLS, the server's certificate, the handshake (Client). Null on
@@ -428,18 +378,6 @@ std::exception_ptr receive_frame_sets(const ViewerOptions& opt, Client& client,
   return nullptr;
 }
 
-// 5b. Whether `error` is a cut a viewer reconnects after: the connection broke or fell silent.
-bool is_cut(const std::exception_ptr& error) {
-  try {
-    std::rethrow_exception(error);
-  } catch (const ClientError& e) {
-    return e.kind() == ClientError::Kind::kTimedOut ||
-           e.kind() == ClientError::Kind::kConnectionLost;
-  } catch (...) {
-  }
-  return false;
-}
-
 // 5b. Sets what the panel says of the connection.
 void show_connection(FrameFeed::State& box, const std::string& text, bool reconnected) {
   std::lock_guard lock(box.mutex);
@@ -518,25 +456,6 @@ std::exception_ptr receive_reconnecting(const ViewerOptions& opt, std::unique_pt
     slot.set(next.get());
     client = std::move(next);  // the old one goes after the participant moved off it
     show_connection(box, "reconnected: waiting for the key frame set", true);
-  }
-}
-
-// 7. Why the session ended, first cause first.
-void set_end(ViewerResult& result, const ViewerOptions& opt, const std::exception_ptr& render_error,
-             const std::exception_ptr& receive_error, uint64_t received, bool presenter_closed,
-             ViewerEnd stopped_by) {
-  if (render_error) {  // first: a failed presenter closes the session, which may break a receive
-    result.ended = ViewerEnd::kError;
-    result.error = "renderer: " + message_of(render_error);
-  } else if (receive_error) {
-    result.ended = end_of(receive_error);
-    result.error = message_of(receive_error);
-  } else if (opt.frames > 0 && received >= static_cast<uint64_t>(opt.frames)) {
-    result.ended = ViewerEnd::kFramesReached;
-  } else if (presenter_closed && stopped_by == ViewerEnd::kServerClosed) {
-    result.ended = ViewerEnd::kClosed;  // the presenter ended it before the watchdog saw it
-  } else {
-    result.ended = stopped_by;  // seconds reached, interrupted, closed, or else the server closed
   }
 }
 

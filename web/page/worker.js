@@ -1,6 +1,7 @@
 // The browser viewer's stream worker: the WebSocket to `volcast serve --web`, the Volcast
-// protocol (src/net/protocol/include/volcast/net/protocol/protocol.hpp, version 5: the same bytes as a native
-// viewer's TLS stream, each message one binary WebSocket message or split across several), and
+// protocol (src/net/protocol/include/volcast/net/protocol/protocol.hpp, version 5: the same bytes
+// as a native viewer's TLS stream, each message one binary WebSocket message or split across
+// several; its bytes in stream_wire.js, the colour balance in balance_worker.js), and
 // decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
 // JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,
 // a KeyFrameRequest when it has no key frame to start from or fails), raw color by hand. Session messages (channel 2) pass through to
@@ -29,20 +30,9 @@
 //   'welcome' again with reconnected true and outageMs; {type: 'stale', count}.
 'use strict';
 
-importScripts('volcast_decoder.js', 'case_wire.js', 'clock.js', 'voice_worker.js');
+importScripts('volcast_decoder.js', 'stream_wire.js', 'case_wire.js', 'clock.js',
+              'balance_worker.js', 'voice_worker.js');
 
-const MAGIC = 0x54534356;  // "VCST" little-endian
-const VERSION = 5;
-const HEADER = 12;
-const MAX_WELCOME = 256 << 10;
-const MAX_PAYLOAD = 256 << 20;
-const MAX_CAMERAS = 64;
-const MAX_SIDE = 4096;
-const MAX_SITE_PIXELS = 16 << 20;
-const MAX_CONTROL = 4096;
-const FRAME_BYTES_PER_PIXEL = 8;
-const FRAME_CAMERA_OVERHEAD = 64 << 10;
-const MAX_SESSION_MESSAGE = (8 << 20) + 4 + (64 << 10);
 
 let wasm = null;
 let socket = null;
@@ -99,40 +89,6 @@ function fail(what) {
   if (socket) socket.close();
 }
 
-function header(channel, type, length) {
-  const h = new DataView(new ArrayBuffer(HEADER));
-  h.setUint32(0, MAGIC, true);
-  h.setUint16(4, VERSION, true);
-  h.setUint8(6, channel);
-  h.setUint8(7, type);
-  h.setUint32(8, length, true);
-  return new Uint8Array(h.buffer);
-}
-
-function message(channel, type, payload) {
-  const out = new Uint8Array(HEADER + payload.length);
-  out.set(header(channel, type, payload.length));
-  out.set(payload, HEADER);
-  return out;
-}
-
-function putString(parts, text) {
-  const bytes = new TextEncoder().encode(text);
-  const len = new Uint8Array(2);
-  new DataView(len.buffer).setUint16(0, bytes.length, true);
-  parts.push(len, bytes);
-}
-
-function concat(parts) {
-  const out = new Uint8Array(parts.reduce((n, p) => n + p.length, 0));
-  let at = 0;
-  for (const p of parts) {
-    out.set(p, at);
-    at += p.length;
-  }
-  return out;
-}
-
 // What this page decodes: the WebAssembly decoder's depth codecs, and JPEG, raw and (with
 // WebCodecs) H.264 color. An adaptive page names them in its Hello (protocol.hpp 0.1's tail), so
 // that the server keeps it to ladder rungs it can show.
@@ -184,128 +140,6 @@ function onTierChange(payload) {
   tier = {depth, color, quality, divisor};
   postMessage({type: 'tier', depth, color, quality, divisor, pathMbit: pathKbit / 1000,
                reason: reason.replace(/[\x00-\x1f\x7f]/g, '?'), change});
-}
-
-// A bounds-checked little-endian reader over one payload; throws naming the message.
-class Reader {
-  constructor(bytes, what) {
-    this.b = bytes;
-    this.v = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
-    this.at = 0;
-    this.what = what;
-  }
-  need(n) {
-    if (this.at + n > this.b.length) throw new Error(`malformed ${this.what}: truncated`);
-  }
-  u8() { this.need(1); return this.v.getUint8(this.at++); }
-  u16() { this.need(2); const x = this.v.getUint16(this.at, true); this.at += 2; return x; }
-  u32() { this.need(4); const x = this.v.getUint32(this.at, true); this.at += 4; return x; }
-  i64() {
-    this.need(8);
-    const x = Number(this.v.getBigInt64(this.at, true));
-    this.at += 8;
-    return x;
-  }
-  u64() {
-    this.need(8);
-    const x = Number(this.v.getBigUint64(this.at, true));
-    this.at += 8;
-    return x;
-  }
-  f64() { this.need(8); const x = this.v.getFloat64(this.at, true); this.at += 8; return x; }
-  bytes(n) { this.need(n); const x = this.b.subarray(this.at, this.at + n); this.at += n; return x; }
-  string() { return new TextDecoder().decode(this.bytes(this.u16())); }
-}
-
-// One camera's calibration (wire.hpp put_calibration): size, 15 intrinsics, world_from_camera.
-function readCalibration(r, what) {
-  const width = r.u16(), height = r.u16();
-  if (!width || !height || width > MAX_SIDE || height > MAX_SIDE)
-    throw new Error(`malformed ${what}: size ${width}x${height}`);
-  const intrinsics = [];
-  for (let i = 0; i < 15; ++i) intrinsics.push(r.f64());
-  const rotation = [], translation = [];
-  for (let i = 0; i < 9; ++i) rotation.push(r.f64());
-  for (let i = 0; i < 3; ++i) translation.push(r.f64());
-  if (![...intrinsics, ...rotation, ...translation].every(Number.isFinite))
-    throw new Error(`malformed ${what}: a number that is not finite`);
-  if (!(intrinsics[0] > 0 && intrinsics[1] > 0))
-    throw new Error(`malformed ${what}: focal length must be positive`);
-  return {width, height, intrinsics, rotation, translation};
-}
-
-function parseWelcome(payload) {
-  const r = new Reader(payload, 'welcome');
-  const n = r.u32();
-  if (n === 0 || n > MAX_CAMERAS) throw new Error(`malformed welcome: camera count ${n}`);
-  const list = [];
-  let pixels = 0;
-  for (let c = 0; c < n; ++c) {
-    const cam = readCalibration(r, `welcome, camera ${c}`);
-    pixels += cam.width * cam.height;
-    if (pixels > MAX_SITE_PIXELS) throw new Error('malformed welcome: too many pixels');
-    cam.name = r.string();
-    list.push(cam);
-  }
-  const serverUs = r.i64();
-  // protocol::frame_set_payload_limit
-  frameLimit = Math.min(MAX_PAYLOAD, 45 + list.reduce(
-      (s, k) => s + 16 + FRAME_CAMERA_OVERHEAD + FRAME_BYTES_PER_PIXEL * k.width * k.height, 0));
-  return {cameras: list, serverUs};
-}
-
-// Colour balance: the native renderer's (volcast/render/colour_balance.hpp), in the WASM module.
-// Every BALANCE_EVERY new depth images, the newest frame set's samples of each camera with colour
-// (its picture read back through a canvas), then every camera's RGB gain, sent with that set.
-const BALANCE_EVERY = 15;  // as the native CameraRenderer's kUploadsPerBalance
-let balanceCountdown = BALANCE_EVERY;
-let balanceCanvas = null;
-const balanceScratch = {pixels: 0, depth: 0, rgba: 0, gains: 0};
-
-function setBalanceCameras() {
-  const k = wasm._malloc(17 * 8), pose = wasm._malloc(12 * 8);
-  cameras.forEach((cam, i) => {
-    wasm.HEAPF64.set([cam.width, cam.height, ...cam.intrinsics], k / 8);
-    wasm.HEAPF64.set([...cam.rotation, ...cam.translation], pose / 8);
-    if (wasm._vc_balance_camera(i, k, pose) !== 0)
-      throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
-  });
-  wasm._free(k);
-  wasm._free(pose);
-  balanceCountdown = BALANCE_EVERY;
-}
-
-// The gains from this frame set's depth images and pictures (cameras without either keep their
-// last samples), or null when no camera had both.
-function balanceGains(out, bitmaps) {
-  const s = balanceScratch;
-  let taken = 0;
-  out.forEach((f, c) => {
-    const b = bitmaps[c];
-    if (!f.depth || !b || b.width !== f.width || b.height !== f.height) return;
-    const n = f.width * f.height;
-    if (n > s.pixels) {
-      for (const p of [s.depth, s.rgba]) if (p) wasm._free(p);
-      s.pixels = n;
-      s.depth = wasm._malloc(n * 2);
-      s.rgba = wasm._malloc(n * 4);
-    }
-    if (!balanceCanvas || balanceCanvas.width !== f.width || balanceCanvas.height !== f.height)
-      balanceCanvas = new OffscreenCanvas(f.width, f.height);
-    const ctx = balanceCanvas.getContext('2d', {willReadFrequently: true});
-    ctx.drawImage(b, 0, 0);
-    wasm.HEAPU8.set(ctx.getImageData(0, 0, f.width, f.height).data, s.rgba);
-    wasm.HEAPU16.set(f.depth, s.depth / 2);
-    if (wasm._vc_balance_take(c, s.depth, s.rgba) < 0)
-      throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
-    ++taken;
-  });
-  if (!taken) return null;
-  if (!s.gains) s.gains = wasm._malloc(64 * 3 * 4);
-  if (wasm._vc_balance_gains(out.length, s.gains) !== 0)
-    throw new Error('colour balance: ' + wasm.UTF8ToString(wasm._vc_last_error()));
-  const g = wasm.HEAPF32.subarray(s.gains / 4, s.gains / 4 + out.length * 3);
-  return out.map((f, c) => [g[3 * c], g[3 * c + 1], g[3 * c + 2]]);
 }
 
 function rayTable(cam) {
@@ -591,6 +425,7 @@ async function drain() {
       const payload = whole.subarray(HEADER);
       if (h.channel === 0 && h.type === 2) {
         const w = parseWelcome(payload);
+        frameLimit = w.frameLimit;
         const reconnected = cameras !== null;
         if (reconnected && (w.cameras.length !== cameras.length ||
                             w.cameras.some((c, i) => c.width !== cameras[i].width ||

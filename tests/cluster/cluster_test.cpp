@@ -295,6 +295,39 @@ TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
   EXPECT_EQ(st.errors, 0u) << st.last_error;
 }
 
+// libnats hands an async subscription's messages over on a thread of its own, which may still be
+// between two messages when the subscription and then its connection are gone (a CI run's ASan: a
+// heap-use-after-free in the message callback, NatsConnection's subscription freed with the
+// connection). Now the connection waits for each subscription's last delivery. Here a publisher
+// keeps a subject busy while a subscriber connects, takes some of it, and goes -- subscription,
+// then connection, at once -- many times over; synthetic bytes.
+TEST(NatsStream, ASubscriptionAndItsConnectionGoWhileMessagesAreStillArriving) {
+  const auto dir = test::temp_dir("nats_teardown");
+  LocalNatsCluster nats_server(dir, 1);
+  NatsConnection publisher(nats_at(nats_server.url(0)));
+  std::atomic<bool> stop{false};
+  std::thread publishing([&] {
+    const std::vector<uint8_t> message = bytes_of(256, 1);
+    while (!stop) {
+      for (int i = 0; i < 200; ++i) publisher.publish("busy", message);
+      publisher.flush();
+    }
+  });
+  for (int round = 0; round < 40; ++round) {
+    SCOPED_TRACE(round);
+    auto subscriber = std::make_unique<NatsConnection>(nats_at(nats_server.url(0)));
+    std::atomic<int> delivered{0};
+    auto subscription = subscriber->subscribe("busy", [&](const std::string&, auto data) {
+      if (data.size() == 256) ++delivered;
+    });
+    ASSERT_TRUE(test::eventually([&] { return delivered >= 50; }));
+    subscription.reset();  // while messages keep arriving
+    subscriber.reset();
+  }
+  stop = true;
+  publishing.join();
+}
+
 // NATS authorization: a student's account may not subscribe to the OR's subjects, and a wrong
 // password does not connect; each is an error that names what was refused.
 TEST(NatsStream, UnauthorisedClientsCannotSubscribeToTheSite) {

@@ -50,8 +50,9 @@ try {
   }
   r.setCameras(cams);
   for (let k = 0; k < cams.length; ++k) {
-    r.uploadCamera(r.cameras[k], {depth: new Uint16Array(await get('camera_' + k + '.depth')),
-                                  rgba: new Uint8Array(await get('camera_' + k + '.rgba'))});
+    r.cameraPass.uploadCamera(r.cameras[k],
+                              {depth: new Uint16Array(await get('camera_' + k + '.depth')),
+                               rgba: new Uint8Array(await get('camera_' + k + '.rgba'))});
     r.cameras[k].gain = spec.cameras[k].gain;
   }
   const viewFromRoom = new Float32Array(spec.viewFromWorld);

@@ -168,8 +168,9 @@ NatsConnection::~NatsConnection() {
     std::unique_lock lock(r->completing);
     if (!r->completed_cv.wait_for(lock, std::chrono::seconds(10), [&] { return r->completed; })) {
       spdlog::warn("NATS: a subscription's delivery thread did not finish in 10 s: kept");
-      static std::vector<std::shared_ptr<Subscription::Impl>>* kept =
-          new std::vector<std::shared_ptr<Subscription::Impl>>;  // never freed, on purpose
+      static std::mutex kept_mutex;  // connections may be destroyed on several threads at once
+      static auto* kept = new std::vector<std::shared_ptr<Subscription::Impl>>;  // never freed
+      std::lock_guard kept_lock(kept_mutex);
       kept->push_back(r);
     }
   }

@@ -1,5 +1,7 @@
 #include <epoxy/egl.h>
 
+#include <map>
+#include <mutex>
 #include <string>
 
 #include "volcast/core/error.hpp"
@@ -75,6 +77,28 @@ EGLContext create_context(EGLDisplay display) {
   return context;
 }
 
+// EGL hands every context of a platform and device the same EGLDisplay, and eglTerminate ends it
+// for all of them: another thread's context can then no longer be queried (libepoxy aborts on its
+// next new GL call, "Couldn't find current GLX or EGL context": the demo's participants, ending
+// on a loaded machine). So each display counts the contexts made on it and is terminated with the
+// last; opening and counting, and uncounting and terminating, happen under one lock.
+std::mutex displays_mutex;
+std::map<EGLDisplay, int> display_users;  // under displays_mutex
+
+EGLDisplay open_counted_display() {
+  std::lock_guard lock(displays_mutex);
+  const EGLDisplay display = open_display();
+  ++display_users[display];
+  return display;
+}
+
+void release_display(EGLDisplay display) {
+  std::lock_guard lock(displays_mutex);
+  if (--display_users[display] > 0) return;
+  display_users.erase(display);
+  eglTerminate(display);
+}
+
 }  // namespace
 
 struct EglContext::Impl {
@@ -83,11 +107,11 @@ struct EglContext::Impl {
 };
 
 EglContext::EglContext() : impl_(std::make_unique<Impl>()) {
-  impl_->display = open_display();
+  impl_->display = open_counted_display();
   try {
     impl_->context = create_context(impl_->display);
   } catch (...) {
-    eglTerminate(impl_->display);
+    release_display(impl_->display);
     throw;
   }
 }
@@ -96,7 +120,7 @@ EglContext::~EglContext() {
   if (eglGetCurrentContext() == impl_->context)
     eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
   eglDestroyContext(impl_->display, impl_->context);
-  eglTerminate(impl_->display);
+  release_display(impl_->display);
 }
 
 void EglContext::make_current() const {

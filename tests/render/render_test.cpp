@@ -1,10 +1,12 @@
 // Draw passes into render targets they are given; headless through EGL (Mesa llvmpipe on machines
 // without a GPU).
+#include <epoxy/egl.h>
 #include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
+#include <future>
 #include <thread>
 #include <type_traits>
 
@@ -85,6 +87,32 @@ bool is_red(const std::array<uint8_t, 4>& rgba) {
 }
 bool is_green(const std::array<uint8_t, 4>& rgba) {
   return is_green(rgba.data());
+}
+
+// Two headless targets on two threads share one EGL display (EGL gives every context of a
+// platform the same one): the first to go must leave the other's context working. It did not
+// (its eglTerminate ended the display for both): libepoxy, which asks EGL about the current
+// context before it loads a GL function, then aborted the other thread ("Couldn't find current
+// GLX or EGL context"), as the demo's participants did ending on a loaded machine.
+TEST(HeadlessTarget, OneGoingLeavesAnotherThreadsContextWorking) {
+  auto first = std::make_unique<HeadlessTarget>(8, 8);
+  std::promise<void> made, first_gone;
+  std::future<void> gone = first_gone.get_future();
+  std::future<bool> queried = std::async(std::launch::async, [&] {
+    HeadlessTarget second(8, 8);
+    made.set_value();
+    gone.wait();
+    EGLint api = 0;  // what libepoxy asks before it loads a GL function
+    const EGLBoolean ok = eglQueryContext(eglGetCurrentDisplay(), eglGetCurrentContext(),
+                                          EGL_CONTEXT_CLIENT_TYPE, &api);
+    ColorImage image;
+    second.read_image(image);  // and it still draws and reads back
+    return ok == EGL_TRUE && api == EGL_OPENGL_API && image.width == 8;
+  });
+  made.get_future().wait();
+  first.reset();
+  first_gone.set_value();
+  EXPECT_TRUE(queried.get()) << "the context of the target still there works";
 }
 
 TEST(SplatRenderer, DrawsAPointWhereItProjectsInItsColor) {

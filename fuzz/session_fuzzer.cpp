@@ -65,11 +65,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         parse_pose_script(std::string(p.begin(), p.end())).at(1.5);
         break;
       case 13: {  // a case, and the monitor drawn from it at its last slice
-        const session::SharedCase c = session::parse_case(p);
+        const SharedCase c = session::parse_case(p);
         if (c.monitor) {
-          session::MonitorState m;
+          MonitorState m;
           m.slice = static_cast<uint16_t>(c.monitor->slices - 1);
-          session::monitor_image(*c.monitor, m);
+          monitor_image(*c.monitor, m);
         }
         break;
       }

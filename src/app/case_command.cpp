@@ -20,16 +20,16 @@ namespace {
 
 // The case's objects at rest, from the front (across the table, +z) and from above, side by side.
 void render_case(const Case& c, const std::string& png) {
-  const session::SharedCase shared = to_shared_case(c);
+  const SharedCase shared = to_shared_case(c);
   if (shared.objects.empty()) throw Error("case --render: the case has no meshes to draw");
   constexpr int kSide = 720;
   HeadlessTarget target(2 * kSide, kSide);
   CaseRenderer renderer;
   std::vector<PlacedObject> placed;
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(1e9f), hi = -lo;
-  for (const session::SharedObject& o : shared.objects) {
+  for (const SharedObject& o : shared.objects) {
     placed.push_back({o.rest, 0});
-    for (const session::SharedPart& p : o.parts)
+    for (const SharedPart& p : o.parts)
       for (const Eigen::Vector3f& v : p.positions) {
         lo = lo.cwiseMin(o.rest.position + v);
         hi = hi.cwiseMax(o.rest.position + v);

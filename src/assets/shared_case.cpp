@@ -4,8 +4,8 @@
 
 namespace volcast {
 
-session::SharedCase to_shared_case(const Case& c, const RoomLayout& room) {
-  session::SharedCase out;
+SharedCase to_shared_case(const Case& c, const RoomLayout& room) {
+  SharedCase out;
   out.name = c.name;
   const float table_top = room.table.center.y() + room.table.half_extent.y();
   float next_x = room.table.center.x() + 0.45f;
@@ -15,7 +15,7 @@ session::SharedCase to_shared_case(const Case& c, const RoomLayout& room) {
       if (p.group == group)
         for (const Eigen::Vector3f& v : p.mesh.positions) box.extend(c.room_from_case * v);
     const Eigen::Vector3f center = box.center();
-    session::SharedObject o;
+    SharedObject o;
     o.name = group;
     bool has_liver = false;
     for (const CasePart& p : c.parts) {
@@ -24,7 +24,7 @@ session::SharedCase to_shared_case(const Case& c, const RoomLayout& room) {
       std::transform(lower.begin(), lower.end(), lower.begin(),
                      [](unsigned char ch) { return std::tolower(ch); });
       has_liver = has_liver || lower.find("liver") != std::string::npos;
-      session::SharedPart part;
+      SharedPart part;
       part.name = p.name;
       part.rgba = p.rgba;
       part.positions.reserve(p.mesh.positions.size());
@@ -50,7 +50,7 @@ session::SharedCase to_shared_case(const Case& c, const RoomLayout& room) {
   }
   if (c.dicom) {
     const DicomSeries& d = *c.dicom;
-    session::MonitorSeries m;
+    MonitorSeries m;
     m.width = d.width, m.height = d.height, m.slices = d.slices;
     m.spacing_mm = d.spacing_mm.cast<float>();
     m.hu = d.hu;

@@ -110,10 +110,10 @@ bool restore_session_state(SessionHub& hub, const nlohmann::json& state) {
     s.pose.orientation = r.normalized();
     objects.push_back(s);
   }
-  std::optional<session::MonitorState> monitor;
+  std::optional<MonitorState> monitor;
   if (state.contains("monitor")) {
     const auto& m = state["monitor"];
-    session::MonitorState s;
+    MonitorState s;
     s.slice = whole<uint16_t>(field(m, "slice"), "slice");
     s.center = finite(field(m, "center"), "center");
     s.width = finite(field(m, "width"), "width");

@@ -171,8 +171,8 @@ std::vector<std::unique_ptr<Person>> participants(const DemoArgs& a, const fs::p
     if (i == 0)  // takes the liver and turns it 150 degrees
       o.script.grabs.push_back({1.0, 2.5, "liver", 60});
     else  // the next slice in the liver window, the overlay on; then points and draws
-      o.script.monitor.push_back({0.8, 2, session::window_preset("liver").center,
-                                  session::window_preset("liver").width, true});
+      o.script.monitor.push_back(
+          {0.8, 2, window_preset("liver").center, window_preset("liver").width, true});
     if (i == 1) o.script.drawing = drawing_at(spot);
     auto surfaces = std::make_shared<LiveSurfaces>();
     o.surfaces = surfaces;

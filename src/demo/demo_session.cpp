@@ -65,7 +65,7 @@ fs::path registered_site(const fs::path& data, const fs::path& out) {
 
 // The liver's rest pose as the hub shares it (to_shared_case places it).
 Pose hub_rest_pose(const Case& c) {
-  const session::SharedCase shared = to_shared_case(c);
+  const SharedCase shared = to_shared_case(c);
   return shared.objects.empty() ? Pose{} : shared.objects[0].rest;
 }
 

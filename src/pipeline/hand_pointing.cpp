@@ -12,7 +12,7 @@ namespace volcast {
 
 void HandPointing::send(Participant& p, session::Annotation a, int64_t now_us) {
   try {
-    unconfirmed_.push_back({p.annotate(std::move(a)), now_us});
+    erase_last_.sent(p.annotate(std::move(a)), now_us);
   } catch (const Error& e) {  // refused before sending (a limit): the user tries again
     spdlog::warn("drawing: {}", e.what());
   }
@@ -26,29 +26,8 @@ int labeled_preset(float x, float y) {
 
 void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
                           const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us) {
-  std::erase_if(unconfirmed_, [&](const Sent& sent) {
-    return now_us - sent.at_us > kEraseWaitUs ||
-           std::any_of(snapshot.annotations.begin(), snapshot.annotations.end(),
-                       [&](const session::Annotation& a) {
-                         return a.author == snapshot.id && a.tag == sent.tag;
-                       });
-  });
-  if (in.erase && !erase_wanted_) {
-    erase_wanted_ = true;
-    erase_pressed_us_ = now_us;
-  }
-  // Erased once what was sent before the press is back (or given up on).
-  const bool waiting = std::any_of(unconfirmed_.begin(), unconfirmed_.end(), [&](const Sent& sent) {
-    return sent.at_us <= erase_pressed_us_;
-  });
-  if (erase_wanted_ && !waiting) {
-    erase_wanted_ = false;
-    for (auto it = snapshot.annotations.rbegin(); it != snapshot.annotations.rend(); ++it)
-      if (it->author == snapshot.id) {
-        p.erase(it->id);
-        break;
-      }
-  }
+  if (in.erase) erase_last_.pressed(now_us);
+  if (const auto id = erase_last_.due(snapshot, now_us)) p.erase(*id);
   const bool aimed = in.tracked && in.direction.squaredNorm() > 0;
   const bool on = aimed && (in.point || in.draw);
   const bool label = aimed && in.label >= 0 && in.label < int(kHeadsetLabels.size());

@@ -29,9 +29,8 @@ RigidTransform auto_playarea_from_camera(const DepthImage& first) {
   return t;
 }
 
-std::vector<ScriptAction> ScriptedObjects::due(const session::SharedCase* c,
-                                               const SessionSnapshot& s, double t_s,
-                                               bool move_queued) {
+std::vector<ScriptAction> ScriptedObjects::due(const SharedCase* c, const SessionSnapshot& s,
+                                               double t_s, bool move_queued) {
   std::vector<ScriptAction> out;
   if (!c) return out;  // every event waits for the case
   using Kind = ScriptAction::Kind;

@@ -69,6 +69,24 @@ void drawing_primitives(const SessionSnapshot& s, const Eigen::Vector3f& eye,
   }
 }
 
+std::vector<Primitive> annotation_primitives(const session::Annotation& a,
+                                             const Eigen::Vector3f& rgb) {
+  const auto& p = a.points;
+  switch (a.kind) {
+    case session::AnnotationKind::kStroke:
+      return stroke_primitives(p, rgb);
+    case session::AnnotationKind::kArrow:
+      return p.size() == 2 ? arrow_primitives(p[0], p[1], rgb) : std::vector<Primitive>{};
+    case session::AnnotationKind::kLabel:
+      return p.size() == 1 ? label_pin_primitives(p[0], rgb) : std::vector<Primitive>{};
+  }
+  return {};
+}
+
+Eigen::Vector3f label_anchor(const session::Annotation& a) {
+  return a.points.empty() ? Eigen::Vector3f::Zero() : label_anchor(a.points[0]);
+}
+
 View participant_eye(const SessionSnapshot& s, float aspect) {
   View v;
   if (s.has_own_body) {

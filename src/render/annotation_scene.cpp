@@ -1,6 +1,7 @@
 #include "volcast/render/annotation_scene.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 
 namespace volcast {
 namespace {
@@ -75,52 +76,49 @@ std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool ha
   return out;
 }
 
-Eigen::Vector3f label_anchor(const session::Annotation& a) {
-  return a.points.empty() ? Eigen::Vector3f::Zero()
-                          : Eigen::Vector3f(a.points[0] + Eigen::Vector3f(0, 0.12f, 0));
+Eigen::Vector3f label_anchor(const Eigen::Vector3f& pin) {
+  return pin + Eigen::Vector3f(0, 0.12f, 0);
 }
 
-std::vector<Primitive> annotation_primitives(const session::Annotation& a,
-                                             const Eigen::Vector3f& rgb) {
+std::vector<Primitive> stroke_primitives(std::span<const Eigen::Vector3f> p,
+                                         const Eigen::Vector3f& rgb) {
   std::vector<Primitive> out;
   const Eigen::Vector4f c = opaque(rgb);
-  const auto& p = a.points;
-  switch (a.kind) {
-    case session::AnnotationKind::kStroke:
-      for (size_t i = 0; i < p.size(); ++i) {
-        out.push_back(ball(p[i], 0.008f, c));
-        if (i > 0 && (p[i] - p[i - 1]).norm() > 1e-5f)
-          out.push_back(tube(p[i - 1], p[i], 0.008f, c));
-      }
-      break;
-    case session::AnnotationKind::kArrow: {
-      if (p.size() != 2 || (p[1] - p[0]).norm() < 1e-4f) break;
-      const Eigen::Vector3f dir = (p[1] - p[0]).normalized();
-      const float head = std::min(0.06f, (p[1] - p[0]).norm());
-      const Eigen::Vector3f base = p[1] - dir * head;
-      out.push_back(tube(p[0], base, 0.01f, c));
-      // The head: four stacked discs narrowing to the point.
-      for (int i = 0; i < 4; ++i) {
-        const Eigen::Vector3f from = base + dir * (head * float(i) / 4);
-        const Eigen::Vector3f to = base + dir * (head * float(i + 1) / 4);
-        out.push_back(tube(from, to, 0.04f * float(4 - i) / 4, c));
-      }
-      break;
-    }
-    case session::AnnotationKind::kLabel: {
-      if (p.size() != 1) break;
-      const Eigen::Vector3f top = label_anchor(a);
-      out.push_back(ball(p[0], 0.025f, c));
-      out.push_back(tube(p[0], top, 0.006f, c));
-      Primitive flag = ball(top + Eigen::Vector3f(0.03f, -0.02f, 0), 1, c);
-      flag.shape = Primitive::Shape::kBox;
-      flag.world_from_shape = (Eigen::Translation3f(top + Eigen::Vector3f(0.03f, -0.02f, 0)) *
-                               Eigen::Scaling(Eigen::Vector3f(0.06f, 0.04f, 0.004f)))
-                                  .matrix();
-      out.push_back(flag);
-      break;
-    }
+  for (size_t i = 0; i < p.size(); ++i) {
+    out.push_back(ball(p[i], 0.008f, c));
+    if (i > 0 && (p[i] - p[i - 1]).norm() > 1e-5f) out.push_back(tube(p[i - 1], p[i], 0.008f, c));
   }
+  return out;
+}
+
+std::vector<Primitive> arrow_primitives(const Eigen::Vector3f& tail, const Eigen::Vector3f& head,
+                                        const Eigen::Vector3f& rgb) {
+  if ((head - tail).norm() < 1e-4f) return {};
+  const Eigen::Vector4f c = opaque(rgb);
+  const Eigen::Vector3f dir = (head - tail).normalized();
+  const float length = std::min(0.06f, (head - tail).norm());
+  const Eigen::Vector3f base = head - dir * length;
+  std::vector<Primitive> out{tube(tail, base, 0.01f, c)};
+  // The head: four stacked discs narrowing to the point.
+  for (int i = 0; i < 4; ++i) {
+    const Eigen::Vector3f from = base + dir * (length * float(i) / 4);
+    const Eigen::Vector3f to = base + dir * (length * float(i + 1) / 4);
+    out.push_back(tube(from, to, 0.04f * float(4 - i) / 4, c));
+  }
+  return out;
+}
+
+std::vector<Primitive> label_pin_primitives(const Eigen::Vector3f& pin,
+                                            const Eigen::Vector3f& rgb) {
+  const Eigen::Vector4f c = opaque(rgb);
+  const Eigen::Vector3f top = label_anchor(pin);
+  std::vector<Primitive> out{ball(pin, 0.025f, c), tube(pin, top, 0.006f, c)};
+  Primitive flag = ball(top + Eigen::Vector3f(0.03f, -0.02f, 0), 1, c);
+  flag.shape = Primitive::Shape::kBox;
+  flag.world_from_shape = (Eigen::Translation3f(top + Eigen::Vector3f(0.03f, -0.02f, 0)) *
+                           Eigen::Scaling(Eigen::Vector3f(0.06f, 0.04f, 0.004f)))
+                              .matrix();
+  out.push_back(flag);
   return out;
 }
 

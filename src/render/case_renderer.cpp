@@ -51,12 +51,12 @@ struct CaseRenderer::Impl {
   GLuint program = 0, quad_program = 0, quad_vao = 0, texture = 0;
   gl::LitUniforms u;
   GLint clip_from_quad = -1;
-  const session::SharedCase* uploaded = nullptr;
+  const SharedCase* uploaded = nullptr;
   uint32_t uploaded_generation = 0;
   std::vector<std::vector<PartMesh>> objects;
   // The monitor's texture and what it shows.
-  const session::MonitorSeries* series = nullptr;
-  session::MonitorState shown;
+  const MonitorSeries* series = nullptr;
+  MonitorState shown;
   int texture_width = 0, texture_height = 0;
 
   void release_meshes() {
@@ -69,11 +69,11 @@ struct CaseRenderer::Impl {
     objects.clear();
   }
 
-  void upload(const session::SharedCase& c) {
+  void upload(const SharedCase& c) {
     release_meshes();
-    for (const session::SharedObject& o : c.objects) {
+    for (const SharedObject& o : c.objects) {
       std::vector<PartMesh> parts;
-      for (const session::SharedPart& p : o.parts) {
+      for (const SharedPart& p : o.parts) {
         if (p.indices.empty()) continue;
         PartMesh m;
         m.rgba = p.rgba;
@@ -131,7 +131,7 @@ void CaseRenderer::clear(const RenderTarget& target) {
   glDisable(GL_SCISSOR_TEST);
 }
 
-void CaseRenderer::draw(const View& view, const RenderTarget& target, const session::SharedCase& c,
+void CaseRenderer::draw(const View& view, const RenderTarget& target, const SharedCase& c,
                         std::span<const PlacedObject> placed, const Lighting& light) {
   Impl& r = *impl_;
   if (r.uploaded != &c || r.uploaded_generation != c.generation) r.upload(c);
@@ -189,15 +189,14 @@ void CaseRenderer::draw(const View& view, const RenderTarget& target, const sess
 }
 
 void CaseRenderer::draw_monitor(const View& view, const RenderTarget& target,
-                                const session::MonitorSeries& series,
-                                const session::MonitorState& state,
+                                const MonitorSeries& series, const MonitorState& state,
                                 const Eigen::Matrix4f& world_from_quad) {
   Impl& r = *impl_;
   const bool same = r.series == &series && r.shown.generation == state.generation &&
                     r.shown.slice == state.slice && r.shown.center == state.center &&
                     r.shown.width == state.width && r.shown.overlay == state.overlay;
   if (!same) {
-    const std::vector<uint8_t> rgba = session::monitor_image(series, state);
+    const std::vector<uint8_t> rgba = monitor_image(series, state);
     if (r.texture_width != series.width || r.texture_height != series.height) {
       glDeleteTextures(1, &r.texture);
       glCreateTextures(GL_TEXTURE_2D, 1, &r.texture);

@@ -24,7 +24,7 @@ void SessionHub::reset_case_state(Session& s) {
     s.objects.push_back(o);
   }
   if (case_->monitor) {
-    session::MonitorState m;
+    MonitorState m;
     m.generation = case_generation_;
     m.slice = static_cast<uint16_t>(case_->monitor->slices / 2);
     m.center = 40, m.width = 400;  // abdomen (dicom.hpp's presets)
@@ -43,7 +43,7 @@ void SessionHub::send_case_state(const Session& s, uint64_t viewer) {
          kMonitorKey);
 }
 
-void SessionHub::set_case(session::SharedCase c) {
+void SessionHub::set_case(SharedCase c) {
   // Serialised before taking the lock (megabytes): poses keep flowing meanwhile. The generation,
   // the payload's first field, is filled in under the lock.
   std::vector<uint8_t> payload = session::serialize(c);
@@ -52,7 +52,7 @@ void SessionHub::set_case(session::SharedCase c) {
   wire::store<uint32_t>(payload.data(), c.generation);
   auto message = share(session::message(Type::kCase, payload));
   case_generation_ = c.generation;
-  case_ = std::make_shared<const session::SharedCase>(std::move(c));
+  case_ = std::make_shared<const SharedCase>(std::move(c));
   case_message_ = std::move(message);
   ++stats_.case_swaps;
   for (auto& [id, s] : sessions_) {
@@ -83,7 +83,7 @@ std::string SessionHub::case_name() const {
 
 bool SessionHub::restore(const std::string& name, const std::string& case_name,
                          const std::vector<session::ObjectState>& objects,
-                         const std::optional<session::MonitorState>& monitor) {
+                         const std::optional<MonitorState>& monitor) {
   session::Join j;  // the checks a Join's name gets
   j.session = name;
   j.name = "x";
@@ -112,7 +112,7 @@ bool SessionHub::restore(const std::string& name, const std::string& case_name,
   return true;
 }
 
-std::optional<session::MonitorState> SessionHub::monitor(const std::string& name) const {
+std::optional<MonitorState> SessionHub::monitor(const std::string& name) const {
   std::lock_guard lock(mutex_);
   for (const auto& [id, s] : sessions_)
     if (s->name == name) return s->monitor;
@@ -129,7 +129,7 @@ void SessionHub::broadcast_object(const Session& s, uint16_t object, const Membe
 void SessionHub::handle_object(Member& m, Type type, std::span<const uint8_t> payload) {
   Session& s = *m.session;
   if (type == Type::kSetMonitor) {
-    session::MonitorState want = session::parse_set_monitor(payload);
+    MonitorState want = session::parse_set_monitor(payload);
     if (want.generation != case_generation_ || !s.monitor) return;  // about another case
     if (want.slice >= case_->monitor->slices)
       return error(m.info.viewer, "monitor: slice " + std::to_string(want.slice) + " of " +

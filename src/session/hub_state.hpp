@@ -76,7 +76,7 @@ struct SessionHub::Session {
   Clock::time_point made = Clock::now();
   std::map<uint32_t, std::unique_ptr<Member>> members;  // by participant id, the OR site included
   std::vector<session::ObjectState> objects;            // the case's, by object index
-  std::optional<session::MonitorState> monitor;         // when the case has a series
+  std::optional<MonitorState> monitor;                  // when the case has a series
   struct Drawn {
     session::Annotation annotation;
     Shared message;         // its 0x51, for those who join later

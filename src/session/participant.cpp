@@ -287,7 +287,7 @@ void Participant::voice_scene(int64_t now_us, VoiceScene& out) const {
   }
 }
 
-std::shared_ptr<const session::SharedCase> Participant::shared_case() const {
+std::shared_ptr<const SharedCase> Participant::shared_case() const {
   std::lock_guard lock(impl_->mutex);
   return impl_->shared_case;
 }
@@ -318,9 +318,9 @@ bool Participant::object_request_queued(uint16_t object) const {
   return !impl_->detached && impl_->client->session_queued(Impl::object_key(object));
 }
 
-void Participant::set_monitor(const session::MonitorState& state) {
+void Participant::set_monitor(const MonitorState& state) {
   Impl& m = *impl_;
-  session::MonitorState s = state;
+  MonitorState s = state;
   {
     std::lock_guard lock(m.mutex);
     if (!m.shared_case) return;

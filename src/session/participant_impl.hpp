@@ -129,18 +129,18 @@ struct Participant::Impl {
     uint64_t decoded_sequence = 0;
     std::shared_ptr<const CameraFrame> decoded;
   };
-  std::shared_ptr<const session::SharedCase> shared_case;
+  std::shared_ptr<const SharedCase> shared_case;
   struct Track {
     session::ObjectState newest;
     std::deque<std::pair<int64_t, Pose>> poses;  // (server time, room_from_object), oldest first
     Pose own;                                    // where this participant last moved it
   };
   std::vector<Track> objects;
-  std::optional<session::MonitorState> monitor;  // the server's newest
+  std::optional<MonitorState> monitor;  // the server's newest
   // What set_monitor sent and when (steady_us), until the server's state matches it or it sends
   // an error: snapshot() shows it meanwhile (kMonitorWaitUs at most), so that changes faster than
   // the round trip build on each other instead of on the server's older state.
-  std::optional<std::pair<session::MonitorState, int64_t>> monitor_sent;
+  std::optional<std::pair<MonitorState, int64_t>> monitor_sent;
   static constexpr int64_t kMonitorWaitUs = 3'000'000;
   std::map<uint32_t, PointerView> pointers;                // held now, by owner (own included)
   uint32_t pointer_sequence = 0;                           // own pointer messages sent

@@ -6,7 +6,7 @@ namespace volcast {
 namespace {
 
 // Whether two monitor states show the same (who set them aside).
-bool same_view(const session::MonitorState& a, const session::MonitorState& b) {
+bool same_view(const MonitorState& a, const MonitorState& b) {
   return a.generation == b.generation && a.slice == b.slice && a.center == b.center &&
          a.width == b.width && a.overlay == b.overlay;
 }
@@ -14,7 +14,7 @@ bool same_view(const session::MonitorState& a, const session::MonitorState& b) {
 }  // namespace
 
 void Participant::Impl::handle_case(std::span<const uint8_t> p) {
-  auto c = std::make_shared<session::SharedCase>(session::parse_case(p));
+  auto c = std::make_shared<SharedCase>(session::parse_case(p));
   std::lock_guard lock(mutex);
   objects.assign(c->objects.size(), Track{});
   for (size_t i = 0; i < c->objects.size(); ++i) {
@@ -101,7 +101,7 @@ void Participant::Impl::handle(uint8_t type, std::span<const uint8_t> p) {
     case Type::kObjectState:
       return on_object_state(session::parse_object_state(p));
     case Type::kMonitorState: {
-      const session::MonitorState m = session::parse_monitor_state(p);
+      const MonitorState m = session::parse_monitor_state(p);
       if (!shared_case || m.generation != shared_case->generation) return;
       monitor = m;
       if (monitor_sent && same_view(monitor_sent->first, m)) monitor_sent.reset();  // it arrived

@@ -185,7 +185,7 @@ PoseScript parse_pose_script(const std::string& text) {
     sm.slice = static_cast<int>(number(m, "slice", -1, where));
     if (m.contains("preset")) {
       if (!m["preset"].is_string()) throw Error("pose script: " + where + ".preset must be a name");
-      const session::WindowPreset p = session::window_preset(m["preset"].get<std::string>());
+      const WindowPreset p = window_preset(m["preset"].get<std::string>());
       sm.center = p.center, sm.width = p.width;
     }
     if (m.contains("center")) sm.center = number(m, "center", 0, where);

@@ -368,39 +368,35 @@ TEST(CaseDicom, HounsfieldUnitsMatchDcmtkAndTheOverlaySitsOnTheLiver) {
 }
 
 TEST(CaseDicom, WindowPresetsMapHounsfieldUnitsAsDocumented) {
-  const auto liver = session::window_preset("liver");
+  const auto liver = window_preset("liver");
   EXPECT_EQ(liver.center, 90);
   EXPECT_EQ(liver.width, 150);
-  EXPECT_EQ(session::window_preset("abdomen").width, 400);
-  EXPECT_EQ(session::window_preset("bone").center, 480);
-  EXPECT_NE(test::error_of([] { session::window_preset("lung"); }).find("abdomen, liver, bone"),
+  EXPECT_EQ(window_preset("abdomen").width, 400);
+  EXPECT_EQ(window_preset("bone").center, 480);
+  EXPECT_NE(test::error_of([] { window_preset("lung"); }).find("abdomen, liver, bone"),
             std::string::npos);
-  for (const auto& p : session::window_presets()) {
+  for (const auto& p : window_presets()) {
     SCOPED_TRACE(p.name);
     // PS3.3 C.11.2.1.2.1: black at and below c - 0.5 - (w-1)/2, white above c - 0.5 + (w-1)/2.
-    EXPECT_EQ(session::window_gray(p.center - p.width / 2, p.center, p.width), 0);
-    EXPECT_EQ(session::window_gray(p.center - p.width, p.center, p.width), 0);
-    EXPECT_EQ(session::window_gray(p.center + p.width / 2, p.center, p.width), 255);
-    EXPECT_NEAR(session::window_gray(p.center, p.center, p.width), 128, 1);
+    EXPECT_EQ(window_gray(p.center - p.width / 2, p.center, p.width), 0);
+    EXPECT_EQ(window_gray(p.center - p.width, p.center, p.width), 0);
+    EXPECT_EQ(window_gray(p.center + p.width / 2, p.center, p.width), 255);
+    EXPECT_NEAR(window_gray(p.center, p.center, p.width), 128, 1);
     const float hu = p.center + p.width / 4, c = p.center, w = p.width;
-    EXPECT_EQ(session::window_gray(hu, c, w),
-              std::lround(((hu - (c - 0.5)) / (w - 1) + 0.5) * 255));
+    EXPECT_EQ(window_gray(hu, c, w), std::lround(((hu - (c - 0.5)) / (w - 1) + 0.5) * 255));
   }
   // Monotonic across the window.
   for (int hu = -100; hu < 300; ++hu)
-    EXPECT_LE(session::window_gray(float(hu), 90, 150),
-              session::window_gray(float(hu + 1), 90, 150));
+    EXPECT_LE(window_gray(float(hu), 90, 150), window_gray(float(hu + 1), 90, 150));
   // The monitor's image: gray, orange where the overlay is.
-  session::MonitorSeries s;
+  MonitorSeries s;
   s.width = 2, s.height = 1, s.slices = 1;
   s.hu = {90, 90};
   s.overlay = {0, 1};
-  const auto rgba = session::monitor_image(s, {0, 0, 90, 150, true, 0});
+  const auto rgba = monitor_image(s, {0, 0, 90, 150, true, 0});
   EXPECT_EQ(rgba[0], rgba[2]);  // gray
   EXPECT_GT(rgba[4], rgba[6]);  // orange
-  EXPECT_FALSE(test::error_of([&] {
-                 session::monitor_image(s, {0, 1, 90, 150, true, 0});
-               }).empty());
+  EXPECT_FALSE(test::error_of([&] { monitor_image(s, {0, 1, 90, 150, true, 0}); }).empty());
 }
 
 TEST(CaseFolder, OnlyMeshesOnlyLabelsOnlyDicomOrACaseJson) {
@@ -485,16 +481,16 @@ TEST(CaseFolder, ACaseJsonDeclaringTooManyPartsIsRefusedBeforeAnyFileIsRead) {
 
 TEST(CaseWire, RoundTripsAndRefusesHostileCounts) {
   const Case c = load_case(medical() / "ircad11-organs");
-  session::SharedCase shared = to_shared_case(c);
+  SharedCase shared = to_shared_case(c);
   ASSERT_EQ(shared.objects.size(), 2u);  // liver, body
   shared.generation = 3;
-  shared.monitor = session::MonitorSeries{};
+  shared.monitor = MonitorSeries{};
   shared.monitor->width = 3, shared.monitor->height = 2, shared.monitor->slices = 2;
   shared.monitor->hu = {-1000, 0, 40, 90, 400, 1200, 5, 6, 7, 8, 9, 10};
   shared.monitor->overlay = {0, 1, 1, 0, 0, 0, 1, 0, 0, 0, 0, 1};
   shared.monitor->overlay_label = "Liver";
   const std::vector<uint8_t> bytes = session::serialize(shared);
-  const session::SharedCase back = session::parse_case(bytes);
+  const SharedCase back = session::parse_case(bytes);
   EXPECT_EQ(back.generation, 3u);
   ASSERT_EQ(back.objects.size(), 2u);
   for (size_t o = 0; o < 2; ++o) {
@@ -523,7 +519,7 @@ TEST(CaseWire, RoundTripsAndRefusesHostileCounts) {
               }).find("malformed case"),
               std::string::npos);
   // A vertex count beyond the message is refused before allocating.
-  session::SharedCase tiny;
+  SharedCase tiny;
   tiny.objects.resize(1);
   tiny.objects[0].name = "x";
   tiny.objects[0].parts.resize(1);

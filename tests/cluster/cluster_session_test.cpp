@@ -21,9 +21,9 @@
 #include "volcast/cluster/session_state.hpp"
 #include "volcast/cluster/tier_publisher.hpp"
 #include "volcast/core/error.hpp"
+#include "volcast/room/room.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
-#include "volcast/session/room.hpp"
 #include "volcast/voice/voice_link.hpp"
 
 namespace volcast {
@@ -94,11 +94,11 @@ bool sees(const TestParticipant& p, const std::string& name) {
 
 // Synthetic: one object (a tetrahedron, 10 cm) and a 40 x 40 x 30 series (48 kB of HU: the case
 // message is over the 64 KiB max_payload, so it comes down in pieces).
-session::SharedCase synthetic_case() {
-  session::SharedCase c;
+SharedCase synthetic_case() {
+  SharedCase c;
   c.name = "synthetic";
   c.objects.push_back(test::tetrahedron("organ", {0, 1.3f, 0}));
-  session::MonitorSeries m;
+  MonitorSeries m;
   m.width = 40, m.height = 40, m.slices = 30;
   m.hu.resize(48000);
   for (size_t i = 0; i < m.hu.size(); ++i) m.hu[i] = static_cast<int16_t>(i % 2000 - 1000);
@@ -521,7 +521,7 @@ TEST(SessionState, ARestartedSiteServerPutsTheOrgansAndTheMonitorBack) {
   LocalNatsCluster nats_server(dir, 1,
                                "jetstream { store_dir: \"" + (dir / "js").string() + "\" }");
   NatsConnection link(nats_at(nats_server.url(0)));
-  session::MonitorState set;
+  MonitorState set;
   set.slice = 7, set.center = 90, set.width = 150, set.overlay = false;
   {
     test::SessionSite s;
@@ -564,7 +564,7 @@ TEST(SessionState, ARestartedSiteServerPutsTheOrgansAndTheMonitorBack) {
   // Another patient's case: the saved state is not applied.
   {
     SessionHub hub;
-    session::SharedCase other = synthetic_case();
+    SharedCase other = synthetic_case();
     other.name = "another patient";
     hub.set_case(other);
     SessionStateMirror mirror(link, "or", hub);

@@ -15,6 +15,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/filter/filters.hpp"
 #include "volcast/pipeline/or_display.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/render/annotation_scene.hpp"
 #include "volcast/render/backdrop_renderer.hpp"
 #include "volcast/render/headless_target.hpp"

@@ -12,6 +12,7 @@
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/session/annotations.hpp"
+#include "volcast/session/erase_last.hpp"
 #include "volcast/session/message_table.hpp"
 #include "volcast/session/pose_script.hpp"
 
@@ -158,6 +159,66 @@ TEST(Annotations, TheHubKeepsThemForLateJoinersAfterTheirAuthorAndErasesThemForE
   send(hub, 11, Type::kErase, session::serialize_erase(1));  // again: told, nothing else
   EXPECT_NE(last_error(out, 11).find("no annotation 1"), std::string::npos);
   EXPECT_EQ(hub.stats().erases, 1u);
+}
+
+// "Erase my last" (erase_last.hpp), the window's Backspace and the headset's erase button, on
+// snapshots made by hand: a press waits for what this participant sent before it to come back
+// numbered, so a quick press after drawing erases what was just drawn, not the one before it.
+TEST(Annotations, EraseMyLastWaitsForWhatWasJustDrawnAndErasesOnlyTheOwnNewest) {
+  using session::EraseLast;
+  SessionSnapshot s;
+  s.id = 7;
+  auto drawn = [&](uint32_t id, uint32_t author, uint32_t tag) {
+    Annotation a;
+    a.id = id;
+    a.author = author;
+    a.tag = tag;
+    s.annotations.push_back(a);
+  };
+  drawn(1, 7, 1);  // mine
+  drawn(2, 9, 1);  // someone else's, newer
+  EraseLast erase;
+  EXPECT_EQ(erase.due(s, 0), std::nullopt) << "no press";
+  erase.pressed(10);
+  EXPECT_EQ(erase.due(s, 10), 1u) << "the newest of mine, not the other's newer one";
+  EXPECT_FALSE(erase.waiting());
+  EXPECT_EQ(erase.due(s, 20), std::nullopt) << "one press, one erase";
+
+  // A stroke sent (tag 2), the key pressed before the server numbered it: it waits for it.
+  erase.sent(2, 100);
+  erase.pressed(150);
+  erase.pressed(160);  // the same press
+  EXPECT_EQ(erase.due(s, 170), std::nullopt);
+  EXPECT_TRUE(erase.waiting());
+  drawn(3, 7, 2);
+  EXPECT_EQ(erase.due(s, 200), 3u) << "what was just drawn, not annotation 1";
+  EXPECT_EQ(erase.due(s, 210), std::nullopt);
+
+  // Something sent after the press does not hold it up.
+  erase.pressed(300);
+  erase.sent(3, 310);
+  EXPECT_EQ(erase.due(s, 320), 3u);
+
+  // One the server refused never comes back: the press waits kWaitUs for it, then erases the
+  // newest of mine standing.
+  erase.sent(4, 1000);
+  erase.pressed(1001);
+  EXPECT_EQ(erase.due(s, 1000 + EraseLast::kWaitUs), std::nullopt);
+  EXPECT_EQ(erase.due(s, 1001 + EraseLast::kWaitUs), 3u);
+
+  // Nothing of mine standing: the press is done with nothing to erase, and a later drawing is
+  // not erased by it.
+  s.annotations.erase(s.annotations.begin());  // 1
+  s.annotations.pop_back();                    // 3
+  erase.pressed(5'000'000);
+  EXPECT_EQ(erase.due(s, 5'000'000), std::nullopt);
+  EXPECT_FALSE(erase.waiting());
+  drawn(5, 7, 5);
+  EXPECT_EQ(erase.due(s, 5'000'010), std::nullopt);
+  // A tag of 0 (annotate before joining: nothing sent) is not waited for.
+  erase.sent(0, 6'000'000);
+  erase.pressed(6'000'001);
+  EXPECT_EQ(erase.due(s, 6'000'001), 5u);
 }
 
 TEST(Annotations, OnlyTheAuthorErasesWhereTheServerSaysSo) {

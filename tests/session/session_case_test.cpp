@@ -25,11 +25,11 @@ using test::TestParticipant;
 using test::turned;
 
 // Synthetic: one object (a tetrahedron, 10 cm) and a 4 x 2 x 3 series with an overlay.
-session::SharedCase synthetic_case(const std::string& name = "synthetic") {
-  session::SharedCase c;
+SharedCase synthetic_case(const std::string& name = "synthetic") {
+  SharedCase c;
   c.name = name;
   c.objects.push_back(test::tetrahedron("organ", {0, 1.3f, 0}, {0.6f, 0.2f, 0.1f, 0.5f}));
-  session::MonitorSeries m;
+  MonitorSeries m;
   m.width = 4, m.height = 2, m.slices = 3;
   m.hu.assign(24, 40);
   m.overlay.assign(24, 0);
@@ -46,14 +46,14 @@ TEST(SessionCase, AScriptedEventWaitsForTheStateItChangesAndIsPerformedOnce) {
   script.monitor.push_back({0.8, 2, 90.f, 150.f, true});
   script.grabs.push_back({1.0, 2.0, "organ", 60});
   ScriptedObjects scripted(script);
-  const session::SharedCase c = synthetic_case();
+  const SharedCase c = synthetic_case();
   SessionSnapshot now;
   now.id = 7;
   EXPECT_TRUE(scripted.due(nullptr, now, 5).empty()) << "nothing before the case";
   EXPECT_TRUE(scripted.due(&c, now, 5).empty()) << "the case alone: no monitor or object state";
   EXPECT_FALSE(scripted.done());
 
-  session::MonitorState server;
+  MonitorState server;
   server.generation = 3, server.slice = 1, server.center = 40, server.width = 400;
   now.monitor = server;
   auto a = scripted.due(&c, now, 5);
@@ -113,9 +113,9 @@ TEST(SessionCase, AScriptedGrabTheServerNeverHandsOverIsGivenUp) {
   PoseScript script;
   script.grabs.push_back({1.0, 2.0, "liver", 60});
   ScriptedObjects scripted(script);
-  session::SharedCase c;
+  SharedCase c;
   c.generation = 1;
-  session::SharedObject liver;
+  SharedObject liver;
   liver.name = "liver";
   c.objects.push_back(liver);
   SessionSnapshot now;
@@ -136,11 +136,11 @@ TEST(SessionCase, AScriptedMonitorChangeForACaseWithoutASeriesIsDropped) {
   PoseScript script = idle_pose_script();
   script.monitor.push_back({0.5, 1, std::nullopt, std::nullopt, std::nullopt});
   ScriptedObjects scripted(script);
-  session::SharedCase c = synthetic_case();
+  SharedCase c = synthetic_case();
   c.monitor.reset();
   SessionSnapshot now;
   EXPECT_TRUE(scripted.due(&c, now, 1).empty());
-  now.monitor = session::MonitorState{};
+  now.monitor = MonitorState{};
   EXPECT_TRUE(scripted.due(&c, now, 1).empty()) << "dropped, not kept for a later case";
 }
 
@@ -219,8 +219,8 @@ TEST(SessionCase, TheMonitorIsSharedAndTheCaseSwapsForEveryone) {
   EXPECT_EQ(a.now().monitor->slice, 1);    // the middle one
   EXPECT_EQ(a.now().monitor->width, 400);  // abdomen
   EXPECT_TRUE(a.now().monitor->overlay);
-  session::MonitorState want = *b.now().monitor;
-  const auto liver = session::window_preset("liver");
+  MonitorState want = *b.now().monitor;
+  const auto liver = window_preset("liver");
   want.slice = 2, want.center = liver.center, want.width = liver.width, want.overlay = false;
   b.p().set_monitor(want);
   ASSERT_TRUE(
@@ -230,13 +230,13 @@ TEST(SessionCase, TheMonitorIsSharedAndTheCaseSwapsForEveryone) {
   // Changes faster than the round trip build on each other (keys pressed in a row, a slider
   // dragged): each starts from the one before, not from the server's older state.
   for (const char* preset : {"abdomen", "bone"}) {
-    session::MonitorState m = *b.now().monitor;
+    MonitorState m = *b.now().monitor;
     ASSERT_EQ(m.slice, 2);
-    m.center = session::window_preset(preset).center;
-    m.width = session::window_preset(preset).width;
+    m.center = window_preset(preset).center;
+    m.width = window_preset(preset).width;
     b.p().set_monitor(m);
     m = *b.now().monitor;  // at once: still on its way
-    EXPECT_EQ(m.width, session::window_preset(preset).width);
+    EXPECT_EQ(m.width, window_preset(preset).width);
     m.slice = 0;
     b.p().set_monitor(m);
     m = *b.now().monitor;
@@ -246,8 +246,8 @@ TEST(SessionCase, TheMonitorIsSharedAndTheCaseSwapsForEveryone) {
       const auto h = s.hub.monitor("OR");
       return h->overlay && h->slice == 0 && a.now().monitor->overlay && b.now().monitor->overlay;
     }));
-    EXPECT_EQ(s.hub.monitor("OR")->width, session::window_preset(preset).width) << preset;
-    EXPECT_EQ(a.now().monitor->width, session::window_preset(preset).width) << preset;
+    EXPECT_EQ(s.hub.monitor("OR")->width, window_preset(preset).width) << preset;
+    EXPECT_EQ(a.now().monitor->width, window_preset(preset).width) << preset;
     want.slice = 2, want.overlay = false;  // back, for the next round and what follows
     b.p().set_monitor(want);
     ASSERT_TRUE(eventually([&] {
@@ -264,7 +264,7 @@ TEST(SessionCase, TheMonitorIsSharedAndTheCaseSwapsForEveryone) {
   // Swapping the case: everyone gets the new one, at rest, held by nobody.
   a.p().grab(0);
   ASSERT_TRUE(eventually([&] { return b.now().objects[0].owner == a.now().id; }));
-  session::SharedCase next = synthetic_case("next patient");
+  SharedCase next = synthetic_case("next patient");
   next.objects[0].rest.position = {0.5f, 1.2f, 0};
   next.monitor.reset();
   s.hub.set_case(next);

@@ -151,10 +151,10 @@ TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
   View view;
   view.world_from_view = look_at({0, 0, 0}, {0, 0, -1}, {0, 1, 0});
   view.clip_from_view = perspective(60, target.target().aspect(), 0.05f, 10);
-  session::SharedCase c;
+  SharedCase c;
   c.generation = 1;
   const auto square = [](const char* name, Eigen::Vector4f rgba, float z) {
-    session::SharedPart p;  // two triangles facing +z (the eye), 0.6 m wide, at depth z
+    SharedPart p;  // two triangles facing +z (the eye), 0.6 m wide, at depth z
     p.name = name;
     p.rgba = rgba;
     p.positions = {{-0.3f, -0.3f, z}, {0.3f, -0.3f, z}, {0.3f, 0.3f, z}, {-0.3f, 0.3f, z}};
@@ -162,7 +162,7 @@ TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
     p.indices = {0, 1, 2, 0, 2, 3};
     return p;
   };
-  session::SharedObject o;
+  SharedObject o;
   o.name = "organ";
   o.parts = {square("inside", {1, 0, 0, 1}, 0), square("shell", {0, 1, 0, 0.5f}, 0.2f)};
   c.objects = {o};
@@ -191,10 +191,10 @@ TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
   EXPECT_LT(image.pixel(80, 60)[2], 40);
   EXPECT_GT(image.pixel(80, 60)[1], 100);
   // The monitor: a 2 x 1 slice, HU 90 (the liver window's centre: mid grey) and 1000 (white).
-  session::MonitorSeries series;
+  MonitorSeries series;
   series.width = 2, series.height = 1, series.slices = 1;
   series.hu = {90, 1000};
-  session::MonitorState state{2, 0, 90, 150, false, 0};
+  MonitorState state{2, 0, 90, 150, false, 0};
   Eigen::Matrix4f quad = Eigen::Matrix4f::Identity();
   quad.diagonal() << 1.0f, 1.0f, 1, 1;
   quad(2, 3) = -1;
@@ -203,7 +203,7 @@ TEST(CaseRenderer, OpaqueOccludesTransparentBlendsMonitorShowsTheWindow) {
   target.read_image(image);
   // The quad is 104 px wide from x = 28: the texel centres (linear filtering) at x = 54 and 106.
   const int left = image.pixel(54, 60)[1], right = image.pixel(106, 60)[1];
-  EXPECT_NEAR(left, session::window_gray(90, 90, 150), 3);
+  EXPECT_NEAR(left, window_gray(90, 90, 150), 3);
   EXPECT_EQ(right, 255);
   state.center = 1000, state.width = 10;  // another window: the left pixel goes black
   renderer.draw_monitor(view, target.target(), series, state, quad);

@@ -178,12 +178,12 @@ inline bool same_pose(const Pose& a, const Pose& b) {
 
 /// Synthetic (labelled): an object named `name` of one part "shell", a tetrahedron of 10 cm edges
 /// (its corner at the object's origin), colour `rgba`, resting at `rest` (room frame, metres).
-inline session::SharedObject tetrahedron(const std::string& name, const Eigen::Vector3f& rest,
-                                         const Eigen::Vector4f& rgba = {0.6f, 0.2f, 0.1f, 1}) {
-  session::SharedObject o;
+inline SharedObject tetrahedron(const std::string& name, const Eigen::Vector3f& rest,
+                                const Eigen::Vector4f& rgba = {0.6f, 0.2f, 0.1f, 1}) {
+  SharedObject o;
   o.name = name;
   o.rest.position = rest;
-  session::SharedPart p;
+  SharedPart p;
   p.name = "shell";
   p.rgba = rgba;
   p.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};

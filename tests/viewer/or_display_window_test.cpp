@@ -15,6 +15,7 @@
 #include "volcast/core/image_io.hpp"
 #include "volcast/pipeline/or_display.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/render/annotation_scene.hpp"
 #include "volcast/viewer/or_display_window.hpp"
 

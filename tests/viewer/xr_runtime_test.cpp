@@ -379,12 +379,12 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
                       5);  // 5 frame sets a second: the room to see, less to encode
   // The headset joins first: spawn spot (0, 1.4) facing the table (yaw 0), so its stage grip
   // (0.2, 1.2, -0.3) is at (0.2, 1.2, 1.1) in the room. The object waits 7 cm from it.
-  session::SharedCase c;
+  SharedCase c;
   c.name = "synthetic";
-  session::SharedObject o;
+  SharedObject o;
   o.name = "organ";
   o.rest.position = {0.2f, 1.25f, 1.05f};
-  session::SharedPart part;
+  SharedPart part;
   part.name = "shell";
   part.positions = {{0, 0, 0}, {0.1f, 0, 0}, {0, 0.1f, 0}, {0, 0, 0.1f}};
   part.normals = {{0, 0, -1}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};

@@ -22,7 +22,7 @@
 #include "volcast/core/clock.hpp"
 #include "volcast/pipeline/replay.hpp"
 #include "volcast/record/recording.hpp"
-#include "volcast/session/room.hpp"
+#include "volcast/room/room.hpp"
 #include "volcast/voice/voice_export.hpp"
 #include "volcast/voice/voice_link.hpp"
 

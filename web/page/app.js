@@ -47,6 +47,7 @@
 // trigger points too (no teleporting in the real room). docs/usage.md says how to align them.
 // window.volcast holds what the page measured, for people (the overlay) and tests.
 import * as M from './math.js';
+import {EraseLast} from './erase_last.js';
 import {FrameBudget} from './frame_budget.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
 import {StrokeBuilder, annotationPrimitives, labelQuad, participantColor, pointerPrimitives}
@@ -454,6 +455,7 @@ function updateAim(pointing, drawing, clipFromRoom, w, h, px, py, origin, s) {
     aim.stroke = null;
     if (a.points.length >= 2) {
       const tag = session.annotate({...a, ...anchorOf(a.points)});
+      eraseLast.sent(tag, performance.now());
       state.drawing.drawn.push({tag, ...a});
     }
   }
@@ -490,11 +492,16 @@ function putAway() {
   if (state.drawing.sent.length > 128) state.drawing.sent.shift();
 }
 
-// Erases this page's newest annotation still in the session.
+// Erases this page's newest annotation still in the session, once what it sent before the press
+// is back numbered (erase_last.js; eraseDue, every frame).
+const eraseLast = new EraseLast();
 function eraseNewest() {
+  if (session.joined) eraseLast.pressed(performance.now());
+}
+function eraseDue(now) {
   if (!session.joined) return;
-  const mine = [...session.annotations.values()].filter((a) => a.author === session.joined.id);
-  if (mine.length) session.erase(mine.reduce((x, y) => (y.id > x.id ? y : x)).id);
+  const id = eraseLast.due(session.annotations.values(), session.joined.id, now);
+  if (id !== null) session.erase(id);
 }
 
 // Records where another's pointer dot is drawn in the bound framebuffer: its hit's pixel in
@@ -541,6 +548,7 @@ function typeLabel() {
   if (!text) return;
   const points = [hit.map(Math.fround)];
   const tag = session.annotate({kind: 2, points, text, ...anchorOf(points)});
+  eraseLast.sent(tag, performance.now());
   state.drawing.drawn.push({tag, kind: 2, points, text});
 }
 function desktopFrame() {
@@ -548,6 +556,7 @@ function desktopFrame() {
   requestAnimationFrame(desktopFrame);
   const now = performance.now();
   notePresented(now);
+  eraseDue(now);
   if (now - desktopFrameAt < 1000 / MAX_FPS - 2) return;  // fps=: a slow machine's share
   desktopFrameAt = now;
   keepFrameBudget(now);
@@ -765,6 +774,7 @@ function xrAim(frame, space, playarea, s) {
     if (hit) {
       const points = [hit.map(Math.fround)];
       const tag = session.annotate({kind: 2, points, text: label, ...anchorOf(points)});
+      eraseLast.sent(tag, performance.now());
       state.drawing.drawn.push({tag, kind: 2, points, text: label});
     }
   }
@@ -822,6 +832,7 @@ async function enterXr(mode) {
   const onFrame = (t, frame) => {
     xr.requestAnimationFrame(onFrame);
     notePresented(performance.now());
+    eraseDue(performance.now());
     keepFrameBudget(t);
     const pose = frame.getViewerPose(space);
     if (!pose) return;

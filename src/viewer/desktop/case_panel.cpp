@@ -69,7 +69,7 @@ void draw_case_panel(CasePanelState& st, Participant& participant, const Session
   }
   if (!c->monitor || !s.monitor) return;
   ImGui::Separator();
-  session::MonitorState m = *s.monitor;
+  MonitorState m = *s.monitor;
   bool changed = false;
   int slice = m.slice;
   ImGui::Text("monitor: CT %dx%d, %d slices (set by %s)", c->monitor->width, c->monitor->height,
@@ -78,7 +78,7 @@ void draw_case_panel(CasePanelState& st, Participant& participant, const Session
     m.slice = static_cast<uint16_t>(slice);
     changed = true;
   }
-  for (const session::WindowPreset& p : session::window_presets()) {
+  for (const WindowPreset& p : window_presets()) {
     if (ImGui::Button(p.name)) m.center = p.center, m.width = p.width, changed = true;
     ImGui::SameLine();
   }

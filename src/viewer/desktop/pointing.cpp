@@ -4,6 +4,7 @@
 #include <imgui.h>
 
 #include "volcast/core/error.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/render/annotation_scene.hpp"
 
 namespace volcast {
@@ -35,9 +36,9 @@ Eigen::Vector3f ahead_of(const View& view, const RenderTarget& target, double x,
   return eye + (Eigen::Vector3f(p.head<3>() / p.w()) - eye).normalized();
 }
 
-void send(Participant& participant, PointingState& state, session::Annotation a) {
+void send(Participant& participant, PointingState& state, session::Annotation a, int64_t now_us) {
   try {
-    participant.annotate(std::move(a));
+    state.erase_last.sent(participant.annotate(std::move(a)), now_us);
     state.status.clear();
   } catch (const Error& e) {
     state.status = e.what();
@@ -49,15 +50,8 @@ void send(Participant& participant, PointingState& state, session::Annotation a)
 std::vector<Primitive> point_and_draw(PointingState& state, Participant& participant,
                                       const SessionSnapshot& snapshot, const View& view,
                                       const RenderTarget& target, double x, double y,
-                                      const Eigen::Vector3f& rgb) {
-  if (state.erase_last) {
-    state.erase_last = false;
-    for (auto it = snapshot.annotations.rbegin(); it != snapshot.annotations.rend(); ++it)
-      if (it->author == snapshot.id) {
-        participant.erase(it->id);
-        break;
-      }
-  }
+                                      const Eigen::Vector3f& rgb, int64_t now_us) {
+  if (const auto id = state.erase_last.due(snapshot, now_us)) participant.erase(*id);
   // The pointer comes from where a right hand would hold it: 20 cm right of the eye, 25 cm down.
   const RigidTransform& eye = view.world_from_view;
   state.origin = (eye * Eigen::Vector3d(0.2, -0.25, 0)).cast<float>();
@@ -83,7 +77,7 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
       session::Annotation a;
       a.kind = session::AnnotationKind::kStroke;
       a.points = std::move(state.stroke);
-      send(participant, state, std::move(a));
+      send(participant, state, std::move(a), now_us);
     }
     state.stroke.clear();
   }
@@ -94,7 +88,7 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
       session::Annotation a;
       a.kind = session::AnnotationKind::kArrow;
       a.points = {*state.arrow_tail, *state.hit};
-      send(participant, state, std::move(a));
+      send(participant, state, std::move(a), now_us);
     }
     state.arrow_tail.reset();
   }
@@ -105,7 +99,7 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
       a.kind = session::AnnotationKind::kLabel;
       a.points = {*state.hit};
       a.text = state.label;
-      send(participant, state, std::move(a));
+      send(participant, state, std::move(a), now_us);
     } else {
       state.status = "N pins the label on the surface under the mouse: there is none there";
     }

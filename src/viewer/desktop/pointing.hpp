@@ -13,6 +13,7 @@
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/render_target.hpp"
 #include "volcast/render/view.hpp"
+#include "volcast/session/erase_last.hpp"
 #include "volcast/session/participant.hpp"
 
 namespace volcast {
@@ -23,7 +24,7 @@ struct PointingState {
   bool drawing = false;                              ///< left button held with L: a stroke
   bool arrow = false;                                ///< right button held with L: an arrow
   bool pin_label = false;                            ///< N pressed: pin the label at the dot
-  bool erase_last = false;                           ///< Backspace pressed
+  session::EraseLast erase_last;                     ///< Backspace presses (erase_last.hpp)
   std::vector<Eigen::Vector3f> stroke;               ///< the stroke being drawn (room frame)
   std::optional<Eigen::Vector3f> arrow_tail;         ///< where the arrow began
   std::optional<Eigen::Vector3f> hit;                ///< the dot this frame (room frame)
@@ -35,12 +36,13 @@ struct PointingState {
 /// After the scene is drawn into `target` through `view` (its depth buffer current), before the
 /// panel: reads the depth under the mouse (window pixel (x, y) from the top left, in framebuffer
 /// pixels), moves the pointer and sends what the state asks (the pointer while L is held and once
-/// put away; a stroke or arrow when its button is let go; a label; an erase). Returns what to draw
-/// over the scene: the own pointer and the stroke being drawn, in `rgb`.
+/// put away; a stroke or arrow when its button is let go; a label; an erase once what was sent
+/// before its press is back: session::EraseLast). Returns what to draw over the scene: the own
+/// pointer and the stroke being drawn, in `rgb`. `now_us`: a steady clock, µs.
 std::vector<Primitive> point_and_draw(PointingState& state, Participant& participant,
                                       const SessionSnapshot& snapshot, const View& view,
                                       const RenderTarget& target, double x, double y,
-                                      const Eigen::Vector3f& rgb);
+                                      const Eigen::Vector3f& rgb, int64_t now_us);
 
 /// The labels' text over the scene (ImGui's background draw list, between NewFrame and Render),
 /// each at its pin's top in its author's colour; `width` x `height` the window's size.

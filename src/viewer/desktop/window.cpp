@@ -31,6 +31,13 @@
 namespace volcast {
 namespace {
 
+// A steady clock, µs: when an erase key went down and when its erase is due (EraseLast).
+int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 static_assert(kTalkKey == GLFW_KEY_V && kMuteKey == GLFW_KEY_M);
 
 constexpr float kDegreesPerPixel = 0.3f;
@@ -60,7 +67,7 @@ void handle_key(Input& in, int key, int action, int mods) {
     in.pointing->laser = action == GLFW_PRESS;
   if (action != GLFW_PRESS) return;
   if (in.pointing && key == GLFW_KEY_N) in.pointing->pin_label = true;
-  if (in.pointing && key == GLFW_KEY_BACKSPACE) in.pointing->erase_last = true;
+  if (in.pointing && key == GLFW_KEY_BACKSPACE) in.pointing->erase_last.pressed(steady_us());
   if (key == GLFW_KEY_S && (mods & GLFW_MOD_CONTROL)) in.controls.save = true;
   if (mods & GLFW_MOD_CONTROL) return;
   if (key == GLFW_KEY_F12 || key == GLFW_KEY_P) in.controls.screenshot = true;
@@ -467,7 +474,7 @@ void present(FrameFeed& feed, ViewerResult& result, const DesktopOptions& o) {
       const double scale = double(width) / std::max(window_w, 1);
       const std::vector<Primitive> own =
           point_and_draw(pointing, *participant, snapshot, view, target, input.mouse_x * scale,
-                         input.mouse_y * scale, participant_color(snapshot.id));
+                         input.mouse_y * scale, participant_color(snapshot.id), steady_us());
       if (!own.empty()) scene->draw_primitives(view, target, own);
     } else {
       renderer.draw_cameras(to_view(viewpoint.camera, target.aspect()), target, controls.pass);

@@ -25,7 +25,7 @@
 
 #include <array>
 
-#include "volcast/session/room.hpp"
+#include "volcast/room/room.hpp"
 
 namespace volcast {
 

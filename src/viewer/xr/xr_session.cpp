@@ -14,6 +14,7 @@
 #include "volcast/pipeline/hand_grab.hpp"
 #include "volcast/pipeline/hand_pointing.hpp"
 #include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/pipeline/session_scene.hpp"
 #include "volcast/pipeline/viewer_result.hpp"
 #include "volcast/render/annotation_scene.hpp"
 #include "volcast/viewer/xr.hpp"

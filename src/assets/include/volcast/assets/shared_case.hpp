@@ -6,12 +6,11 @@
 // lying on the table, the others in a row beside the liver. The DICOM series goes to the
 // monitor.
 #include "volcast/assets/case.hpp"
+#include "volcast/room/room.hpp"
 #include "volcast/session/objects.hpp"
-#include "volcast/session/room.hpp"
 
 namespace volcast {
 
-session::SharedCase to_shared_case(const Case& c,
-                                   const RoomLayout& room = default_operating_room());
+SharedCase to_shared_case(const Case& c, const RoomLayout& room = default_operating_room());
 
 }  // namespace volcast

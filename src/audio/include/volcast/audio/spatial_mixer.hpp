@@ -3,7 +3,7 @@
 // OpenAL Soft (1.19) with HRTF on a loopback device (ALC_SOFT_loopback: the mix is pulled frame by
 // frame, no sound card), with inverse-distance-clamped attenuation (OpenAL 1.1 spec §3.4.2).
 //
-// Frames: positions are in the room frame (metres, y up; see volcast/session/room.hpp). The
+// Frames: positions are in the room frame (metres, y up; see volcast/room/room.hpp). The
 // listener's head is OpenXR view space (x right, y up, looking down -z), which is also OpenAL's
 // listener convention, and is given as `room_from_head`.
 #include <Eigen/Core>

@@ -8,15 +8,15 @@
 // session::kMaxStrokePoints); letting go sends the stroke if it has 2 points or more (one the
 // participant refuses to send, past a limit, is logged and dropped). A label press pins one of
 // the preset labels (kHeadsetLabels, the browser's headset presets) where the ray meets a
-// surface; an erase press erases this participant's newest annotation (the server decides:
-// hub.hpp anyone_erases) -- one it sent that has not come back numbered yet (0x51) is waited for,
-// up to kEraseWaitUs, so a quick press after drawing erases what was just drawn.
+// surface; an erase press erases this participant's newest annotation as the window's Backspace
+// does (session/erase_last.hpp: one it sent that has not come back numbered yet is waited for).
 #include <array>
 #include <optional>
 #include <string_view>
 #include <vector>
 
 #include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/session/erase_last.hpp"
 #include "volcast/session/participant.hpp"
 
 namespace volcast {
@@ -46,10 +46,6 @@ int labeled_preset(float x, float y);
 
 class HandPointing {
  public:
-  /// How long an erase press waits for this participant's annotations sent but not yet back from
-  /// the server (one refused never comes back), µs.
-  static constexpr int64_t kEraseWaitUs = 3'000'000;
-
   /// Acts on `participant` for this frame: where `in`'s ray meets `surfaces` (null: nothing), the
   /// pointer sent while a button is held, the stroke drawn so far, sent when draw is let go. Call
   /// once per frame (the session's pose rate limit, 150 a second, is above a headset's 90 Hz).
@@ -70,13 +66,7 @@ class HandPointing {
   std::optional<Eigen::Vector3f> hit_;
   Eigen::Vector3f last_origin_ = Eigen::Vector3f::Zero();
   std::vector<Eigen::Vector3f> stroke_;
-  struct Sent {
-    uint32_t tag = 0;
-    int64_t at_us = 0;
-  };
-  std::vector<Sent> unconfirmed_;  // sent, not yet in a snapshot numbered
-  bool erase_wanted_ = false;      // an erase press waits for unconfirmed_
-  int64_t erase_pressed_us_ = 0;
+  session::EraseLast erase_last_;
   void send(Participant& p, session::Annotation a, int64_t now_us);
 };
 

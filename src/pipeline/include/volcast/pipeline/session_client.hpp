@@ -49,9 +49,9 @@ RigidTransform auto_playarea_from_camera(const DepthImage& first);
 struct ScriptAction {
   enum class Kind { kGrab, kMove, kRelease, kMonitor };
   Kind kind = Kind::kGrab;
-  uint16_t object = 0;            ///< kGrab, kMove, kRelease: index into the shared case
-  Pose pose;                      ///< kMove, kRelease: room_from_object (room frame, metres)
-  session::MonitorState monitor;  ///< kMonitor: the whole state to set
+  uint16_t object = 0;   ///< kGrab, kMove, kRelease: index into the shared case
+  Pose pose;             ///< kMove, kRelease: room_from_object (room frame, metres)
+  MonitorState monitor;  ///< kMonitor: the whole state to set
 };
 
 /// The object and monitor events of a pose script, performed by a participant as time goes: at a
@@ -74,7 +74,7 @@ class ScriptedObjects {
   /// sees now (`shared_case` null: none yet), and whether a move of the held object still waits in
   /// the participant's queue (Participant::object_request_queued: the next step waits for it).
   /// Advances the script past what it returns.
-  std::vector<ScriptAction> due(const session::SharedCase* shared_case, const SessionSnapshot& now,
+  std::vector<ScriptAction> due(const SharedCase* shared_case, const SessionSnapshot& now,
                                 double t_s, bool move_queued = false);
   /// Performs the actions due by `t_s` on `participant`.
   void step(Participant& participant, double t_s);

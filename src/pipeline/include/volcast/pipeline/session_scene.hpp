@@ -16,6 +16,7 @@
 #include "volcast/core/frame.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
 #include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/render/annotation_scene.hpp"
 #include "volcast/render/camera_renderer.hpp"
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/render_target.hpp"
@@ -76,6 +77,14 @@ struct DrawingOptions {
 /// while it shows the CT slice (and case) it was drawn on.
 void drawing_primitives(const SessionSnapshot& snapshot, const Eigen::Vector3f& eye,
                         std::vector<Primitive>& out, const DrawingOptions& options = {});
+
+/// One annotation as render/annotation_scene.hpp draws its kind (its points as they are: lift them
+/// with toward_eye first): a stroke through its points, an arrow from its tail to its head, a
+/// label's pin. Empty for an arrow without two points or a label without one.
+std::vector<Primitive> annotation_primitives(const session::Annotation& a,
+                                             const Eigen::Vector3f& rgb);
+/// Where a label's text goes: label_anchor of its pin (room frame, metres; zero without a point).
+Eigen::Vector3f label_anchor(const session::Annotation& a);
 
 /// The eye of a participant: its own head (OpenXR view space = our View frame), with a 90°
 /// vertical field of view; before any pose, standing at its spot 1.6 m high, facing its yaw.

@@ -1,12 +1,13 @@
 #pragma once
-// What pointing and drawing look like (session/annotations.hpp): a participant's laser pointer
-// and the session's strokes, arrows and labels, as primitives for PrimitiveRenderer. Room frame,
+// What pointing and drawing look like: a participant's laser pointer and strokes, arrows and
+// labels, from plain points (pipeline/session_scene.hpp draws the session's annotations with
+// them), as primitives for PrimitiveRenderer. Room frame,
 // metres. Everything glows (emissive) in its owner's colour, so that it reads on the live clouds
 // under any light, and is depth-tested, so that what stands in front of it hides it.
+#include <span>
 #include <vector>
 
 #include "volcast/render/primitive_renderer.hpp"
-#include "volcast/session/annotations.hpp"
 
 namespace volcast {
 
@@ -32,15 +33,20 @@ std::vector<Primitive> pointer_primitives(const Eigen::Vector3f& origin, bool ha
                                           const Eigen::Vector3f& hit, const Eigen::Vector3f& rgb,
                                           const Eigen::Vector3f& eye, float lift_per_m = 0.01f);
 
-/// One annotation (its points as they are: lift them with toward_eye first to keep them out of the
-/// surface they were drawn on): a stroke is a tube 8 mm wide through its points (a ball at each
-/// joint); an arrow a tube from its tail with a cone-like head 6 cm long at its head point; a label
-/// a pin (a ball 2.5 cm wide at its point and a stick 12 cm up to a flag 6 x 4 cm): its text is
-/// drawn by the viewer's overlay (label_anchor).
-std::vector<Primitive> annotation_primitives(const session::Annotation& a,
-                                             const Eigen::Vector3f& rgb);
+/// The marks (their points as they are: lift them with toward_eye first to keep them out of the
+/// surface they were drawn on). A stroke: a tube 8 mm wide through `points` (a ball at each
+/// joint).
+std::vector<Primitive> stroke_primitives(std::span<const Eigen::Vector3f> points,
+                                         const Eigen::Vector3f& rgb);
+/// An arrow: a tube 1 cm wide from `tail` with a cone-like head 6 cm long (at most the arrow's
+/// length) at `head`. Empty if they are less than 0.1 mm apart.
+std::vector<Primitive> arrow_primitives(const Eigen::Vector3f& tail, const Eigen::Vector3f& head,
+                                        const Eigen::Vector3f& rgb);
+/// A label's pin: a ball 2.5 cm wide at `pin` and a stick up to a flag 6 x 4 cm at
+/// label_anchor(pin); its text is drawn by the viewer's overlay.
+std::vector<Primitive> label_pin_primitives(const Eigen::Vector3f& pin, const Eigen::Vector3f& rgb);
 
-/// Where a label's text goes: the top of its pin's stick (room frame, metres).
-Eigen::Vector3f label_anchor(const session::Annotation& a);
+/// Where a label's text goes: the top of its pin's stick, 12 cm above `pin` (room frame, metres).
+Eigen::Vector3f label_anchor(const Eigen::Vector3f& pin);
 
 }  // namespace volcast

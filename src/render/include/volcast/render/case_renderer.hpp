@@ -1,8 +1,8 @@
 #pragma once
-// The patient case in the virtual OR (objects.hpp): its organ meshes, each object placed by its
-// room_from_object, lit like the room (primitive_renderer.hpp's shading), half-transparent parts
-// (the liver's shell, the skin) blended over what is inside them; and the virtual monitor, a quad
-// showing the CT slice the session's monitor state asks for. OpenGL 4.5 core, drawn into a
+// The patient case in the virtual OR (room/patient_case.hpp): its organ meshes, each object placed
+// by its room_from_object, lit like the room (primitive_renderer.hpp's shading), half-transparent
+// parts (the liver's shell, the skin) blended over what is inside them; and the virtual monitor, a
+// quad showing the CT slice the session's monitor state asks for. OpenGL 4.5 core, drawn into a
 // RenderTarget over what is there (no clear), depth-tested against it; creates no context.
 //
 // Transparent parts are drawn after the opaque ones, far to near by their centre, each twice:
@@ -14,7 +14,7 @@
 #include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/render_target.hpp"
 #include "volcast/render/view.hpp"
-#include "volcast/session/objects.hpp"
+#include "volcast/room/patient_case.hpp"
 
 namespace volcast {
 
@@ -37,14 +37,13 @@ class CaseRenderer {
   /// Draws the objects of `c` at `placed` (one per object, same order; extra objects are not
   /// drawn). A case seen for the first time (another address or generation) is uploaded first.
   /// Throws Error if OpenGL fails.
-  void draw(const View& view, const RenderTarget& target, const session::SharedCase& c,
+  void draw(const View& view, const RenderTarget& target, const SharedCase& c,
             std::span<const PlacedObject> placed, const Lighting& lighting = {});
   /// Draws the monitor: slice state.slice of `series` in its window, with the overlay when
   /// state.overlay, on the unit quad [-0.5, 0.5]^2 (z = 0, facing +z, image up = +y) placed by
   /// `world_from_quad`. The slice is made again only when the state or series changes.
-  void draw_monitor(const View& view, const RenderTarget& target,
-                    const session::MonitorSeries& series, const session::MonitorState& state,
-                    const Eigen::Matrix4f& world_from_quad);
+  void draw_monitor(const View& view, const RenderTarget& target, const MonitorSeries& series,
+                    const MonitorState& state, const Eigen::Matrix4f& world_from_quad);
 
  private:
   struct Impl;

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "volcast/render/primitive_renderer.hpp"
-#include "volcast/session/room.hpp"
+#include "volcast/room/room.hpp"
 
 namespace volcast {
 

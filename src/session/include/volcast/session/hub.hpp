@@ -33,11 +33,11 @@
 #include <vector>
 
 #include "volcast/net/stream/session_port.hpp"
+#include "volcast/room/room.hpp"
 #include "volcast/session/annotations.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/rate_limit.hpp"
-#include "volcast/session/room.hpp"
 #include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
@@ -129,12 +129,12 @@ class SessionHub final : public SessionPort {
   /// at its middle slice, the abdomen window, the overlay on) and sends it to every participant,
   /// now and on joining. Its generation is set here (one more than the last). Throws Error if it
   /// does not serialise (over kMaxCaseBytes). One caller at a time (serve's case watcher).
-  void set_case(session::SharedCase c);
+  void set_case(SharedCase c);
   /// The case's generation (0: none yet).
   uint32_t case_generation() const;
   /// The objects' states in session `name` (empty if there is none or no case).
   std::vector<session::ObjectState> objects(const std::string& name) const;
-  std::optional<session::MonitorState> monitor(const std::string& name) const;
+  std::optional<MonitorState> monitor(const std::string& name) const;
   /// The annotations of session `name` (annotations.hpp), by id: what a participant joining now
   /// receives. Empty if there is no such session.
   std::vector<session::Annotation> annotations(const std::string& name) const;
@@ -150,7 +150,7 @@ class SessionHub final : public SessionPort {
   /// session name or too many sessions.
   bool restore(const std::string& name, const std::string& case_name,
                const std::vector<session::ObjectState>& objects,
-               const std::optional<session::MonitorState>& monitor);
+               const std::optional<MonitorState>& monitor);
 
   /// The OR site's microphone (participant 1): forwards `packet` (voice_messages.hpp; the site's
   /// own sequence, frame and capture time on the server's clock) to every participant of every
@@ -244,7 +244,7 @@ class SessionHub final : public SessionPort {
   uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site
   SessionHubStats stats_;
   session::RateLimiter limiter_;
-  std::shared_ptr<const session::SharedCase> case_;
+  std::shared_ptr<const SharedCase> case_;
   std::shared_ptr<const std::vector<uint8_t>> case_message_;
   uint32_t case_generation_ = 0;
   bool site_muted_ = false;

@@ -88,7 +88,7 @@
 #include <vector>
 
 #include "volcast/core/calibration.hpp"
-#include "volcast/session/room.hpp"
+#include "volcast/room/room.hpp"
 
 namespace volcast::session {
 

@@ -17,10 +17,10 @@
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/room/room.hpp"
 #include "volcast/session/annotations.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
-#include "volcast/session/room.hpp"
 #include "volcast/session/voice_messages.hpp"
 
 namespace volcast {
@@ -109,9 +109,9 @@ struct SessionSnapshot {
   std::string last_error;                      ///< the server's last SessionError, if any
   /// (id, name, reason) of the participants that left, oldest first (the last 64).
   std::vector<std::tuple<uint32_t, std::string, session::LeftReason>> departed;
-  uint32_t case_generation = 0;                  ///< 0: no case received
-  std::vector<ObjectView> objects;               ///< by object index of shared_case()
-  std::optional<session::MonitorState> monitor;  ///< when the case has a series
+  uint32_t case_generation = 0;         ///< 0: no case received
+  std::vector<ObjectView> objects;      ///< by object index of shared_case()
+  std::optional<MonitorState> monitor;  ///< when the case has a series
   /// The pointers held now, by owner id: the others' (the newest received) and this
   /// participant's own (as last sent), none of those who left.
   std::vector<PointerView> pointers;
@@ -194,8 +194,10 @@ class Participant {
   /// config, Error. Ignored until joined. Thread-safe.
   void upload(std::shared_ptr<const CameraFrame> frame, int64_t capture_us);
   /// Sends one voice packet of this participant's microphone (voice_messages.hpp; capture time on
-  /// the server's clock: local wall clock + clock_offset_us()). Up to kMaxQueuedVoice wait for the
-  /// connection; one more drops the oldest. Ignored until joined. Thread-safe.
+  /// the server's clock: local wall clock + clock_offset_us()). They queue for the connection, none
+  /// replacing another (session_port.hpp kQueuedStreamKey: up to kMaxQueuedPerStream while it is
+  /// full, then the oldest is dropped; else up to kMaxHeldPerStream). Ignored until joined.
+  /// Thread-safe.
   void send_voice(const session::VoicePacketView& packet);
   /// Tells the others whether this participant's microphone is muted (0x0f). Thread-safe.
   void set_muted(bool muted);
@@ -223,7 +225,7 @@ class Participant {
   void join(const std::string& session, bool create);
 
   /// The case shared in the session (null before one arrived).
-  std::shared_ptr<const session::SharedCase> shared_case() const;
+  std::shared_ptr<const SharedCase> shared_case() const;
   /// Asks to hold object `object` (the server decides; snapshot().objects shows the owner).
   void grab(uint16_t object);
   /// Moves the held object (ignored by the server unless this participant holds it); shown here
@@ -237,7 +239,7 @@ class Participant {
   /// snapshot().monitor shows this state until the server's matches it or it sends an error (3 s
   /// at most: another participant's came after it), so that changes faster than the round trip
   /// build on each other (a slider dragged, keys pressed in a row) instead of on the older state.
-  void set_monitor(const session::MonitorState& state);
+  void set_monitor(const MonitorState& state);
 
   /// Shows (`on`) or puts away this participant's laser pointer: a ray from `origin` that meets
   /// a surface at `hit` (when has_hit; else it points through `hit`), room frame, metres: the
@@ -248,9 +250,11 @@ class Participant {
   /// Draws `a` (annotations.hpp; kind, anchor, points in the room frame, text; its tag, id,
   /// author and time are filled in) for the whole session; returns its tag, which the server's
   /// copy in snapshot().annotations carries once it arrived. A monitor anchor's generation is
-  /// filled in from the case. Throws Error, sending nothing, for what the server would refuse or
-  /// drop the sender for (point counts, label text, non-finite points). Ignored (returns 0) until
-  /// joined. Thread-safe.
+  /// filled in from the case. Throws Error, sending nothing, for what the server would drop the
+  /// sender for (point counts, non-finite points) and a label text it would refuse; the session's
+  /// limits (annotations.hpp kMaxSessionAnnotations, their points) and a monitor anchor's slice
+  /// are the server's to refuse (SessionError 0x43). Ignored (returns 0) until joined.
+  /// Thread-safe.
   uint32_t annotate(session::Annotation a);
   /// Asks to erase annotation `id` (the server decides: hub.hpp anyone_erases). Thread-safe.
   void erase(uint32_t id);

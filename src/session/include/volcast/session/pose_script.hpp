@@ -31,8 +31,8 @@
 #include <string>
 #include <vector>
 
+#include "volcast/room/room.hpp"
 #include "volcast/session/messages.hpp"
-#include "volcast/session/room.hpp"
 
 namespace volcast {
 

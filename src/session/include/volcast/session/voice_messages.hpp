@@ -11,9 +11,10 @@
 //                     length + bytes, 1..kMaxVoiceOpusBytes). The server stamps the sender (the
 //                     connection's participant: nobody speaks as another) and forwards it as 0x4e
 //                     to every other member of the sender's session, and to the OR site's
-//                     loudspeaker. Per receiver at most kMaxQueuedVoice packets of one speaker
-//                     wait (session_port.hpp kQueuedStreamKey): a slow receiver loses its oldest
-//                     audio first and never delays the others.
+//                     loudspeaker. Every packet of one speaker waits for each receiver
+//                     (session_port.hpp kQueuedStreamKey: up to kMaxQueuedPerStream while the
+//                     receiver's connection is full, else kMaxHeldPerStream, 1 s): a slow
+//                     receiver loses its oldest audio first and never delays the others.
 //   0x0f VoiceState   muted u8 (0/1): the sender's microphone is muted (nothing is sent while it
 //                     is). Forwarded as 0x4f to the others and sent to those who join later.
 // server -> participant:
@@ -37,7 +38,6 @@ inline constexpr uint32_t kMaxVoicePayloadBytes = 4 + 4 + 8 + 4 + kMaxVoiceOpusB
 /// The message table's limit for 0x0e: larger than any valid one, so that a slightly oversized
 /// packet loses only itself (a larger one drops its sender).
 inline constexpr uint32_t kVoiceMessageLimit = 4096;
-inline constexpr size_t kMaxQueuedVoice = 8;  ///< per speaker and receiver: 160 ms
 inline constexpr uint32_t kMaxMalformedVoice = 8;
 
 /// A voice packet's fields; `opus` points into the parsed payload.

@@ -1,4 +1,4 @@
-#include "volcast/session/room.hpp"
+#include "volcast/room/room.hpp"
 
 #include <cmath>
 

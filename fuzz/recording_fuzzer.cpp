@@ -31,8 +31,7 @@ struct Template {
 
 Template make_template() {
   RecordingStream s;
-  s.depth_codec = "raw";
-  s.color_codec = "none";
+  s.tier = {"raw", "none"};
   protocol::CameraInfo c;
   c.calibration.depth = Intrinsics{8, 4, 10, 10, 4, 2};
   s.welcome.cameras.push_back(c);

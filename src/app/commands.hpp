@@ -11,6 +11,7 @@
 
 #include "volcast/calibrate/site_calibration.hpp"
 #include "volcast/cluster/nats.hpp"
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/cpu_latency.hpp"
 #include "volcast/filter/chain.hpp"
 #include "volcast/net/stream/client.hpp"
@@ -133,8 +134,7 @@ struct ViewArgs {
   std::string known_servers;  ///< pin store; default user_config_dir()/known_servers
   bool insecure = false;      ///< plain TCP, loopback only
   int connect_timeout_ms = 5000;
-  std::string depth_codec = "volcast", color_codec = "jpeg";
-  int color_quality = 0;
+  Tier tier{"volcast", "jpeg"};  ///< --depth-codec, --color-codec, --color-quality
   bool tier_pinned = false;  ///< --depth-codec, --color-codec or --color-quality given: no adapting
   std::vector<std::string> floors;  ///< --floor: lossless | full-rate
   std::string max_rate;             ///< --max-rate, e.g. "20M" (bits/s); empty: no cap

@@ -26,12 +26,12 @@ void register_demo(CLI::App& app, Commands& commands) {
   d->add_option("--data", demo.data, "Folder with the real recordings (default: ../shared/data)");
   DemoArgs* const pinned = &demo;  // a lambda may not capture a structured binding (clang 14)
   const auto pin = [pinned](const std::string&) { pinned->tier_pinned = true; };
-  d->add_option("--depth-codec", demo.depth_codec,
+  d->add_option("--depth-codec", demo.tier.depth_codec,
                 "Depth codec, pinning the viewer's tier (without it, the server moves the viewer "
                 "along its tier ladder as the path allows): " +
                     depth_codec_help())
       ->each(pin);
-  d->add_option("--color-codec", demo.color_codec,
+  d->add_option("--color-codec", demo.tier.color_codec,
                 "Color codec, pinning the viewer's tier: " + color_codec_help())
       ->each(pin);
   d->add_flag("--no-session", demo.no_session,

@@ -45,17 +45,12 @@ void end_progress() {
 int run_record(const RecordArgs& a) {
   ClientConfig c = connect_client_config("record", a.connect, a.connect_file, a.token,
                                          a.fingerprint, a.insecure, a.known_servers);
-  const Tier tier = parse_tier(a.tier, "--tier", TierRate::kEveryFrameSet);
-  c.depth_codec = tier.depth_codec;
-  c.color_codec = tier.color_codec;
-  c.color_quality = tier.color_quality;
+  c.tier = parse_tier(a.tier, "--tier", TierRate::kEveryFrameSet);
   c.decode = false;  // the bytes are kept as sent; replay and export decode them
   c.keep_encoded = true;
   Client client(c);
   RecordingStream stream;
-  stream.depth_codec = c.depth_codec;
-  stream.color_codec = c.color_codec;
-  stream.color_quality = c.color_quality;
+  stream.tier = c.tier;
   stream.started_us = wall_clock_us();
   stream.origin = fmt::format("volcast record {}:{}", c.host, c.port);
   stream.welcome = client.welcome();
@@ -67,7 +62,7 @@ int run_record(const RecordArgs& a) {
   BackgroundRecorder recorder(a.out, stream, wo);
   spdlog::info(
       "recording {} camera(s), tier {} to {} (Ctrl-C stops; the file replays whenever it stops)",
-      stream.welcome.cameras.size(), to_string(tier), a.out);
+      stream.welcome.cameras.size(), to_string(c.tier), a.out);
   // The session's voices (--session): the recorder joins as a listener; what it hears arrives
   // on this thread, inside client.receive(), and is queued for the recorder's thread.
   std::unique_ptr<SessionClient> listener;
@@ -238,9 +233,9 @@ int run_recording_info(const InfoArgs& a) {
   nlohmann::json j = {
       {"kind", "Volcast recording"},
       {"path", a.file},
-      {"depth_codec", s.depth_codec},
-      {"color_codec", s.color_codec},
-      {"color_quality", s.color_quality},
+      {"depth_codec", s.tier.depth_codec},
+      {"color_codec", s.tier.color_codec},
+      {"color_quality", s.tier.color_quality},
       {"origin", s.origin},
       {"cameras", cams},
       {"format_version", info.version},
@@ -262,10 +257,8 @@ int run_recording_info(const InfoArgs& a) {
   if (a.json) {
     std::printf("%s\n", j.dump(2).c_str());
   } else {
-    std::printf("%s: Volcast recording, tier %s/%s%s, from %s\n", a.file.c_str(),
-                s.depth_codec.c_str(), s.color_codec.c_str(),
-                s.color_quality ? fmt::format("/{}", s.color_quality).c_str() : "",
-                s.origin.c_str());
+    std::printf("%s: Volcast recording, tier %s, from %s\n", a.file.c_str(),
+                to_string(s.tier).c_str(), s.origin.c_str());
     std::printf("  %zu frame sets (%zu key) over %.2f s, %s\n", info.frame_sets.size(), keys,
                 seconds, mb(info.file_bytes).c_str());
     for (size_t i = 0; i < s.welcome.cameras.size(); ++i) {

@@ -75,8 +75,8 @@ int run_relay(const ServeArgs& a) {
       static_cast<unsigned long long>(st.undecodable));
   for (const auto& v : server.viewers())
     spdlog::info(
-        "viewer {} ({}/{}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} MB",
-        v.peer, v.depth_codec, v.color_codec, v.frames_sent, v.frames_dropped, v.frames_stale,
+        "viewer {} ({}): {} frame sets sent, {} skipped ({} over the latency budget), {:.1f} MB",
+        v.peer, to_string(v.tier), v.frames_sent, v.frames_dropped, v.frames_stale,
         static_cast<double>(v.bytes_sent) / 1e6);
   return 0;
 }

@@ -128,11 +128,10 @@ void open_cameras(const ServeArgs& a, Serving& s) {
     s.replay.emplace(a.sources[0], ReplayOptions{a.from_s, a.to_s, !a.no_loop});
     const RecordingInfo& info = s.replay->info();
     spdlog::info(
-        "replaying {}: {} frame sets, {:.1f} s, tier {}/{} (passed through as "
+        "replaying {}: {} frame sets, {:.1f} s, tier {} (passed through as "
         "recorded to viewers of that tier){}",
         a.sources[0], info.frame_sets.size(),
-        static_cast<double>(s.replay->timeline().duration_us()) / 1e6, info.stream.depth_codec,
-        info.stream.color_codec,
+        static_cast<double>(s.replay->timeline().duration_us()) / 1e6, to_string(info.stream.tier),
         info.closed ? "" : "; not closed by its recorder, indexed by scanning");
     for (const VoicePlan::Speaker& v : s.replay->voices().speakers)
       spdlog::info("replaying the voice of '{}': {} packets (as '{} (recorded)' in the sessions)",
@@ -226,16 +225,12 @@ void add_outlets(const ServeArgs& a, Serving& s) {
   Server& server = *s.server;
   if (!a.record.empty()) {
     RecordingStream stream;
-    const Tier tier = parse_tier(a.record_tier, "--record-tier", TierRate::kEveryFrameSet);
-    stream.depth_codec = tier.depth_codec;
-    stream.color_codec = tier.color_codec;
-    stream.color_quality = tier.color_quality;
+    stream.tier = parse_tier(a.record_tier, "--record-tier", TierRate::kEveryFrameSet);
     stream.started_us = wall_clock_us();
     stream.origin = "volcast serve --record";
     stream.welcome = {s.cameras, wall_clock_us()};
     BackgroundRecorder& recorder = s.recorder.emplace(a.record, stream);
-    server.add_tier_tap(stream.depth_codec, stream.color_codec, stream.color_quality,
-                        [&recorder](const TierFrameSet& f) { recorder.push(f); });
+    server.add_tier_tap(stream.tier, [&recorder](const TierFrameSet& f) { recorder.push(f); });
     spdlog::info("recording tier {} to {}", a.record_tier, a.record);
   }
   // The stream on a NATS cluster: one more consumer of each published tier's encoding.
@@ -367,9 +362,8 @@ void stop_serving(Serving& s) {
     spdlog::info(
         "viewer {} ({}{}): {} frame sets sent, {} skipped ({} over the latency budget), "
         "{:.1f} MB, path RTT {:.1f} ms, {:.1f} Mbit/s, {} tier switches",
-        v.peer, to_string(Tier{v.depth_codec, v.color_codec, v.color_quality, v.frame_divisor}),
-        v.adaptive ? ", adaptive" : "", v.frames_sent, v.frames_dropped, v.frames_stale,
-        static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s,
+        v.peer, to_string(v.tier), v.adaptive ? ", adaptive" : "", v.frames_sent, v.frames_dropped,
+        v.frames_stale, static_cast<double>(v.bytes_sent) / 1e6, v.min_rtt_ms, v.bottleneck_mbit_s,
         v.switches.size());
 }
 

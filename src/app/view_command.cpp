@@ -287,9 +287,7 @@ int run_view(const ViewArgs& a) {
   opt.client = connect_client_config("view", a.connect, a.connect_file, a.token, a.fingerprint,
                                      a.insecure, a.known_servers);
   opt.client.connect_timeout_ms = a.connect_timeout_ms;
-  opt.client.depth_codec = a.depth_codec;
-  opt.client.color_codec = a.color_codec;
-  opt.client.color_quality = a.color_quality;
+  opt.client.tier = a.tier;
   opt.client.adapt = !a.tier_pinned;
   for (const auto& f : a.floors) {
     opt.client.keep_lossless |= f == "lossless";
@@ -378,15 +376,15 @@ void register_view(CLI::App& app, Commands& commands) {
       ->capture_default_str();
   ViewArgs* const pinned = &view;  // a lambda may not capture a structured binding (clang 14)
   const auto pin = [pinned](const std::string&) { pinned->tier_pinned = true; };
-  v->add_option("--depth-codec", view.depth_codec,
+  v->add_option("--depth-codec", view.tier.depth_codec,
                 "Depth codec, pinning the tier (without it, the server moves this viewer along "
                 "its tier ladder as the path allows): " +
                     depth_codec_help())
       ->each(pin);
-  v->add_option("--color-codec", view.color_codec,
+  v->add_option("--color-codec", view.tier.color_codec,
                 "Color codec, pinning the tier: " + color_codec_help())
       ->each(pin);
-  v->add_option("--color-quality", view.color_quality,
+  v->add_option("--color-quality", view.tier.color_quality,
                 "Color quality 1..100, pinning the tier (JPEG quality, H.264 CRF from it; 0 = the "
                 "codec default)")
       ->each(pin);

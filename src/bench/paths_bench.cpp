@@ -58,7 +58,7 @@ PathResult run_path(const fs::path& data, const PathCase& p, bool adapt, double 
   ClientConfig c = client_config_from_link(server->join_link(link->server_address()));
   c.decode = false;  // the path and the server are measured, not this machine's decoding
   c.adapt = adapt;
-  c.color_quality = adapt ? 0 : 90;
+  c.tier.color_quality = adapt ? 0 : 90;
   auto client = link->in_client_namespace([&] { return std::make_unique<Client>(c); });
   const auto start = Clock::now();
   const double before = p.step_to_bits_per_s > 0 ? 3.0 : 0.0;
@@ -79,7 +79,7 @@ PathResult run_path(const fs::path& data, const PathCase& p, bool adapt, double 
       stepped = true;
     }
     if (!client->receive(rx)) throw Error("bench --paths: the server closed the stream");
-    const std::string tier = tier_label(client->tier());
+    const std::string tier = to_string(client->tier().tier);
     if (r.tiers.empty() || r.tiers.back() != tier) r.tiers.push_back(tier);
     const auto now = Clock::now();
     if (now < step_at) continue;

@@ -79,12 +79,10 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
   std::optional<BackgroundRecorder> recorder;
   if (record) {
     RecordingStream stream;
-    stream.depth_codec = record->depth;
-    stream.color_codec = record->color;
+    stream.tier = {record->depth, record->color};
     stream.welcome = {site.cameras(), wall_clock_us()};
     recorder.emplace(record->path, stream, RecordingWriterOptions{.overwrite = true});
-    server.add_tier_tap(record->depth, record->color, 0,
-                        [&recorder](const TierFrameSet& f) { recorder->push(f); });
+    server.add_tier_tap(stream.tier, [&recorder](const TierFrameSet& f) { recorder->push(f); });
   }
   site.start(server);
   std::vector<ViewerFigures> figures(static_cast<size_t>(viewers));
@@ -95,8 +93,7 @@ Row measure(std::vector<std::unique_ptr<FrameSource>> sources, int viewers,
       ViewerFigures& f = figures[static_cast<size_t>(i)];
       try {
         ClientConfig c = client_config_from_link(link);
-        c.depth_codec = depth;
-        c.color_codec = color;
+        c.tier = {depth, color};
         c.decode = false;  // read and acknowledge only: the figure is the server's
         Client client(c);
         ReceivedFrameSet rx;

@@ -91,9 +91,9 @@ void Relay::on_chunk(std::span<const uint8_t> data) {
 bool Relay::need_images() const {
   if (!decoder_->stateless() || last_images_.empty()) return true;  // deltas: decode every one
   for (const TierReport& t : server_->tiers())
-    if (t.depth_codec != options_.tier.depth_codec || t.color_codec != options_.tier.color_codec ||
-        t.color_quality != options_.tier.color_quality)
-      return true;  // a tier encoded here, from the images
+    if (t.tier != options_.tier)
+      return true;  // a tier encoded here, from the images (server_tiers: only one of every
+                    // frame set with the published codecs passes the published bytes through)
   return false;
 }
 

@@ -74,8 +74,7 @@ void TierPublisher::on_want(size_t index, std::span<const uint8_t> data) {
     if (!t.tap) {
       const size_t max_message = nats_.max_payload();
       t.tap = t.server->add_tier_tap(
-          t.tier.depth_codec, t.tier.color_codec, t.tier.color_quality,
-          [this, subject = t.subject, max_message](const TierFrameSet& f) {
+          t.tier, [this, subject = t.subject, max_message](const TierFrameSet& f) {
             std::lock_guard lock(mutex_);
             try {
               uint64_t chunks = 0;
@@ -97,7 +96,7 @@ void TierPublisher::on_want(size_t index, std::span<const uint8_t> data) {
       std::lock_guard stats_lock(mutex_);
       ++stats_.starts;
     } else if (key) {  // a new tap begins at a key frame set anyway
-      t.server->request_key_frame(t.tier.depth_codec, t.tier.color_codec, t.tier.color_quality);
+      t.server->request_key_frame(t.tier);
       std::lock_guard stats_lock(mutex_);
       ++stats_.key_requests;
     }

@@ -48,13 +48,12 @@ int run_demo(const DemoArgs& a) {
   site.start(server);
   spdlog::info("demo: server on 127.0.0.1:{} (TLS 1.3, join token), viewer for {} s ({})",
                server.port(), a.seconds,
-               a.tier_pinned ? "tier " + a.depth_codec + "/" + a.color_codec + ", pinned"
+               a.tier_pinned ? "tier " + to_string(a.tier) + ", pinned"
                              : "adapting along the server's tier ladder");
 
   ViewerOptions opt;
   opt.client = client_config_from_link(server.join_link("127.0.0.1"));
-  opt.client.depth_codec = a.depth_codec;
-  opt.client.color_codec = a.color_codec;
+  opt.client.tier = a.tier;
   opt.client.adapt = !a.tier_pinned;
   opt.seconds = a.seconds;
   opt.software_render_fps = 2;  // without a GPU, llvmpipe would take both cores from the stream
@@ -77,11 +76,9 @@ int run_demo(const DemoArgs& a) {
   // Each viewer as the server saw it: its tier, the path it measured, every switch and why.
   for (const ViewerReport& v : server.viewers()) {
     std::printf(
-        "\nserver: viewer %llu (%s): tier %s/%s/%d%s%s, path RTT %.1f ms, delivery %.1f Mbit/s, "
+        "\nserver: viewer %llu (%s): tier %s%s, path RTT %.1f ms, delivery %.1f Mbit/s, "
         "goodput %.1f Mbit/s, queue %.0f ms, %zu tier switches\n",
-        static_cast<unsigned long long>(v.id), v.peer.c_str(), v.depth_codec.c_str(),
-        v.color_codec.c_str(), v.color_quality,
-        v.frame_divisor > 1 ? fmt::format("@{}", v.frame_divisor).c_str() : "",
+        static_cast<unsigned long long>(v.id), v.peer.c_str(), to_string(v.tier).c_str(),
         v.adaptive ? fmt::format(" (adaptive, rung {})", v.rung).c_str() : " (pinned)",
         v.min_rtt_ms, v.bottleneck_mbit_s, v.goodput_mbit_s, v.queue_ms, v.switches.size());
     for (const TierSwitch& s : v.switches)

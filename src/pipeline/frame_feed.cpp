@@ -89,13 +89,7 @@ Presenter headless_presenter(const ViewerOptions& opt) {
           feed.next(frames, std::chrono::duration_cast<std::chrono::microseconds>(
                                 due - std::chrono::steady_clock::now()));
       }
-      // A frame this thread still holds cannot have been reused by the receiver: the same
-      // pointer is the same images, already on the GPU.
-      for (size_t i = 0; i < frames.size(); ++i)
-        if (frames[i] && frames[i] != uploaded[i]) {
-          renderer.upload(i, *frames[i]);
-          uploaded[i] = frames[i];
-        }
+      upload_changed(renderer, frames, uploaded);
       if (!view) view = default_view(calibrations, frames);
       renderer.draw_cameras(to_view(*view, target.target().aspect()), target.target(), opt.pass);
       target.finish();  // headless: "presented" once the picture is finished
@@ -139,10 +133,6 @@ bool DrawPace::take(FrameFeed& feed, std::vector<std::shared_ptr<const CameraFra
   next_ += period_;
   if (next_ < after) next_ = after + period_;
   return true;
-}
-
-std::string tier_label(const TierState& t) {
-  return to_string(Tier{t.depth_codec, t.color_codec, t.color_quality, t.frame_divisor});
 }
 
 }  // namespace volcast

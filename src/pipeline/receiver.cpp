@@ -109,11 +109,8 @@ bool join(const ViewerOptions& opt, Client& client, ViewerResult& result) {
 void open_feed(FrameFeed::State& box, const protocol::Welcome& welcome, const ViewerOptions& opt) {
   const auto& cams = welcome.cameras;
   for (const auto& c : cams) box.cameras.push_back(c.calibration);
-  box.live.depth_codec = opt.client.depth_codec;
-  box.live.color_codec = opt.client.color_codec;
+  box.live.tier = opt.client.tier;
   box.live.adaptive = opt.client.adapt;
-  box.live.tier =
-      to_string(Tier{opt.client.depth_codec, opt.client.color_codec, opt.client.color_quality});
   box.live.cameras.resize(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
     box.live.cameras[i].description = printable(cams[i].description);
@@ -259,15 +256,12 @@ void note_tier(const Client& client, FrameFeed::State& box, Reception& r) {
   const TierState& t = client.tier();
   if (t.messages == r.tier_messages) return;
   const bool notice = t.messages == r.tier_messages + 1 && !r.tier_events.empty() &&
-                      r.tier_events.back().tier == tier_label(t);
+                      r.tier_events.back().tier == t.tier;
   r.tier_messages = t.messages;
-  const TierEvent e{wall_clock_us(), tier_label(t), t.lossless_depth,
-                    notice,          t.path_mbit_s, t.reason};
+  const TierEvent e{wall_clock_us(), t.tier, t.lossless_depth, notice, t.path_mbit_s, t.reason};
   if (r.tier_events.size() < 256) r.tier_events.push_back(e);
   std::lock_guard lock(box.mutex);
   box.live.tier = e.tier;
-  box.live.depth_codec = t.depth_codec;
-  box.live.color_codec = t.color_codec;
   box.live.lossless_depth = t.lossless_depth;
   box.live.path_mbit_s = t.path_mbit_s;
   box.live.tier_events.push_back(e);
@@ -492,8 +486,7 @@ std::vector<CameraStats> camera_figures(const protocol::Welcome& welcome, const 
 
 ViewerResult run_viewer(const ViewerOptions& opt) {
   ViewerResult result;
-  result.depth_codec = opt.client.depth_codec;
-  result.color_codec = opt.client.color_codec;
+  result.tier = opt.client.tier;
   // 1. Connect and join; the client lives until the figures are written.
   std::unique_ptr<Client> connected = connect_to_server(opt, result);
   if (!connected || !join(opt, *connected, result)) return finish(opt, std::move(result));
@@ -527,9 +520,7 @@ ViewerResult run_viewer(const ViewerOptions& opt) {
   result.frames_undecodable = reception.undecodable + client.frames_undecodable();
   result.frames_stale = reception.stale;
   result.outages = std::move(reception.outages);
-  result.depth_codec = client.tier().depth_codec;
-  result.color_codec = client.tier().color_codec;
-  result.tier = tier_label(client.tier());
+  result.tier = client.tier().tier;
   result.adaptive = opt.client.adapt;
   result.tier_events = std::move(reception.tier_events);
   {

@@ -180,13 +180,8 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     for (size_t i = 0; i < calibrations.size(); ++i)
       r.cameras.set_world_from_camera(i, calibrations[i].world_from_camera);
   }
-  for (size_t i = 0; i < frames.size(); ++i) {
-    if (frames[i] && frames[i] != r.uploaded[i]) {
-      r.cameras.upload(i, *frames[i]);
-      r.uploaded[i] = frames[i];
-    }
-    r.cameras.set_avatar_filter(i, filters[i]);
-  }
+  upload_changed(r.cameras, frames, r.uploaded);
+  for (size_t i = 0; i < frames.size(); ++i) r.cameras.set_avatar_filter(i, filters[i]);
   CameraPassOptions pass = options.pass;
   pass.cameras.clear();
   r.cameras.draw_cameras(view, target, pass);

@@ -42,14 +42,14 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
   j["ended"] = to_string(r.ended);
   j["error"] = r.error.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.error);
   j["frame_sets_received"] = r.frame_sets_received;
-  j["depth_codec"] = r.depth_codec;
-  j["color_codec"] = r.color_codec;
-  j["tier"] = r.tier;
+  j["depth_codec"] = r.tier.depth_codec;
+  j["color_codec"] = r.tier.color_codec;
+  j["tier"] = to_string(r.tier);
   j["adaptive"] = r.adaptive;
   j["tier_changes"] = nlohmann::json::array();
   for (const TierEvent& e : r.tier_events)
     j["tier_changes"].push_back({{"time_us", e.time_us},
-                                 {"tier", e.tier},
+                                 {"tier", to_string(e.tier)},
                                  {"lossless_depth", e.lossless_depth},
                                  {"notice", e.notice},
                                  {"path_mbit_s", e.path_mbit_s},
@@ -116,12 +116,12 @@ void write_stats_json(const std::filesystem::path& path, const ViewerResult& r) 
 std::string format_stats_table(const ViewerResult& r) {
   size_t switches = 0;  // the server's first word only says where the viewer starts
   for (size_t i = 1; i < r.tier_events.size(); ++i) switches += !r.tier_events[i].notice;
-  std::string s = fmt::format("tier {}{}, {} frames rendered{}\n", r.tier,
+  std::string s = fmt::format("tier {}{}, {} frames rendered{}\n", to_string(r.tier),
                               r.adaptive ? fmt::format(" (adaptive, {} switches)", switches) : "",
                               r.frames_rendered, r.renderer.empty() ? "" : " (" + r.renderer + ")");
   for (const TierEvent& e : r.tier_events)
-    s += fmt::format("  tier {}{}{}: {}\n", e.tier, e.lossless_depth ? "" : " (lossy depth)",
-                     e.notice ? " kept" : "", e.reason);
+    s += fmt::format("  tier {}{}{}: {}\n", to_string(e.tier),
+                     e.lossless_depth ? "" : " (lossy depth)", e.notice ? " kept" : "", e.reason);
   for (const ViewerResult::Outage& o : r.outages)
     s += o.back_us > 0 ? fmt::format("  reconnected after {:.1f} s: {}\n",
                                      static_cast<double>(o.back_us - o.lost_us) / 1e6, o.why)

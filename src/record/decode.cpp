@@ -6,7 +6,7 @@ namespace volcast {
 
 RecordingDecoder::RecordingDecoder(RecordingReader& reader)
     : reader_(reader),
-      frames_(reader.info().stream.depth_codec, reader.info().stream.color_codec,
+      frames_(reader.info().stream.tier.depth_codec, reader.info().stream.tier.color_codec,
               reader.info().stream.welcome.cameras) {}
 
 void RecordingDecoder::decode(size_t k, FrameSet& out) {

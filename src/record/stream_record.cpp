@@ -72,9 +72,9 @@ bool parse_record_header(std::span<const uint8_t, kRecordHeaderBytes> b, RecordH
 std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
   std::vector<uint8_t> out;
   wire::Writer w(out);
-  w.put_string(s.depth_codec);
-  w.put_string(s.color_codec);
-  w.put<uint8_t>(static_cast<uint8_t>(s.color_quality));
+  w.put_string(s.tier.depth_codec);
+  w.put_string(s.tier.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(s.tier.color_quality));
   w.put<int64_t>(s.started_us);
   w.put_string(s.origin);
   w.put_bytes(protocol::serialize(s.welcome));
@@ -84,15 +84,15 @@ std::vector<uint8_t> serialize_stream(const RecordingStream& s) {
 RecordingStream parse_stream(std::span<const uint8_t> payload) {
   wire::Reader r(payload, "recording stream");
   RecordingStream s;
-  s.depth_codec = r.get_string("depth codec");
-  s.color_codec = r.get_string("color codec");
-  s.color_quality = r.get<uint8_t>("color quality");
-  if (s.color_quality > 100) r.fail("color quality above 100");
+  s.tier.depth_codec = r.get_string("depth codec");
+  s.tier.color_codec = r.get_string("color codec");
+  s.tier.color_quality = r.get<uint8_t>("color quality");
+  if (s.tier.color_quality > 100) r.fail("color quality above 100");
   s.started_us = r.get<int64_t>("start time");
   s.origin = r.get_string("origin");
   s.welcome = protocol::parse_welcome(r.get_span("welcome"));
   r.expect_end();
-  if (s.depth_codec.empty() || s.color_codec.empty()) r.fail("no codec named");
+  if (s.tier.depth_codec.empty() || s.tier.color_codec.empty()) r.fail("no codec named");
   return s;
 }
 

@@ -584,4 +584,17 @@ std::string CameraRenderer::gl_description() const {
          reinterpret_cast<const char*>(glGetString(GL_VERSION));
 }
 
+size_t upload_changed(CameraRenderer& renderer,
+                      std::span<const std::shared_ptr<const CameraFrame>> frames,
+                      std::span<std::shared_ptr<const CameraFrame>> uploaded) {
+  size_t count = 0;
+  for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
+    if (frames[i] && frames[i] != uploaded[i]) {
+      renderer.upload(i, *frames[i]);
+      uploaded[i] = frames[i];
+      ++count;
+    }
+  return count;
+}
+
 }  // namespace volcast

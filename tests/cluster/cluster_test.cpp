@@ -196,7 +196,7 @@ TEST(NatsStream, ARealTierReachesASubscriberByteForByteInChunks) {
   std::mutex mutex;
   std::map<uint64_t, std::vector<uint8_t>> sent, received;
   std::vector<uint8_t> welcome;
-  site.server.add_tier_tap("volcast", "jpeg", 0, [&](const TierFrameSet& f) {
+  site.server.add_tier_tap({"volcast", "jpeg"}, [&](const TierFrameSet& f) {
     std::lock_guard lock(mutex);
     sent[f.index].assign(f.body.begin(), f.body.end());
   });
@@ -273,7 +273,7 @@ TEST(NatsStream, ATierIsEncodedAndPublishedOnlyWhileSomebodyWantsIt) {
     ASSERT_TRUE(test::eventually([&] { return complete >= 20; }, 60s));
     EXPECT_TRUE(first_key) << "a subscriber starts at a key frame set";
     ASSERT_EQ(site.server.tiers().size(), 1u);
-    EXPECT_EQ(site.server.tiers()[0].depth_codec, "trvl");
+    EXPECT_EQ(site.server.tiers()[0].tier.depth_codec, "trvl");
     const uint64_t keys = site.server.tiers()[0].key_frames;
     want.request_key();  // a relay that lost a delta
     EXPECT_TRUE(test::eventually(
@@ -424,7 +424,7 @@ struct PublishedSite {
   PublishedSite(const std::string& name, const std::string& depth, const std::string& color,
                 ServerConfig config = {})
       : dir(test::temp_dir(name)), nats_server(dir, 1, "max_payload: 65536"), site(30, config) {
-    site.server.add_tier_tap(depth, color, 0, [this](const TierFrameSet& f) {
+    site.server.add_tier_tap({depth, color}, [this](const TierFrameSet& f) {
       std::lock_guard lock(mutex);
       sent[f.capture_us].assign(f.body.begin(), f.body.end());
     });
@@ -455,8 +455,8 @@ RelayOptions relay_options() {
 
 ClientConfig viewer_of(Relay& relay, const std::string& depth, const std::string& color) {
   ClientConfig c = client_config_from_link(relay.server().join_link("127.0.0.1"));
-  c.depth_codec = depth;
-  c.color_codec = color;
+  c.tier.depth_codec = depth;
+  c.tier.color_codec = color;
   c.keep_encoded = true;
   c.receive_timeout_ms = 30000;
   return c;

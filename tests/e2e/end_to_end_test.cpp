@@ -43,8 +43,8 @@ ViewerOptions viewer_options(const Server& server, const std::string& depth,
                              const std::string& color) {
   ViewerOptions opt;
   opt.client = client_config_from_link(server.join_link("127.0.0.1"));
-  opt.client.depth_codec = depth;
-  opt.client.color_codec = color;
+  opt.client.tier.depth_codec = depth;
+  opt.client.tier.color_codec = color;
   opt.render = false;
   return opt;
 }
@@ -98,7 +98,8 @@ TEST(EndToEnd, SeveralViewersWithDifferentCodecsAtOnce) {
   EXPECT_EQ(rb.cameras[0].mean_color_bytes, 640.0 * 360 * 4 + 12);
   EXPECT_LT(ra.cameras[0].mean_color_bytes, rb.cameras[0].mean_color_bytes / 5);
   std::set<std::string> codecs;
-  for (const auto& v : site.server.viewers()) codecs.insert(v.depth_codec + "/" + v.color_codec);
+  for (const auto& v : site.server.viewers())
+    codecs.insert(v.tier.depth_codec + "/" + v.tier.color_codec);
   EXPECT_TRUE(codecs.count("rvl/jpeg") && codecs.count("trvl/raw") && codecs.count("zstd/none"));
 }
 
@@ -114,8 +115,8 @@ void send_hello(asio::ip::tcp::socket& s, const Server& server, const std::strin
                 const std::string& color) {
   protocol::Hello hello;
   hello.token = server.token();
-  hello.depth_codec = depth;
-  hello.color_codec = color;
+  hello.tier.depth_codec = depth;
+  hello.tier.color_codec = color;
   const auto msg = protocol::message(protocol::MessageType::kHello, protocol::serialize(hello));
   asio::write(s, asio::buffer(msg));
 }
@@ -151,7 +152,7 @@ TEST(EndToEnd, ViewerThatStopsReadingDoesNotDelayTheOther) {
   bool disconnected = false;
   for (int i = 0; i < 100 && !disconnected; ++i) {
     for (const auto& v : site.server.viewers())
-      if (v.depth_codec == "trvl" && v.color_codec == "raw") {
+      if (v.tier.depth_codec == "trvl" && v.tier.color_codec == "raw") {
         EXPECT_LE(v.frames_sent, 2u);
         disconnected = !v.connected && v.error.find("stalled") != std::string::npos;
       }
@@ -208,9 +209,9 @@ TEST(EndToEnd, ClientRejectsUnknownCodecsAndUnreachableServers) {
   ClientConfig c;
   c.port = 1;
   c.fingerprint = std::string(64, 'a');
-  c.depth_codec = "bogus";
+  c.tier.depth_codec = "bogus";
   EXPECT_THROW(Client{c}, Error);
-  c.depth_codec = "rvl";
+  c.tier.depth_codec = "rvl";
   try {
     Client client(c);
     FAIL();
@@ -283,7 +284,7 @@ TEST(EndToEnd, EachRecordingIsPacedAtItsOwnRate) {
   Server server(player.cameras(), config);
   player.start(server);
   ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
-  c.depth_codec = "rvl";
+  c.tier.depth_codec = "rvl";
   Client client(c);
   ReceivedFrameSet rx;
   std::vector<int64_t> hands_stamps, kinect_stamps;  // per frame set, 1 .. 40
@@ -372,7 +373,7 @@ TEST(EndToEnd, APresenterTakesFramesReadsLiveFiguresAndClosesTheSession) {
   EXPECT_GT(live.cameras[0].received_fps, 0);
   EXPECT_GT(live.cameras[0].mbit_per_s, 0);
   EXPECT_GT(live.cameras[0].frames_received, 0u);
-  EXPECT_EQ(live.depth_codec, "trvl");
+  EXPECT_EQ(live.tier.depth_codec, "trvl");
   EXPECT_FALSE(live.stages.empty());
   EXPECT_LT(r.frame_sets_received, 15u * 50);  // closed, not run out the 60 s
 

@@ -46,12 +46,12 @@ struct LinkSite {
   }
   double tier_mbit_s(const std::string& depth, const std::string& color) const {
     for (const auto& t : server->tiers())
-      if (t.depth_codec == depth && t.color_codec == color) return t.mbit_s;
+      if (t.tier.depth_codec == depth && t.tier.color_codec == color) return t.mbit_s;
     return 0;
   }
   uint64_t tier_frames(const std::string& depth, const std::string& color) const {
     for (const auto& t : server->tiers())
-      if (t.depth_codec == depth && t.color_codec == color) return t.frames_encoded;
+      if (t.tier.depth_codec == depth && t.tier.color_codec == color) return t.frames_encoded;
     return 0;
   }
 };
@@ -78,7 +78,8 @@ struct Watcher {
       ReceivedFrameSet rx;
       try {
         while (!stop && client->receive(rx)) {
-          Got g{Clock::now(), client->tier().depth_codec + "/" + client->tier().color_codec,
+          Got g{Clock::now(),
+                client->tier().tier.depth_codec + "/" + client->tier().tier.color_codec,
                 client->tier().lossless_depth,
                 double(rx.times.received_us - rx.times.capture_us) / 1000, true};
           if (check_depth)
@@ -114,9 +115,9 @@ bool wait_for(F done, double seconds) {
 
 ClientConfig viewer_config(const Server& server, const std::string& host) {
   ClientConfig c = client_config_from_link(server.join_link(host));
-  c.depth_codec = "zstd";
-  c.color_codec = "jpeg";
-  c.color_quality = 90;
+  c.tier.depth_codec = "zstd";
+  c.tier.color_codec = "jpeg";
+  c.tier.color_quality = 90;
   return c;
 }
 
@@ -184,9 +185,9 @@ TEST(Adaptation, AViewerStepsDownWhenItsPathShrinksAndBackUpWhenItRecoversWhileA
   const auto tiers = site.server->tiers();
   for (const auto& t : tiers) {
     std::printf("tier %s/%s/%d@%d: %d viewers, %llu frame sets, %.2f ms CPU each, %.1f Mbit/s\n",
-                t.depth_codec.c_str(), t.color_codec.c_str(), t.color_quality, t.frame_divisor,
-                t.viewers, static_cast<unsigned long long>(t.frames_encoded), t.cpu_ms_mean,
-                t.mbit_s);
+                t.tier.depth_codec.c_str(), t.tier.color_codec.c_str(), t.tier.color_quality,
+                t.tier.frame_divisor, t.viewers, static_cast<unsigned long long>(t.frames_encoded),
+                t.cpu_ms_mean, t.mbit_s);
     EXPECT_LE(t.viewers, 1);
     if (t.frames_encoded > 2) {
       EXPECT_GT(t.cpu_ms_mean, 0);
@@ -241,8 +242,8 @@ TEST(Adaptation, AViewerStepsDownWhenItsPathShrinksAndBackUpWhenItRecoversWhileA
   EXPECT_TRUE(wait_for([&] { return site.viewer(2).rung == 0; }, 20))
       << "back on the best rung; now on " << site.viewer(2).rung;
   // The viewer's own view of it follows with the next frame set after the change.
-  EXPECT_TRUE(wait_for([&] { return far.now().depth_codec == "zstd"; }, 10))
-      << "the far viewer decodes the best rung again; it is on " << far.now().depth_codec;
+  EXPECT_TRUE(wait_for([&] { return far.now().tier.depth_codec == "zstd"; }, 10))
+      << "the far viewer decodes the best rung again; it is on " << far.now().tier.depth_codec;
   const TierState t = far.now();
   EXPECT_GE(t.changes, 2u) << "the viewer took each change";
   EXPECT_TRUE(far.error.empty()) << far.error;
@@ -286,8 +287,8 @@ TEST(Adaptation, APinnedOrLosslessFloorViewerIsNeverGivenLossyDepthButIsToldWhy)
       << "the lossless-floor viewer was told its path cannot carry even its lightest tier";
   std::lock_guard lock(b.mutex);
   EXPECT_TRUE(b.error.empty()) << b.error;
-  EXPECT_TRUE(b.tier.depth_codec == "volcast" || b.tier.depth_codec == "zstd")
-      << b.tier.depth_codec;
+  EXPECT_TRUE(b.tier.tier.depth_codec == "volcast" || b.tier.tier.depth_codec == "zstd")
+      << b.tier.tier.depth_codec;
   std::printf("lossless-floor viewer told: %s\n", b.tier.reason.c_str());
   for (const auto& g : b.got) {
     EXPECT_TRUE(g.lossless) << g.tier;
@@ -302,25 +303,25 @@ TEST(Adaptation, AnAdaptiveViewerAskingForATierOffTheLadderGetsTheLaddersBest) {
   config.ladder = kLadder;
   test::HandsSite site(15, config);
   ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
-  c.depth_codec = "volcast-t";
-  c.color_codec = "raw";
-  c.color_quality = 7;
+  c.tier.depth_codec = "volcast-t";
+  c.tier.color_codec = "raw";
+  c.tier.color_quality = 7;
   c.adapt = true;
   c.decode = false;
   Client client(c);
   ReceivedFrameSet rx;
   ASSERT_TRUE(client.receive(rx));
-  EXPECT_EQ(client.tier().depth_codec, "zstd");
-  EXPECT_EQ(client.tier().color_quality, 90);
-  for (const auto& t : site.server.tiers()) EXPECT_EQ(t.depth_codec, "zstd");
+  EXPECT_EQ(client.tier().tier.depth_codec, "zstd");
+  EXPECT_EQ(client.tier().tier.color_quality, 90);
+  for (const auto& t : site.server.tiers()) EXPECT_EQ(t.tier.depth_codec, "zstd");
   // Without adapting, the same Hello is a tier of its own (the budget and offer decide).
   c.adapt = false;
-  c.depth_codec = "volcast";
-  c.color_codec = "jpeg";
-  c.color_quality = 0;
+  c.tier.depth_codec = "volcast";
+  c.tier.color_codec = "jpeg";
+  c.tier.color_quality = 0;
   Client pinned(c);
   ASSERT_TRUE(pinned.receive(rx));
-  EXPECT_EQ(pinned.tier().depth_codec, "volcast");
+  EXPECT_EQ(pinned.tier().tier.depth_codec, "volcast");
   EXPECT_EQ(pinned.tier().changes, 0u);
 }
 

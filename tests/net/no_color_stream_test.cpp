@@ -63,8 +63,8 @@ void receive(Client& client, int limit, const std::function<bool(const ReceivedF
 
 ClientConfig client_config(const Site& site, const std::string& color_codec) {
   ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
-  c.depth_codec = "rvl";
-  c.color_codec = color_codec;
+  c.tier.depth_codec = "rvl";
+  c.tier.color_codec = color_codec;
   return c;
 }
 

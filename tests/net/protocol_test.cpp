@@ -95,11 +95,11 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
   Hello sent;
   sent.token[0] = 0xab;
   sent.token[15] = 0xcd;
-  sent.depth_codec = "trvl";
-  sent.color_codec = "jpeg";
-  sent.color_quality = 80;
+  sent.tier.depth_codec = "trvl";
+  sent.tier.color_codec = "jpeg";
+  sent.tier.color_quality = 80;
   const auto hello = serialize(sent);
-  EXPECT_EQ(parse_hello(hello).color_quality, 80);
+  EXPECT_EQ(parse_hello(hello).tier.color_quality, 80);
   EXPECT_EQ(parse_hello(hello).token, sent.token);
   // The token is the first 16 bytes, readable without parsing the rest.
   EXPECT_TRUE(std::ranges::equal(hello_token(hello), sent.token));
@@ -118,8 +118,8 @@ TEST(Protocol, EveryTruncationOfEveryMessageIsRejected) {
 
 TEST(Protocol, AdaptationInTheHelloAndTierChangesRoundTripAndRefuseBadFields) {
   Hello sent;
-  sent.depth_codec = "volcast";
-  sent.color_codec = "jpeg";
+  sent.tier.depth_codec = "volcast";
+  sent.tier.color_codec = "jpeg";
   // A pinned viewer's Hello has no tail (as a browser's and older viewers' are).
   const size_t plain = serialize(sent).size();
   sent.adapt = Hello::kAdapt | Hello::kKeepLossless;
@@ -144,23 +144,23 @@ TEST(Protocol, AdaptationInTheHelloAndTierChangesRoundTripAndRefuseBadFields) {
   EXPECT_THROW(parse_hello(none), Error);
   sent.decodes.clear();
 
-  TierChange c{"h264", "h264", 50, 2, 18'500, "the path delivers 18.5 Mbit/s"};
+  TierChange c{{"h264", "h264", 50, 2}, 18'500, "the path delivers 18.5 Mbit/s"};
   const auto bytes = serialize(c);
   const TierChange back = parse_tier_change(bytes);
-  EXPECT_EQ(back.depth_codec, "h264");
-  EXPECT_EQ(back.color_quality, 50);
-  EXPECT_EQ(back.frame_divisor, 2);
+  EXPECT_EQ(back.tier.depth_codec, "h264");
+  EXPECT_EQ(back.tier.color_quality, 50);
+  EXPECT_EQ(back.tier.frame_divisor, 2);
   EXPECT_EQ(back.path_kbit_s, 18'500u);
   EXPECT_EQ(back.reason, c.reason);
   for (size_t n = 0; n < bytes.size(); ++n)
     EXPECT_THROW(parse_tier_change(std::span(bytes).first(n)), Error);
   for (const int divisor : {0, 9}) {
     TierChange bad = c;
-    bad.frame_divisor = divisor;
+    bad.tier.frame_divisor = divisor;
     EXPECT_THROW(parse_tier_change(serialize(bad)), Error) << divisor;
   }
   TierChange loud = c;
-  loud.color_quality = 101;
+  loud.tier.color_quality = 101;
   EXPECT_THROW(parse_tier_change(serialize(loud)), Error);
   auto trailing = bytes;
   trailing.push_back(0);
@@ -237,7 +237,7 @@ TEST(Protocol, ChannelsSeparateFramesControlAndSessionMessages) {
   EXPECT_TRUE(
       std::ranges::equal(ack, message(MessageType::kAck, serialize_ack(0x0102030405060708ull))));
   // Hello with a quality over 100 is malformed.
-  auto hello = serialize(Hello{{}, "volcast", "jpeg", 100});
+  auto hello = serialize(Hello{{}, {"volcast", "jpeg", 100}});
   hello.back() = 101;
   EXPECT_THROW(parse_hello(hello), Error);
 }

@@ -217,8 +217,8 @@ TEST(Tls, APlainTcpClientGetsNothingButATlsAlert) {
   auto s = idle_socket(io, "127.0.0.1", site.server.port());
   protocol::Hello hello;
   hello.token = site.server.token();  // even with the right token, in the clear
-  hello.depth_codec = "volcast";
-  hello.color_codec = "jpeg";
+  hello.tier.depth_codec = "volcast";
+  hello.tier.color_codec = "jpeg";
   asio::write(s, asio::buffer(
                      protocol::message(protocol::MessageType::kHello, protocol::serialize(hello))));
   std::vector<uint8_t> answer;
@@ -330,11 +330,11 @@ TEST(Door, OnlyOfferedTiersAreServedAndTheRejectNamesThem) {
   config.offered_tiers = {"volcast/jpeg", "rvl/none/0"};
   HandsSite site(30, config);
   ClientConfig c = joining(site.server);
-  c.depth_codec = "trvl";
+  c.tier.depth_codec = "trvl";
   const std::string why = error_of([&] { Client{c}; });
   EXPECT_NE(why.find("offers volcast/jpeg, rvl/none/0"), std::string::npos) << why;
-  c.depth_codec = "rvl";
-  c.color_codec = "none";
+  c.tier.depth_codec = "rvl";
+  c.tier.color_codec = "none";
   EXPECT_EQ(receive(c, 3), 3);
 
   config.offered_tiers = {"volcast/bogus"};
@@ -357,25 +357,25 @@ TEST(Door, CostliestTiersPastTheCpuBudgetAreRefusedAndTheCheapOnesStillServed) {
   ReceivedFrameSet rx;
   ASSERT_TRUE(honest.receive(rx));
   ClientConfig greedy = joining(site.server);
-  greedy.depth_codec = "hevc";
-  greedy.color_codec = "h264";
+  greedy.tier.depth_codec = "hevc";
+  greedy.tier.color_codec = "h264";
   for (int quality = 10; quality <= 80; quality += 10) {
-    greedy.color_quality = quality;
+    greedy.tier.color_quality = quality;
     const std::string why = error_of([&] { Client{greedy}; });
     EXPECT_NE(why.find("tier hevc/h264/" + std::to_string(quality) + " would cost about"),
               std::string::npos)
         << why;
     EXPECT_NE(why.find("budget is 0.30 cores"), std::string::npos) << why;
   }
-  greedy.depth_codec = "raw";
-  greedy.color_codec = "none";
-  greedy.color_quality = 0;
+  greedy.tier.depth_codec = "raw";
+  greedy.tier.color_codec = "none";
+  greedy.tier.color_quality = 0;
   {
     Client cheap(greedy);
     EXPECT_TRUE(cheap.receive(rx));
     // A third tier held by this address alone (both others are its own, on loopback) is one
     // too many.
-    greedy.depth_codec = "lz4";
+    greedy.tier.depth_codec = "lz4";
     const std::string why = error_of([&] { Client{greedy}; });
     EXPECT_NE(why.find("holds 2 tiers nobody else watches"), std::string::npos) << why;
     EXPECT_TRUE(cheap.receive(rx));
@@ -383,7 +383,7 @@ TEST(Door, CostliestTiersPastTheCpuBudgetAreRefusedAndTheCheapOnesStillServed) {
   int frames = 0;
   while (frames < 5 && honest.receive(rx)) ++frames;
   EXPECT_EQ(frames, 5);
-  for (const TierReport& t : site.server.tiers()) EXPECT_NE(t.depth_codec, "hevc");
+  for (const TierReport& t : site.server.tiers()) EXPECT_NE(t.tier.depth_codec, "hevc");
 }
 
 TEST(Door, FailedHandshakesAreLoggedRateLimitedWithACount) {
@@ -481,7 +481,7 @@ TEST(Door, ThePassedThroughTierIsFreeBeforeItsFirstFrameSet) {
   Client first(relayed), second(relayed);
   ASSERT_EQ(server.tiers().size(), 1u);
   EXPECT_EQ(server.tiers()[0].cost_cores, 0);
-  relayed.depth_codec = "rvl";
+  relayed.tier.depth_codec = "rvl";
   const std::string why = error_of([&] { Client{relayed}; });
   EXPECT_NE(why.find("tier rvl/jpeg would cost about"), std::string::npos) << why;
   EXPECT_EQ(server.tiers().size(), 1u);

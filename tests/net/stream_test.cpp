@@ -116,7 +116,7 @@ TEST_P(JoinMidStream, DecodesFromItsFirstKeyFrame) {
   config.key_frame_interval = 1000;  // so the joiner's key frame is the one made for it
   HandsSite site(15, config);
   ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
-  c.depth_codec = codec;
+  c.tier.depth_codec = codec;
   Client first(c);
   ReceivedFrameSet rx;
   for (int i = 0; i < 10; ++i) ASSERT_TRUE(first.receive(rx));
@@ -149,13 +149,13 @@ TEST(SharedStream, OneEncoderPerTierHowEverManyViewers) {
   ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   c.decode = false;
   for (int i = 0; i < 4; ++i) clients.push_back(std::make_unique<Client>(c));
-  c.depth_codec = "rvl";
+  c.tier.depth_codec = "rvl";
   clients.push_back(std::make_unique<Client>(c));
   ReceivedFrameSet rx;
   for (int n = 0; n < 5; ++n)
     for (auto& cl : clients) ASSERT_TRUE(cl->receive(rx));
   std::map<std::string, int> viewers;
-  for (const auto& t : site.server.tiers()) viewers[t.depth_codec] = t.viewers;
+  for (const auto& t : site.server.tiers()) viewers[t.tier.depth_codec] = t.viewers;
   EXPECT_EQ(viewers.size(), 2u);
   EXPECT_EQ(viewers["volcast"], 4);
   EXPECT_EQ(viewers["rvl"], 1);
@@ -191,7 +191,7 @@ TEST(SharedStream, ColorQualityIsPartOfTheTier) {
   HandsSite site(15);
   ClientConfig c = client_config_from_link(site.server.join_link("127.0.0.1"));
   Client standard(c);
-  c.color_quality = 40;
+  c.tier.color_quality = 40;
   Client low(c);
   ReceivedFrameSet a, b;
   size_t standard_bytes = 0, low_bytes = 0;
@@ -203,8 +203,17 @@ TEST(SharedStream, ColorQualityIsPartOfTheTier) {
   }
   EXPECT_EQ(site.server.tiers().size(), 2u);
   EXPECT_LT(low_bytes, standard_bytes * 3 / 4);  // JPEG q40 against q90 on the real frames
-  c.color_quality = 101;
+  c.tier.color_quality = 101;
   EXPECT_THROW(Client{c}, Error);
+  // A viewer asks for every frame set (the Hello has no divisor: the server's ladder skips them).
+  c.tier.color_quality = 0;
+  c.tier.frame_divisor = 2;
+  try {
+    Client{c};
+    ADD_FAILURE() << "a viewer's tier @2 was taken";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("volcast/jpeg@2"), std::string::npos) << e.what();
+  }
 }
 
 // A camera slower than the site (the 5 fps Azure Kinect recording in a 30 fps site) repeats its
@@ -219,7 +228,9 @@ TEST(TierBudget, ABurstyPublisherIsPricedAtItsMeanRate) {
   ServerConfig config;
   config.port = 0;
   Server server(player.cameras(), config);
-  server.add_tier_tap("volcast", "jpeg", 0, [](const TierFrameSet&) {});
+  EXPECT_THROW(server.add_tier_tap({"volcast", "jpeg", 0, 2}, [](const TierFrameSet&) {}), Error)
+      << "a tap takes every frame set";
+  server.add_tier_tap({"volcast", "jpeg"}, [](const TierFrameSet&) {});
   ASSERT_EQ(server.tiers().size(), 1u);
   const double at_30_fps = server.tiers()[0].cost_cores;  // nothing published yet: 30 fps
   ASSERT_GT(at_30_fps, 0);
@@ -263,7 +274,7 @@ TEST(SharedStream, RepeatedFramesOfASlowCameraAreNotCodedAgain) {
     config.latency_budget_ms = 60'000;  // a frame set waits for the one before it: never stale
     Server server(cameras, config);
     ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
-    c.depth_codec = codec;
+    c.tier.depth_codec = codec;
     Client client(c);
     ReceivedFrameSet rx;
     std::shared_ptr<const CameraFrame> slow;
@@ -635,7 +646,7 @@ TEST(SessionChannel, AMessagePostedWhileALongOneArrivesLeavesBeforeItsLastByte) 
   ClientConfig config;
   config.port = listener.port();
   config.insecure = true;  // the fake server speaks plain TCP on loopback
-  config.depth_codec = config.color_codec = "raw";
+  config.tier.depth_codec = config.tier.color_codec = "raw";
   config.handshake_timeout_ms = 20000;
   config.receive_timeout_ms = 30000;
   Client client(config);

@@ -149,8 +149,8 @@ ClientConfig config(uint16_t port, const std::string& depth = "raw",
   ClientConfig c;
   c.port = port;
   c.insecure = true;  // the fake server speaks plain TCP on loopback
-  c.depth_codec = depth;
-  c.color_codec = color;
+  c.tier.depth_codec = depth;
+  c.tier.color_codec = color;
   c.decode_threads = 1;
   c.handshake_timeout_ms = 20000;  // generous: a loaded machine; scenarios set their own
   c.receive_timeout_ms = 20000;

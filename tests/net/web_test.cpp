@@ -82,8 +82,8 @@ std::unique_ptr<Connection> open_websocket(uint16_t port, std::string& answer) {
 std::vector<uint8_t> hello_message(const JoinToken& token) {
   protocol::Hello hello;
   hello.token = token;
-  hello.depth_codec = "volcast";
-  hello.color_codec = "jpeg";
+  hello.tier.depth_codec = "volcast";
+  hello.tier.color_codec = "jpeg";
   return protocol::message(protocol::MessageType::kHello, protocol::serialize(hello));
 }
 

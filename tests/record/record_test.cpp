@@ -36,8 +36,8 @@ namespace fs = std::filesystem;
 // bytes encode their index, so a reader can tell each one apart.
 RecordingStream tiny_stream() {
   RecordingStream s;
-  s.depth_codec = "raw";
-  s.color_codec = "none";
+  s.tier.depth_codec = "raw";
+  s.tier.color_codec = "none";
   s.started_us = 1;
   s.origin = "record_test";
   protocol::CameraInfo c;
@@ -85,7 +85,7 @@ TEST(Recording, WritesAndReadsBackEveryFrameSetByteForByteWithItsIndex) {
   const RecordingInfo& info = r.info();
   EXPECT_TRUE(info.closed);
   EXPECT_FALSE(info.incomplete_tail_at);
-  EXPECT_EQ(info.stream.depth_codec, "raw");
+  EXPECT_EQ(info.stream.tier.depth_codec, "raw");
   EXPECT_EQ(info.stream.origin, "record_test");
   ASSERT_EQ(info.stream.welcome.cameras.size(), 1u);
   EXPECT_EQ(info.stream.welcome.cameras[0].calibration.depth.width, 8);
@@ -282,14 +282,14 @@ RecordedSite record_site(const fs::path& dir, std::vector<std::unique_ptr<FrameS
   config.key_frame_interval = key_frame_interval;
   Server server(player.cameras(), config);
   RecordingStream stream;
-  stream.depth_codec = "volcast";
-  stream.color_codec = "jpeg";
+  stream.tier.depth_codec = "volcast";
+  stream.tier.color_codec = "jpeg";
   stream.welcome = {player.cameras(), wall_clock_us()};
   BackgroundRecorder spatial(out.spatial, stream);
-  stream.depth_codec = "volcast-t";
+  stream.tier.depth_codec = "volcast-t";
   BackgroundRecorder temporal(out.temporal, stream);
-  server.add_tier_tap("volcast", "jpeg", 0, [&](const TierFrameSet& f) { spatial.push(f); });
-  server.add_tier_tap("volcast-t", "jpeg", 0, [&](const TierFrameSet& f) {
+  server.add_tier_tap({"volcast", "jpeg"}, [&](const TierFrameSet& f) { spatial.push(f); });
+  server.add_tier_tap({"volcast-t", "jpeg"}, [&](const TierFrameSet& f) {
     temporal.push(f);
     std::lock_guard lock(mutex);
     out.sent[f.sequence].assign(f.body.begin(), f.body.end());
@@ -354,8 +354,8 @@ struct ReplayViewer {
           c.port = server.port();
           c.token = server.token();
           c.insecure = true;
-          c.depth_codec = depth;
-          c.color_codec = color;
+          c.tier.depth_codec = depth;
+          c.tier.color_codec = color;
           c.keep_encoded = true;
           return c;
         }()) {
@@ -386,7 +386,7 @@ TEST(Recording, TwoSecondsOfTheDemoSiteRecordedOnTheServerDecodeBitExactToWhatWa
   EXPECT_TRUE(reader.info().closed);
   EXPECT_TRUE(sets[0].key);  // a tap begins at a key frame set
   EXPECT_GE(std::ranges::count_if(sets, [](const auto& k) { return k.key; }), 2);
-  EXPECT_EQ(reader.info().stream.depth_codec, "volcast-t");
+  EXPECT_EQ(reader.info().stream.tier.depth_codec, "volcast-t");
   EXPECT_GE(reader.info().duration_us(), 1'900'000);
   // Every recorded body is the one the tier sent, and every depth frame of both cameras decodes
   // to what was published (volcast-t is lossless), deltas included, in order and out of order.

@@ -95,8 +95,8 @@ std::vector<uint8_t> version1_file(size_t frame_sets, bool closed, bool with_voi
   const RecordingStream s = tiny_stream();
   std::vector<uint8_t> stream;
   wire::Writer w(stream);
-  w.put_string(s.depth_codec);
-  w.put_string(s.color_codec);
+  w.put_string(s.tier.depth_codec);
+  w.put_string(s.tier.color_codec);
   w.put<uint8_t>(0);
   w.put<int64_t>(s.started_us);
   w.put_string(s.origin);

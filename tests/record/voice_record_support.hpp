@@ -48,8 +48,8 @@ inline void put_file(const fs::path& p, std::span<const uint8_t> bytes) {
 // Synthetic (for exact behaviour only): a one-camera 8x4 site, as record_test has it.
 inline RecordingStream tiny_stream() {
   RecordingStream s;
-  s.depth_codec = "raw";
-  s.color_codec = "none";
+  s.tier.depth_codec = "raw";
+  s.tier.color_codec = "none";
   s.started_us = 1;
   s.origin = "voice_record_test";
   protocol::CameraInfo c;

@@ -29,8 +29,8 @@ struct RawViewer {
     c = connect_tls("127.0.0.1", server.port(), TlsContext::client(), 5000).connection;
     protocol::Hello hello;
     hello.token = server.token();
-    hello.depth_codec = depth;
-    hello.color_codec = color;
+    hello.tier.depth_codec = depth;
+    hello.tier.color_codec = color;
     c->write_all(protocol::message(protocol::MessageType::kHello, protocol::serialize(hello)),
                  5000);
     if (read().type != protocol::MessageType::kWelcome) throw Error("no Welcome");

@@ -141,8 +141,8 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
     RecordingReader reader(file);
     ASSERT_EQ(reader.info().speakers.size(), 1u);
     EXPECT_EQ(reader.info().speakers[0].name, "A");
-    depth_codec = reader.info().stream.depth_codec;
-    color_codec = reader.info().stream.color_codec;
+    depth_codec = reader.info().stream.tier.depth_codec;
+    color_codec = reader.info().stream.tier.color_codec;
     timeline = playback_timeline(reader.info().frame_sets);
   }
   const auto exported = voice::export_voices(file, dir / "wav");
@@ -172,8 +172,8 @@ TEST(Voice, AReplayPlaysTheRecordedVoicesInSyncWithTheFrameSets) {
   ClientConfig c = client_config_from_link(server.join_link("127.0.0.1"));
   c.decode = false;
   c.receive_timeout_ms = 20000;
-  c.depth_codec = depth_codec;  // the recorded tier: passed through as recorded
-  c.color_codec = color_codec;
+  c.tier.depth_codec = depth_codec;  // the recorded tier: passed through as recorded
+  c.tier.color_codec = color_codec;
   voice::VoiceStats heard;
   {
     TestParticipant l(c, test::hand_driven("L"));

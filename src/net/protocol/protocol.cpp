@@ -83,9 +83,9 @@ std::vector<uint8_t> serialize(const Hello& m) {
   std::vector<uint8_t> out;
   Writer w(out);
   w.append(m.token.data(), m.token.size());
-  w.put_string(m.depth_codec);
-  w.put_string(m.color_codec);
-  w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
+  w.put_string(m.tier.depth_codec);
+  w.put_string(m.tier.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(m.tier.color_quality));
   if (m.adapt != 0 || m.max_bits_per_s != 0 || !m.decodes.empty()) {
     w.put<uint8_t>(m.adapt);
     w.put<uint64_t>(m.max_bits_per_s);
@@ -106,10 +106,11 @@ Hello parse_hello(std::span<const uint8_t> payload) {
   Reader r(payload, "hello");
   Hello h;
   for (uint8_t& b : h.token) b = r.get<uint8_t>();
-  h.depth_codec = r.get_string();
-  h.color_codec = r.get_string();
-  h.color_quality = r.get<uint8_t>();
-  if (h.color_quality > 100) r.fail("color quality " + std::to_string(h.color_quality) + " > 100");
+  h.tier.depth_codec = r.get_string();
+  h.tier.color_codec = r.get_string();
+  h.tier.color_quality = r.get<uint8_t>();
+  if (h.tier.color_quality > 100)
+    r.fail("color quality " + std::to_string(h.tier.color_quality) + " > 100");
   if (r.remaining() > 0) {
     h.adapt = r.get<uint8_t>("adaptation flags");
     constexpr uint8_t kKnown =
@@ -237,10 +238,10 @@ std::vector<uint8_t> message(MessageType type, const std::vector<uint8_t>& paylo
 std::vector<uint8_t> serialize(const TierChange& m) {
   std::vector<uint8_t> out;
   Writer w(out);
-  w.put_string(m.depth_codec);
-  w.put_string(m.color_codec);
-  w.put<uint8_t>(static_cast<uint8_t>(m.color_quality));
-  w.put<uint8_t>(static_cast<uint8_t>(m.frame_divisor));
+  w.put_string(m.tier.depth_codec);
+  w.put_string(m.tier.color_codec);
+  w.put<uint8_t>(static_cast<uint8_t>(m.tier.color_quality));
+  w.put<uint8_t>(static_cast<uint8_t>(m.tier.frame_divisor));
   w.put<uint32_t>(m.path_kbit_s);
   w.put_string(m.reason.size() > kMaxReasonBytes ? m.reason.substr(0, kMaxReasonBytes) : m.reason);
   return out;
@@ -249,13 +250,14 @@ std::vector<uint8_t> serialize(const TierChange& m) {
 TierChange parse_tier_change(std::span<const uint8_t> payload) {
   Reader r(payload, "tier change");
   TierChange m;
-  m.depth_codec = r.get_string("depth codec");
-  m.color_codec = r.get_string("color codec");
-  m.color_quality = r.get<uint8_t>("color quality");
-  if (m.color_quality > 100) r.fail("color quality " + std::to_string(m.color_quality) + " > 100");
-  m.frame_divisor = r.get<uint8_t>("frame divisor");
-  if (m.frame_divisor < 1 || m.frame_divisor > 8)
-    r.fail("frame divisor " + std::to_string(m.frame_divisor) + " (1 to 8)");
+  m.tier.depth_codec = r.get_string("depth codec");
+  m.tier.color_codec = r.get_string("color codec");
+  m.tier.color_quality = r.get<uint8_t>("color quality");
+  if (m.tier.color_quality > 100)
+    r.fail("color quality " + std::to_string(m.tier.color_quality) + " > 100");
+  m.tier.frame_divisor = r.get<uint8_t>("frame divisor");
+  if (m.tier.frame_divisor < 1 || m.tier.frame_divisor > 8)
+    r.fail("frame divisor " + std::to_string(m.tier.frame_divisor) + " (1 to 8)");
   m.path_kbit_s = r.get<uint32_t>("path rate");
   m.reason = r.get_string("reason");
   if (m.reason.size() > kMaxReasonBytes) r.fail("reason longer than 400 bytes");

@@ -111,19 +111,18 @@ struct Client::Impl {
     protocol::TierChange c;
     try {
       c = protocol::parse_tier_change(payload());
-      const bool same = c.depth_codec == tier.depth_codec && c.color_codec == tier.color_codec &&
-                        c.color_quality == tier.color_quality &&
-                        c.frame_divisor == tier.frame_divisor;
+      const bool same = c.tier == tier.tier;
       if (!same && !config.adapt)
         throw Error("the server changed the tier of a viewer that pinned it");
-      const DepthCodecInfo* d = find_depth_codec(c.depth_codec);
-      if (!d || !find_color_codec(c.color_codec))
+      const DepthCodecInfo* d = find_depth_codec(c.tier.depth_codec);
+      if (!d || !find_color_codec(c.tier.color_codec))
         throw Error("the server changed to a tier with a codec this build lacks");
       if (!same && config.keep_lossless && !d->lossless)
-        throw Error("the server changed to lossy depth (" + printable(c.depth_codec) +
+        throw Error("the server changed to lossy depth (" + printable(c.tier.depth_codec) +
                     ") a viewer that keeps depth lossless");
       if (!same) {
-        decoder = std::make_unique<FrameSetDecoder>(c.depth_codec, c.color_codec, welcome.cameras);
+        decoder = std::make_unique<FrameSetDecoder>(c.tier.depth_codec, c.tier.color_codec,
+                                                    welcome.cameras);
         stateless = decoder->stateless();
         last_out = nullptr;
         ++tier.changes;
@@ -133,13 +132,10 @@ struct Client::Impl {
     } catch (const Error& e) {
       throw ClientError(Kind::kProtocol, std::string("TierChange from the server: ") + e.what());
     }
-    tier.depth_codec = c.depth_codec;
-    tier.color_codec = c.color_codec;
-    tier.color_quality = c.color_quality;
-    tier.frame_divisor = c.frame_divisor;
+    tier.tier = c.tier;
     tier.path_mbit_s = c.path_kbit_s / 1e3;
     tier.reason = printable(c.reason);
-    tier.lossless_depth = find_depth_codec(c.depth_codec)->lossless;
+    tier.lossless_depth = find_depth_codec(c.tier.depth_codec)->lossless;
     ++tier.messages;
   }
 
@@ -422,10 +418,13 @@ struct Client::Impl {
 Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
   // Fail early, before connecting, on a codec this build does not have.
-  make_depth_decoder(config.depth_codec);
-  make_color_decoder(config.color_codec);
-  if (config.color_quality < 0 || config.color_quality > 100)
+  make_depth_decoder(config.tier.depth_codec);
+  make_color_decoder(config.tier.color_codec);
+  if (config.tier.color_quality < 0 || config.tier.color_quality > 100)
     throw Error("color quality must be 1..100 (0 = the codec's default)");
+  if (config.tier.frame_divisor != 1)
+    throw Error("a viewer asks for every frame set (tier " + to_string(config.tier) +
+                "): the server's ladder skips them");
   impl_->connection = open_connection(config);
   impl_->socket = impl_->connection->fd();
   const auto deadline = Impl::deadline_in(config.handshake_timeout_ms);
@@ -459,12 +458,10 @@ Client::Client(const ClientConfig& config) : impl_(std::make_unique<Impl>()) {
   // uncertain by half the handshake's round trip, within which the clocks count as one.
   const int64_t offset = impl_->welcome.server_time_us - (sent_us + received_us) / 2;
   if (std::llabs(offset) > (received_us - sent_us) / 2) impl_->clock_offset_us = offset;
-  impl_->decoder = std::make_unique<FrameSetDecoder>(config.depth_codec, config.color_codec,
-                                                     impl_->welcome.cameras);
-  impl_->tier.depth_codec = config.depth_codec;
-  impl_->tier.color_codec = config.color_codec;
-  impl_->tier.color_quality = config.color_quality;
-  impl_->tier.lossless_depth = depth_codec_info(config.depth_codec).lossless;
+  impl_->decoder = std::make_unique<FrameSetDecoder>(
+      config.tier.depth_codec, config.tier.color_codec, impl_->welcome.cameras);
+  impl_->tier.tier = config.tier;
+  impl_->tier.lossless_depth = depth_codec_info(config.tier.depth_codec).lossless;
   if (config.decode) impl_->pool = std::make_unique<WorkerPool>(config.decode_threads);
   impl_->stateless = impl_->decoder->stateless();
   impl_->last_depth.resize(impl_->welcome.cameras.size());

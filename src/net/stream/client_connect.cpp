@@ -68,9 +68,7 @@ std::unique_ptr<Connection> open_connection(const ClientConfig& config) {
 protocol::Hello hello_for(const ClientConfig& config) {
   protocol::Hello hello;
   hello.token = config.token;
-  hello.depth_codec = config.depth_codec;
-  hello.color_codec = config.color_codec;
-  hello.color_quality = config.color_quality;
+  hello.tier = config.tier;  // its frame divisor is not sent: 1 (Client checks it)
   hello.adapt = uint8_t((config.adapt ? protocol::Hello::kAdapt : 0) |
                         (config.keep_lossless ? protocol::Hello::kKeepLossless : 0) |
                         (config.keep_full_rate ? protocol::Hello::kKeepFullRate : 0) |

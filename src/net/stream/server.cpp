@@ -34,7 +34,7 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.adapt = hello.adapt;
     v.max_bits_per_s = hello.max_bits_per_s;
     v.decodes = hello.decodes;
-    v.hello_key = {hello.depth_codec, hello.color_codec, hello.color_quality};
+    v.hello_key = hello.tier;  // every frame set: a Hello carries no divisor
     try {
       v.tier = adapt ? subscribe_adaptive(v) : subscribe(v.hello_key, &v.wake, &v.address);
     } catch (...) {
@@ -45,10 +45,7 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.report.peer = v.connection->peer();
     v.report.connected = true;
     const volcast::Tier& key = v.tier->encoder.key();  // known codecs: subscribe checked them
-    v.report.depth_codec = key.depth_codec;
-    v.report.color_codec = key.color_codec;
-    v.report.color_quality = key.color_quality;
-    v.report.frame_divisor = key.frame_divisor;
+    v.report.tier = key;
     v.report.adaptive = adapt;
     v.report.rung = adapt ? rung_of(v) : -1;
     v.thread = std::thread([this, &v] { serve_viewer(v); });
@@ -69,9 +66,9 @@ void Server::Impl::check_offered(const protocol::Hello& hello) const {
   for (const auto& t : config.offered_tiers) {
     const size_t a = t.find('/'), b = t.find('/', a + 1);
     const bool quality_given = b != std::string::npos;
-    if (t.substr(0, a) == hello.depth_codec &&
-        t.substr(a + 1, quality_given ? b - a - 1 : std::string::npos) == hello.color_codec &&
-        (!quality_given || std::stoi(t.substr(b + 1)) == hello.color_quality))
+    if (t.substr(0, a) == hello.tier.depth_codec &&
+        t.substr(a + 1, quality_given ? b - a - 1 : std::string::npos) == hello.tier.color_codec &&
+        (!quality_given || std::stoi(t.substr(b + 1)) == hello.tier.color_quality))
       return;
     list += (list.empty() ? "" : ", ") + t;
   }
@@ -179,19 +176,21 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   });
 }
 
-uint64_t Server::add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
-                              int color_quality, std::function<void(const TierFrameSet&)> tap) {
+uint64_t Server::add_tier_tap(const volcast::Tier& wanted,
+                              std::function<void(const TierFrameSet&)> tap) {
+  if (wanted.frame_divisor != 1)
+    throw Error("server: a tier tap takes every frame set, not " + to_string(wanted));
   std::lock_guard lock(impl_->mutex);
   if (impl_->stopping) throw Error("server: stopped");
-  auto tier = impl_->subscribe({depth_codec, color_codec, color_quality}, nullptr, nullptr);
+  auto tier = impl_->subscribe(wanted, nullptr, nullptr);
   double total = 0;
   for (const auto& t : impl_->tiers) total += t->encode_ns;
   total *= impl_->site_fps() / 1e9;
   if (total > impl_->budget_cores)
     spdlog::warn(
-        "server: with the tap on tier {}/{}, the tiers cost about {:.2f} CPU cores, over the "
+        "server: with the tap on tier {}, the tiers cost about {:.2f} CPU cores, over the "
         "budget of {:.2f} (--tier-cpu-budget): viewers asking for a new tier are refused",
-        depth_codec, color_codec, total, impl_->budget_cores);
+        to_string(wanted), total, impl_->budget_cores);
   const uint64_t id = impl_->next_tap_id++;
   tier->taps.push_back(
       {id, std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false});
@@ -208,10 +207,8 @@ void Server::remove_tier_tap(uint64_t id) {
   impl_->join_retired();
 }
 
-void Server::request_key_frame(const std::string& depth_codec, const std::string& color_codec,
-                               int color_quality) {
+void Server::request_key_frame(const volcast::Tier& key) {
   std::lock_guard lock(impl_->mutex);
-  const volcast::Tier key{depth_codec, color_codec, color_quality, 1};
   for (const auto& tier : impl_->tiers)
     if (tier->encoder.key() == key && !tier->stop) tier->key_wanted = true;
 }

@@ -101,11 +101,7 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe_adaptive(Viewer& v) 
 
 void Server::Impl::send_tier_change(Viewer& v, const std::string& reason, double goodput_bits) {
   const volcast::Tier& k = v.tier->encoder.key();
-  protocol::TierChange m{k.depth_codec,
-                         k.color_codec,
-                         k.color_quality,
-                         k.frame_divisor,
-                         static_cast<uint32_t>(std::clamp(goodput_bits / 1e3, 0.0, 4e9)),
+  protocol::TierChange m{k, static_cast<uint32_t>(std::clamp(goodput_bits / 1e3, 0.0, 4e9)),
                          reason};
   v.connection->write_all(protocol::message(protocol::MessageType::kTierChange, serialize(m)),
                           config.stall_timeout_ms);
@@ -147,10 +143,7 @@ bool Server::Impl::switch_tier(Viewer& v, const RateDecision& d, double goodput_
                    e.what());
       return false;
     }
-    v.report.depth_codec = key.depth_codec;
-    v.report.color_codec = key.color_codec;
-    v.report.color_quality = key.color_quality;
-    v.report.frame_divisor = key.frame_divisor;
+    v.report.tier = key;
     v.report.rung = static_cast<int>(d.rung);
     // In the same locked step as the rung: a report never shows a rung without its switch.
     to = to_string(key);

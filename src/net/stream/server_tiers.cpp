@@ -169,8 +169,8 @@ void Server::Impl::run_tier(std::shared_ptr<Tier> tier) {
     try {
       encoded = tier->encoder.encode(*frames, key, *pool, seal);
     } catch (const std::exception& e) {
-      spdlog::error("tier {}/{}: frame set {} not encoded: {}", tier->report.depth_codec,
-                    tier->report.color_codec, frames->sequence, e.what());
+      spdlog::error("tier {}: frame set {} not encoded: {}", to_string(tier->report.tier),
+                    frames->sequence, e.what());
       continue;
     }
     const auto end = std::chrono::steady_clock::now();
@@ -236,10 +236,7 @@ std::shared_ptr<Server::Impl::Tier> Server::Impl::subscribe(const volcast::Tier&
     if (address) check_tier_budget(key, encode_ns, *address, share);
     tier = std::make_shared<Tier>(key, cameras.size());
     tier->encode_ns = encode_ns;
-    tier->report.depth_codec = key.depth_codec;
-    tier->report.color_codec = key.color_codec;
-    tier->report.color_quality = key.color_quality;
-    tier->report.frame_divisor = key.frame_divisor;
+    tier->report.tier = key;
     tiers.push_back(tier);
     tier->thread = std::thread([this, tier] { run_tier(tier); });
   }

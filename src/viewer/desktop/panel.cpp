@@ -102,11 +102,13 @@ void live_section(const PanelInfo& info) {
     ImGui::TextColored(ImVec4(1, 0.4f, 0.3f, 1), "%s", live.connection.c_str());
   if (live.reconnects > 0)
     ImGui::Text("reconnected %llu time(s)", static_cast<unsigned long long>(live.reconnects));
-  ImGui::Text("tier: %s%s%s", live.tier.c_str(), live.lossless_depth ? "" : "  (LOSSY DEPTH)",
+  ImGui::Text("tier: %s%s%s", to_string(live.tier).c_str(),
+              live.lossless_depth ? "" : "  (LOSSY DEPTH)",
               live.adaptive ? "  adaptive" : "  pinned");
   if (live.path_mbit_s > 0) ImGui::Text("path: about %.1f Mbit/s", live.path_mbit_s);
   for (const TierEvent& e : live.tier_events)
-    ImGui::TextWrapped("%s %s: %s", e.notice ? "kept" : "->", e.tier.c_str(), e.reason.c_str());
+    ImGui::TextWrapped("%s %s: %s", e.notice ? "kept" : "->", to_string(e.tier).c_str(),
+                       e.reason.c_str());
   ImGui::Text("frame sets received: %llu",
               static_cast<unsigned long long>(live.frame_sets_received));
   if (ImGui::BeginTable("cameras", 5, ImGuiTableFlags_Borders)) {

@@ -262,15 +262,6 @@ void install_callbacks(GLFWwindow* window, Input& input) {
   glfwSetCursorEnterCallback(window, ImGui_ImplGlfw_CursorEnterCallback);
 }
 
-// Uploads the cameras whose frame changed.
-void upload_changed(CameraRenderer& renderer, const Frames& frames, Frames& uploaded) {
-  for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
-    if (frames[i] && frames[i] != uploaded[i]) {  // the same pointer is the same images
-      renderer.upload(i, *frames[i]);
-      uploaded[i] = frames[i];
-    }
-}
-
 // Where the window looks from: the camera the user moves and the view R returns to, set once the
 // session starts; from then on frames are counted.
 struct Viewpoint {

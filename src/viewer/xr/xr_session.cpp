@@ -104,12 +104,7 @@ struct FrameLoop {
     // Not running: wait for the runtime (and the stream) without spinning.
     const auto wait = running ? std::chrono::microseconds(0) : std::chrono::milliseconds(10);
     feed.next(frames, wait);
-    for (size_t i = 0; i < frames.size() && i < uploaded.size(); ++i)
-      if (frames[i] && frames[i] != uploaded[i]) {
-        renderer.upload(i, *frames[i]);
-        uploaded[i] = frames[i];
-        surfaces_stale = true;
-      }
+    if (upload_changed(renderer, frames, uploaded) > 0) surfaces_stale = true;
     if (!started && std::any_of(uploaded.begin(), uploaded.end(), [](auto& f) { return !!f; })) {
       started = true;
       world_from_stage_now =

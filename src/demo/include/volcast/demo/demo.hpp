@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <string>
 
+#include "volcast/codec/tier.hpp"
+
 namespace volcast {
 
 struct DemoArgs {
@@ -12,7 +14,7 @@ struct DemoArgs {
   std::string out = "out/demo";
   std::string
       data;  ///< folder holding the shared recordings; default: found near the binary or cwd
-  std::string depth_codec = "volcast", color_codec = "jpeg";
+  Tier tier{"volcast", "jpeg"};  ///< --depth-codec, --color-codec
   bool tier_pinned = false;  ///< --depth-codec or --color-codec given: the viewer does not adapt
   int cameras = 2;
   bool no_render = false;    ///< render only the PNGs at the end, not while streaming

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/stream/client.hpp"
@@ -45,25 +46,21 @@ struct CameraStats {
 /// TierChange, protocol.hpp 0.6), as the viewer took it.
 struct TierEvent {
   int64_t time_us = 0;  ///< this viewer's wall clock
-  std::string tier;     ///< "DEPTH/COLOR/QUALITY[@N]" after it
+  Tier tier;            ///< after it
   bool lossless_depth = true;
   bool notice = false;     ///< the same tier: the floor or pin keeps it
   double path_mbit_s = 0;  ///< the server's estimate of the path then
   std::string reason;
 };
 
-/// "volcast/jpeg/70", "h264/h264/50@2": a TierState as people read it (to_string of its Tier).
-std::string tier_label(const TierState& t);
-
 /// Figures while the session runs, for a viewer's panel: refreshed about twice a second by the
 /// receiving thread. Per camera, frames_received and frames_dropped count from the start; fps,
 /// Mbit/s and latency cover the last refresh interval. Stages cover the session so far.
 struct LiveStats {
   std::vector<CameraStats> cameras;
-  std::vector<StageLatency> stages;  ///< kStageNames order; empty until a frame set arrived
-                                     ///< (presented and photon: 0 until a picture was shown)
-  std::string depth_codec, color_codec;
-  std::string tier;                    ///< tier_label() of the tier now
+  std::vector<StageLatency> stages;    ///< kStageNames order; empty until a frame set arrived
+                                       ///< (presented and photon: 0 until a picture was shown)
+  Tier tier;                           ///< the tier now
   bool adaptive = false;               ///< the server moves it along its ladder
   bool lossless_depth = true;          ///< the tier's depth is lossless
   double path_mbit_s = 0;              ///< the server's last path estimate (0: none said)

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/pipeline/frame_feed.hpp"
@@ -37,10 +38,9 @@ struct ViewerResult {
   ViewerEnd ended = ViewerEnd::kServerClosed;
   std::string error;  ///< what went wrong, for the error ends; empty otherwise
   uint64_t frame_sets_received = 0;
-  std::string depth_codec, color_codec;  ///< the tier's codecs at the end
-  std::string tier;                      ///< tier_label() at the end
-  bool adaptive = false;                 ///< the server moved it along its ladder
-  std::vector<TierEvent> tier_events;    ///< every change and notice (the first 256)
+  Tier tier;                           ///< the tier at the end
+  bool adaptive = false;               ///< the server moved it along its ladder
+  std::vector<TierEvent> tier_events;  ///< every change and notice (the first 256)
   std::vector<CameraStats> cameras;
   uint64_t frames_rendered = 0;
   uint64_t frames_undecodable = 0;  ///< skipped: a delta without its reference (key requested)

@@ -66,6 +66,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/net/protocol/protocol.hpp"
 
 namespace volcast {
@@ -133,11 +134,10 @@ struct RecordedVoicePacket {
 
 /// What a recording is of (its Stream record).
 struct RecordingStream {
-  std::string depth_codec, color_codec;  ///< the tier
-  int color_quality = 0;                 ///< 0..100 (0: the codec's default)
-  int64_t started_us = 0;                ///< recorder's wall clock when it began (us)
-  std::string origin;                    ///< e.g. "volcast record 10.0.0.2:7300"
-  protocol::Welcome welcome;             ///< the cameras as the server announced them
+  Tier tier;                  ///< of every frame set (frame_divisor 1)
+  int64_t started_us = 0;     ///< recorder's wall clock when it began (us)
+  std::string origin;         ///< e.g. "volcast record 10.0.0.2:7300"
+  protocol::Welcome welcome;  ///< the cameras as the server announced them
 };
 
 /// One frame set's place in the file.

@@ -208,4 +208,13 @@ class CameraRenderer {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Uploads each camera i (below both sizes) whose frame is not uploaded[i] -- the same pointer is
+/// the same images, already on the GPU (a frame the caller still holds cannot have been reused by
+/// the receiver's pool) -- and keeps it in uploaded[i]; a null frame is skipped. What the window,
+/// the headset, the headless viewer and the session scene do with each new frame set. Returns how
+/// many cameras it uploaded. Throws what CameraRenderer::upload throws.
+size_t upload_changed(CameraRenderer& renderer,
+                      std::span<const std::shared_ptr<const CameraFrame>> frames,
+                      std::span<std::shared_ptr<const CameraFrame>> uploaded);
+
 }  // namespace volcast

@@ -116,6 +116,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/calibration.hpp"
 
 namespace volcast::protocol {
@@ -190,9 +191,9 @@ inline bool starts_with_magic(std::span<const uint8_t> bytes) {
 
 struct Hello {
   std::array<uint8_t, kTokenBytes> token{};  ///< the session's join token (join.hpp)
-  std::string depth_codec;
-  std::string color_codec;
-  int color_quality = 0;  ///< 1..100, 0 = the color codec's default
+  /// The tier asked for: its codecs and color quality (0..100, 0: the codec's default); a Hello
+  /// carries no frame divisor (a viewer asks for every frame set: 1).
+  Tier tier;
   /// Adaptation flags (the optional tail; 0 with max_bits_per_s 0: not sent).
   static constexpr uint8_t kAdapt = 1;         ///< the server may move it along its tier ladder
   static constexpr uint8_t kKeepLossless = 2;  ///< never a tier with lossy depth
@@ -213,9 +214,7 @@ inline constexpr size_t kMaxReasonBytes = 400;
 
 /// TierChange (0.6): the tier the frame sets after it are of, and why.
 struct TierChange {
-  std::string depth_codec, color_codec;
-  int color_quality = 0;     ///< 0..100 (0: the codec's default)
-  int frame_divisor = 1;     ///< 1..8: every Nth site frame set
+  Tier tier;                 ///< frame_divisor 1..8: every Nth site frame set
   uint32_t path_kbit_s = 0;  ///< the server's delivery-rate estimate of the path; 0: none yet
   std::string reason;
 };

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/protocol/join.hpp"
@@ -29,9 +30,8 @@ struct ClientConfig {
   /// full: tls.hpp TlsHandshakeDropped) is retried after 100 ms, doubling up to 1.6 s, one
   /// warning line per retry, until this many milliseconds have passed since the first try.
   int connect_timeout_ms = 5000;
-  std::string depth_codec = "volcast";
-  std::string color_codec = "jpeg";
-  int color_quality = 0;  ///< 1..100, 0 = the color codec's default
+  /// The tier asked for (its frame divisor must be 1: the server's ladder skips frame sets).
+  Tier tier{"volcast", "jpeg"};
   /// Rate adaptation (server.hpp): the server may move this viewer along its tier ladder (the
   /// tier above is then the best it wants, if the ladder has it; else the ladder's best).
   bool adapt = false;
@@ -107,9 +107,7 @@ struct ReceivedFrameSet {
 
 /// The tier a viewer is on, as the server last said (protocol.hpp TierChange), or as it asked.
 struct TierState {
-  std::string depth_codec, color_codec;
-  int color_quality = 0;
-  int frame_divisor = 1;
+  Tier tier;
   bool lossless_depth = true;
   double path_mbit_s = 0;  ///< the server's estimate of the path when it last said
   std::string reason;      ///< why (sanitised); empty until the server said anything

@@ -54,6 +54,7 @@
 #include <string>
 #include <vector>
 
+#include "volcast/codec/tier.hpp"
 #include "volcast/core/frame.hpp"
 #include "volcast/net/protocol/join.hpp"
 #include "volcast/net/protocol/protocol.hpp"
@@ -172,9 +173,7 @@ struct TierSwitch {
 struct ViewerReport {
   uint64_t id = 0;  ///< this server's number for the viewer (1, 2, ...; SessionPort's `viewer`)
   std::string peer;
-  std::string depth_codec, color_codec;
-  int color_quality = 0;
-  int frame_divisor = 1;      ///< its tier encodes every Nth site frame set
+  Tier tier;                  ///< frame_divisor: its tier encodes every Nth site frame set
   bool adaptive = false;      ///< moved along the ladder (Hello kAdapt and a ladder)
   int rung = -1;              ///< its ladder rung now (0 the best); -1 when pinned
   double goodput_mbit_s = 0;  ///< acknowledged over the last half second
@@ -204,9 +203,7 @@ struct ViewerReport {
 
 /// One tier's encoder figures.
 struct TierReport {
-  std::string depth_codec, color_codec;
-  int color_quality = 0;
-  int frame_divisor = 1;
+  Tier tier;
   int viewers = 0;
   double mbit_s = 0;  ///< what it produced over the last second
   uint64_t frames_encoded = 0, key_frames = 0;
@@ -275,23 +272,21 @@ class Server final : public SessionOutlet {
   /// Ends viewer `viewer`'s connection (its thread logs `why`); SessionPort::on_viewer_left
   /// follows. Thread-safe; no-op for a viewer that has gone.
   void disconnect(uint64_t viewer, const std::string& why) override;
-  /// Consumes tier DEPTH/COLOR/QUALITY like one more viewer that never falls behind: `tap` is
-  /// called on the tier's thread with every frame set the tier encodes from its next key frame
-  /// set on, in order, until stop(); the tier keeps encoding while the tap is there, viewers or
-  /// none. `tap` must return quickly (queue the frame set and write it elsewhere: it holds up the
-  /// tier's viewers while it runs); it must not throw. Returns the tap's id for remove_tier_tap.
-  /// Throws Error for an unknown codec or when the server has max_tiers tiers already.
-  /// Thread-safe.
-  uint64_t add_tier_tap(const std::string& depth_codec, const std::string& color_codec,
-                        int color_quality, std::function<void(const TierFrameSet&)> tap);
+  /// Consumes `tier` (of every frame set: frame_divisor 1) like one more viewer that never falls
+  /// behind: `tap` is called on the tier's thread with every frame set the tier encodes from its
+  /// next key frame set on, in order, until stop(); the tier keeps encoding while the tap is there,
+  /// viewers or none. `tap` must return quickly (queue the frame set and write it elsewhere: it
+  /// holds up the tier's viewers while it runs); it must not throw. Returns the tap's id for
+  /// remove_tier_tap. Throws Error for an unknown codec, a frame divisor other than 1, or when the
+  /// server has max_tiers tiers already. Thread-safe.
+  uint64_t add_tier_tap(const Tier& tier, std::function<void(const TierFrameSet&)> tap);
   /// Removes tap `id` (no-op for one removed already); a tier left with no viewer and no tap
   /// stops encoding. A frame set the tier is handing out as this runs may still reach the tap,
   /// none after. Thread-safe.
   void remove_tier_tap(uint64_t id);
-  /// Asks tier DEPTH/COLOR/QUALITY for a key frame set, as a viewer's KeyFrameRequest does (made
-  /// at most every min_key_interval_ms); no-op for a tier that does not run. Thread-safe.
-  void request_key_frame(const std::string& depth_codec, const std::string& color_codec,
-                         int color_quality);
+  /// Asks `tier` for a key frame set, as a viewer's KeyFrameRequest does (made at most every
+  /// min_key_interval_ms); no-op for a tier that does not run. Thread-safe.
+  void request_key_frame(const Tier& tier);
   /// Stops accepting, disconnects every viewer and joins all threads. Idempotent.
   void stop();
 

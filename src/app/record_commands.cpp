@@ -4,22 +4,19 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cstdlib>
-#include <nlohmann/json.hpp>
 
 #include "cli.hpp"
 #include "commands.hpp"
 #include "volcast/codec/tier.hpp"
-#include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
 #include "volcast/pipeline/annotation_export.hpp"
 #include "volcast/pipeline/export.hpp"
-#include "volcast/pipeline/session_client.hpp"
+#include "volcast/pipeline/stream_recording.hpp"
 #include "volcast/record/recorder.hpp"
 #include "volcast/record/recording.hpp"
-#include "volcast/session/annotations.hpp"
+#include "volcast/record/recording_summary.hpp"
 #include "volcast/voice/voice_export.hpp"
 
 namespace volcast {
@@ -49,115 +46,33 @@ int run_record(const RecordArgs& a) {
   c.decode = false;  // the bytes are kept as sent; replay and export decode them
   c.keep_encoded = true;
   Client client(c);
-  RecordingStream stream;
-  stream.tier = c.tier;
-  stream.started_us = wall_clock_us();
-  stream.origin = fmt::format("volcast record {}:{}", c.host, c.port);
-  stream.welcome = client.welcome();
-  RecordingWriterOptions wo;
-  wo.overwrite = a.overwrite;
-  wo.sync_interval_ms = std::max(0, a.sync_interval_ms);
-  // The disk is written on the recorder's own thread: a slow write or the periodic fdatasync
-  // never holds up reading, so the server never drops the session's voices queued for us.
-  BackgroundRecorder recorder(a.out, stream, wo);
-  spdlog::info(
-      "recording {} camera(s), tier {} to {} (Ctrl-C stops; the file replays whenever it stops)",
-      stream.welcome.cameras.size(), to_string(c.tier), a.out);
-  // The session's voices (--session): the recorder joins as a listener; what it hears arrives
-  // on this thread, inside client.receive(), and is queued for the recorder's thread.
-  std::unique_ptr<SessionClient> listener;
-  std::map<uint32_t, std::string> speakers;  // those with a Speaker record
-  if (!a.session.empty()) {
-    SessionClientOptions o;
-    o.participant.session = a.session;
-    o.participant.create = false;
-    o.participant.name = "Recorder";
-    o.drive_poses = false;  // heartbeats only
-    listener = std::make_unique<SessionClient>(std::move(o));
-    listener->start(client);
-    Participant* p = listener->participant();
-    // A Speaker record for each participant heard or drawing, named as the session shows them.
-    const auto speaker = [&recorder, &speakers, p](uint32_t id) {
-      if (id == 0 || speakers.contains(id)) return;  // 0: the server
-      std::string name = "participant " + std::to_string(id);
-      uint8_t role = 0;
-      for (const RemoteParticipant& r : p->snapshot(wall_clock_us()).others)
-        if (r.id == id) name = r.name, role = static_cast<uint8_t>(r.role);
-      recorder.push_speaker(id, name, role);
-      speakers[id] = name;
-    };
-    p->set_voice_handler([&recorder, speaker](uint32_t id, const session::VoicePacketView& v) {
-      speaker(id);
-      recorder.push_voice(id, v.sequence, v.frame, v.capture_us, v.opus);
-    });
-    // The drawing (annotations.hpp), received on this thread too: those standing when it joins
-    // first, then each one drawn and erased, stamped with the server's clock.
-    p->set_drawing_handler([&recorder, speaker, p](uint8_t type, std::span<const uint8_t> payload) {
-      try {
-        speaker(type == kDrawingAnnotation ? session::parse_annotation(payload).author
-                                           : session::parse_erased(payload).second);
-      } catch (const Error&) {
-        return;  // the participant took it, so it parses
-      }
-      recorder.push_drawing(type, wall_clock_us() + p->clock_offset_us(), payload);
-    });
-    spdlog::info("recording the voices and drawing of session '{}' (joined as 'Recorder')",
-                 a.session);
-  }
-  ReceivedFrameSet f;
-  const auto start = std::chrono::steady_clock::now();
-  auto shown = start;
-  std::string ended = "interrupted";
-  while (!g_interrupted) {
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (a.seconds > 0 && elapsed >= a.seconds) {
-      ended = "time";
-      break;
-    }
-    if (!client.receive(f)) {
-      ended = "the server closed the stream";
-      break;
-    }
-    // A copy the recorder's thread writes while the next frame set arrives into `f`.
-    auto body = std::make_shared<const std::vector<uint8_t>>(f.encoded_body);
-    TierFrameSet queued;
-    queued.key = f.key;
-    queued.body = *body;
-    queued.keep = std::move(body);
-    recorder.push(queued);
-    const RecorderStats st = recorder.stats();
-    if (!st.error.empty()) break;  // a full disk: what was written stays (said below)
-    const auto now = std::chrono::steady_clock::now();
-    if (now - shown >= std::chrono::milliseconds(500)) {
-      shown = now;
-      progress_line(fmt::format("recording: {:.1f} s, {} frame sets, {} ({:.1f} Mbit/s)", elapsed,
-                                st.frame_sets, mb(st.bytes),
-                                static_cast<double>(st.bytes) * 8 / 1e6 / std::max(elapsed, 1e-3)));
-    }
+  StreamRecordingOptions o;
+  o.out = a.out;
+  o.writer.overwrite = a.overwrite;
+  o.writer.sync_interval_ms = std::max(0, a.sync_interval_ms);
+  o.session = a.session;
+  o.seconds = a.seconds;
+  o.stop = &g_interrupted;
+  o.progress = [](const RecorderStats& st, double elapsed) {
+    progress_line(fmt::format("recording: {:.1f} s, {} frame sets, {} ({:.1f} Mbit/s)", elapsed,
+                              st.frame_sets, mb(st.bytes),
+                              static_cast<double>(st.bytes) * 8 / 1e6 / std::max(elapsed, 1e-3)));
+  };
+  StreamRecordingResult r;
+  try {
+    r = record_stream(client, fmt::format("volcast record {}:{}", c.host, c.port), o);
+  } catch (...) {
+    end_progress();
+    throw;
   }
   end_progress();
-  if (listener) {
-    listener->participant()->set_voice_handler(nullptr);
-    listener->participant()->set_drawing_handler(nullptr);
-    listener->stop();
-  }
-  client.close();
-  recorder.stop();  // writes what is queued and the index
-  const RecorderStats st = recorder.stats();
-  if (!st.error.empty())
-    throw Error(
-        fmt::format("record: {} ({} frame sets and {} voice packets before it are kept "
-                    "in {})",
-                    st.error, st.frame_sets, st.voice_packets, a.out));
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const RecorderStats& st = r.stats;
   std::printf(
       "recorded %llu frame sets and %llu voice packets in %.1f s, %s, to %s (stopped: "
       "%s)\n",
       static_cast<unsigned long long>(st.frame_sets),
-      static_cast<unsigned long long>(st.voice_packets), seconds, mb(st.bytes).c_str(),
-      a.out.c_str(), ended.c_str());
+      static_cast<unsigned long long>(st.voice_packets), r.seconds, mb(st.bytes).c_str(),
+      a.out.c_str(), r.ended.c_str());
   if (st.dropped > 0 || st.voice_dropped > 0)
     spdlog::warn(
         "record: the disk was slower than the stream: {} frame sets and {} voice "
@@ -169,132 +84,17 @@ int run_record(const RecordArgs& a) {
 
 int run_recording_info(const InfoArgs& a) {
   RecordingReader reader(a.file);
-  const RecordingInfo& info = reader.info();
-  size_t keys = 0;
-  for (const auto& f : info.frame_sets) keys += f.key;
   const bool tty = isatty(STDERR_FILENO) && !a.json;
-  std::string bad;
-  try {
-    reader.verify([&](size_t done, size_t total) {
-      if (tty && (done % 30 == 0 || done == total))
-        std::fprintf(stderr, "\rchecking every record: %zu/%zu", done, total);
-    });
-  } catch (const Error& e) {
-    bad = e.what();
-  }
+  const RecordingSummary s = summarize_recording(reader, a.file, [&](size_t done, size_t total) {
+    if (tty && (done % 30 == 0 || done == total))
+      std::fprintf(stderr, "\rchecking every record: %zu/%zu", done, total);
+  });
   if (tty) std::fprintf(stderr, "\r\033[K");
-  // Played as replay plays it: a capture time that jumps or goes back is a gap clamped to the
-  // frame interval, and named here (a file may lie although its CRCs hold).
-  const PlaybackTimeline timeline = playback_timeline(info.frame_sets);
-  const double seconds = static_cast<double>(timeline.duration_us()) / 1e6;
-  std::string gaps;
-  if (timeline.clamped_gaps)
-    gaps = fmt::format(
-        "the capture time {} by {} between frame sets {} and {}{}: replay and export play them "
-        "one frame interval ({}) apart",
-        timeline.first_clamped_gap_us < 0 ? "goes back" : "jumps",
-        describe_span_us(std::abs(timeline.first_clamped_gap_us)), timeline.first_clamped - 1,
-        timeline.first_clamped,
-        timeline.clamped_gaps > 1
-            ? fmt::format(" (and {} more such gaps)", timeline.clamped_gaps - 1)
-            : std::string(),
-        describe_span_us(timeline.frame_interval_us));
-  const RecordingStream& s = info.stream;
-  // Voices: who spoke, how much, when (relative to the first frame set's capture time).
-  const std::vector<SpeakerSummary> speakers = speaker_summaries(info);
-  nlohmann::json voices = nlohmann::json::array();
-  for (const SpeakerSummary& v : speakers)
-    voices.push_back({{"participant", v.speaker.participant},
-                      {"name", v.speaker.name},
-                      {"role", v.speaker.role == 1 ? "OR site" : "remote"},
-                      {"packets", v.packets},
-                      {"voice_s", static_cast<double>(v.sent_us) / 1e6},
-                      {"spanned_s", static_cast<double>(v.spanned_us) / 1e6},
-                      {"first_s", static_cast<double>(v.first_us) / 1e6},
-                      {"last_s", static_cast<double>(v.last_us) / 1e6}});
-  // Drawing (format 3): annotations drawn (0x51, those standing when the recorder joined included)
-  // and erased (0x52).
-  const size_t drawn =
-      static_cast<size_t>(std::count_if(info.drawings.begin(), info.drawings.end(),
-                                        [](const RecordedDrawing& d) { return d.type == 0x51; }));
-  nlohmann::json cams = nlohmann::json::array();
-  for (const auto& c : s.welcome.cameras) {
-    const Intrinsics& k = c.calibration.depth;
-    const auto& t = c.calibration.world_from_camera.translation;
-    cams.push_back({{"name", c.description},
-                    {"width", k.width},
-                    {"height", k.height},
-                    {"fx", k.fx},
-                    {"fy", k.fy},
-                    {"cx", k.cx},
-                    {"cy", k.cy},
-                    {"world_from_camera_translation_m", {t.x(), t.y(), t.z()}}});
-  }
-  nlohmann::json j = {
-      {"kind", "Volcast recording"},
-      {"path", a.file},
-      {"depth_codec", s.tier.depth_codec},
-      {"color_codec", s.tier.color_codec},
-      {"color_quality", s.tier.color_quality},
-      {"origin", s.origin},
-      {"cameras", cams},
-      {"format_version", info.version},
-      {"speakers", voices},
-      {"annotations_drawn", drawn},
-      {"annotations_erased", info.drawings.size() - drawn},
-      {"frame_sets", info.frame_sets.size()},
-      {"key_frame_sets", keys},
-      {"duration_s", seconds},
-      {"clamped_gaps", timeline.clamped_gaps},
-      {"warning", gaps},
-      {"fps", seconds > 0 ? static_cast<double>(info.frame_sets.size() - 1) / seconds : 0.0},
-      {"file_bytes", info.file_bytes},
-      {"closed", info.closed},
-      {"incomplete_tail_at", info.incomplete_tail_at ? nlohmann::json(*info.incomplete_tail_at)
-                                                     : nlohmann::json(nullptr)},
-      {"verified", bad.empty()},
-      {"error", bad}};
-  if (a.json) {
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    std::printf("%s: Volcast recording, tier %s, from %s\n", a.file.c_str(),
-                to_string(s.tier).c_str(), s.origin.c_str());
-    std::printf("  %zu frame sets (%zu key) over %.2f s, %s\n", info.frame_sets.size(), keys,
-                seconds, mb(info.file_bytes).c_str());
-    for (size_t i = 0; i < s.welcome.cameras.size(); ++i) {
-      const Intrinsics& k = s.welcome.cameras[i].calibration.depth;
-      std::printf("  camera %zu: %s, %dx%d, fx %.1f fy %.1f cx %.1f cy %.1f\n", i,
-                  s.welcome.cameras[i].description.c_str(), k.width, k.height, k.fx, k.fy, k.cx,
-                  k.cy);
-    }
-    for (const SpeakerSummary& v : speakers)
-      if (v.packets > 0)  // a Speaker record also names who drew
-        std::printf(
-            "  voice of %s (%s, participant %u): %zu packets (%.2f s of voice) spanning "
-            "%.2f s, from %s to %s after the first frame set\n",
-            printable(v.speaker.name).c_str(), v.speaker.role == 1 ? "OR site" : "remote",
-            v.speaker.participant, v.packets, static_cast<double>(v.sent_us) / 1e6,
-            static_cast<double>(v.spanned_us) / 1e6, describe_span_us(v.first_us).c_str(),
-            describe_span_us(v.last_us).c_str());
-    if (!info.drawings.empty())
-      std::printf("  drawing: %zu annotations drawn, %zu erased (`volcast export --annotations`)\n",
-                  drawn, info.drawings.size() - drawn);
-    if (info.closed)
-      std::printf("  closed by its recorder (indexed)\n");
-    else if (info.incomplete_tail_at)
-      std::printf(
-          "  not closed: the recorder stopped; incomplete tail at offset %llu (%s), the "
-          "frame sets before it replay\n",
-          static_cast<unsigned long long>(*info.incomplete_tail_at), info.tail_reason.c_str());
-    else
-      std::printf("  not closed (no index): indexed by scanning, every record complete\n");
-    if (!gaps.empty()) std::printf("  warning: %s\n", gaps.c_str());
-    std::printf("  %s\n", bad.empty() ? (info.voices.empty() && info.drawings.empty()
-                                             ? "every frame set checked (CRC)"
-                                             : "every record checked (CRC)")
-                                      : bad.c_str());
-  }
-  if (!bad.empty()) throw Error(bad);
+  if (a.json)
+    std::printf("%s\n", summary_json(s).c_str());
+  else
+    std::fputs(summary_text(s).c_str(), stdout);
+  if (!s.error.empty()) throw Error(s.error);
   return 0;
 }
 

@@ -25,7 +25,7 @@ int labeled_preset(float x, float y) {
 }
 
 void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
-                          const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us) {
+                          const SurfaceHit* surfaces, const PointerInput& in, int64_t now_us) {
   if (in.erase) erase_last_.pressed(now_us);
   if (const auto id = erase_last_.due(snapshot, now_us)) p.erase(*id);
   const bool aimed = in.tracked && in.direction.squaredNorm() > 0;

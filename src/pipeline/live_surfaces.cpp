@@ -25,8 +25,7 @@ bool LiveSurfaces::ready() const {
 }
 
 std::optional<Eigen::Vector3f> LiveSurfaces::hit(const Eigen::Vector3f& origin,
-                                                 const Eigen::Vector3f& direction,
-                                                 float max_m) const {
+                                                 const Eigen::Vector3f& direction) const {
   std::vector<CameraCalibration> cameras;
   std::vector<std::shared_ptr<const CameraFrame>> frames;
   {
@@ -40,7 +39,7 @@ std::optional<Eigen::Vector3f> LiveSurfaces::hit(const Eigen::Vector3f& origin,
                         frames[i]->depth.height == cameras[i].depth.height;
     depths.push_back(usable ? &frames[i]->depth : nullptr);
   }
-  const auto h = hit_depths(cameras, depths, origin, direction, max_m);
+  const auto h = hit_depths(cameras, depths, origin, direction, kReachM);
   if (!h) return std::nullopt;
   return h->point_world;
 }

@@ -14,7 +14,9 @@
 #include "volcast/capture/source.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/render/camera_renderer.hpp"
+#include "volcast/render/drawn_depth.hpp"
 #include "volcast/render/headless_target.hpp"
+#include "volcast/render/primitive_renderer.hpp"
 #include "volcast/render/shader_throughput.hpp"
 #include "volcast/render/splat_renderer.hpp"
 
@@ -140,6 +142,40 @@ TEST(SplatRenderer, DrawsAPointWhereItProjectsInItsColor) {
   EXPECT_TRUE(green_upper_left);
   const uint8_t* corner = image.pixel(159, 119);
   EXPECT_LT(corner[0] + corner[1] + corner[2], 100);  // background
+}
+
+// The window's mouse ray (DrawnDepth, one of the two SurfaceHits): where it meets what the view
+// drew, read back from the depth buffer. Synthetic scene (labelled): a box 1 m wide whose front
+// face is 1.95 m ahead.
+TEST(DrawnDepth, AnEyeRayMeetsWhatTheViewDrewAndNothingElse) {
+  HeadlessTarget target(80, 60);
+  PrimitiveRenderer primitives;
+  glBindFramebuffer(GL_FRAMEBUFFER, target.target().framebuffer);
+  glClearDepth(1);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  Primitive box;
+  box.world_from_shape =
+      (Eigen::Translation3f(0, 0, 2) * Eigen::Scaling(Eigen::Vector3f(1, 1, 0.1f))).matrix();
+  const View view = to_view(ViewCamera{}, target.target().aspect());  // origin, looking down +z
+  primitives.draw(view, target.target(), std::span<const Primitive>(&box, 1));
+  const DrawnDepth drawn(view, target.target());
+  const Eigen::Vector3f eye = Eigen::Vector3f::Zero();
+  const auto ahead = drawn.hit(eye, {0, 0, 1});
+  ASSERT_TRUE(ahead.has_value());
+  EXPECT_NEAR(ahead->z(), 1.95f, 0.002f);
+  EXPECT_LT(ahead->head<2>().norm(), 0.03f) << "within the pixel the ray passes through";
+  // An oblique ray meets the face where it crosses it, on the ray (within its pixel).
+  const auto oblique = drawn.hit(eye, {0.2f, 0.1f, 1});
+  ASSERT_TRUE(oblique.has_value());
+  EXPECT_NEAR(oblique->z(), 1.95f, 0.002f);
+  EXPECT_NEAR(oblique->x(), 0.39f, 0.03f);
+  EXPECT_NEAR(oblique->y(), 0.195f, 0.03f);
+  EXPECT_EQ(drawn.hit(eye, {0.5f, 0, 1}), std::nullopt) << "past the box: nothing drawn there";
+  EXPECT_EQ(drawn.hit(eye, {2, 0, 1}), std::nullopt) << "outside the viewport";
+  EXPECT_EQ(drawn.hit(eye, {0, 0, -1}), std::nullopt) << "behind the view";
+  EXPECT_EQ(drawn.hit({0.1f, 0, 0}, {0, 0, 1}), std::nullopt)
+      << "a ray from elsewhere: the depth buffer knows only the eye's rays";
+  EXPECT_TRUE(drawn.ready());
 }
 
 TEST(SplatRenderer, RendersARealFrameFromItsCamera) {

@@ -1,31 +1,14 @@
 #include "pointing.hpp"
 
-#include <epoxy/gl.h>
 #include <imgui.h>
 
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/session_scene.hpp"
 #include "volcast/render/annotation_scene.hpp"
+#include "volcast/render/drawn_depth.hpp"
 
 namespace volcast {
 namespace {
-
-// The room point drawn at framebuffer pixel (x, y) (from the top left), from the depth buffer;
-// nullopt where nothing was drawn (the far plane).
-std::optional<Eigen::Vector3f> depth_under(const View& view, const RenderTarget& target, double x,
-                                           double y) {
-  const int px = static_cast<int>(x), py = static_cast<int>(y);
-  if (px < 0 || py < 0 || px >= target.width || py >= target.height) return std::nullopt;
-  float depth = 1;
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, target.framebuffer);
-  glReadPixels(target.x + px, target.y + target.height - 1 - py, 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT,
-               &depth);
-  if (depth >= 1.0f) return std::nullopt;
-  const Eigen::Vector4f ndc(float(2 * (px + 0.5) / target.width - 1),
-                            float(1 - 2 * (py + 0.5) / target.height), 2 * depth - 1, 1);
-  const Eigen::Vector4f p = view.clip_from_world().inverse() * ndc;
-  return Eigen::Vector3f(p.head<3>() / p.w());
-}
 
 // The ray through framebuffer pixel (x, y): a point 1 m along it.
 Eigen::Vector3f ahead_of(const View& view, const RenderTarget& target, double x, double y) {
@@ -56,7 +39,9 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
   const RigidTransform& eye = view.world_from_view;
   state.origin = (eye * Eigen::Vector3d(0.2, -0.25, 0)).cast<float>();
   const bool aiming = state.laser || state.dragging || state.pin_label;
-  state.hit = aiming ? depth_under(view, target, x, y) : std::nullopt;
+  const Eigen::Vector3f eye_at = eye.translation.cast<float>();
+  state.hit = aiming ? DrawnDepth(view, target).hit(eye_at, ahead_of(view, target, x, y) - eye_at)
+                     : std::nullopt;
   const bool was_on =
       snapshot.pointers.end() !=
       std::find_if(snapshot.pointers.begin(), snapshot.pointers.end(),

@@ -1,7 +1,7 @@
 #pragma once
 // The desktop participant's laser pointer and drawing (internal to volcast_viewer_desktop; issue
 // 36): hold L and the pointer follows the mouse, its dot where the mouse's ray meets what the
-// window drew (the depth buffer under the mouse: the live clouds, organs, monitor, room); drag
+// window drew (render/drawn_depth.hpp: the live clouds, organs, monitor, room); drag
 // with the left button while holding L or Shift to draw a stroke, with the right button (L held)
 // or Alt + left for an arrow; N pins the panel's label text where the mouse points; Backspace
 // erases your last annotation. The same keys as the browser page's. The panel's annotations

@@ -15,7 +15,7 @@
 #include <string_view>
 #include <vector>
 
-#include "volcast/pipeline/live_surfaces.hpp"
+#include "volcast/reconstruct/surface_hit.hpp"
 #include "volcast/session/erase_last.hpp"
 #include "volcast/session/participant.hpp"
 
@@ -52,8 +52,8 @@ class HandPointing {
   /// A label press pins its preset at the hit (nothing where the ray meets no surface: logged);
   /// an erase press erases the newest annotation in `snapshot` that this participant drew, once
   /// those it sent are back. `now_us`: a steady clock, µs.
-  void update(Participant& participant, const SessionSnapshot& snapshot,
-              const LiveSurfaces* surfaces, const PointerInput& in, int64_t now_us);
+  void update(Participant& participant, const SessionSnapshot& snapshot, const SurfaceHit* surfaces,
+              const PointerInput& in, int64_t now_us);
   /// The dot this frame (room frame), if the ray met a surface while a button was held (point,
   /// draw, or a label pressed this frame).
   const std::optional<Eigen::Vector3f>& hit() const { return hit_; }

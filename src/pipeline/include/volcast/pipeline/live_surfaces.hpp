@@ -3,7 +3,8 @@
 // camera placed in the room (room_from_site * site_from_camera), for finding where a laser
 // pointer's ray meets the live point clouds (reconstruct/ray_hit.hpp) -- against what the cameras
 // measured, not a guess. The render thread updates it with each new frame; a pose script's thread
-// (ScriptedPointing) asks it. Thread-safe.
+// (ScriptedPointing) asks it. One of the two SurfaceHits (reconstruct/surface_hit.hpp).
+// Thread-safe.
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -12,23 +13,26 @@
 
 #include "volcast/core/calibration.hpp"
 #include "volcast/core/frame.hpp"
+#include "volcast/reconstruct/surface_hit.hpp"
 
 namespace volcast {
 
-class LiveSurfaces {
+class LiveSurfaces final : public SurfaceHit {
  public:
   /// The site's cameras (site frame, as the Welcome gave them), their newest frames (null: none
   /// yet) and where the site sits in the room. Keeps the frames (shared), copies nothing else.
   void update(std::span<const CameraCalibration> site,
               std::span<const std::shared_ptr<const CameraFrame>> frames,
               const RigidTransform& room_from_site);
+  /// How far a ray reaches (metres): further than across an operating room.
+  static constexpr float kReachM = 8;
   /// Where the ray origin + t * direction (room frame, metres; any length) first meets a site
-  /// camera's measured surface, 0 <= t <= max_m (room frame, metres), the nearest over the
-  /// cameras; nullopt if it meets none or no frame has come yet.
+  /// camera's measured surface, within kReachM of `origin`, the nearest over the cameras; nullopt
+  /// if it meets none or no frame has come yet.
   std::optional<Eigen::Vector3f> hit(const Eigen::Vector3f& origin,
-                                     const Eigen::Vector3f& direction, float max_m = 8) const;
+                                     const Eigen::Vector3f& direction) const override;
   /// Whether a frame of any camera has come.
-  bool ready() const;
+  bool ready() const override;
 
  private:
   mutable std::mutex mutex_;

@@ -13,8 +13,8 @@
 
 #include "volcast/capture/source.hpp"
 #include "volcast/net/stream/client.hpp"
-#include "volcast/pipeline/live_surfaces.hpp"
 #include "volcast/pipeline/receiver.hpp"
+#include "volcast/reconstruct/surface_hit.hpp"
 #include "volcast/session/participant.hpp"
 #include "volcast/session/pose_script.hpp"
 
@@ -36,7 +36,7 @@ struct SessionClientOptions {
   std::string upload_depth_codec = "volcast", upload_color_codec = "jpeg";
   /// Where the script's pointer rays meet the live clouds (ScriptedPointing); the presenter that
   /// draws the site's frames keeps it up to date (session_presenter). Null: they meet nothing.
-  std::shared_ptr<const LiveSurfaces> surfaces;
+  std::shared_ptr<const SurfaceHit> surfaces;
 };
 
 /// Where a participant's own camera stands when nobody registered it: facing the participant
@@ -109,12 +109,12 @@ class ScriptedObjects {
 /// "label" are drawn at once where the rays at their points meet the clouds, or at the points
 /// themselves where they meet nothing. A pointer's dot is where its ray meets the clouds (none
 /// where it meets nothing). With `surfaces`, the drawing's times count from when the first frame
-/// of the site came (LiveSurfaces::ready): a script that starts before the stream has nothing to
+/// of the site came (SurfaceHit::ready): a script that starts before the stream has nothing to
 /// point at (a loaded machine's first frame sets may take seconds), as a person would wait to see
 /// the scene before pointing.
 class ScriptedPointing {
  public:
-  ScriptedPointing(PoseScript script, std::shared_ptr<const LiveSurfaces> surfaces)
+  ScriptedPointing(PoseScript script, std::shared_ptr<const SurfaceHit> surfaces)
       : script_(std::move(script)), surfaces_(std::move(surfaces)) {}
   /// Performs what is due by `t_s` seconds into the script on `participant`, the pointer from
   /// `hand` (room frame, metres).
@@ -129,7 +129,7 @@ class ScriptedPointing {
   void finish(Participant& participant, const Eigen::Vector3f& hand);
   static constexpr double kSweepStep_s = 1.0 / 60;  // a stroke's ray per pose at 60 Hz
   PoseScript script_;
-  std::shared_ptr<const LiveSurfaces> surfaces_;
+  std::shared_ptr<const SurfaceHit> surfaces_;
   size_t next_ = 0;
   std::optional<ScriptedDrawing> active_;
   std::vector<Eigen::Vector3f> stroke_;  // the active stroke's hits

@@ -26,8 +26,6 @@ int labeled_preset(float x, float y) {
 
 void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
                           const SurfaceHit* surfaces, const PointerInput& in, int64_t now_us) {
-  if (in.erase) erase_last_.pressed(now_us);
-  if (const auto id = erase_last_.due(snapshot, now_us)) p.erase(*id);
   const bool aimed = in.tracked && in.direction.squaredNorm() > 0;
   const bool on = aimed && (in.point || in.draw);
   const bool label = aimed && in.label >= 0 && in.label < int(kHeadsetLabels.size());
@@ -65,6 +63,10 @@ void HandPointing::update(Participant& p, const SessionSnapshot& snapshot,
     stroke_.clear();
   }
   drawing_ = draw;
+  // Erase my last: a press counts from now, after what this frame sent (a stroke let go in the
+  // same frame as the button went down is what it erases).
+  if (in.erase) erase_last_.pressed(now_us);
+  if (const auto id = erase_last_.due(snapshot, now_us)) p.erase(*id);
 }
 
 }  // namespace volcast

@@ -458,8 +458,8 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
 // its pointer to an observer, the dot where the aim ray meets the hands camera's measured surface;
 // B held while the hand turns (the mock turns it while it squeezes) draws a stroke along the
 // table that the observer receives; the right thumbstick pressed leant up pins a 'cut here' label
-// there, and the left thumbstick pressed four frames later -- before the label came back from the
-// server -- erases it (the newest), not the stroke. The site is placed so that the camera sits at
+// there, and the left thumbstick pressed in the same frame -- the label is sent by that frame and
+// has not come back from the server -- erases it (the newest), not the stroke. The site is placed so that the camera sits at
 // the controller, looking where it aims: the ray runs from the camera's centre.
 TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   // Its script runs once the observer has joined (below).
@@ -467,7 +467,7 @@ TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   ASSERT_TRUE(mock.xvfb.running()) << mock.xvfb.error();
   const test::ScopedEnv buttons("VOLCAST_MOCK_XR_BUTTONS",
                                 "right/a/click:3,9;right/b/click:12,24;right/thumbstick/y:26,29;"
-                                "right/thumbstick/click:27,28;thumbstick/click:31,32");
+                                "right/thumbstick/click:27,28;thumbstick/click:27,28");
   const test::ScopedEnv squeeze("VOLCAST_MOCK_XR_SQUEEZE", "12,24");
   // The runtime ends the session once the observer was sent the label's erasing.
   const fs::path erased_seen = mock.dir / "erased";

@@ -493,13 +493,18 @@ function putAway() {
 }
 
 // Erases this page's newest annotation still in the session, once what it sent before the press
-// is back numbered (erase_last.js; eraseDue, every frame).
+// is back numbered (erase_last.js). A press counts from the end of the frame it came in, after
+// what that frame sent (a stroke let go just before it is sent by the frame): eraseDue, called at
+// the end of every frame.
 const eraseLast = new EraseLast();
+let erasePressed = false;
 function eraseNewest() {
-  if (session.joined) eraseLast.pressed(performance.now());
+  erasePressed = true;
 }
 function eraseDue(now) {
   if (!session.joined) return;
+  if (erasePressed) eraseLast.pressed(now);
+  erasePressed = false;
   const id = eraseLast.due(session.annotations.values(), session.joined.id, now);
   if (id !== null) session.erase(id);
 }
@@ -556,7 +561,6 @@ function desktopFrame() {
   requestAnimationFrame(desktopFrame);
   const now = performance.now();
   notePresented(now);
-  eraseDue(now);
   if (now - desktopFrameAt < 1000 / MAX_FPS - 2) return;  // fps=: a slow machine's share
   desktopFrameAt = now;
   keepFrameBudget(now);
@@ -583,6 +587,7 @@ function desktopFrame() {
   // The pointer from the right hand (0.15 m right of and 0.25 m below the eye) through the mouse.
   const hand = M.apply(roomFromHead, [0.15, -0.25, -0.1]).slice(0, 3);
   updateAim(desktopAim.key, desktopAim.drawing, clipFromRoom, w, h, mouse.x, mouse.y, hand, s);
+  eraseDue(now);
   desktopView = {clipFromRoom, w, h, s};
   gl.bindFramebuffer(gl.FRAMEBUFFER, null);
   gl.clearColor(0.08, 0.09, 0.11, 1);
@@ -832,7 +837,6 @@ async function enterXr(mode) {
   const onFrame = (t, frame) => {
     xr.requestAnimationFrame(onFrame);
     notePresented(performance.now());
-    eraseDue(performance.now());
     keepFrameBudget(t);
     const pose = frame.getViewerPose(space);
     if (!pose) return;
@@ -848,6 +852,7 @@ async function enterXr(mode) {
     const eye = [roomFromEye[12], roomFromEye[13], roomFromEye[14]];
     const s = scene(eye);
     xrAim(frame, space, playarea, s);
+    eraseDue(performance.now());
     addDrawing(s, eye);
     gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
     if (ar) gl.clearColor(0, 0, 0, 0);  // transparent over the passthrough

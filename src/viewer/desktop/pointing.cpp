@@ -34,7 +34,6 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
                                       const SessionSnapshot& snapshot, const View& view,
                                       const RenderTarget& target, double x, double y,
                                       const Eigen::Vector3f& rgb, int64_t now_us) {
-  if (const auto id = state.erase_last.due(snapshot, now_us)) participant.erase(*id);
   // The pointer comes from where a right hand would hold it: 20 cm right of the eye, 25 cm down.
   const RigidTransform& eye = view.world_from_view;
   state.origin = (eye * Eigen::Vector3d(0.2, -0.25, 0)).cast<float>();
@@ -89,6 +88,11 @@ std::vector<Primitive> point_and_draw(PointingState& state, Participant& partici
       state.status = "N pins the label on the surface under the mouse: there is none there";
     }
   }
+  // Erase my last: a Backspace counts from now, after what this frame sent (a stroke let go in
+  // the same frame as the key went down is what it erases).
+  if (state.erase_pressed) state.erase_last.pressed(now_us);
+  state.erase_pressed = false;
+  if (const auto id = state.erase_last.due(snapshot, now_us)) participant.erase(*id);
   std::vector<Primitive> out;
   if (state.laser || state.dragging) {
     const Eigen::Vector3f through = state.hit.value_or(ahead_of(view, target, x, y));

@@ -24,7 +24,8 @@ struct PointingState {
   bool drawing = false;                              ///< left button held with L: a stroke
   bool arrow = false;                                ///< right button held with L: an arrow
   bool pin_label = false;                            ///< N pressed: pin the label at the dot
-  session::EraseLast erase_last;                     ///< Backspace presses (erase_last.hpp)
+  bool erase_pressed = false;                        ///< Backspace went down since the last frame
+  session::EraseLast erase_last;                     ///< "erase my last" (erase_last.hpp)
   std::vector<Eigen::Vector3f> stroke;               ///< the stroke being drawn (room frame)
   std::optional<Eigen::Vector3f> arrow_tail;         ///< where the arrow began
   std::optional<Eigen::Vector3f> hit;                ///< the dot this frame (room frame)

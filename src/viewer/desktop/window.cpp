@@ -67,7 +67,7 @@ void handle_key(Input& in, int key, int action, int mods) {
     in.pointing->laser = action == GLFW_PRESS;
   if (action != GLFW_PRESS) return;
   if (in.pointing && key == GLFW_KEY_N) in.pointing->pin_label = true;
-  if (in.pointing && key == GLFW_KEY_BACKSPACE) in.pointing->erase_last.pressed(steady_us());
+  if (in.pointing && key == GLFW_KEY_BACKSPACE) in.pointing->erase_pressed = true;
   if (key == GLFW_KEY_S && (mods & GLFW_MOD_CONTROL)) in.controls.save = true;
   if (mods & GLFW_MOD_CONTROL) return;
   if (key == GLFW_KEY_F12 || key == GLFW_KEY_P) in.controls.screenshot = true;

@@ -22,8 +22,9 @@ class EraseLast {
   /// This participant sent an annotation with `tag` (Participant::annotate's; 0, not sent, is
   /// ignored) at `now_us` (a steady clock, µs, as every call's).
   void sent(uint32_t tag, int64_t now_us);
-  /// The erase key or button went down at `now_us`. A second press while one waits is the same
-  /// press.
+  /// The erase key or button went down at `now_us`. Call it after sending what the same frame
+  /// finished (a stroke let go just before the key went down is sent by that frame, and must
+  /// count as sent before the press). A second press while one waits is the same press.
   void pressed(int64_t now_us);
   /// Once a frame: forgets the annotations back in `snapshot` (numbered, author snapshot.id) and
   /// those waited for longer than kWaitUs; if a press waits and nothing sent before it is still

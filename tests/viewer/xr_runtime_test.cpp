@@ -459,8 +459,9 @@ TEST(XrRuntime, AHeadsetGrabsAnOrganWithItsControllerAndTurnsIt) {
 // B held while the hand turns (the mock turns it while it squeezes) draws a stroke along the
 // table that the observer receives; the right thumbstick pressed leant up pins a 'cut here' label
 // there, and the left thumbstick pressed in the same frame -- the label is sent by that frame and
-// has not come back from the server -- erases it (the newest), not the stroke. The site is placed so that the camera sits at
-// the controller, looking where it aims: the ray runs from the camera's centre.
+// has not come back from the server -- erases it (the newest), not the stroke. The site is placed
+// so that the camera sits at the controller, looking where it aims: the ray runs from the camera's
+// centre.
 TEST(XrRuntime, AHeadsetPointsAndDrawsOnTheLiveCloudWithItsRightController) {
   // Its script runs once the observer has joined (below).
   const MockRuntime mock("xr_runtime_point", "34", nullptr, true);

@@ -24,6 +24,7 @@ export class EraseLast {
   // page's participant id: the id to erase now, or null (the press is done when it returns an id,
   // or null because this page drew none standing).
   due(annotations, ownId, nowMs) {
+    if (this.pressedMs === null && !this.unconfirmed.length) return null;  // most frames: no copy
     const all = [...annotations];
     this.unconfirmed = this.unconfirmed.filter(
         (s) => nowMs - s.atMs <= ERASE_WAIT_MS &&

@@ -232,6 +232,8 @@ void add_outlets(const ServeArgs& a, Serving& s) {
     BackgroundRecorder& recorder = s.recorder.emplace(a.record, stream);
     server.add_tier_tap(stream.tier, [&recorder](const TierFrameSet& f) { recorder.push(f); });
     spdlog::info("recording tier {} to {}", a.record_tier, a.record);
+    // Never silently: every participant's viewer shows that the room is recorded, and by whom.
+    if (s.hub) s.hub->start_recording("the OR server (volcast serve --record)");
   }
   // The stream on a NATS cluster: one more consumer of each published tier's encoding.
   if (!s.nats) return;
@@ -341,6 +343,7 @@ void stop_serving(Serving& s) {
                                                             s.replay->voices_skipped())
                                               : "");
   }
+  if (s.recorder && s.hub) s.hub->stop_recording();  // told before the connections close
   s.server->stop();
   if (s.recorder) {
     s.recorder->stop();

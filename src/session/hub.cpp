@@ -2,11 +2,11 @@
 
 #include <spdlog/spdlog.h>
 
+#include <array>
 #include <chrono>
 #include <condition_variable>
 
 #include "hub_state.hpp"
-#include "volcast/codec/registry.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
@@ -290,8 +290,42 @@ void SessionHub::welcome_member(uint64_t viewer, const Member& m) {
     if (other->last_pose) send_shared(viewer, other->last_pose, pose_key(other->info.id));
     if (other->voice_state) send_shared(viewer, other->voice_state);
   }
+  if (recording_.recording)
+    send(viewer, session::message(Type::kRecordingState, session::serialize(recording_)));
   send_case_state(s, viewer);
   send_drawing_state(s, viewer);
+}
+
+void SessionHub::start_recording(const std::string& by) {
+  session::RecordingState r{true, wall_clock_us(), by};
+  for (char& c : r.by)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  r.by = session::cut_utf8(r.by, session::kMaxRecorderBytes);
+  std::lock_guard lock(mutex_);
+  recording_ = std::move(r);
+  broadcast_recording();
+}
+
+void SessionHub::stop_recording() {
+  std::lock_guard lock(mutex_);
+  if (!recording_.recording) return;
+  recording_ = {};
+  broadcast_recording();
+}
+
+session::RecordingState SessionHub::recording() const {
+  std::lock_guard lock(mutex_);
+  return recording_;
+}
+
+void SessionHub::broadcast_recording() {
+  spdlog::info("session: {}",
+               recording_.recording
+                   ? "recording, by " + printable(recording_.by) + ": every viewer shows it"
+                   : "the recording stopped: every viewer shows it");
+  const Shared msg = share(session::message(Type::kRecordingState, session::serialize(recording_)));
+  for (const auto& [id, s] : sessions_)
+    for (const auto& [pid, m] : s->members) send_shared(m->info.viewer, msg);
 }
 
 // A member whose viewer reconnected (its Join's rejoin key is the member's): the new connection
@@ -343,124 +377,116 @@ session::Spot SessionHub::free_spot(const Session& s, bool from_last) const {
   return {p.x(), p.y(), 0};
 }
 
+const SessionHub::Route* SessionHub::route(uint8_t type) {
+  static const std::array<const Route*, 256> routes = [] {
+    std::array<const Route*, 256> by_type{};
+    for (const auto list :
+         {presence_routes(), avatar_routes(), voice_routes(), drawing_routes(), object_routes()})
+      for (const Route& r : list) by_type[static_cast<uint8_t>(r.type)] = &r;
+    return by_type;
+  }();
+  return routes[type];
+}
+
+std::vector<std::pair<session::Type, session::Feature>> SessionHub::handled_types() {
+  using session::Feature;
+  std::vector<std::pair<session::Type, Feature>> out;
+  const std::pair<std::span<const Route>, Feature> lists[] = {
+      {presence_routes(), Feature::kPresence},
+      {avatar_routes(), Feature::kAvatars},
+      {voice_routes(), Feature::kVoice},
+      {drawing_routes(), Feature::kDrawing},
+      {object_routes(), Feature::kObjects}};
+  for (const auto& [routes, feature] : lists)
+    for (const auto& r : routes) out.emplace_back(r.type, feature);
+  return out;
+}
+
+bool SessionHub::in_session(uint64_t viewer, const Member* m, const char* what) {
+  if (!m) error(viewer, std::string(what) + ": not in a session (join one first)");
+  return m != nullptr;
+}
+
 void SessionHub::handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) {
   const auto it = by_viewer_.find(viewer);
   Member* m = it == by_viewer_.end() ? nullptr : it->second;
   if (m) m->last_seen = Clock::now();
-  const auto in_session = [&](const char* what) {
-    if (!m) error(viewer, std::string(what) + ": not in a session (join one first)");
-    return m != nullptr;
+  const Route* r = route(type);
+  if (!r) throw Error("a participant may not send session message type " + std::to_string(type));
+  if (r->anyone) return (this->*r->anyone)(viewer, m, payload);
+  if (!in_session(viewer, m, session::find_message(type)->name)) return;
+  (this->*r->member)(*m, payload);
+}
+
+// ---- Presence: the lobby, joining and leaving, poses and teleports ------------------------------
+
+std::span<const SessionHub::Route> SessionHub::presence_routes() {
+  static constexpr Route kRoutes[] = {
+      {Type::kListSessions, &SessionHub::on_list_sessions},
+      {Type::kJoin, &SessionHub::on_join},
+      {Type::kLeave, &SessionHub::on_leave},
+      {Type::kHeartbeat, &SessionHub::on_heartbeat},
+      {Type::kPose, &SessionHub::on_pose},
+      {Type::kPoseEcho, &SessionHub::on_pose_echo},
+      {Type::kTeleport, &SessionHub::on_teleport},
   };
-  switch (static_cast<Type>(type)) {
-    case Type::kListSessions: {
-      if (!payload.empty()) throw Error("malformed list sessions: not empty");
-      std::vector<session::SessionSummary> list;
-      for (const auto& [id, s] : sessions_)
-        list.push_back({id, s->name, static_cast<uint32_t>(s->members.size())});
-      send(viewer, session::message(Type::kSessionList, session::serialize(list)));
-      return;
+  return kRoutes;
+}
+
+void SessionHub::on_list_sessions(uint64_t viewer, Member*, Payload payload) {
+  if (!payload.empty()) throw Error("malformed list sessions: not empty");
+  std::vector<session::SessionSummary> list;
+  for (const auto& [id, s] : sessions_)
+    list.push_back({id, s->name, static_cast<uint32_t>(s->members.size())});
+  send(viewer, session::message(Type::kSessionList, session::serialize(list)));
+}
+
+void SessionHub::on_join(uint64_t viewer, Member*, Payload payload) {
+  join(viewer, session::parse_join(payload));
+}
+
+void SessionHub::on_leave(uint64_t viewer, Member* m, Payload payload) {
+  if (!payload.empty()) throw Error("malformed leave: not empty");
+  if (m) remove(viewer, session::LeftReason::kLeft);
+}
+
+void SessionHub::on_heartbeat(uint64_t, Member*, Payload payload) {
+  if (!payload.empty()) throw Error("malformed heartbeat: not empty");
+}
+
+void SessionHub::on_pose(uint64_t viewer, Member* m, Payload payload) {
+  session::parse_pose(payload);  // checks every field before anyone else sees it
+  if (!in_session(viewer, m, "pose")) return;
+  ++stats_.poses_in;
+  ++m->info.poses;
+  m->last_pose = share(session::forward(Type::kPoseFrom, m->info.id, payload));
+  for (const auto& [pid, other] : m->session->members)
+    if (other.get() != m && other->info.viewer != 0) {
+      send_shared(other->info.viewer, m->last_pose, pose_key(m->info.id));
+      ++stats_.pose_messages_out;
     }
-    case Type::kJoin:
-      return join(viewer, session::parse_join(payload));
-    case Type::kLeave:
-      if (!payload.empty()) throw Error("malformed leave: not empty");
-      if (m) remove(viewer, session::LeftReason::kLeft);
-      return;
-    case Type::kHeartbeat:
-      if (!payload.empty()) throw Error("malformed heartbeat: not empty");
-      return;
-    case Type::kPose: {
-      session::parse_pose(payload);  // checks every field before anyone else sees it
-      if (!in_session("pose")) return;
-      ++stats_.poses_in;
-      ++m->info.poses;
-      m->last_pose = share(session::forward(Type::kPoseFrom, m->info.id, payload));
-      for (const auto& [pid, other] : m->session->members)
-        if (other.get() != m && other->info.viewer != 0) {
-          send_shared(other->info.viewer, m->last_pose, pose_key(m->info.id));
-          ++stats_.pose_messages_out;
-        }
-      return;
-    }
-    case Type::kPoseEcho: {
-      const auto [origin, sequence] = session::parse_echo(payload);
-      if (!in_session("pose echo")) return;
-      const auto o = m->session->members.find(origin);
-      if (o == m->session->members.end()) return;  // left meanwhile
-      send(o->second->info.viewer,
-           session::message(Type::kPoseEchoFrom, session::serialize_echo(m->info.id, sequence)));
-      return;
-    }
-    case Type::kTeleport: {
-      const session::Spot to = session::parse_teleport(payload);
-      if (!in_session("teleport")) return;
-      std::string why;
-      if (!is_free_floor_spot(config_.room, {to.x, to.z}, &why))
-        return error(viewer, "teleport to (" + std::to_string(to.x) + ", " + std::to_string(to.z) +
-                                 ") refused: " + why);
-      session::Teleported t{m->info.id, m->info.spot, to, wall_clock_us()};
-      m->info.spot = to;
-      const Shared msg = share(session::message(Type::kTeleported, session::serialize(t)));
-      for (const auto& [pid, other] : m->session->members) send_shared(other->info.viewer, msg);
-      return;
-    }
-    case Type::kAvatarCamera: {
-      session::AvatarCamera cam = session::parse_avatar_camera(payload);
-      if (!in_session("avatar camera")) return;
-      // Once per connection: a participant that rejoined after a cut (take_over) announces its
-      // camera again on its new one, and the others take it as new (it may have changed).
-      if (m->camera && m->camera_viewer == viewer) throw Error("avatar camera announced twice");
-      m->camera = std::move(cam);
-      m->camera_viewer = viewer;
-      m->info.has_camera = true;
-      m->camera_message = share(session::forward(Type::kAvatarCameraFrom, m->info.id, payload));
-      for (const auto& [pid, other] : m->session->members)
-        if (other.get() != m) send_shared(other->info.viewer, m->camera_message);
-      return;
-    }
-    case Type::kAvatarFrame: {
-      if (!m) return error(viewer, "avatar frame: not in a session (join one first)");
-      if (!m->camera) throw Error("avatar frame before its camera was announced");
-      const session::AvatarFrameView f =
-          session::parse_avatar_frame(payload, m->camera->calibration);
-      const Intrinsics& k = m->camera->calibration.depth;
-      const auto d = declared_depth_size(f.depth);
-      if (!d || d->width != k.width || d->height != k.height)
-        throw Error("malformed avatar frame: its depth stream is not a " + std::to_string(k.width) +
-                    "x" + std::to_string(k.height) + " frame of the announced codec");
-      if (!f.color.empty())
-        if (const auto c = declared_color_size(f.color);
-            c && (c->width != k.width || c->height != k.height))
-          throw Error("malformed avatar frame: its color stream has another size than its camera");
-      ++stats_.avatar_frames_in;
-      ++m->info.avatar_frames;
-      const Shared msg = share(session::forward(Type::kAvatarFrameFrom, m->info.id, payload));
-      for (const auto& [pid, other] : m->session->members)
-        if (other.get() != m && other->info.viewer != 0) {
-          send_shared(other->info.viewer, msg, avatar_key(m->info.id));
-          ++stats_.avatar_frames_out;
-          stats_.avatar_bytes_out += msg->size();
-        }
-      return;
-    }
-    case Type::kPointer:
-    case Type::kAnnotate:
-    case Type::kErase:
-      if (!m) return error(viewer, "pointer or annotation: not in a session (join one first)");
-      return handle_drawing(*m, static_cast<Type>(type), payload);
-    case Type::kVoice:
-    case Type::kVoiceState:
-      if (!m) return error(viewer, "voice: not in a session (join one first)");
-      return handle_voice(*m, static_cast<Type>(type), payload);
-    case Type::kGrab:
-    case Type::kObjectMove:
-    case Type::kRelease:
-    case Type::kSetMonitor:
-      if (!m) return error(viewer, "object or monitor: not in a session (join one first)");
-      return handle_object(*m, static_cast<Type>(type), payload);
-    default:
-      throw Error("a participant may not send session message type " + std::to_string(type));
-  }
+}
+
+void SessionHub::on_pose_echo(uint64_t viewer, Member* m, Payload payload) {
+  const auto [origin, sequence] = session::parse_echo(payload);
+  if (!in_session(viewer, m, "pose echo")) return;
+  const auto o = m->session->members.find(origin);
+  if (o == m->session->members.end()) return;  // left meanwhile
+  send(o->second->info.viewer,
+       session::message(Type::kPoseEchoFrom, session::serialize_echo(m->info.id, sequence)));
+}
+
+void SessionHub::on_teleport(uint64_t viewer, Member* m, Payload payload) {
+  const session::Spot to = session::parse_teleport(payload);
+  if (!in_session(viewer, m, "teleport")) return;
+  std::string why;
+  if (!is_free_floor_spot(config_.room, {to.x, to.z}, &why))
+    return error(viewer, "teleport to (" + std::to_string(to.x) + ", " + std::to_string(to.z) +
+                             ") refused: " + why);
+  session::Teleported t{m->info.id, m->info.spot, to, wall_clock_us()};
+  m->info.spot = to;
+  const Shared msg = share(session::message(Type::kTeleported, session::serialize(t)));
+  for (const auto& [pid, other] : m->session->members) send_shared(other->info.viewer, msg);
 }
 
 void SessionHub::watch_presence() {

@@ -42,86 +42,90 @@ void SessionHub::erase_stale_annotations(Session& s) {
   }
 }
 
-void SessionHub::handle_drawing(Member& m, Type type, std::span<const uint8_t> payload) {
+std::span<const SessionHub::Route> SessionHub::drawing_routes() {
+  static constexpr Route kRoutes[] = {
+      {Type::kPointer, nullptr, &SessionHub::on_pointer},
+      {Type::kAnnotate, nullptr, &SessionHub::on_annotate},
+      {Type::kErase, nullptr, &SessionHub::on_erase},
+  };
+  return kRoutes;
+}
+
+void SessionHub::on_pointer(Member& m, Payload payload) {
   Session& s = *m.session;
-  switch (type) {
-    case Type::kPointer: {
-      const session::PointerMessage p = session::parse_pointer(payload);
-      ++stats_.pointers_in;
-      const Shared msg = share(session::forward(Type::kPointerFrom, m.info.id, payload));
-      m.pointer = p.on ? msg : nullptr;
-      for (const auto& [pid, other] : s.members)
-        if (other.get() != &m && other->info.viewer != 0) {
-          send_shared(other->info.viewer, msg, pointer_key(m.info.id));
-          stats_.drawing_bytes_out += msg->size();
-        }
-      return;
+  const session::PointerMessage p = session::parse_pointer(payload);
+  ++stats_.pointers_in;
+  const Shared msg = share(session::forward(Type::kPointerFrom, m.info.id, payload));
+  m.pointer = p.on ? msg : nullptr;
+  for (const auto& [pid, other] : s.members)
+    if (other.get() != &m && other->info.viewer != 0) {
+      send_shared(other->info.viewer, msg, pointer_key(m.info.id));
+      stats_.drawing_bytes_out += msg->size();
     }
-    case Type::kAnnotate: {
-      Annotation a = session::parse_annotate(payload);
-      const auto refuse = [&](const std::string& why) {
-        ++stats_.annotations_refused;
-        error(m.info.viewer, "annotation refused: " + why);
-      };
-      if (a.kind == session::AnnotationKind::kLabel) try {
-          a.text = session::check_label_text(a.text);
-        } catch (const Error& e) {
-          return refuse(e.what());
-        }
-      if (a.anchor == AnnotationAnchor::kMonitor) {
-        if (!case_ || !case_->monitor || a.generation != case_generation_)
-          return refuse("it is about the monitor of a case that is no longer shown");
-        if (a.slice >= case_->monitor->slices)
-          return refuse("slice " + std::to_string(a.slice) + " of " +
-                        std::to_string(case_->monitor->slices));
-      }
-      if (s.annotations.size() >= session::kMaxSessionAnnotations)
-        return refuse("the session holds " + std::to_string(s.annotations.size()) +
-                      " annotations, its limit: erase some first");
-      if (s.annotation_points + a.points.size() > session::kMaxSessionAnnotationPoints)
-        return refuse("the session's annotations hold " + std::to_string(s.annotation_points) +
-                      " points, and " + std::to_string(a.points.size()) + " more would pass its " +
-                      "limit of " + std::to_string(session::kMaxSessionAnnotationPoints));
-      a.id = s.next_annotation++;
-      a.author = m.info.id;
-      a.time_us = wall_clock_us();
-      const Shared msg = share(session::message(Type::kAnnotation, session::serialize(a)));
-      s.annotation_points += a.points.size();
-      s.annotations.emplace(a.id, Session::Drawn{a, msg});
-      ++stats_.annotations;
-      for (const auto& [pid, other] : s.members)
-        if (other->info.viewer != 0) {
-          send_shared(other->info.viewer, msg);
-          stats_.drawing_bytes_out += msg->size();
-        }
-      return;
+}
+
+void SessionHub::on_annotate(Member& m, Payload payload) {
+  Session& s = *m.session;
+  Annotation a = session::parse_annotate(payload);
+  const auto refuse = [&](const std::string& why) {
+    ++stats_.annotations_refused;
+    error(m.info.viewer, "annotation refused: " + why);
+  };
+  if (a.kind == session::AnnotationKind::kLabel) try {
+      a.text = session::check_label_text(a.text);
+    } catch (const Error& e) {
+      return refuse(e.what());
     }
-    case Type::kErase: {
-      const uint32_t id = session::parse_erase(payload);
-      const auto it = s.annotations.find(id);
-      if (it == s.annotations.end())
-        return error(m.info.viewer, "erase: the session has no annotation " + std::to_string(id) +
-                                        " (erased already?)");
-      const Annotation& a = it->second.annotation;
-      if (!config_.anyone_erases && a.author != m.info.id)
-        return error(m.info.viewer, "erase: annotation " + std::to_string(id) +
-                                        " is another participant's, and only its author may " +
-                                        "erase it on this server");
-      s.annotation_points -= a.points.size();
-      s.annotations.erase(it);
-      ++stats_.erases;
-      const Shared msg =
-          share(session::message(Type::kErased, session::serialize_erased(id, m.info.id)));
-      for (const auto& [pid, other] : s.members)
-        if (other->info.viewer != 0) {
-          send_shared(other->info.viewer, msg);
-          stats_.drawing_bytes_out += msg->size();
-        }
-      return;
-    }
-    default:
-      return;
+  if (a.anchor == AnnotationAnchor::kMonitor) {
+    if (!case_ || !case_->monitor || a.generation != case_generation_)
+      return refuse("it is about the monitor of a case that is no longer shown");
+    if (a.slice >= case_->monitor->slices)
+      return refuse("slice " + std::to_string(a.slice) + " of " +
+                    std::to_string(case_->monitor->slices));
   }
+  if (s.annotations.size() >= session::kMaxSessionAnnotations)
+    return refuse("the session holds " + std::to_string(s.annotations.size()) +
+                  " annotations, its limit: erase some first");
+  if (s.annotation_points + a.points.size() > session::kMaxSessionAnnotationPoints)
+    return refuse("the session's annotations hold " + std::to_string(s.annotation_points) +
+                  " points, and " + std::to_string(a.points.size()) + " more would pass its " +
+                  "limit of " + std::to_string(session::kMaxSessionAnnotationPoints));
+  a.id = s.next_annotation++;
+  a.author = m.info.id;
+  a.time_us = wall_clock_us();
+  const Shared msg = share(session::message(Type::kAnnotation, session::serialize(a)));
+  s.annotation_points += a.points.size();
+  s.annotations.emplace(a.id, Session::Drawn{a, msg});
+  ++stats_.annotations;
+  for (const auto& [pid, other] : s.members)
+    if (other->info.viewer != 0) {
+      send_shared(other->info.viewer, msg);
+      stats_.drawing_bytes_out += msg->size();
+    }
+}
+
+void SessionHub::on_erase(Member& m, Payload payload) {
+  Session& s = *m.session;
+  const uint32_t id = session::parse_erase(payload);
+  const auto it = s.annotations.find(id);
+  if (it == s.annotations.end())
+    return error(m.info.viewer, "erase: the session has no annotation " + std::to_string(id) +
+                                    " (erased already?)");
+  const Annotation& a = it->second.annotation;
+  if (!config_.anyone_erases && a.author != m.info.id)
+    return error(m.info.viewer, "erase: annotation " + std::to_string(id) +
+                                    " is another participant's, and only its author may " +
+                                    "erase it on this server");
+  s.annotation_points -= a.points.size();
+  s.annotations.erase(it);
+  ++stats_.erases;
+  const Shared msg =
+      share(session::message(Type::kErased, session::serialize_erased(id, m.info.id)));
+  for (const auto& [pid, other] : s.members)
+    if (other->info.viewer != 0) {
+      send_shared(other->info.viewer, msg);
+      stats_.drawing_bytes_out += msg->size();
+    }
 }
 
 }  // namespace volcast

@@ -126,21 +126,32 @@ void SessionHub::broadcast_object(const Session& s, uint16_t object, const Membe
     if (other.get() != except) send_shared(other->info.viewer, msg, object_key(object));
 }
 
-void SessionHub::handle_object(Member& m, Type type, std::span<const uint8_t> payload) {
+std::span<const SessionHub::Route> SessionHub::object_routes() {
+  static constexpr Route kRoutes[] = {
+      {Type::kGrab, nullptr, &SessionHub::on_grab},
+      {Type::kObjectMove, nullptr, &SessionHub::on_object_move},
+      {Type::kRelease, nullptr, &SessionHub::on_release},
+      {Type::kSetMonitor, nullptr, &SessionHub::on_set_monitor},
+  };
+  return kRoutes;
+}
+
+void SessionHub::on_set_monitor(Member& m, Payload payload) {
   Session& s = *m.session;
-  if (type == Type::kSetMonitor) {
-    MonitorState want = session::parse_set_monitor(payload);
-    if (want.generation != case_generation_ || !s.monitor) return;  // about another case
-    if (want.slice >= case_->monitor->slices)
-      return error(m.info.viewer, "monitor: slice " + std::to_string(want.slice) + " of " +
-                                      std::to_string(case_->monitor->slices));
-    want.by = m.info.id;
-    s.monitor = want;
-    ++stats_.monitor_changes;
-    const Shared msg = share(session::message(Type::kMonitorState, session::serialize(want)));
-    for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg, kMonitorKey);
-    return;
-  }
+  MonitorState want = session::parse_set_monitor(payload);
+  if (want.generation != case_generation_ || !s.monitor) return;  // about another case
+  if (want.slice >= case_->monitor->slices)
+    return error(m.info.viewer, "monitor: slice " + std::to_string(want.slice) + " of " +
+                                    std::to_string(case_->monitor->slices));
+  want.by = m.info.id;
+  s.monitor = want;
+  ++stats_.monitor_changes;
+  const Shared msg = share(session::message(Type::kMonitorState, session::serialize(want)));
+  for (const auto& [pid, other] : s.members) send_shared(other->info.viewer, msg, kMonitorKey);
+}
+
+void SessionHub::on_object_request(Member& m, Type type, Payload payload) {
+  Session& s = *m.session;
   const session::ObjectRequest q = session::parse_object_request(payload, type != Type::kGrab);
   if (q.generation != case_generation_) return;  // sent before a swap
   if (q.object >= s.objects.size())

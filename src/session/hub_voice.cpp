@@ -20,16 +20,24 @@ void SessionHub::broadcast_voice(uint32_t from, const Shared& message, const Ses
     }
 }
 
-void SessionHub::handle_voice(Member& m, Type type, std::span<const uint8_t> payload) {
-  if (type == Type::kVoiceState) {
-    const bool muted = session::parse_voice_state(payload);
-    m.info.muted = muted;
-    m.voice_state = share(session::forward(Type::kVoiceStateFrom, m.info.id, payload));
-    for (const auto& [pid, other] : m.session->members)
-      if (other.get() != &m)
-        send_shared(other->info.viewer, m.voice_state, voice_state_key(m.info.id));
-    return;
-  }
+std::span<const SessionHub::Route> SessionHub::voice_routes() {
+  static constexpr Route kRoutes[] = {
+      {Type::kVoice, nullptr, &SessionHub::on_voice},
+      {Type::kVoiceState, nullptr, &SessionHub::on_voice_state},
+  };
+  return kRoutes;
+}
+
+void SessionHub::on_voice_state(Member& m, Payload payload) {
+  const bool muted = session::parse_voice_state(payload);
+  m.info.muted = muted;
+  m.voice_state = share(session::forward(Type::kVoiceStateFrom, m.info.id, payload));
+  for (const auto& [pid, other] : m.session->members)
+    if (other.get() != &m)
+      send_shared(other->info.viewer, m.voice_state, voice_state_key(m.info.id));
+}
+
+void SessionHub::on_voice(Member& m, Payload payload) {
   session::VoicePacketView packet;
   try {
     packet = session::parse_voice(payload);
@@ -73,18 +81,6 @@ void SessionHub::site_voice_state(bool muted) {
   }
 }
 
-namespace {
-
-// `name` cut to at most `bytes` bytes, at a UTF-8 character boundary.
-std::string cut_utf8(const std::string& name, size_t bytes) {
-  if (name.size() <= bytes) return name;
-  size_t n = bytes;
-  while (n > 0 && (static_cast<unsigned char>(name[n]) & 0xc0) == 0x80) --n;
-  return name.substr(0, n);
-}
-
-}  // namespace
-
 SessionHub::Member& SessionHub::add_recorded_member(Session& s, const Recorded& r) {
   auto m = std::make_unique<Member>();
   m->info.id = r.id;
@@ -107,9 +103,9 @@ uint32_t SessionHub::add_recorded_speaker(const std::string& name, bool or_site)
   static const std::string kSuffix = " (recorded)";
   std::string shown;
   try {
-    shown =
-        session::checked_name(cut_utf8(name, session::kMaxNameBytes - kSuffix.size() - 3) + kSuffix,
-                              "recorded speaker's name");
+    shown = session::checked_name(
+        session::cut_utf8(name, session::kMaxNameBytes - kSuffix.size() - 3) + kSuffix,
+        "recorded speaker's name");
   } catch (const Error& e) {
     spdlog::warn("replay: a recorded speaker's name is not shown ({}): 'recorded speaker' instead",
                  e.what());

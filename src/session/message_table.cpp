@@ -17,6 +17,9 @@ constexpr uint32_t kSmall = kMaxSessionMessageBytes;
 constexpr Sender kUp = Sender::kParticipant;
 constexpr Sender kDown = Sender::kServer;
 constexpr RateLimit kServers{};
+constexpr Feature kPresence = Feature::kPresence, kAvatars = Feature::kAvatars,
+                  kVoice = Feature::kVoice, kDrawing = Feature::kDrawing,
+                  kObjects = Feature::kObjects;
 
 void empty(Payload p, const char* name) {
   if (!p.empty()) throw Error(std::string("malformed ") + name + ": not empty");
@@ -28,87 +31,106 @@ void forwarded(Payload p) {
   parse(split_forwarded(p).second);
 }
 
-// Who sends it, its name, the largest payload, the rate limit, the decoder: one row per type.
+// Its feature, who sends it, its name, the largest payload, the rate limit, the decoder: one row
+// per type.
 // clang-format off
 constexpr std::array kTable{
-    MessageKind{Type::kListSessions, "list sessions", kUp, kSmall, {2, 5, "session lists"},
+    MessageKind{Type::kListSessions, kPresence, "list sessions", kUp, kSmall, {2, 5, "session lists"},
                 [](Payload p) { empty(p, "list sessions"); }},
-    MessageKind{Type::kJoin, "join", kUp, kSmall, {2, 5, "joins"},
+    MessageKind{Type::kJoin, kPresence, "join", kUp, kSmall, {2, 5, "joins"},
                 [](Payload p) { parse_join(p); }},
-    MessageKind{Type::kLeave, "leave", kUp, kSmall, {2, 5, "leaves"},
+    MessageKind{Type::kLeave, kPresence, "leave", kUp, kSmall, {2, 5, "leaves"},
                 [](Payload p) { empty(p, "leave"); }},
-    MessageKind{Type::kPose, "pose", kUp, kSmall, {150, 75, "poses"},
+    MessageKind{Type::kPose, kPresence, "pose", kUp, kSmall, {150, 75, "poses"},
                 [](Payload p) { parse_pose(p); }},
-    MessageKind{Type::kPoseEcho, "pose echo", kUp, kSmall, {600, 300, "pose echoes"},
+    MessageKind{Type::kPoseEcho, kPresence, "pose echo", kUp, kSmall, {600, 300, "pose echoes"},
                 [](Payload p) { parse_echo(p); }},
-    MessageKind{Type::kTeleport, "teleport", kUp, kSmall, {4, 8, "teleports"},
+    MessageKind{Type::kTeleport, kPresence, "teleport", kUp, kSmall, {4, 8, "teleports"},
                 [](Payload p) { parse_teleport(p); }},
-    MessageKind{Type::kAvatarCamera, "avatar camera", kUp, kSmall, {1, 2, "avatar cameras"},
+    MessageKind{Type::kAvatarCamera, kAvatars, "avatar camera", kUp, kSmall, {1, 2, "avatar cameras"},
                 [](Payload p) { parse_avatar_camera(p); }},
-    MessageKind{Type::kAvatarFrame, "avatar frame", kUp, kMaxAvatarFrameBytes,
+    MessageKind{Type::kAvatarFrame, kAvatars, "avatar frame", kUp, kMaxAvatarFrameBytes,
                 {30, 15, "avatar frames"}, nullptr},
-    MessageKind{Type::kHeartbeat, "heartbeat", kUp, kSmall, {10, 10, "heartbeats"},
+    MessageKind{Type::kHeartbeat, kPresence, "heartbeat", kUp, kSmall, {10, 10, "heartbeats"},
                 [](Payload p) { empty(p, "heartbeat"); }},
-    MessageKind{Type::kGrab, "grab", kUp, kSmall, {10, 10, "grabs"},
+    MessageKind{Type::kGrab, kObjects, "grab", kUp, kSmall, {10, 10, "grabs"},
                 [](Payload p) { parse_object_request(p, false); }},
-    MessageKind{Type::kObjectMove, "object move", kUp, kSmall, {150, 75, "object moves"},
+    MessageKind{Type::kObjectMove, kObjects, "object move", kUp, kSmall, {150, 75, "object moves"},
                 [](Payload p) { parse_object_request(p, true); }},
-    MessageKind{Type::kRelease, "release", kUp, kSmall, {10, 10, "releases"},
+    MessageKind{Type::kRelease, kObjects, "release", kUp, kSmall, {10, 10, "releases"},
                 [](Payload p) { parse_object_request(p, true); }},
-    MessageKind{Type::kSetMonitor, "set monitor", kUp, kSmall, {150, 75, "monitor changes"},
+    MessageKind{Type::kSetMonitor, kObjects, "set monitor", kUp, kSmall, {150, 75, "monitor changes"},
                 [](Payload p) { parse_set_monitor(p); }},
     // Voice: 50 packets a second while talking; a burst after a stall of the sender's link or
     // thread. A client holds up to kMaxHeldPerStream (50, session_port.hpp) and sends them at
     // once: the burst admits twice that (was 40: a loaded client's held second lost 11 packets).
-    MessageKind{Type::kVoice, "voice", kUp, kVoiceMessageLimit, {60, 100, "voice packets"},
+    MessageKind{Type::kVoice, kVoice, "voice", kUp, kVoiceMessageLimit, {60, 100, "voice packets"},
                 [](Payload p) { parse_voice(p); }},
-    MessageKind{Type::kVoiceState, "voice state", kUp, kSmall, {5, 10, "voice states"},
+    MessageKind{Type::kVoiceState, kVoice, "voice state", kUp, kSmall, {5, 10, "voice states"},
                 [](Payload p) { parse_voice_state(p); }},
     // Pointers at the pose rate; annotations a few a second, a burst of a quick sketch.
-    MessageKind{Type::kPointer, "pointer", kUp, kSmall, {150, 75, "pointers"},
+    MessageKind{Type::kPointer, kDrawing, "pointer", kUp, kSmall, {150, 75, "pointers"},
                 [](Payload p) { parse_pointer(p); }},
-    MessageKind{Type::kAnnotate, "annotate", kUp, kSmall, {5, 20, "annotations"},
+    MessageKind{Type::kAnnotate, kDrawing, "annotate", kUp, kSmall, {5, 20, "annotations"},
                 [](Payload p) { parse_annotate(p); }},
-    MessageKind{Type::kErase, "erase", kUp, kSmall, {10, 20, "erases"},
+    MessageKind{Type::kErase, kDrawing, "erase", kUp, kSmall, {10, 20, "erases"},
                 [](Payload p) { parse_erase(p); }},
-    MessageKind{Type::kSessionList, "session list", kDown, kSmall, kServers,
+    MessageKind{Type::kSessionList, kPresence, "session list", kDown, kSmall, kServers,
                 [](Payload p) { parse_session_list(p); }},
-    MessageKind{Type::kJoined, "joined", kDown, kSmall, kServers,
+    MessageKind{Type::kJoined, kPresence, "joined", kDown, kSmall, kServers,
                 [](Payload p) { parse_joined(p); }},
-    MessageKind{Type::kSessionError, "session error", kDown, kSmall, kServers,
+    MessageKind{Type::kSessionError, kPresence, "session error", kDown, kSmall, kServers,
                 [](Payload p) { parse_error(p); }},
-    MessageKind{Type::kParticipantJoined, "participant joined", kDown, kSmall, kServers,
+    MessageKind{Type::kParticipantJoined, kPresence, "participant joined", kDown, kSmall, kServers,
                 [](Payload p) { parse_participant(p); }},
-    MessageKind{Type::kParticipantLeft, "participant left", kDown, kSmall, kServers,
+    MessageKind{Type::kParticipantLeft, kPresence, "participant left", kDown, kSmall, kServers,
                 [](Payload p) { parse_left(p); }},
-    MessageKind{Type::kPoseFrom, "pose", kDown, kSmall, kServers, forwarded<parse_pose>},
-    MessageKind{Type::kPoseEchoFrom, "pose echo", kDown, kSmall, kServers,
+    MessageKind{Type::kPoseFrom, kPresence, "pose", kDown, kSmall, kServers, forwarded<parse_pose>},
+    MessageKind{Type::kPoseEchoFrom, kPresence, "pose echo", kDown, kSmall, kServers,
                 [](Payload p) { parse_echo(p); }},
-    MessageKind{Type::kTeleported, "teleported", kDown, kSmall, kServers,
+    MessageKind{Type::kTeleported, kPresence, "teleported", kDown, kSmall, kServers,
                 [](Payload p) { parse_teleported(p); }},
-    MessageKind{Type::kAvatarCameraFrom, "avatar camera", kDown, kSmall, kServers,
+    MessageKind{Type::kAvatarCameraFrom, kAvatars, "avatar camera", kDown, kSmall, kServers,
                 forwarded<parse_avatar_camera>},
-    MessageKind{Type::kAvatarFrameFrom, "avatar frame", kDown, kMaxAvatarFrameBytes + 4, kServers,
+    MessageKind{Type::kAvatarFrameFrom, kAvatars, "avatar frame", kDown, kMaxAvatarFrameBytes + 4, kServers,
                 nullptr},
-    MessageKind{Type::kCase, "case", kDown, kMaxCaseBytes, kServers,
+    MessageKind{Type::kCase, kObjects, "case", kDown, kMaxCaseBytes, kServers,
                 [](Payload p) { parse_case(p); }},
-    MessageKind{Type::kObjectState, "object state", kDown, kSmall, kServers,
+    MessageKind{Type::kObjectState, kObjects, "object state", kDown, kSmall, kServers,
                 [](Payload p) { parse_object_state(p); }},
-    MessageKind{Type::kMonitorState, "monitor state", kDown, kSmall, kServers,
+    MessageKind{Type::kMonitorState, kObjects, "monitor state", kDown, kSmall, kServers,
                 [](Payload p) { parse_monitor_state(p); }},
-    MessageKind{Type::kVoiceFrom, "voice", kDown, kVoiceMessageLimit + 4, kServers,
+    MessageKind{Type::kVoiceFrom, kVoice, "voice", kDown, kVoiceMessageLimit + 4, kServers,
                 forwarded<parse_voice>},
-    MessageKind{Type::kVoiceStateFrom, "voice state", kDown, kSmall, kServers,
+    MessageKind{Type::kVoiceStateFrom, kVoice, "voice state", kDown, kSmall, kServers,
                 forwarded<parse_voice_state>},
-    MessageKind{Type::kPointerFrom, "pointer", kDown, kSmall, kServers, forwarded<parse_pointer>},
-    MessageKind{Type::kAnnotation, "annotation", kDown, kSmall, kServers,
+    MessageKind{Type::kPointerFrom, kDrawing, "pointer", kDown, kSmall, kServers, forwarded<parse_pointer>},
+    MessageKind{Type::kAnnotation, kDrawing, "annotation", kDown, kSmall, kServers,
                 [](Payload p) { parse_annotation(p); }},
-    MessageKind{Type::kErased, "erased", kDown, kSmall, kServers,
+    MessageKind{Type::kErased, kDrawing, "erased", kDown, kSmall, kServers,
                 [](Payload p) { parse_erased(p); }},
+    MessageKind{Type::kRecordingState, kPresence, "recording state", kDown, kSmall, kServers,
+                [](Payload p) { parse_recording_state(p); }},
 };
 // clang-format on
 
 }  // namespace
+
+const char* to_string(Feature f) {
+  switch (f) {
+    case Feature::kPresence:
+      return "presence";
+    case Feature::kAvatars:
+      return "avatars";
+    case Feature::kVoice:
+      return "voice";
+    case Feature::kDrawing:
+      return "drawing";
+    case Feature::kObjects:
+      return "objects";
+  }
+  return "?";
+}
 
 std::span<const MessageKind> message_table() {
   return kTable;

@@ -1,5 +1,6 @@
 #include "volcast/session/messages.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "volcast/codec/registry.hpp"
@@ -109,6 +110,18 @@ void layout(Io& io, M& m) {
   io.spot(m.from);
   io.spot(m.to);
   io.number(m.time_us);
+}
+
+template <typename Io, Of<RecordingState> M>
+void layout(Io& io, M& m) {
+  io.flag(m.recording);
+  io.number(m.since_us);
+  io.string(m.by);
+  io.check(m.by.size() <= kMaxRecorderBytes, "who records is longer than 200 bytes");
+  io.check(
+      std::none_of(m.by.begin(), m.by.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; }),
+      "who records has a control character");
+  io.check(m.recording == (m.since_us != 0), "a recording's start is 0, or a stop has one");
 }
 
 template <typename Io, Of<AvatarFrameView> M>
@@ -250,6 +263,14 @@ std::vector<uint8_t> serialize(const Teleported& m) {
 
 Teleported parse_teleported(std::span<const uint8_t> p) {
   return decode<Teleported>(p, "teleported");
+}
+
+std::vector<uint8_t> serialize(const RecordingState& m) {
+  return encode(m);
+}
+
+RecordingState parse_recording_state(std::span<const uint8_t> p) {
+  return decode<RecordingState>(p, "recording state");
 }
 
 std::vector<uint8_t> serialize(const AvatarCamera& m) {

@@ -154,4 +154,11 @@ std::string name_skeleton(const std::string& name) {
   return to_utf8(skeleton);
 }
 
+std::string cut_utf8(const std::string& text, size_t bytes) {
+  if (text.size() <= bytes) return text;
+  size_t n = bytes;
+  while (n > 0 && (static_cast<unsigned char>(text[n]) & 0xc0) == 0x80) --n;
+  return text.substr(0, n);
+}
+
 }  // namespace volcast::session

@@ -1,6 +1,7 @@
 #pragma once
 // Private to src/session: the state behind a Participant (participant.hpp), shared by what it
-// sends (participant.cpp) and what it receives from the server (participant_receive.cpp).
+// sends (participant.cpp) and what it receives from the server (participant_receive.cpp and
+// participant_<feature>.cpp).
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <map>
 #include <mutex>
 #include <random>
+#include <span>
 
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
@@ -166,22 +168,49 @@ struct Participant::Impl {
     if (!detached) client->post_session(session::message(type, payload), key);
   }
 
-  // A case: megabytes, parsed before taking the lock, so that snapshots (every frame) do not wait.
-  void handle_case(std::span<const uint8_t> p);
-  // A message from the server (participant_receive.cpp), then its steps, under `mutex`.
-  void handle(uint8_t type, std::span<const uint8_t> p);
-  void on_joined(const session::Joined& j);
-  void on_participant_joined(const session::ParticipantInfo& info);
-  void on_left(uint32_t id, session::LeftReason why);
-  void on_pose(std::span<const uint8_t> p, int64_t now_server);
-  void on_teleported(const session::Teleported& t);
-  void on_avatar_camera(std::span<const uint8_t> p);
-  void on_avatar_frame(std::span<const uint8_t> p, int64_t now_server);
-  void on_object_state(const session::ObjectState& o);
-  void on_pointer(std::span<const uint8_t> p, int64_t now_server);
-  // A voice packet: parsed and handed to the handler before taking `mutex`.
-  void handle_voice(std::span<const uint8_t> p);
-  void handle_drawing(Type type, std::span<const uint8_t> p);
+  // What the server sends: one handler per message type, in the file of its feature
+  // (message_table.hpp's Feature): presence in participant_receive.cpp, the others in
+  // participant_<feature>.cpp. handle() dispatches through the features' routes (route()); a
+  // `locked` handler runs under `mutex`, the others take it themselves (a case is megabytes,
+  // parsed before, so that snapshots, every frame, do not wait; voice and drawing go on to
+  // their handlers outside it). `now_server`: the server's wall clock when it arrived (µs).
+  using Payload = std::span<const uint8_t>;
+  struct Route {
+    Type type;
+    void (Impl::*handle)(Payload p, int64_t now_server);
+    bool locked = true;
+  };
+  static const Route* route(uint8_t type);
+  static std::span<const Route> presence_routes();
+  static std::span<const Route> avatar_routes();
+  static std::span<const Route> voice_routes();
+  static std::span<const Route> drawing_routes();
+  static std::span<const Route> object_routes();
+  void handle(uint8_t type, Payload p);
+  // presence (participant_receive.cpp)
+  void on_session_list(Payload p, int64_t now_server);
+  void on_joined(Payload p, int64_t now_server);
+  void on_session_error(Payload p, int64_t now_server);
+  void on_participant_joined(Payload p, int64_t now_server);
+  void on_left(Payload p, int64_t now_server);
+  void on_pose(Payload p, int64_t now_server);
+  void on_pose_echo(Payload p, int64_t now_server);
+  void on_teleported(Payload p, int64_t now_server);
+  void on_recording_state(Payload p, int64_t now_server);
+  // avatars (participant_avatars.cpp)
+  void on_avatar_camera(Payload p, int64_t now_server);
+  void on_avatar_frame(Payload p, int64_t now_server);
+  // voice (participant_voice.cpp)
+  void on_voice(Payload p, int64_t now_server);
+  void on_voice_state(Payload p, int64_t now_server);
+  // drawing (participant_drawing.cpp)
+  void on_pointer(Payload p, int64_t now_server);
+  void on_annotation(Payload p, int64_t now_server);
+  void on_erased(Payload p, int64_t now_server);
+  // objects (participant_objects.cpp)
+  void on_case(Payload p, int64_t now_server);
+  void on_object_state(Payload p, int64_t now_server);
+  void on_monitor_state(Payload p, int64_t now_server);
 
   // The queue's key of `object`'s moves and release: the newest replaces one still queued.
   static uint64_t object_key(uint16_t object) { return (uint64_t{3} << 32) | object; }

@@ -654,6 +654,7 @@ TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
       << (medical / "ct-liver-3slices").string() << R"(", "seg": ")"
       << (medical / "ct-liver-3slices/liver_seg.dcm").string() << R"("}})";
   s.hub.set_case(to_shared_case(load_case(folder)));
+  s.hub.start_recording("the OR server (volcast serve --record)");  // before the page joins
   SessionClientOptions watcher = test::named("Native");
   watcher.drive_poses = false;
   test::TestParticipant native(s, watcher);
@@ -712,6 +713,17 @@ TEST(WebBrowser, CaseGrabbedAndMonitorScrolledFromTheKeyboard) {
       test::eventually([&] { return native.now().monitor && native.now().monitor->slice == 2; }));
   const ColorImage shot = read_color_png(out / "desktop.png");
   EXPECT_GT(covered(shot), shot.bgra.size() / 4 / 10);
+  // Recorded since before it joined: the page was told after its Joined (0x53) and shows it, a
+  // red dot before "REC" at the bottom centre (style.css #recording).
+  EXPECT_TRUE(page["session"]["recording"]["recording"]) << page["session"].dump();
+  EXPECT_EQ(page["session"]["recording"]["by"], "the OR server (volcast serve --record)");
+  size_t red = 0;
+  for (int y = shot.height - 90; y < shot.height - 30; ++y)
+    for (int x = shot.width / 8; x < shot.width * 7 / 8; ++x) {
+      const uint8_t* p = shot.pixel(x, y);
+      red += p[2] > 200 && p[1] < 70 && p[0] < 70;
+    }
+  EXPECT_GT(red, 20u) << "the recording's red dot at the bottom centre";
 }
 
 // Voice in the browser (issue 35): headless Chromium's fake microphone plays real recorded speech

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <deque>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -19,6 +20,7 @@
 #include "volcast/session/hub.hpp"
 #include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
+#include "volcast/session/participant.hpp"
 #include "volcast/session/rate_limit.hpp"
 #include "volcast/session/voice_messages.hpp"
 
@@ -112,6 +114,25 @@ TEST(SessionMessages, RoundTripAndRefuseBadFields) {
   EXPECT_NE(
       test::error_of([&] { session::parse_avatar_frame(huge, cam.calibration); }).find("exceed"),
       std::string::npos);
+
+  // The recording state (0x53): a recording has a start, a stop has none; who records is at most
+  // 200 bytes without control characters.
+  const session::RecordingState on{true, 1'700'000'000'000'000, "the OR server"};
+  const session::RecordingState on_back = session::parse_recording_state(session::serialize(on));
+  EXPECT_TRUE(on_back.recording);
+  EXPECT_EQ(on_back.since_us, on.since_us);
+  EXPECT_EQ(on_back.by, on.by);
+  const auto refusal = [](const session::RecordingState& r) {
+    return test::error_of([&] { session::parse_recording_state(session::serialize(r)); });
+  };
+  EXPECT_EQ(refusal({true, 0, "x"}),
+            "malformed recording state: a recording's start is 0, or a stop has one");
+  EXPECT_EQ(refusal({false, 5, ""}),
+            "malformed recording state: a recording's start is 0, or a stop has one");
+  EXPECT_EQ(refusal({true, 5, "a\x1b[2Jb"}),
+            "malformed recording state: who records has a control character");
+  EXPECT_EQ(refusal({true, 5, std::string(201, 'x')}),
+            "malformed recording state: who records is longer than 200 bytes");
 }
 
 // A receiver's queue (session_port.hpp): a voice stream's packets queue up to
@@ -174,9 +195,9 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
     EXPECT_EQ(m.check == nullptr, m.type == Type::kAvatarFrame || m.type == Type::kAvatarFrameFrom)
         << m.name;
   }
-  EXPECT_EQ(types.size(), 36u);
+  EXPECT_EQ(types.size(), 37u);
   EXPECT_EQ(session::find_message(0x00), nullptr);
-  EXPECT_EQ(session::max_payload(0x53), 0u);
+  EXPECT_EQ(session::max_payload(0x54), 0u);
   EXPECT_EQ(session::max_payload(0x0e), session::kVoiceMessageLimit);
   EXPECT_EQ(session::max_payload(0x4b), session::kMaxCaseBytes);
   EXPECT_EQ(session::limit_of(static_cast<uint8_t>(Type::kPose)).per_second, 150);
@@ -211,6 +232,34 @@ TEST(SessionMessages, TableListsEveryTypeOnceWithItsDecoder) {
   const std::vector<uint8_t> one = {0};
   EXPECT_EQ(test::error_of([&] { session::find_message(0x09)->check(one); }),
             "malformed heartbeat: not empty");
+}
+
+// The hub and the participant dispatch through their features' routes (hub.hpp,
+// participant_impl.hpp): each type of the table has exactly one handler on its receiver's side,
+// in the feature the table names, and neither side handles a type the other side receives.
+TEST(SessionMessages, EveryTypeHasOneHandlerOnItsReceiversSideInItsFeature) {
+  std::map<Type, session::Feature> hub, participant;
+  for (const auto& [type, feature] : SessionHub::handled_types())
+    EXPECT_TRUE(hub.emplace(type, feature).second) << "two hub routes for type " << int(type);
+  for (const auto& [type, feature] : Participant::handled_types())
+    EXPECT_TRUE(participant.emplace(type, feature).second)
+        << "two participant routes for type " << int(type);
+  size_t rows = 0;
+  for (const session::MessageKind& m : session::message_table()) {
+    ++rows;
+    const bool up = m.sender == session::Sender::kParticipant;
+    const auto& receiver = up ? hub : participant;
+    const auto& sender = up ? participant : hub;
+    const auto it = receiver.find(m.type);
+    ASSERT_NE(it, receiver.end()) << m.name << " has no handler on its receiver's side";
+    EXPECT_EQ(it->second, m.feature)
+        << m.name << " is handled in " << session::to_string(it->second) << ", its row says "
+        << session::to_string(m.feature);
+    EXPECT_EQ(sender.count(m.type), 0u) << m.name << " is handled by its sender's side";
+  }
+  EXPECT_EQ(hub.size() + participant.size(), rows);
+  EXPECT_EQ(hub.size(), 18u);
+  EXPECT_EQ(participant.size(), 19u);
 }
 
 // A client that talks (50 voice packets a second) and whose thread or link stalls holds up to
@@ -304,6 +353,18 @@ TEST(Session, TwoParticipantsSeeEachOtherAndLeave) {
   EXPECT_GE(stats.round_trip_ms_p99, stats.round_trip_ms_p50);
   const auto rb = b.p().stats();
   ASSERT_FALSE(rb.others.empty());
+
+  // The server starts recording: both are shown it through the real connection (0x53), and
+  // that it stopped.
+  EXPECT_FALSE(a.now().recording.recording);
+  s.hub.start_recording("the OR server (volcast serve --record)");
+  ASSERT_TRUE(
+      eventually([&] { return a.now().recording.recording && b.now().recording.recording; }));
+  EXPECT_EQ(b.now().recording.by, "the OR server (volcast serve --record)");
+  EXPECT_EQ(b.now().recording.since_us, s.hub.recording().since_us);
+  s.hub.stop_recording();
+  ASSERT_TRUE(
+      eventually([&] { return !a.now().recording.recording && !b.now().recording.recording; }));
 
   // A leaves the session (its connection stays): B sees it go, as "left".
   a.p().leave();
@@ -402,6 +463,67 @@ TEST(Session, AnAvatarCameraIsAnnouncedOncePerConnectionAndAgainAfterARejoin) {
             std::string::npos);
   EXPECT_EQ(hub.stats().dropped, 1u);
   EXPECT_EQ(out.of(11, session::Type::kAvatarCameraFrom).size(), 2u);
+}
+
+// No silent recording: when the server starts recording, every member of every session is told
+// (0x53) with who records and since when; one who joins while it runs is told right after its
+// Joined; all are told when it stops, once. Who records is shown as people read it: control
+// characters become spaces, and it is cut at a character boundary.
+TEST(Session, EveryMemberIsShownTheRecordingWhenItStartsOnJoiningAndWhenItStops) {
+  SessionHub hub;
+  test::Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  test::join(hub, 10, "OR", "Dr. A");
+  test::join(hub, 11, "Teaching", "Dr. B");  // another session: told too
+  const auto states = [&](uint64_t viewer) {
+    std::vector<session::RecordingState> r;
+    for (const auto& p : out.of(viewer, Type::kRecordingState))
+      r.push_back(session::parse_recording_state(p));
+    return r;
+  };
+  EXPECT_TRUE(states(10).empty());
+
+  const int64_t before = wall_clock_us();
+  hub.start_recording("the OR server\n(volcast serve --record)");
+  for (const uint64_t viewer : {10, 11}) {
+    const auto r = states(viewer);
+    ASSERT_EQ(r.size(), 1u) << viewer;
+    EXPECT_TRUE(r[0].recording);
+    EXPECT_EQ(r[0].by, "the OR server (volcast serve --record)");
+    EXPECT_GE(r[0].since_us, before);
+  }
+
+  // Joining while it runs: Joined, then the recording state, before anything of the case.
+  test::join(hub, 12, "OR", "Dr. C");
+  ASSERT_EQ(states(12).size(), 1u);
+  {
+    std::lock_guard lock(out.mutex);
+    std::vector<uint8_t> order;
+    for (const auto& [v, m] : out.sent)
+      if (v == 12) order.push_back(m[7]);
+    ASSERT_GE(order.size(), 2u);
+    EXPECT_EQ(order[0], static_cast<uint8_t>(Type::kJoined));
+    EXPECT_EQ(std::count(order.begin(), order.end(), uint8_t(Type::kRecordingState)), 1);
+  }
+
+  hub.stop_recording();
+  hub.stop_recording();  // none runs: nobody is told again
+  for (const uint64_t viewer : {10, 11, 12}) {
+    const auto r = states(viewer);
+    ASSERT_EQ(r.size(), 2u) << viewer;
+    EXPECT_FALSE(r[1].recording);
+    EXPECT_EQ(r[1].since_us, 0);
+  }
+  test::join(hub, 13, "OR", "Dr. D");
+  EXPECT_TRUE(states(13).empty());
+
+  // 150 two-byte characters: cut to 200 bytes, whole characters.
+  std::string long_name;
+  for (int i = 0; i < 150; ++i) long_name += "\xc3\xa9";
+  hub.start_recording(long_name);
+  EXPECT_EQ(hub.recording().by.size(), 200u);
+  EXPECT_EQ(states(13).back().by, hub.recording().by);
 }
 
 // Eight participants (the idle script at 60 Hz) see all seven others; one is killed (its

@@ -52,7 +52,7 @@ import {FrameBudget} from './frame_budget.js';
 import {Renderer, poseBox, roomBox} from './renderer.js';
 import {StrokeBuilder, annotationPrimitives, labelQuad, participantColor, pointerPrimitives}
     from './drawing.js';
-import {Session} from './session.js';
+import {Session, T} from './session.js';
 import {Voice} from './voice.js';
 
 const params = new URLSearchParams(location.hash.slice(1));
@@ -127,7 +127,7 @@ const session = new Session((bytes) => worker.postMessage({type: 'send', bytes},
                             nowServerUs);
 state.session = {joined: false, id: 0, others: [], posesSent: 0, roundTripsMs: []};
 session.onchange = (type) => {
-  if (type === 0x42 && voice) {
+  if (type === T.JOINED && voice) {
     if (voice.muted) session.voiceState(true);  // joined muted
     voice.sendState();
   }
@@ -140,10 +140,11 @@ session.onchange = (type) => {
   state.session.objects = session.objects.map((o) => ({owner: o.owner, sequence: o.sequence,
                                                        position: o.pose.position}));
   state.session.monitor = session.monitor;
-  if (type === 0x50)
+  if (type === T.RECORDING_STATE || type === T.JOINED) showRecording();
+  if (type === T.POINTER_FROM)
     for (const [id, p] of session.pointers) state.drawing.pointers[id] = p;
   state.drawing.held = [...session.pointers.keys()];
-  if (type === 0x51 || type === 0x52 || type === 0x42)
+  if (type === T.ANNOTATION || type === T.ERASED || type === T.JOINED)
     state.drawing.annotations = [...session.annotations.values()].map((a) => ({
       id: a.id, author: a.author, tag: a.tag, kind: a.kind, anchor: a.anchor, slice: a.slice,
       points: a.points, text: a.text}));
@@ -631,6 +632,19 @@ function updateOverlay() {
       (session.error ? ` · ${session.error}` : '') +
       (state.blend.reason ? ` · ${state.blend.reason}` : '') + voiceLine();
   updatePeople();
+}
+
+// Whether the room is being recorded (top centre, never silently): who records and since when.
+// (Not yet in a headset's view: issue 53.)
+const recordingBadge = document.getElementById('recording');
+function showRecording() {
+  const r = session.recording;
+  state.session.recording = {...r};
+  recordingBadge.hidden = !r.recording;
+  if (!r.recording) return;
+  const since = new Date((r.sinceUs - nowServerUs() + Date.now() * 1000) / 1000);
+  recordingBadge.textContent = `REC · recorded by ${r.by}, since ` +
+      since.toLocaleTimeString([], {hour: '2-digit', minute: '2-digit'});
 }
 
 // The people panel (top right): each other participant with its voice's state (green: speaking,

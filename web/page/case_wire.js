@@ -5,7 +5,6 @@
 // for being finite -- as the native parse_case does. Loaded by worker.js (importScripts).
 'use strict';
 
-const MAX_CASE_BYTES = 192 << 20;
 const MAX_CASE_TRIANGLES = 8 << 20;
 const MAX_CASE_OBJECTS = 64;
 const MAX_OBJECT_PARTS = 256;

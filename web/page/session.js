@@ -10,8 +10,12 @@
 // drawing (annotations.hpp): this page's laser pointer (0x10) and annotations (0x11, erased by
 // 0x12) go out from here; the others' pointers (0x50) and the session's annotations (0x51, 0x52)
 // come in here (room frame, metres).
+import './messages.js';
+
+/// The session message types and the protocol's version (messages.js, written from the C++ table
+/// at build time).
+export const {VERSION, T, MESSAGES} = globalThis.VolcastMessages;
 const MAGIC = 0x54534356;
-const VERSION = 5;
 // How long the page shows its own monitor change before the server's state again (Session
 // setMonitor): far past a round trip; a change the server refused shows no longer than this.
 export const MONITOR_WAIT_MS = 3000;
@@ -83,6 +87,131 @@ class Reader {
   }
 }
 
+// The server's session messages this page takes, by type (messages.js, from the C++ table), each a
+// step on the Session (`this`) reading its payload from `r`. The others the worker takes
+// (WORKER_TYPES: the others' camera avatars, the case, voice packets).
+const RECEIVE = {
+  [T.SESSION_LIST](r) {
+    const n = r.u16();
+    this.sessions = [];
+    for (let i = 0; i < n; ++i)
+      this.sessions.push({id: r.u32(), name: r.string(), participants: r.u16()});
+  },
+  [T.JOINED](r) {
+    this.joined = {id: r.u32(), sessionId: r.u32(), name: r.string(), spot: r.spot(),
+                   roomFromSite: {t: [r.f32(), r.f32(), r.f32()], yaw: r.f32()}};
+    this.others.clear();
+    this.pointers.clear();
+    this.annotations.clear();
+    this.error = '';
+    this.recording = {recording: false, sinceUs: 0, by: ''};  // the server's follows if one runs
+  },
+  // An error: perhaps about the monitor change on its way, shown no longer
+  [T.SESSION_ERROR](r) {
+    this.error = r.string();
+    this.monitorSent = null;
+  },
+  [T.PARTICIPANT_JOINED](r) {
+    const p = {id: r.u32(), name: r.string(), role: r.u8(), hasCamera: r.u8() === 1,
+               spot: r.spot(), body: null, poses: 0, muted: false};
+    this.others.set(p.id, p);
+  },
+  [T.PARTICIPANT_LEFT](r) {
+    const id = r.u32();
+    this.others.delete(id);
+    this.pointers.delete(id);
+  },
+  [T.POSE_FROM](r) {
+    const id = r.u32();
+    const seq = r.u32();
+    const time = r.i64();
+    const echo = r.u8() === 1;
+    const body = r.body();
+    const p = this.others.get(id);
+    if (p) {
+      p.body = body;
+      p.time = time;
+      ++p.poses;
+    }
+    if (echo) this.send(new Writer().u32(id).u32(seq).message(T.POSE_ECHO));
+  },
+  [T.POSE_ECHO_FROM](r) {
+    r.u32();
+    const seq = r.u32();
+    const t = this.sentAt.get(seq);
+    if (t !== undefined) {
+      this.roundTripsMs.push(performance.now() - t);
+      if (this.roundTripsMs.length > 1000) this.roundTripsMs.shift();
+    }
+  },
+  [T.TELEPORTED](r) {
+    const id = r.u32();
+    const from = r.spot();
+    const to = r.spot();
+    r.i64();
+    if (this.joined && id === this.joined.id) this.joined.spot = to;
+    const p = this.others.get(id);
+    if (p) p.spot = to;
+    this.teleports.push({id, from, to, at: performance.now()});
+    if (this.teleports.length > 16) this.teleports.shift();
+  },
+  [T.RECORDING_STATE](r) {
+    this.recording = {recording: r.u8() === 1, sinceUs: r.i64(), by: r.string()};
+  },
+  [T.OBJECT_STATE](r) {
+    const generation = r.u32(), object = r.u16(), owner = r.u32(), sequence = r.u32();
+    const time = r.i64(), pose = r.pose();
+    const o = this.objects[object];
+    if (generation !== this.generation || !o || sequence < o.sequence) return;
+    const mine = this.joined && owner === this.joined.id;
+    if (!(mine && o.owner === owner)) o.pose = pose;  // our own hold: keep our pose
+    o.owner = owner;
+    o.sequence = sequence;
+    o.poses.push([time, pose]);
+    if (o.poses.length > 32) o.poses.shift();
+  },
+  [T.MONITOR_STATE](r) {
+    const generation = r.u32();
+    const m = {slice: r.u16(), center: r.f32(), width: r.f32(), overlay: r.u8() === 1, by: r.u32()};
+    if (generation !== this.generation) return;
+    this.monitorServer = m;
+    const sent = this.monitorSent;
+    if (sent && sent.m.slice === m.slice && sent.m.center === m.center &&
+        sent.m.width === m.width && sent.m.overlay === m.overlay)
+      this.monitorSent = null;  // what this page set arrived (or the same, from another)
+  },
+  [T.POINTER_FROM](r) {
+    const id = r.u32();
+    r.u32();
+    const time = r.i64(), on = r.u8() === 1;
+    const origin = [r.f32(), r.f32(), r.f32()], hasHit = r.u8() === 1;
+    const hit = [r.f32(), r.f32(), r.f32()];
+    if (on) this.pointers.set(id, {origin, hasHit, hit, time});
+    else this.pointers.delete(id);
+  },
+  [T.ANNOTATION](r) {
+    const a = {id: r.u32(), author: r.u32(), time: r.i64(), tag: r.u32(), kind: r.u8(),
+               anchor: r.u8(), generation: r.u32(), slice: r.u16(), points: []};
+    const n = r.u16();
+    for (let i = 0; i < n; ++i) a.points.push([r.f32(), r.f32(), r.f32()]);
+    a.text = r.string();
+    this.annotations.set(a.id, a);
+  },
+  [T.ERASED](r) {
+    this.annotations.delete(r.u32());
+  },
+  [T.VOICE_STATE_FROM](r) {
+    const id = r.u32();
+    const muted = r.u8() === 1;
+    const p = this.others.get(id);
+    if (p) p.muted = muted;
+  },
+};
+export const WORKER_TYPES = Object.freeze([T.AVATAR_CAMERA_FROM, T.AVATAR_FRAME_FROM, T.CASE,
+                                           T.VOICE_FROM]);
+/// The server's types this page's main thread takes (RECEIVE's), for checks against messages.js.
+export const SESSION_TYPES = Object.freeze(Object.keys(RECEIVE).map(Number));
+
 // One participant in one session. `send(ArrayBuffer)` writes a whole message; `nowServerUs()`
 // is the server's clock as this page estimates it.
 export class Session {
@@ -93,6 +222,8 @@ export class Session {
     this.others = new Map();  // id -> {id, name, role, hasCamera, spot, body, poses}
     this.sessions = [];
     this.error = '';
+    // Whether the room is being recorded (0x53): {recording, sinceUs (server clock), by}.
+    this.recording = {recording: false, sinceUs: 0, by: ''};
     this.sequence = 0;
     this.sentAt = new Map();  // pose sequence -> send time (ms), for echoed round trips
     this.roundTripsMs = [];
@@ -120,16 +251,16 @@ export class Session {
     this.objects = c.objects.map((o) => ({owner: 0, sequence: 0, pose: o.rest, poses: []}));
     this.monitor = null;
   }
-  grab(object) { this.send(new Writer().u32(this.generation).u16(object).message(0x0a)); }
+  grab(object) { this.send(new Writer().u32(this.generation).u16(object).message(T.GRAB)); }
   move(object, pose) {
     const o = this.objects[object];
     if (o && this.joined && o.owner === this.joined.id) o.pose = pose;  // shown at once
-    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(0x0b));
+    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(T.OBJECT_MOVE));
   }
   release(object, pose) {
     const o = this.objects[object];
     if (o) o.pose = pose;
-    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(0x0c));
+    this.send(new Writer().u32(this.generation).u16(object).pose(pose).message(T.RELEASE));
   }
   // Sets the monitor's whole state (0x0d). Until the server's state matches it (or an error came,
   // or MONITOR_WAIT_MS passed: another participant's came after it), `monitor` is this one,
@@ -138,7 +269,7 @@ export class Session {
   // the old slice.
   setMonitor(m) {
     this.send(new Writer().u32(this.generation).u16(m.slice).f32(m.center).f32(m.width)
-        .u8(m.overlay ? 1 : 0).message(0x0d));
+        .u8(m.overlay ? 1 : 0).message(T.SET_MONITOR));
     const by = this.joined ? this.joined.id : 0;
     this.monitorSent = {m: {slice: m.slice, center: Math.fround(m.center),
                             width: Math.fround(m.width), overlay: !!m.overlay, by},
@@ -179,7 +310,7 @@ export class Session {
     origin.forEach((x) => w.f32(x));
     w.u8(hasHit ? 1 : 0);
     hit.forEach((x) => w.f32(x));
-    this.send(w.message(0x10));
+    this.send(w.message(T.POINTER));
   }
   // Draws an annotation for the session (0x11): {kind: 0 stroke / 1 arrow / 2 label, anchor (0
   // room, 1 monitor), slice (anchor 1), points: [[x, y, z]] room frame, text (a label's)};
@@ -192,18 +323,18 @@ export class Session {
         .u16(monitor ? a.slice : 0).u16(a.points.length);
     for (const p of a.points) p.forEach((x) => w.f32(x));
     w.string(a.text || '');
-    this.send(w.message(0x11));
+    this.send(w.message(T.ANNOTATE));
     return tag;
   }
-  erase(id) { this.send(new Writer().u32(id).message(0x12)); }
+  erase(id) { this.send(new Writer().u32(id).message(T.ERASE)); }
 
-  voiceState(muted) { if (this.joined) this.send(new Writer().u8(muted ? 1 : 0).message(0x0f)); }
+  voiceState(muted) { if (this.joined) this.send(new Writer().u8(muted ? 1 : 0).message(T.VOICE_STATE)); }
 
-  list() { this.send(new Writer().message(0x01)); }
+  list() { this.send(new Writer().message(T.LIST_SESSIONS)); }
   join(session, name) {
     this.lastJoin = [session, name];
     this.send(new Writer().string(session).u8(1).string(name).u8(0).u8(0).raw(this.rejoinKey)
-        .message(0x02));
+        .message(T.JOIN));
   }
   // After the stream reconnected (a new connection): the same session, name and rejoin key.
   rejoin() {
@@ -215,8 +346,8 @@ export class Session {
     this.annotations.clear();
     this.join(session, this.lastJoin[1]);
   }
-  leave() { this.send(new Writer().message(0x03)); }
-  teleport(spot) { this.send(new Writer().spot(spot).message(0x06)); }
+  leave() { this.send(new Writer().message(T.LEAVE)); }
+  teleport(spot) { this.send(new Writer().spot(spot).message(T.TELEPORT)); }
 
   // Publishes the body (room frame: head, hands); every 4th pose asks for echoes.
   publish(body) {
@@ -229,7 +360,7 @@ export class Session {
     }
     const w = new Writer().u32(seq).i64(this.nowServerUs()).u8(echo ? 1 : 0)
         .u8(body.handsTracked ? 1 : 0).pose(body.head).pose(body.left).pose(body.right);
-    this.send(w.message(0x04));
+    this.send(w.message(T.POSE));
     ++this.posesSent;
   }
 
@@ -237,129 +368,13 @@ export class Session {
   receive(buffer) {
     const r = new Reader(buffer);
     const type = r.v.getUint8(7);
-    switch (type) {
-      case 0x41: {
-        const n = r.u16();
-        this.sessions = [];
-        for (let i = 0; i < n; ++i)
-          this.sessions.push({id: r.u32(), name: r.string(), participants: r.u16()});
-        break;
-      }
-      case 0x42:
-        this.joined = {id: r.u32(), sessionId: r.u32(), name: r.string(), spot: r.spot(),
-                       roomFromSite: {t: [r.f32(), r.f32(), r.f32()], yaw: r.f32()}};
-        this.others.clear();
-        this.pointers.clear();
-        this.annotations.clear();
-        this.error = '';
-        break;
-      case 0x43:  // an error: perhaps about the monitor change on its way, shown no longer
-        this.error = r.string();
-        this.monitorSent = null;
-        break;
-      case 0x44: {
-        const p = {id: r.u32(), name: r.string(), role: r.u8(), hasCamera: r.u8() === 1,
-                   spot: r.spot(), body: null, poses: 0, muted: false};
-        this.others.set(p.id, p);
-        break;
-      }
-      case 0x45: {
-        const id = r.u32();
-        this.others.delete(id);
-        this.pointers.delete(id);
-        break;
-      }
-      case 0x46: {
-        const id = r.u32();
-        const seq = r.u32();
-        const time = r.i64();
-        const echo = r.u8() === 1;
-        const body = r.body();
-        const p = this.others.get(id);
-        if (p) {
-          p.body = body;
-          p.time = time;
-          ++p.poses;
-        }
-        if (echo) this.send(new Writer().u32(id).u32(seq).message(0x05));
-        break;
-      }
-      case 0x47: {
-        r.u32();
-        const seq = r.u32();
-        const t = this.sentAt.get(seq);
-        if (t !== undefined) {
-          this.roundTripsMs.push(performance.now() - t);
-          if (this.roundTripsMs.length > 1000) this.roundTripsMs.shift();
-        }
-        break;
-      }
-      case 0x48: {
-        const id = r.u32();
-        const from = r.spot();
-        const to = r.spot();
-        r.i64();
-        if (this.joined && id === this.joined.id) this.joined.spot = to;
-        const p = this.others.get(id);
-        if (p) p.spot = to;
-        this.teleports.push({id, from, to, at: performance.now()});
-        if (this.teleports.length > 16) this.teleports.shift();
-        break;
-      }
-      case 0x4c: {
-        const generation = r.u32(), object = r.u16(), owner = r.u32(), sequence = r.u32();
-        const time = r.i64(), pose = r.pose();
-        const o = this.objects[object];
-        if (generation !== this.generation || !o || sequence < o.sequence) break;
-        const mine = this.joined && owner === this.joined.id;
-        if (!(mine && o.owner === owner)) o.pose = pose;  // our own hold: keep our pose
-        o.owner = owner;
-        o.sequence = sequence;
-        o.poses.push([time, pose]);
-        if (o.poses.length > 32) o.poses.shift();
-        break;
-      }
-      case 0x4d: {
-        const generation = r.u32();
-        const m = {slice: r.u16(), center: r.f32(), width: r.f32(), overlay: r.u8() === 1, by: r.u32()};
-        if (generation !== this.generation) break;
-        this.monitorServer = m;
-        const sent = this.monitorSent;
-        if (sent && sent.m.slice === m.slice && sent.m.center === m.center &&
-            sent.m.width === m.width && sent.m.overlay === m.overlay)
-          this.monitorSent = null;  // what this page set arrived (or the same, from another)
-        break;
-        break;
-      }
-      case 0x50: {
-        const id = r.u32();
-        r.u32();
-        const time = r.i64(), on = r.u8() === 1;
-        const origin = [r.f32(), r.f32(), r.f32()], hasHit = r.u8() === 1;
-        const hit = [r.f32(), r.f32(), r.f32()];
-        if (on) this.pointers.set(id, {origin, hasHit, hit, time});
-        else this.pointers.delete(id);
-        break;
-      }
-      case 0x51: {
-        const a = {id: r.u32(), author: r.u32(), time: r.i64(), tag: r.u32(), kind: r.u8(),
-                   anchor: r.u8(), generation: r.u32(), slice: r.u16(), points: []};
-        const n = r.u16();
-        for (let i = 0; i < n; ++i) a.points.push([r.f32(), r.f32(), r.f32()]);
-        a.text = r.string();
-        this.annotations.set(a.id, a);
-        break;
-      }
-      case 0x52: this.annotations.delete(r.u32()); break;
-      case 0x4f: {
-        const id = r.u32();
-        const muted = r.u8() === 1;
-        const p = this.others.get(id);
-        if (p) p.muted = muted;
-        break;
-      }
-      default: throw new Error(`unknown session message 0x${type.toString(16)}`);
+    const step = RECEIVE[type];
+    if (!step) {
+      const m = MESSAGES[type];
+      throw new Error(m ? `session message 0x${type.toString(16)} (${m.name}) is not this page's`
+                        : `unknown session message 0x${type.toString(16)}`);
     }
+    step.call(this, r);
     this.onchange(type);
   }
 }

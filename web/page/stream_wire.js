@@ -7,7 +7,7 @@
 'use strict';
 
 const MAGIC = 0x54534356;  // "VCST" little-endian
-const VERSION = 5;
+const VERSION = self.VolcastMessages.VERSION;  // messages.js (importScripts'd first)
 const HEADER = 12;
 const MAX_WELCOME = 256 << 10;
 const MAX_PAYLOAD = 256 << 20;
@@ -17,7 +17,6 @@ const MAX_SITE_PIXELS = 16 << 20;
 const MAX_CONTROL = 4096;
 const FRAME_BYTES_PER_PIXEL = 8;
 const FRAME_CAMERA_OVERHEAD = 64 << 10;
-const MAX_SESSION_MESSAGE = (8 << 20) + 4 + (64 << 10);
 
 // The 12-byte header of a message on `channel` of `type` with a payload of `length` bytes.
 function header(channel, type, length) {

@@ -30,7 +30,7 @@
 //   'welcome' again with reconnected true and outageMs; {type: 'stale', count}.
 'use strict';
 
-importScripts('volcast_decoder.js', 'stream_wire.js', 'case_wire.js', 'clock.js',
+importScripts('messages.js', 'volcast_decoder.js', 'stream_wire.js', 'case_wire.js', 'clock.js',
               'balance_worker.js', 'voice_worker.js');
 
 
@@ -405,6 +405,15 @@ function peekHeader() {
   return {channel: v.getUint8(6), type: v.getUint8(7), length: v.getUint32(8, true)};
 }
 
+// The largest payload of a session message of `type` from the server (messages.js, the C++
+// table's); a type the server does not send throws.
+const {T, MESSAGES} = self.VolcastMessages;
+function sessionLimit(type) {
+  const m = MESSAGES[type];
+  if (!m || m.up) throw new Error(`the server sent session message type 0x${type.toString(16)}, which it does not send`);
+  return m.maxPayload;
+}
+
 // Parses every whole message in the inbox, in order; frame sets are decoded one at a time (the
 // server paces by Acks, so few wait).
 async function drain() {
@@ -414,7 +423,7 @@ async function drain() {
   try {
     while (inboxBytes >= HEADER) {
       const h = peekHeader();
-      const limit = h.channel === 2 ? (h.type === 0x4b ? MAX_CASE_BYTES : MAX_SESSION_MESSAGE)
+      const limit = h.channel === 2 ? sessionLimit(h.type)
                   : h.channel === 1 ? (cameras ? frameLimit : 0)
                   : h.type === 2 ? MAX_WELCOME : MAX_CONTROL;
       if (h.length > limit)
@@ -448,17 +457,17 @@ async function drain() {
         const g = generation;
         await onFrameSet(payload, receivedUs);
         if (g !== generation) return;  // cut meanwhile: that inbox is gone
-      } else if (h.channel === 2 && h.type === 0x4b) {
+      } else if (h.channel === 2 && h.type === T.CASE) {
         const c = parseCase(payload);
         postMessage({type: 'case', case: c}, caseBuffers(c));
-      } else if (h.channel === 2 && h.type === 0x49) {
+      } else if (h.channel === 2 && h.type === T.AVATAR_CAMERA_FROM) {
         onAvatarCamera(payload);
-      } else if (h.channel === 2 && h.type === 0x4a) {
+      } else if (h.channel === 2 && h.type === T.AVATAR_FRAME_FROM) {
         if (payload.length < 4) throw new Error('malformed avatar frame: truncated');
         const id = new DataView(payload.buffer, payload.byteOffset, 4).getUint32(0, true);
         avatarWaiting.set(id, payload);
         decodeAvatars();
-      } else if (h.channel === 2 && h.type === 0x4e) {
+      } else if (h.channel === 2 && h.type === T.VOICE_FROM) {
         voiceReceive(payload);
       } else if (h.channel === 2) {
         postMessage({type: 'session', bytes: whole.buffer}, [whole.buffer]);

@@ -1,8 +1,9 @@
 // The page's session state (web/page/session.js) in Node, without a browser or server: messages
 // built here as the server sends them (src/session/include/volcast/session/messages.hpp,
 // objects.hpp). Synthetic states: exact behaviour only.
-// Run: node web/test/session_test.mjs [NAME] (CTest: WebSession.*); exits non-zero naming what
-// failed.
+// Run: VOLCAST_WEB_DIR=build/dev/share/volcast/web node web/test/session_test.mjs [NAME] (CTest:
+// WebSession.*, which sets it): the built page, whose messages.js the build writes from the C++
+// message table. Exits non-zero naming what failed.
 import assert from 'node:assert/strict';
 import {webcrypto} from 'node:crypto';
 import path from 'node:path';
@@ -12,18 +13,21 @@ import {runTests} from './run_tests.mjs';
 
 if (!globalThis.crypto) globalThis.crypto = webcrypto;  // Node 18 (Debian 12)
 const here = path.dirname(fileURLToPath(import.meta.url));
-const {Session, MONITOR_WAIT_MS} = await import(pathToFileURL(path.join(here, '../page/session.js')).href);
+const web = process.env.VOLCAST_WEB_DIR;
+if (!web) throw new Error('VOLCAST_WEB_DIR: the built page (share/volcast/web) is not named');
+const {Session, MONITOR_WAIT_MS, VERSION, T, MESSAGES, SESSION_TYPES, WORKER_TYPES} =
+    await import(pathToFileURL(path.join(web, 'session.js')).href);
 
 const ME = 7, OTHER = 9, GENERATION = 1;
 const ABDOMEN = [40, 400], LIVER = [90, 150], BONE = [480, 2500];
 
-// A whole session message (protocol.hpp: magic, version 5, channel 2, type, payload length; little
+// A whole session message (protocol.hpp: magic, version, channel 2, type, payload length; little
 // endian) around `payload`.
 function message(type, payload) {
   const out = new Uint8Array(12 + payload.length);
   const v = new DataView(out.buffer);
   v.setUint32(0, 0x54534356, true);
-  v.setUint16(4, 5, true);
+  v.setUint16(4, VERSION, true);
   v.setUint8(6, 2);
   v.setUint8(7, type);
   v.setUint32(8, payload.length, true);
@@ -40,7 +44,7 @@ function monitorState({slice, center, width, overlay}, by) {
   v.setFloat32(10, width, true);
   v.setUint8(14, overlay ? 1 : 0);
   v.setUint32(15, by, true);
-  return message(0x4d, p);
+  return message(T.MONITOR_STATE, p);
 }
 // A session error (0x43): the reason as u16 length + UTF-8.
 function sessionError(reason) {
@@ -48,7 +52,28 @@ function sessionError(reason) {
   const p = new Uint8Array(2 + text.length);
   new DataView(p.buffer).setUint16(0, text.length, true);
   p.set(text, 2);
-  return message(0x43, p);
+  return message(T.SESSION_ERROR, p);
+}
+// The server's recording state (0x53): recording u8 | since i64 | by (u16 length + UTF-8).
+function recordingState(recording, sinceUs, by) {
+  const text = new TextEncoder().encode(by);
+  const p = new Uint8Array(11 + text.length);
+  const v = new DataView(p.buffer);
+  v.setUint8(0, recording ? 1 : 0);
+  v.setBigInt64(1, BigInt(sinceUs), true);
+  v.setUint16(9, text.length, true);
+  p.set(text, 11);
+  return message(T.RECORDING_STATE, p);
+}
+// The server's Joined (0x42) for participant `id` in session 'OR' at the room's origin.
+function joined(id) {
+  const p = new Uint8Array(4 + 4 + 2 + 2 + 12 + 16);
+  const v = new DataView(p.buffer);
+  v.setUint32(0, id, true);
+  v.setUint32(4, 1, true);
+  v.setUint16(8, 2, true);
+  p.set(new TextEncoder().encode('OR'), 10);
+  return message(T.JOINED, p);
 }
 // A page joined as participant ME, the case's monitor on slice 1 in the abdomen window (as the
 // server sets it), and what it sent.
@@ -112,6 +137,37 @@ const tests = {
     s.receive(sessionError('monitor: slice 3 of 3'));
     assert.equal(s.error, 'monitor: slice 3 of 3');
     assert.deepEqual(view(s.monitor), [1, ABDOMEN[0], ABDOMEN[1], true]);
+  },
+  // The recording state the server sends shows as it is, until it stops; a new Joined forgets it
+  // (the server sends it again after Joined while one runs).
+  TheRecordingStateShowsUntilItStopsOrThePageJoinsAgain() {
+    const s = new Session(() => {}, () => 0);
+    const changes = [];
+    s.onchange = (type) => changes.push(type);
+    assert.equal(s.recording.recording, false);
+    s.receive(recordingState(true, 1_700_000_000_000_000, 'the OR server (volcast serve --record)'));
+    assert.deepEqual(s.recording, {recording: true, sinceUs: 1_700_000_000_000_000,
+                                   by: 'the OR server (volcast serve --record)'});
+    assert.deepEqual(changes, [T.RECORDING_STATE]);
+    s.receive(recordingState(false, 0, ''));
+    assert.equal(s.recording.recording, false);
+    s.receive(recordingState(true, 5, 'Recorder'));
+    s.receive(joined(ME));
+    assert.equal(s.joined.id, ME);
+    assert.deepEqual(s.recording, {recording: false, sinceUs: 0, by: ''});
+  },
+  // The page takes every type the server sends (messages.js, written from the C++ table), each
+  // on one side: the main thread's steps or the worker's; it sends none of them itself.
+  EveryServerTypeHasOneStepOnThePage() {
+    const down = Object.entries(MESSAGES).filter(([, m]) => !m.up).map(([t]) => Number(t));
+    assert.equal(down.length, 19);
+    assert.deepEqual([...SESSION_TYPES, ...WORKER_TYPES].sort((a, b) => a - b), down);
+    for (const t of [...SESSION_TYPES, ...WORKER_TYPES]) assert.equal(MESSAGES[t].up, false);
+    assert.equal(T.MONITOR_STATE, 0x4d);
+    assert.equal(MESSAGES[T.CASE].maxPayload, 192 << 20);
+    const s = new Session(() => {}, () => 0);
+    assert.throws(() => s.receive(message(T.POSE, new Uint8Array(0))), /\(pose\) is not this page's/);
+    assert.throws(() => s.receive(message(0x7f, new Uint8Array(0))), /unknown session message 0x7f/);
   },
   // A new case: no monitor state until the server sends one, whatever was on its way.
   ANewCaseForgetsTheChangeOnItsWay() {

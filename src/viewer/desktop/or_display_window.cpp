@@ -17,6 +17,7 @@
 
 #include "glfw_window.hpp"
 #include "screenshot.hpp"
+#include "session_panel.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/pipeline/or_display.hpp"
@@ -285,6 +286,7 @@ void present_or_display(FrameFeed& feed, ViewerResult& result, const OrDisplayWi
       draw_picture(list, picture, p);
       draw_labels(list, display.labels(snapshot), p, text);
       if (keys.legend) draw_legend(list, snapshot, o.camera, text * 0.6f, t);
+      draw_recording_badge(list, snapshot.recording, text * 0.6f, float(width));
     } else {
       outlined_text(
           list, text, ImVec2(text, text), IM_COL32(220, 220, 220, 255),

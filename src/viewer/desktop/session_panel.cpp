@@ -3,6 +3,8 @@
 #include <imgui.h>
 
 #include <chrono>
+#include <ctime>
+#include <string>
 
 #include "volcast/core/clock.hpp"
 #include "volcast/core/text.hpp"
@@ -126,6 +128,28 @@ void draw_session_panel(SessionPanelState& state, Participant& participant,
     if (ImGui::Button("create")) participant.join(state.new_session, true);
   }
   if (!s.last_error.empty()) ImGui::TextWrapped("server: %s", printable(s.last_error, 300).c_str());
+}
+
+void draw_recording_badge(ImDrawList* list, const session::RecordingState& r, float text,
+                          float display_width) {
+  if (!r.recording) return;
+  const std::time_t since = static_cast<std::time_t>(r.since_us / 1'000'000);
+  std::tm local{};
+  localtime_r(&since, &local);
+  char clock[16];
+  std::strftime(clock, sizeof clock, "%H:%M", &local);
+  const std::string line =
+      "REC  recorded by " + printable(r.by, session::kMaxRecorderBytes) + ", since " + clock;
+  ImFont* font = ImGui::GetFont();
+  const ImVec2 extent = font->CalcTextSizeA(text, 1e9f, 0, line.c_str());
+  const float pad = text * 0.4f, dot = text * 0.35f;
+  const ImVec2 max(display_width - pad, pad + extent.y + 2 * pad);
+  const ImVec2 min(max.x - extent.x - 3 * pad - 2 * dot, pad);
+  list->AddRectFilled(min, max, IM_COL32(20, 20, 20, 220), pad);
+  list->AddCircleFilled(ImVec2(min.x + pad + dot, (min.y + max.y) / 2), dot,
+                        IM_COL32(230, 30, 30, 255));
+  list->AddText(font, text, ImVec2(min.x + 2 * pad + 2 * dot, min.y + pad),
+                IM_COL32(255, 255, 255, 255), line.c_str());
 }
 
 }  // namespace volcast

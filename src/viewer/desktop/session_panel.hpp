@@ -4,6 +4,8 @@
 // (speaking, muted, a volume slider each), your microphone's mute and push-to-talk, teleport by
 // click, and the round trip. Draws between ImGui::NewFrame and ImGui::Render; acts on the
 // Participant, and leaves what the voice controls ask in SessionPanelState::voice.
+#include <imgui.h>
+
 #include <chrono>
 #include <map>
 #include <string>
@@ -32,5 +34,12 @@ inline constexpr std::chrono::milliseconds kVoiceStatsPeriod{100};
 /// or not yet made): then the list shows who is muted and who sends voice, without controls.
 void draw_session_panel(SessionPanelState& state, Participant& participant,
                         const SessionSnapshot& s, const voice::VoiceLink* voice);
+
+/// Whether the room is being recorded (SessionSnapshot::recording, 0x53), over the picture at
+/// the top right of a `display_width` pixels wide window, panel shown or not: a red dot, "REC",
+/// who records and since when (local time). Nothing while no recording runs. `text`: the font's
+/// size in pixels. Draws into `list` between ImGui::NewFrame and ImGui::Render.
+void draw_recording_badge(ImDrawList* list, const session::RecordingState& r, float text,
+                          float display_width);
 
 }  // namespace volcast

@@ -363,6 +363,9 @@ void draw_gui(ViewerControls& controls, const PanelInfo& info, Participant* part
                      IM_COL32(170, 110, 0, 230), 6);
     d->AddText(at, IM_COL32(255, 255, 255, 255), text.c_str());
   }
+  if (participant)  // never silently: over the picture, panel shown or not
+    draw_recording_badge(ImGui::GetForegroundDrawList(), snapshot.recording,
+                         ImGui::GetFontSize() * 1.2f, ImGui::GetIO().DisplaySize.x);
   if (controls.show_panel) {
     if (participant) {
       draw_panel(controls, info, [&] {

@@ -28,6 +28,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -35,6 +36,7 @@
 #include "volcast/net/stream/session_port.hpp"
 #include "volcast/room/room.hpp"
 #include "volcast/session/annotations.hpp"
+#include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/rate_limit.hpp"
@@ -130,6 +132,15 @@ class SessionHub final : public SessionPort {
   /// now and on joining. Its generation is set here (one more than the last). Throws Error if it
   /// does not serialise (over kMaxCaseBytes). One caller at a time (serve's case watcher).
   void set_case(SharedCase c);
+  /// Tells every member of every session, now and whenever one joins, that the room is being
+  /// recorded and by whom (0x53 RecordingState, messages.hpp): every viewer shows it. `by` names
+  /// who or what records as people read it ("the OR server (serve --record)"); it is cut to
+  /// kMaxRecorderBytes at a character boundary and its control characters become spaces.
+  void start_recording(const std::string& by);
+  /// Tells everyone the recording stopped (0x53 with recording 0); nothing if none runs.
+  void stop_recording();
+  /// What every member is shown of the recording (recording false: none runs).
+  session::RecordingState recording() const;
   /// The case's generation (0: none yet).
   uint32_t case_generation() const;
   /// The objects' states in session `name` (empty if there is none or no case).
@@ -193,6 +204,10 @@ class SessionHub final : public SessionPort {
   /// refused message (never throws), or nothing to erase. Thread-safe; never blocks on the network.
   bool recorded_drawing(uint8_t type, std::span<const uint8_t> payload, uint32_t as);
 
+  /// Each participant message type this hub handles, with the feature whose routes handle it
+  /// (message_table.hpp), in the features' order: for checks against the message table.
+  static std::vector<std::pair<session::Type, session::Feature>> handled_types();
+
   // SessionPort (called by the server on viewers' threads).
   uint32_t max_payload(uint8_t type) const override;
   void on_message(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload) override;
@@ -202,6 +217,51 @@ class SessionHub final : public SessionPort {
   struct Member;
   struct Session;
   void handle(uint64_t viewer, uint8_t type, std::span<const uint8_t> payload);
+
+  // What participants send: one handler per message type, in the file of its feature
+  // (message_table.hpp's Feature): presence in hub.cpp, avatars in hub_avatars.cpp, voice in
+  // hub_voice.cpp, drawing in hub_annotations.cpp, objects in hub_case.cpp. Each feature lists
+  // its routes; handle() dispatches through them (route()), and a type without one is refused.
+  using Payload = std::span<const uint8_t>;
+  struct Route {
+    session::Type type;
+    /// For what anyone connected may send: `m` is the sender's membership, null outside a session.
+    void (SessionHub::*anyone)(uint64_t viewer, Member* m, Payload payload) = nullptr;
+    /// For what only a member sends: not called outside a session (the sender is told so).
+    void (SessionHub::*member)(Member& m, Payload payload) = nullptr;
+  };
+  static const Route* route(uint8_t type);
+  static std::span<const Route> presence_routes();
+  static std::span<const Route> avatar_routes();
+  static std::span<const Route> voice_routes();
+  static std::span<const Route> drawing_routes();
+  static std::span<const Route> object_routes();
+  bool in_session(uint64_t viewer, const Member* m, const char* what);
+  // presence (hub.cpp)
+  void on_list_sessions(uint64_t viewer, Member* m, Payload p);
+  void on_join(uint64_t viewer, Member* m, Payload p);
+  void on_leave(uint64_t viewer, Member* m, Payload p);
+  void on_heartbeat(uint64_t viewer, Member* m, Payload p);
+  void on_pose(uint64_t viewer, Member* m, Payload p);
+  void on_pose_echo(uint64_t viewer, Member* m, Payload p);
+  void on_teleport(uint64_t viewer, Member* m, Payload p);
+  // avatars (hub_avatars.cpp)
+  void on_avatar_camera(uint64_t viewer, Member* m, Payload p);
+  void on_avatar_frame(Member& m, Payload p);
+  // voice (hub_voice.cpp)
+  void on_voice(Member& m, Payload p);
+  void on_voice_state(Member& m, Payload p);
+  // drawing (hub_annotations.cpp)
+  void on_pointer(Member& m, Payload p);
+  void on_annotate(Member& m, Payload p);
+  void on_erase(Member& m, Payload p);
+  // objects (hub_case.cpp)
+  void on_object_request(Member& m, session::Type type, Payload p);
+  void on_grab(Member& m, Payload p) { on_object_request(m, session::Type::kGrab, p); }
+  void on_object_move(Member& m, Payload p) { on_object_request(m, session::Type::kObjectMove, p); }
+  void on_release(Member& m, Payload p) { on_object_request(m, session::Type::kRelease, p); }
+  void on_set_monitor(Member& m, Payload p);
+
   void join(uint64_t viewer, const session::Join& join);
   void welcome_member(uint64_t viewer, const Member& m);
   void take_over(uint64_t viewer, Member& m);
@@ -215,12 +275,10 @@ class SessionHub final : public SessionPort {
   void watch_presence();
   void reset_case_state(Session& s);
   void send_case_state(const Session& s, uint64_t viewer);
-  void handle_object(Member& m, session::Type type, std::span<const uint8_t> payload);
   void broadcast_object(const Session& s, uint16_t object, const Member* except);
-  void handle_voice(Member& m, session::Type type, std::span<const uint8_t> payload);
-  void handle_drawing(Member& m, session::Type type, std::span<const uint8_t> payload);
   void send_drawing_state(const Session& s, uint64_t viewer);
   void erase_stale_annotations(Session& s);  // monitor annotations of a case swapped out
+  void broadcast_recording();                // recording_ to every member
   void broadcast_voice(uint32_t from, const std::shared_ptr<const std::vector<uint8_t>>& message,
                        const Session& s);
   struct Recorded {
@@ -248,7 +306,8 @@ class SessionHub final : public SessionPort {
   std::shared_ptr<const std::vector<uint8_t>> case_message_;
   uint32_t case_generation_ = 0;
   bool site_muted_ = false;
-  std::vector<Recorded> recorded_;  // add_recorded_speaker's, members of every session
+  session::RecordingState recording_;  // start_recording's, sent to each member on joining
+  std::vector<Recorded> recorded_;     // add_recorded_speaker's, members of every session
   std::atomic<bool> stopping_{false};
   std::thread presence_;
 };

@@ -1,8 +1,11 @@
 #pragma once
 // The session channel's message table: one row per message type (messages.hpp's Type; the
-// layouts are in messages.hpp and objects.hpp) naming who sends it, the largest payload it may
-// have, its rate limit where a participant sends it (rate_limit.hpp enforces them), and its
-// decoder. max_payload() and limit_of() read it; message_table.cpp holds the rows.
+// layouts are in its feature's header) naming its feature, who sends it, the largest payload it
+// may have, its rate limit where a participant sends it (rate_limit.hpp enforces them), and its
+// decoder. max_payload() and limit_of() read it; message_table.cpp holds the rows. The hub and
+// the participant dispatch what they receive through their features' routes, one per row of the
+// other side's types (session_test checks both cover the table); web/page/messages.js is made
+// from it (`volcast messages --js`).
 #include <cstdint>
 #include <span>
 
@@ -20,9 +23,23 @@ struct RateLimit {
 
 enum class Sender : uint8_t { kParticipant, kServer };
 
+/// What a message is about. Each feature owns its messages: their layouts (the header named),
+/// the hub's handlers (hub.hpp's routes, hub_<feature>.cpp) and the participant's
+/// (participant_impl.hpp's routes).
+enum class Feature : uint8_t {
+  kPresence,  ///< the lobby, joining and leaving, poses, teleports (messages.hpp)
+  kAvatars,   ///< camera avatars (messages.hpp)
+  kVoice,     ///< voice packets and microphone states (voice_messages.hpp)
+  kDrawing,   ///< pointers and annotations (annotations.hpp)
+  kObjects,   ///< the patient case, its objects and the monitor (objects.hpp)
+};
+/// "presence", "avatars", "voice", "drawing", "objects".
+const char* to_string(Feature f);
+
 /// One session message type.
 struct MessageKind {
   Type type{};
+  Feature feature{};
   const char* name = "";  ///< as its decoder's errors name it ("malformed <name>: ...")
   Sender sender = Sender::kParticipant;
   uint32_t max_payload = 0;  ///< bytes

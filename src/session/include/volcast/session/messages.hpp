@@ -68,6 +68,12 @@
 //   0x48 Teleported     participant u32 | from spot | to spot | time i64
 //   0x49 AvatarCamera   participant u32 | the 0x07 payload
 //   0x4a AvatarFrame    participant u32 | the 0x08 payload
+//   0x53 RecordingState recording u8 (1: what happens in the room is being recorded) | since
+//                       i64 (when it started, server clock; 0 when not recording) | by string
+//                       (who or what records, as everyone is shown it: 0..kMaxRecorderBytes
+//                       bytes without control characters). Sent after 0x42 while a recording
+//                       runs, and to every member of every session when one starts or stops
+//                       (SessionHub::set_recording): every viewer shows it (protocol 6).
 // The patient case's objects and monitor: 0x0a..0x0d and 0x4b..0x4d, objects.hpp. Voice: 0x0e,
 // 0x0f, 0x4e, 0x4f, voice_messages.hpp. Pointers and annotations: 0x10..0x12 and 0x50..0x52,
 // annotations.hpp. Every type's
@@ -99,6 +105,7 @@ inline constexpr uint64_t kMaxAvatarBytesPerPixel = 8;
 inline constexpr uint64_t kMaxAvatarFrameOverhead = 64u << 10;
 inline constexpr size_t kMaxNameBytes = 64;
 inline constexpr size_t kMaxListedSessions = 64;
+inline constexpr size_t kMaxRecorderBytes = 200;
 
 enum class Type : uint8_t {
   kListSessions = 0x01,
@@ -137,6 +144,7 @@ enum class Type : uint8_t {
   kPointerFrom = 0x50,     // annotations.hpp
   kAnnotation = 0x51,      // annotations.hpp
   kErased = 0x52,          // annotations.hpp
+  kRecordingState = 0x53,
 };
 
 enum class Role : uint8_t { kRemote = 0, kOrSite = 1 };
@@ -210,6 +218,13 @@ struct AvatarFrameView {
   std::span<const uint8_t> depth, color;
 };
 
+/// Whether the room is being recorded, as every participant must be shown it (0x53).
+struct RecordingState {
+  bool recording = false;
+  int64_t since_us = 0;  ///< when it started, server clock; 0 when not recording
+  std::string by;        ///< who or what records ("the OR server (serve --record)")
+};
+
 /// A whole session message (header + payload) of `type`.
 std::vector<uint8_t> message(Type type, std::span<const uint8_t> payload);
 
@@ -237,6 +252,9 @@ std::vector<uint8_t> serialize(const Spot& m);
 Spot parse_teleport(std::span<const uint8_t> p);
 std::vector<uint8_t> serialize(const Teleported& m);
 Teleported parse_teleported(std::span<const uint8_t> p);
+std::vector<uint8_t> serialize(const RecordingState& m);
+/// Also refuses a recording without a start or a `by` over kMaxRecorderBytes.
+RecordingState parse_recording_state(std::span<const uint8_t> p);
 std::vector<uint8_t> serialize(const AvatarCamera& m);
 /// Also refuses a side above kMaxAvatarSide, an unknown codec, a lossy or temporal depth codec, a
 /// temporal color codec.

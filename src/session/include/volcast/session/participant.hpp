@@ -19,6 +19,7 @@
 #include "volcast/net/stream/client.hpp"
 #include "volcast/room/room.hpp"
 #include "volcast/session/annotations.hpp"
+#include "volcast/session/message_table.hpp"
 #include "volcast/session/messages.hpp"
 #include "volcast/session/objects.hpp"
 #include "volcast/session/voice_messages.hpp"
@@ -107,6 +108,8 @@ struct SessionSnapshot {
   std::vector<TeleportSeen> teleports;    ///< the last 16
   std::vector<session::SessionSummary> lobby;  ///< the last SessionList
   std::string last_error;                      ///< the server's last SessionError, if any
+  /// Whether the room is being recorded and by whom (0x53): every viewer shows it while joined.
+  session::RecordingState recording;
   /// (id, name, reason) of the participants that left, oldest first (the last 64).
   std::vector<std::tuple<uint32_t, std::string, session::LeftReason>> departed;
   uint32_t case_generation = 0;         ///< 0: no case received
@@ -275,6 +278,9 @@ class Participant {
   /// playarea_from_camera); absent without a camera.
   std::optional<CameraCalibration> own_camera() const;
   ParticipantStats stats() const;
+  /// Each server message type a participant handles, with the feature whose routes handle it
+  /// (message_table.hpp), in the features' order: for checks against the message table.
+  static std::vector<std::pair<session::Type, session::Feature>> handled_types();
   /// Server clock minus local clock, microseconds.
   int64_t clock_offset_us() const;
 

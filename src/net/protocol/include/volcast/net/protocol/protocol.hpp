@@ -1,11 +1,11 @@
 #pragma once
-// Volcast stream protocol, version 5: versioned messages on channels, over one connection per
+// Volcast stream protocol, version 6: versioned messages on channels, over one connection per
 // viewer (TLS 1.3 by default, plain TCP on loopback with --insecure; for browsers, a WebSocket on
 // /stream over the same TLS port carries the same bytes in binary messages, which a reader treats
 // as one byte stream, and is never sent SealedFrameSet 1.2). Little-endian throughout.
 //
 // Every message: a 12-byte header
-//   magic "VCST" (4 bytes) | protocol version u16 (= 5) | channel u8 | type u8 | payload length u32
+//   magic "VCST" (4 bytes) | protocol version u16 (= 6) | channel u8 | type u8 | payload length u32
 // then the payload. Strings are u16 length + UTF-8 bytes; byte strings u32 length + bytes; doubles
 // IEEE-754 binary64; times i64 microseconds of the sender's wall clock (Unix epoch).
 //
@@ -122,7 +122,7 @@
 namespace volcast::protocol {
 
 inline constexpr uint32_t kMagic = 0x54534356;  // "VCST" as little-endian bytes
-inline constexpr uint16_t kVersion = 5;
+inline constexpr uint16_t kVersion = 6;         // 6: the session's RecordingState (0x53)
 inline constexpr size_t kTokenBytes = 16;
 inline constexpr size_t kHeaderBytes = 12;
 inline constexpr uint32_t kMaxHelloBytes = 4096;

@@ -1,13 +1,12 @@
 // The browser viewer's stream worker: the WebSocket to `volcast serve --web`, the Volcast
-// protocol (src/net/protocol/include/volcast/net/protocol/protocol.hpp, version 5: the same bytes
-// as a native viewer's TLS stream, each message one binary WebSocket message or split across
-// several; its bytes in stream_wire.js, the colour balance in balance_worker.js), and
-// decoding: depth by Volcast's own codecs compiled to WebAssembly (volcast_decoder.wasm), color
-// JPEG by the browser's decoder (createImageBitmap), H.264 color through WebCodecs (VideoDecoder,
-// a KeyFrameRequest when it has no key frame to start from or fails), raw color by hand. Session messages (channel 2) pass through to
-// the page, but the others' camera avatars (0x49 camera, 0x4a frames), which are decoded here, and
-// the patient case (0x4b, case_wire.js), parsed here, and the others' voices (0x4e,
-// voice_worker.js), decoded here; this page's voice is encoded and sent from here too.
+// protocol (protocol.hpp, its version from messages.js: the same bytes as a native viewer's TLS
+// stream, each message one binary WebSocket message or split across several; its bytes in
+// stream_wire.js, the colour balance in balance_worker.js), and decoding: depth by Volcast's own
+// codecs in WebAssembly (volcast_decoder.wasm), color JPEG by createImageBitmap, H.264 through
+// WebCodecs (a KeyFrameRequest when it has no key frame to start from or fails), raw by hand.
+// Session messages (channel 2) pass to the page, but the others' camera avatars (0x49, 0x4a),
+// the case (0x4b, case_wire.js) and the others' voices (0x4e, voice_worker.js), taken here; this
+// page's voice is encoded and sent from here too.
 //
 // Messages from the page: {type: 'start', url, token (32 hex), depth, color, quality, adapt,
 //   floor ('lossless' or ''), maxRate (bits/s, 0: none), check}
@@ -405,13 +404,11 @@ function peekHeader() {
   return {channel: v.getUint8(6), type: v.getUint8(7), length: v.getUint32(8, true)};
 }
 
-// The largest payload of a session message of `type` from the server (messages.js, the C++
-// table's); a type the server does not send throws.
+// The largest payload of the server's session message `type` (messages.js: the C++ table's).
 const {T, MESSAGES} = self.VolcastMessages;
 function sessionLimit(type) {
-  const m = MESSAGES[type];
-  if (!m || m.up) throw new Error(`the server sent session message type 0x${type.toString(16)}, which it does not send`);
-  return m.maxPayload;
+  if (MESSAGES[type] && !MESSAGES[type].up) return MESSAGES[type].maxPayload;
+  throw new Error(`the server sent session message type 0x${type.toString(16)}, which it does not send`);
 }
 
 // Parses every whole message in the inbox, in order; frame sets are decoded one at a time (the

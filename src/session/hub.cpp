@@ -7,6 +7,7 @@
 #include <condition_variable>
 
 #include "hub_state.hpp"
+#include "routes.hpp"
 #include "volcast/core/clock.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/text.hpp"
@@ -377,29 +378,24 @@ session::Spot SessionHub::free_spot(const Session& s, bool from_last) const {
   return {p.x(), p.y(), 0};
 }
 
+// Every feature's routes, listed once.
+std::span<const session::FeatureRoutes<SessionHub::Route>> SessionHub::features() {
+  using session::Feature;
+  static const session::FeatureRoutes<Route> kFeatures[] = {{presence_routes(), Feature::kPresence},
+                                                            {avatar_routes(), Feature::kAvatars},
+                                                            {voice_routes(), Feature::kVoice},
+                                                            {drawing_routes(), Feature::kDrawing},
+                                                            {object_routes(), Feature::kObjects}};
+  return kFeatures;
+}
+
 const SessionHub::Route* SessionHub::route(uint8_t type) {
-  static const std::array<const Route*, 256> routes = [] {
-    std::array<const Route*, 256> by_type{};
-    for (const auto list :
-         {presence_routes(), avatar_routes(), voice_routes(), drawing_routes(), object_routes()})
-      for (const Route& r : list) by_type[static_cast<uint8_t>(r.type)] = &r;
-    return by_type;
-  }();
+  static const auto routes = session::index_routes(features());
   return routes[type];
 }
 
 std::vector<std::pair<session::Type, session::Feature>> SessionHub::handled_types() {
-  using session::Feature;
-  std::vector<std::pair<session::Type, Feature>> out;
-  const std::pair<std::span<const Route>, Feature> lists[] = {
-      {presence_routes(), Feature::kPresence},
-      {avatar_routes(), Feature::kAvatars},
-      {voice_routes(), Feature::kVoice},
-      {drawing_routes(), Feature::kDrawing},
-      {object_routes(), Feature::kObjects}};
-  for (const auto& [routes, feature] : lists)
-    for (const auto& r : routes) out.emplace_back(r.type, feature);
-  return out;
+  return session::routed_types(features());
 }
 
 bool SessionHub::in_session(uint64_t viewer, const Member* m, const char* what) {

@@ -13,6 +13,7 @@
 #include <random>
 #include <span>
 
+#include "routes.hpp"
 #include "volcast/codec/color_codec.hpp"
 #include "volcast/codec/depth_codec.hpp"
 #include "volcast/core/clock.hpp"
@@ -181,6 +182,7 @@ struct Participant::Impl {
     bool locked = true;
   };
   static const Route* route(uint8_t type);
+  static std::span<const session::FeatureRoutes<Route>> features();  // every feature's routes
   static std::span<const Route> presence_routes();
   static std::span<const Route> avatar_routes();
   static std::span<const Route> voice_routes();

@@ -1,35 +1,28 @@
 // What a Participant receives from the server (participant.hpp): each session message a step
 // that updates the state snapshot() reads. The dispatch, and presence: the lobby, who is here,
 // poses and teleports; the other features' steps are in participant_<feature>.cpp.
-#include <array>
-
 #include "participant_impl.hpp"
 
 namespace volcast {
 
+// Every feature's routes, listed once.
+std::span<const session::FeatureRoutes<Participant::Impl::Route>> Participant::Impl::features() {
+  using session::Feature;
+  static const session::FeatureRoutes<Route> kFeatures[] = {{presence_routes(), Feature::kPresence},
+                                                            {avatar_routes(), Feature::kAvatars},
+                                                            {voice_routes(), Feature::kVoice},
+                                                            {drawing_routes(), Feature::kDrawing},
+                                                            {object_routes(), Feature::kObjects}};
+  return kFeatures;
+}
+
 const Participant::Impl::Route* Participant::Impl::route(uint8_t type) {
-  static const std::array<const Route*, 256> routes = [] {
-    std::array<const Route*, 256> by_type{};
-    for (const auto list :
-         {presence_routes(), avatar_routes(), voice_routes(), drawing_routes(), object_routes()})
-      for (const Route& r : list) by_type[static_cast<uint8_t>(r.type)] = &r;
-    return by_type;
-  }();
+  static const auto routes = session::index_routes(features());
   return routes[type];
 }
 
 std::vector<std::pair<session::Type, session::Feature>> Participant::handled_types() {
-  using session::Feature;
-  std::vector<std::pair<session::Type, Feature>> out;
-  const std::pair<std::span<const Impl::Route>, Feature> lists[] = {
-      {Impl::presence_routes(), Feature::kPresence},
-      {Impl::avatar_routes(), Feature::kAvatars},
-      {Impl::voice_routes(), Feature::kVoice},
-      {Impl::drawing_routes(), Feature::kDrawing},
-      {Impl::object_routes(), Feature::kObjects}};
-  for (const auto& [routes, feature] : lists)
-    for (const auto& r : routes) out.emplace_back(r.type, feature);
-  return out;
+  return session::routed_types(Impl::features());
 }
 
 void Participant::Impl::handle(uint8_t type, Payload p) {

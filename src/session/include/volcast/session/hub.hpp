@@ -42,6 +42,11 @@
 #include "volcast/session/rate_limit.hpp"
 #include "volcast/session/voice_messages.hpp"
 
+namespace volcast::session {
+template <typename Route>
+struct FeatureRoutes;  // src/session/routes.hpp
+}  // namespace volcast::session
+
 namespace volcast {
 
 struct SessionHubConfig {
@@ -231,6 +236,7 @@ class SessionHub final : public SessionPort {
     void (SessionHub::*member)(Member& m, Payload payload) = nullptr;
   };
   static const Route* route(uint8_t type);
+  static std::span<const session::FeatureRoutes<Route>> features();  // every feature's routes
   static std::span<const Route> presence_routes();
   static std::span<const Route> avatar_routes();
   static std::span<const Route> voice_routes();

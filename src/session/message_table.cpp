@@ -1,6 +1,7 @@
 #include "volcast/session/message_table.hpp"
 
 #include <array>
+#include <iterator>
 #include <string>
 
 #include "volcast/core/error.hpp"
@@ -117,19 +118,9 @@ constexpr std::array kTable{
 }  // namespace
 
 const char* to_string(Feature f) {
-  switch (f) {
-    case Feature::kPresence:
-      return "presence";
-    case Feature::kAvatars:
-      return "avatars";
-    case Feature::kVoice:
-      return "voice";
-    case Feature::kDrawing:
-      return "drawing";
-    case Feature::kObjects:
-      return "objects";
-  }
-  return "?";
+  constexpr const char* kNames[] = {"presence", "avatars", "voice", "drawing", "objects"};
+  const auto i = static_cast<size_t>(f);
+  return i < std::size(kNames) ? kNames[i] : "?";
 }
 
 std::span<const MessageKind> message_table() {

@@ -213,7 +213,9 @@ void open_server(const ServeArgs& a, const ServerConfig& base, Serving& s) {
         a.speaker.empty() ? "none" : a.speaker,
         v.echo_cancellation && !a.mic.empty() && !a.speaker.empty() ? ", echo cancelled" : "");
   }
-  if (!a.case_folder.empty()) s.case_watch.emplace(a.case_folder, hub, a.case_max_triangles);
+  if (!a.case_folder.empty())
+    s.case_watch.emplace(
+        a.case_folder, [&hub](SharedCase c) { hub.set_case(std::move(c)); }, a.case_max_triangles);
   config.session = &hub;
   s.server.emplace(s.cameras, config);
   hub.attach(&*s.server);

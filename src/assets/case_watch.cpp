@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <chrono>
+#include <utility>
 
 #include "volcast/assets/case.hpp"
 #include "volcast/assets/shared_case.hpp"
@@ -33,8 +34,8 @@ std::string fingerprint(const fs::path& folder) {
 
 }  // namespace
 
-CaseWatch::CaseWatch(const fs::path& folder, SessionHub& hub, size_t max_triangles)
-    : folder_(folder), hub_(hub), max_triangles_(max_triangles) {
+CaseWatch::CaseWatch(const fs::path& folder, Share share, size_t max_triangles)
+    : folder_(folder), share_(std::move(share)), max_triangles_(max_triangles) {
   load();
   thread_ = std::thread([this] { watch(); });
 }
@@ -51,7 +52,7 @@ void CaseWatch::load() {
   const Case c = load_case(folder_, options);
   size_t triangles = 0;
   for (const CasePart& p : c.parts) triangles += p.mesh.triangles();
-  hub_.set_case(to_shared_case(c));
+  share_(to_shared_case(c));
   spdlog::info("case '{}': {} parts, {} triangles{}, loaded in {:.0f} ms", c.name, c.parts.size(),
                triangles, c.dicom ? ", " + std::to_string(c.dicom->slices) + " CT slices" : "",
                c.load_ms);

@@ -310,7 +310,8 @@ TEST(SessionCase, ChangingTheCaseFolderSwapsTheCaseForEveryone) {
     std::filesystem::rename(folder / "case.json.tmp", folder / "case.json");  // whole or nothing
   };
   write("first", "liver.obj");
-  CaseWatch watch(folder, s.hub, 60000);
+  CaseWatch watch(
+      folder, [&](SharedCase c) { s.hub.set_case(std::move(c)); }, 60000);
   TestParticipant a(s, hand_driven("Dr. A"));
   ASSERT_TRUE(eventually([&] { return a.p().shared_case() && a.now().objects.size() == 1; }));
   EXPECT_EQ(a.p().shared_case()->name, "first");

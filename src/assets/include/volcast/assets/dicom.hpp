@@ -1,6 +1,6 @@
 #pragma once
 // CT series for the virtual monitor: DICOM slices in Hounsfield units and an optional DICOM SEG
-// overlay (window/level: volcast/session/objects.hpp, where the monitor is drawn from).
+// overlay (window/level: volcast/room/patient_case.hpp, where the monitor is drawn from).
 //
 // Sources: DICOM PS3.3 C.7.6.2 (Image Plane: ImagePositionPatient, ImageOrientationPatient,
 // PixelSpacing), C.11.1.1.2 (Modality LUT: HU = stored value * RescaleSlope + RescaleIntercept),

@@ -1,5 +1,5 @@
 #pragma once
-// A loaded case (case.hpp) as the session shares it (objects.hpp): one grabbable object per
+// A loaded case (case.hpp) as the session shares it (room/patient_case.hpp): one grabbable object per
 // group, its parts in the object's frame (metres, origin at the centre of the group's bounding
 // box, axes the room's: case frame turned by room_from_case), placed at rest over the operating
 // table: the group holding the liver 0.4 m above the table top, a group as large as a body
@@ -7,7 +7,7 @@
 // monitor.
 #include "volcast/assets/case.hpp"
 #include "volcast/room/room.hpp"
-#include "volcast/session/objects.hpp"
+#include "volcast/room/patient_case.hpp"
 
 namespace volcast {
 

@@ -1,6 +1,7 @@
 #include "volcast/net/stream/server.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -25,18 +26,18 @@ void Server::Impl::admit(detail::Admitted& a) {
     for (const auto& v : viewers) active += !v.done;
     if (active >= config.max_viewers)
       throw Error("server full (" + std::to_string(config.max_viewers) + " viewers)");
-    const bool adapt = (hello.adapt & protocol::Hello::kAdapt) && !ladder.empty();
+    const bool adapt = (hello.adapt & protocol::Hello::kAdapt) && !ladder.rungs.empty();
     if (!adapt) check_offered(hello);  // the ladder's tiers count as offered to adaptive viewers
     Viewer& v = viewers.emplace_back();
     v.id = next_viewer_id++;
     v.report.id = v.id;
     v.address = a.address;
-    v.adapt = hello.adapt;
-    v.max_bits_per_s = hello.max_bits_per_s;
-    v.decodes = hello.decodes;
-    v.hello_key = hello.tier;  // every frame set: a Hello carries no divisor
+    v.floor.adapt = hello.adapt;
+    v.floor.max_bits_per_s = hello.max_bits_per_s;
+    v.floor.decodes = hello.decodes;
+    v.floor.hello_tier = hello.tier;  // every frame set: a Hello carries no divisor
     try {
-      v.tier = adapt ? subscribe_adaptive(v) : subscribe(v.hello_key, &v.wake, &v.address);
+      v.tier = adapt ? subscribe_adaptive(v) : subscribe(hello.tier, &v.wake, &v.address);
     } catch (...) {
       viewers.pop_back();
       throw;
@@ -44,7 +45,7 @@ void Server::Impl::admit(detail::Admitted& a) {
     v.connection = std::move(a.connection);
     v.report.peer = v.connection->peer();
     v.report.connected = true;
-    const volcast::Tier& key = v.tier->encoder.key();  // known codecs: subscribe checked them
+    const Tier& key = v.tier->encoder.key();  // known codecs: subscribe checked them
     v.report.tier = key;
     v.report.adaptive = adapt;
     v.report.rung = adapt ? rung_of(v) : -1;
@@ -61,18 +62,9 @@ void Server::Impl::admit(detail::Admitted& a) {
 
 // Throws Error naming the offered tiers if the viewer's is not one of them.
 void Server::Impl::check_offered(const protocol::Hello& hello) const {
-  if (config.offered_tiers.empty()) return;
-  std::string list;
-  for (const auto& t : config.offered_tiers) {
-    const size_t a = t.find('/'), b = t.find('/', a + 1);
-    const bool quality_given = b != std::string::npos;
-    if (t.substr(0, a) == hello.tier.depth_codec &&
-        t.substr(a + 1, quality_given ? b - a - 1 : std::string::npos) == hello.tier.color_codec &&
-        (!quality_given || std::stoi(t.substr(b + 1)) == hello.tier.color_quality))
-      return;
-    list += (list.empty() ? "" : ", ") + t;
-  }
-  throw Error("this server does not offer that tier; it offers " + list);
+  if (detail::offered(offers, hello.tier)) return;
+  throw Error("this server does not offer that tier; it offers " +
+              fmt::format("{}", fmt::join(config.offered_tiers, ", ")));
 }
 
 Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
@@ -110,39 +102,11 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
     throw Error("server: handshake timeout and pending-handshake limits must be at least 1");
   // An offered tier and a publisher's (passed-through) tier carry every frame set: @N is the
   // ladder's alone.
-  for (const auto& t : config.offered_tiers)
-    parse_tier(t, "server: offered tier", TierRate::kEveryFrameSet);
+  impl_->offers = detail::parse_offers(config.offered_tiers);
   if (!config.passed_through_tier.empty())
-    impl_->passed_through = parse_tier(config.passed_through_tier, "server: passed-through tier",
-                                       TierRate::kEveryFrameSet);
-  const bool default_ladder_given = config.ladder == default_ladder();
-  const bool sized = config.ladder_sizes.size() == config.ladder.size();
-  for (size_t i = 0; i < config.ladder.size(); ++i) {
-    const std::string& t = config.ladder[i];
-    if (sized && !(config.ladder_sizes[i] > 0))
-      throw Error("server: ladder rung " + t + ": its size must be positive");
-    // The default ladder's video rungs need volcast_codec_video (register_video_codecs): without
-    // it they are left out. A ladder given by hand must name codecs this build has.
-    const size_t slash = t.find('/');
-    if (default_ladder_given &&
-        (!find_depth_codec(t.substr(0, slash)) ||
-         !find_color_codec(t.substr(slash + 1, t.find_first_of("/@", slash + 1) - slash - 1))))
-      continue;
-    // With an offer list, the ladder keeps only what is offered (the operator's list wins).
-    volcast::Tier key = parse_tier(t, "server: ladder rung");
-    bool offered = config.offered_tiers.empty();
-    for (const auto& o : config.offered_tiers) {
-      const volcast::Tier k = parse_tier(o, "server: offered tier");
-      offered |= k.depth_codec == key.depth_codec && k.color_codec == key.color_codec &&
-                 (o.find('/', o.find('/') + 1) == std::string::npos ||
-                  k.color_quality == key.color_quality);
-    }
-    if (offered) {
-      impl_->ladder.push_back(std::move(key));
-      if (sized) impl_->ladder_sizes.push_back(config.ladder_sizes[i]);
-    } else
-      spdlog::info("server: ladder rung {} is not offered (--tiers): left out", t);
-  }
+    impl_->budget.passed_through = parse_tier(
+        config.passed_through_tier, "server: passed-through tier", TierRate::kEveryFrameSet);
+  impl_->ladder = detail::make_ladder(config, impl_->offers);
   const std::string bind = resolve_bind_address(config.bind_address);
   if (config.insecure && !is_loopback_address(bind))
     throw Error(
@@ -161,10 +125,10 @@ Server::Server(std::vector<protocol::CameraInfo> cameras, ServerConfig config)
   impl_->door.max_pending = config.max_pending;
   impl_->door.max_pending_per_address = config.max_pending_per_address;
   impl_->door.free_wrong_tokens = kFreeWrongTokens;
-  impl_->budget_cores = config.tier_cpu_budget > 0
+  impl_->budget.cores = config.tier_cpu_budget > 0
                             ? config.tier_cpu_budget
                             : std::max(1.0, double(std::thread::hardware_concurrency()) / 2);
-  impl_->site_pixels = pixels;
+  impl_->budget.site_pixels = pixels;
   impl_->config = std::move(config);
   impl_->cameras = std::move(cameras);
   impl_->pool = std::make_unique<WorkerPool>(impl_->config.encode_threads);
@@ -184,13 +148,12 @@ uint64_t Server::add_tier_tap(const volcast::Tier& wanted,
   if (impl_->stopping) throw Error("server: stopped");
   auto tier = impl_->subscribe(wanted, nullptr, nullptr);
   double total = 0;
-  for (const auto& t : impl_->tiers) total += t->encode_ns;
-  total *= impl_->site_fps() / 1e9;
-  if (total > impl_->budget_cores)
+  for (const auto& t : impl_->tiers) total += impl_->budget.cores_of(t->encode_ns);
+  if (total > impl_->budget.cores)
     spdlog::warn(
         "server: with the tap on tier {}, the tiers cost about {:.2f} CPU cores, over the "
         "budget of {:.2f} (--tier-cpu-budget): viewers asking for a new tier are refused",
-        to_string(wanted), total, impl_->budget_cores);
+        to_string(wanted), total, impl_->budget.cores);
   const uint64_t id = impl_->next_tap_id++;
   tier->taps.push_back(
       {id, std::make_shared<std::function<void(const TierFrameSet&)>>(std::move(tap)), false});
@@ -201,7 +164,7 @@ void Server::remove_tier_tap(uint64_t id) {
   {
     std::lock_guard lock(impl_->mutex);
     for (const auto& tier : impl_->tiers)
-      std::erase_if(tier->taps, [id](const Impl::Tier::Tap& t) { return t.id == id; });
+      std::erase_if(tier->taps, [id](const Impl::Producer::Tap& t) { return t.id == id; });
     impl_->reap_finished();  // a tier nobody watches or taps any more stops encoding
   }
   impl_->join_retired();
@@ -247,7 +210,7 @@ std::string Server::web_link(const std::string& host) const {
 }
 
 double Server::tier_cpu_budget() const {
-  return impl_->budget_cores;
+  return impl_->budget.cores;
 }
 
 DoorReport Server::door() const {
@@ -264,65 +227,34 @@ void Server::publish(std::shared_ptr<const CapturedFrameSet> frames) {
   {
     std::lock_guard lock(impl_->mutex);
     impl_->captured = std::move(frames);
-    impl_->note_published();
+    impl_->budget.note_published(Impl::steady_us());
   }
   impl_->captured_changed.notify_all();
   // The tiers' threads wake to encode it on the pool: wake its workers now too, not after them.
   impl_->pool->prewake(std::chrono::milliseconds(2));
 }
 
-void Server::Impl::note_stream(Viewer& v, uint64_t key, int64_t now) {
-  size_t at = 0;  // the stream's slot, else the one heard least recently
-  for (size_t i = 0; i < v.recent_streams.size(); ++i) {
-    if (v.recent_streams[i].key == key) {
-      at = i;
-      break;
-    }
-    if (v.recent_streams[i].last_us < v.recent_streams[at].last_us) at = i;
-  }
-  v.recent_streams[at] = {key, now};
-  v.outbox_stream_mask |= 1u << at;
-}
-
-bool Server::Impl::streams_complete(const Viewer& v, int64_t now) {
-  for (size_t i = 0; i < v.recent_streams.size(); ++i)
-    if (now - v.recent_streams[i].last_us < kActiveStreamUs && !(v.outbox_stream_mask & (1u << i)))
-      return false;
-  return true;
-}
-
 // Queues `message` for `v` (mutex held): false if `v` is gone or being dropped.
 bool Server::Impl::queue_session(Viewer& v, std::shared_ptr<const std::vector<uint8_t>> message,
                                  uint64_t coalesce_key) {
   if (v.done || !v.kicked.empty()) return false;
-  // The viewer's thread takes the whole outbox once woken (flush_session): it is signalled once
-  // for what the outbox holds, not once more per message (a write(2) and a wake-up each). Queued
-  // streams' messages alone (voice packets) are held while several talk: the thread wakes when
-  // each talker's packet is there, or by its timer when the oldest has waited
-  // stream_coalesce_us; one talker's packets have nothing to wait for.
-  const bool stream = (coalesce_key & kQueuedStreamKey) != 0;
-  const int64_t now = steady_us();
-  if (v.outbox.empty()) {
-    v.outbox_streams_only = true;
-    v.outbox_since_us = now;
-    v.outbox_stream_mask = 0;
-  }
-  if (stream) note_stream(v, coalesce_key, now);
-  v.outbox_streams_only = v.outbox_streams_only && stream;
-  if (v.outbox.size() >= 4096)
-    v.kicked = "session messages piled up (4096 unsent): the viewer does not read";
-  else
-    v.report.session_dropped +=
-        queue_session_message(v.outbox, coalesce_key, std::move(message),
-                              [&] { return v.connection && v.connection->send_buffer_full(); });
-  const bool hold = v.kicked.empty() && v.outbox_streams_only && config.stream_coalesce_us > 0 &&
-                    !streams_complete(v, now);
-  if (!v.kicked.empty() || (!hold && !v.outbox_woken)) {
-    v.outbox_woken = true;
+  if (v.outbox.size() >= detail::SessionOutbox::kMaxMessages) {
+    v.kicked = fmt::format("session messages piled up ({} unsent): the viewer does not read",
+                           v.outbox.size());
     v.wake.signal();
-  } else if (hold && v.timer_due_us < 0) {
-    v.timer_due_us = v.outbox_since_us + config.stream_coalesce_us;
-    v.wake.at(v.timer_due_us);
+    return true;
+  }
+  const auto behind = [&v] { return v.connection && v.connection->send_buffer_full(); };
+  switch (v.outbox.queue(std::move(message), coalesce_key, steady_us(), config.stream_coalesce_us,
+                         behind, v.report.session_dropped)) {
+    case detail::SessionOutbox::Wake::kNow:
+      v.wake.signal();
+      break;
+    case detail::SessionOutbox::Wake::kAt:
+      v.wake.at(v.outbox.timer_due_us());
+      break;
+    case detail::SessionOutbox::Wake::kNone:
+      break;
   }
   return true;
 }
@@ -354,15 +286,7 @@ std::vector<ViewerReport> Server::viewers() const {
 std::vector<TierReport> Server::tiers() const {
   std::lock_guard lock(impl_->mutex);
   std::vector<TierReport> out;
-  const double fps = impl_->site_fps();
-  for (const auto& t : impl_->tiers) {
-    TierReport r = t->report;
-    r.viewers = static_cast<int>(t->subscribers.size());
-    if (r.frames_encoded > 0) r.encode_ms_mean = t->encode_ms_total / double(r.frames_encoded);
-    r.cpu_ms_mean = t->cpu_ms_mean;
-    r.cost_cores = t->encode_ns * fps / 1e9;
-    out.push_back(r);
-  }
+  for (const auto& t : impl_->tiers) out.push_back(t->report_now(impl_->budget.cores_of(1)));
   return out;
 }
 

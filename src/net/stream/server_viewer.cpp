@@ -36,7 +36,7 @@ void Server::Impl::serve_viewer(Viewer& v) {
                  adaptive(v) ? ", adaptive" : "");
     if (adaptive(v))  // its first tier, and why (its Hello named the best it wants, if a rung)
       send_tier_change(v,
-                       v.decodes.empty()
+                       v.floor.decodes.empty()
                            ? "starting on the best tier of this server's ladder that your floor "
                              "and cap allow"
                            : "starting on the best tier of this server's ladder that your floor, "
@@ -78,23 +78,13 @@ void Server::Impl::serve_viewer(Viewer& v) {
 int64_t Server::Impl::flush_session(Viewer& v,
                                     std::vector<std::shared_ptr<const std::vector<uint8_t>>>& batch,
                                     std::vector<uint8_t>& joined) {
-  batch.clear();
   {
     std::lock_guard lock(mutex);
     if (!v.kicked.empty()) throw Error(v.kicked);
-    if (v.outbox.empty()) return -1;
-    const int64_t now = steady_us();
-    if (v.outbox_streams_only && config.stream_coalesce_us > 0) {
-      const int64_t due = v.outbox_since_us + config.stream_coalesce_us;
-      if (now < due && !streams_complete(v, now)) return due;
-    }
-    for (auto& m : v.outbox) batch.push_back(std::move(m.second));
-    v.outbox.clear();
+    const auto taken = v.outbox.take(steady_us(), config.stream_coalesce_us, batch);
+    if (batch.empty()) return taken.due_us;
     ++v.report.session_flushes;
-    v.outbox_woken = false;
-    v.outbox_stream_mask = 0;
-    if (v.timer_due_us > now) v.wake.at(-1);  // flushed before the timer: no wake-up for nothing
-    v.timer_due_us = -1;
+    if (taken.disarm) v.wake.at(-1);
   }
   constexpr size_t kCopiedBelow = 16 << 10;  // bytes: a message this long or longer is not copied
   constexpr size_t kJoinedBytes = 64 << 10;  // at most this much is joined into one write
@@ -163,10 +153,10 @@ void Server::Impl::stream(Viewer& v) {
   Pacer pacer(config.max_window);
   // Rate control: on the ladder for an adaptive viewer, else on its one tier (for notices).
   const bool adapt = adaptive(v);
-  const bool notify = adapt || (v.adapt & protocol::Hello::kNotify);
-  RateController rc(adapt ? ladder.size() : 1, adapt ? size_t(std::max(0, rung_of(v))) : 0,
+  const bool notify = adapt || (v.floor.adapt & protocol::Hello::kNotify);
+  RateController rc(adapt ? ladder.rungs.size() : 1, adapt ? size_t(std::max(0, rung_of(v))) : 0,
                     config.rate_control);
-  std::vector<double> rung_bits(adapt ? ladder.size() : 1);
+  std::vector<double> rung_bits(adapt ? ladder.rungs.size() : 1);
   std::vector<char> allowed;
   RateDecision decision;
   std::vector<uint8_t> payload;
@@ -195,18 +185,10 @@ void Server::Impl::stream(Viewer& v) {
       {
         std::lock_guard lock(mutex);
         if (adapt) {
-          for (size_t r = 0; r < ladder.size(); ++r) rung_bits[r] = tier_bits(ladder[r]);
+          ladder_bits(rung_bits);
+          detail::allowed_rungs(ladder, v.floor, rung_bits, now, allowed);  // caps: measured only
           // A rung that has not run yet: a measured one's rate scaled by their sizes.
-          const size_t known = rc.rung() < rung_bits.size() && rung_bits[rc.rung()] > 0
-                                   ? rc.rung()
-                                   : size_t(std::find_if(rung_bits.begin(), rung_bits.end(),
-                                                         [](double b) { return b > 0; }) -
-                                            rung_bits.begin());
-          if (!ladder_sizes.empty() && known < rung_bits.size())
-            for (size_t r = 0; r < ladder.size(); ++r)
-              if (rung_bits[r] <= 0)
-                rung_bits[r] = rung_bits[known] * ladder_sizes[r] / ladder_sizes[known];
-          allowed_rungs(v, now, allowed);
+          detail::estimate_unmeasured(ladder, rc.rung(), rung_bits);
         } else {
           rung_bits[0] = tier_bits(v.tier->encoder.key());
           allowed.assign(1, 1);
@@ -225,7 +207,7 @@ void Server::Impl::stream(Viewer& v) {
         }
       }
     }
-    Tier& tier = *v.tier;
+    Producer& tier = *v.tier;
     session_due = flush_session(v, batch, joined);  // session messages go ahead of frame sets
     if (!batch.empty())
       update(v, [&](ViewerReport& r) { r.send_cpu_ms = thread_cpu_ms() - cpu_start_ms; });

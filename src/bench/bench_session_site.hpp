@@ -1,15 +1,15 @@
 #pragma once
 // The session benchmarks' site and people (session_bench.cpp, drawing_bench.cpp; internal to
 // volcast_bench): a server with a SessionHub on a free loopback port (TLS), the real `sources`
-// at 30 fps, streaming or idle, and headless participants whose receiving thread reads and
-// acknowledges the frame sets without decoding them.
-#include <atomic>
+// at 30 fps, streaming or idle, and headless participants (HeadlessParticipant) that read and
+// acknowledge the frame sets without decoding them.
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "volcast/core/error.hpp"
 #include "volcast/net/stream/client.hpp"
+#include "volcast/pipeline/headless_participant.hpp"
 #include "volcast/pipeline/sender.hpp"
 #include "volcast/pipeline/session_client.hpp"
 #include "volcast/session/hub.hpp"
@@ -29,7 +29,7 @@ struct BenchSite {
     if (stream) site.start(server);
     link = server.join_link("127.0.0.1");
   }
-  /// Stops the site, then the server (its participants' connections end: BenchPerson::end).
+  /// Stops the site, then the server (end its participants first: end_bench).
   void stop() {
     site.stop();
     hub.attach(nullptr);
@@ -47,47 +47,28 @@ struct BenchSite {
   }
 };
 
-/// A participant of a BenchSite: its connection (no decoding, no receive timeout: an idle site
-/// sends no frame sets), its SessionClient started on it, and the thread reading the stream.
-struct BenchPerson {
-  std::unique_ptr<Client> client;
-  std::unique_ptr<SessionClient> session;
-  std::thread receiver;
-  std::string error;  ///< why receiving failed before end(), if it did
+/// A participant of a BenchSite (or any bench server at `link`): a HeadlessParticipant on the
+/// viewer's own lifecycle (it rejoins after a cut), reading and acknowledging the frame sets
+/// without decoding them, with no receive timeout (an idle site sends no frame sets). Waits until
+/// it has joined; throws Error if it did not in 20 s.
+inline std::unique_ptr<HeadlessParticipant> join_bench(const std::string& link,
+                                                       SessionClientOptions options,
+                                                       ParticipantLife life = {}) {
+  ClientConfig c = client_config_from_link(link);
+  c.receive_timeout_ms = 0;
+  auto p = std::make_unique<HeadlessParticipant>(c, std::move(options), std::move(life));
+  if (!p->wait_joined(20'000))
+    throw Error("bench participant did not join: " +
+                (p->error().empty() ? std::string("not in 20 s") : p->error()));
+  return p;
+}
 
-  BenchPerson(const std::string& link, SessionClientOptions options) {
-    ClientConfig c = client_config_from_link(link);
-    c.decode = false;
-    c.receive_timeout_ms = 0;
-    client = std::make_unique<Client>(c);
-    session = std::make_unique<SessionClient>(std::move(options));
-    session->start(*client);
-    receiver = std::thread([this] {
-      ReceivedFrameSet rx;
-      try {
-        while (client->receive(rx)) {
-        }
-      } catch (const std::exception& e) {
-        if (!ending) error = e.what();
-      }
-    });
-  }
-  /// Stops its threads (call before the site stops, so that the end is not an error).
-  void stop() {
-    ending = true;
-    session->stop();
-  }
-  /// Closes the connection and joins the receiving thread.
-  void end() {
-    ending = true;
-    client->close();
-    if (receiver.joinable()) receiver.join();
-  }
-  ~BenchPerson() { end(); }
-  Participant& participant() { return *session->participant(); }
-
- private:
-  std::atomic<bool> ending{false};
-};
+/// Ends `people` (HeadlessParticipant::end; before the server stops) and throws Error if one
+/// failed before.
+inline void end_bench(std::vector<std::unique_ptr<HeadlessParticipant>>& people) {
+  for (auto& p : people) p->end();
+  for (auto& p : people)
+    if (!p->error().empty()) throw Error("bench participant failed: " + p->error());
+}
 
 }  // namespace volcast::bench

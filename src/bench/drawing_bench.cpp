@@ -56,13 +56,13 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
   row.name = name;
   row.observers = observers;
   bench::BenchSite s(std::move(sources), stream_site);
-  std::vector<std::unique_ptr<bench::BenchPerson>> people;
+  std::vector<std::unique_ptr<HeadlessParticipant>> people;
   for (int i = 0; i <= observers; ++i) {
     SessionClientOptions o;
     o.participant.session = "bench";
     o.participant.name = i == 0 ? "owner" : "observer " + std::to_string(i);
     o.drive_poses = false;
-    people.push_back(std::make_unique<bench::BenchPerson>(s.link, std::move(o)));
+    people.push_back(bench::join_bench(s.link, std::move(o)));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // joins
   Participant& owner = people[0]->participant();
@@ -110,9 +110,8 @@ DrawingRow measure(const std::string& name, std::vector<std::unique_ptr<FrameSou
       }
   row.pointer_ms_p50 = median_ms(p50);
   row.pointer_ms_p99 = median_ms(p99);
-  for (auto& p : people) p->stop();
+  bench::end_bench(people);
   s.stop();
-  people.clear();  // their connections closed, their threads joined
   return row;
 }
 

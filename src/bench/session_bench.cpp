@@ -52,7 +52,7 @@ SessionRow measure_session(const std::string& name,
   row.cameras = static_cast<int>(sources.size());
   row.avatars = avatars;
   bench::BenchSite site(std::move(sources), stream_site);
-  std::vector<std::unique_ptr<bench::BenchPerson>> people;
+  std::vector<std::unique_ptr<HeadlessParticipant>> people;
   for (int i = 0; i < participants; ++i) {
     SessionClientOptions o;
     o.participant.session = "bench";
@@ -62,7 +62,7 @@ SessionRow measure_session(const std::string& name,
       o.camera_source = hands;
       o.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
     }
-    people.push_back(std::make_unique<bench::BenchPerson>(site.link, std::move(o)));
+    people.push_back(bench::join_bench(site.link, std::move(o)));
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // joins, first frames
   const auto serving = [&] {
@@ -102,12 +102,8 @@ SessionRow measure_session(const std::string& name,
       }
     }
   }
-  for (auto& p : people) p->stop();
+  bench::end_bench(people);
   site.stop();
-  for (auto& p : people) {
-    p->end();
-    if (!p->error.empty()) throw Error("bench participant failed: " + p->error);
-  }
   // Medians over participants of each participant's percentile; the worst p99.
   row.round_trip_ms_p50 = median_of(rtt50);
   row.round_trip_ms_p99 = rtt99.empty() ? 0 : *std::max_element(rtt99.begin(), rtt99.end());

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "bench_session_site.hpp"
 #include "volcast/audio/wav.hpp"
 #include "volcast/bench/bench.hpp"
 #include "volcast/capture/real_sites.hpp"
@@ -72,36 +73,17 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
   hub.attach(&server);
   const std::string link = server.join_link("127.0.0.1");
   struct Person {
-    std::unique_ptr<Client> client;
-    std::unique_ptr<SessionClient> session;
+    std::unique_ptr<HeadlessParticipant> headless;
     std::unique_ptr<voice::VoiceLink> voice;
-    std::thread receiver;
-    std::string error;
   };
   std::vector<std::unique_ptr<Person>> people;
-  std::atomic<bool> done{false};
   for (int i = 0; i < participants; ++i) {
     auto p = std::make_unique<Person>();
-    ClientConfig c = client_config_from_link(link);
-    c.decode = false;
-    c.receive_timeout_ms = 0;  // an idle site sends no frame sets
-    p->client = std::make_unique<Client>(c);
     SessionClientOptions o;
     o.participant.session = "bench";
     o.participant.name = "participant " + std::to_string(i + 1);
     o.drive_poses = false;
-    p->session = std::make_unique<SessionClient>(std::move(o));
-    p->session->start(*p->client);
-    Person* raw = p.get();
-    p->receiver = std::thread([raw, &done] {
-      ReceivedFrameSet rx;
-      try {
-        while (raw->client->receive(rx)) {
-        }
-      } catch (const std::exception& e) {
-        if (!done) raw->error = e.what();
-      }
-    });
+    p->headless = bench::join_bench(link, std::move(o));
     people.push_back(std::move(p));
   }
   for (int waited = 0; hub.members("bench").size() < size_t(participants) + 1; ++waited) {
@@ -125,7 +107,7 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
       v.mic_start_us = start + int64_t(i) * 20'000 / talkers;
     }
     people[size_t(i)]->voice =
-        std::make_unique<voice::VoiceLink>(*people[size_t(i)]->session->participant(), v);
+        std::make_unique<voice::VoiceLink>(people[size_t(i)]->headless->participant(), v);
   }
   const auto serving = [&] {
     double ms = 0;
@@ -158,16 +140,13 @@ VoiceRow measure_voice(const std::string& name, const fs::path& data, const fs::
       row.concealed_percent = std::max(row.concealed_percent, h.stream.concealed_percent());
     }
   }
-  done = true;
   for (auto& p : people) p->voice->stop();
-  for (auto& p : people) p->session->stop();
+  for (auto& p : people) p->headless->end();  // before the server stops
+  for (auto& p : people)
+    if (!p->headless->error().empty())
+      throw Error("bench participant failed: " + p->headless->error());
   hub.attach(nullptr);
   server.stop();
-  for (auto& p : people) {
-    p->client->close();
-    p->receiver.join();
-    if (!p->error.empty()) throw Error("bench participant failed: " + p->error);
-  }
   std::sort(p50.begin(), p50.end());
   row.latency_ms_p50 = p50.empty() ? 0 : p50[p50.size() / 2];
   return row;

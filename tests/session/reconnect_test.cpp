@@ -12,6 +12,7 @@
 #include "support/session_site.hpp"
 #include "support/stalling_proxy.hpp"
 #include "volcast/core/clock.hpp"
+#include "volcast/pipeline/headless_participant.hpp"
 #include "volcast/pipeline/receiver.hpp"
 #include "volcast/pipeline/session_client.hpp"
 
@@ -119,6 +120,41 @@ TEST(Reconnect, AViewerWhosePathStallsShowsReconnectingThenRejoinsAsItselfAndGoe
   EXPECT_EQ(watch.connection.front(), "");
   EXPECT_TRUE(watch.connection[1].starts_with("reconnecting")) << watch.connection[1];
   EXPECT_EQ(watch.connection.back(), "");
+}
+
+// The benchmarks' participants (bench_session_site.hpp join_bench) live the same life: a cut
+// path, and it comes back by itself as the same participant.
+TEST(Reconnect, AHeadlessParticipantRejoinsAsItselfAfterACut) {
+  SessionHubConfig hub;
+  hub.presence_timeout_ms = 20000;  // the hub still holds it when it comes back
+  test::SessionSite s(hub);
+  test::StallingProxy proxy(s.site.server.port());
+  ClientConfig c = s.client_config();
+  c.port = proxy.port();
+  c.receive_timeout_ms = 1500;  // a silence this long is a cut
+  int joined = 0;
+  ParticipantLife life{"OR", [&](SessionClient&) { ++joined; }, {}};
+  HeadlessParticipant a(c, named("Dr. A"), life);
+  ASSERT_TRUE(a.wait_joined(20000)) << a.error();
+  const uint32_t id = a.participant().snapshot(wall_clock_us()).id;
+  ASSERT_NE(id, 0u);
+
+  proxy.cut();      // its connection stalls for good
+  proxy.restore();  // new connections go through: it must notice the silence and connect again
+  EXPECT_TRUE(eventually([&] { return s.hub.stats().rejoins == 1; })) << a.error();
+  EXPECT_TRUE(eventually([&] { return a.participant().joined(); }));
+  EXPECT_EQ(a.participant().snapshot(wall_clock_us()).id, id);
+  EXPECT_EQ(proxy.accepted(), 2) << "the first connection, then the one after the cut";
+  EXPECT_EQ(s.hub.members("OR").size(), 2u) << "the site and Dr. A, once";
+
+  a.end();
+  EXPECT_TRUE(a.error().empty()) << a.error();
+  EXPECT_EQ(joined, 1) << "joined once: the cut is a rejoin, not a second join";
+  EXPECT_EQ(a.result().ended, ViewerEnd::kInterrupted) << a.result().error;
+  EXPECT_EQ(a.result().session_name, "OR");
+  ASSERT_EQ(a.result().outages.size(), 1u);
+  EXPECT_NE(a.result().outages[0].why.find("receive timeout"), std::string::npos)
+      << a.result().outages[0].why;
 }
 
 }  // namespace

@@ -222,6 +222,10 @@ void SessionScene::draw(const View& view, const RenderTarget& target,
     const auto badge = muted_hand_primitives(s.own_body.left_hand.position);
     r.scene.insert(r.scene.end(), badge.begin(), badge.end());
   }
+  if (options.world_from_head && s.recording.recording) {
+    const auto badge = recording_badge_primitives(*options.world_from_head);
+    r.scene.insert(r.scene.end(), badge.begin(), badge.end());
+  }
   DrawingOptions marks;
   marks.own_pointer = options.own_pointer;
   drawing_primitives(s, view.world_from_view.translation.cast<float>(), r.scene, marks);

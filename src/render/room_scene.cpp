@@ -175,6 +175,13 @@ std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand) {
                 rgba(0.9f, 0.12f, 0.1f), 1)};
 }
 
+std::vector<Primitive> recording_badge_primitives(const RigidTransform& world_from_head) {
+  const Eigen::Vector3f at = (world_from_head * Eigen::Vector3d(-0.16, 0.12, -0.6)).cast<float>();
+  return {shape(Primitive::Shape::kSphere,
+                Eigen::Translation3f(at) * Eigen::Scaling(0.03f, 0.03f, 0.03f),
+                rgba(0.95f, 0.08f, 0.06f), 1)};
+}
+
 std::vector<Primitive> teleport_effect_primitives(const Eigen::Vector3f& spot, float age_s,
                                                   float duration_s, const Eigen::Vector3f& rgb) {
   std::vector<Primitive> p;

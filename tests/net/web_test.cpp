@@ -399,6 +399,7 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   with_camera.camera_options.intrinsics = Intrinsics{0, 0, 460, 460, 320, 180};
   with_camera.camera_options.fps = 5;
   test::TestParticipant native(s, with_camera);
+  s.hub.start_recording("Dr. Recorder");  // the headset must show it (no silent recording)
   const auto out = test::temp_dir("web_xr");
   // What the native participant sees of the web one while the browser runs (it leaves at the end).
   std::atomic<bool> done{false}, seen{false}, hands{false};
@@ -433,6 +434,10 @@ TEST(WebBrowser, HeadsetJoinsTheSessionBesideANativeParticipant) {
   EXPECT_EQ(page["xr"]["views"], 2) << "both eyes";
   EXPECT_GE(page["xr"]["frames"].get<int>(), 30);
   EXPECT_TRUE(page["session"]["joined"]);
+  // Recorded all along: the headset's frames since the server said so carry the red box fixed in
+  // view (the DOM's REC badge does not reach an immersive session).
+  EXPECT_TRUE(page["session"]["recording"]["recording"]) << page["session"].dump();
+  EXPECT_GT(page["xr"]["recordingBadgeFrames"].get<int>(), 0);
   // Its main thread was blocked for longer than the hub's 3 s presence timeout, and it stayed.
   EXPECT_GE(page["stalledMs"].get<double>(), 4500.0);
   EXPECT_EQ(s.hub.stats().timeouts, 0u);
@@ -547,6 +552,7 @@ TEST(WebBrowser, ArHeadsetSeesANativePointerAndPointsAndDrawsOnTheLiveCloud) {
   ASSERT_FALSE(page.is_null());
   EXPECT_EQ(page["phase"], "streaming") << page["error"];
   EXPECT_EQ(page["xr"]["mode"], "immersive-ar");
+  EXPECT_EQ(page["xr"]["recordingBadgeFrames"], 0) << "nothing recorded: no badge";
   const nlohmann::json& d = page["drawing"];
   const uint32_t native_id = joined.id, web_id = page["session"]["id"];
   // The native pointer reached the page exactly and was drawn at its hit in its owner's colour.

@@ -127,6 +127,25 @@ TEST(PrimitiveRenderer, ShapesAndCloudsOccludeEachOtherByDepth) {
   EXPECT_GT(own[0].color.x(), own[0].color.y());
   EXPECT_NEAR(own[0].world_from_shape(1, 3), 1.18f, 1e-6f);
   EXPECT_NEAR(own[0].world_from_shape(0, 0), 0.04f, 1e-6f);
+  // While recorded, the headset's red ball fixed in its view: 0.6 m ahead, 16 cm left, 12 cm up
+  // of the head, wherever the head turns (here: a quarter turn to the left, about +y).
+  RigidTransform world_from_head;
+  world_from_head.translation = {1, 1.6, 2};
+  const auto rec = recording_badge_primitives(world_from_head);
+  ASSERT_EQ(rec.size(), 1u);
+  EXPECT_EQ(rec[0].shape, Primitive::Shape::kSphere);
+  EXPECT_GT(rec[0].color.x(), 0.9f);
+  EXPECT_LT(rec[0].color.y(), 0.2f);
+  EXPECT_EQ(rec[0].emissive, 1) << "it glows: seen in a dark room as in a lit one";
+  EXPECT_NEAR(rec[0].world_from_shape(0, 0), 0.03f, 1e-6f);
+  const Eigen::Vector3f ahead(0.84f, 1.72f, 1.4f), turned(0.4f, 1.72f, 2.16f);
+  const Eigen::Vector3f at = rec[0].world_from_shape.block<3, 1>(0, 3);
+  EXPECT_TRUE(at.isApprox(ahead)) << at.transpose();
+  world_from_head.rotation =
+      Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3f after =
+      recording_badge_primitives(world_from_head)[0].world_from_shape.block<3, 1>(0, 3);
+  EXPECT_TRUE(after.isApprox(turned)) << "ahead is -x once turned left: " << after.transpose();
   // A volume the headset just set: the 40 cm track 0.45 m over the voice, yellow filled to gain
   // / 4 from its bottom, the white mark at 1 (a quarter up); silence leaves the track and mark.
   const auto bar = volume_bar_primitives(head, 2.0f);

@@ -256,6 +256,7 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   test::SessionSite s(test::patient_hub(),
                       5);  // 5 frame sets a second: the room to see, less to encode
   const std::string link = s.link();
+  s.hub.start_recording("Dr. Recorder");  // the headset must show it (no silent recording)
   test::TestParticipant observer(s, test::hand_driven("Observer"));
   // The headset participant.
   SessionClientOptions headset_options;
@@ -355,12 +356,27 @@ TEST(XrRuntime, AHeadsetParticipantPublishesItsHeadTalksWithXAndMutesWithY) {
   const Ppm left = read_ppm(mock.out / "eye0.ppm");
   ASSERT_EQ(left.width, 256);
   EXPECT_GT(content(left).first, 0.3) << "the room fills the eye";
-  // Muted at the end: the red ball over the left hand, 45 cm ahead (about 100 pixels).
-  size_t red = 0;
-  for (size_t i = 0; i + 2 < left.rgb.size(); i += 3)
-    red += left.rgb[i] > 170 && left.rgb[i + 1] < 70 && left.rgb[i + 2] < 70;
-  std::printf("left eye: %zu red pixels (the muted ball over the left hand)\n", red);
-  EXPECT_GT(red, 40u) << "the headset shows its own mute";
+  const auto red_in = [&](int x0, int x1, int y0, int y1) {
+    size_t red = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) {
+        const uint8_t* p = left.pixel(x, y);
+        red += p[0] > 170 && p[1] < 70 && p[2] < 70;
+      }
+    return red;
+  };
+  // Muted at the end: the red ball over the left hand, 45 cm ahead and 20 cm below the eyes
+  // (about 100 pixels, around row 185 of 256).
+  const size_t muted = red_in(0, left.width, left.height / 2, left.height);
+  std::printf("left eye: %zu red pixels in its lower half (the muted ball over the left hand)\n",
+              muted);
+  EXPECT_GT(muted, 40u) << "the headset shows its own mute";
+  // Recorded all along: the red ball fixed in view, 0.6 m ahead, 16 cm left and 12 cm up of the
+  // head -- in the left eye (90 degrees wide, 256 pixels; 32 mm left of the head) about 3 pixels
+  // round (101, 102).
+  const size_t recording = red_in(92, 111, 94, 112);
+  std::printf("left eye: %zu red pixels where the recording badge is\n", recording);
+  EXPECT_GT(recording, 12u) << "the headset shows that the session is recorded";
 }
 
 // A headset participant grabs an organ with its controller: the mock's right grip, within reach

@@ -64,7 +64,7 @@ const state = {
   // The last latency stage, as the native viewer's (stage_stats.hpp): ready (the decoded frame
   // set reached the page) -> presented, and capture -> presented ("photon"), ms.
   presentedMs: [], photonMs: [],
-  session: null, xr: {frames: 0, views: 0, active: false}, tier: '', desktopFrames: 0,
+  session: null, xr: {frames: 0, views: 0, active: false, recordingBadgeFrames: 0}, tier: '', desktopFrames: 0,
   // The path (TierChange 0.6, worker.js): adapting or pinned, the server's path estimate, the
   // last 8 changes and notices; the connection ('' or 'reconnecting: why'), each cut it came back
   // from ({ms, why}), and frame sets dropped as stale.

@@ -48,8 +48,8 @@ export class Panels {
     this.updatePeople();
   }
 
-  // Whether the room is being recorded (Session.recording, 0x53): shown until it stops. (Not yet
-  // in a headset's view: issue 53.)
+  // Whether the room is being recorded (Session.recording, 0x53): shown until it stops. In an
+  // immersive session, a red box in the headset's view says it (room_boxes.js recordingBadge).
   showRecording() {
     const r = this.session.recording;
     this.state.session.recording = {...r};

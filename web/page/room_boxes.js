@@ -32,6 +32,15 @@ export function furnitureBoxes() {
   return furniture;
 }
 
+// While the session is recorded, a red box fixed in a headset's view, where the native headset
+// shows its red ball (room_scene.hpp recording_badge_primitives: 0.6 m ahead of the head, 16 cm
+// left and 12 cm up, 3 cm): the page's REC badge (panels.js) does not reach an immersive session.
+// `roomFromHead`: the viewer's pose (between the eyes), room frame.
+export function recordingBadge(roomFromHead) {
+  const headFromBox = M.multiply(M.translation(-0.16, 0.12, -0.6), M.scale(0.015, 0.015, 0.015));
+  return {roomFromBox: M.multiply(roomFromHead, headFromBox), color: [1, 0.08, 0.06, 1], grid: false};
+}
+
 // The others' avatars (those without a camera avatar: Renderer's avatars with depth), appended
 // to `boxes`; `voice`: the page's Voice, or null.
 export function avatarBoxes(session, renderer, voice, boxes) {

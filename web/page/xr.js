@@ -8,6 +8,7 @@
 // AR: the headset's local-floor frame is taken as the site's world frame, so the room is placed
 // through room_from_site (app.js roomFromSite); VR: through the play area's spot.
 import * as M from './math.js';
+import {recordingBadge} from './room_boxes.js';
 
 const XR_PICK = M.perspective(60, 1, 0.05, 50);  // a virtual 1001 x 1001 view along the ray
 export const XR_LABELS = {centre: 'here', up: 'cut here', right: 'careful', down: 'not here',
@@ -146,6 +147,10 @@ export class Headset {
       const roomFromEye = M.multiply(playarea, new Float32Array(pose.transform.matrix));
       const eye = [roomFromEye[12], roomFromEye[13], roomFromEye[14]];
       const s = page.scene(eye);
+      if (session.recording.recording) {  // in sight while the room is recorded (issue 53)
+        s.boxes = [...s.boxes, recordingBadge(roomFromEye)];
+        ++state.xr.recordingBadgeFrames;
+      }
       this.aim(frame, space, playarea, s);
       page.pointing.eraseDue(performance.now());
       page.pointing.addDrawing(s, eye);

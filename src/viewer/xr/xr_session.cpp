@@ -214,6 +214,13 @@ struct FrameLoop {
   // Draws each located eye (the SessionScene with a participant, else the cameras) and fills
   // `layer` with them.
   void draw_eyes(XrCompositionLayerProjection& layer, int64_t now) {
+    // The head between the eyes (their mean position, the first eye's orientation): what stays
+    // fixed in view is placed from it, the same for both eyes.
+    RigidTransform world_from_head = world_from_stage_now * rigid_from_xr(views[0].pose);
+    if (rig.view_count > 1)
+      world_from_head.translation =
+          0.5 * (world_from_head.translation +
+                 (world_from_stage_now * rigid_from_xr(views[1].pose)).translation);
     for (uint32_t i = 0; i < rig.view_count; ++i) {
       const View view =
           xr_eye_view(world_from_stage_now, views[i].pose, views[i].fov, o.near_m, o.far_m);
@@ -223,6 +230,7 @@ struct FrameLoop {
           so.pass = pass;
           const voice::VoiceLink* link = o.voice ? o.voice() : nullptr;
           so.own_muted = link && link->muted();  // a red ball over the left hand
+          so.world_from_head = world_from_head;  // a red ball in view while recorded
           if (link && now < volume_gesture.shown_until_us)
             so.volume_shown = SessionSceneOptions::VolumeShown{volume_gesture.shown_at,
                                                                volume_gesture.shown_gain};

@@ -39,6 +39,10 @@ struct SessionSceneOptions {
   /// Your own microphone is muted: a red ball over your left hand (muted_hand_primitives; the
   /// headset's sign, with tracked hands).
   bool own_muted = false;
+  /// The headset wearer's head now (room frame; -z ahead, +y up), for what stays fixed in its
+  /// view: while the session is recorded, a red ball up and to the left
+  /// (recording_badge_primitives). Unset (a window, which draws its own badge): none.
+  std::optional<RigidTransform> world_from_head;
   /// A voice's volume the headset wearer just stepped (voice::step_volume): a bar over where
   /// the voice comes from (volume_bar_primitives; room frame, metres, gain 0 to 4).
   struct VolumeShown {

@@ -44,6 +44,13 @@ std::vector<Primitive> volume_bar_primitives(const Eigen::Vector3f& at, float ga
 /// left controller's position): a red ball 4 cm wide, 8 cm above the hand.
 std::vector<Primitive> muted_hand_primitives(const Eigen::Vector3f& hand);
 
+/// While the session is recorded, where a headset wearer always sees it (issue 53: no silent
+/// recording; a window draws its own 2D badge): a glowing red ball 3 cm wide fixed in the view,
+/// 0.6 m ahead of the head, 16 cm left and 12 cm up (about 15 degrees left and 11 up: in sight,
+/// off the surgical field). `world_from_head`: the head between the eyes (room frame, metres;
+/// -z ahead, +y up, +x right: OpenXR's view convention), the same for both eyes.
+std::vector<Primitive> recording_badge_primitives(const RigidTransform& world_from_head);
+
 /// Where someone teleported from or to, `age_s` seconds ago: three rings spreading on the floor
 /// and a column of small rising particles, fading out over `duration_s`. Empty when age_s < 0 or
 /// age_s >= duration_s.

@@ -153,9 +153,7 @@ void Relay::relay(const ChunkedFrameSet& f) {
   frames->cameras = last_images_;
   frames->images_stale = !decoded_now;
   auto body = std::make_shared<EncodedFrameSetBody>();
-  body->depth_codec = options_.tier.depth_codec;
-  body->color_codec = options_.tier.color_codec;
-  body->color_quality = options_.tier.color_quality;
+  body->tier = options_.tier;
   body->position = f.sequence;
   body->key = f.key;
   body->body.assign(f.body.begin(), f.body.end());

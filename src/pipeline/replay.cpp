@@ -259,9 +259,7 @@ void ReplayPlayer::run(const Publish& publish, Clock::time_point epoch, int64_t 
         frames->cameras.push_back(std::move(f));
       }
       auto body = std::make_shared<EncodedFrameSetBody>();
-      body->depth_codec = s.tier.depth_codec;
-      body->color_codec = s.tier.color_codec;
-      body->color_quality = s.tier.color_quality;
+      body->tier = s.tier;
       body->position = position;
       body->key = sets[k].key;
       const auto b = decoder_.body();

@@ -110,9 +110,7 @@ void Server::Impl::run_tier(std::shared_ptr<Producer> tier) {
         last_sequence = frames->sequence;
         continue;
       }
-      const bool recorded_tier =
-          pre && tk.frame_divisor == 1 && pre->depth_codec == tk.depth_codec &&
-          pre->color_codec == tk.color_codec && pre->color_quality == tk.color_quality;
+      const bool recorded_tier = pre && pre->tier == tk;  // a recording's is of every frame set
       // Images standing in for a frame set not decoded (a relay's) are an earlier one's: a tier
       // encoded from images waits for the next, rather than stamp them with this one's time.
       if (frames->images_stale && !recorded_tier) {

@@ -71,8 +71,7 @@ std::shared_ptr<const EncodedFrames> TierEncoder::encode(const CapturedFrameSet&
   times.filter_done_us = frames.filter_done_us;
   const EncodedFrameSetBody* pre = frames.encoded.get();
   const bool same_tier =
-      pre && pre->depth_codec == key_.depth_codec && pre->color_codec == key_.color_codec &&
-      pre->color_quality == key_.color_quality && pre->body.size() >= protocol::kFrameSetHeadBytes;
+      pre && pre->tier == key_ && pre->body.size() >= protocol::kFrameSetHeadBytes;
   if (same_tier && (pre->key || (!key && passing_ && pre->position == passed_position_ + 1))) {
     // The recorded bytes as they are; only the head (sequence, flags, times) is this server's.
     out->body.assign(pre->body.begin(), pre->body.end());

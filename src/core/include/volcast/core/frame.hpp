@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "volcast/core/image.hpp"
+#include "volcast/core/tier.hpp"
 
 namespace volcast {
 
@@ -31,8 +32,7 @@ struct FrameSet {
 /// codecs and quality sends these bytes, with the head's sequence and times rewritten, instead of
 /// encoding the frames again (volcast/net/stream/server.hpp).
 struct EncodedFrameSetBody {
-  std::string depth_codec, color_codec;  ///< the tier it was encoded for
-  int color_quality = 0;
+  Tier tier;              ///< the tier it was encoded for (of every frame set: divisor 1)
   uint64_t position = 0;  ///< its place in its stream: a delta decodes after position - 1's
   bool key = false;       ///< every camera decodes on its own
   std::vector<uint8_t> body;

@@ -180,7 +180,7 @@ TEST(Ladder, RungsNotRunningAreEstimatedFromARunningOneBySize) {
   EXPECT_EQ(bits, (std::vector<double>{0, 0, 0}));
 }
 
-TEST(TierBudget, CountsAtThePeakRateAndRefusesTheTierThatDoesNotFit) {
+TEST(TierBudgetRules, CountsAtThePeakRateAndRefusesTheTierThatDoesNotFit) {
   TierBudget b;
   b.cores = 2;
   EXPECT_EQ(b.site_fps(), 30);                                // before a second of frame sets

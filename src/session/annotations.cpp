@@ -1,5 +1,6 @@
 #include "volcast/session/annotations.hpp"
 
+#include "feature_layouts.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/session/names.hpp"
 #include "wire_fields.hpp"
@@ -10,7 +11,6 @@ using fields::decode;
 using fields::encode;
 using fields::In;
 using fields::Of;
-using fields::Out;
 
 const char* to_string(AnnotationKind kind) {
   switch (kind) {
@@ -26,40 +26,19 @@ const char* to_string(AnnotationKind kind) {
 
 namespace {
 
-void vec3(Out& io, const Eigen::Vector3f& v) {
-  for (int i = 0; i < 3; ++i) io.finite(v[i]);
-}
-void vec3(In& io, Eigen::Vector3f& v) {
-  for (int i = 0; i < 3; ++i) io.finite(v[i]);
-}
-
-// The point list: count u16 | count x 3 f32; the count checked against the bytes left before
-// anything is allocated.
-void points(Out& io, const std::vector<Eigen::Vector3f>& p) {
-  if (p.size() > kMaxStrokePoints) throw Error("annotation: more than 256 points");
-  io.number(static_cast<uint16_t>(p.size()));
-  for (const Eigen::Vector3f& v : p) vec3(io, v);
-}
-void points(In& io, std::vector<Eigen::Vector3f>& p) {
-  uint16_t n = 0;
-  io.number(n);
-  if (n > kMaxStrokePoints)
-    io.r.fail(std::to_string(n) + " points, more than " + std::to_string(kMaxStrokePoints));
-  if (size_t{n} * 12 > io.r.remaining()) io.r.fail("more points declared than the message holds");
-  p.resize(n);
-  for (Eigen::Vector3f& v : p) vec3(io, v);
-}
+// One point of a list: x, y, z f32, finite (room frame, metres).
+const auto kPoint = [](auto& io, auto& v) { io.vec3(v, "point"); };
 
 // 0x11's fields.
 template <typename Io, typename M>
 void annotate_layout(Io& io, M& a) {
-  io.number(a.tag);
-  io.enumeration(a.kind, 2, "annotation kind");
-  io.enumeration(a.anchor, 1, "annotation anchor");
-  io.number(a.generation);
-  io.number(a.slice);
-  points(io, a.points);
-  io.string(a.text);
+  io.number(a.tag, "tag");
+  io.enumeration(a.kind, 2, "kind", "annotation kind");
+  io.enumeration(a.anchor, 1, "anchor", "annotation anchor");
+  io.number(a.generation, "generation");
+  io.number(a.slice, "slice");
+  io.list(a.points, kMaxStrokePoints, 12, "points", kPoint);
+  io.string(a.text, "text");
   const size_t n = a.points.size();
   switch (a.kind) {
     case AnnotationKind::kStroke:
@@ -79,10 +58,10 @@ void annotate_layout(Io& io, M& a) {
 
 const auto kAnnotate = [](auto& io, auto& a) { annotate_layout(io, a); };
 const auto kAnnotation = [](auto& io, auto& a) {
-  io.number(a.id);
+  io.number(a.id, "id");
   io.check(a.id != 0, "annotation id 0");
-  io.number(a.author);
-  io.number(a.time_us);
+  io.number(a.author, "author");
+  io.number(a.time_us, "time_us");
   annotate_layout(io, a);
 };
 
@@ -90,12 +69,12 @@ const auto kAnnotation = [](auto& io, auto& a) {
 
 template <typename Io, Of<PointerMessage> M>
 void layout(Io& io, M& m) {
-  io.number(m.sequence);
-  io.number(m.time_us);
-  io.flag(m.on);
-  vec3(io, m.origin);
-  io.flag(m.has_hit);
-  vec3(io, m.hit);
+  io.number(m.sequence, "sequence");
+  io.number(m.time_us, "time_us");
+  io.flag(m.on, "on");
+  io.vec3(m.origin, "origin");
+  io.flag(m.has_hit, "has_hit");
+  io.vec3(m.hit, "hit");
 }
 
 std::vector<uint8_t> serialize(const PointerMessage& m) {
@@ -126,10 +105,10 @@ namespace {
 struct Erased {
   uint32_t id = 0, by = 0;
 };
-const auto kErase = [](auto& io, auto& e) { io.number(e.id); };
+const auto kErase = [](auto& io, auto& e) { io.number(e.id, "id"); };
 const auto kErased = [](auto& io, auto& e) {
-  io.number(e.id);
-  io.number(e.by);
+  io.number(e.id, "id");
+  io.number(e.by, "by");
 };
 }  // namespace
 
@@ -148,6 +127,32 @@ std::vector<uint8_t> serialize_erased(uint32_t id, uint32_t by) {
 std::pair<uint32_t, uint32_t> parse_erased(std::span<const uint8_t> p) {
   const Erased e = decode<Erased>(p, "erased", kErased);
   return {e.id, e.by};
+}
+
+bool describe_drawing(Type type, std::vector<LayoutField>& out) {
+  using fields::describe;
+  switch (type) {
+    case Type::kPointer:
+      out = describe<PointerMessage>();
+      return true;
+    case Type::kPointerFrom:
+      out = fields::forwarded(describe<PointerMessage>());
+      return true;
+    case Type::kAnnotate:
+      out = describe<Annotation>(kAnnotate);
+      return true;
+    case Type::kAnnotation:
+      out = describe<Annotation>(kAnnotation);
+      return true;
+    case Type::kErase:
+      out = describe<Erased>(kErase);
+      return true;
+    case Type::kErased:
+      out = describe<Erased>(kErased);
+      return true;
+    default:
+      return false;
+  }
 }
 
 std::string check_label_text(const std::string& text) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "feature_layouts.hpp"
 #include "volcast/codec/registry.hpp"
 #include "volcast/core/error.hpp"
 #include "volcast/core/wire.hpp"
@@ -57,66 +58,66 @@ std::vector<uint8_t> message(Type type, std::span<const uint8_t> payload) {
 
 template <typename Io, Of<Join> M>
 void layout(Io& io, M& m) {
-  io.name(m.session, "session name");
-  io.flag(m.create);
-  io.name(m.name, "display name");
+  io.name(m.session, "session_name");
+  io.flag(m.create, "create");
+  io.name(m.name, "display_name");
   io.enumeration(m.role, 1, "role");
-  io.flag(m.has_camera);
+  io.flag(m.has_camera, "has_camera");
   if (io.tail(m.rejoin_key[0] != 0 || m.rejoin_key[1] != 0)) {
-    io.number(m.rejoin_key[0]);
-    io.number(m.rejoin_key[1]);
+    io.number(m.rejoin_key[0], "rejoin_key_low");
+    io.number(m.rejoin_key[1], "rejoin_key_high");
     io.check(m.rejoin_key[0] != 0 || m.rejoin_key[1] != 0, "a rejoin key is all zero");
   }
 }
 
 template <typename Io, Of<Joined> M>
 void layout(Io& io, M& m) {
-  io.number(m.participant);
-  io.number(m.session);
-  io.name(m.session_name, "session name");
-  io.spot(m.spot);
-  for (int i = 0; i < 3; ++i) io.finite(m.site_translation[i]);
-  io.finite(m.site_yaw);
+  io.number(m.participant, "participant");
+  io.number(m.session, "session");
+  io.name(m.session_name, "session_name");
+  io.spot(m.spot, "spot");
+  io.vec3(m.site_translation, "site_translation");
+  io.finite(m.site_yaw, "site_yaw");
 }
 
 template <typename Io, Of<ParticipantInfo> M>
 void layout(Io& io, M& m) {
-  io.number(m.id);
-  io.name(m.name, "display name");
+  io.number(m.id, "id");
+  io.name(m.name, "display_name");
   io.enumeration(m.role, 1, "role");
-  io.flag(m.has_camera);
-  io.spot(m.spot);
+  io.flag(m.has_camera, "has_camera");
+  io.spot(m.spot, "spot");
 }
 
 template <typename Io, Of<PoseMessage> M>
 void layout(Io& io, M& m) {
-  io.number(m.sequence);
-  io.number(m.time_us);
-  io.flag(m.echo_wanted);
-  io.flag(m.body.hands_tracked, "unknown body flags");
-  io.pose(m.body.head);
-  io.pose(m.body.left_hand);
-  io.pose(m.body.right_hand);
+  io.number(m.sequence, "sequence");
+  io.number(m.time_us, "time_us");
+  io.flag(m.echo_wanted, "echo_wanted");
+  io.flag(m.body.hands_tracked, "hands_tracked", "unknown body flags");
+  io.pose(m.body.head, "head");
+  io.pose(m.body.left_hand, "left_hand");
+  io.pose(m.body.right_hand, "right_hand");
 }
 
 template <typename Io, Of<Spot> M>
 void layout(Io& io, M& m) {
-  io.spot(m);
+  io.spot(m, "spot");
 }
 
 template <typename Io, Of<Teleported> M>
 void layout(Io& io, M& m) {
-  io.number(m.participant);
-  io.spot(m.from);
-  io.spot(m.to);
-  io.number(m.time_us);
+  io.number(m.participant, "participant");
+  io.spot(m.from, "from");
+  io.spot(m.to, "to");
+  io.number(m.time_us, "time_us");
 }
 
 template <typename Io, Of<RecordingState> M>
 void layout(Io& io, M& m) {
-  io.flag(m.recording);
-  io.number(m.since_us);
-  io.string(m.by);
+  io.flag(m.recording, "recording");
+  io.number(m.since_us, "since_us");
+  io.string(m.by, "by");
   io.check(m.by.size() <= kMaxRecorderBytes, "who records is longer than 200 bytes");
   io.check(
       std::none_of(m.by.begin(), m.by.end(), [](unsigned char c) { return c < 0x20 || c == 0x7f; }),
@@ -126,10 +127,10 @@ void layout(Io& io, M& m) {
 
 template <typename Io, Of<AvatarFrameView> M>
 void layout(Io& io, M& m) {
-  io.number(m.sequence);
-  io.number(m.capture_us);
-  io.bytes(m.depth);
-  io.bytes(m.color);
+  io.number(m.sequence, "sequence");
+  io.number(m.capture_us, "capture_us");
+  io.bytes(m.depth, "depth");
+  io.bytes(m.color, "color");
 }
 
 namespace {
@@ -141,7 +142,7 @@ struct Left {
 
 template <typename Io, Of<Left> M>
 void layout(Io& io, M& m) {
-  io.number(m.participant);
+  io.number(m.participant, "participant");
   io.enumeration(m.reason, 3, "reason");
 }
 
@@ -151,9 +152,39 @@ struct Echo {
 
 template <typename Io, Of<Echo> M>
 void layout(Io& io, M& m) {
-  io.number(m.participant);
-  io.number(m.sequence);
+  io.number(m.participant, "participant");
+  io.number(m.sequence, "sequence");
 }
+
+struct SessionList {
+  std::vector<SessionSummary> sessions;
+};
+
+// Each session: id, name, participants (clamped to u16).
+const auto kSummary = [](auto& io, auto& s) {
+  io.number(s.id, "id");
+  io.name(s.name, "session_name");
+  io.template number_as<uint16_t>(s.participants, "participants");
+};
+
+template <typename Io, Of<SessionList> M>
+void layout(Io& io, M& m) {
+  io.list(m.sessions, kMaxListedSessions, 8, "sessions", kSummary);
+}
+
+struct SessionError {
+  std::string reason;
+};
+
+template <typename Io, Of<SessionError> M>
+void layout(Io& io, M& m) {
+  io.string(m.reason, "reason");
+}
+
+struct Empty {};
+
+template <typename Io, Of<Empty> M>
+void layout(Io&, M&) {}
 
 }  // namespace
 
@@ -166,32 +197,11 @@ Join parse_join(std::span<const uint8_t> p) {
 }
 
 std::vector<uint8_t> serialize(const std::vector<SessionSummary>& m) {
-  std::vector<uint8_t> out;
-  Writer w(out);
-  const size_t n = std::min(m.size(), kMaxListedSessions);
-  w.put<uint16_t>(static_cast<uint16_t>(n));
-  for (size_t i = 0; i < n; ++i) {
-    w.put<uint32_t>(m[i].id);
-    w.put_string(m[i].name);
-    w.put<uint16_t>(static_cast<uint16_t>(std::min<uint32_t>(m[i].participants, 0xffff)));
-  }
-  return out;
+  return encode(SessionList{{m.begin(), m.begin() + std::min(m.size(), kMaxListedSessions)}});
 }
 
 std::vector<SessionSummary> parse_session_list(std::span<const uint8_t> p) {
-  Reader r(p, "session list");
-  In in{r};
-  const uint16_t n = r.get<uint16_t>();
-  if (n > kMaxListedSessions)
-    r.fail("more than " + std::to_string(kMaxListedSessions) + " sessions");
-  std::vector<SessionSummary> out(n);
-  for (auto& s : out) {
-    s.id = r.get<uint32_t>();
-    in.name(s.name, "session name");
-    s.participants = r.get<uint16_t>();
-  }
-  r.expect_end();
-  return out;
+  return decode<SessionList>(p, "session list").sessions;
 }
 
 std::vector<uint8_t> serialize(const Joined& m) {
@@ -203,16 +213,11 @@ Joined parse_joined(std::span<const uint8_t> p) {
 }
 
 std::vector<uint8_t> serialize_error(const std::string& reason) {
-  std::vector<uint8_t> out;
-  Writer(out).put_string(reason.substr(0, 1024));
-  return out;
+  return encode(SessionError{reason.substr(0, 1024)});
 }
 
 std::string parse_error(std::span<const uint8_t> p) {
-  Reader r(p, "session error");
-  std::string s = r.get_string();
-  r.expect_end();
-  return s;
+  return decode<SessionError>(p, "session error").reason;
 }
 
 std::vector<uint8_t> serialize(const ParticipantInfo& m) {
@@ -334,6 +339,57 @@ std::vector<uint8_t> forward(Type type, uint32_t participant, std::span<const ui
   if (!payload.empty())
     std::memcpy(out.data() + protocol::kHeaderBytes + 4, payload.data(), payload.size());
   return out;
+}
+
+bool describe_presence(Type type, std::vector<LayoutField>& out) {
+  using fields::describe;
+  using fields::forwarded;
+  switch (type) {
+    case Type::kListSessions:
+    case Type::kLeave:
+    case Type::kHeartbeat:
+      out = describe<Empty>();
+      return true;
+    case Type::kJoin:
+      out = describe<Join>();
+      return true;
+    case Type::kPose:
+      out = describe<PoseMessage>();
+      return true;
+    case Type::kPoseEcho:
+    case Type::kPoseEchoFrom:
+      out = describe<Echo>();
+      return true;
+    case Type::kTeleport:
+      out = describe<Spot>();
+      return true;
+    case Type::kSessionList:
+      out = describe<SessionList>();
+      return true;
+    case Type::kJoined:
+      out = describe<Joined>();
+      return true;
+    case Type::kSessionError:
+      out = describe<SessionError>();
+      return true;
+    case Type::kParticipantJoined:
+      out = describe<ParticipantInfo>();
+      return true;
+    case Type::kParticipantLeft:
+      out = describe<Left>();
+      return true;
+    case Type::kPoseFrom:
+      out = forwarded(describe<PoseMessage>());
+      return true;
+    case Type::kTeleported:
+      out = describe<Teleported>();
+      return true;
+    case Type::kRecordingState:
+      out = describe<RecordingState>();
+      return true;
+    default:
+      return false;
+  }
 }
 
 std::pair<uint32_t, std::span<const uint8_t>> split_forwarded(std::span<const uint8_t> p) {

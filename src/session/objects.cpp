@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "feature_layouts.hpp"
 #include "volcast/core/error.hpp"
 #include "wire_fields.hpp"
 
@@ -41,7 +42,7 @@ std::vector<uint8_t> serialize(const SharedCase& c) {
   w.put<uint16_t>(static_cast<uint16_t>(c.objects.size()));
   for (const SharedObject& o : c.objects) {
     w.put_string(o.name);
-    io.pose(o.rest);
+    io.pose(o.rest, "rest");
     if (o.parts.size() > kMaxObjectParts) throw Error("case: too many parts in " + o.name);
     w.put<uint16_t>(static_cast<uint16_t>(o.parts.size()));
     for (const SharedPart& p : o.parts) {
@@ -94,7 +95,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
   c.objects.resize(objects);
   for (SharedObject& o : c.objects) {
     in.name(o.name, "object name");
-    in.pose(o.rest);
+    in.pose(o.rest, "rest");
     const uint16_t parts = r.get<uint16_t>();
     if (parts > kMaxObjectParts) r.fail("more than " + std::to_string(kMaxObjectParts) + " parts");
     o.parts.resize(parts);
@@ -108,7 +109,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
       need_items(r, vertices, 15, "vertices");
       part.positions.resize(vertices);
       for (Eigen::Vector3f& v : part.positions) {
-        for (int i = 0; i < 3; ++i) in.finite(v[i]);
+        for (int i = 0; i < 3; ++i) in.finite(v[i], "position");
         o.radius_m = std::max(o.radius_m, v.norm());
       }
       part.normals.resize(vertices);
@@ -125,7 +126,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
     }
   }
   bool has_monitor = false;
-  in.flag(has_monitor);
+  in.flag(has_monitor, "has_monitor");
   if (has_monitor) {
     MonitorSeries m;
     m.width = r.get<uint16_t>();
@@ -133,7 +134,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
     m.slices = r.get<uint16_t>();
     if (m.width < 1 || m.height < 1 || m.slices < 1) r.fail("an empty monitor series");
     for (int i = 0; i < 3; ++i) {
-      in.finite(m.spacing_mm[i]);
+      in.finite(m.spacing_mm[i], "spacing_mm");
       if (m.spacing_mm[i] <= 0) r.fail("a spacing is not positive");
     }
     const uint64_t pixels = static_cast<uint64_t>(m.width) * m.height * m.slices;
@@ -141,7 +142,7 @@ SharedCase parse_case(std::span<const uint8_t> p) {
     m.hu.resize(pixels);
     for (int16_t& v : m.hu) v = r.get<int16_t>();
     bool has_overlay = false;
-    in.flag(has_overlay);
+    in.flag(has_overlay, "has_overlay");
     if (has_overlay) {
       m.overlay_label = r.get_string();
       need_items(r, (pixels + 7) / 8, 1, "overlay bytes");
@@ -160,12 +161,12 @@ SharedCase parse_case(std::span<const uint8_t> p) {
 
 template <typename Io, Of<ObjectState> M>
 void layout(Io& io, M& s) {
-  io.number(s.generation);
-  io.number(s.object);
-  io.number(s.owner);
-  io.number(s.sequence);
-  io.number(s.time_us);
-  io.pose(s.pose);
+  io.number(s.generation, "generation");
+  io.number(s.object, "object");
+  io.number(s.owner, "owner");
+  io.number(s.sequence, "sequence");
+  io.number(s.time_us, "time_us");
+  io.pose(s.pose, "pose");
 }
 
 std::vector<uint8_t> serialize(const ObjectState& s) {
@@ -181,18 +182,18 @@ namespace {
 // 0x0d's fields, which 0x4d follows with `by`.
 template <typename Io, typename M>
 void monitor_layout(Io& io, M& s) {
-  io.number(s.generation);
-  io.number(s.slice);
-  io.finite(s.center);
-  io.finite(s.width);
+  io.number(s.generation, "generation");
+  io.number(s.slice, "slice");
+  io.finite(s.center, "center");
+  io.finite(s.width, "width");
   io.check(s.width >= 1, "window width below 1 HU");
-  io.flag(s.overlay);
+  io.flag(s.overlay, "overlay");
 }
 
 const auto kSetMonitor = [](auto& io, auto& s) { monitor_layout(io, s); };
 const auto kMonitorState = [](auto& io, auto& s) {
   monitor_layout(io, s);
-  io.number(s.by);
+  io.number(s.by, "by");
 };
 
 }  // namespace
@@ -218,9 +219,9 @@ namespace {
 // 0x0a without a pose, 0x0b and 0x0c with one.
 auto request_layout(bool with_pose) {
   return [with_pose](auto& io, auto& q) {
-    io.number(q.generation);
-    io.number(q.object);
-    if (with_pose) io.pose(q.pose);
+    io.number(q.generation, "generation");
+    io.number(q.object, "object");
+    if (with_pose) io.pose(q.pose, "pose");
   };
 }
 
@@ -232,6 +233,30 @@ std::vector<uint8_t> serialize(const ObjectRequest& q, bool with_pose) {
 
 ObjectRequest parse_object_request(std::span<const uint8_t> p, bool with_pose) {
   return decode<ObjectRequest>(p, "object request", request_layout(with_pose));
+}
+
+bool describe_objects(Type type, std::vector<LayoutField>& out) {
+  using fields::describe;
+  switch (type) {
+    case Type::kGrab:
+      out = describe<ObjectRequest>(request_layout(false));
+      return true;
+    case Type::kObjectMove:
+    case Type::kRelease:
+      out = describe<ObjectRequest>(request_layout(true));
+      return true;
+    case Type::kSetMonitor:
+      out = describe<MonitorState>(kSetMonitor);
+      return true;
+    case Type::kObjectState:
+      out = describe<ObjectState>();
+      return true;
+    case Type::kMonitorState:
+      out = describe<MonitorState>(kMonitorState);
+      return true;
+    default:
+      return false;
+  }
 }
 
 }  // namespace volcast::session

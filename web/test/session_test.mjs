@@ -17,6 +17,8 @@ const web = process.env.VOLCAST_WEB_DIR;
 if (!web) throw new Error('VOLCAST_WEB_DIR: the built page (share/volcast/web) is not named');
 const {Session, MONITOR_WAIT_MS, VERSION, T, MESSAGES, SESSION_TYPES, WORKER_TYPES} =
     await import(pathToFileURL(path.join(web, 'session.js')).href);
+const {decode, encode} = await import(pathToFileURL(path.join(web, 'session_wire.js')).href);
+const {LAYOUTS} = globalThis.VolcastMessages;
 
 const ME = 7, OTHER = 9, GENERATION = 1;
 const ABDOMEN = [40, 400], LIVER = [90, 150], BONE = [480, 2500];
@@ -168,6 +170,64 @@ const tests = {
     const s = new Session(() => {}, () => 0);
     assert.throws(() => s.receive(message(T.POSE, new Uint8Array(0))), /\(pose\) is not this page's/);
     assert.throws(() => s.receive(message(0x7f, new Uint8Array(0))), /unknown session message 0x7f/);
+  },
+  // Every layout the build wrote from the C++ ones (messages.js LAYOUTS) writes and reads back
+  // the same fields on the page: a value of each kind, f32s that are exact in 32 bits.
+  EveryLayoutRoundTripsOnThePage() {
+    const SAMPLE = {
+      u8: () => 200, u16: () => 60000, u32: () => 4000000000, u64: () => 0x123456789n,
+      i64: () => 1_700_000_000_000_000, f32: () => 0.5, finite: () => -1.25,
+      string: () => 'héllo', name: () => 'Dr. Müller', flag: () => true, enum: (f) => f.max,
+      bytes: () => new Uint8Array([1, 2, 3]),
+      spot: () => ({x: 1.5, z: -2, yaw: 0.25}), vec3: () => [0.5, 1, -2],
+      pose: () => ({position: [1, 1.5, -2], orientation: [0, 0, 0, 1]}),
+      list: (f) => [0, 1].map(() => (f.items.length === 1 ? SAMPLE[f.items[0].kind](f.items[0])
+                                                           : sample(f.items))),
+    };
+    const sample = (fields) => Object.fromEntries(
+        fields.filter((f) => f.kind !== 'tail').map((f) => [f.name, SAMPLE[f.kind](f)]));
+    const types = Object.keys(LAYOUTS).map(Number);
+    assert.equal(types.length, Object.keys(MESSAGES).length - 5, 'all but avatars and the case');
+    for (const type of types) {
+      const m = sample(LAYOUTS[type]);
+      assert.deepEqual(decode(encode(type, m)), {type, m}, MESSAGES[type].name);
+    }
+    // A Join without its tail (no rejoin key) ends before it, and reads back without it.
+    const join = {sessionName: 'OR', create: true, displayName: 'A', role: 0, hasCamera: false};
+    assert.equal(encode(T.JOIN, join).byteLength, 12 + 4 + 1 + 3 + 1 + 1);
+    assert.deepEqual(decode(encode(T.JOIN, join)).m, join);
+  },
+  // What the C++ reader refuses, the page refuses in the same words (message_layout_test.cpp).
+  TheServersMessagesAreCheckedAsTheCppReaderChecksThem() {
+    const spot = {x: 0, z: 0, yaw: 0};
+    const joinedOther = {id: OTHER, displayName: 'B', role: 1, hasCamera: false, spot};
+    const p = new Uint8Array(encode(T.PARTICIPANT_JOINED, joinedOther));
+    const s = new Session(() => {}, () => 0);
+    p[12 + 4 + 2 + 1 + 1] = 2;  // has camera
+    assert.throws(() => s.receive(p.buffer),
+                  /^Error: malformed participant joined: has camera is neither 0 nor 1$/);
+    p[12 + 4 + 2 + 1 + 1] = 1;
+    p[12 + 4 + 2 + 1] = 2;  // role
+    assert.throws(() => s.receive(p.buffer), /unknown role 2/);
+    assert.throws(() => s.receive(message(T.ERASED, new Uint8Array(9))),
+                  /malformed erased: trailing bytes/);
+    assert.throws(() => s.receive(message(T.ERASED, new Uint8Array(7))),
+                  /malformed erased: truncated/);
+    const nan = new Uint8Array(encode(T.TELEPORTED,
+                                      {participant: OTHER, from: spot, to: spot, timeUs: 0}));
+    new DataView(nan.buffer).setFloat32(12 + 4 + 12, NaN, true);
+    assert.throws(() => s.receive(nan.buffer), /malformed teleported: to is not finite/);
+    assert.equal(s.others.size, 0);
+  },
+  // The page's Join carries its rejoin key as drawn: 16 bytes after the fields, little endian.
+  TheJoinCarriesTheRejoinKeyAsDrawn() {
+    const sent = [];
+    const s = new Session((m) => sent.push(new Uint8Array(m)), () => 0);
+    s.join('OR 1', 'Dr. B');
+    assert.deepEqual(sent[0].subarray(sent[0].length - 16), s.rejoinKey);
+    const {m} = decode(sent[0].buffer);
+    assert.deepEqual([m.sessionName, m.displayName, m.create, m.role, m.hasCamera],
+                     ['OR 1', 'Dr. B', true, 0, false]);
   },
   // A new case: no monitor state until the server sends one, whatever was on its way.
   ANewCaseForgetsTheChangeOnItsWay() {

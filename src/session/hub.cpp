@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <condition_variable>
@@ -451,10 +452,12 @@ void SessionHub::on_heartbeat(uint64_t, Member*, Payload payload) {
 }
 
 void SessionHub::on_pose(uint64_t viewer, Member* m, Payload payload) {
-  session::parse_pose(payload);  // checks every field before anyone else sees it
+  const session::PoseMessage pose = session::parse_pose(payload);  // checked before anyone sees it
   if (!in_session(viewer, m, "pose")) return;
   ++stats_.poses_in;
   ++m->info.poses;
+  if (pose.echo_wanted)
+    m->echo_asks[m->echo_asks_made++ % kEchoAskWindow] = EchoAsked{true, pose.sequence, 0, {}};
   m->last_pose = share(session::forward(Type::kPoseFrom, m->info.id, payload));
   for (const auto& [pid, other] : m->session->members)
     if (other.get() != m && other->info.viewer != 0) {
@@ -468,7 +471,23 @@ void SessionHub::on_pose_echo(uint64_t viewer, Member* m, Payload payload) {
   if (!in_session(viewer, m, "pose echo")) return;
   const auto o = m->session->members.find(origin);
   if (o == m->session->members.end()) return;  // left meanwhile
-  send(o->second->info.viewer,
+  // What one participant may make another receive is limited by the receiver: an answer to
+  // one of its own recent poses that asked for one, once per answering participant. Anything
+  // else (a flood addressed to one participant, an answer repeated or never asked for) is dropped
+  // here and counted, the sender's other messages unaffected.
+  Member& asker = *o->second;
+  EchoAsked* ask = nullptr;
+  for (EchoAsked& a : asker.echo_asks)
+    if (a.asked && a.sequence == sequence) ask = &a;
+  const bool answered =
+      ask && std::find(ask->answered_by.begin(), ask->answered_by.begin() + ask->answers,
+                       m->info.id) != ask->answered_by.begin() + ask->answers;
+  if (!ask || answered || ask->answers == ask->answered_by.size() || &asker == m) {
+    ++stats_.echoes_refused;
+    return;
+  }
+  ask->answered_by[ask->answers++] = m->info.id;
+  send(asker.info.viewer,
        session::message(Type::kPoseEchoFrom, session::serialize_echo(m->info.id, sequence)));
 }
 

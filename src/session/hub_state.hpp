@@ -55,8 +55,22 @@ inline Shared share(std::vector<uint8_t> m) {
 
 using namespace hub_detail;
 
+/// A pose of a member's that asked for echoes (messages.hpp PoseMessage echo_wanted) and who
+/// answered it: each other member may answer each once (on_pose_echo).
+struct EchoAsked {
+  bool asked = false;  // a slot not yet used: nothing to answer
+  uint32_t sequence = 0;
+  uint8_t answers = 0;
+  std::array<uint32_t, 16> answered_by{};  // participant ids; more answers than this are dropped
+};
+/// The asked poses a member keeps, newest last: an answer to an older one is not forwarded
+/// (32 asks: 2 s of a page's every-4th of 60 poses a second).
+inline constexpr size_t kEchoAskWindow = 32;
+
 struct SessionHub::Member {
   SessionMember info;
+  std::array<EchoAsked, kEchoAskWindow> echo_asks{};  // a ring: echo_asks[n % window]
+  uint64_t echo_asks_made = 0;
   Session* session = nullptr;
   Clock::time_point last_seen = Clock::now();
   bool dropping = false;  // its last message was malformed: it leaves as kDropped

@@ -84,6 +84,9 @@ struct SessionHubStats {
   uint64_t joins_refused = 0;  ///< Joins answered with a SessionError
   uint64_t rejoins = 0;        ///< Joins that took their own member over (messages.hpp rejoin key)
   uint64_t sessions_removed = 0;  ///< sessions removed (empty)
+  /// Pose echoes not forwarded: not an answer to one of its receiver's recent poses that asked
+  /// for one, or that participant's second answer to it (hub.cpp on_pose_echo).
+  uint64_t echoes_refused = 0;
   /// Voice packets received (the site's own included), sent on to receivers, and refused as
   /// malformed (voice_messages.hpp: each loses only itself until kMaxMalformedVoice).
   uint64_t voice_in = 0, voice_out = 0, voice_malformed = 0;

@@ -38,7 +38,10 @@
 //                       0x05) | body. Coalesced: the server keeps only the newest pose of a
 //                       participant that a receiver has not been sent yet.
 //   0x05 PoseEcho       origin participant u32 | sequence u32: "I saw your pose `sequence`"; the
-//                       server forwards it to the origin only (the session round trip).
+//                       server forwards it to the origin only (the session round trip), and only
+//                       as the answer to one of the origin's 32 newest poses that asked for
+//                       echoes, once per answering participant: others are dropped (what one
+//                       participant may make another receive is bounded by what it asked).
 //   0x06 Teleport       spot (where the play area's origin goes, and its new yaw). The server
 //                       checks the spot is free (room.hpp) and answers everyone with 0x48, or the
 //                       sender with 0x43.

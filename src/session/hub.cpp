@@ -249,7 +249,8 @@ void SessionHub::join(uint64_t viewer, const session::Join& request) {
   const session::Spot spot = free_spot(*s, false);
   auto member = std::make_unique<Member>();
   Member& m = *member;
-  m.info.id = next_participant_++;
+  m.info.id = returning_id(*s, j);
+  if (m.info.id == 0) m.info.id = next_participant_++;
   m.info.viewer = viewer;
   m.info.name = j.name;
   m.info.role = session::Role::kRemote;
@@ -328,6 +329,29 @@ void SessionHub::broadcast_recording() {
   const Shared msg = share(session::message(Type::kRecordingState, session::serialize(recording_)));
   for (const auto& [id, s] : sessions_)
     for (const auto& [pid, m] : s->members) send_shared(m->info.viewer, msg);
+}
+
+// The id of a participant of session `s` that timed out (its heartbeats held up longer than the
+// presence timeout: a stalled link or machine) and now joins again with the same name and rejoin
+// key: the same person comes back as the same participant (annotations, pointers and the others'
+// figures stay theirs). 0 for anyone else.
+uint32_t SessionHub::returning_id(const Session& s, const session::Join& j) {
+  const auto now = Clock::now();
+  std::erase_if(timed_out_, [&](const TimedOut& t) {
+    return now - t.at > std::chrono::milliseconds(kTimedOutKeptMs);
+  });
+  if (j.rejoin_key == std::array<uint64_t, 2>{}) return 0;
+  for (auto it = timed_out_.begin(); it != timed_out_.end(); ++it)
+    if (it->session == s.name && it->name == j.name && it->rejoin_key == j.rejoin_key &&
+        !s.members.contains(it->id)) {
+      const uint32_t id = it->id;
+      timed_out_.erase(it);
+      ++stats_.returns;
+      spdlog::info("session '{}': '{}' is back after timing out, as participant {} again",
+                   printable(s.name), printable(j.name), id);
+      return id;
+    }
+  return 0;
 }
 
 // A member whose viewer reconnected (its Join's rejoin key is the member's): the new connection
@@ -514,8 +538,13 @@ void SessionHub::watch_presence() {
       if (now - m->last_seen > std::chrono::milliseconds(config_.presence_timeout_ms))
         silent.push_back(viewer);
     for (uint64_t viewer : silent) {
-      spdlog::info("session: '{}' timed out (nothing for {} ms)",
-                   printable(by_viewer_[viewer]->info.name), config_.presence_timeout_ms);
+      const Member& m = *by_viewer_[viewer];
+      spdlog::info("session: '{}' timed out (nothing for {} ms)", printable(m.info.name),
+                   config_.presence_timeout_ms);
+      if (m.rejoin_key != std::array<uint64_t, 2>{}) {
+        if (timed_out_.size() == kMaxTimedOutKept) timed_out_.erase(timed_out_.begin());
+        timed_out_.push_back({m.session->name, m.info.name, m.rejoin_key, m.info.id, now});
+      }
       remove(viewer, session::LeftReason::kTimedOut);
       ++stats_.timeouts;
       if (SessionOutlet* o = outlet(viewer))

@@ -526,6 +526,46 @@ TEST(Session, EveryMemberIsShownTheRecordingWhenItStartsOnJoiningAndWhenItStops)
   EXPECT_EQ(states(13).back().by, hub.recording().by);
 }
 
+// A participant timed out while its connection stalled (a machine or link held up longer than
+// the presence timeout) that joins again with its rejoin key is the same person again: its own id
+// back, so the others' figures, its annotations and pointers stay one participant's. The same
+// name without the key, or another name with it, is a newcomer.
+TEST(Session, AParticipantTimedOutComesBackAsItselfWithItsRejoinKey) {
+  SessionHubConfig config;
+  config.presence_timeout_ms = 200;
+  SessionHub hub(config);
+  test::Outlet out;
+  hub.attach(&out);
+  hub.create_session("OR");
+  session::Join a;
+  a.session = "OR";
+  a.name = "Dr. A";
+  a.rejoin_key = {0x1234, 0x5678};
+  const auto join = [&](uint64_t viewer, const session::Join& j) {
+    hub.on_message(viewer, uint8_t(Type::kJoin), session::serialize(j));
+    return session::parse_joined(out.of(viewer, Type::kJoined).at(0)).participant;
+  };
+  const uint32_t first = join(10, a);
+  test::join(hub, 11, "OR", "Dr. B");
+  // Dr. B keeps sending; Dr. A falls silent and is timed out.
+  ASSERT_TRUE(eventually([&] {
+    hub.on_message(11, uint8_t(Type::kHeartbeat), {});
+    return hub.stats().timeouts == 1;
+  }));
+  ASSERT_EQ(out.of(11, Type::kParticipantLeft).size(), 1u);
+  EXPECT_EQ(join(12, a), first) << "the same person, the same participant";
+  EXPECT_EQ(hub.stats().returns, 1u);
+  const auto joined_b = out.of(11, Type::kParticipantJoined);
+  ASSERT_FALSE(joined_b.empty());
+  EXPECT_EQ(session::parse_participant(joined_b.back()).id, first);
+
+  session::Join other = a;  // the same key, another name: a newcomer
+  other.name = "Dr. C";
+  EXPECT_NE(join(13, other), first);
+  test::join(hub, 14, "OR", "Dr. D");
+  EXPECT_EQ(hub.stats().returns, 1u);
+}
+
 // What one participant may make another receive is the receiver's to bound (issue 53's hostile
 // run: 600 echoes a second addressed to one participant drove its round trip p99 from 1.2 ms to
 // 2.8 s): an echo reaches its asker only as an answer to one of its recent poses that asked for

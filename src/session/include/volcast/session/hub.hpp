@@ -22,7 +22,9 @@
 // Names (display and session) are normalised to NFC and checked for bidi controls, invisible
 // characters and mixed-script look-alikes (names.hpp); a display name that looks like another's
 // in the session (the same UTS #39 skeleton) is refused. The Join is refused naming the problem.
+#include <array>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -83,6 +85,8 @@ struct SessionHubStats {
   uint64_t rate_limited = 0;   ///< messages dropped over their type's limit (rate_limit.hpp)
   uint64_t joins_refused = 0;  ///< Joins answered with a SessionError
   uint64_t rejoins = 0;        ///< Joins that took their own member over (messages.hpp rejoin key)
+  /// Joins of a participant timed out before, with its rejoin key: it got its id back.
+  uint64_t returns = 0;
   uint64_t sessions_removed = 0;  ///< sessions removed (empty)
   /// Pose echoes not forwarded: not an answer to one of its receiver's recent poses that asked
   /// for one, or that participant's second answer to it (hub.cpp on_pose_echo).
@@ -274,6 +278,9 @@ class SessionHub final : public SessionPort {
   void join(uint64_t viewer, const session::Join& join);
   void welcome_member(uint64_t viewer, const Member& m);
   void take_over(uint64_t viewer, Member& m);
+  uint32_t returning_id(const Session& s, const session::Join& j);
+  static constexpr size_t kMaxTimedOutKept = 64;
+  static constexpr int kTimedOutKeptMs = 60000;
   void remove(uint64_t viewer, session::LeftReason reason);
   Session& make_session(const std::string& name, bool standing);
   void prune(Session* s);  // removes `s` if it is a participant's session with nobody in it
@@ -308,7 +315,16 @@ class SessionHub final : public SessionPort {
   SessionOutlet* remote_ = nullptr;
   std::map<uint32_t, std::unique_ptr<Session>> sessions_;  // by session id
   std::map<uint64_t, Member*> by_viewer_;                  // participants in a session
-  uint32_t next_session_ = 1, next_participant_ = 2;       // participant 1: the OR site
+  // Participants timed out with a rejoin key, newest last (at most kMaxTimedOutKept, for
+  // kTimedOutKeptMs): one that comes back with its key gets its participant id back (join).
+  struct TimedOut {
+    std::string session, name;
+    std::array<uint64_t, 2> rejoin_key{};
+    uint32_t id = 0;
+    std::chrono::steady_clock::time_point at;
+  };
+  std::vector<TimedOut> timed_out_;
+  uint32_t next_session_ = 1, next_participant_ = 2;  // participant 1: the OR site
   SessionHubStats stats_;
   session::RateLimiter limiter_;
   std::shared_ptr<const SharedCase> case_;
